@@ -1,0 +1,64 @@
+"""exoleg: model, control and simulation of a pediatric single-leg exoskeleton.
+
+The device and its model are those of Sarajchi & Sirlantzis, *Design and
+Control of a Single-Leg Exoskeleton with Gravity Compensation for Children
+with Unilateral Cerebral Palsy*, Sensors 2023, 23, 6103. Conventions (frames,
+signs, units): ``docs/conventions.md``. SI units and radians throughout.
+
+>>> import exoleg
+>>> leg = exoleg.paper_leg("simplified")
+>>> leg.G([0.0, 0.0, 0.0]).shape
+(3,)
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+from exoleg.dynamics.model import LegModel
+from exoleg.errors import ExolegError, ParameterError, SimulationError, UnreachableError
+from exoleg.inertia import RigidBody, compose, remainder
+from exoleg.params import paper as _paper
+from exoleg.params.leg_file import format_leg, read_leg_file
+from exoleg.params.records import JOINTS, LINKS, Actuator, Gains, Link, RangeOfMotion
+
+__version__ = "0.1.0"
+
+
+def paper_leg(variant: Literal["simplified", "detailed"] = "simplified",
+              g: float | None = None) -> LegModel:
+    """The paper's coupled child + SLE leg.
+
+    ``"simplified"``: Table 5's simplified column (one body per link, a3 = 0.235 m,
+    see ``exoleg/data/paper/table5.toml``). ``"detailed"``: each link a human and an
+    SLE body welded together (Table 4 masses), composing to Table 5's detailed
+    column (twice the simplified masses and inertias). g defaults to the paper's 9.81.
+    """
+    grav = _paper.gravity() if g is None else g
+    if variant == "simplified":
+        return LegModel(_paper.table5_links("simplified"), g=grav, name="paper simplified")
+    if variant == "detailed":
+        return LegModel(_paper.detailed_links(), g=grav, name="paper detailed")
+    raise ParameterError("paper_leg", "variant",
+                         f"unknown {variant!r} (allowed: 'simplified', 'detailed')")
+
+
+def load_leg(path: str | Path) -> LegModel:
+    """Read a leg parameter file (format: :mod:`exoleg.params.leg_file`)."""
+    links, g, name = read_leg_file(path)
+    return LegModel(links, g=g, name=name)
+
+
+def save_leg(leg: LegModel, path: str | Path, header: str = "") -> Path:
+    """Write ``leg`` as a leg parameter file that :func:`load_leg` reads back exactly."""
+    p = Path(path)
+    p.write_text(format_leg(leg.links, leg.g, leg.name, header=header))
+    return p
+
+
+__all__ = [
+    "JOINTS", "LINKS", "Actuator", "ExolegError", "Gains", "LegModel", "Link",
+    "ParameterError", "RangeOfMotion", "RigidBody", "SimulationError", "UnreachableError",
+    "compose", "load_leg", "paper_leg", "remainder", "save_leg",
+]

@@ -1,0 +1,195 @@
+"""Code generation: symbolic equations -> common subexpressions -> numba kernels.
+
+``python -m exoleg.dynamics.codegen`` derives the leg's equations
+(:mod:`exoleg.dynamics.derive`, D-H offsets from the paper's Table 3 data file)
+and writes ``_generated.py``, a shipped build product: plain scalar Python
+compiled by numba with an on-disk cache, so neither SymPy nor the derivation
+runs when exoleg is used. ``--check`` regenerates in memory and fails if the
+shipped file differs; ``tests/validation/test_codegen.py`` also checks the
+kernels numerically against a fresh derivation.
+
+Every kernel takes the joint state ``q`` (and ``dq``) as float arrays of
+length n, the parameter vector ``p`` (5 n floats, link by link
+``m, a, cx, cy, I``; see :data:`exoleg.dynamics.derive.LINK_PARAMS`), ``g``
+where gravity enters, and writes into a caller-owned ``out`` array.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+import sympy as sp
+from sympy.printing.pycode import PythonCodePrinter
+
+from exoleg.dynamics.derive import Derivation, derive
+
+GENERATED = Path(__file__).with_name("_generated.py")
+
+
+class _Printer(PythonCodePrinter):
+    """Prints plain ``cos(x)``; small integer powers as products (faster under numba)."""
+
+    def __init__(self) -> None:
+        super().__init__({"fully_qualified_modules": False, "standard": "python3"})
+
+    def _print_Pow(self, expr: sp.Pow, rational: bool = False) -> str:
+        b, e = expr.as_base_exp()
+        if e.is_Integer and 2 <= int(e) <= 3:
+            s = self.parenthesize(b, 100)
+            return "*".join([s] * int(e))
+        return str(super()._print_Pow(expr, rational=rational))
+
+
+_PRINTER = _Printer()
+
+
+def _code(e: sp.Expr) -> str:
+    return str(_PRINTER.doprint(e))
+
+
+def _unpack(d: Derivation, used: set[sp.Basic], state: Sequence[str]) -> list[str]:
+    """Lines that bind the symbols a kernel uses from its array arguments."""
+    lines = []
+    for name in state:
+        syms = {"q": d.q, "dq": d.dq}.get(name)
+        if syms is None:
+            continue
+        for i, s in enumerate(syms):
+            if s in used:
+                lines.append(f"{s} = {name}[{i}]")
+    for i, s in enumerate(d.p):
+        if s in used:
+            lines.append(f"{s} = p[{i}]")
+    return lines
+
+
+def _body(d: Derivation, exprs: list[sp.Expr], targets: list[str],
+          state: Sequence[str]) -> list[str]:
+    """CSE the expressions and assign each to its target."""
+    subs, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("x"), optimizations="basic")
+    used: set[sp.Basic] = set()
+    for e in exprs:
+        used |= e.free_symbols
+    lines = _unpack(d, used, state)
+    lines += [f"{s} = {_code(v)}" for s, v in subs]
+    lines += [f"{t} = {_code(v)}" for t, v in zip(targets, reduced, strict=True)]
+    return lines
+
+
+def _ldlt_solve(n: int, mat: str, rhs: str, out: str) -> list[str]:
+    """Unrolled LDL^T solve of the symmetric positive-definite ``mat`` (names ``mat_j_k``)."""
+    lines: list[str] = []
+
+    def m(j: int, k: int) -> str:
+        return f"{mat}_{min(j, k)}_{max(j, k)}"
+
+    for j in range(n):
+        dj = m(j, j) + "".join(f" - L{j}_{k} * L{j}_{k} * D{k}" for k in range(j))
+        lines.append(f"D{j} = {dj}")
+        for i in range(j + 1, n):
+            s = m(i, j) + "".join(f" - L{i}_{k} * L{j}_{k} * D{k}" for k in range(j))
+            lines.append(f"L{i}_{j} = ({s}) / D{j}")
+    for i in range(n):
+        lines.append(f"z{i} = {rhs}{i}" + "".join(f" - L{i}_{k} * z{k}" for k in range(i)))
+    for i in reversed(range(n)):
+        lines.append(f"w{i} = z{i} / D{i}" + "".join(f" - L{k}_{i} * w{k}" for k in range(i + 1, n)))
+    lines += [f"{out}[{i}] = w{i}" for i in range(n)]
+    return lines
+
+
+def _function(name: str, args: str, doc: str, lines: list[str]) -> str:
+    body = "\n".join("    " + ln for ln in lines)
+    return f'@njit(cache=True)\ndef {name}({args}):\n    """{doc}"""\n{body}\n'
+
+
+def generate(d: Derivation) -> str:
+    """Python source of every kernel for derivation ``d``."""
+    n = d.n
+    upper = [(j, k) for j in range(n) for k in range(j, n)]
+    cdq = d.C * sp.Matrix(d.dq)
+    funcs = []
+
+    lines = _body(d, [d.M[j, k] for j, k in upper], [f"M_{j}_{k}" for j, k in upper], ["q"])
+    lines += [f"out[{j}, {k}] = M_{j}_{k}" for j, k in upper]
+    lines += [f"out[{k}, {j}] = M_{j}_{k}" for j, k in upper if j != k]
+    funcs.append(_function("mass_matrix", "q, p, out", "M(q) (eq 17) into out (n, n).", lines))
+
+    lines = _body(d, list(d.C), [f"out[{i // n}, {i % n}]" for i in range(n * n)], ["q", "dq"])
+    funcs.append(_function("coriolis_matrix", "q, dq, p, out",
+                           "C(q, dq) in Christoffel form (eq 18) into out (n, n).", lines))
+
+    lines = _body(d, list(cdq), [f"out[{i}]" for i in range(n)], ["q", "dq"])
+    funcs.append(_function("coriolis_dq", "q, dq, p, out", "C(q, dq) dq into out (n,).", lines))
+
+    lines = _body(d, list(d.G), [f"out[{i}]" for i in range(n)], ["q"])
+    funcs.append(_function("gravity", "q, p, g, out", "G(q) (eq 19) into out (n,).", lines))
+
+    lines = _body(d, list(d.Mdot), [f"out[{i // n}, {i % n}]" for i in range(n * n)], ["q", "dq"])
+    funcs.append(_function("mass_matrix_dot", "q, dq, p, out", "dM/dt into out (n, n).", lines))
+
+    lines = _body(d, [d.T], ["T"], ["q", "dq"]) + ["return T"]
+    funcs.append(_function("kinetic_energy", "q, dq, p", "Kinetic energy T, J.", lines))
+
+    lines = _body(d, [d.V], ["V"], ["q"]) + ["return V"]
+    funcs.append(_function("potential_energy", "q, p, g",
+                           "Potential energy V (zero at the hip height), J.", lines))
+
+    h = cdq + d.G
+    tau = sp.symbols(f"tau0:{n}")
+    lines = _body(d, [d.M[j, k] for j, k in upper] + list(h),
+                  [f"M_{j}_{k}" for j, k in upper] + [f"h{i}" for i in range(n)], ["q", "dq"])
+    lines += [f"b{i} = tau[{i}] - h{i}" for i in range(n)]
+    lines += _ldlt_solve(n, "M", "b", "out")
+    del tau
+    funcs.append(_function(
+        "forward_dynamics", "q, dq, tau, p, g, out",
+        "ddq = M^-1 (tau - C dq - G) (eq 20) into out (n,), by an unrolled LDL^T solve.", lines))
+
+    ddq = sp.symbols(f"ddq0:{n}")
+    tau_id = d.M * sp.Matrix(ddq) + h
+    lines = _body(d, list(tau_id), [f"out[{i}]" for i in range(n)], ["q", "dq"])
+    lines = [f"{ddq[i]} = ddq[{i}]" for i in range(n)] + lines
+    funcs.append(_function("inverse_dynamics", "q, dq, ddq, p, g, out",
+                           "tau = M ddq + C dq + G (eq 16) into out (n,).", lines))
+
+    header = (
+        '"""Generated by exoleg.dynamics.codegen from exoleg.dynamics.derive -- do not edit.\n\n'
+        f"Planar chain of {n} links, D-H offsets {list(d.offsets)} rad, sympy {sp.__version__}.\n"
+        'Regenerate with ``python -m exoleg.dynamics.codegen``.\n"""\n'
+        "# ruff: noqa\n"
+        "from math import cos, sin\n\n"
+        "from numba import njit\n\n"
+        f"N_JOINTS = {n}\n"
+        f"OFFSETS = {tuple(d.offsets)!r}\n\n\n"
+    )
+    return header + "\n\n".join(funcs)
+
+
+def leg_offsets() -> tuple[float, ...]:
+    """The leg's D-H offsets, from the paper's Table 3 data file."""
+    from exoleg.params.paper import dh_offsets
+
+    return dh_offsets()
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m exoleg.dynamics.codegen", description=__doc__)
+    ap.add_argument("--check", action="store_true",
+                    help="regenerate in memory and exit 1 if the shipped file differs")
+    ap.add_argument("--output", type=Path, default=GENERATED)
+    args = ap.parse_args(argv)
+    src = generate(derive(leg_offsets()))
+    if args.check:
+        same = args.output.read_text() == src
+        sys.stdout.write(f"{args.output}: {'up to date' if same else 'DIFFERS'}\n")
+        return 0 if same else 1
+    args.output.write_text(src)
+    sys.stdout.write(f"wrote {args.output}\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

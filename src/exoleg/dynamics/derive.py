@@ -1,0 +1,112 @@
+"""Euler-Lagrange derivation of a planar serial chain with SymPy (paper section 4, eqs 15-19).
+
+The chain hangs from a fixed joint at the origin (the swing model of the
+paper). Link ``i`` turns by ``q_i`` relative to link ``i-1`` plus a constant
+D-H offset (paper Table 3: -pi/2, 0, +pi/2 for hip, knee, ankle); its frame has
+x along the link. Each link has five parameters, kept symbolic:
+
+``m_i`` mass, ``a_i`` length, ``cx_i``, ``cy_i`` COM in the link frame measured
+from the proximal joint, ``I_i`` centroidal inertia about z; and ``g``.
+
+From the kinetic energy T and potential energy V (gravity along -y):
+
+* ``M = d^2 T / d dq^2`` (eq 17),
+* ``C_kj = sum_i c_ijk dq_i`` with Christoffel symbols
+  ``c_ijk = 1/2 (dM_kj/dq_i + dM_ki/dq_j - dM_ij/dq_k)`` (eq 18), so that
+  ``Mdot - 2C`` is skew-symmetric,
+* ``G = dV / dq`` (eq 19).
+
+This runs only when kernels are (re)generated (``python -m exoleg.dynamics.codegen``)
+and in the test that proves the shipped kernels match a fresh derivation;
+never at run time.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import sympy as sp
+
+#: Parameters per link, in the order of the parameter vector ``p``.
+LINK_PARAMS = ("m", "a", "cx", "cy", "I")
+
+
+@dataclass(frozen=True)
+class Derivation:
+    """Symbolic equations of motion of an ``n``-link planar chain.
+
+    ``p`` is ordered link by link as :data:`LINK_PARAMS` (5 n symbols).
+    """
+
+    n: int
+    offsets: tuple[float, ...]
+    q: tuple[sp.Symbol, ...]
+    dq: tuple[sp.Symbol, ...]
+    p: tuple[sp.Symbol, ...]
+    g: sp.Symbol
+    M: sp.Matrix
+    C: sp.Matrix
+    G: sp.Matrix
+    Mdot: sp.Matrix
+    T: sp.Expr
+    V: sp.Expr
+
+
+def _offset(value: float) -> sp.Expr:
+    """A D-H offset as an exact multiple of pi/2 where it is one (keeps trig exact)."""
+    k = sp.nsimplify(value / float(sp.pi / 2), rational=True)
+    if k.is_integer:
+        return k * sp.pi / 2
+    return sp.Float(value, 17)
+
+
+def derive(offsets: Sequence[float], simplify: bool = True) -> Derivation:
+    """Derive M, C, G, Mdot, T and V for a chain with these D-H joint offsets (rad)."""
+    n = len(offsets)
+    q = sp.symbols(f"q0:{n}", real=True)
+    dq = sp.symbols(f"dq0:{n}", real=True)
+    p = tuple(sp.Symbol(f"{name}{i}", real=True) for i in range(n) for name in LINK_PARAMS)
+    g = sp.Symbol("g", real=True)
+    m, a, cx, cy, inertia = (p[k::5] for k in range(5))
+
+    phi = []  # absolute link angles
+    acc: sp.Expr = sp.Integer(0)
+    for i in range(n):
+        acc = acc + q[i] + _offset(offsets[i])
+        phi.append(acc)
+
+    joint = sp.Matrix([0, 0])
+    T: sp.Expr = sp.Integer(0)
+    V: sp.Expr = sp.Integer(0)
+    dqv = sp.Matrix(dq)
+    for i in range(n):
+        c, s = sp.cos(phi[i]), sp.sin(phi[i])
+        com = joint + sp.Matrix([c * cx[i] - s * cy[i], s * cx[i] + c * cy[i]])
+        v = com.jacobian(q) * dqv
+        omega = sum(dq[: i + 1])
+        T += sp.Rational(1, 2) * m[i] * (v.T * v)[0] + sp.Rational(1, 2) * inertia[i] * omega**2
+        V += m[i] * g * com[1]
+        joint = joint + a[i] * sp.Matrix([c, s])
+
+    M = sp.zeros(n, n)
+    for j in range(n):
+        for k in range(j, n):
+            e = sp.expand(sp.diff(T, dq[j], dq[k]))
+            if simplify:
+                e = sp.collect(sp.trigsimp(e), inertia)
+            M[j, k] = M[k, j] = e
+
+    C = sp.zeros(n, n)
+    for k in range(n):
+        for j in range(n):
+            C[k, j] = sum(
+                sp.Rational(1, 2)
+                * (sp.diff(M[k, j], q[i]) + sp.diff(M[k, i], q[j]) - sp.diff(M[i, j], q[k]))
+                * dq[i]
+                for i in range(n)
+            )
+    G = sp.Matrix([sp.diff(V, qi) for qi in q])
+    Mdot = M.applyfunc(lambda e: sum(sp.diff(e, q[i]) * dq[i] for i in range(n)))
+    return Derivation(n=n, offsets=tuple(float(o) for o in offsets), q=q, dq=dq, p=p, g=g,
+                      M=M, C=C, G=G, Mdot=Mdot, T=T, V=V)

@@ -1,0 +1,119 @@
+"""Compiled kernels of the leg's dynamics: the scalar kernels and broadcasting gufuncs.
+
+The scalar kernels (``mass_matrix``, ``gravity``, ``forward_dynamics``, ...) come
+from ``_generated.py`` (see :mod:`exoleg.dynamics.codegen`) and are meant to be
+called from other numba code (the simulator's loop); each writes into an
+``out`` array. The ``gu_*`` gufuncs wrap them for numpy callers and broadcast
+over leading axes: ``gufunc("mass_matrix")(q (..., 3), p (15,)) -> (..., 3, 3)``.
+They are built (or loaded from numba's cache) on first use, not at import.
+
+``p`` is the parameter vector, link by link ``(m, a, cx, cy, Izz)``;
+see :meth:`exoleg.LegModel.p`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from functools import cache
+from typing import Any
+
+from numba import guvectorize
+
+from exoleg.dynamics._generated import (
+    N_JOINTS,
+    OFFSETS,
+    coriolis_dq,
+    coriolis_matrix,
+    forward_dynamics,
+    gravity,
+    inverse_dynamics,
+    kinetic_energy,
+    mass_matrix,
+    mass_matrix_dot,
+    potential_energy,
+)
+
+__all__ = [
+    "N_JOINTS", "OFFSETS", "coriolis_dq", "coriolis_matrix", "forward_dynamics", "gravity",
+    "inverse_dynamics", "kinetic_energy", "mass_matrix", "mass_matrix_dot", "potential_energy",
+    "gufunc",
+]
+
+_V = "float64[:]"
+_M = "float64[:, :]"
+
+
+def _build_mass_matrix() -> Any:
+    @guvectorize([f"void({_V}, {_V}, {_M})"], "(n),(k)->(n,n)", cache=True)
+    def gu(q, p, out):  # type: ignore[no-untyped-def]
+        mass_matrix(q, p, out)
+    return gu
+
+
+def _build_coriolis_matrix() -> Any:
+    @guvectorize([f"void({_V}, {_V}, {_V}, {_M})"], "(n),(n),(k)->(n,n)", cache=True)
+    def gu(q, dq, p, out):  # type: ignore[no-untyped-def]
+        coriolis_matrix(q, dq, p, out)
+    return gu
+
+
+def _build_mass_matrix_dot() -> Any:
+    @guvectorize([f"void({_V}, {_V}, {_V}, {_M})"], "(n),(n),(k)->(n,n)", cache=True)
+    def gu(q, dq, p, out):  # type: ignore[no-untyped-def]
+        mass_matrix_dot(q, dq, p, out)
+    return gu
+
+
+def _build_coriolis_dq() -> Any:
+    @guvectorize([f"void({_V}, {_V}, {_V}, {_V})"], "(n),(n),(k)->(n)", cache=True)
+    def gu(q, dq, p, out):  # type: ignore[no-untyped-def]
+        coriolis_dq(q, dq, p, out)
+    return gu
+
+
+def _build_gravity() -> Any:
+    @guvectorize([f"void({_V}, {_V}, float64, {_V})"], "(n),(k),()->(n)", cache=True)
+    def gu(q, p, g, out):  # type: ignore[no-untyped-def]
+        gravity(q, p, g, out)
+    return gu
+
+
+def _build_forward_dynamics() -> Any:
+    @guvectorize([f"void({_V}, {_V}, {_V}, {_V}, float64, {_V})"], "(n),(n),(n),(k),()->(n)",
+                 cache=True)
+    def gu(q, dq, tau, p, g, out):  # type: ignore[no-untyped-def]
+        forward_dynamics(q, dq, tau, p, g, out)
+    return gu
+
+
+def _build_inverse_dynamics() -> Any:
+    @guvectorize([f"void({_V}, {_V}, {_V}, {_V}, float64, {_V})"], "(n),(n),(n),(k),()->(n)",
+                 cache=True)
+    def gu(q, dq, ddq, p, g, out):  # type: ignore[no-untyped-def]
+        inverse_dynamics(q, dq, ddq, p, g, out)
+    return gu
+
+
+def _build_kinetic_energy() -> Any:
+    @guvectorize([f"void({_V}, {_V}, {_V}, float64[:])"], "(n),(n),(k)->()", cache=True)
+    def gu(q, dq, p, out):  # type: ignore[no-untyped-def]
+        out[0] = kinetic_energy(q, dq, p)
+    return gu
+
+
+def _build_potential_energy() -> Any:
+    @guvectorize([f"void({_V}, {_V}, float64, float64[:])"], "(n),(k),()->()", cache=True)
+    def gu(q, p, g, out):  # type: ignore[no-untyped-def]
+        out[0] = potential_energy(q, p, g)
+    return gu
+
+
+_BUILDERS: dict[str, Callable[[], Any]] = {
+    name[len("_build_"):]: f for name, f in globals().items() if name.startswith("_build_")
+}
+
+
+@cache
+def gufunc(name: str) -> Any:
+    """The broadcasting gufunc of kernel ``name`` (e.g. ``"mass_matrix"``), built once."""
+    return _BUILDERS[name]()

@@ -1,0 +1,183 @@
+"""The leg model: links and gravity as data, the equations of motion as compiled kernels."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import replace
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from exoleg import kinematics
+from exoleg.dynamics import kernels as K
+from exoleg.errors import ParameterError
+from exoleg.params import _check
+from exoleg.params.records import JOINTS, Link
+
+F64 = NDArray[np.float64]
+
+
+class LegModel:
+    """The coupled child + exoskeleton leg: three links on the paper's D-H chain (Table 3).
+
+    Args:
+        links: thigh, shank, foot (each a :class:`~exoleg.params.records.Link`).
+        g: gravitational acceleration, m/s^2 (gravity along -y).
+        name: a label used in reports.
+
+    Every method takes joint vectors ordered (hip, knee, ankle) in rad (rad/s,
+    rad/s^2, N m) of shape ``(3,)`` or ``(N, 3)``; results broadcast the same way.
+    Equations: M (eq 17), C in Christoffel form (eq 18), G (eq 19), forward
+    dynamics (eq 20), inverse dynamics (eq 16).
+    """
+
+    __slots__ = ("links", "g", "name", "_p")
+
+    def __init__(self, links: Sequence[Link], g: float = 9.81, name: str = "leg") -> None:
+        links = tuple(links)
+        if len(links) != K.N_JOINTS:
+            raise ParameterError(f"LegModel {name!r}", "links",
+                                 f"need exactly {K.N_JOINTS} links (thigh, shank, foot), "
+                                 f"got {len(links)}")
+        for i, lk in enumerate(links):
+            if not isinstance(lk, Link):
+                raise ParameterError(f"LegModel {name!r}", f"links[{i}]",
+                                     f"expected an exoleg.Link, got {type(lk).__name__}")
+        self.links: tuple[Link, ...] = links
+        self.g: float = _check.finite(f"LegModel {name!r}", "g", g)
+        if self.g < 0:
+            raise ParameterError(f"LegModel {name!r}", "g", f"must be >= 0 m/s^2, got {self.g}")
+        self.name = name
+        p = np.array([[lk.mass, lk.length, lk.com[0], lk.com[1], lk.izz] for lk in links]).ravel()
+        p.setflags(write=False)
+        self._p = p
+
+    # ------------------------------------------------------------------ data
+    @property
+    def p(self) -> F64:
+        """Parameter vector (15,): per link ``m, a, cx, cy, Izz`` (read-only)."""
+        return self._p
+
+    @property
+    def lengths(self) -> F64:
+        """Link lengths a1, a2, a3 (m)."""
+        return self._p[1::5].copy()
+
+    @property
+    def coms(self) -> F64:
+        """COMs (3, 2) in each link frame, from the proximal joint (m)."""
+        return self._p.reshape(3, 5)[:, 2:4].copy()
+
+    @property
+    def offsets(self) -> tuple[float, ...]:
+        """D-H joint offsets (rad) of the compiled chain."""
+        return tuple(K.OFFSETS)
+
+    @property
+    def has_parts(self) -> bool:
+        """Whether every link carries its welded parts (a detailed model)."""
+        return all(lk.parts for lk in self.links)
+
+    def lumped(self) -> LegModel:
+        """The same leg with each link as one body (the paper's simplified form)."""
+        return LegModel([lk.lumped() for lk in self.links], g=self.g, name=self.name)
+
+    def with_links(self, **changes: Link) -> LegModel:
+        """A copy with some links replaced, by name: ``leg.with_links(foot=new_foot)``."""
+        names = [lk.name for lk in self.links]
+        for k in changes:
+            if k not in names:
+                raise ParameterError(f"LegModel {self.name!r}", k,
+                                     f"no such link (links: {', '.join(names)})")
+        return LegModel([changes.get(lk.name, lk) for lk in self.links], g=self.g, name=self.name)
+
+    def scaled(self, factor: float) -> LegModel:
+        """Masses and inertias times ``factor`` (the paper's detailed = 2 x simplified)."""
+        f = _check.positive(f"LegModel {self.name!r}", "factor", factor)
+        return LegModel([replace(lk, mass=lk.mass * f, izz=lk.izz * f, parts=())
+                         for lk in self.links], g=self.g, name=self.name)
+
+    def __repr__(self) -> str:
+        m = ", ".join(f"{lk.name} {lk.mass:.3f} kg" for lk in self.links)
+        return f"LegModel({self.name!r}: {m}; g={self.g})"
+
+    # ------------------------------------------------------------ validation
+    def _vec(self, field: str, x: ArrayLike, unit: str) -> F64:
+        a = np.asarray(x, dtype=float) if not isinstance(x, np.ndarray) else x.astype(float, copy=False)
+        if a.ndim == 0 or a.shape[-1] != 3:
+            raise ParameterError(
+                f"LegModel {self.name!r}", field,
+                f"expected 3 values ({', '.join(JOINTS)}) in {unit}, shape (3,) or (N, 3); "
+                f"got shape {a.shape}",
+            )
+        if not np.all(np.isfinite(a)):
+            idx = np.argwhere(~np.isfinite(a))[0]
+            raise ParameterError(f"LegModel {self.name!r}", field,
+                                 f"must be finite {unit}; {JOINTS[idx[-1]]} is {a[tuple(idx)]}")
+        return a
+
+    # -------------------------------------------------------------- dynamics
+    def M(self, q: ArrayLike) -> F64:
+        """Inertia matrix M(q) (..., 3, 3), kg m^2 (eq 17)."""
+        return K.gufunc("mass_matrix")(self._vec("q", q, "rad"), self._p)  # type: ignore[no-any-return]
+
+    def C(self, q: ArrayLike, dq: ArrayLike) -> F64:
+        """Coriolis/centripetal matrix in Christoffel form (eq 18), (..., 3, 3)."""
+        return K.gufunc("coriolis_matrix")(  # type: ignore[no-any-return]
+            self._vec("q", q, "rad"), self._vec("dq", dq, "rad/s"), self._p)
+
+    def Cdq(self, q: ArrayLike, dq: ArrayLike) -> F64:
+        """C(q, dq) dq (..., 3), N m."""
+        return K.gufunc("coriolis_dq")(  # type: ignore[no-any-return]
+            self._vec("q", q, "rad"), self._vec("dq", dq, "rad/s"), self._p)
+
+    def G(self, q: ArrayLike) -> F64:
+        """Gravity torque vector G(q) (..., 3), N m (eq 19)."""
+        return K.gufunc("gravity")(self._vec("q", q, "rad"), self._p, self.g)  # type: ignore[no-any-return]
+
+    def Mdot(self, q: ArrayLike, dq: ArrayLike) -> F64:
+        """Time derivative of M along (q, dq), (..., 3, 3)."""
+        return K.gufunc("mass_matrix_dot")(  # type: ignore[no-any-return]
+            self._vec("q", q, "rad"), self._vec("dq", dq, "rad/s"), self._p)
+
+    def forward_dynamics(self, q: ArrayLike, dq: ArrayLike, tau: ArrayLike) -> F64:
+        """Joint accelerations M^-1 (tau - C dq - G) (eq 20), (..., 3), rad/s^2."""
+        return K.gufunc("forward_dynamics")(  # type: ignore[no-any-return]
+            self._vec("q", q, "rad"), self._vec("dq", dq, "rad/s"),
+            self._vec("tau", tau, "N m"), self._p, self.g)
+
+    def inverse_dynamics(self, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike) -> F64:
+        """Joint torques M ddq + C dq + G (eq 16), (..., 3), N m."""
+        return K.gufunc("inverse_dynamics")(  # type: ignore[no-any-return]
+            self._vec("q", q, "rad"), self._vec("dq", dq, "rad/s"),
+            self._vec("ddq", ddq, "rad/s^2"), self._p, self.g)
+
+    def kinetic_energy(self, q: ArrayLike, dq: ArrayLike) -> F64:
+        """Kinetic energy (...), J."""
+        return K.gufunc("kinetic_energy")(  # type: ignore[no-any-return]
+            self._vec("q", q, "rad"), self._vec("dq", dq, "rad/s"), self._p)
+
+    def potential_energy(self, q: ArrayLike) -> F64:
+        """Gravitational potential energy (...), J, zero at the hip's height."""
+        return K.gufunc("potential_energy")(  # type: ignore[no-any-return]
+            self._vec("q", q, "rad"), self._p, self.g)
+
+    # ------------------------------------------------------------ kinematics
+    def fk(self, q: ArrayLike) -> dict[str, F64]:
+        """Named positions (..., 2) in m: hip, knee, ankle, toe, com_thigh, com_shank,
+        com_foot; and ``phi``, the foot orientation (rad). Paper eqs 5-6."""
+        return kinematics.forward_kinematics(self._vec("q", q, "rad"), self._p[1::5],
+                                             self.coms, K.OFFSETS)
+
+    def jacobians(self, q: ArrayLike) -> dict[str, F64]:
+        """Linear Jacobians (..., 2, 3) of the toe and each COM."""
+        return kinematics.jacobians(self._vec("q", q, "rad"), self._p[1::5], self.coms, K.OFFSETS)
+
+    def ik(self, x: ArrayLike, y: ArrayLike, phi: ArrayLike,
+           branch: Literal["flexed", "extended"] = "flexed") -> F64:
+        """Joint angles (..., 3) putting the toe at (x, y) m with foot orientation phi rad.
+
+        Knee flexed (q2 <= 0) by default; see :func:`exoleg.kinematics.inverse_kinematics`.
+        """
+        return kinematics.inverse_kinematics(x, y, phi, self._p[1::5], branch=branch)

@@ -1,0 +1,28 @@
+"""Exceptions raised by exoleg. Every message names what was wrong and what is allowed."""
+
+from __future__ import annotations
+
+
+class ExolegError(Exception):
+    """Base class of every error exoleg raises on purpose."""
+
+
+class ParameterError(ExolegError, ValueError):
+    """A parameter (from a file, a record or an argument) is missing or invalid.
+
+    ``where`` names the file or record, ``field`` the offending field.
+    """
+
+    def __init__(self, where: str, field: str, problem: str) -> None:
+        self.where = where
+        self.field = field
+        self.problem = problem
+        super().__init__(f"{where}: {field}: {problem}")
+
+
+class UnreachableError(ExolegError, ValueError):
+    """An inverse-kinematics target lies outside the leg's workspace."""
+
+
+class SimulationError(ExolegError, RuntimeError):
+    """A simulation could not go on (e.g. a non-finite state)."""

@@ -1,0 +1,60 @@
+"""Small validators shared by every parameter record and loader.
+
+Each raises :class:`~exoleg.errors.ParameterError` naming where the value came
+from, the field and what is allowed, so a bad file never surfaces as a
+traceback from deep inside numpy or as a silent NaN.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from exoleg.errors import ParameterError
+
+
+def finite(where: str, field: str, value: Any) -> float:
+    """Return ``value`` as a float; it must be a finite real number."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise ParameterError(where, field, f"expected a number, got {value!r}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise ParameterError(where, field, f"must be a finite number, got {x!r}")
+    return x
+
+
+def positive(where: str, field: str, value: Any, unit: str = "") -> float:
+    """Return ``value`` as a float; it must be finite and > 0."""
+    x = finite(where, field, value)
+    if x <= 0.0:
+        u = f" {unit}" if unit else ""
+        raise ParameterError(where, field, f"must be > 0{u}, got {x!r}")
+    return x
+
+
+def vector(where: str, field: str, value: Any, n: int) -> NDArray[np.float64]:
+    """Return ``value`` as a finite float vector of length ``n``."""
+    if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray)):
+        raise ParameterError(where, field, f"expected a list of {n} numbers, got {value!r}")
+    if len(value) != n:
+        raise ParameterError(where, field, f"expected {n} numbers, got {len(value)}")
+    return np.array([finite(where, f"{field}[{i}]", v) for i, v in enumerate(value)])
+
+
+def keys(where: str, table: Mapping[str, Any], required: Iterable[str],
+         optional: Iterable[str] = ()) -> None:
+    """Check a table has every required key and no unknown one."""
+    req = list(required)
+    allowed = set(req) | set(optional)
+    for k in req:
+        if k not in table:
+            raise ParameterError(where, k, "missing (required fields: " + ", ".join(req) + ")")
+    for k in table:
+        if k not in allowed:
+            raise ParameterError(
+                where, k, "unknown field (allowed: " + ", ".join(sorted(allowed)) + ")"
+            )

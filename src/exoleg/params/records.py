@@ -1,0 +1,147 @@
+"""What a link, an actuator, a range of motion and a set of gains are: typed records, SI units.
+
+Records validate themselves on construction and raise
+:class:`~exoleg.errors.ParameterError` naming the field and what is allowed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from exoleg.errors import ParameterError
+from exoleg.inertia import RigidBody, compose
+from exoleg.params import _check
+
+#: Joint names, in the order of every joint vector (q is hip, knee, ankle).
+JOINTS = ("hip", "knee", "ankle")
+#: Link names, in order.
+LINKS = ("thigh", "shank", "foot")
+
+
+@dataclass(frozen=True)
+class Link:
+    """One link of the leg, lumped into a single rigid body.
+
+    Attributes:
+        mass: kg, > 0.
+        length: joint-to-joint length a_i, m, > 0 (for the foot: ankle to toe).
+        com: (x, y) of the COM in the link frame, from the proximal joint, m. The link
+            frame's x axis points along the link, y is x turned +90 deg.
+        izz: centroidal moment of inertia about z, kg m^2, > 0.
+        name: label, e.g. ``"thigh"``.
+        parts: the welded bodies this link is made of (e.g. human and SLE), if known.
+            When given, mass, com and izz must be their composition (see :meth:`from_parts`).
+    """
+
+    mass: float
+    length: float
+    com: tuple[float, float]
+    izz: float
+    name: str = "link"
+    parts: tuple[RigidBody, ...] = field(default=())
+
+    def __post_init__(self) -> None:
+        where = f"Link {self.name!r}"
+        body = RigidBody(mass=self.mass, com=self.com, izz=self.izz, name=self.name)
+        object.__setattr__(self, "mass", body.mass)
+        object.__setattr__(self, "com", body.com)
+        object.__setattr__(self, "izz", body.izz)
+        object.__setattr__(self, "length", _check.positive(where, "length", self.length, "m"))
+        object.__setattr__(self, "parts", tuple(self.parts))
+        if self.parts:
+            c = compose(self.parts)
+            tol = 1e-9
+            scale = max(abs(self.com[0]), abs(self.com[1]), self.length)
+            if (abs(c.mass - self.mass) > tol * self.mass
+                    or abs(c.izz - self.izz) > tol * self.izz
+                    or max(abs(c.com[0] - self.com[0]), abs(c.com[1] - self.com[1])) > tol * scale):
+                raise ParameterError(
+                    where, "parts",
+                    f"compose to mass {c.mass}, com {c.com}, izz {c.izz}, which differ from the "
+                    f"link's mass {self.mass}, com {self.com}, izz {self.izz}; "
+                    "use Link.from_parts to build a link from its parts",
+                )
+
+    @classmethod
+    def from_parts(cls, length: float, parts: tuple[RigidBody, ...] | list[RigidBody],
+                   name: str = "link") -> Link:
+        """A link whose mass properties are the SMS composition of ``parts``."""
+        c = compose(parts, name=name)
+        return cls(mass=c.mass, length=length, com=c.com, izz=c.izz, name=name,
+                   parts=tuple(parts))
+
+    @property
+    def body(self) -> RigidBody:
+        """The lumped body."""
+        return RigidBody(mass=self.mass, com=self.com, izz=self.izz, name=self.name)
+
+    def lumped(self) -> Link:
+        """This link without its parts (the paper's simplified, single-body form)."""
+        return Link(mass=self.mass, length=self.length, com=self.com, izz=self.izz, name=self.name)
+
+
+@dataclass(frozen=True)
+class Actuator:
+    """One joint's actuation unit (paper Table 2).
+
+    Attributes: mass kg, power W, gear_ratio (output:input, e.g. 100 for 100:1),
+    max_torque N m, max_velocity rad/s, motor and gear model names.
+    """
+
+    joint: str
+    mass: float
+    power: float
+    gear_ratio: float
+    max_torque: float
+    max_velocity: float
+    motor: str = ""
+    gear: str = ""
+
+    def __post_init__(self) -> None:
+        where = f"Actuator {self.joint!r}"
+        for f in ("mass", "power", "gear_ratio", "max_torque", "max_velocity"):
+            object.__setattr__(self, f, _check.positive(where, f, getattr(self, f)))
+
+
+@dataclass(frozen=True)
+class RangeOfMotion:
+    """Joint limits, rad, ordered (hip, knee, ankle); ``lower < upper`` per joint."""
+
+    lower: NDArray[np.float64]
+    upper: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        lo = _check.vector("RangeOfMotion", "lower", list(self.lower), len(JOINTS))
+        hi = _check.vector("RangeOfMotion", "upper", list(self.upper), len(JOINTS))
+        for i, j in enumerate(JOINTS):
+            if not lo[i] < hi[i]:
+                raise ParameterError("RangeOfMotion", j,
+                                     f"lower limit {lo[i]} rad must be below upper {hi[i]} rad")
+        object.__setattr__(self, "lower", lo)
+        object.__setattr__(self, "upper", hi)
+
+    def contains(self, q: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Whether each configuration (..., 3) lies within the limits."""
+        q = np.asarray(q, dtype=float)
+        return np.all((q >= self.lower) & (q <= self.upper), axis=-1)
+
+
+@dataclass(frozen=True)
+class Gains:
+    """Diagonal PD gains: kp N m/rad, kd N m s/rad (hip, knee, ankle), control rate Hz."""
+
+    kp: NDArray[np.float64]
+    kd: NDArray[np.float64]
+    rate_hz: float = 1000.0
+
+    def __post_init__(self) -> None:
+        kp = _check.vector("Gains", "kp", list(self.kp), len(JOINTS))
+        kd = _check.vector("Gains", "kd", list(self.kd), len(JOINTS))
+        if np.any(kp < 0) or np.any(kd < 0):
+            raise ParameterError("Gains", "kp/kd", f"must be >= 0, got kp={kp}, kd={kd}")
+        object.__setattr__(self, "kp", kp)
+        object.__setattr__(self, "kd", kd)
+        object.__setattr__(self, "rate_hz", _check.positive("Gains", "rate_hz", self.rate_hz, "Hz"))
