@@ -66,14 +66,49 @@ def _unpack(d: Derivation, used: set[sp.Basic], state: Sequence[str]) -> list[st
     return lines
 
 
+def _trig(d: Derivation, exprs: list[sp.Expr]) -> tuple[list[sp.Expr], list[str]]:
+    """Replace sin/cos of joint-angle sums by symbols built from one sin and cos per joint.
+
+    ``sin(q0 + q1)`` becomes ``s_0_1 = s_0*c_1 + c_0*s_1`` and so on, so a kernel
+    calls the trig functions only once per joint angle (the dominant cost).
+    Returns the rewritten expressions and the preamble lines, in dependency order.
+    """
+    index = {s: i for i, s in enumerate(d.q)}
+    sums: set[tuple[int, ...]] = set()
+    for e in exprs:
+        for f in e.atoms(sp.sin, sp.cos):
+            terms = sp.Add.make_args(f.args[0])
+            if all(t in index for t in terms):
+                sums.add(tuple(sorted(index[t] for t in terms)))
+    needed: set[tuple[int, ...]] = set()
+    for key in sums:  # every prefix of a sum is built on the way
+        for k in range(1, len(key) + 1):
+            needed.add(key[:k])
+        needed.update((i,) for i in key)
+    lines, rep = [], {}
+    for key in sorted(needed, key=lambda k: (len(k), k)):
+        name = "_".join(map(str, key))
+        if len(key) == 1:
+            lines += [f"s_{name} = sin({d.q[key[0]]})", f"c_{name} = cos({d.q[key[0]]})"]
+        else:
+            a, b = "_".join(map(str, key[:-1])), str(key[-1])
+            lines += [f"s_{name} = s_{a} * c_{b} + c_{a} * s_{b}",
+                      f"c_{name} = c_{a} * c_{b} - s_{a} * s_{b}"]
+        arg = sum(d.q[i] for i in key)
+        rep[sp.sin(arg)] = sp.Symbol(f"s_{name}")
+        rep[sp.cos(arg)] = sp.Symbol(f"c_{name}")
+    return [e.xreplace(rep) for e in exprs], lines
+
+
 def _body(d: Derivation, exprs: list[sp.Expr], targets: list[str],
           state: Sequence[str]) -> list[str]:
     """CSE the expressions and assign each to its target."""
-    subs, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("x"), optimizations="basic")
     used: set[sp.Basic] = set()
     for e in exprs:
         used |= e.free_symbols
-    lines = _unpack(d, used, state)
+    exprs, trig = _trig(d, exprs)
+    subs, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("x"), optimizations="basic")
+    lines = _unpack(d, used, state) + trig
     lines += [f"{s} = {_code(v)}" for s, v in subs]
     lines += [f"{t} = {_code(v)}" for t, v in zip(targets, reduced, strict=True)]
     return lines
@@ -162,6 +197,7 @@ def generate(d: Derivation) -> str:
         "# ruff: noqa\n"
         "from math import cos, sin\n\n"
         "from numba import njit\n\n"
+
         f"N_JOINTS = {n}\n"
         f"OFFSETS = {tuple(d.offsets)!r}\n\n\n"
     )

@@ -1,0 +1,1 @@
+"""Simulation: fixed-step integration of the leg's dynamics."""

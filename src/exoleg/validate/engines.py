@@ -1,0 +1,103 @@
+"""Independent engines loaded from exoleg's exported models: Pinocchio (URDF) and MuJoCo (MJCF).
+
+Both are optional extras (``pip install exoleg[validate]``); constructing an
+engine without its package raises :class:`ImportError` with the install hint.
+Each engine offers the same calls as :class:`~exoleg.LegModel`, one state at a
+time: ``M(q)``, ``Cdq(q, dq)``, ``G(q)``, ``forward_dynamics(q, dq, tau)``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from exoleg.dynamics.model import LegModel
+from exoleg.export.writers import Mode, to_mjcf, to_urdf
+
+F64 = NDArray[np.float64]
+
+
+def _require(module: str, extra: str = "validate") -> Any:
+    try:
+        return __import__(module)
+    except ImportError as e:
+        raise ImportError(f"{module} is needed for this; install it with "
+                          f"'pip install exoleg[{extra}]'") from e
+
+
+def have(module: str) -> bool:
+    """Whether an optional engine's package is importable."""
+    try:
+        __import__(module)
+    except ImportError:
+        return False
+    return True
+
+
+class PinocchioLeg:
+    """The leg in Pinocchio, loaded from :func:`exoleg.export.to_urdf` (gravity set to -y g)."""
+
+    name = "Pinocchio"
+
+    def __init__(self, leg: LegModel, mode: Mode = "lumped") -> None:
+        pin = _require("pinocchio")
+        self._pin = pin
+        self.model = pin.buildModelFromXML(to_urdf(leg, mode))
+        self.model.gravity.linear = np.array([0.0, -leg.g, 0.0])
+        self.data = self.model.createData()
+
+    def M(self, q: F64) -> F64:
+        M = np.array(self._pin.crba(self.model, self.data, np.asarray(q, float)))
+        return np.triu(M) + np.triu(M, 1).T  # crba fills the upper triangle
+
+    def G(self, q: F64) -> F64:
+        return np.array(self._pin.computeGeneralizedGravity(self.model, self.data,
+                                                            np.asarray(q, float)))
+
+    def Cdq(self, q: F64, dq: F64) -> F64:
+        nle = self._pin.nonLinearEffects(self.model, self.data, np.asarray(q, float),
+                                         np.asarray(dq, float))
+        return np.array(nle) - self.G(q)
+
+    def forward_dynamics(self, q: F64, dq: F64, tau: F64) -> F64:
+        return np.array(self._pin.aba(self.model, self.data, np.asarray(q, float),
+                                      np.asarray(dq, float), np.asarray(tau, float)))
+
+
+class MujocoLeg:
+    """The leg in MuJoCo, loaded from :func:`exoleg.export.to_mjcf`."""
+
+    name = "MuJoCo"
+
+    def __init__(self, leg: LegModel, mode: Mode = "lumped", timestep: float = 1e-3) -> None:
+        mj = _require("mujoco")
+        self._mj = mj
+        self.model = mj.MjModel.from_xml_string(to_mjcf(leg, mode, timestep=timestep))
+        self.data = mj.MjData(self.model)
+
+    def _set(self, q: F64, dq: F64 | None = None, tau: F64 | None = None) -> None:
+        self.data.qpos[:] = q
+        self.data.qvel[:] = 0.0 if dq is None else dq
+        self.data.qfrc_applied[:] = 0.0 if tau is None else tau
+        self._mj.mj_forward(self.model, self.data)
+
+    def M(self, q: F64) -> F64:
+        self._set(q)
+        out = np.zeros((self.model.nv, self.model.nv))
+        self._mj.mj_fullM(self.model, self.data, out)
+        return out
+
+    def G(self, q: F64) -> F64:
+        self._set(q)
+        return self.data.qfrc_bias.copy()
+
+    def Cdq(self, q: F64, dq: F64) -> F64:
+        self._set(q, dq)
+        bias = self.data.qfrc_bias.copy()
+        return bias - self.G(q)
+
+    def forward_dynamics(self, q: F64, dq: F64, tau: F64) -> F64:
+        self._set(q, dq, tau)
+        return self.data.qacc.copy()
