@@ -124,13 +124,14 @@ def _ldlt_solve(n: int, mat: str, rhs: str, out: str) -> list[str]:
     for j in range(n):
         dj = m(j, j) + "".join(f" - L{j}_{k} * L{j}_{k} * D{k}" for k in range(j))
         lines.append(f"D{j} = {dj}")
+        lines.append(f"iD{j} = 1.0 / D{j}")
         for i in range(j + 1, n):
             s = m(i, j) + "".join(f" - L{i}_{k} * L{j}_{k} * D{k}" for k in range(j))
-            lines.append(f"L{i}_{j} = ({s}) / D{j}")
+            lines.append(f"L{i}_{j} = ({s}) * iD{j}")
     for i in range(n):
         lines.append(f"z{i} = {rhs}{i}" + "".join(f" - L{i}_{k} * z{k}" for k in range(i)))
     for i in reversed(range(n)):
-        lines.append(f"w{i} = z{i} / D{i}" + "".join(f" - L{k}_{i} * w{k}" for k in range(i + 1, n)))
+        lines.append(f"w{i} = z{i} * iD{i}" + "".join(f" - L{k}_{i} * w{k}" for k in range(i + 1, n)))
     lines += [f"{out}[{i}] = w{i}" for i in range(n)]
     return lines
 

@@ -34,9 +34,18 @@ from exoleg.dynamics._generated import (
 )
 
 __all__ = [
-    "N_JOINTS", "OFFSETS", "coriolis_dq", "coriolis_matrix", "forward_dynamics", "gravity",
-    "inverse_dynamics", "kinetic_energy", "mass_matrix", "mass_matrix_dot", "potential_energy",
+    "N_JOINTS",
+    "OFFSETS",
+    "coriolis_dq",
+    "coriolis_matrix",
+    "forward_dynamics",
+    "gravity",
     "gufunc",
+    "inverse_dynamics",
+    "kinetic_energy",
+    "mass_matrix",
+    "mass_matrix_dot",
+    "potential_energy",
 ]
 
 _V = "float64[:]"

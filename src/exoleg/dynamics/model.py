@@ -18,6 +18,21 @@ from exoleg.params.records import JOINTS, Link
 F64 = NDArray[np.float64]
 
 
+_UNITS = {"q": "rad", "dq": "rad/s", "ddq": "rad/s^2", "tau": "N m"}
+#: kernel -> (its state arguments, whether it takes g, shape of one result)
+_SIGNATURES: dict[str, tuple[tuple[str, ...], bool, tuple[int, ...]]] = {
+    "mass_matrix": (("q",), False, (3, 3)),
+    "coriolis_matrix": (("q", "dq"), False, (3, 3)),
+    "coriolis_dq": (("q", "dq"), False, (3,)),
+    "gravity": (("q",), True, (3,)),
+    "mass_matrix_dot": (("q", "dq"), False, (3, 3)),
+    "forward_dynamics": (("q", "dq", "tau"), True, (3,)),
+    "inverse_dynamics": (("q", "dq", "ddq"), True, (3,)),
+    "kinetic_energy": (("q", "dq"), False, ()),
+    "potential_energy": (("q",), True, ()),
+}
+
+
 class LegModel:
     """The coupled child + exoskeleton leg: three links on the paper's D-H chain (Table 3).
 
@@ -32,18 +47,23 @@ class LegModel:
     dynamics (eq 20), inverse dynamics (eq 16).
     """
 
-    __slots__ = ("links", "g", "name", "_p")
+    __slots__ = ("_p", "g", "links", "name")
 
     def __init__(self, links: Sequence[Link], g: float = 9.81, name: str = "leg") -> None:
         links = tuple(links)
         if len(links) != K.N_JOINTS:
-            raise ParameterError(f"LegModel {name!r}", "links",
-                                 f"need exactly {K.N_JOINTS} links (thigh, shank, foot), "
-                                 f"got {len(links)}")
+            raise ParameterError(
+                f"LegModel {name!r}",
+                "links",
+                f"need exactly {K.N_JOINTS} links (thigh, shank, foot), got {len(links)}",
+            )
         for i, lk in enumerate(links):
             if not isinstance(lk, Link):
-                raise ParameterError(f"LegModel {name!r}", f"links[{i}]",
-                                     f"expected an exoleg.Link, got {type(lk).__name__}")
+                raise ParameterError(
+                    f"LegModel {name!r}",
+                    f"links[{i}]",
+                    f"expected an exoleg.Link, got {type(lk).__name__}",
+                )
         self.links: tuple[Link, ...] = links
         self.g: float = _check.finite(f"LegModel {name!r}", "g", g)
         if self.g < 0:
@@ -88,15 +108,19 @@ class LegModel:
         names = [lk.name for lk in self.links]
         for k in changes:
             if k not in names:
-                raise ParameterError(f"LegModel {self.name!r}", k,
-                                     f"no such link (links: {', '.join(names)})")
+                raise ParameterError(
+                    f"LegModel {self.name!r}", k, f"no such link (links: {', '.join(names)})"
+                )
         return LegModel([changes.get(lk.name, lk) for lk in self.links], g=self.g, name=self.name)
 
     def scaled(self, factor: float) -> LegModel:
         """Masses and inertias times ``factor`` (the paper's detailed = 2 x simplified)."""
         f = _check.positive(f"LegModel {self.name!r}", "factor", factor)
-        return LegModel([replace(lk, mass=lk.mass * f, izz=lk.izz * f, parts=())
-                         for lk in self.links], g=self.g, name=self.name)
+        return LegModel(
+            [replace(lk, mass=lk.mass * f, izz=lk.izz * f, parts=()) for lk in self.links],
+            g=self.g,
+            name=self.name,
+        )
 
     def __repr__(self) -> str:
         m = ", ".join(f"{lk.name} {lk.mass:.3f} kg" for lk in self.links)
@@ -104,78 +128,106 @@ class LegModel:
 
     # ------------------------------------------------------------ validation
     def _vec(self, field: str, x: ArrayLike, unit: str) -> F64:
-        a = np.asarray(x, dtype=float) if not isinstance(x, np.ndarray) else x.astype(float, copy=False)
+        """``x`` as floats of shape (3,) or (..., 3); finiteness is checked by ``_run``."""
+        a = np.asarray(x, dtype=np.float64)
         if a.ndim == 0 or a.shape[-1] != 3:
             raise ParameterError(
-                f"LegModel {self.name!r}", field,
+                f"LegModel {self.name!r}",
+                field,
                 f"expected 3 values ({', '.join(JOINTS)}) in {unit}, shape (3,) or (N, 3); "
                 f"got shape {a.shape}",
             )
-        if not np.all(np.isfinite(a)):
-            idx = np.argwhere(~np.isfinite(a))[0]
-            raise ParameterError(f"LegModel {self.name!r}", field,
-                                 f"must be finite {unit}; {JOINTS[idx[-1]]} is {a[tuple(idx)]}")
         return a
+
+    def _run(self, name: str, values: tuple[ArrayLike, ...]) -> F64:
+        """Evaluate kernel ``name``: directly for one state, by its gufunc for a batch.
+
+        A non-finite input is named in the error. It is looked for only when the
+        result is not finite (NaN and inf propagate through every kernel), which
+        keeps a single call cheap.
+        """
+        fields, gravity, shape = _SIGNATURES[name]
+        args = tuple(self._vec(f, v, _UNITS[f]) for f, v in zip(fields, values, strict=True))
+        extra = (self._p, self.g) if gravity else (self._p,)
+        if all(a.ndim == 1 for a in args):
+            kernel = getattr(K, name)
+            if shape:
+                out = np.empty(shape)
+                kernel(*args, *extra, out)
+            else:  # energies return a scalar
+                out = np.float64(kernel(*args, *extra))
+        else:
+            out = K.gufunc(name)(*args, *extra)
+        if not np.isfinite(out).all():
+            for f, a in zip(fields, args, strict=True):
+                bad = np.argwhere(~np.isfinite(a))
+                if len(bad):
+                    raise ParameterError(
+                        f"LegModel {self.name!r}",
+                        f,
+                        f"must be finite {_UNITS[f]}; {JOINTS[bad[0][-1]]} is {a[tuple(bad[0])]}",
+                    )
+            raise ParameterError(
+                f"LegModel {self.name!r}", name, "result is not finite: inputs too large"
+            )
+        return out  # type: ignore[no-any-return]
 
     # -------------------------------------------------------------- dynamics
     def M(self, q: ArrayLike) -> F64:
         """Inertia matrix M(q) (..., 3, 3), kg m^2 (eq 17)."""
-        return K.gufunc("mass_matrix")(self._vec("q", q, "rad"), self._p)  # type: ignore[no-any-return]
+        return self._run("mass_matrix", (q,))
 
     def C(self, q: ArrayLike, dq: ArrayLike) -> F64:
         """Coriolis/centripetal matrix in Christoffel form (eq 18), (..., 3, 3)."""
-        return K.gufunc("coriolis_matrix")(  # type: ignore[no-any-return]
-            self._vec("q", q, "rad"), self._vec("dq", dq, "rad/s"), self._p)
+        return self._run("coriolis_matrix", (q, dq))
 
     def Cdq(self, q: ArrayLike, dq: ArrayLike) -> F64:
         """C(q, dq) dq (..., 3), N m."""
-        return K.gufunc("coriolis_dq")(  # type: ignore[no-any-return]
-            self._vec("q", q, "rad"), self._vec("dq", dq, "rad/s"), self._p)
+        return self._run("coriolis_dq", (q, dq))
 
     def G(self, q: ArrayLike) -> F64:
         """Gravity torque vector G(q) (..., 3), N m (eq 19)."""
-        return K.gufunc("gravity")(self._vec("q", q, "rad"), self._p, self.g)  # type: ignore[no-any-return]
+        return self._run("gravity", (q,))
 
     def Mdot(self, q: ArrayLike, dq: ArrayLike) -> F64:
         """Time derivative of M along (q, dq), (..., 3, 3)."""
-        return K.gufunc("mass_matrix_dot")(  # type: ignore[no-any-return]
-            self._vec("q", q, "rad"), self._vec("dq", dq, "rad/s"), self._p)
+        return self._run("mass_matrix_dot", (q, dq))
 
     def forward_dynamics(self, q: ArrayLike, dq: ArrayLike, tau: ArrayLike) -> F64:
         """Joint accelerations M^-1 (tau - C dq - G) (eq 20), (..., 3), rad/s^2."""
-        return K.gufunc("forward_dynamics")(  # type: ignore[no-any-return]
-            self._vec("q", q, "rad"), self._vec("dq", dq, "rad/s"),
-            self._vec("tau", tau, "N m"), self._p, self.g)
+        return self._run("forward_dynamics", (q, dq, tau))
 
     def inverse_dynamics(self, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike) -> F64:
         """Joint torques M ddq + C dq + G (eq 16), (..., 3), N m."""
-        return K.gufunc("inverse_dynamics")(  # type: ignore[no-any-return]
-            self._vec("q", q, "rad"), self._vec("dq", dq, "rad/s"),
-            self._vec("ddq", ddq, "rad/s^2"), self._p, self.g)
+        return self._run("inverse_dynamics", (q, dq, ddq))
 
     def kinetic_energy(self, q: ArrayLike, dq: ArrayLike) -> F64:
         """Kinetic energy (...), J."""
-        return K.gufunc("kinetic_energy")(  # type: ignore[no-any-return]
-            self._vec("q", q, "rad"), self._vec("dq", dq, "rad/s"), self._p)
+        return self._run("kinetic_energy", (q, dq))
 
     def potential_energy(self, q: ArrayLike) -> F64:
         """Gravitational potential energy (...), J, zero at the hip's height."""
-        return K.gufunc("potential_energy")(  # type: ignore[no-any-return]
-            self._vec("q", q, "rad"), self._p, self.g)
+        return self._run("potential_energy", (q,))
 
     # ------------------------------------------------------------ kinematics
     def fk(self, q: ArrayLike) -> dict[str, F64]:
         """Named positions (..., 2) in m: hip, knee, ankle, toe, com_thigh, com_shank,
         com_foot; and ``phi``, the foot orientation (rad). Paper eqs 5-6."""
-        return kinematics.forward_kinematics(self._vec("q", q, "rad"), self._p[1::5],
-                                             self.coms, K.OFFSETS)
+        return kinematics.forward_kinematics(
+            self._vec("q", q, "rad"), self._p[1::5], self.coms, K.OFFSETS
+        )
 
     def jacobians(self, q: ArrayLike) -> dict[str, F64]:
         """Linear Jacobians (..., 2, 3) of the toe and each COM."""
         return kinematics.jacobians(self._vec("q", q, "rad"), self._p[1::5], self.coms, K.OFFSETS)
 
-    def ik(self, x: ArrayLike, y: ArrayLike, phi: ArrayLike,
-           branch: Literal["flexed", "extended"] = "flexed") -> F64:
+    def ik(
+        self,
+        x: ArrayLike,
+        y: ArrayLike,
+        phi: ArrayLike,
+        branch: Literal["flexed", "extended"] = "flexed",
+    ) -> F64:
         """Joint angles (..., 3) putting the toe at (x, y) m with foot orientation phi rad.
 
         Knee flexed (q2 <= 0) by default; see :func:`exoleg.kinematics.inverse_kinematics`.

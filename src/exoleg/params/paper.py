@@ -119,8 +119,7 @@ def detailed_links() -> tuple[Link, Link, Link]:
             float(m_h[i]), (float(com[0]), float(com[1])), h["radius_of_gyration"][i],
             name=f"{LINKS[i]}_human")
         sle = remainder(total.body, human, name=f"{LINKS[i]}_sle")
-        links.append(Link(mass=total.mass, length=total.length, com=total.com, izz=total.izz,
-                          name=total.name, parts=(human, sle)))
+        links.append(Link.from_parts(total.length, (human, sle), name=total.name))
     return tuple(links)  # type: ignore[return-value]
 
 
