@@ -49,7 +49,7 @@ def _rot(phi: F64, v: F64) -> F64:
     return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], axis=-1)
 
 
-def forward_kinematics(q: ArrayLike, lengths: Sequence[float], coms: Sequence[Sequence[float]],
+def forward_kinematics(q: ArrayLike, lengths: ArrayLike, coms: ArrayLike,
                        offsets: Sequence[float]) -> dict[str, F64]:
     """Positions of the joints, the toe and every COM (paper eqs 5-6).
 
@@ -84,7 +84,7 @@ def point_jacobian(q: ArrayLike, point: F64, joints: Sequence[F64], upto: int) -
     return J
 
 
-def jacobians(q: ArrayLike, lengths: Sequence[float], coms: Sequence[Sequence[float]],
+def jacobians(q: ArrayLike, lengths: ArrayLike, coms: ArrayLike,
               offsets: Sequence[float]) -> dict[str, F64]:
     """Linear Jacobians d(position)/dq (..., 2, 3) of the toe and every COM.
 
@@ -105,7 +105,7 @@ def _wrap(x: F64) -> F64:
     return np.pi - np.mod(np.pi - x, 2 * np.pi)
 
 
-def inverse_kinematics(x: ArrayLike, y: ArrayLike, phi: ArrayLike, lengths: Sequence[float],
+def inverse_kinematics(x: ArrayLike, y: ArrayLike, phi: ArrayLike, lengths: ArrayLike,
                        branch: Branch = "flexed") -> F64:
     """Joint angles (..., 3) that put the toe at (x, y) with foot orientation phi.
 
@@ -119,7 +119,7 @@ def inverse_kinematics(x: ArrayLike, y: ArrayLike, phi: ArrayLike, lengths: Sequ
     if branch not in ("flexed", "extended"):
         raise ParameterError("inverse_kinematics", "branch",
                              f"unknown {branch!r} (allowed: 'flexed', 'extended')")
-    a1, a2, a3 = (float(v) for v in lengths)
+    a1, a2, a3 = (float(v) for v in np.asarray(lengths, dtype=float))
     X, Y, P = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (x, y, phi)))
     if not (np.all(np.isfinite(X)) and np.all(np.isfinite(Y)) and np.all(np.isfinite(P))):
         raise ParameterError("inverse_kinematics", "x/y/phi", "must be finite numbers")

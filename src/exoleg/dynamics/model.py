@@ -152,10 +152,10 @@ class LegModel:
         if all(a.ndim == 1 for a in args):
             kernel = getattr(K, name)
             if shape:
-                out = np.empty(shape)
+                out: F64 = np.empty(shape)
                 kernel(*args, *extra, out)
             else:  # energies return a scalar
-                out = np.float64(kernel(*args, *extra))
+                out = np.asarray(kernel(*args, *extra), dtype=np.float64)
         else:
             out = K.gufunc(name)(*args, *extra)
         if not np.isfinite(out).all():
@@ -170,7 +170,7 @@ class LegModel:
             raise ParameterError(
                 f"LegModel {self.name!r}", name, "result is not finite: inputs too large"
             )
-        return out  # type: ignore[no-any-return]
+        return out
 
     # -------------------------------------------------------------- dynamics
     def M(self, q: ArrayLike) -> F64:

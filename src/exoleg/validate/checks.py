@@ -96,7 +96,7 @@ def engine_checks(engine_cls: Callable[..., object], n_legs: int = 5, n_states: 
     models = legs if legs is not None else [random_leg(rng) for _ in range(n_legs)]
     worst = {"M": 0.0, "C dq": 0.0, "G": 0.0, "forward dynamics": 0.0}
     for leg in models:
-        eng = engine_cls(leg, mode)  # type: ignore[call-arg]
+        eng = engine_cls(leg, mode)
         Q, DQ, TAU = random_states(n_states, int(rng.integers(1 << 31)))
         for q, dq, tau in zip(Q, DQ, TAU, strict=True):
             worst["M"] = max(worst["M"], _rel(leg.M(q), eng.M(q)))  # type: ignore[attr-defined]
