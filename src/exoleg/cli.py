@@ -42,10 +42,6 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
-class _Parser(argparse.ArgumentParser):
-    pass
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     ap = build_parser()
     args = ap.parse_args(argv)

@@ -54,9 +54,7 @@ def test_good_file_loads(tmp_path):
     ("length = 0.32", "length = inf", "length", "finite"),
 ])
 def test_bad_field_names_file_field_and_rule(tmp_path, old, new, field, allowed):
-    p = write(tmp_path, GOOD.replace(old, new, 1) if old in GOOD.split("[[link]]")[2]
-              else GOOD)
-    text = GOOD.split("[[link]]")
+    text = GOOD.split("[[link]]")  # edit the second link (shank)
     text[2] = text[2].replace(old, new)
     p = write(tmp_path, "[[link]]".join(text))
     with pytest.raises(ParameterError) as e:

@@ -174,12 +174,10 @@ def generate(d: Derivation) -> str:
                            "Potential energy V (zero at the hip height), J.", lines))
 
     h = cdq + d.G
-    tau = sp.symbols(f"tau0:{n}")
     lines = _body(d, [d.M[j, k] for j, k in upper] + list(h),
                   [f"M_{j}_{k}" for j, k in upper] + [f"h{i}" for i in range(n)], ["q", "dq"])
     lines += [f"b{i} = tau[{i}] - h{i}" for i in range(n)]
     lines += _ldlt_solve(n, "M", "b", "out")
-    del tau
     funcs.append(_function(
         "forward_dynamics", "q, dq, tau, p, g, out",
         "ddq = M^-1 (tau - C dq - G) (eq 20) into out (n,), by an unrolled LDL^T solve.", lines))
