@@ -1,0 +1,96 @@
+"""Controller records: the paper's PD impedance + gravity compensation, plain PD, computed torque."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from exoleg.control import laws
+from exoleg.dynamics.model import LegModel
+from exoleg.errors import ParameterError
+from exoleg.params import paper
+
+F64 = NDArray[np.float64]
+
+
+def _gains(name: str, field_name: str, value: ArrayLike | None, default: F64) -> F64:
+    v = default if value is None else np.asarray(value, dtype=float)
+    if v.shape != (3,) or not np.all(np.isfinite(v)) or np.any(v < 0):
+        raise ParameterError(name, field_name,
+                             f"expected 3 finite gains >= 0 (hip, knee, ankle), got {value!r}")
+    return v
+
+
+def _limits(name: str, value: ArrayLike | bool | None) -> F64:
+    """Torque limits: None/False = none; True = Table 2's maxima; or 3 values in N m."""
+    if value is None or value is False:
+        return np.full(3, np.inf)
+    if value is True:
+        return np.array([a.max_torque for a in paper.actuators()])
+    v = np.asarray(value, dtype=float)
+    if v.shape != (3,) or np.any(~(v > 0)):
+        raise ParameterError(name, "saturation",
+                             f"expected True (Table 2 limits) or 3 limits > 0 N m, got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class Controller:
+    """Base record. ``model``: the leg model the controller believes in (None for plain PD)."""
+
+    Kp: F64
+    Kd: F64
+    model: LegModel | None = None
+    saturation: F64 = field(default_factory=lambda: np.full(3, np.inf))
+    kind: int = -1
+    name: str = "controller"
+
+    def torque(self, q: ArrayLike, dq: ArrayLike, q_ref: ArrayLike, dq_ref: ArrayLike | None = None,
+               ddq_ref: ArrayLike | None = None) -> tuple[F64, int]:
+        """Joint torques (3,) N m and the saturation bit mask, for one state."""
+        z = np.zeros(3)
+        args = [np.asarray(v, dtype=float) if v is not None else z
+                for v in (q, dq, q_ref, dq_ref, ddq_ref)]
+        for nm, a in zip(("q", "dq", "q_ref", "dq_ref", "ddq_ref"), args, strict=True):
+            if a.shape != (3,) or not np.all(np.isfinite(a)):
+                raise ParameterError(self.name, nm, f"expected 3 finite values, got {a!r}")
+        u = np.empty(3)
+        mask = laws.control_law(self.kind, self.Kp, self.Kd, *self.model_params(), self.saturation,
+                                *args, u, np.empty((5, 3)))
+        return u, int(mask)
+
+    def model_params(self) -> tuple[F64, float]:
+        """(p, g) of the controller's model; zeros when it uses none."""
+        if self.model is None:
+            return np.zeros(15), 0.0
+        return np.asarray(self.model.p), self.model.g
+
+
+def PDGravity(model: LegModel, Kp: ArrayLike | None = None, Kd: ArrayLike | None = None,  # noqa: N802
+              saturation: ArrayLike | bool | None = None) -> Controller:
+    """PD impedance control with gravity compensation (paper eq 23):
+    u = Kp (q_ref - q) + Kd (dq_ref - dq) + G(q), G from ``model``.
+    Defaults: the paper's Kp = diag(80, 80, 50), Kd = diag(12, 12, 2)."""
+    g = paper.controller_gains()
+    return Controller(_gains("PDGravity", "Kp", Kp, g.kp), _gains("PDGravity", "Kd", Kd, g.kd),
+                      model, _limits("PDGravity", saturation), laws.PD_GRAVITY_KIND, "PDGravity")
+
+
+def PD(Kp: ArrayLike | None = None, Kd: ArrayLike | None = None,  # noqa: N802
+       saturation: ArrayLike | bool | None = None) -> Controller:
+    """Plain PD without gravity compensation: the baseline that shows what G buys."""
+    g = paper.controller_gains()
+    return Controller(_gains("PD", "Kp", Kp, g.kp), _gains("PD", "Kd", Kd, g.kd), None,
+                      _limits("PD", saturation), laws.PD_KIND, "PD")
+
+
+def ComputedTorque(model: LegModel, Kp: ArrayLike, Kd: ArrayLike,  # noqa: N802
+                   saturation: ArrayLike | bool | None = None) -> Controller:
+    """Computed torque: u = M(q)(ddq_ref + Kp e + Kd de) + C dq + G, from ``model``.
+    Gains here are in 1/s^2 and 1/s (they shape the error dynamics directly)."""
+    return Controller(_gains("ComputedTorque", "Kp", Kp, np.zeros(3)),
+                      _gains("ComputedTorque", "Kd", Kd, np.zeros(3)), model,
+                      _limits("ComputedTorque", saturation), laws.COMPUTED_TORQUE_KIND,
+                      "ComputedTorque")
