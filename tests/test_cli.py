@@ -5,7 +5,7 @@ import sys
 
 
 def run(*args):
-    return subprocess.run([sys.executable, "-m", "exoleg.cli", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "exoleg.cli", *args], capture_output=True, check=False,
                           text=True)
 
 
@@ -18,3 +18,34 @@ def test_validate_passes_and_prints_table():
 def test_bad_option_exits_2():
     r = run("validate", "--bogus")
     assert r.returncode == 2 and "unrecognized arguments" in r.stderr
+
+
+def test_simulate_default_writes_everything(tmp_path):
+    import json
+
+    r = run("simulate", "--out", str(tmp_path), "--duration", "6")
+    assert r.returncode == 0, r.stderr
+    for name in ("timeseries.csv", "summary.json", "fig13.png", "fig14.png", "fig15.png"):
+        assert (tmp_path / name).exists(), name
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["figures"]["exoleg_vs_MuJoCo_max_deg"] < 1e-11
+    assert "detailed (2x torque) vs simplified" in r.stdout
+
+
+def test_simulate_gait_with_leg_file(tmp_path):
+    import exoleg
+
+    leg = exoleg.save_leg(exoleg.paper_leg(), tmp_path / "leg.toml")
+    r = run("simulate", "--reference", "gait", "--stride-time", "1.5", "--duration", "3",
+            "--leg", str(leg), "--out", str(tmp_path / "o"), "--no-engine")
+    assert r.returncode == 0, r.stderr
+    assert "within Table 2" in r.stdout
+
+
+def test_simulate_bad_options_are_one_line_exit_2(tmp_path):
+    for args in (["--kp", "1,2"], ["--dt", "-1"], ["--reference", "jog"],
+                 ["--leg", str(tmp_path / "missing.toml")],
+                 ["--kd", "12,12,40"]):
+        r = run("simulate", "--out", str(tmp_path), "--no-engine", *args)
+        assert r.returncode == 2, (args, r.stderr)
+        assert len(r.stderr.strip().splitlines()) == 1 and "error" in r.stderr, (args, r.stderr)

@@ -16,12 +16,14 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Literal
 
+from exoleg import control, reference
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ExolegError, ParameterError, SimulationError, UnreachableError
 from exoleg.inertia import RigidBody, compose, remainder
 from exoleg.params import paper as _paper
 from exoleg.params.leg_file import format_leg, read_leg_file
 from exoleg.params.records import JOINTS, LINKS, Actuator, Gains, Link, RangeOfMotion
+from exoleg.sim.closed_loop import SimResult, simulate
 
 __version__ = "0.1.0"
 
@@ -59,6 +61,7 @@ def save_leg(leg: LegModel, path: str | Path, header: str = "") -> Path:
 
 __all__ = [
     "JOINTS", "LINKS", "Actuator", "ExolegError", "Gains", "LegModel", "Link",
-    "ParameterError", "RangeOfMotion", "RigidBody", "SimulationError", "UnreachableError",
-    "compose", "load_leg", "paper_leg", "remainder", "save_leg",
+    "ParameterError", "RangeOfMotion", "RigidBody", "SimResult", "SimulationError",
+    "UnreachableError", "compose", "control", "load_leg", "paper_leg", "reference", "remainder",
+    "save_leg", "simulate",
 ]

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -46,6 +46,13 @@ class Controller:
     saturation: F64 = field(default_factory=lambda: np.full(3, np.inf))
     kind: int = -1
     name: str = "controller"
+    scale: float = 1.0
+
+    def scaled(self, factor: float) -> Controller:
+        """The same controller with its torque multiplied by ``factor`` (before saturation)."""
+        if not (np.isfinite(factor) and factor > 0):
+            raise ParameterError(self.name, "scale", f"must be > 0, got {factor!r}")
+        return replace(self, scale=float(factor))
 
     def torque(self, q: ArrayLike, dq: ArrayLike, q_ref: ArrayLike, dq_ref: ArrayLike | None = None,
                ddq_ref: ArrayLike | None = None) -> tuple[F64, int]:
@@ -57,8 +64,9 @@ class Controller:
             if a.shape != (3,) or not np.all(np.isfinite(a)):
                 raise ParameterError(self.name, nm, f"expected 3 finite values, got {a!r}")
         u = np.empty(3)
-        mask = laws.control_law(self.kind, self.Kp, self.Kd, *self.model_params(), self.saturation,
-                                *args, u, np.empty((5, 3)))
+        mask = laws.control_law(  # type: ignore[call-arg]
+            self.kind, self.Kp, self.Kd, *self.model_params(), self.scale, self.saturation,
+            *args, u, np.empty((5, 3)))
         return u, int(mask)
 
     def model_params(self) -> tuple[F64, float]:

@@ -2,7 +2,8 @@
 
 ``kind``: 0 plain PD, 1 PD + gravity compensation (paper eq 23), 2 computed torque.
 ``pc`` is the controller's own model parameter vector (it may differ from the
-plant's, to study model error), ``gc`` its g. ``limit`` holds per-joint torque
+plant's, to study model error), ``gc`` its g. ``scale`` multiplies the torque (the
+paper doubles the torque applied to its detailed model). ``limit`` holds per-joint torque
 limits (inf = none); the return value says whether any joint saturated.
 """
 
@@ -19,7 +20,7 @@ COMPUTED_TORQUE_KIND = 2
 
 
 @njit(cache=True)
-def control_law(kind, kp, kd, pc, gc, limit, q, dq, q_ref, dq_ref, ddq_ref, u, work):  # type: ignore[no-untyped-def]
+def control_law(kind, kp, kd, pc, gc, scale, limit, q, dq, q_ref, dq_ref, ddq_ref, u, work):  # type: ignore[no-untyped-def]
     """Write the torque into ``u`` (3,); ``work`` is scratch (5, 3). Returns saturation flags
     as a bit mask (bit i set when joint i was clipped)."""
     e = work[0]
@@ -49,6 +50,7 @@ def control_law(kind, kp, kd, pc, gc, limit, q, dq, q_ref, dq_ref, ddq_ref, u, w
                 u[i] += g[i]
     mask = 0
     for i in range(3):
+        u[i] *= scale
         if u[i] > limit[i]:
             u[i] = limit[i]
             mask |= 1 << i

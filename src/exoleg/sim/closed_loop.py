@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -12,7 +13,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from exoleg.control.controllers import Controller
 from exoleg.control.laws import control_law
-from exoleg.dynamics.kernels import forward_dynamics
+from exoleg.dynamics.kernels import (
+    coriolis_matrix,
+    forward_dynamics,
+    kinetic_energy,
+    mass_matrix,
+    mass_matrix_dot,
+    potential_energy,
+)
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError, SimulationError
 from exoleg.params.records import JOINTS
@@ -24,29 +32,64 @@ log = logging.getLogger(__name__)
 
 
 @njit(cache=True)
-def _run(p, g, kind, kp, kd, pc, gc, limit, Qr, DQr, DDQr, q0, dq0, dt, hold,  # type: ignore[no-untyped-def]
-         Q, DQ, DDQ, U, SAT):
-    """Integrate len(Q)-1 steps; returns the index of the first non-finite state, or -1."""
-    Q[0] = q0
-    DQ[0] = dq0
+def _diagnostics(p, g, kp_eff, q, dq, q_ref, out, mats):  # type: ignore[no-untyped-def]
+    """out[0..4] = kinetic, potential, Lyapunov V (eq 26), dq^T (Mdot - 2C) dq and
+    dq^T Mdot dq (the size of the terms that cancel in the former).
+    ``mats`` is scratch (3, 3, 3)."""
+    M, Md, C = mats[0], mats[1], mats[2]
+    mass_matrix(q, p, M)
+    mass_matrix_dot(q, dq, p, Md)
+    coriolis_matrix(q, dq, p, C)
+    kin = kinetic_energy(q, dq, p)
+    vq = 0.0
+    ver = 0.0
+    mdq = 0.0
+    for i in range(3):
+        e = q_ref[i] - q[i]
+        vq += 0.5 * kp_eff[i] * e * e
+        for j in range(3):
+            ver += dq[i] * (Md[i, j] - 2.0 * C[i, j]) * dq[j]
+            mdq += dq[i] * Md[i, j] * dq[j]
+    out[0] = kin
+    out[1] = potential_energy(q, p, g)
+    out[2] = kin + vq
+    out[3] = ver
+    out[4] = mdq
+
+
+@njit(cache=True)
+def _run(p, g, kind, kp, kd, pc, gc, scale, limit, Qr, DQr, DDQr, dt, hold,  # type: ignore[no-untyped-def]
+         Q, DQ, DDQ, U, SAT, E, k0, k1, u, mask):
+    """Integrate steps k0 .. k1-1 from the state in Q[k0], DQ[k0].
+
+    ``u`` (3,) and ``mask`` (1,) carry the held torque and saturation flags between
+    calls (so a run can be done in chunks). ``E`` (N, 5) receives the diagnostics of
+    :func:`_diagnostics` at every state. Returns the index of the first non-finite
+    state, or -1.
+    """
     work = np.empty((8, 3))
     cwork = np.empty((5, 3))
-    u = np.zeros(3)
-    mask = 0
-    n = Q.shape[0] - 1
-    for k in range(n):
+    mats = np.empty((3, 3, 3))
+    kp_eff = np.empty(3)
+    for i in range(3):
+        kp_eff[i] = scale * kp[i]
+    for k in range(k0, k1):
+        _diagnostics(p, g, kp_eff, Q[k], DQ[k], Qr[k], E[k], mats)
         if k % hold == 0:
-            mask = control_law(kind, kp, kd, pc, gc, limit, Q[k], DQ[k], Qr[k], DQr[k], DDQr[k],
-                               u, cwork)
+            mask[0] = control_law(kind, kp, kd, pc, gc, scale, limit, Q[k], DQ[k], Qr[k],
+                                  DQr[k], DDQr[k], u, cwork)
         U[k] = u
-        SAT[k] = mask
+        SAT[k] = mask[0]
         rk4_step(Q[k], DQ[k], u, p, g, dt, Q[k + 1], DQ[k + 1], DDQ[k], work)
         for i in range(3):
             if not (np.isfinite(Q[k + 1, i]) and np.isfinite(DQ[k + 1, i])):
                 return k + 1
-    U[n] = u
-    SAT[n] = mask
-    forward_dynamics(Q[n], DQ[n], u, p, g, DDQ[n])
+    n = Q.shape[0] - 1
+    if k1 == n:
+        U[n] = u
+        SAT[n] = mask[0]
+        forward_dynamics(Q[n], DQ[n], u, p, g, DDQ[n])
+        _diagnostics(p, g, kp_eff, Q[n], DQ[n], Qr[n], E[n], mats)
     return -1
 
 
@@ -55,8 +98,8 @@ class SimResult:
     """Named time series of a run; arrays (N,) or (N, 3), joints ordered (hip, knee, ankle).
 
     t s; q rad; dq rad/s; ddq rad/s^2; u N m (held torque); q_ref rad; error = q_ref - q;
-    kinetic, potential J; lyapunov V of eq 26 (J); verification dq^T (Mdot - 2C) dq (W);
-    saturated (N, 3) bool.
+    kinetic, potential J; lyapunov V of eq 26 (J); verification dq^T (Mdot - 2C) dq (W) and
+    verification_scale |dq^T Mdot dq| (W), the size of what cancels in it; saturated (N, 3).
     """
 
     t: F64
@@ -70,25 +113,37 @@ class SimResult:
     potential: F64
     lyapunov: F64
     verification: F64
+    verification_scale: F64
     saturated: NDArray[np.bool_]
 
-    def to_csv(self, path: str | Path) -> Path:
-        """Write every series as columns (angles in rad) with a header line."""
-        cols = {"t": self.t[:, None]}
+    def columns(self) -> dict[str, F64]:
+        """Every series as named 1-D columns (``q_hip``, ``u_ankle``, ...), SI units, rad."""
+        cols: dict[str, F64] = {"t": self.t}
         for name in ("q", "dq", "ddq", "u", "q_ref", "error", "saturated"):
-            cols.update({name: getattr(self, name)})
-        for name in ("kinetic", "potential", "lyapunov", "verification"):
-            cols[name] = getattr(self, name)[:, None]
-        header, data = [], []
-        for name, arr in cols.items():
-            if arr.shape[1] == 3:
-                header += [f"{name}_{j}" for j in JOINTS]
-            else:
-                header.append(name)
-            data.append(arr.astype(float))
+            arr = getattr(self, name)
+            for i, j in enumerate(JOINTS):
+                cols[f"{name}_{j}"] = arr[:, i].astype(float)
+        for name in ("kinetic", "potential", "lyapunov", "verification", "verification_scale"):
+            cols[name] = getattr(self, name)
+        return cols
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write :meth:`columns` as CSV with a header line (full precision)."""
+        cols = self.columns()
         p = Path(path)
-        np.savetxt(p, np.hstack(data), delimiter=",", header=",".join(header), comments="",
-                   fmt="%.17g")
+        np.savetxt(p, np.column_stack(list(cols.values())), delimiter=",",
+                   header=",".join(cols), comments="", fmt="%.17g")
+        return p
+
+    def to_parquet(self, path: str | Path) -> Path:
+        """Write :meth:`columns` as Parquet (needs pyarrow: ``pip install exoleg[io]``)."""
+        try:
+            import pyarrow as pa
+            import pyarrow.parquet as pq
+        except ImportError as e:
+            raise ImportError("Parquet output needs pyarrow: pip install exoleg[io]") from e
+        p = Path(path)
+        pq.write_table(pa.table(self.columns()), p)
         return p
 
 
@@ -103,7 +158,8 @@ def sampled_stability(leg: LegModel, Kd: ArrayLike, h: float, postures: ArrayLik
 
 def simulate(leg: LegModel, controller: Controller, reference: Reference, duration: float,
              dt: float = 1e-3, q0: ArrayLike | None = None, dq0: ArrayLike | None = None,
-             control_dt: float | None = None) -> SimResult:
+             control_dt: float | None = None,
+             progress: Callable[[float], None] | None = None) -> SimResult:
     """Simulate the closed loop for ``duration`` s with RK4 steps of ``dt`` s.
 
     The controller runs every ``control_dt`` s (default ``dt``, i.e. 1 kHz at 1 ms; it
@@ -111,7 +167,8 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
     default to the reference's first posture at rest. Raises
     :class:`~exoleg.errors.SimulationError` naming the time and joint if the state
     stops being finite, and refuses gains the sampled loop cannot keep stable
-    (h * lambda >= 2).
+    (h * lambda >= 2). ``progress``, if given, is called with the fraction done
+    (the run is then done in about 100 chunks).
     """
     for nm, v in (("duration", duration), ("dt", dt)):
         if not (np.isfinite(v) and v > 0):
@@ -122,15 +179,16 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
         raise ParameterError("simulate", "control_dt",
                              f"must be a whole multiple of dt = {dt} s, got {cdt!r}")
     n = int(round(duration / dt))
-    t = np.arange(n + 1) * dt
+    t: F64 = (np.arange(n + 1) * dt).astype(np.float64)
     Qr, DQr, DDQr = (np.ascontiguousarray(a) for a in reference.sample(t))
     q_init = Qr[0].copy() if q0 is None else np.asarray(q0, dtype=float)
     dq_init = np.zeros(3) if dq0 is None else np.asarray(dq0, dtype=float)
-    for nm, v in (("q0", q_init), ("dq0", dq_init)):
-        if v.shape != (3,) or not np.all(np.isfinite(v)):
-            raise ParameterError("simulate", nm, f"expected 3 finite values, got {v!r}")
-    postures = np.vstack([q_init, np.unique(Qr, axis=0)])
-    margin = sampled_stability(leg, controller.Kd, hold * dt, postures)
+    for name, vec in (("q0", q_init), ("dq0", dq_init)):
+        if vec.shape != (3,) or not np.all(np.isfinite(vec)):
+            raise ParameterError("simulate", name, f"expected 3 finite values, got {vec!r}")
+    # the stability margin depends on the posture: check the start and ~200 reference samples
+    postures = np.vstack([q_init, Qr[:: max(1, len(Qr) // 200)]])
+    margin = sampled_stability(leg, controller.scale * controller.Kd, hold * dt, postures)
     if margin >= 2.0:
         raise ParameterError("simulate", "Kd/control_dt",
                              f"h * lambda(M^-1 Kd) = {margin:.3f} >= 2: the sampled loop is "
@@ -139,19 +197,26 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
         log.warning("sampled loop near its stability edge: h * lambda = %.3f (limit 2)", margin)
     Q, DQ, DDQ, U = (np.empty((n + 1, 3)) for _ in range(4))
     SAT = np.zeros(n + 1, dtype=np.int64)
+    E = np.zeros((n + 1, 5))
     pc, gc = controller.model_params()
-    bad = _run(leg.p, leg.g, controller.kind, controller.Kp, controller.Kd, pc, gc,
-               controller.saturation, Qr, DQr, DDQr, q_init, dq_init, dt, hold, Q, DQ, DDQ, U, SAT)
+    Q[0], DQ[0] = q_init, dq_init
+    u, mask = np.zeros(3), np.zeros(1, dtype=np.int64)
+    chunk = n if progress is None else max(1, n // 100)
+    bad = -1
+    for k0 in range(0, n, chunk):
+        k1 = min(n, k0 + chunk)
+        bad = _run(leg.p, leg.g, controller.kind, controller.Kp, controller.Kd, pc, gc,
+                   controller.scale, controller.saturation, Qr, DQr, DDQr, dt, hold, Q, DQ, DDQ,
+                   U, SAT, E, k0, k1, u, mask)
+        if progress is not None:
+            progress(k1 / n)
+        if bad >= 0:
+            break
     if bad >= 0:
         j = [JOINTS[i] for i in range(3) if not (np.isfinite(Q[bad, i]) and np.isfinite(DQ[bad, i]))]
         raise SimulationError(f"state became non-finite at t = {t[bad]:.6g} s ({', '.join(j)})")
     err = Qr - Q
-    T = leg.kinetic_energy(Q, DQ)
-    V = 0.5 * np.einsum("ni,ni->n", DQ, np.einsum("nij,nj->ni", leg.M(Q), DQ)) + 0.5 * np.einsum(
-        "ni,i,ni->n", err, controller.Kp, err)
-    N = leg.Mdot(Q, DQ) - 2 * leg.C(Q, DQ)
-    verification = np.einsum("ni,nij,nj->n", DQ, N, DQ)
     sat = ((SAT[:, None] >> np.arange(3)) & 1).astype(bool)
-    return SimResult(t=t, q=Q, dq=DQ, ddq=DDQ, u=U, q_ref=Qr, error=err, kinetic=T,
-                     potential=leg.potential_energy(Q), lyapunov=V, verification=verification,
-                     saturated=sat)
+    return SimResult(t=t, q=Q, dq=DQ, ddq=DDQ, u=U, q_ref=Qr, error=err, kinetic=E[:, 0],
+                     potential=E[:, 1], lyapunov=E[:, 2], verification=E[:, 3],
+                     verification_scale=np.abs(E[:, 4]), saturated=sat)

@@ -101,3 +101,28 @@ class MujocoLeg:
     def forward_dynamics(self, q: F64, dq: F64, tau: F64) -> F64:
         self._set(q, dq, tau)
         return self.data.qacc.copy()
+
+    def closed_loop(self, controller: Any, q_ref: F64, dq_ref: F64, ddq_ref: F64, hold: int,
+                    q0: F64, dq0: F64) -> F64:
+        """MuJoCo's own stepping (its integrator, its timestep) under ``controller``,
+        sampled every ``hold`` steps and held (zero-order hold), as exoleg's simulator does.
+        Returns q (N, 3) at every step, N = len(q_ref)."""
+        from exoleg.control.laws import control_law
+
+        mj, m, d = self._mj, self.model, self.data
+        mj.mj_resetData(m, d)
+        d.qpos[:], d.qvel[:] = q0, dq0
+        out = np.empty((len(q_ref), 3))
+        out[0] = d.qpos
+        pc, gc = controller.model_params()
+        args = (controller.kind, controller.Kp, controller.Kd, pc, gc, controller.scale,
+                controller.saturation)
+        u, work = np.zeros(3), np.empty((5, 3))
+        qpos, qvel = d.qpos, d.qvel  # views into MuJoCo's state
+        for k in range(len(q_ref) - 1):
+            if k % hold == 0:
+                control_law(*args, qpos, qvel, q_ref[k], dq_ref[k], ddq_ref[k], u, work)
+                d.qfrc_applied[:] = u
+            mj.mj_step(m, d)
+            out[k + 1] = qpos
+        return out

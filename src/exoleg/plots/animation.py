@@ -1,0 +1,74 @@
+"""A sagittal animation of the child's leg in the exoskeleton (paper Fig. 16 / Video S1).
+
+The child's segments are drawn as thick strokes from hip to knee to ankle to toe;
+the exoskeleton's telescopic links as a thinner parallel stroke offset behind
+them, with the actuators as discs at the joints and the footplate under the
+foot. GIF (Pillow) always; MP4 when ffmpeg is on the PATH.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.animation import FFMpegWriter, FuncAnimation, PillowWriter  # noqa: E402
+
+from exoleg.dynamics.model import LegModel  # noqa: E402
+
+_EXO_OFFSET = 0.025  # m, drawing offset of the exoskeleton's links behind the leg
+
+
+def animate(leg: LegModel, t: np.ndarray, q: np.ndarray, path: str | Path, fps: int = 25,
+            q_ref: np.ndarray | None = None) -> Path:
+    """Write an animation of ``q`` (N, 3) rad over ``t`` (N,) s at ``fps`` frames per second.
+
+    The suffix of ``path`` picks the format: ``.gif`` or ``.mp4`` (needs ffmpeg; without
+    it a GIF is written next to it and its path returned).
+    """
+    p = Path(path)
+    if p.suffix == ".mp4" and shutil.which("ffmpeg") is None:
+        p = p.with_suffix(".gif")
+    dt = float(t[1] - t[0]) if len(t) > 1 else 1.0 / fps
+    step = max(1, round(1.0 / (fps * dt)))  # one frame every 1/fps s
+    frames = np.arange(0, len(t), step)
+    fk = leg.fk(q[frames])
+    ref = leg.fk(q_ref[frames]) if q_ref is not None else None
+    reach = float(np.sum(leg.lengths))
+    fig, ax = plt.subplots(figsize=(4, 5), dpi=72)
+    ax.set_xlim(-0.7 * reach, 0.7 * reach)
+    ax.set_ylim(-1.15 * reach, 0.25 * reach)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    (ghost,) = ax.plot([], [], "--", color="0.7", lw=1, label="reference")
+    (exo,) = ax.plot([], [], "-", color="tab:gray", lw=3, alpha=0.8, label="exoskeleton")
+    (child,) = ax.plot([], [], "-", color="tab:orange", lw=7, solid_capstyle="round",
+                       label="child's leg")
+    (joints,) = ax.plot([], [], "o", color="k", ms=9, mfc="tab:blue")
+    text = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top")
+    ax.legend(loc="lower left", fontsize=7)
+
+    def chain(points: dict[str, np.ndarray], k: int) -> np.ndarray:
+        return np.array([points[n][k] for n in ("hip", "knee", "ankle", "toe")])
+
+    def draw(k: int):  # type: ignore[no-untyped-def]
+        c = chain(fk, k)
+        child.set_data(c[:, 0], c[:, 1])
+        exo.set_data(c[:, 0] - _EXO_OFFSET, c[:, 1])
+        joints.set_data(c[:3, 0], c[:3, 1])
+        if ref is not None:
+            r = chain(ref, k)
+            ghost.set_data(r[:, 0], r[:, 1])
+        text.set_text(f"t = {t[frames[k]]:.2f} s")
+        return child, exo, joints, ghost, text
+
+    anim = FuncAnimation(fig, draw, frames=len(frames), blit=True)
+    writer = FFMpegWriter(fps=fps) if p.suffix == ".mp4" else PillowWriter(fps=fps)
+    anim.save(str(p), writer=writer)
+    plt.close(fig)
+    return p

@@ -1,0 +1,130 @@
+"""Normative children's gait (Schwartz et al. 2008) as a smooth periodic joint reference.
+
+The mean (or mean + k SD) joint angles of a speed group, sampled every 2 % of
+the cycle, are fitted by a truncated Fourier series (a smooth periodic curve
+with analytic velocity and acceleration) and played at a chosen stride time.
+Signs: q1 = hip flexion, q2 = -(knee flexion), q3 = ankle dorsiflexion, rad.
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from functools import cache
+from importlib import resources
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from exoleg.errors import ParameterError
+
+F64 = NDArray[np.float64]
+SPEED_GROUPS = ("VerySlow", "Slow", "Free", "Fast", "VeryFast")
+_ANGLES = (("hip_flexion", 1.0), ("knee_flexion", -1.0), ("ankle_dorsiflexion", 1.0))
+
+
+@cache
+def _table() -> dict[tuple[str, str], tuple[F64, F64, F64]]:
+    text = resources.files("exoleg").joinpath("data", "gait",
+                                              "schwartz2008_sagittal_mean_sd.csv").read_text()
+    rows: dict[tuple[str, str], list[tuple[float, float, float]]] = {}
+    for r in csv.DictReader(text.splitlines()):
+        rows.setdefault((r["speed_group"], r["variable"]), []).append(
+            (float(r["pct_gait_cycle"]), float(r["mean"]), float(r["sd"])))
+    out = {}
+    for k, v in rows.items():
+        a = np.array(sorted(v))
+        out[k] = (a[:, 0], a[:, 1], a[:, 2])
+    return out
+
+
+def schwartz2008(variable: str, speed: str = "Free") -> tuple[F64, F64, F64]:
+    """(% gait cycle, mean, SD) of a Schwartz 2008 variable for a speed group, as printed."""
+    if speed not in SPEED_GROUPS:
+        raise ParameterError("schwartz2008", "speed",
+                             f"unknown {speed!r} (allowed: {', '.join(SPEED_GROUPS)})")
+    key = (speed, variable)
+    if key not in _table():
+        names = sorted({v for _, v in _table()})
+        raise ParameterError("schwartz2008", "variable",
+                             f"unknown {variable!r} (allowed: {', '.join(names)})")
+    return _table()[key]
+
+
+def gait_angles(speed: str = "Free", sd: float = 0.0) -> tuple[F64, F64]:
+    """(% cycle (51,), q (51, 3) rad) of mean + sd * SD, in exoleg's signs."""
+    cols = []
+    pct = np.zeros(0)
+    for var, sign in _ANGLES:
+        pct, mean, s = schwartz2008(var, speed)
+        cols.append(sign * np.radians(mean + sd * s))
+    return pct, np.stack(cols, axis=1)
+
+
+@dataclass(frozen=True)
+class SchwartzGait2008:
+    """Periodic normative gait reference.
+
+    Args:
+        stride_time: s per gait cycle (> 0).
+        speed: Schwartz 2008 speed group (VerySlow, Slow, Free, Fast, VeryFast).
+        sd: mean + sd * SD (e.g. -1, 0, 1).
+        harmonics: Fourier harmonics kept (1-24). The default 10 keeps the fit within
+            0.25 deg of every printed sample (Free, mean); the residual floor is the 100 %
+            sample, which does not close exactly onto the 0 % one.
+        phase: fraction of the cycle at t = 0 (0 = heel strike).
+    """
+
+    stride_time: float = 1.0
+    speed: str = "Free"
+    sd: float = 0.0
+    harmonics: int = 10
+    phase: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.stride_time) and self.stride_time > 0):
+            raise ParameterError("SchwartzGait2008", "stride_time",
+                                 f"must be > 0 s, got {self.stride_time!r}")
+        if not (1 <= int(self.harmonics) <= 24):
+            raise ParameterError("SchwartzGait2008", "harmonics",
+                                 f"must be 1-24, got {self.harmonics!r}")
+        if not np.isfinite(self.sd) or abs(self.sd) > 3:
+            raise ParameterError("SchwartzGait2008", "sd", f"must be within +-3, got {self.sd!r}")
+        gait_angles(self.speed, 0.0)  # validates the speed group
+
+    @property
+    def coefficients(self) -> tuple[F64, F64, F64]:
+        """(a0 (3,), a (K, 3), b (K, 3)): q(x) = a0 + sum a_k cos(2 pi k x) + b_k sin(2 pi k x)."""
+        _, q = gait_angles(self.speed, self.sd)
+        samples = q[:-1]  # 0..98 %: 100 % repeats 0 % of the next cycle
+        n = len(samples)
+        F = np.fft.rfft(samples, axis=0) / n
+        K = int(self.harmonics)
+        return F[0].real, 2 * F[1:K + 1].real, -2 * F[1:K + 1].imag
+
+    def fit_residual(self) -> float:
+        """Largest |fit - printed sample| over the cycle, rad."""
+        pct, q = gait_angles(self.speed, self.sd)
+        fq, _, _ = self._eval(pct / 100.0)
+        return float(np.max(np.abs(fq - q)))
+
+    def _eval(self, x: F64) -> tuple[F64, F64, F64]:
+        a0, a, b = self.coefficients
+        k = np.arange(1, len(a) + 1)
+        w = 2 * np.pi * np.outer(x, k)  # (N, K)
+        c, s = np.cos(w), np.sin(w)
+        q = a0 + c @ a + s @ b
+        dq = (-s * k) @ a + (c * k) @ b
+        ddq = (-c * k**2) @ a + (-s * k**2) @ b
+        return q, dq, ddq
+
+    def sample(self, t: ArrayLike) -> tuple[F64, F64, F64]:
+        tt = np.atleast_1d(np.asarray(t, dtype=float))
+        q, dx, ddx = self._eval(tt / self.stride_time + self.phase)
+        w = 2 * np.pi / self.stride_time
+        return q, dx * w, ddx * w * w
+
+    def posture_at(self, fraction: float) -> F64:
+        """Joint angles (3,) rad at a fraction of the gait cycle (0 = heel strike)."""
+        q, _, _ = self._eval(np.array([fraction]))
+        return q[0]

@@ -1,0 +1,42 @@
+"""Minimum-jerk transitions between postures (Flash & Hogan 1985: s = 10 tau^3 - 15 tau^4 + 6 tau^5)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from exoleg.reference.steps import Steps
+
+F64 = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class MinJerk:
+    """Moves from ``postures[i]`` at ``times[i]`` to ``postures[i+1]`` at ``times[i+1]`` along a
+    minimum-jerk path (zero velocity and acceleration at both ends); holds the first posture
+    before ``times[0]`` and the last after ``times[-1]``. Times s, postures rad (n, 3)."""
+
+    times: F64
+    postures: F64
+
+    def __post_init__(self) -> None:
+        s = Steps(self.times, self.postures)  # same validation
+        object.__setattr__(self, "times", s.times)
+        object.__setattr__(self, "postures", s.postures)
+
+    def sample(self, t: ArrayLike) -> tuple[F64, F64, F64]:
+        tt = np.atleast_1d(np.asarray(t, dtype=float))
+        T, P = self.times, self.postures
+        i = np.clip(np.searchsorted(T, tt, side="right") - 1, 0, len(T) - 1)
+        moving = (tt >= T[0]) & (i < len(T) - 1)
+        j = np.minimum(i + 1, len(T) - 1)
+        dur = np.where(moving, T[j] - T[i], 1.0)
+        tau = np.where(moving, (tt - T[i]) / dur, 0.0)
+        s = tau**3 * (10 - 15 * tau + 6 * tau**2)
+        ds = 30 * tau**2 * (1 - tau) ** 2 / dur
+        dds = 60 * tau * (1 - tau) * (1 - 2 * tau) / dur**2
+        delta = P[j] - P[i]
+        q = P[i] + s[:, None] * delta
+        return q, ds[:, None] * delta, dds[:, None] * delta
