@@ -27,6 +27,7 @@ test: setup
 
 bench: setup
 	$(BIN)/python benchmarks/bench_dynamics.py
+	$(BIN)/python benchmarks/bench_simulate.py
 
 codegen: setup
 	$(BIN)/python -m exoleg.dynamics.codegen

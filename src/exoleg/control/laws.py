@@ -1,60 +1,80 @@
-"""The control laws, compiled: one function used by the simulator's loop and by Python callers.
+"""The control laws, compiled: one implementation for the simulator's loop and for Python callers.
 
 ``kind``: 0 plain PD, 1 PD + gravity compensation (paper eq 23), 2 computed torque.
 ``pc`` is the controller's own model parameter vector (it may differ from the
 plant's, to study model error), ``gc`` its g. ``scale`` multiplies the torque (the
-paper doubles the torque applied to its detailed model). ``limit`` holds per-joint torque
-limits (inf = none); the return value says whether any joint saturated.
+paper doubles the torque applied to its detailed model). ``limit`` holds per-joint
+torque limits (inf = none). Each law returns the saturation flags as a bit mask
+(bit i set when joint i was clipped).
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
-from exoleg.dynamics.kernels import coriolis_dq, gravity, mass_matrix
+from exoleg.dynamics.kernels import coriolis_dq, gravity_sc, mass_matrix
 
 PD_KIND = 0
 PD_GRAVITY_KIND = 1
 COMPUTED_TORQUE_KIND = 2
 
 
+@njit(inline="always", cache=True)
+def _clip(u, limit):  # type: ignore[no-untyped-def]
+    """(u clipped to +-limit, 1 if clipped else 0)."""
+    if u > limit:
+        return limit, 1
+    if u < -limit:
+        return -limit, 1
+    return u, 0
+
+
+@njit(inline="always", cache=True)
+def pd_law(kind, kp, kd, pc, gc, scale, limit, s0, c0, s1, c1, s2, c2,  # type: ignore[no-untyped-def]
+           q0, q1, q2, v0, v1, v2, r0, r1, r2, w0, w1, w2):
+    """PD or PD + gravity compensation on scalars: state q, v; reference r, w (= dq_ref);
+    s_i, c_i = sin, cos of q_i. Returns (u0, u1, u2, mask)."""
+    u0 = kp[0] * (r0 - q0) + kd[0] * (w0 - v0)
+    u1 = kp[1] * (r1 - q1) + kd[1] * (w1 - v1)
+    u2 = kp[2] * (r2 - q2) + kd[2] * (w2 - v2)
+    if kind == PD_GRAVITY_KIND:
+        g0, g1, g2 = gravity_sc(s0, c0, s1, c1, s2, c2, pc, gc)
+        u0 += g0
+        u1 += g1
+        u2 += g2
+    u0, m0 = _clip(scale * u0, limit[0])
+    u1, m1 = _clip(scale * u1, limit[1])
+    u2, m2 = _clip(scale * u2, limit[2])
+    return u0, u1, u2, m0 | (m1 << 1) | (m2 << 2)
+
+
 @njit(cache=True)
 def control_law(kind, kp, kd, pc, gc, scale, limit, q, dq, q_ref, dq_ref, ddq_ref, u, work):  # type: ignore[no-untyped-def]
-    """Write the torque into ``u`` (3,); ``work`` is scratch (5, 3). Returns saturation flags
-    as a bit mask (bit i set when joint i was clipped)."""
-    e = work[0]
-    de = work[1]
+    """Any law on arrays (3,): writes the torque into ``u``; ``work`` is scratch (5, 3).
+    Returns the saturation mask."""
+    if kind != COMPUTED_TORQUE_KIND:
+        u[0], u[1], u[2], mask = pd_law(
+            kind, kp, kd, pc, gc, scale, limit, math.sin(q[0]), math.cos(q[0]),
+            math.sin(q[1]), math.cos(q[1]), math.sin(q[2]), math.cos(q[2]),
+            q[0], q[1], q[2], dq[0], dq[1], dq[2], q_ref[0], q_ref[1], q_ref[2],
+            dq_ref[0], dq_ref[1], dq_ref[2])
+        return mask
+    a = work[2]
+    h = work[3]
     for i in range(3):
-        e[i] = q_ref[i] - q[i]
-        de[i] = dq_ref[i] - dq[i]
-    if kind == COMPUTED_TORQUE_KIND:
-        a = work[2]
-        h = work[3]
-        g = work[4]
-        for i in range(3):
-            a[i] = ddq_ref[i] + kp[i] * e[i] + kd[i] * de[i]
-        M = np.empty((3, 3))
-        mass_matrix(q, pc, M)
-        coriolis_dq(q, dq, pc, h)
-        gravity(q, pc, gc, g)
-        for i in range(3):
-            u[i] = M[i, 0] * a[0] + M[i, 1] * a[1] + M[i, 2] * a[2] + h[i] + g[i]
-    else:
-        for i in range(3):
-            u[i] = kp[i] * e[i] + kd[i] * de[i]
-        if kind == PD_GRAVITY_KIND:
-            g = work[4]
-            gravity(q, pc, gc, g)
-            for i in range(3):
-                u[i] += g[i]
+        a[i] = ddq_ref[i] + kp[i] * (q_ref[i] - q[i]) + kd[i] * (dq_ref[i] - dq[i])
+    M = np.empty((3, 3))
+    mass_matrix(q, pc, M)
+    coriolis_dq(q, dq, pc, h)
+    g0, g1, g2 = gravity_sc(math.sin(q[0]), math.cos(q[0]), math.sin(q[1]), math.cos(q[1]),
+                            math.sin(q[2]), math.cos(q[2]), pc, gc)
+    grav = (g0, g1, g2)
     mask = 0
     for i in range(3):
-        u[i] *= scale
-        if u[i] > limit[i]:
-            u[i] = limit[i]
-            mask |= 1 << i
-        elif u[i] < -limit[i]:
-            u[i] = -limit[i]
-            mask |= 1 << i
+        ui = M[i, 0] * a[0] + M[i, 1] * a[1] + M[i, 2] * a[2] + h[i] + grav[i]
+        u[i], m = _clip(scale * ui, limit[i])
+        mask |= m << i
     return mask

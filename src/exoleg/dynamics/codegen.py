@@ -138,7 +138,10 @@ def _ldlt_solve(n: int, mat: str, rhs: str, out: str) -> list[str]:
 
 def _function(name: str, args: str, doc: str, lines: list[str]) -> str:
     body = "\n".join("    " + ln for ln in lines)
-    return f'@njit(cache=True)\ndef {name}({args}):\n    """{doc}"""\n{body}\n'
+    # error_model="numpy": a zero divisor gives inf/NaN (caught by the callers' finiteness
+    # checks) instead of a branch per division to raise ZeroDivisionError.
+    return (f'@njit(cache=True, error_model="numpy")\ndef {name}({args}):\n'
+            f'    """{doc}"""\n{body}\n')
 
 
 def generate(d: Derivation) -> str:
@@ -162,6 +165,13 @@ def generate(d: Derivation) -> str:
 
     lines = _body(d, list(d.G), [f"out[{i}]" for i in range(n)], ["q"])
     funcs.append(_function("gravity", "q, p, g, out", "G(q) (eq 19) into out (n,).", lines))
+    g_body = _body(d, list(d.G), [f"G{i}" for i in range(n)], [])
+    g_body = [ln for ln in g_body if not any(ln.startswith(f"{t}_{i} = ") for t in "sc"
+                                             for i in range(n))]
+    g_body.append("return (" + ", ".join(f"G{i}" for i in range(n)) + ",)")
+    funcs.append(_function(
+        "gravity_sc", ", ".join(f"s_{i}, c_{i}" for i in range(n)) + ", p, g",
+        "G given s_i = sin(q_i), c_i = cos(q_i), as a tuple.", g_body))
 
     lines = _body(d, list(d.Mdot), [f"out[{i // n}, {i % n}]" for i in range(n * n)], ["q", "dq"])
     funcs.append(_function("mass_matrix_dot", "q, dq, p, out", "dM/dt into out (n, n).", lines))
@@ -176,11 +186,30 @@ def generate(d: Derivation) -> str:
     h = cdq + d.G
     lines = _body(d, [d.M[j, k] for j, k in upper] + list(h),
                   [f"M_{j}_{k}" for j, k in upper] + [f"h{i}" for i in range(n)], ["q", "dq"])
-    lines += [f"b{i} = tau[{i}] - h{i}" for i in range(n)]
-    lines += _ldlt_solve(n, "M", "b", "out")
+    solve = [f"b{i} = tau{i} - h{i}" for i in range(n)] + _ldlt_solve(n, "M", "b", "out")
+    unpack_state = [f"{s} = {a}[{i}]" for a, syms in (("q", d.q), ("dq", d.dq))
+                    for i, s in enumerate(syms)] + [f"tau{i} = tau[{i}]" for i in range(n)]
+    body = [ln for ln in lines if not any(ln.startswith(f"{s} = ") for s in (*d.q, *d.dq))]
     funcs.append(_function(
         "forward_dynamics", "q, dq, tau, p, g, out",
-        "ddq = M^-1 (tau - C dq - G) (eq 20) into out (n,), by an unrolled LDL^T solve.", lines))
+        "ddq = M^-1 (tau - C dq - G) (eq 20) into out (n,), by an unrolled LDL^T solve.",
+        unpack_state + body + solve))
+    scalar_args = ", ".join([*map(str, d.q), *map(str, d.dq)] + [f"tau{i}" for i in range(n)])
+    ret = [ln for ln in solve if not ln.startswith("out[")]
+    ret.append("return (" + ", ".join(f"w{i}" for i in range(n)) + ",)")
+    funcs.append(_function(
+        "forward_dynamics_s", f"{scalar_args}, p, g",
+        "forward_dynamics on scalars, returning the tuple ddq: no arrays, for inner loops.",
+        body + ret))
+    trig_args = ", ".join(f"s_{i}, c_{i}" for i in range(n))
+    vel_args = ", ".join([*map(str, d.dq)] + [f"tau{i}" for i in range(n)])
+    no_trig = [ln for ln in body if not any(ln.startswith(f"{t}_{i} = ") for t in "sc"
+                                            for i in range(n))]
+    funcs.append(_function(
+        "forward_dynamics_sc", f"{trig_args}, {vel_args}, p, g",
+        "forward_dynamics_s given s_i = sin(q_i), c_i = cos(q_i) instead of q (a stepper that\n"
+        "    knows them cheaply -- e.g. by angle addition from the previous stage -- skips libm).",
+        no_trig + ret))
 
     ddq = sp.symbols(f"ddq0:{n}")
     tau_id = d.M * sp.Matrix(ddq) + h

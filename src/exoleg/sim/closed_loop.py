@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -12,7 +13,7 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from exoleg.control.controllers import Controller
-from exoleg.control.laws import control_law
+from exoleg.control.laws import COMPUTED_TORQUE_KIND, control_law, pd_law
 from exoleg.dynamics.kernels import (
     coriolis_matrix,
     forward_dynamics,
@@ -25,7 +26,7 @@ from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError, SimulationError
 from exoleg.params.records import JOINTS
 from exoleg.reference.steps import Reference
-from exoleg.sim.integrators import rk4_step
+from exoleg.sim.integrators import rk4_sc
 
 F64 = NDArray[np.float64]
 log = logging.getLogger(__name__)
@@ -59,37 +60,54 @@ def _diagnostics(p, g, kp_eff, q, dq, q_ref, out, mats):  # type: ignore[no-unty
 
 @njit(cache=True)
 def _run(p, g, kind, kp, kd, pc, gc, scale, limit, Qr, DQr, DDQr, dt, hold,  # type: ignore[no-untyped-def]
-         Q, DQ, DDQ, U, SAT, E, k0, k1, u, mask):
+         Q, DQ, DDQ, U, SAT, E, k0, k1, u, mask, diagnostics):
     """Integrate steps k0 .. k1-1 from the state in Q[k0], DQ[k0].
 
     ``u`` (3,) and ``mask`` (1,) carry the held torque and saturation flags between
-    calls (so a run can be done in chunks). ``E`` (N, 5) receives the diagnostics of
+    calls (so a run can be done in chunks). With ``diagnostics``, ``E`` (N, 5) receives
     :func:`_diagnostics` at every state. Returns the index of the first non-finite
     state, or -1.
     """
-    work = np.empty((8, 3))
     cwork = np.empty((5, 3))
     mats = np.empty((3, 3, 3))
     kp_eff = np.empty(3)
     for i in range(3):
         kp_eff[i] = scale * kp[i]
+    q0, q1, q2 = Q[k0, 0], Q[k0, 1], Q[k0, 2]
+    v0, v1, v2 = DQ[k0, 0], DQ[k0, 1], DQ[k0, 2]
     for k in range(k0, k1):
-        _diagnostics(p, g, kp_eff, Q[k], DQ[k], Qr[k], E[k], mats)
+        if diagnostics:
+            _diagnostics(p, g, kp_eff, Q[k], DQ[k], Qr[k], E[k], mats)
+        s0, c0 = math.sin(q0), math.cos(q0)
+        s1, c1 = math.sin(q1), math.cos(q1)
+        s2, c2 = math.sin(q2), math.cos(q2)
         if k % hold == 0:
-            mask[0] = control_law(kind, kp, kd, pc, gc, scale, limit, Q[k], DQ[k], Qr[k],
-                                  DQr[k], DDQr[k], u, cwork)
-        U[k] = u
+            if kind == COMPUTED_TORQUE_KIND:
+                mask[0] = control_law(kind, kp, kd, pc, gc, scale, limit, Q[k], DQ[k], Qr[k],
+                                      DQr[k], DDQr[k], u, cwork)
+            else:
+                u[0], u[1], u[2], mask[0] = pd_law(
+                    kind, kp, kd, pc, gc, scale, limit, s0, c0, s1, c1, s2, c2, q0, q1, q2,
+                    v0, v1, v2, Qr[k, 0], Qr[k, 1], Qr[k, 2], DQr[k, 0], DQr[k, 1], DQr[k, 2])
+        U[k, 0], U[k, 1], U[k, 2] = u[0], u[1], u[2]
         SAT[k] = mask[0]
-        rk4_step(Q[k], DQ[k], u, p, g, dt, Q[k + 1], DQ[k + 1], DDQ[k], work)
-        for i in range(3):
-            if not (np.isfinite(Q[k + 1, i]) and np.isfinite(DQ[k + 1, i])):
-                return k + 1
+        qn, vn, a = rk4_sc(s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2, u[0], u[1], u[2],
+                           p, g, dt)
+        q0, q1, q2 = qn
+        v0, v1, v2 = vn
+        Q[k + 1, 0], Q[k + 1, 1], Q[k + 1, 2] = qn
+        DQ[k + 1, 0], DQ[k + 1, 1], DQ[k + 1, 2] = vn
+        DDQ[k, 0], DDQ[k, 1], DDQ[k, 2] = a
+        if not (np.isfinite(q0) and np.isfinite(q1) and np.isfinite(q2) and np.isfinite(v0)
+                and np.isfinite(v1) and np.isfinite(v2)):
+            return k + 1
     n = Q.shape[0] - 1
     if k1 == n:
         U[n] = u
         SAT[n] = mask[0]
         forward_dynamics(Q[n], DQ[n], u, p, g, DDQ[n])
-        _diagnostics(p, g, kp_eff, Q[n], DQ[n], Qr[n], E[n], mats)
+        if diagnostics:
+            _diagnostics(p, g, kp_eff, Q[n], DQ[n], Qr[n], E[n], mats)
     return -1
 
 
@@ -207,7 +225,7 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
         k1 = min(n, k0 + chunk)
         bad = _run(leg.p, leg.g, controller.kind, controller.Kp, controller.Kd, pc, gc,
                    controller.scale, controller.saturation, Qr, DQr, DDQr, dt, hold, Q, DQ, DDQ,
-                   U, SAT, E, k0, k1, u, mask)
+                   U, SAT, E, k0, k1, u, mask, True)
         if progress is not None:
             progress(k1 / n)
         if bad >= 0:

@@ -1,49 +1,97 @@
 """Fixed-step integrators for the leg, compiled with numba.
 
-``rk4_step`` is the classical fourth-order Runge-Kutta step of the state
-(q, dq) under a torque held constant over the step (zero-order hold), the
-dynamics being :func:`exoleg.dynamics.kernels.forward_dynamics` (eq 20).
+``rk4_scalar`` / ``rk4_step`` are the classical fourth-order Runge-Kutta step of
+the state (q, dq) under a torque held constant over the step (zero-order hold),
+the dynamics being the generated forward dynamics (eq 20).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from exoleg.dynamics.kernels import forward_dynamics
+from exoleg.dynamics.kernels import forward_dynamics_sc
 
 F64 = NDArray[np.float64]
 
 
-@njit(cache=True)
-def rk4_step(q, dq, tau, p, g, h, q_out, dq_out, ddq_out, work):  # type: ignore[no-untyped-def]
-    """One RK4 step of size ``h``; writes the new state and the acceleration at the start.
+_SMALL = 0.1  # rad: below this, sin and cos of an increment come from their Taylor series
 
-    All vectors have length 3; ``ddq_out`` receives ddq(q, dq, tau) at the step's start.
-    ``work`` is caller-owned scratch of shape (8, 3) (no allocation per step).
+
+@njit(inline="always", cache=True, error_model="numpy")
+def _sincos_small(d):  # type: ignore[no-untyped-def]
+    """(sin d, cos d): Taylor to d^11 / d^12 for |d| <= 0.1 (truncation < 1e-22), else libm."""
+    if abs(d) > _SMALL:
+        return math.sin(d), math.cos(d)
+    z = d * d
+    sn = d * (1.0 - z / 6.0 * (1.0 - z / 20.0 * (1.0 - z / 42.0 * (1.0 - z / 72.0 * (
+        1.0 - z / 110.0)))))
+    cs = 1.0 - z / 2.0 * (1.0 - z / 12.0 * (1.0 - z / 30.0 * (1.0 - z / 56.0 * (1.0 - z / 90.0 * (
+        1.0 - z / 132.0)))))
+    return sn, cs
+
+
+@njit(inline="always", cache=True)
+def _shift(s, c, d):  # type: ignore[no-untyped-def]
+    """(sin(x + d), cos(x + d)) from s = sin x, c = cos x."""
+    sd, cd = _sincos_small(d)
+    return s * cd + c * sd, c * cd - s * sd
+
+
+@njit(cache=True, error_model="numpy")
+def rk4_scalar(q0, q1, q2, v0, v1, v2, t0, t1, t2, p, g, h):  # type: ignore[no-untyped-def]
+    """One RK4 step on scalars; returns (q', dq', ddq at the start), each a 3-tuple."""
+    return rk4_sc(math.sin(q0), math.cos(q0), math.sin(q1), math.cos(q1), math.sin(q2),
+                  math.cos(q2), q0, q1, q2, v0, v1, v2, t0, t1, t2, p, g, h)
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def rk4_sc(s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2, t0, t1, t2, p, g, h):  # type: ignore[no-untyped-def]
+    """:func:`rk4_scalar` given s_i, c_i = sin, cos of q_i (a caller that needs them too,
+    e.g. for G in the control law, computes them once).
+
+    Scalars and tuples only, so nothing is allocated or reference-counted in the loop.
+    The later stages' angles are q + delta with delta = h/2 v or h v; their sin/cos
+    follow by angle addition from sin/cos of the small delta, so libm is called once
+    per joint and step (it was the dominant cost).
     """
-    k1, k2, k3, k4, qt, dqt, v2, v3 = work[0], work[1], work[2], work[3], work[4], work[5], \
-        work[6], work[7]
-    forward_dynamics(q, dq, tau, p, g, k1)
+    a0, a1, a2 = forward_dynamics_sc(s0, c0, s1, c1, s2, c2, v0, v1, v2, t0, t1, t2, p, g)
+    hh = 0.5 * h
+    u0, w0 = _shift(s0, c0, hh * v0)
+    u1, w1 = _shift(s1, c1, hh * v1)
+    u2, w2 = _shift(s2, c2, hh * v2)
+    e0, e1, e2 = v0 + hh * a0, v1 + hh * a1, v2 + hh * a2  # velocity at stage 2
+    b0, b1, b2 = forward_dynamics_sc(u0, w0, u1, w1, u2, w2, e0, e1, e2, t0, t1, t2, p, g)
+    u0, w0 = _shift(s0, c0, hh * e0)
+    u1, w1 = _shift(s1, c1, hh * e1)
+    u2, w2 = _shift(s2, c2, hh * e2)
+    f0, f1, f2 = v0 + hh * b0, v1 + hh * b1, v2 + hh * b2  # velocity at stage 3
+    c_0, c_1, c_2 = forward_dynamics_sc(u0, w0, u1, w1, u2, w2, f0, f1, f2, t0, t1, t2, p, g)
+    u0, w0 = _shift(s0, c0, h * f0)
+    u1, w1 = _shift(s1, c1, h * f1)
+    u2, w2 = _shift(s2, c2, h * f2)
+    y0, y1, y2 = v0 + h * c_0, v1 + h * c_1, v2 + h * c_2  # velocity at stage 4
+    d0, d1, d2 = forward_dynamics_sc(u0, w0, u1, w1, u2, w2, y0, y1, y2, t0, t1, t2, p, g)
+    s = h / 6.0
+    qn = (q0 + s * (v0 + 2.0 * e0 + 2.0 * f0 + y0), q1 + s * (v1 + 2.0 * e1 + 2.0 * f1 + y1),
+          q2 + s * (v2 + 2.0 * e2 + 2.0 * f2 + y2))
+    vn = (v0 + s * (a0 + 2.0 * b0 + 2.0 * c_0 + d0), v1 + s * (a1 + 2.0 * b1 + 2.0 * c_1 + d1),
+          v2 + s * (a2 + 2.0 * b2 + 2.0 * c_2 + d2))
+    return qn, vn, (a0, a1, a2)
+
+
+@njit(cache=True)
+def rk4_step(q, dq, tau, p, g, h, q_out, dq_out, ddq_out):  # type: ignore[no-untyped-def]
+    """One RK4 step of size ``h`` on arrays (3,): writes the new state and ddq at the start."""
+    qn, vn, a = rk4_scalar(q[0], q[1], q[2], dq[0], dq[1], dq[2], tau[0], tau[1], tau[2],
+                           p, g, h)
     for i in range(3):
-        ddq_out[i] = k1[i]
-        qt[i] = q[i] + 0.5 * h * dq[i]
-        dqt[i] = dq[i] + 0.5 * h * k1[i]
-    forward_dynamics(qt, dqt, tau, p, g, k2)
-    v2[:] = dqt
-    for i in range(3):
-        qt[i] = q[i] + 0.5 * h * v2[i]
-        dqt[i] = dq[i] + 0.5 * h * k2[i]
-    forward_dynamics(qt, dqt, tau, p, g, k3)
-    v3[:] = dqt
-    for i in range(3):
-        qt[i] = q[i] + h * v3[i]
-        dqt[i] = dq[i] + h * k3[i]
-    forward_dynamics(qt, dqt, tau, p, g, k4)
-    for i in range(3):
-        q_out[i] = q[i] + h / 6.0 * (dq[i] + 2.0 * v2[i] + 2.0 * v3[i] + dqt[i])
-        dq_out[i] = dq[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+        q_out[i] = qn[i]
+        dq_out[i] = vn[i]
+        ddq_out[i] = a[i]
 
 
 @njit(cache=True)
@@ -53,8 +101,13 @@ def rollout(p, g, q0, dq0, tau, h, n_steps):  # type: ignore[no-untyped-def]
     DQ = np.empty((n_steps + 1, 3))
     Q[0] = q0
     DQ[0] = dq0
-    ddq = np.empty(3)
-    work = np.empty((8, 3))
+    q0_, q1_, q2_ = Q[0, 0], Q[0, 1], Q[0, 2]
+    v0_, v1_, v2_ = DQ[0, 0], DQ[0, 1], DQ[0, 2]
+    t0_, t1_, t2_ = tau[0], tau[1], tau[2]
     for k in range(n_steps):
-        rk4_step(Q[k], DQ[k], tau, p, g, h, Q[k + 1], DQ[k + 1], ddq, work)
+        qn, vn, _ = rk4_scalar(q0_, q1_, q2_, v0_, v1_, v2_, t0_, t1_, t2_, p, g, h)
+        q0_, q1_, q2_ = qn
+        v0_, v1_, v2_ = vn
+        Q[k + 1, 0], Q[k + 1, 1], Q[k + 1, 2] = qn
+        DQ[k + 1, 0], DQ[k + 1, 1], DQ[k + 1, 2] = vn
     return Q, DQ
