@@ -192,6 +192,131 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+# --------------------------------------------------------------------------- fit
+def cmd_fit(args: argparse.Namespace) -> int:
+    import dataclasses
+    import warnings
+
+    import exoleg
+    from exoleg.sizing import Child, fit_device, personalized_leg
+    from exoleg.sizing.demand import QUANTITIES, actuator_demand
+
+    measured = {k: (getattr(args, k) / 100 if getattr(args, k) is not None else None)
+                for k in ("thigh", "shank", "leg_length", "foot_length", "ankle_height")}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        child = Child(age=args.age, sex=args.sex, height=args.height / 100, mass=args.mass,
+                      gmfcs=None if args.gmfcs == 0 else args.gmfcs, affected_side=args.side,
+                      name=args.name, **measured)
+    for w in caught:
+        print(f"warning: {w.message}")
+    fit = fit_device(child, args.leg_length_method)
+    leg = personalized_leg(child, fit)
+    demand = actuator_demand(child, leg, percentile=args.percentile, speed=args.speed,
+                             stride_time=args.stride_time, simulate=not args.no_simulate)
+    d = fit.dimensions
+    print(f"{child.name}: {child.age:g} y {child.sex}, {child.height * 100:.1f} cm, "
+          f"{child.mass:.1f} kg, {'GMFCS ' + str(child.gmfcs) if child.gmfcs else 'TD'} "
+          f"({child.chart} chart)\n")
+    print(_table([[k, f"{getattr(d, k) * 100:.1f}", d.sources[k]] for k in
+                  ("thigh", "shank", "ankle_height", "foot_length", "leg_length")],
+                 ["dimension", "cm", "source"]))
+    print(f"\nverdict: {'FITS' if fit.fits else 'DOES NOT FIT'}")
+    print(f"  upper telescope (hip-knee) {fit.upper * 100:.1f} cm (27-40), lower telescope "
+          f"(knee-sole) {fit.lower * 100:.1f} cm (33-46), footplate 23.5 cm")
+    for m in fit.misses:
+        print(f"  misses: {m.what}: child {m.child * 100:.1f} cm, allowed "
+              f"{m.allowed[0] * 100:.1f}-{m.allowed[1] * 100:.1f} cm, by {m.by * 100:+.2f} cm")
+    pr = fit.paper_rule
+    print(f"  paper's Table 1 rule: leg length {pr['leg_length'] * 100:.1f} cm vs 60-86 cm -> "
+          f"{'fits' if pr['fits'] else 'does not fit'}")
+    rom = fit.range_of_motion
+    print("  normative gait range (mean +- 2 SD) vs device range of motion, deg: " + ", ".join(
+        f"{j} {np.degrees(rom['gait_lower'][i]):.0f}..{np.degrees(rom['gait_upper'][i]):.0f} in "
+        f"{np.degrees(rom['device_lower'][i]):.0f}..{np.degrees(rom['device_upper'][i]):.0f}"
+        for i, j in enumerate(("hip", "knee", "ankle"))))
+    units = {"torque": ("N m", 1.0), "speed": ("deg/s", 180 / np.pi), "power": ("W", 1.0)}
+    rows = []
+    margins = demand.margins()
+    for src, v in demand.rows.items():
+        for i, qn in enumerate(QUANTITIES):
+            if np.all(np.isnan(v[i])):
+                continue
+            u, k = units[qn]
+            rows.append([src, f"{qn} ({u})"] + [f"{v[i, j] * k:.1f} ({margins[src][i, j]:.2f})"
+                                                 for j in range(3)])
+    lim = demand.limits
+    rows.append(["Table 2 limits", "torque / speed / power"] + [
+        f"{lim[0, j]:.0f} / {np.degrees(lim[1, j]):.0f} / {lim[2, j]:.0f}" for j in range(3)])
+    print("\nactuator demand (margin = limit / demand):")
+    print(_table(rows, ["source", "quantity", "hip", "knee", "ankle"]))
+    mg, src, qn, joint = demand.smallest_margin()
+    print(f"\nsmallest margin: {mg:.2f} ({qn} at the {joint}, {src})")
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    header = (f"personalized leg of {child.name} ({child.age:g} y {child.sex}, "
+              f"{child.height:.3f} m, {child.mass:.1f} kg) made by exoleg fit")
+    exoleg.save_leg(leg, out / "leg.toml", header=header)
+    report = {"child": dataclasses.asdict(child), "chart": child.chart,
+              "dimensions_m": dataclasses.asdict(d), "fits": fit.fits,
+              "settings_m": {"upper": fit.upper, "lower": fit.lower},
+              "link_lengths_m": list(fit.link_lengths),
+              "misses": [dataclasses.asdict(m) for m in fit.misses],
+              "paper_rule": pr, "demand": demand.table(),
+              "smallest_margin": {"margin": mg, "source": src, "quantity": qn, "joint": joint}}
+    (out / "fit.json").write_text(json.dumps(report, indent=2, default=_jsonable))
+    print(f"\nwrote {out}/leg.toml (for exoleg simulate --leg) and {out}/fit.json")
+    return 0
+
+
+def _jsonable(o: Any) -> Any:
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating, np.integer, np.bool_)):
+        return o.item()
+    return str(o)
+
+
+def cmd_population(args: argparse.Namespace) -> int:
+    import collections
+
+    from exoleg.sizing.population import PERCENTILES, coverage, heatmap, write_csv
+
+    t0 = time.perf_counter()
+    rows = coverage(ages=args.ages, percentiles=args.percentiles or PERCENTILES,
+                    stride_time=args.stride_time, simulate=not args.no_simulate)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    csv_path = write_csv(rows, out / "coverage.csv")
+    png = heatmap(rows, out / "coverage.png")
+    groups = list(dict.fromkeys(r.group for r in rows))
+    table = []
+    for g in groups:
+        for sex in ("female", "male"):
+            sel = [r for r in rows if r.group == g and r.sex == sex]
+            if not sel:
+                continue
+            miss = collections.Counter(r.binding for r in sel if not r.fits)
+            worst = min(sel, key=lambda r: r.margin)
+            table.append([g, sex, f"{sum(r.fits for r in sel)}/{len(sel)}",
+                          f"{sum(r.paper_rule_fits for r in sel)}/{len(sel)}",
+                          "; ".join(f"{k} x{v}" for k, v in miss.items()) or "-",
+                          f"{worst.margin:.2f} ({worst.margin_where})"])
+    print(_table(table, ["group", "sex", "fit", "paper rule fits", "misses (binding limit)",
+                         "smallest actuator margin"]))
+    print("\nthe paper's design range (50th percentile):")
+    for grp, sex, age in (("GMFCS IV", "female", 8.0), ("GMFCS I", "male", 12.0)):
+        r = [x for x in rows if x.group == grp and x.sex == sex and x.age == age
+             and x.percentile == 50.0]
+        if r:
+            x = r[0]
+            print(f"  {grp} {sex} {age:g} y: {x.height * 100:.1f} cm -> "
+                  f"{'fits' if x.fits else 'does not fit'} ({x.binding}, "
+                  f"{x.by_m * 100:+.1f} cm); paper rule: {'fits' if x.paper_rule_fits else 'no'}")
+    print(f"\nwrote {csv_path} and {png} ({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
 # --------------------------------------------------------------------------- parser
 def _positive(text: str) -> float:
     v = _floats(text, 1)[0]
@@ -235,6 +360,37 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--animate", action="store_true", help="write a gait animation (MP4/GIF)")
     s.add_argument("--no-engine", action="store_true", help="skip the MuJoCo comparison")
     s.set_defaults(func=cmd_simulate)
+
+    f = sub.add_parser("fit", help="fit the device to one child: dimensions, settings, verdict, "
+                       "margins; writes the personalized leg file")
+    f.add_argument("--age", type=float, required=True, help="years")
+    f.add_argument("--sex", choices=["female", "male"], required=True)
+    f.add_argument("--height", type=_positive, required=True, help="cm")
+    f.add_argument("--mass", type=_positive, required=True, help="body mass, kg")
+    f.add_argument("--gmfcs", type=int, choices=[0, 1, 2, 3, 4, 5], default=0,
+                   help="GMFCS level; 0 = typically developing (WHO 2007 chart)")
+    f.add_argument("--side", choices=["left", "right"], default="right")
+    for name in ("thigh", "shank", "leg-length", "foot-length", "ankle-height"):
+        f.add_argument(f"--{name}", type=_positive, help=f"measured {name}, cm")
+    f.add_argument("--leg-length-method", choices=["linear", "drillis", "table1"],
+                   default="linear")
+    f.add_argument("--percentile", type=float, default=50.0, help="gait demand percentile")
+    f.add_argument("--speed", default="Free",
+                   choices=["VerySlow", "Slow", "Free", "Fast", "VeryFast"])
+    f.add_argument("--stride-time", type=_positive, default=1.1, help="s per gait cycle")
+    f.add_argument("--no-simulate", action="store_true", help="skip the simulated gait demand")
+    f.add_argument("--name", default="child")
+    f.add_argument("--out", type=Path, default=Path("exoleg-fit"))
+    f.set_defaults(func=cmd_fit)
+
+    pop = sub.add_parser("population", help="device coverage over ages 8-12, sex, GMFCS I-IV "
+                         "and TD, height percentiles")
+    pop.add_argument("--ages", type=_floats, default=[8.0, 9.0, 10.0, 11.0, 12.0])
+    pop.add_argument("--percentiles", type=_floats)
+    pop.add_argument("--stride-time", type=_positive, default=1.1)
+    pop.add_argument("--no-simulate", action="store_true")
+    pop.add_argument("--out", type=Path, default=Path("exoleg-population"))
+    pop.set_defaults(func=cmd_population)
     return ap
 
 

@@ -1,0 +1,102 @@
+"""A child profile: what is known about the child the device is fitted to (SI units, years)."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Literal
+
+from exoleg.errors import ParameterError
+from exoleg.params import _check
+from exoleg.sizing import growth
+
+#: The device was designed for these children (paper section 2).
+DESIGN_AGES = (8.0, 12.0)
+DESIGN_GMFCS = (1, 4)
+#: A height or mass farther than this many SD from the growth chart is refused.
+MAX_ABS_Z = 5.0
+
+
+class DesignRangeWarning(UserWarning):
+    """The child is outside the ages or GMFCS levels the device was designed for."""
+
+
+@dataclass(frozen=True)
+class Child:
+    """A child to fit.
+
+    Attributes:
+        age: years (2-20, the growth charts' span; the device targets 8-12).
+        sex: ``"female"`` or ``"male"``.
+        height: m. mass: body mass, kg.
+        gmfcs: GMFCS level 1-5, or None for a typically developing child.
+        affected_side: ``"left"`` or ``"right"`` (the leg the device is worn on).
+        thigh, shank: measured hip-knee and knee-ankle joint-centre distances, m.
+        leg_length: measured clinical leg length (ASIS to medial malleolus), m.
+        foot_length: heel to longest toe, m. ankle_height: ankle joint centre above the
+            sole, m. Each measured value overrides its estimate.
+    """
+
+    age: float
+    sex: Literal["female", "male"]
+    height: float
+    mass: float
+    gmfcs: int | None = None
+    affected_side: Literal["left", "right"] = "right"
+    thigh: float | None = None
+    shank: float | None = None
+    leg_length: float | None = None
+    foot_length: float | None = None
+    ankle_height: float | None = None
+    name: str = "child"
+
+    def __post_init__(self) -> None:
+        w = f"Child {self.name!r}"
+        age = _check.finite(w, "age", self.age)
+        if not 2.0 <= age <= 20.0:
+            raise ParameterError(w, "age", f"{age} years is outside 2-20 (the growth charts)")
+        if self.sex not in ("female", "male"):
+            raise ParameterError(w, "sex", f"unknown {self.sex!r} (allowed: female, male)")
+        if self.gmfcs is not None and (isinstance(self.gmfcs, bool) or self.gmfcs not in (1, 2, 3, 4, 5)):
+            raise ParameterError(w, "gmfcs", f"{self.gmfcs!r} is not a GMFCS level "
+                                 "(allowed: 1-5, or None for typically developing)")
+        if self.affected_side not in ("left", "right"):
+            raise ParameterError(w, "affected_side",
+                                 f"unknown {self.affected_side!r} (allowed: left, right)")
+        object.__setattr__(self, "age", age)
+        object.__setattr__(self, "height", _check.positive(w, "height", self.height, "m"))
+        object.__setattr__(self, "mass", _check.positive(w, "mass", self.mass, "kg"))
+        for f in ("thigh", "shank", "leg_length", "foot_length", "ankle_height"):
+            v = getattr(self, f)
+            if v is not None:
+                object.__setattr__(self, f, _check.positive(w, f, v, "m"))
+        chart = self.chart
+        for measure, value, unit in (("height", self.height, "m"), ("weight", self.mass, "kg")):
+            try:
+                z = growth.zscore(chart, self.sex, measure, age, value)
+            except ParameterError:
+                continue  # the chart has no such row (e.g. WHO weight after 10 y)
+            if abs(z) > MAX_ABS_Z:
+                lo = growth.value_at(chart, self.sex, measure, age, 100 * _phi(-MAX_ABS_Z))
+                hi = growth.value_at(chart, self.sex, measure, age, 100 * _phi(MAX_ABS_Z))
+                field = "height" if measure == "height" else "mass"
+                raise ParameterError(w, field, f"{value:g} {unit} is {z:+.1f} SD from the {chart} "
+                                     f"chart for a {age:g}-year-old {self.sex}; allowed within "
+                                     f"+-{MAX_ABS_Z:g} SD: {lo:.3g}-{hi:.3g} {unit}")
+        if not DESIGN_AGES[0] <= age <= DESIGN_AGES[1]:
+            warnings.warn(f"{w}: age {age:g} years is outside 8-12, the ages the device was "
+                          "designed for", DesignRangeWarning, stacklevel=3)
+        if self.gmfcs == 5:
+            warnings.warn(f"{w}: GMFCS V is outside I-IV, the levels the device was designed for",
+                          DesignRangeWarning, stacklevel=3)
+
+    @property
+    def chart(self) -> str:
+        """The growth chart that describes this child (Brooks 2011 by GMFCS, or WHO 2007)."""
+        return growth.chart_for(self.gmfcs)
+
+
+def _phi(z: float) -> float:
+    from statistics import NormalDist
+
+    return NormalDist().cdf(z)

@@ -1,0 +1,131 @@
+"""Actuator demand and margins per joint: what the child needs against Table 2.
+
+Sources of demand (each a row of torque N m, speed rad/s, power W per joint; NaN where a
+source says nothing):
+
+* ``paper per-kg``: the paper's figures for typically developing children walking
+  (section 2.2: 0.7, 0.5, 1.2 N m/kg and 0.8, 0.7, 3 W/kg) times body mass;
+* ``Schwartz 2008``: peak |moment| and |power| over the gait cycle of the chosen speed
+  group at mean + z SD (z from the percentile) times body mass, and peak |angular
+  speed| of the same percentile's joint angles played at the chosen stride time;
+* ``gravity compensation``: the largest |G_i(q)| of the personalized model over the
+  device's range of motion (a 13^3 grid);
+* ``simulated gait``: peaks of the personalized leg tracking the normative gait under
+  the paper's controller (PD + gravity compensation, 1 kHz, RK4 1 ms), second stride.
+
+A margin is limit / demand: >= 1 means the actuator covers the demand.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from statistics import NormalDist
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from exoleg.dynamics.model import LegModel
+from exoleg.params import paper
+from exoleg.params.records import JOINTS
+from exoleg.reference.gait import SchwartzGait2008, schwartz2008
+from exoleg.sim.batch import batch_gait_peaks
+from exoleg.sizing.child import Child
+
+F64 = NDArray[np.float64]
+QUANTITIES = ("torque", "speed", "power")
+
+
+@dataclass(frozen=True)
+class Demand:
+    """Per-source demand (source -> (3 quantities, 3 joints)) and Table 2's limits (3, 3)."""
+
+    rows: dict[str, F64]
+    limits: F64
+
+    def margins(self) -> dict[str, F64]:
+        """limit / demand per source, (3 quantities, 3 joints); NaN where no demand."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return {k: np.where(v > 0, self.limits / v, np.inf) for k, v in self.rows.items()}
+
+    def smallest_margin(self) -> tuple[float, str, str, str]:
+        """(margin, source, quantity, joint) of the tightest margin."""
+        best = (np.inf, "", "", "")
+        for src, m in self.margins().items():
+            if np.all(np.isnan(m)):
+                continue
+            i, j = np.unravel_index(np.nanargmin(m), m.shape)
+            if m[i, j] < best[0]:
+                best = (float(m[i, j]), src, QUANTITIES[i], JOINTS[j])
+        return best
+
+    def table(self) -> list[dict[str, Any]]:
+        """Rows for reports: source, quantity, per joint demand, limit and margin."""
+        out = []
+        margins = self.margins()
+        for src, v in self.rows.items():
+            for i, qn in enumerate(QUANTITIES):
+                if np.all(np.isnan(v[i])):
+                    continue
+                out.append({"source": src, "quantity": qn,
+                            **{f"{j}": float(v[i, k]) for k, j in enumerate(JOINTS)},
+                            **{f"{j}_margin": float(margins[src][i, k])
+                               for k, j in enumerate(JOINTS)}})
+        return out
+
+
+def table2_limits() -> F64:
+    """(torque N m, speed rad/s, power W) x (hip, knee, ankle) from Table 2."""
+    a = paper.actuators()
+    return np.array([[x.max_torque for x in a], [x.max_velocity for x in a], [x.power for x in a]])
+
+
+def _schwartz(mass: float, speed: str, z: float, stride_time: float) -> F64:
+    out = np.full((3, 3), np.nan)
+    for j, joint in enumerate(JOINTS):
+        for i, var in ((0, f"{joint}_moment_sagittal"), (2, f"{joint}_power")):
+            _, mean, sd = schwartz2008(var, speed)
+            out[i, j] = mass * np.max(np.abs(mean + z * sd))
+    g = SchwartzGait2008(stride_time=stride_time, speed=speed, sd=z)
+    t = np.linspace(0.0, stride_time, 400, endpoint=False)
+    out[1] = np.max(np.abs(g.sample(t)[1]), axis=0)
+    return out
+
+
+def gravity_demand(leg: LegModel, n: int = 13) -> F64:
+    """Largest |G_i(q)| (3,) over an n^3 grid of the device's range of motion, N m."""
+    rom = paper.range_of_motion()
+    axes = [np.linspace(rom.lower[i], rom.upper[i], n) for i in range(3)]
+    Q = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    return np.max(np.abs(leg.G(Q)), axis=0)  # type: ignore[no-any-return]
+
+
+def gait_reference(speed: str, z: float, stride_time: float, dt: float = 1e-3,
+                   strides: int = 2) -> tuple[F64, F64]:
+    """q_ref, dq_ref (N, 3) of ``strides`` cycles of normative gait sampled every dt."""
+    g = SchwartzGait2008(stride_time=stride_time, speed=speed, sd=z)
+    t = np.arange(int(round(strides * stride_time / dt)) + 1) * dt
+    q, dq, _ = g.sample(t)
+    return q, dq
+
+
+def actuator_demand(child: Child, leg: LegModel, percentile: float = 50.0, speed: str = "Free",
+                    stride_time: float = 1.1, simulate: bool = True) -> Demand:
+    """Demand per source for ``child`` wearing the device (``leg``: its personalized model)."""
+    z = NormalDist().inv_cdf(percentile / 100.0)
+    t = paper.sizing()["demand_per_kg"]
+    nan3 = np.full(3, np.nan)
+    rows: dict[str, F64] = {
+        "paper per-kg": np.array([child.mass * np.array(t["torque"]), nan3,
+                                  child.mass * np.array(t["power"])]),
+        f"Schwartz 2008 {speed} P{percentile:g}": _schwartz(child.mass, speed, z, stride_time),
+        "gravity compensation": np.array([gravity_demand(leg), nan3, nan3]),
+    }
+    if simulate:
+        dt = 1e-3
+        q, dq = gait_reference(speed, z, stride_time, dt)
+        gains = paper.controller_gains()
+        peaks = batch_gait_peaks(leg.p[None, :], leg.g, gains.kp, gains.kd, q, dq, dt,
+                                 start=int(round(stride_time / dt)))
+        rows["simulated gait"] = peaks[0]
+    return Demand(rows=rows, limits=table2_limits())

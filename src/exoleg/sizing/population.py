@@ -1,0 +1,202 @@
+"""Population coverage: who the device fits, which limit binds, which actuator margin is smallest.
+
+A grid of children -- ages x sex x group (GMFCS I-IV from Brooks 2011, typically
+developing from WHO 2007) x height percentile -- each with the body mass of the same
+percentile of its chart (an assumption: height and mass percentiles are not
+independent in reality). For each child: dimensions (:mod:`anthropometry`), fit
+(:mod:`fit`), personalized model (:mod:`personal`) and actuator margins
+(:mod:`demand`), the simulated normative gait of all children run as one batch.
+WHO 2007 has no weight beyond 10 years, so typically developing children older than
+10 get the Brooks GMFCS I mass percentile (stated in each row's notes).
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from statistics import NormalDist
+from typing import Any
+
+import numpy as np
+
+from exoleg.errors import ParameterError
+from exoleg.params import paper
+from exoleg.sim.batch import batch_gait_peaks
+from exoleg.sizing import growth
+from exoleg.sizing.child import Child, DesignRangeWarning
+from exoleg.sizing.demand import (
+    Demand,
+    _schwartz,
+    gait_reference,
+    gravity_demand,
+    table2_limits,
+)
+from exoleg.sizing.fit import fit_device
+from exoleg.sizing.personal import personalized_leg
+
+GROUPS: tuple[int | None, ...] = (1, 2, 3, 4, None)
+PERCENTILES = (3.0, 10.0, 25.0, 50.0, 75.0, 90.0, 97.0)
+AGES = (8.0, 9.0, 10.0, 11.0, 12.0)
+
+
+def group_name(g: int | None) -> str:
+    return "TD" if g is None else f"GMFCS {'I II III IV V'.split()[g - 1]}"
+
+
+@dataclass(frozen=True)
+class Row:
+    """One child of the grid and its verdict (lengths m, mass kg)."""
+
+    age: float
+    sex: str
+    group: str
+    percentile: float
+    height: float
+    mass: float
+    thigh: float
+    shank: float
+    foot_length: float
+    fits: bool
+    binding: str          # what misses, or the tightest telescope/footplate limit
+    by_m: float           # by how much it misses (< 0 short, > 0 long), or the slack left
+    paper_rule_fits: bool
+    margin: float         # smallest actuator margin (limit / demand)
+    margin_where: str     # source, quantity, joint of that margin
+    notes: str = ""
+
+
+def _mass(chart: str, sex: str, age: float, pct: float) -> tuple[float, str]:
+    try:
+        return growth.value_at(chart, sex, "weight", age, pct), ""
+    except ParameterError:
+        return (growth.value_at("GMFCS1", sex, "weight", age, pct),
+                "mass from Brooks GMFCS I (WHO 2007 has no weight after 10 y)")
+
+
+def _binding(fit: Any) -> tuple[str, float]:
+    if fit.misses:
+        worst = max(fit.misses, key=lambda m: abs(m.by))
+        return worst.what, worst.by
+    dev = fit.dimensions
+    from exoleg.sizing.fit import device
+
+    d = device()
+    slack = {"upper telescope (hip-knee)": min(dev.thigh - d["upper_range_m"][0],
+                                               d["upper_range_m"][1] - dev.thigh),
+             "lower telescope (knee-sole)": min(
+                 dev.shank + dev.ankle_height - d["lower_range_m"][0],
+                 d["lower_range_m"][1] - dev.shank - dev.ankle_height),
+             "footplate (foot length)": d["footplate_length_m"] - dev.foot_length}
+    k = min(slack, key=slack.__getitem__)
+    return k, slack[k]
+
+
+def coverage(ages: Sequence[float] = AGES, sexes: Sequence[str] = ("female", "male"),
+             groups: Sequence[int | None] = GROUPS,
+             percentiles: Sequence[float] = PERCENTILES, stride_time: float = 1.1,
+             speed: str = "Free", simulate: bool = True) -> list[Row]:
+    """The coverage grid. With ``simulate`` each child's normative gait is simulated
+    (all children in one parallel batch) and counts among the demands."""
+    children, fits, legs, notes = [], [], [], []
+    for group in groups:
+        chart = growth.chart_for(group)
+        for sex in sexes:
+            for age in ages:
+                for pct in percentiles:
+                    h = growth.value_at(chart, sex, "height", age, pct)
+                    m, note = _mass(chart, sex, age, pct)
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore", DesignRangeWarning)
+                        c = Child(age=age, sex=sex, height=h, mass=m, gmfcs=group,  # type: ignore[arg-type]
+                                  name=f"{group_name(group)} {sex} {age:g} y P{pct:g}")
+                    f = fit_device(c)
+                    children.append((c, pct, group))
+                    fits.append(f)
+                    legs.append(personalized_leg(c, f))
+                    notes.append(note)
+    peaks = None
+    if simulate:
+        dt = 1e-3
+        q, dq = gait_reference(speed, 0.0, stride_time, dt)
+        gains = paper.controller_gains()
+        P = np.stack([leg.p for leg in legs])
+        peaks = batch_gait_peaks(P, legs[0].g, gains.kp, gains.kd, q, dq, dt,
+                                 start=int(round(stride_time / dt)))
+    limits = table2_limits()
+    rows = []
+    nan3 = np.full(3, np.nan)
+    t = paper.sizing()["demand_per_kg"]
+    for n, ((c, pct, group), f, leg) in enumerate(zip(children, fits, legs, strict=True)):
+        z = NormalDist().inv_cdf(pct / 100.0)
+        dem: dict[str, np.ndarray] = {
+            "paper per-kg": np.array([c.mass * np.array(t["torque"]), nan3,
+                                      c.mass * np.array(t["power"])]),
+            "Schwartz 2008": _schwartz(c.mass, speed, z, stride_time),
+            "gravity compensation": np.array([gravity_demand(leg, 7), nan3, nan3]),
+        }
+        if peaks is not None:
+            dem["simulated gait"] = peaks[n]
+        margin, src, qty, joint = Demand(dem, limits).smallest_margin()
+        what, by = _binding(f)
+        rows.append(Row(age=c.age, sex=c.sex, group=group_name(group), percentile=pct,
+                        height=c.height, mass=c.mass, thigh=f.dimensions.thigh,
+                        shank=f.dimensions.shank, foot_length=f.dimensions.foot_length,
+                        fits=f.fits, binding=what, by_m=by,
+                        paper_rule_fits=bool(f.paper_rule["fits"]), margin=margin,
+                        margin_where=f"{src}: {qty} at the {joint}", notes=notes[n]))
+    return rows
+
+
+def write_csv(rows: list[Row], path: str | Path) -> Path:
+    """The coverage table as CSV (lengths m, mass kg)."""
+    import csv
+
+    p = Path(path)
+    with p.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(asdict(rows[0])))
+        w.writeheader()
+        for r in rows:
+            w.writerow(asdict(r))
+    return p
+
+
+def heatmap(rows: list[Row], path: str | Path) -> Path:
+    """A heat map per group and sex: age x height percentile, coloured by the fit
+    (misses short / fits / misses long) with the smallest actuator margin written in."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+
+    groups = list(dict.fromkeys(r.group for r in rows))
+    sexes = list(dict.fromkeys(r.sex for r in rows))
+    ages = sorted({r.age for r in rows})
+    pcts = sorted({r.percentile for r in rows})
+    fig, axes = plt.subplots(len(sexes), len(groups), figsize=(3.2 * len(groups), 3.4 * len(sexes)),
+                             squeeze=False)
+    cmap = ListedColormap(["#d95f02", "#1b9e77", "#7570b3"])
+    for si, sex in enumerate(sexes):
+        for gi, grp in enumerate(groups):
+            ax = axes[si, gi]
+            img = np.full((len(pcts), len(ages)), np.nan)
+            for r in rows:
+                if r.sex == sex and r.group == grp:
+                    i, j = pcts.index(r.percentile), ages.index(r.age)
+                    img[i, j] = 1 if r.fits else (0 if r.by_m < 0 else 2)
+                    ax.text(j, i, f"{r.margin:.1f}", ha="center", va="center", fontsize=6)
+            ax.imshow(img, origin="lower", cmap=cmap, vmin=0, vmax=2, aspect="auto")
+            ax.set_xticks(range(len(ages)), [f"{a:g}" for a in ages], fontsize=7)
+            ax.set_yticks(range(len(pcts)), [f"P{p:g}" for p in pcts], fontsize=7)
+            ax.set_title(f"{grp}, {sex}", fontsize=8)
+            if si == len(sexes) - 1:
+                ax.set_xlabel("age (years)", fontsize=7)
+    fig.suptitle("device fit (orange: too small a child, green: fits, purple: too large); "
+                 "numbers: smallest actuator margin", fontsize=8)
+    fig.subplots_adjust(left=0.05, right=0.99, top=0.88, bottom=0.1, wspace=0.3, hspace=0.4)
+    p = Path(path)
+    fig.savefig(p, dpi=110)
+    plt.close(fig)
+    return p
