@@ -49,3 +49,29 @@ def test_simulate_bad_options_are_one_line_exit_2(tmp_path):
         r = run("simulate", "--out", str(tmp_path), "--no-engine", *args)
         assert r.returncode == 2, (args, r.stderr)
         assert len(r.stderr.strip().splitlines()) == 1 and "error" in r.stderr, (args, r.stderr)
+
+
+def test_fit_writes_leg_file_that_simulate_accepts(tmp_path):
+    import exoleg
+
+    r = run("fit", "--age", "8", "--sex", "female", "--height", "110", "--mass", "19.1",
+            "--gmfcs", "4", "--out", str(tmp_path), "--no-simulate")
+    assert r.returncode == 0, r.stderr
+    assert "DOES NOT FIT" in r.stdout and "62.8 cm" in r.stdout  # Table 1 rule: 62.8 cm
+    leg = exoleg.load_leg(tmp_path / "leg.toml")
+    assert leg.has_parts and leg.lengths[2] == 0.235
+    assert (tmp_path / "fit.json").exists()
+
+
+def test_fit_bad_child_is_one_line_exit_2(tmp_path):
+    r = run("fit", "--age", "9", "--sex", "female", "--height", "200", "--mass", "24",
+            "--gmfcs", "3", "--out", str(tmp_path))
+    assert r.returncode == 2 and "height" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_population_writes_table_and_plot(tmp_path):
+    r = run("population", "--ages", "8,12", "--percentiles", "10,50,90", "--no-simulate",
+            "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "coverage.csv").exists() and (tmp_path / "coverage.png").exists()
+    assert "GMFCS IV female 8 y" in r.stdout

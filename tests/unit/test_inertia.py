@@ -57,7 +57,7 @@ def test_table4_human_plus_sle_is_table5_detailed_mass():
 def test_detailed_parts_compose_to_table5_and_sle_masses_are_table4():
     t4 = paper.table4()
     leg = exoleg.paper_leg("detailed")
-    for i, (lk, ref) in enumerate(zip(leg.links, paper.table5_links("detailed"))):
+    for i, (lk, ref) in enumerate(zip(leg.links, paper.table5_links("detailed"), strict=True)):
         human, sle = lk.parts
         assert sle.mass == pytest.approx(t4["sle"]["mass"][i], rel=1e-14)
         c = compose(lk.parts)
@@ -68,7 +68,7 @@ def test_detailed_parts_compose_to_table5_and_sle_masses_are_table4():
 
 def test_simplified_is_half_detailed():
     # Reference: paper section 6 -- simplified mass and inertia are half the detailed.
-    for s, d in zip(paper.table5_links("simplified"), paper.table5_links("detailed")):
+    for s, d in zip(paper.table5_links("simplified"), paper.table5_links("detailed"), strict=True):
         assert s.mass == pytest.approx(d.mass / 2, rel=1e-15)
         assert s.izz == pytest.approx(d.izz / 2, rel=1e-12)
 

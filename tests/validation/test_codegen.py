@@ -33,7 +33,7 @@ def test_kernels_match_fresh_derivation_numerically(fresh):
 
     for _ in range(5):
         leg = random_leg(rng)
-        for q, dq in zip(rng.uniform(-3, 3, (20, 3)), rng.uniform(-3, 3, (20, 3))):
+        for q, dq in zip(rng.uniform(-3, 3, (20, 3)), rng.uniform(-3, 3, (20, 3)), strict=True):
             a = (*q, *dq, *leg.p, leg.g)
             assert np.allclose(leg.M(q), fM(*a), rtol=1e-13, atol=1e-15)
             assert np.allclose(leg.C(q, dq), fC(*a), rtol=1e-12, atol=1e-14)

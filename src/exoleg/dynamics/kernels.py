@@ -25,8 +25,6 @@ from exoleg.dynamics._generated import (
     coriolis_dq,
     coriolis_matrix,
     forward_dynamics,
-    forward_dynamics_s,
-    forward_dynamics_sc,
     gravity,
     gravity_sc,
     inverse_dynamics,

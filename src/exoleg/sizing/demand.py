@@ -97,7 +97,7 @@ def gravity_demand(leg: LegModel, n: int = 13) -> F64:
     rom = paper.range_of_motion()
     axes = [np.linspace(rom.lower[i], rom.upper[i], n) for i in range(3)]
     Q = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    return np.max(np.abs(leg.G(Q)), axis=0)  # type: ignore[no-any-return]
+    return np.max(np.abs(leg.G(Q)), axis=0)
 
 
 def gait_reference(speed: str, z: float, stride_time: float, dt: float = 1e-3,

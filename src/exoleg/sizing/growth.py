@@ -58,10 +58,10 @@ def _tables() -> dict[tuple[str, str, str], tuple[F64, F64]]:
             ("weight", "female"): 11}
     for (measure, sex), c in cols.items():
         scale = 0.01 if measure == "height" else 1.0
-        for r in who:
-            if len(r) > c + 2 and r[c + 1].strip():
+        for w in who:
+            if len(w) > c + 2 and w[c + 1].strip():
                 rows.setdefault(("WHO2007", sex, measure), []).append(
-                    (float(r[1]), float(r[c]), float(r[c + 1]) * scale, float(r[c + 2])))
+                    (float(w[1]), float(w[c]), float(w[c + 1]) * scale, float(w[c + 2])))
     out = {}
     for k, v in rows.items():
         a = np.array(sorted(v))

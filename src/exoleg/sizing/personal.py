@@ -45,7 +45,8 @@ def _segments_text(name: str) -> str:
 
 @cache
 def _jensen() -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    ages, fr = [], {k: [] for k in _SEGMENT}
+    ages: list[float] = []
+    fr: dict[str, list[float]] = {k: [] for k in _SEGMENT}
     for name, age in _JENSEN:
         rows = {r[0]: r for r in csv.reader(_segments_text(name).splitlines())}
         ages.append(age)

@@ -1,0 +1,54 @@
+"""Actuator demand and population coverage (issue 4)."""
+
+import numpy as np
+import pytest
+
+from exoleg.control import PDGravity
+from exoleg.reference import SchwartzGait2008
+from exoleg.sim.batch import batch_gait_peaks
+from exoleg.sim.closed_loop import simulate
+from exoleg.sizing import Child, personalized_leg
+from exoleg.sizing.demand import actuator_demand, gait_reference
+from exoleg.sizing.population import coverage
+
+CHILD = Child(age=9.5, sex="female", height=1.25, mass=24.0, gmfcs=3)
+LEG = personalized_leg(CHILD)
+
+
+def test_paper_per_kg_demand():
+    # Paper section 2.2: 30 kg child -> 21 N m / 24 W (hip), 15 / 21 (knee), 36 / 90 (ankle).
+    c = Child(age=12, sex="male", height=1.50, mass=30.0)
+    d = actuator_demand(c, personalized_leg(c), simulate=False)
+    assert np.allclose(d.rows["paper per-kg"][0], [21, 15, 36])
+    assert np.allclose(d.rows["paper per-kg"][2], [24, 21, 90])
+
+
+def test_batch_peaks_equal_the_single_simulator():
+    # Reference: exoleg.simulate on the same leg, controller and reference.
+    q, dq = gait_reference("Free", 0.0, 1.1)
+    peaks = batch_gait_peaks(np.stack([LEG.p, LEG.p]), LEG.g, [80, 80, 50], [12, 12, 2], q, dq,
+                             1e-3)
+    ref = SchwartzGait2008(stride_time=1.1)
+    res = simulate(LEG, PDGravity(LEG), ref, duration=2.2, q0=q[0], dq0=dq[0])
+    assert np.allclose(peaks[0, 0], np.abs(res.u[:-1]).max(axis=0), rtol=1e-9)
+    assert np.allclose(peaks[0, 1], np.abs(res.dq[:-1]).max(axis=0), rtol=1e-9)
+    assert np.array_equal(peaks[0], peaks[1])
+
+
+def test_margins_are_limit_over_demand():
+    d = actuator_demand(CHILD, LEG)
+    m = d.margins()["simulated gait"]
+    assert np.allclose(m * d.rows["simulated gait"], d.limits)
+    margin, src, qty, joint = d.smallest_margin()
+    assert margin == pytest.approx(min(np.nanmin(v) for v in d.margins().values()))
+
+
+def test_coverage_confirms_or_corrects_the_papers_claim():
+    rows = coverage(ages=(8.0, 12.0), percentiles=(50.0,), groups=(1, 4), simulate=False)
+    by = {(r.group, r.sex, r.age): r for r in rows}
+    girl = by[("GMFCS IV", "female", 8.0)]
+    boy = by[("GMFCS I", "male", 12.0)]
+    # The paper's rule says both fit; at joint-centre level the girl's knee-to-sole
+    # length ((0.246 + 0.039) x 109.8 cm = 31.3 cm) is below the 33 cm telescope minimum.
+    assert girl.paper_rule_fits and not girl.fits and girl.binding.startswith("lower")
+    assert boy.fits
