@@ -199,7 +199,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
 
     import exoleg
     from exoleg.sizing import Child, fit_device, personalized_leg
-    from exoleg.sizing.demand import QUANTITIES, actuator_demand
+    from exoleg.sizing.demand import actuator_demand
 
     measured = {k: (getattr(args, k) / 100 if getattr(args, k) is not None else None)
                 for k in ("thigh", "shank", "leg_length", "foot_length", "ankle_height")}
@@ -237,14 +237,10 @@ def cmd_fit(args: argparse.Namespace) -> int:
         for i, j in enumerate(("hip", "knee", "ankle"))))
     units = {"torque": ("N m", 1.0), "speed": ("deg/s", 180 / np.pi), "power": ("W", 1.0)}
     rows = []
-    margins = demand.margins()
-    for src, v in demand.rows.items():
-        for i, qn in enumerate(QUANTITIES):
-            if np.all(np.isnan(v[i])):
-                continue
-            u, k = units[qn]
-            rows.append([src, f"{qn} ({u})"] + [f"{v[i, j] * k:.1f} ({margins[src][i, j]:.2f})"
-                                                 for j in range(3)])
+    for r in demand.table():
+        u, k = units[r["quantity"]]
+        rows.append([r["source"], f"{r['quantity']} ({u})"] + [
+            f"{r[j] * k:.1f} ({r[j + '_margin']:.2f})" for j in ("hip", "knee", "ankle")])
     lim = demand.limits
     rows.append(["Table 2 limits", "torque / speed / power"] + [
         f"{lim[0, j]:.0f} / {np.degrees(lim[1, j]):.0f} / {lim[2, j]:.0f}" for j in range(3)])
