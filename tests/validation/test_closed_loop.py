@@ -71,3 +71,29 @@ def test_bad_inputs_and_unstable_gains_are_refused():
 def test_saturation_is_flagged():
     res = simulate(LEG, PDGravity(LEG, saturation=[5.0, 5.0, 5.0]), REF, 4.0, q0=[0, 0, 0])
     assert np.max(np.abs(res.u)) <= 5.0 and res.saturated.any()
+
+
+def test_deterministic():
+    a = simulate(LEG, PDGravity(LEG), REF, 2.0, q0=[0.0, 0.0, 0.0])
+    b = simulate(LEG, PDGravity(LEG), REF, 2.0, q0=[0.0, 0.0, 0.0])
+    assert np.array_equal(a.q, b.q) and np.array_equal(a.u, b.u)
+
+
+def test_fault_injection_non_finite_state_stops_with_time_and_joint():
+    # A position gain of 1e9 N m/rad at a 1 ms step diverges within two steps.
+    with pytest.raises(exoleg.SimulationError, match=r"non-finite at t = 0\.002 s \(hip"):
+        simulate(LEG, PDGravity(LEG, Kp=[1e9, 1e9, 1e9]), REF, 1.0, q0=[0.0, 0.0, 0.0])
+
+
+class _NaNReference:
+    """A reference whose command turns NaN at t = 0.5 s (a lost or corrupted setpoint)."""
+
+    def sample(self, t):
+        q, dq, ddq = REF.sample(t)
+        q[np.asarray(t) >= 0.5, 1] = np.nan
+        return q, dq, ddq
+
+
+def test_fault_injection_nan_command_is_refused_before_running():
+    with pytest.raises(exoleg.ParameterError, match=r"q_ref is not finite at t = 0\.5 s \(knee\)"):
+        simulate(LEG, PDGravity(LEG), _NaNReference(), 1.0)

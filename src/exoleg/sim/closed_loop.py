@@ -198,7 +198,18 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
                              f"must be a whole multiple of dt = {dt} s, got {cdt!r}")
     n = int(round(duration / dt))
     t: F64 = (np.arange(n + 1) * dt).astype(np.float64)
-    Qr, DQr, DDQr = (np.ascontiguousarray(a) for a in reference.sample(t))
+    Qr, DQr, DDQr = (np.ascontiguousarray(a, dtype=np.float64) for a in reference.sample(t))
+    for name, arr in (("q_ref", Qr), ("dq_ref", DQr), ("ddq_ref", DDQr)):
+        if arr.shape != (n + 1, 3):
+            raise ParameterError("simulate", "reference",
+                                 f"sample(t) returned {name} of shape {arr.shape}, expected "
+                                 f"({n + 1}, 3)")
+        bad = np.argwhere(~np.isfinite(arr))
+        if len(bad):
+            k, j = bad[0]
+            raise ParameterError("simulate", "reference",
+                                 f"{name} is not finite at t = {t[k]:.6g} s ({JOINTS[j]}): "
+                                 f"{arr[k, j]}; references must be finite numbers")
     q_init = Qr[0].copy() if q0 is None else np.asarray(q0, dtype=float)
     dq_init = np.zeros(3) if dq0 is None else np.asarray(dq0, dtype=float)
     for name, vec in (("q0", q_init), ("dq0", dq_init)):
