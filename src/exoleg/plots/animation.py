@@ -16,7 +16,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from matplotlib.animation import FFMpegWriter, FuncAnimation, PillowWriter  # noqa: E402
+from matplotlib.animation import FFMpegWriter, FuncAnimation  # noqa: E402
 
 from exoleg.dynamics.model import LegModel  # noqa: E402
 
@@ -39,7 +39,8 @@ def animate(leg: LegModel, t: np.ndarray, q: np.ndarray, path: str | Path, fps: 
     fk = leg.fk(q[frames])
     ref = leg.fk(q_ref[frames]) if q_ref is not None else None
     reach = float(np.sum(leg.lengths))
-    fig, ax = plt.subplots(figsize=(4, 5), dpi=72)
+    fig, ax = plt.subplots(figsize=(4, 5), dpi=80)
+    fig.subplots_adjust(left=0.2, right=0.97, top=0.97, bottom=0.1)
     ax.set_xlim(-0.7 * reach, 0.7 * reach)
     ax.set_ylim(-1.15 * reach, 0.25 * reach)
     ax.set_aspect("equal")
@@ -67,8 +68,19 @@ def animate(leg: LegModel, t: np.ndarray, q: np.ndarray, path: str | Path, fps: 
         text.set_text(f"t = {t[frames[k]]:.2f} s")
         return child, exo, joints, ghost, text
 
-    anim = FuncAnimation(fig, draw, frames=len(frames), blit=True)
-    writer = FFMpegWriter(fps=fps) if p.suffix == ".mp4" else PillowWriter(fps=fps)
-    anim.save(str(p), writer=writer)
+    if p.suffix == ".mp4":
+        FuncAnimation(fig, draw, frames=len(frames), blit=True).save(
+            str(p), writer=FFMpegWriter(fps=fps))
+    else:  # GIF: grab each frame from the Agg buffer (much cheaper than savefig per frame)
+        from PIL import Image
+
+        images = []
+        for k in range(len(frames)):
+            draw(k)
+            fig.canvas.draw()
+            rgba = np.asarray(fig.canvas.buffer_rgba())
+            images.append(Image.fromarray(rgba[..., :3].copy()).quantize(colors=64))
+        images[0].save(p, save_all=True, append_images=images[1:], duration=round(1000 / fps),
+                       loop=0)
     plt.close(fig)
     return p
