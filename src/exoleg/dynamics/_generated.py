@@ -460,104 +460,10 @@ def forward_dynamics(q, dq, tau, p, g, out):
 
 
 @njit(cache=True, error_model="numpy")
-def forward_dynamics_s(q0, q1, q2, dq0, dq1, dq2, tau0, tau1, tau2, p, g):
-    """forward_dynamics on scalars, returning the tuple ddq: no arrays, for inner loops."""
-    m0 = p[0]
-    a0 = p[1]
-    cx0 = p[2]
-    cy0 = p[3]
-    I0 = p[4]
-    m1 = p[5]
-    a1 = p[6]
-    cx1 = p[7]
-    cy1 = p[8]
-    I1 = p[9]
-    m2 = p[10]
-    cx2 = p[12]
-    cy2 = p[13]
-    I2 = p[14]
-    s_0 = sin(q0)
-    c_0 = cos(q0)
-    s_1 = sin(q1)
-    c_1 = cos(q1)
-    s_2 = sin(q2)
-    c_2 = cos(q2)
-    s_0_1 = s_0 * c_1 + c_0 * s_1
-    c_0_1 = c_0 * c_1 - s_0 * s_1
-    s_1_2 = s_1 * c_2 + c_1 * s_2
-    c_1_2 = c_1 * c_2 - s_1 * s_2
-    s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
-    c_0_1_2 = c_0_1 * c_2 - s_0_1 * s_2
-    x0 = a0*a0
-    x1 = a0*m2
-    x2 = c_1_2*cy2*x1
-    x3 = m1*s_1
-    x4 = a0*cy1*x3
-    x5 = cx2*s_1_2*x1
-    x6 = a1*m2
-    x7 = a0*c_1*x6
-    x8 = c_1*m1
-    x9 = a0*cx1*x8
-    x10 = c_2*cy2*x6
-    x11 = cx2*s_2*x6
-    x12 = cx2*cx2
-    x13 = cy2*cy2
-    x14 = I2 + m2*x12 + m2*x13
-    x15 = I1 + a1*a1*m2 + cx1*cx1*m1 + cy1*cy1*m1 - 2*x10 - 2*x11 + x14
-    x16 = a0*s_0
-    x17 = c_0_1*cy1 + cx1*s_0_1
-    x18 = c_0_1_2*cx2 - cy2*s_0_1_2
-    x19 = a1*s_0_1 + x18
-    x20 = dq0 + dq1
-    x21 = dq2 + x20
-    x22 = c_1_2*cx2
-    x23 = c_2*cx2
-    x24 = cy2*s_1_2
-    x25 = cy2*s_2
-    x26 = a0*x22 - a0*x24 + a1*x23 - a1*x25
-    x27 = dq2*m2*x26
-    x28 = a0*(cx1*x3 + cy1*x8 + m2*x22 - m2*x24 + s_1*x6)
-    x29 = dq1*x28 + x27
-    x30 = dq0*x28
-    x31 = x23 - x25
-    x32 = dq1*x31
-    x33 = dq2*x6
-    x34 = x31*x33
-    x35 = a1*x32
-    M_0_0 = I0 + cx0*cx0*m0 + cy0*cy0*m0 + m1*x0 + m2*x0 + x15 - 2*x2 - 2*x4 - 2*x5 + 2*x7 + 2*x9
-    M_0_1 = x15 - x2 - x4 - x5 + x7 + x9
-    M_0_2 = I2 + m2*x12 + m2*x13 - x10 - x11 - x2 - x5
-    M_1_1 = x15
-    M_1_2 = -x10 - x11 + x14
-    M_2_2 = x14
-    h0 = -dq0*x29 - dq1*(x29 + x30) + g*m0*(c_0*cy0 + cx0*s_0) + g*m1*(x16 + x17) + g*m2*(x16 + x19) - x21*x27
-    h1 = dq0*(x30 - x34) + g*m1*x17 + g*m2*x19 - x21*x34 - x32*x33
-    h2 = m2*(dq0*(dq0*x26 + x35) + g*x18 + x20*x35)
-    b0 = tau0 - h0
-    b1 = tau1 - h1
-    b2 = tau2 - h2
-    D0 = M_0_0
-    iD0 = 1.0 / D0
-    L1_0 = (M_0_1) * iD0
-    L2_0 = (M_0_2) * iD0
-    D1 = M_1_1 - L1_0 * L1_0 * D0
-    iD1 = 1.0 / D1
-    L2_1 = (M_1_2 - L2_0 * L1_0 * D0) * iD1
-    D2 = M_2_2 - L2_0 * L2_0 * D0 - L2_1 * L2_1 * D1
-    iD2 = 1.0 / D2
-    z0 = b0
-    z1 = b1 - L1_0 * z0
-    z2 = b2 - L2_0 * z0 - L2_1 * z1
-    w2 = z2 * iD2
-    w1 = z1 * iD1 - L2_1 * w2
-    w0 = z0 * iD0 - L1_0 * w1 - L2_0 * w2
-    return (w0, w1, w2,)
-
-
-@njit(cache=True, error_model="numpy")
 def forward_dynamics_sc(s_0, c_0, s_1, c_1, s_2, c_2, dq0, dq1, dq2, tau0, tau1, tau2, p, g):
-    """forward_dynamics_s given s_i = sin(q_i), c_i = cos(q_i) instead of q (a stepper that
-    knows them cheaply -- e.g. by angle addition from the previous stage -- skips libm)."""
+    """forward_dynamics on scalars, given s_i = sin(q_i), c_i = cos(q_i) instead of q, returning
+    the tuple ddq: no arrays, and a stepper that knows sin/cos cheaply (angle addition
+    from the previous stage) skips libm."""
     m0 = p[0]
     a0 = p[1]
     cx0 = p[2]

@@ -194,21 +194,17 @@ def generate(d: Derivation) -> str:
         "forward_dynamics", "q, dq, tau, p, g, out",
         "ddq = M^-1 (tau - C dq - G) (eq 20) into out (n,), by an unrolled LDL^T solve.",
         unpack_state + body + solve))
-    scalar_args = ", ".join([*map(str, d.q), *map(str, d.dq)] + [f"tau{i}" for i in range(n)])
     ret = [ln for ln in solve if not ln.startswith("out[")]
     ret.append("return (" + ", ".join(f"w{i}" for i in range(n)) + ",)")
-    funcs.append(_function(
-        "forward_dynamics_s", f"{scalar_args}, p, g",
-        "forward_dynamics on scalars, returning the tuple ddq: no arrays, for inner loops.",
-        body + ret))
     trig_args = ", ".join(f"s_{i}, c_{i}" for i in range(n))
     vel_args = ", ".join([*map(str, d.dq)] + [f"tau{i}" for i in range(n)])
     no_trig = [ln for ln in body if not any(ln.startswith(f"{t}_{i} = ") for t in "sc"
                                             for i in range(n))]
     funcs.append(_function(
         "forward_dynamics_sc", f"{trig_args}, {vel_args}, p, g",
-        "forward_dynamics_s given s_i = sin(q_i), c_i = cos(q_i) instead of q (a stepper that\n"
-        "    knows them cheaply -- e.g. by angle addition from the previous stage -- skips libm).",
+        "forward_dynamics on scalars, given s_i = sin(q_i), c_i = cos(q_i) instead of q, returning\n"
+        "    the tuple ddq: no arrays, and a stepper that knows sin/cos cheaply (angle addition\n"
+        "    from the previous stage) skips libm.",
         no_trig + ret))
 
     ddq = sp.symbols(f"ddq0:{n}")

@@ -78,7 +78,7 @@ def animate(leg: LegModel, t: np.ndarray, q: np.ndarray, path: str | Path, fps: 
         for k in range(len(frames)):
             draw(k)
             fig.canvas.draw()
-            rgba = np.asarray(fig.canvas.buffer_rgba())
+            rgba = np.asarray(fig.canvas.buffer_rgba())  # type: ignore[attr-defined]  # Agg
             images.append(Image.fromarray(rgba[..., :3].copy()).quantize(colors=64))
         images[0].save(p, save_all=True, append_images=images[1:], duration=round(1000 / fps),
                        loop=0)

@@ -204,12 +204,12 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
             raise ParameterError("simulate", "reference",
                                  f"sample(t) returned {name} of shape {arr.shape}, expected "
                                  f"({n + 1}, 3)")
-        bad = np.argwhere(~np.isfinite(arr))
-        if len(bad):
-            k, j = bad[0]
+        nonfinite = np.argwhere(~np.isfinite(arr))
+        if len(nonfinite):
+            ks, js = int(nonfinite[0][0]), int(nonfinite[0][1])
             raise ParameterError("simulate", "reference",
-                                 f"{name} is not finite at t = {t[k]:.6g} s ({JOINTS[j]}): "
-                                 f"{arr[k, j]}; references must be finite numbers")
+                                 f"{name} is not finite at t = {t[ks]:.6g} s ({JOINTS[js]}): "
+                                 f"{arr[ks, js]}; references must be finite numbers")
     q_init = Qr[0].copy() if q0 is None else np.asarray(q0, dtype=float)
     dq_init = np.zeros(3) if dq0 is None else np.asarray(dq0, dtype=float)
     for name, vec in (("q0", q_init), ("dq0", dq_init)):

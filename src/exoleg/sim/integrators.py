@@ -1,6 +1,6 @@
 """Fixed-step integrators for the leg, compiled with numba.
 
-``rk4_scalar`` / ``rk4_step`` are the classical fourth-order Runge-Kutta step of
+``rk4_scalar`` / ``rk4_sc`` are the classical fourth-order Runge-Kutta step of
 the state (q, dq) under a torque held constant over the step (zero-order hold),
 the dynamics being the generated forward dynamics (eq 20).
 """
@@ -81,17 +81,6 @@ def rk4_sc(s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2, t0, t1, t2, p, g, h):
     vn = (v0 + s * (a0 + 2.0 * b0 + 2.0 * c_0 + d0), v1 + s * (a1 + 2.0 * b1 + 2.0 * c_1 + d1),
           v2 + s * (a2 + 2.0 * b2 + 2.0 * c_2 + d2))
     return qn, vn, (a0, a1, a2)
-
-
-@njit(cache=True)
-def rk4_step(q, dq, tau, p, g, h, q_out, dq_out, ddq_out):  # type: ignore[no-untyped-def]
-    """One RK4 step of size ``h`` on arrays (3,): writes the new state and ddq at the start."""
-    qn, vn, a = rk4_scalar(q[0], q[1], q[2], dq[0], dq[1], dq[2], tau[0], tau[1], tau[2],
-                           p, g, h)
-    for i in range(3):
-        q_out[i] = qn[i]
-        dq_out[i] = vn[i]
-        ddq_out[i] = a[i]
 
 
 @njit(cache=True)
