@@ -80,7 +80,8 @@ def table2_limits() -> F64:
     return np.array([[x.max_torque for x in a], [x.max_velocity for x in a], [x.power for x in a]])
 
 
-def _schwartz(mass: float, speed: str, z: float, stride_time: float) -> F64:
+def schwartz_demand(mass: float, speed: str, z: float, stride_time: float) -> F64:
+    """Schwartz 2008 peaks (3 quantities, 3 joints) at mean + z SD, for this body mass."""
     out = np.full((3, 3), np.nan)
     for j, joint in enumerate(JOINTS):
         for i, var in ((0, f"{joint}_moment_sagittal"), (2, f"{joint}_power")):
@@ -109,23 +110,41 @@ def gait_reference(speed: str, z: float, stride_time: float, dt: float = 1e-3,
     return q, dq
 
 
-def actuator_demand(child: Child, leg: LegModel, percentile: float = 50.0, speed: str = "Free",
-                    stride_time: float = 1.1, simulate: bool = True) -> Demand:
-    """Demand per source for ``child`` wearing the device (``leg``: its personalized model)."""
+def simulated_gait_peaks(P: F64, g: float, speed: str = "Free", z: float = 0.0,
+                         stride_time: float = 1.1, dt: float = 1e-3) -> F64:
+    """Peaks (n, 3, 3) of legs ``P`` (n, 15) tracking two strides of normative gait under
+    the paper's controller; the second stride counts (the first settles the start)."""
+    q, dq = gait_reference(speed, z, stride_time, dt)
+    gains = paper.controller_gains()
+    return batch_gait_peaks(P, g, gains.kp, gains.kd, q, dq, dt,
+                            start=int(round(stride_time / dt)))
+
+
+def build_demand(mass: float, leg: LegModel, percentile: float = 50.0, speed: str = "Free",
+                 stride_time: float = 1.1, simulated: F64 | None = None,
+                 grid: int = 13) -> Demand:
+    """Demand per source for a child of ``mass`` kg wearing the device (``leg``: the
+    personalized model); ``simulated``: its simulated-gait peaks (3, 3), if run."""
     z = NormalDist().inv_cdf(percentile / 100.0)
     t = paper.sizing()["demand_per_kg"]
     nan3 = np.full(3, np.nan)
     rows: dict[str, F64] = {
-        "paper per-kg": np.array([child.mass * np.array(t["torque"]), nan3,
-                                  child.mass * np.array(t["power"])]),
-        f"Schwartz 2008 {speed} P{percentile:g}": _schwartz(child.mass, speed, z, stride_time),
-        "gravity compensation": np.array([gravity_demand(leg), nan3, nan3]),
+        "paper per-kg": np.array([mass * np.array(t["torque"]), nan3,
+                                  mass * np.array(t["power"])]),
+        f"Schwartz 2008 {speed} P{percentile:g}": schwartz_demand(mass, speed, z, stride_time),
+        "gravity compensation": np.array([gravity_demand(leg, grid), nan3, nan3]),
     }
-    if simulate:
-        dt = 1e-3
-        q, dq = gait_reference(speed, z, stride_time, dt)
-        gains = paper.controller_gains()
-        peaks = batch_gait_peaks(leg.p[None, :], leg.g, gains.kp, gains.kd, q, dq, dt,
-                                 start=int(round(stride_time / dt)))
-        rows["simulated gait"] = peaks[0]
+    if simulated is not None:
+        rows["simulated gait"] = simulated
     return Demand(rows=rows, limits=table2_limits())
+
+
+def actuator_demand(child: Child, leg: LegModel, percentile: float = 50.0, speed: str = "Free",
+                    stride_time: float = 1.1, simulate: bool = True) -> Demand:
+    """Demand per source for ``child`` wearing the device (``leg``: its personalized model);
+    the simulated gait is this percentile's gait."""
+    sim = None
+    if simulate:
+        z = NormalDist().inv_cdf(percentile / 100.0)
+        sim = simulated_gait_peaks(leg.p[None, :], leg.g, speed, z, stride_time)[0]
+    return build_demand(child.mass, leg, percentile, speed, stride_time, sim)

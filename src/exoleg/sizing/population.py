@@ -16,24 +16,15 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from statistics import NormalDist
 from typing import Any
 
 import numpy as np
 
 from exoleg.errors import ParameterError
-from exoleg.params import paper
-from exoleg.sim.batch import batch_gait_peaks
 from exoleg.sizing import growth
 from exoleg.sizing.child import Child, DesignRangeWarning
-from exoleg.sizing.demand import (
-    Demand,
-    _schwartz,
-    gait_reference,
-    gravity_demand,
-    table2_limits,
-)
-from exoleg.sizing.fit import fit_device
+from exoleg.sizing.demand import build_demand, simulated_gait_peaks
+from exoleg.sizing.fit import device, fit_device
 from exoleg.sizing.personal import personalized_leg
 
 GROUPS: tuple[int | None, ...] = (1, 2, 3, 4, None)
@@ -80,8 +71,6 @@ def _binding(fit: Any) -> tuple[str, float]:
         worst = max(fit.misses, key=lambda m: abs(m.by))
         return worst.what, worst.by
     dev = fit.dimensions
-    from exoleg.sizing.fit import device
-
     d = device()
     slack = {"upper telescope (hip-knee)": min(dev.thigh - d["upper_range_m"][0],
                                                d["upper_range_m"][1] - dev.thigh),
@@ -117,28 +106,14 @@ def coverage(ages: Sequence[float] = AGES, sexes: Sequence[str] = ("female", "ma
                     legs.append(personalized_leg(c, f))
                     notes.append(note)
     peaks = None
-    if simulate:
-        dt = 1e-3
-        q, dq = gait_reference(speed, 0.0, stride_time, dt)
-        gains = paper.controller_gains()
-        P = np.stack([leg.p for leg in legs])
-        peaks = batch_gait_peaks(P, legs[0].g, gains.kp, gains.kd, q, dq, dt,
-                                 start=int(round(stride_time / dt)))
-    limits = table2_limits()
+    if simulate:  # one batch: every child follows the mean gait of the speed group
+        peaks = simulated_gait_peaks(np.stack([leg.p for leg in legs]), legs[0].g, speed, 0.0,
+                                     stride_time)
     rows = []
-    nan3 = np.full(3, np.nan)
-    t = paper.sizing()["demand_per_kg"]
     for n, ((c, pct, group), f, leg) in enumerate(zip(children, fits, legs, strict=True)):
-        z = NormalDist().inv_cdf(pct / 100.0)
-        dem: dict[str, np.ndarray] = {
-            "paper per-kg": np.array([c.mass * np.array(t["torque"]), nan3,
-                                      c.mass * np.array(t["power"])]),
-            "Schwartz 2008": _schwartz(c.mass, speed, z, stride_time),
-            "gravity compensation": np.array([gravity_demand(leg, 7), nan3, nan3]),
-        }
-        if peaks is not None:
-            dem["simulated gait"] = peaks[n]
-        margin, src, qty, joint = Demand(dem, limits).smallest_margin()
+        dem = build_demand(c.mass, leg, pct, speed, stride_time,
+                           None if peaks is None else peaks[n], grid=7)
+        margin, src, qty, joint = dem.smallest_margin()
         what, by = _binding(f)
         rows.append(Row(age=c.age, sex=c.sex, group=group_name(group), percentile=pct,
                         height=c.height, mass=c.mass, thigh=f.dimensions.thigh,
