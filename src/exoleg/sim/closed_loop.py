@@ -117,7 +117,8 @@ class SimResult:
 
     t s; q rad; dq rad/s; ddq rad/s^2; u N m (held torque); q_ref rad; error = q_ref - q;
     kinetic, potential J; lyapunov V of eq 26 (J); verification dq^T (Mdot - 2C) dq (W) and
-    verification_scale |dq^T Mdot dq| (W), the size of what cancels in it; saturated (N, 3).
+    verification_scale |dq^T Mdot dq| (W), the size of what cancels in it; saturated (N, 3);
+    stability_margin: the largest h * lambda(M^-1 Kd) checked before the run (< 2 stable).
     """
 
     t: F64
@@ -133,6 +134,7 @@ class SimResult:
     verification: F64
     verification_scale: F64
     saturated: NDArray[np.bool_]
+    stability_margin: float = float("nan")
 
     def columns(self) -> dict[str, F64]:
         """Every series as named 1-D columns (``q_hip``, ``u_ankle``, ...), SI units, rad."""
@@ -248,4 +250,5 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
     sat = ((SAT[:, None] >> np.arange(3)) & 1).astype(bool)
     return SimResult(t=t, q=Q, dq=DQ, ddq=DDQ, u=U, q_ref=Qr, error=err, kinetic=E[:, 0],
                      potential=E[:, 1], lyapunov=E[:, 2], verification=E[:, 3],
-                     verification_scale=np.abs(E[:, 4]), saturated=sat)
+                     verification_scale=np.abs(E[:, 4]), saturated=sat,
+                     stability_margin=margin)

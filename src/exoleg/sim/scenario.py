@@ -24,7 +24,7 @@ from exoleg.params import paper
 from exoleg.params.records import JOINTS
 from exoleg.reference.gait import SchwartzGait2008
 from exoleg.reference.steps import Reference, Steps
-from exoleg.sim.closed_loop import SimResult, sampled_stability, simulate
+from exoleg.sim.closed_loop import SimResult, simulate
 
 F64 = NDArray[np.float64]
 
@@ -89,7 +89,6 @@ class ScenarioReport:
     detailed: SimResult | None = None
     engine_q: F64 | None = None
     engine_name: str = ""
-    stability: float = float("nan")
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -125,7 +124,7 @@ class ScenarioReport:
             "verification_max_abs": float(np.max(np.abs(r.verification))),
             "verification_relative": self.verification_relative(),
             "lyapunov_max_rise_within_segments_J": self.lyapunov_rise(),
-            "sampled_stability_h_lambda": self.stability,
+            "sampled_stability_h_lambda": r.stability_margin,
             "saturated_steps": int(r.saturated.any(axis=1).sum()),
             "peaks": self.peaks.table(),
         }
@@ -159,8 +158,6 @@ def run_scenario(leg: LegModel, controller: Controller, reference: Reference, du
     res = simulate(leg, controller, reference, duration, dt, q0a, dq0, control_dt,
                    progress=tick("simulate"))
     hold = int(round((control_dt or dt) / dt))
-    stab = sampled_stability(leg, controller.scale * controller.Kd, hold * dt,
-                             np.vstack([res.q[0], res.q_ref[:: max(1, len(res.t) // 200)]]))
     ch = (np.asarray(changes, dtype=float) if changes is not None
           else np.asarray(getattr(reference, "times", [0.0]), dtype=float))
     notes: list[str] = []
@@ -185,7 +182,7 @@ def run_scenario(leg: LegModel, controller: Controller, reference: Reference, du
             notes.append("MuJoCo not installed: engine comparison skipped "
                          "(pip install exoleg[validate])")
     return ScenarioReport(result=res, controller=controller, reference_changes=ch, detailed=det,
-                          engine_q=eq, engine_name=ename, stability=stab, notes=notes)
+                          engine_q=eq, engine_name=ename, notes=notes)
 
 
 def paper_scenario(engine: str | None = "mujoco", dt: float = 1e-3,
