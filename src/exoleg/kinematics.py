@@ -70,12 +70,11 @@ def forward_kinematics(q: ArrayLike, lengths: ArrayLike, coms: ArrayLike,
     return out
 
 
-def point_jacobian(q: ArrayLike, point: F64, joints: Sequence[F64], upto: int) -> F64:
+def point_jacobian(point: F64, joints: Sequence[F64], upto: int) -> F64:
     """Planar linear Jacobian (..., 2, 3) of ``point`` on link ``upto`` (0-based).
 
     Column j (j <= upto) is z x (point - joint_j); later columns are zero.
     """
-    del q
     J = np.zeros(point.shape[:-1] + (2, 3))
     for j in range(upto + 1):
         r = point - joints[j]
@@ -93,10 +92,10 @@ def jacobians(q: ArrayLike, lengths: ArrayLike, coms: ArrayLike,
     fk = forward_kinematics(q, lengths, coms, offsets)
     joints = [fk["hip"], fk["knee"], fk["ankle"]]
     return {
-        "toe": point_jacobian(q, fk["toe"], joints, 2),
-        "com_thigh": point_jacobian(q, fk["com_thigh"], joints, 0),
-        "com_shank": point_jacobian(q, fk["com_shank"], joints, 1),
-        "com_foot": point_jacobian(q, fk["com_foot"], joints, 2),
+        "toe": point_jacobian(fk["toe"], joints, 2),
+        "com_thigh": point_jacobian(fk["com_thigh"], joints, 0),
+        "com_shank": point_jacobian(fk["com_shank"], joints, 1),
+        "com_foot": point_jacobian(fk["com_foot"], joints, 2),
     }
 
 

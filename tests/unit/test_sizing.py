@@ -106,6 +106,6 @@ def test_personalized_leg_composes_child_and_device():
     assert leg.lengths[2] == pytest.approx(0.235)
 
 
-def test_jensen_fraction_data_sum_check():
+def test_jensen_fractions_use_the_rescaled_column():
     # Reference: Jensen 1986 12 y rescaled percentages in the shipped table (thigh 10.978 %).
     assert jensen_mass_fractions(12.0)["thigh"] == pytest.approx(0.1097804391, rel=1e-9)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import replace
 from typing import Literal
 
 import numpy as np
@@ -112,15 +111,6 @@ class LegModel:
                     f"LegModel {self.name!r}", k, f"no such link (links: {', '.join(names)})"
                 )
         return LegModel([changes.get(lk.name, lk) for lk in self.links], g=self.g, name=self.name)
-
-    def scaled(self, factor: float) -> LegModel:
-        """Masses and inertias times ``factor`` (the paper's detailed = 2 x simplified)."""
-        f = _check.positive(f"LegModel {self.name!r}", "factor", factor)
-        return LegModel(
-            [replace(lk, mass=lk.mass * f, izz=lk.izz * f, parts=()) for lk in self.links],
-            g=self.g,
-            name=self.name,
-        )
 
     def __repr__(self) -> str:
         m = ", ".join(f"{lk.name} {lk.mass:.3f} kg" for lk in self.links)

@@ -32,7 +32,7 @@ from exoleg.params import paper
 from exoleg.params.records import LINKS, Link
 from exoleg.sizing.anthropometry import Dimensions
 from exoleg.sizing.child import Child
-from exoleg.sizing.fit import DeviceFit, device, fit_device  # noqa: F401
+from exoleg.sizing.fit import DeviceFit, device, fit_device
 
 _JENSEN = (("wspr_jensen1989-6yr.csv", 6.0), ("wspr_jensen1986-12yr.csv", 12.0),
            ("wspr_jensen1986-15yr.csv", 15.0), ("wspr_jensen1989-18yr.csv", 18.0))

@@ -131,7 +131,6 @@ def welded_check(detailed: LegModel) -> list[Check]:
     """
     Q, DQ, _ = random_states(500, 3)
     lumped = detailed.lumped()
-    acc = {"M": 0.0, "C": 0.0, "G": 0.0}
     totals = {"M": np.zeros((len(Q), 3, 3)), "C": np.zeros((len(Q), 3, 3)),
               "G": np.zeros((len(Q), 3))}
     for i, lk in enumerate(detailed.links):
@@ -142,9 +141,8 @@ def welded_check(detailed: LegModel) -> list[Check]:
             totals["M"] += K.gufunc("mass_matrix")(Q, p)
             totals["C"] += K.gufunc("coriolis_matrix")(Q, DQ, p)
             totals["G"] += K.gufunc("gravity")(Q, p, detailed.g)
-    acc["M"] = _rel(totals["M"], lumped.M(Q))
-    acc["C"] = _rel(totals["C"], lumped.C(Q, DQ))
-    acc["G"] = _rel(totals["G"], lumped.G(Q))
+    acc = {"M": _rel(totals["M"], lumped.M(Q)), "C": _rel(totals["C"], lumped.C(Q, DQ)),
+           "G": _rel(totals["G"], lumped.G(Q))}
     return [Check(f"{k}: welded parts vs composed link", "SMS composition (paper Appendix C)",
                   v, TOL_WELDED, "sum over parts vs lumped, 500 random states")
             for k, v in acc.items()]
