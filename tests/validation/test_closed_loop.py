@@ -73,10 +73,16 @@ def test_saturation_is_flagged():
     assert np.max(np.abs(res.u)) <= 5.0 and res.saturated.any()
 
 
-def test_deterministic():
+def test_deterministic_and_independent_of_progress_reports():
+    # Reference: the same run again, and the same run done in chunks for a progress bar
+    # (the stepper carries sin/cos between steps; chunking must not change a bit).
     a = simulate(LEG, PDGravity(LEG), REF, 2.0, q0=[0.0, 0.0, 0.0])
     b = simulate(LEG, PDGravity(LEG), REF, 2.0, q0=[0.0, 0.0, 0.0])
-    assert np.array_equal(a.q, b.q) and np.array_equal(a.u, b.u)
+    fractions: list[float] = []
+    c = simulate(LEG, PDGravity(LEG), REF, 2.0, q0=[0.0, 0.0, 0.0], progress=fractions.append)
+    assert len(fractions) > 50 and fractions[-1] == 1.0
+    for r in (b, c):
+        assert np.array_equal(a.q, r.q) and np.array_equal(a.u, r.u)
 
 
 def test_fault_injection_non_finite_state_stops_with_time_and_joint():

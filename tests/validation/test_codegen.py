@@ -23,12 +23,15 @@ def test_shipped_source_equals_regenerated(fresh):
 
 def test_kernels_match_fresh_derivation_numerically(fresh):
     # Reference: the symbolic expressions, evaluated by lambdify (numpy), independent of
-    # codegen's CSE and trig rewriting.
+    # codegen's CSE, trig rewriting and hoisting of parameter-only coefficients; the
+    # stepper's kernels (forward_dynamics_sc, gravity_sc) against M^-1 (tau - C dq - G)
+    # solved by numpy.
     args = (*fresh.q, *fresh.dq, *fresh.p, fresh.g)
     fM = sp.lambdify(args, fresh.M, "numpy")
     fC = sp.lambdify(args, fresh.C, "numpy")
     fG = sp.lambdify(args, fresh.G, "numpy")
     rng = np.random.default_rng(11)
+    from exoleg.dynamics.kernels import forward_dynamics_sc, gravity_sc
     from exoleg.validate.checks import random_leg
 
     for _ in range(5):
@@ -38,6 +41,14 @@ def test_kernels_match_fresh_derivation_numerically(fresh):
             assert np.allclose(leg.M(q), fM(*a), rtol=1e-13, atol=1e-15)
             assert np.allclose(leg.C(q, dq), fC(*a), rtol=1e-12, atol=1e-14)
             assert np.allclose(leg.G(q), np.ravel(fG(*a)), rtol=1e-13, atol=1e-14)
+            sc = [f(x) for x in q for f in (np.sin, np.cos)]
+            G = np.ravel(fG(*a))
+            assert np.allclose(gravity_sc(*sc, leg.coefficients), G, rtol=1e-13, atol=1e-14)
+            tau = rng.uniform(-50, 50, 3)
+            ddq = np.linalg.solve(fM(*a), tau - fC(*a) @ dq - G)
+            got = forward_dynamics_sc(*sc, *dq, *tau, leg.coefficients)
+            # measured: 2.2e-15 of max |ddq| (G: 5.6e-16 of max |G|)
+            assert np.abs(np.subtract(got, ddq)).max() <= 1e-13 * np.abs(ddq).max()
 
 
 def test_import_does_not_load_sympy():

@@ -8,6 +8,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from exoleg.control import laws
+from exoleg.dynamics.kernels import N_COEFFICIENTS
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
 from exoleg.params import paper
@@ -69,11 +70,12 @@ class Controller:
             *args, u, np.empty((5, 3)))
         return u, int(mask)
 
-    def model_params(self) -> tuple[F64, float]:
-        """(p, g) of the controller's model; zeros when it uses none."""
+    def model_params(self) -> tuple[F64, F64]:
+        """(p, k): the parameter vector and the coefficients of the controller's model
+        (:attr:`LegModel.coefficients`); zeros when it uses none."""
         if self.model is None:
-            return np.zeros(15), 0.0
-        return np.asarray(self.model.p), self.model.g
+            return np.zeros(15), np.zeros(N_COEFFICIENTS)
+        return np.asarray(self.model.p), self.model.coefficients
 
 
 def PDGravity(model: LegModel, Kp: ArrayLike | None = None, Kd: ArrayLike | None = None,  # noqa: N802

@@ -2,7 +2,8 @@
 
 ``kind``: 0 plain PD, 1 PD + gravity compensation (paper eq 23), 2 computed torque.
 ``pc`` is the controller's own model parameter vector (it may differ from the
-plant's, to study model error), ``gc`` its g. ``scale`` multiplies the torque (the
+plant's, to study model error), ``kc`` that model's coefficients with its g
+(:func:`exoleg.dynamics.kernels.coefficients`). ``scale`` multiplies the torque (the
 paper doubles the torque applied to its detailed model). ``limit`` holds per-joint
 torque limits (inf = none). Each law returns the saturation flags as a bit mask
 (bit i set when joint i was clipped).
@@ -33,7 +34,7 @@ def _clip(u, limit):  # type: ignore[no-untyped-def]
 
 
 @njit(inline="always", cache=True)
-def pd_law(kind, kp, kd, pc, gc, scale, limit, s0, c0, s1, c1, s2, c2,  # type: ignore[no-untyped-def]
+def pd_law(kind, kp, kd, kc, scale, limit, s0, c0, s1, c1, s2, c2,  # type: ignore[no-untyped-def]
            q0, q1, q2, v0, v1, v2, r0, r1, r2, w0, w1, w2):
     """PD or PD + gravity compensation on scalars: state q, v; reference r, w (= dq_ref);
     s_i, c_i = sin, cos of q_i. Returns (u0, u1, u2, mask)."""
@@ -41,7 +42,7 @@ def pd_law(kind, kp, kd, pc, gc, scale, limit, s0, c0, s1, c1, s2, c2,  # type: 
     u1 = kp[1] * (r1 - q1) + kd[1] * (w1 - v1)
     u2 = kp[2] * (r2 - q2) + kd[2] * (w2 - v2)
     if kind == PD_GRAVITY_KIND:
-        g0, g1, g2 = gravity_sc(s0, c0, s1, c1, s2, c2, pc, gc)
+        g0, g1, g2 = gravity_sc(s0, c0, s1, c1, s2, c2, kc)
         u0 += g0
         u1 += g1
         u2 += g2
@@ -52,12 +53,12 @@ def pd_law(kind, kp, kd, pc, gc, scale, limit, s0, c0, s1, c1, s2, c2,  # type: 
 
 
 @njit(cache=True)
-def control_law(kind, kp, kd, pc, gc, scale, limit, q, dq, q_ref, dq_ref, ddq_ref, u, work):  # type: ignore[no-untyped-def]
+def control_law(kind, kp, kd, pc, kc, scale, limit, q, dq, q_ref, dq_ref, ddq_ref, u, work):  # type: ignore[no-untyped-def]
     """Any law on arrays (3,): writes the torque into ``u``; ``work`` is scratch (5, 3).
     Returns the saturation mask."""
     if kind != COMPUTED_TORQUE_KIND:
         u[0], u[1], u[2], mask = pd_law(
-            kind, kp, kd, pc, gc, scale, limit, math.sin(q[0]), math.cos(q[0]),
+            kind, kp, kd, kc, scale, limit, math.sin(q[0]), math.cos(q[0]),
             math.sin(q[1]), math.cos(q[1]), math.sin(q[2]), math.cos(q[2]),
             q[0], q[1], q[2], dq[0], dq[1], dq[2], q_ref[0], q_ref[1], q_ref[2],
             dq_ref[0], dq_ref[1], dq_ref[2])
@@ -70,7 +71,7 @@ def control_law(kind, kp, kd, pc, gc, scale, limit, q, dq, q_ref, dq_ref, ddq_re
     mass_matrix(q, pc, M)
     coriolis_dq(q, dq, pc, h)
     g0, g1, g2 = gravity_sc(math.sin(q[0]), math.cos(q[0]), math.sin(q[1]), math.cos(q[1]),
-                            math.sin(q[2]), math.cos(q[2]), pc, gc)
+                            math.sin(q[2]), math.cos(q[2]), kc)
     grav = (g0, g1, g2)
     mask = 0
     for i in range(3):

@@ -9,6 +9,7 @@ from math import cos, sin
 from numba import njit
 
 N_JOINTS = 3
+N_COEFFICIENTS = 21
 OFFSETS = (-1.5707963267948966, 0.0, 1.5707963267948966)
 
 
@@ -198,34 +199,6 @@ def gravity(q, p, g, out):
 
 
 @njit(cache=True, error_model="numpy")
-def gravity_sc(s_0, c_0, s_1, c_1, s_2, c_2, p, g):
-    """G given s_i = sin(q_i), c_i = cos(q_i), as a tuple."""
-    m0 = p[0]
-    a0 = p[1]
-    cx0 = p[2]
-    cy0 = p[3]
-    m1 = p[5]
-    a1 = p[6]
-    cx1 = p[7]
-    cy1 = p[8]
-    m2 = p[10]
-    cx2 = p[12]
-    cy2 = p[13]
-    s_0_1 = s_0 * c_1 + c_0 * s_1
-    c_0_1 = c_0 * c_1 - s_0 * s_1
-    s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
-    c_0_1_2 = c_0_1 * c_2 - s_0_1 * s_2
-    x0 = a0*s_0
-    x1 = c_0_1*cy1 + cx1*s_0_1
-    x2 = c_0_1_2*cx2 - cy2*s_0_1_2
-    x3 = a1*s_0_1 + x2
-    G0 = g*(m0*(c_0*cy0 + cx0*s_0) + m1*(x0 + x1) + m2*(x0 + x3))
-    G1 = g*(m1*x1 + m2*x3)
-    G2 = g*m2*x2
-    return (G0, G1, G2,)
-
-
-@njit(cache=True, error_model="numpy")
 def mass_matrix_dot(q, dq, p, out):
     """dM/dt into out (n, n)."""
     q1 = q[1]
@@ -355,7 +328,7 @@ def potential_energy(q, p, g):
 
 @njit(cache=True, error_model="numpy")
 def forward_dynamics(q, dq, tau, p, g, out):
-    """ddq = M^-1 (tau - C dq - G) (eq 20) into out (n,), by an unrolled LDL^T solve."""
+    """ddq = M^-1 (tau - C dq - G) (eq 20) into out (n,), by the adjugate of M."""
     q0 = q[0]
     q1 = q[1]
     q2 = q[2]
@@ -439,31 +412,25 @@ def forward_dynamics(q, dq, tau, p, g, out):
     b0 = tau0 - h0
     b1 = tau1 - h1
     b2 = tau2 - h2
-    D0 = M_0_0
-    iD0 = 1.0 / D0
-    L1_0 = (M_0_1) * iD0
-    L2_0 = (M_0_2) * iD0
-    D1 = M_1_1 - L1_0 * L1_0 * D0
-    iD1 = 1.0 / D1
-    L2_1 = (M_1_2 - L2_0 * L1_0 * D0) * iD1
-    D2 = M_2_2 - L2_0 * L2_0 * D0 - L2_1 * L2_1 * D1
-    iD2 = 1.0 / D2
-    z0 = b0
-    z1 = b1 - L1_0 * z0
-    z2 = b2 - L2_0 * z0 - L2_1 * z1
-    w2 = z2 * iD2
-    w1 = z1 * iD1 - L2_1 * w2
-    w0 = z0 * iD0 - L1_0 * w1 - L2_0 * w2
+    A0_0 = M_1_1*M_2_2 - M_1_2*M_1_2
+    A0_1 = -M_0_1*M_2_2 + M_0_2*M_1_2
+    A0_2 = M_0_1*M_1_2 - M_0_2*M_1_1
+    A1_1 = M_0_0*M_2_2 - M_0_2*M_0_2
+    A1_2 = -M_0_0*M_1_2 + M_0_1*M_0_2
+    A2_2 = M_0_0*M_1_1 - M_0_1*M_0_1
+    idet = 1.0 / (M_0_0 * A0_0 + M_0_1 * A0_1 + M_0_2 * A0_2)
+    w0 = (A0_0 * b0 + A0_1 * b1 + A0_2 * b2) * idet
+    w1 = (A0_1 * b0 + A1_1 * b1 + A1_2 * b2) * idet
+    w2 = (A0_2 * b0 + A1_2 * b1 + A2_2 * b2) * idet
     out[0] = w0
     out[1] = w1
     out[2] = w2
 
 
 @njit(cache=True, error_model="numpy")
-def forward_dynamics_sc(s_0, c_0, s_1, c_1, s_2, c_2, dq0, dq1, dq2, tau0, tau1, tau2, p, g):
-    """forward_dynamics on scalars, given s_i = sin(q_i), c_i = cos(q_i) instead of q, returning
-    the tuple ddq: no arrays, and a stepper that knows sin/cos cheaply (angle addition
-    from the previous stage) skips libm."""
+def coefficients(p, g, out):
+    """The 21 parameter-only coefficients k of forward_dynamics_sc and gravity_sc
+    into out, from the parameter vector p and g."""
     m0 = p[0]
     a0 = p[1]
     cx0 = p[2]
@@ -478,75 +445,135 @@ def forward_dynamics_sc(s_0, c_0, s_1, c_1, s_2, c_2, dq0, dq1, dq2, tau0, tau1,
     cx2 = p[12]
     cy2 = p[13]
     I2 = p[14]
+    x0 = a1*m2
+    x1 = cx1*m1 + x0
+    x2 = a0*x1
+    x3 = a0*m2
+    x4 = cy2*x3
+    x5 = cy2*x0
+    x6 = a0*m1
+    x7 = cy1*x6
+    x8 = cx2*x3
+    x9 = cx2*x0
+    x10 = a0*a0
+    x11 = I2 + cx2*cx2*m2 + cy2*cy2*m2
+    x12 = I1 + a1*a1*m2 + cx1*cx1*m1 + cy1*cy1*m1 + x11
+    x13 = g*m2
+    out[0] = 2*x2
+    out[1] = 2*x4
+    out[2] = 2*x5
+    out[3] = 2*x7
+    out[4] = 2*x8
+    out[5] = 2*x9
+    out[6] = I0 + cx0*cx0*m0 + cy0*cy0*m0 + m1*x10 + m2*x10 + x12
+    out[7] = x2
+    out[8] = x4
+    out[9] = x7
+    out[10] = x8
+    out[11] = x12
+    out[12] = x5
+    out[13] = x9
+    out[14] = x11
+    out[15] = cy0*g*m0
+    out[16] = cy1*g*m1
+    out[17] = cx2*x13
+    out[18] = g*(cx0*m0 + x3 + x6)
+    out[19] = g*x1
+    out[20] = cy2*x13
+
+
+@njit(cache=True, error_model="numpy")
+def gravity_sc(s_0, c_0, s_1, c_1, s_2, c_2, k):
+    """G given s_i = sin(q_i), c_i = cos(q_i) and the leg's coefficients k, as a tuple."""
+    k15 = k[15]
+    k16 = k[16]
+    k17 = k[17]
+    k18 = k[18]
+    k19 = k[19]
+    k20 = k[20]
+    s_0_1 = s_0 * c_1 + c_0 * s_1
+    c_0_1 = c_0 * c_1 - s_0 * s_1
+    s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
+    c_0_1_2 = c_0_1 * c_2 - s_0_1 * s_2
+    x0 = c_0_1_2*k17 - k20*s_0_1_2
+    x1 = c_0_1*k16 + k19*s_0_1 + x0
+    G0 = c_0*k15 + k18*s_0 + x1
+    G1 = x1
+    G2 = x0
+    return (G0, G1, G2,)
+
+
+@njit(cache=True, error_model="numpy")
+def forward_dynamics_sc(s_0, c_0, s_1, c_1, s_2, c_2, dq0, dq1, dq2, tau0, tau1, tau2, k):
+    """forward_dynamics on scalars, given s_i = sin(q_i), c_i = cos(q_i) instead of q and the
+    leg's coefficients k, returning the tuple ddq: no arrays, and a stepper that knows
+    sin/cos cheaply (angle addition from the previous stage) skips libm."""
+    k0 = k[0]
+    k1 = k[1]
+    k2 = k[2]
+    k3 = k[3]
+    k4 = k[4]
+    k5 = k[5]
+    k6 = k[6]
+    k7 = k[7]
+    k8 = k[8]
+    k9 = k[9]
+    k10 = k[10]
+    k11 = k[11]
+    k12 = k[12]
+    k13 = k[13]
+    k14 = k[14]
+    k15 = k[15]
+    k16 = k[16]
+    k17 = k[17]
+    k18 = k[18]
+    k19 = k[19]
+    k20 = k[20]
     s_0_1 = s_0 * c_1 + c_0 * s_1
     c_0_1 = c_0 * c_1 - s_0 * s_1
     s_1_2 = s_1 * c_2 + c_1 * s_2
     c_1_2 = c_1 * c_2 - s_1 * s_2
     s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
     c_0_1_2 = c_0_1 * c_2 - s_0_1 * s_2
-    x0 = a0*a0
-    x1 = a0*m2
-    x2 = c_1_2*cy2*x1
-    x3 = m1*s_1
-    x4 = a0*cy1*x3
-    x5 = cx2*s_1_2*x1
-    x6 = a1*m2
-    x7 = a0*c_1*x6
-    x8 = c_1*m1
-    x9 = a0*cx1*x8
-    x10 = c_2*cy2*x6
-    x11 = cx2*s_2*x6
-    x12 = cx2*cx2
-    x13 = cy2*cy2
-    x14 = I2 + m2*x12 + m2*x13
-    x15 = I1 + a1*a1*m2 + cx1*cx1*m1 + cy1*cy1*m1 - 2*x10 - 2*x11 + x14
-    x16 = a0*s_0
-    x17 = c_0_1*cy1 + cx1*s_0_1
-    x18 = c_0_1_2*cx2 - cy2*s_0_1_2
-    x19 = a1*s_0_1 + x18
-    x20 = dq0 + dq1
-    x21 = dq2 + x20
-    x22 = c_1_2*cx2
-    x23 = c_2*cx2
-    x24 = cy2*s_1_2
-    x25 = cy2*s_2
-    x26 = a0*x22 - a0*x24 + a1*x23 - a1*x25
-    x27 = dq2*m2*x26
-    x28 = a0*(cx1*x3 + cy1*x8 + m2*x22 - m2*x24 + s_1*x6)
-    x29 = dq1*x28 + x27
-    x30 = dq0*x28
-    x31 = x23 - x25
-    x32 = dq1*x31
-    x33 = dq2*x6
-    x34 = x31*x33
-    x35 = a1*x32
-    M_0_0 = I0 + cx0*cx0*m0 + cy0*cy0*m0 + m1*x0 + m2*x0 + x15 - 2*x2 - 2*x4 - 2*x5 + 2*x7 + 2*x9
-    M_0_1 = x15 - x2 - x4 - x5 + x7 + x9
-    M_0_2 = I2 + m2*x12 + m2*x13 - x10 - x11 - x2 - x5
-    M_1_1 = x15
-    M_1_2 = -x10 - x11 + x14
-    M_2_2 = x14
-    h0 = -dq0*x29 - dq1*(x29 + x30) + g*m0*(c_0*cy0 + cx0*s_0) + g*m1*(x16 + x17) + g*m2*(x16 + x19) - x21*x27
-    h1 = dq0*(x30 - x34) + g*m1*x17 + g*m2*x19 - x21*x34 - x32*x33
-    h2 = m2*(dq0*(dq0*x26 + x35) + g*x18 + x20*x35)
+    x0 = c_2*k2 + k5*s_2
+    x1 = -k11 + x0
+    x2 = c_1_2*k8 + k10*s_1_2
+    x3 = c_2*k12 + k13*s_2 - k14
+    x4 = c_1_2*k4 - k1*s_1_2
+    x5 = c_2*k5 - k2*s_2
+    x6 = dq2*(x4 + x5)
+    x7 = dq1*dq1
+    x8 = c_1_2*k10 - k8*s_1_2
+    x9 = c_1*k9 + k7*s_1 + x8
+    x10 = dq2*dq2
+    x11 = c_2*k13 - k12*s_2
+    x12 = x11 + x8
+    x13 = c_0_1_2*k17 - k20*s_0_1_2
+    x14 = c_0_1*k16 + k19*s_0_1 + x13
+    x15 = dq0*dq0
+    x16 = dq2*x5
+    M_0_0 = c_1*k0 - c_1_2*k1 - k3*s_1 - k4*s_1_2 + k6 - x0
+    M_0_1 = c_1*k7 - k9*s_1 - x1 - x2
+    M_0_2 = -x2 - x3
+    M_1_1 = -x1
+    M_1_2 = -x3
+    M_2_2 = k14
+    h0 = c_0*k15 - dq0*(dq1*(c_1*k3 + k0*s_1 + x4) + x6) - dq1*x6 + k18*s_0 - x10*x12 + x14 - x7*x9
+    h1 = -dq0*x16 - dq1*x16 - x10*x11 + x14 + x15*x9
+    h2 = dq0*dq1*x5 + x11*x7 + x12*x15 + x13
     b0 = tau0 - h0
     b1 = tau1 - h1
     b2 = tau2 - h2
-    D0 = M_0_0
-    iD0 = 1.0 / D0
-    L1_0 = (M_0_1) * iD0
-    L2_0 = (M_0_2) * iD0
-    D1 = M_1_1 - L1_0 * L1_0 * D0
-    iD1 = 1.0 / D1
-    L2_1 = (M_1_2 - L2_0 * L1_0 * D0) * iD1
-    D2 = M_2_2 - L2_0 * L2_0 * D0 - L2_1 * L2_1 * D1
-    iD2 = 1.0 / D2
-    z0 = b0
-    z1 = b1 - L1_0 * z0
-    z2 = b2 - L2_0 * z0 - L2_1 * z1
-    w2 = z2 * iD2
-    w1 = z1 * iD1 - L2_1 * w2
-    w0 = z0 * iD0 - L1_0 * w1 - L2_0 * w2
+    A0_0 = M_1_1*M_2_2 - M_1_2*M_1_2
+    A0_1 = -M_0_1*M_2_2 + M_0_2*M_1_2
+    A0_2 = M_0_1*M_1_2 - M_0_2*M_1_1
+    A1_1 = M_0_0*M_2_2 - M_0_2*M_0_2
+    A1_2 = -M_0_0*M_1_2 + M_0_1*M_0_2
+    A2_2 = M_0_0*M_1_1 - M_0_1*M_0_1
+    idet = 1.0 / (M_0_0 * A0_0 + M_0_1 * A0_1 + M_0_2 * A0_2)
+    w0 = (A0_0 * b0 + A0_1 * b1 + A0_2 * b2) * idet
+    w1 = (A0_1 * b0 + A1_1 * b1 + A1_2 * b2) * idet
+    w2 = (A0_2 * b0 + A1_2 * b1 + A2_2 * b2) * idet
     return (w0, w1, w2,)
 
 

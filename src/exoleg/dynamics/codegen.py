@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from itertools import combinations_with_replacement
 from pathlib import Path
 
 import sympy as sp
@@ -107,31 +108,79 @@ def _body(d: Derivation, exprs: list[sp.Expr], targets: list[str],
     for e in exprs:
         used |= e.free_symbols
     exprs, trig = _trig(d, exprs)
+    return _unpack(d, used, state) + trig + _cse(exprs, targets)
+
+
+def _cse(exprs: list[sp.Expr], targets: list[str]) -> list[str]:
+    """Common subexpressions as ``x<i>`` lines, then each expression assigned to its target."""
     subs, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("x"), optimizations="basic")
-    lines = _unpack(d, used, state) + trig
-    lines += [f"{s} = {_code(v)}" for s, v in subs]
-    lines += [f"{t} = {_code(v)}" for t, v in zip(targets, reduced, strict=True)]
-    return lines
+    return ([f"{s} = {_code(v)}" for s, v in subs]
+            + [f"{t} = {_code(v)}" for t, v in zip(targets, reduced, strict=True)])
 
 
-def _ldlt_solve(n: int, mat: str, rhs: str, out: str) -> list[str]:
-    """Unrolled LDL^T solve of the symmetric positive-definite ``mat`` (names ``mat_j_k``)."""
-    lines: list[str] = []
+def _composites(trig: list[str], exprs: list[sp.Expr]) -> list[str]:
+    """The trig preamble's angle-sum lines (``s_0_1 = ...``) that ``exprs`` need."""
+    needed = {str(s) for e in exprs for s in e.free_symbols}
+    keep = []
+    for ln in reversed(trig):
+        lhs, rhs = ln.split(" = ")
+        if lhs in needed and "sin(" not in rhs and "cos(" not in rhs:
+            keep.append(ln)
+            needed |= {t for t in rhs.split() if t[:2] in ("s_", "c_")}
+    return keep[::-1]
 
-    def m(j: int, k: int) -> str:
-        return f"{mat}_{min(j, k)}_{max(j, k)}"
 
-    for j in range(n):
-        dj = m(j, j) + "".join(f" - L{j}_{k} * L{j}_{k} * D{k}" for k in range(j))
-        lines.append(f"D{j} = {dj}")
-        lines.append(f"iD{j} = 1.0 / D{j}")
-        for i in range(j + 1, n):
-            s = m(i, j) + "".join(f" - L{i}_{k} * L{j}_{k} * D{k}" for k in range(j))
-            lines.append(f"L{i}_{j} = ({s}) * iD{j}")
-    for i in range(n):
-        lines.append(f"z{i} = {rhs}{i}" + "".join(f" - L{i}_{k} * z{k}" for k in range(i)))
-    for i in reversed(range(n)):
-        lines.append(f"w{i} = z{i} * iD{i}" + "".join(f" - L{k}_{i} * w{k}" for k in range(i + 1, n)))
+def _hoist(d: Derivation, exprs: list[sp.Expr]) -> tuple[list[sp.Expr], list[sp.Expr], list[str]]:
+    """Split expressions into parameter-only coefficients and what varies with the state.
+
+    Each expression, trig-rewritten (:func:`_trig`), is a polynomial in the sin/cos
+    symbols and the joint velocities whose coefficients involve only the parameters
+    and g. Every distinct coefficient (up to sign) becomes a symbol ``k<i>``, computed
+    once per leg instead of at every evaluation; the polynomials are then grouped by
+    velocity products. Returns (rewritten expressions, the coefficients in ``k``
+    order, the trig preamble).
+    """
+    exprs, trig = _trig(d, exprs)
+    angles = sorted({s for e in exprs for s in e.free_symbols if s.name[:2] in ("s_", "c_")},
+                    key=str)
+    atoms = [*angles, *d.dq]
+    coeffs: dict[sp.Expr, sp.Symbol] = {}
+
+    def k(c: sp.Expr) -> sp.Expr:
+        c = sp.expand(c)
+        neg = c.could_extract_minus_sign()
+        c = -c if neg else c
+        if c not in coeffs:
+            coeffs[c] = sp.Symbol(f"k{len(coeffs)}")
+        return -coeffs[c] if neg else coeffs[c]
+
+    products = [a * b for a, b in combinations_with_replacement(d.dq, 2)]
+    out = []
+    for e in exprs:
+        terms = sp.Poly(sp.expand(e), *atoms).terms()
+        e = sp.Add(*(k(c) * sp.Mul(*(a**m for a, m in zip(atoms, mon, strict=True)))
+                     for mon, c in terms))
+        out.append(sp.collect(sp.collect(sp.expand(e), products), list(d.dq)))
+    return out, list(coeffs), trig
+
+
+def _adjugate_solve(n: int, mat: str, rhs: str, out: str) -> list[str]:
+    """Unrolled solve of the symmetric ``mat`` (names ``mat_j_k``, j <= k) by its adjugate.
+
+    One division (by the determinant) where an LDL^T solve needs n in a chain: on a
+    3 x 3 inertia matrix the divisions' latency, not the arithmetic, bound the stepper.
+    """
+    S = sp.Matrix(n, n, lambda j, k: sp.Symbol(f"{mat}_{min(j, k)}_{max(j, k)}"))
+    A = S.adjugate()
+    lines = [f"A{j}_{k} = {_code(sp.expand(A[j, k]))}" for j in range(n) for k in range(j, n)]
+
+    def a(j: int, k: int) -> str:
+        return f"A{min(j, k)}_{max(j, k)}"
+
+    det = " + ".join(f"{mat}_0_{k} * {a(0, k)}" for k in range(n))
+    lines.append(f"idet = 1.0 / ({det})")
+    lines += [f"w{i} = (" + " + ".join(f"{a(i, k)} * {rhs}{k}" for k in range(n)) + ") * idet"
+              for i in range(n)]
     lines += [f"{out}[{i}] = w{i}" for i in range(n)]
     return lines
 
@@ -165,14 +214,6 @@ def generate(d: Derivation) -> str:
 
     lines = _body(d, list(d.G), [f"out[{i}]" for i in range(n)], ["q"])
     funcs.append(_function("gravity", "q, p, g, out", "G(q) (eq 19) into out (n,).", lines))
-    g_body = _body(d, list(d.G), [f"G{i}" for i in range(n)], [])
-    g_body = [ln for ln in g_body if not any(ln.startswith(f"{t}_{i} = ") for t in "sc"
-                                             for i in range(n))]
-    g_body.append("return (" + ", ".join(f"G{i}" for i in range(n)) + ",)")
-    funcs.append(_function(
-        "gravity_sc", ", ".join(f"s_{i}, c_{i}" for i in range(n)) + ", p, g",
-        "G given s_i = sin(q_i), c_i = cos(q_i), as a tuple.", g_body))
-
     lines = _body(d, list(d.Mdot), [f"out[{i // n}, {i % n}]" for i in range(n * n)], ["q", "dq"])
     funcs.append(_function("mass_matrix_dot", "q, dq, p, out", "dM/dt into out (n, n).", lines))
 
@@ -186,26 +227,48 @@ def generate(d: Derivation) -> str:
     h = cdq + d.G
     lines = _body(d, [d.M[j, k] for j, k in upper] + list(h),
                   [f"M_{j}_{k}" for j, k in upper] + [f"h{i}" for i in range(n)], ["q", "dq"])
-    solve = [f"b{i} = tau{i} - h{i}" for i in range(n)] + _ldlt_solve(n, "M", "b", "out")
+    solve = [f"b{i} = tau{i} - h{i}" for i in range(n)] + _adjugate_solve(n, "M", "b", "out")
     unpack_state = [f"{s} = {a}[{i}]" for a, syms in (("q", d.q), ("dq", d.dq))
                     for i, s in enumerate(syms)] + [f"tau{i} = tau[{i}]" for i in range(n)]
     body = [ln for ln in lines if not any(ln.startswith(f"{s} = ") for s in (*d.q, *d.dq))]
     funcs.append(_function(
         "forward_dynamics", "q, dq, tau, p, g, out",
-        "ddq = M^-1 (tau - C dq - G) (eq 20) into out (n,), by an unrolled LDL^T solve.",
+        "ddq = M^-1 (tau - C dq - G) (eq 20) into out (n,), by the adjugate of M.",
         unpack_state + body + solve))
-    ret = [ln for ln in solve if not ln.startswith("out[")]
-    ret.append("return (" + ", ".join(f"w{i}" for i in range(n)) + ",)")
-    trig_args = ", ".join(f"s_{i}, c_{i}" for i in range(n))
-    vel_args = ", ".join([*map(str, d.dq)] + [f"tau{i}" for i in range(n)])
-    no_trig = [ln for ln in body if not any(ln.startswith(f"{t}_{i} = ") for t in "sc"
-                                            for i in range(n))]
+
+    # The stepper's kernels: parameter-only coefficients once per leg (``coefficients``),
+    # then M, C dq + G and G as polynomials in them (a third fewer operations).
+    nm = len(upper)
+    poly, kexprs, trig = _hoist(d, [d.M[j, k] for j, k in upper] + list(h) + list(d.G))
+    used = set().union(*(e.free_symbols for e in kexprs))
     funcs.append(_function(
-        "forward_dynamics_sc", f"{trig_args}, {vel_args}, p, g",
-        "forward_dynamics on scalars, given s_i = sin(q_i), c_i = cos(q_i) instead of q, returning\n"
-        "    the tuple ddq: no arrays, and a stepper that knows sin/cos cheaply (angle addition\n"
-        "    from the previous stage) skips libm.",
-        no_trig + ret))
+        "coefficients", "p, g, out",
+        f"The {len(kexprs)} parameter-only coefficients k of forward_dynamics_sc and gravity_sc\n"
+        "    into out, from the parameter vector p and g.",
+        _unpack(d, used, []) + _cse(kexprs, [f"out[{i}]" for i in range(len(kexprs))])))
+    trig_args = ", ".join(f"s_{i}, c_{i}" for i in range(n))
+
+    def hoisted(exprs: list[sp.Expr], targets: list[str]) -> list[str]:
+        used = set().union(*(e.free_symbols for e in exprs))
+        ks = [f"k{i} = k[{i}]" for i in range(len(kexprs)) if sp.Symbol(f"k{i}") in used]
+        return ks + _composites(trig, exprs) + _cse(exprs, targets)
+
+    g_body = hoisted(poly[nm + n:], [f"G{i}" for i in range(n)])
+    g_body.append("return (" + ", ".join(f"G{i}" for i in range(n)) + ",)")
+    funcs.append(_function(
+        "gravity_sc", f"{trig_args}, k",
+        "G given s_i = sin(q_i), c_i = cos(q_i) and the leg's coefficients k, as a tuple.",
+        g_body))
+    body = hoisted(poly[:nm + n], [f"M_{j}_{k}" for j, k in upper] + [f"h{i}" for i in range(n)])
+    body += [ln for ln in solve if not ln.startswith("out[")]
+    body.append("return (" + ", ".join(f"w{i}" for i in range(n)) + ",)")
+    vel_args = ", ".join([*map(str, d.dq)] + [f"tau{i}" for i in range(n)])
+    funcs.append(_function(
+        "forward_dynamics_sc", f"{trig_args}, {vel_args}, k",
+        "forward_dynamics on scalars, given s_i = sin(q_i), c_i = cos(q_i) instead of q and the\n"
+        "    leg's coefficients k, returning the tuple ddq: no arrays, and a stepper that knows\n"
+        "    sin/cos cheaply (angle addition from the previous stage) skips libm.",
+        body))
 
     ddq = sp.symbols(f"ddq0:{n}")
     tau_id = d.M * sp.Matrix(ddq) + h
@@ -223,6 +286,7 @@ def generate(d: Derivation) -> str:
         "from numba import njit\n\n"
 
         f"N_JOINTS = {n}\n"
+        f"N_COEFFICIENTS = {len(kexprs)}\n"
         f"OFFSETS = {tuple(d.offsets)!r}\n\n\n"
     )
     return header + "\n\n".join(funcs)

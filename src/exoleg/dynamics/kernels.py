@@ -20,8 +20,10 @@ from typing import Any
 from numba import guvectorize
 
 from exoleg.dynamics._generated import (
+    N_COEFFICIENTS,
     N_JOINTS,
     OFFSETS,
+    coefficients,
     coriolis_dq,
     coriolis_matrix,
     forward_dynamics,
@@ -36,8 +38,10 @@ from exoleg.dynamics._generated import (
 )
 
 __all__ = [
+    "N_COEFFICIENTS",
     "N_JOINTS",
     "OFFSETS",
+    "coefficients",
     "coriolis_dq",
     "coriolis_matrix",
     "forward_dynamics",

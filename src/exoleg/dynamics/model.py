@@ -46,7 +46,7 @@ class LegModel:
     dynamics (eq 20), inverse dynamics (eq 16).
     """
 
-    __slots__ = ("_p", "g", "links", "name")
+    __slots__ = ("_k", "_p", "g", "links", "name")
 
     def __init__(self, links: Sequence[Link], g: float = 9.81, name: str = "leg") -> None:
         links = tuple(links)
@@ -71,12 +71,24 @@ class LegModel:
         p = np.array([[lk.mass, lk.length, lk.com[0], lk.com[1], lk.izz] for lk in links]).ravel()
         p.setflags(write=False)
         self._p = p
+        self._k: F64 | None = None
 
     # ------------------------------------------------------------------ data
     @property
     def p(self) -> F64:
         """Parameter vector (15,): per link ``m, a, cx, cy, Izz`` (read-only)."""
         return self._p
+
+    @property
+    def coefficients(self) -> F64:
+        """The parameter-only coefficients of the stepper's kernels, from p and g (read-only;
+        see :func:`exoleg.dynamics.kernels.coefficients`)."""
+        if self._k is None:
+            k = np.empty(K.N_COEFFICIENTS)
+            K.coefficients(self._p, self.g, k)
+            k.setflags(write=False)
+            self._k = k
+        return self._k
 
     @property
     def lengths(self) -> F64:

@@ -7,15 +7,14 @@ fixed step; the torque, speed and power peaks are recorded from step ``start`` o
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
 from exoleg.control.laws import PD_GRAVITY_KIND, pd_law
+from exoleg.dynamics.kernels import N_COEFFICIENTS, coefficients
 from exoleg.errors import SimulationError
-from exoleg.sim.integrators import rk4_sc
+from exoleg.sim.integrators import next_sincos, rk4_sc, sincos3
 
 F64 = NDArray[np.float64]
 
@@ -23,13 +22,13 @@ F64 = NDArray[np.float64]
 @njit(cache=True)
 def _one(p, g, kp, kd, Qr, DQr, dt, q_init, dq_init, start, out, limit):  # type: ignore[no-untyped-def]
     """One leg: writes its peaks into out (3, 3); NaN if the state became non-finite."""
+    k_leg = np.empty(N_COEFFICIENTS)
+    coefficients(p, g, k_leg)
     q0, q1, q2 = q_init[0], q_init[1], q_init[2]
     v0, v1, v2 = dq_init[0], dq_init[1], dq_init[2]
+    s0, c0, s1, c1, s2, c2 = sincos3(q0, q1, q2)
     for k in range(Qr.shape[0] - 1):
-        s0, c0 = math.sin(q0), math.cos(q0)
-        s1, c1 = math.sin(q1), math.cos(q1)
-        s2, c2 = math.sin(q2), math.cos(q2)
-        u0, u1, u2, _ = pd_law(PD_GRAVITY_KIND, kp, kd, p, g, 1.0, limit, s0, c0, s1, c1,
+        u0, u1, u2, _ = pd_law(PD_GRAVITY_KIND, kp, kd, k_leg, 1.0, limit, s0, c0, s1, c1,
                                s2, c2, q0, q1, q2, v0, v1, v2, Qr[k, 0], Qr[k, 1], Qr[k, 2],
                                DQr[k, 0], DQr[k, 1], DQr[k, 2])
         if k >= start:
@@ -42,7 +41,8 @@ def _one(p, g, kp, kd, Qr, DQr, dt, q_init, dq_init, start, out, limit):  # type
             out[2, 0] = max(out[2, 0], abs(u0 * v0))
             out[2, 1] = max(out[2, 1], abs(u1 * v1))
             out[2, 2] = max(out[2, 2], abs(u2 * v2))
-        qn, vn, _ = rk4_sc(s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2, u0, u1, u2, p, g, dt)
+        qn, vn, _ = rk4_sc(s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2, u0, u1, u2, k_leg, dt)
+        s0, c0, s1, c1, s2, c2 = next_sincos(s0, c0, s1, c1, s2, c2, q0, q1, q2, qn, k + 1)
         q0, q1, q2 = qn
         v0, v1, v2 = vn
         if not (np.isfinite(q0) and np.isfinite(q1) and np.isfinite(q2)):

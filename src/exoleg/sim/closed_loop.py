@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,6 +14,8 @@ from numpy.typing import ArrayLike, NDArray
 from exoleg.control.controllers import Controller
 from exoleg.control.laws import COMPUTED_TORQUE_KIND, control_law, pd_law
 from exoleg.dynamics.kernels import (
+    N_COEFFICIENTS,
+    coefficients,
     coriolis_matrix,
     forward_dynamics,
     kinetic_energy,
@@ -26,7 +27,7 @@ from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError, SimulationError
 from exoleg.params.records import JOINTS
 from exoleg.reference.steps import Reference
-from exoleg.sim.integrators import rk4_sc
+from exoleg.sim.integrators import RESYNC, next_sincos, rk4_sc, sincos3
 
 F64 = NDArray[np.float64]
 log = logging.getLogger(__name__)
@@ -59,7 +60,7 @@ def _diagnostics(p, g, kp_eff, q, dq, q_ref, out, mats):  # type: ignore[no-unty
 
 
 @njit(cache=True)
-def _run(p, g, kind, kp, kd, pc, gc, scale, limit, Qr, DQr, DDQr, dt, hold,  # type: ignore[no-untyped-def]
+def _run(p, g, kind, kp, kd, pc, kc, scale, limit, Qr, DQr, DDQr, dt, hold,  # type: ignore[no-untyped-def]
          Q, DQ, DDQ, U, SAT, E, k0, k1, u, mask, diagnostics):
     """Integrate steps k0 .. k1-1 from the state in Q[k0], DQ[k0].
 
@@ -71,28 +72,33 @@ def _run(p, g, kind, kp, kd, pc, gc, scale, limit, Qr, DQr, DDQr, dt, hold,  # t
     cwork = np.empty((5, 3))
     mats = np.empty((3, 3, 3))
     kp_eff = np.empty(3)
+    coef = np.empty(N_COEFFICIENTS)
+    coefficients(p, g, coef)
     for i in range(3):
         kp_eff[i] = scale * kp[i]
     q0, q1, q2 = Q[k0, 0], Q[k0, 1], Q[k0, 2]
     v0, v1, v2 = DQ[k0, 0], DQ[k0, 1], DQ[k0, 2]
+    s0, c0, s1, c1, s2, c2 = sincos3(q0, q1, q2)
+    held = k0 % hold  # steps since the controller last sampled
     for k in range(k0, k1):
         if diagnostics:
             _diagnostics(p, g, kp_eff, Q[k], DQ[k], Qr[k], E[k], mats)
-        s0, c0 = math.sin(q0), math.cos(q0)
-        s1, c1 = math.sin(q1), math.cos(q1)
-        s2, c2 = math.sin(q2), math.cos(q2)
-        if k % hold == 0:
+        if held == hold:
+            held = 0
+        held += 1
+        if held == 1:
             if kind == COMPUTED_TORQUE_KIND:
-                mask[0] = control_law(kind, kp, kd, pc, gc, scale, limit, Q[k], DQ[k], Qr[k],
+                mask[0] = control_law(kind, kp, kd, pc, kc, scale, limit, Q[k], DQ[k], Qr[k],
                                       DQr[k], DDQr[k], u, cwork)
             else:
                 u[0], u[1], u[2], mask[0] = pd_law(
-                    kind, kp, kd, pc, gc, scale, limit, s0, c0, s1, c1, s2, c2, q0, q1, q2,
+                    kind, kp, kd, kc, scale, limit, s0, c0, s1, c1, s2, c2, q0, q1, q2,
                     v0, v1, v2, Qr[k, 0], Qr[k, 1], Qr[k, 2], DQr[k, 0], DQr[k, 1], DQr[k, 2])
         U[k, 0], U[k, 1], U[k, 2] = u[0], u[1], u[2]
         SAT[k] = mask[0]
         qn, vn, a = rk4_sc(s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2, u[0], u[1], u[2],
-                           p, g, dt)
+                           coef, dt)
+        s0, c0, s1, c1, s2, c2 = next_sincos(s0, c0, s1, c1, s2, c2, q0, q1, q2, qn, k + 1)
         q0, q1, q2 = qn
         v0, v1, v2 = vn
         Q[k + 1, 0], Q[k + 1, 1], Q[k + 1, 2] = qn
@@ -188,7 +194,7 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
     :class:`~exoleg.errors.SimulationError` naming the time and joint if the state
     stops being finite, and refuses gains the sampled loop cannot keep stable
     (h * lambda >= 2). ``progress``, if given, is called with the fraction done
-    (the run is then done in about 100 chunks).
+    (the run is then done in about 100 chunks; the result is the same bit for bit).
     """
     for nm, v in (("duration", duration), ("dt", dt)):
         if not (np.isfinite(v) and v > 0):
@@ -229,14 +235,16 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
     Q, DQ, DDQ, U = (np.empty((n + 1, 3)) for _ in range(4))
     SAT = np.zeros(n + 1, dtype=np.int64)
     E = np.zeros((n + 1, 5))
-    pc, gc = controller.model_params()
+    pc, kc = controller.model_params()
     Q[0], DQ[0] = q_init, dq_init
     u, mask = np.zeros(3), np.zeros(1, dtype=np.int64)
-    chunk = n if progress is None else max(1, n // 100)
+    # chunks start where the stepper re-anchors its carried sin/cos anyway, so a run with
+    # progress reports is bit for bit the run without
+    chunk = n if progress is None else RESYNC * max(1, n // (100 * RESYNC))
     bad = -1
     for k0 in range(0, n, chunk):
         k1 = min(n, k0 + chunk)
-        bad = _run(leg.p, leg.g, controller.kind, controller.Kp, controller.Kd, pc, gc,
+        bad = _run(leg.p, leg.g, controller.kind, controller.Kp, controller.Kd, pc, kc,
                    controller.scale, controller.saturation, Qr, DQr, DDQr, dt, hold, Q, DQ, DDQ,
                    U, SAT, E, k0, k1, u, mask, True)
         if progress is not None:

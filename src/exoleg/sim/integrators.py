@@ -1,8 +1,9 @@
 """Fixed-step integrators for the leg, compiled with numba.
 
-``rk4_scalar`` / ``rk4_sc`` are the classical fourth-order Runge-Kutta step of
-the state (q, dq) under a torque held constant over the step (zero-order hold),
-the dynamics being the generated forward dynamics (eq 20).
+``rk4_sc`` is the classical fourth-order Runge-Kutta step of the state (q, dq)
+under a torque held constant over the step (zero-order hold), the dynamics being
+the generated forward dynamics (eq 20); ``next_sincos`` carries the joint angles'
+sin/cos from step to step; ``rollout`` is the passive (constant-torque) loop.
 """
 
 from __future__ import annotations
@@ -13,24 +14,35 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from exoleg.dynamics.kernels import forward_dynamics_sc
+from exoleg.dynamics.kernels import N_COEFFICIENTS, coefficients, forward_dynamics_sc
 
 F64 = NDArray[np.float64]
 
 
-_SMALL = 0.1  # rad: below this, sin and cos of an increment come from their Taylor series
+# sin and cos of an angle increment |d| <= 0.1 rad come from their Taylor series, which
+# is exact to double precision there and much cheaper than libm; the coefficients are
+# multiplications (a division per term, the divider being slow and not pipelined, cost
+# more than the rest of the step's trig). Increments of a 1 ms step are mostly below
+# 0.02 rad (20 rad/s), where a shorter series is as exact and shortens the chain of
+# dependent operations each RK4 stage waits on.
+_SMALL, _TINY = 0.1, 0.02
+_S3, _S5, _S7, _S9, _S11 = -1 / 6, 1 / 120, -1 / 5040, 1 / 362880, -1 / 39916800
+_C2, _C4, _C6, _C8, _C10, _C12 = -1 / 2, 1 / 24, -1 / 720, 1 / 40320, -1 / 3628800, 1 / 479001600
 
 
 @njit(inline="always", cache=True, error_model="numpy")
 def _sincos_small(d):  # type: ignore[no-untyped-def]
-    """(sin d, cos d): Taylor to d^11 / d^12 for |d| <= 0.1 (truncation < 1e-22), else libm."""
+    """(sin d, cos d). Truncation error: for |d| <= 0.02, Taylor to d^7 / d^8, below
+    d^9/9! = 1.4e-21 and d^10/10! = 2.8e-24; for |d| <= 0.1, to d^11 / d^12, below 1e-22;
+    beyond, libm."""
+    z = d * d
+    if abs(d) <= _TINY:
+        return (d + d * z * (_S3 + z * (_S5 + z * _S7)),
+                1.0 + z * (_C2 + z * (_C4 + z * (_C6 + z * _C8))))
     if abs(d) > _SMALL:
         return math.sin(d), math.cos(d)
-    z = d * d
-    sn = d * (1.0 - z / 6.0 * (1.0 - z / 20.0 * (1.0 - z / 42.0 * (1.0 - z / 72.0 * (
-        1.0 - z / 110.0)))))
-    cs = 1.0 - z / 2.0 * (1.0 - z / 12.0 * (1.0 - z / 30.0 * (1.0 - z / 56.0 * (1.0 - z / 90.0 * (
-        1.0 - z / 132.0)))))
+    sn = d + d * z * (_S3 + z * (_S5 + z * (_S7 + z * (_S9 + z * _S11))))
+    cs = 1.0 + z * (_C2 + z * (_C4 + z * (_C6 + z * (_C8 + z * (_C10 + z * _C12)))))
     return sn, cs
 
 
@@ -41,40 +53,61 @@ def _shift(s, c, d):  # type: ignore[no-untyped-def]
     return s * cd + c * sd, c * cd - s * sd
 
 
-@njit(cache=True, error_model="numpy")
-def rk4_scalar(q0, q1, q2, v0, v1, v2, t0, t1, t2, p, g, h):  # type: ignore[no-untyped-def]
-    """One RK4 step on scalars; returns (q', dq', ddq at the start), each a 3-tuple."""
-    return rk4_sc(math.sin(q0), math.cos(q0), math.sin(q1), math.cos(q1), math.sin(q2),
-                  math.cos(q2), q0, q1, q2, v0, v1, v2, t0, t1, t2, p, g, h)
+#: A loop that carries sin/cos of the joint angles from step to step (:func:`next_sincos`)
+#: takes them from libm at every RESYNC-th step, so their rounding cannot accumulate.
+RESYNC = 16
+
+
+@njit(inline="always", cache=True)
+def sincos3(q0, q1, q2):  # type: ignore[no-untyped-def]
+    """(sin q0, cos q0, sin q1, cos q1, sin q2, cos q2) from libm."""
+    return math.sin(q0), math.cos(q0), math.sin(q1), math.cos(q1), math.sin(q2), math.cos(q2)
+
+
+@njit(inline="always", cache=True)
+def next_sincos(s0, c0, s1, c1, s2, c2, q0, q1, q2, qn, k):  # type: ignore[no-untyped-def]
+    """:func:`sincos3` of the joint angles ``qn`` (a 3-tuple) after step k, given s_i, c_i
+    = sin, cos of q_i before it: by angle addition of the increments qn_i - q_i (a few
+    roundings, no libm call), except at every :data:`RESYNC`-th step, where libm
+    re-anchors them."""
+    if k % RESYNC == 0:
+        return sincos3(qn[0], qn[1], qn[2])
+    u0, w0 = _shift(s0, c0, qn[0] - q0)
+    u1, w1 = _shift(s1, c1, qn[1] - q1)
+    u2, w2 = _shift(s2, c2, qn[2] - q2)
+    return u0, w0, u1, w1, u2, w2
 
 
 @njit(inline="always", cache=True, error_model="numpy")
-def rk4_sc(s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2, t0, t1, t2, p, g, h):  # type: ignore[no-untyped-def]
-    """:func:`rk4_scalar` given s_i, c_i = sin, cos of q_i (a caller that needs them too,
-    e.g. for G in the control law, computes them once).
+def rk4_sc(s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2, t0, t1, t2, k, h):  # type: ignore[no-untyped-def]
+    """One RK4 step on scalars; returns (q', dq', ddq at the start), each a 3-tuple.
+
+    s_i, c_i = sin, cos of q_i (a caller that needs them too, e.g. for G in the control
+    law, computes them once, or carries them by :func:`next_sincos`); ``k`` the leg's
+    coefficients (:func:`exoleg.dynamics.kernels.coefficients`).
 
     Scalars and tuples only, so nothing is allocated or reference-counted in the loop.
     The later stages' angles are q + delta with delta = h/2 v or h v; their sin/cos
     follow by angle addition from sin/cos of the small delta, so libm is called once
     per joint and step (it was the dominant cost).
     """
-    a0, a1, a2 = forward_dynamics_sc(s0, c0, s1, c1, s2, c2, v0, v1, v2, t0, t1, t2, p, g)
+    a0, a1, a2 = forward_dynamics_sc(s0, c0, s1, c1, s2, c2, v0, v1, v2, t0, t1, t2, k)
     hh = 0.5 * h
     u0, w0 = _shift(s0, c0, hh * v0)
     u1, w1 = _shift(s1, c1, hh * v1)
     u2, w2 = _shift(s2, c2, hh * v2)
     e0, e1, e2 = v0 + hh * a0, v1 + hh * a1, v2 + hh * a2  # velocity at stage 2
-    b0, b1, b2 = forward_dynamics_sc(u0, w0, u1, w1, u2, w2, e0, e1, e2, t0, t1, t2, p, g)
+    b0, b1, b2 = forward_dynamics_sc(u0, w0, u1, w1, u2, w2, e0, e1, e2, t0, t1, t2, k)
     u0, w0 = _shift(s0, c0, hh * e0)
     u1, w1 = _shift(s1, c1, hh * e1)
     u2, w2 = _shift(s2, c2, hh * e2)
     f0, f1, f2 = v0 + hh * b0, v1 + hh * b1, v2 + hh * b2  # velocity at stage 3
-    c_0, c_1, c_2 = forward_dynamics_sc(u0, w0, u1, w1, u2, w2, f0, f1, f2, t0, t1, t2, p, g)
+    c_0, c_1, c_2 = forward_dynamics_sc(u0, w0, u1, w1, u2, w2, f0, f1, f2, t0, t1, t2, k)
     u0, w0 = _shift(s0, c0, h * f0)
     u1, w1 = _shift(s1, c1, h * f1)
     u2, w2 = _shift(s2, c2, h * f2)
     y0, y1, y2 = v0 + h * c_0, v1 + h * c_1, v2 + h * c_2  # velocity at stage 4
-    d0, d1, d2 = forward_dynamics_sc(u0, w0, u1, w1, u2, w2, y0, y1, y2, t0, t1, t2, p, g)
+    d0, d1, d2 = forward_dynamics_sc(u0, w0, u1, w1, u2, w2, y0, y1, y2, t0, t1, t2, k)
     s = h / 6.0
     qn = (q0 + s * (v0 + 2.0 * e0 + 2.0 * f0 + y0), q1 + s * (v1 + 2.0 * e1 + 2.0 * f1 + y1),
           q2 + s * (v2 + 2.0 * e2 + 2.0 * f2 + y2))
@@ -93,8 +126,13 @@ def rollout(p, g, q0, dq0, tau, h, n_steps):  # type: ignore[no-untyped-def]
     q0_, q1_, q2_ = Q[0, 0], Q[0, 1], Q[0, 2]
     v0_, v1_, v2_ = DQ[0, 0], DQ[0, 1], DQ[0, 2]
     t0_, t1_, t2_ = tau[0], tau[1], tau[2]
+    coef = np.empty(N_COEFFICIENTS)
+    coefficients(p, g, coef)
+    s0, c0, s1, c1, s2, c2 = sincos3(q0_, q1_, q2_)
     for k in range(n_steps):
-        qn, vn, _ = rk4_scalar(q0_, q1_, q2_, v0_, v1_, v2_, t0_, t1_, t2_, p, g, h)
+        qn, vn, _ = rk4_sc(s0, c0, s1, c1, s2, c2, q0_, q1_, q2_, v0_, v1_, v2_, t0_, t1_, t2_,
+                           coef, h)
+        s0, c0, s1, c1, s2, c2 = next_sincos(s0, c0, s1, c1, s2, c2, q0_, q1_, q2_, qn, k + 1)
         q0_, q1_, q2_ = qn
         v0_, v1_, v2_ = vn
         Q[k + 1, 0], Q[k + 1, 1], Q[k + 1, 2] = qn

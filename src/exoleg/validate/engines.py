@@ -114,8 +114,8 @@ class MujocoLeg:
         d.qpos[:], d.qvel[:] = q0, dq0
         out = np.empty((len(q_ref), 3))
         out[0] = d.qpos
-        pc, gc = controller.model_params()
-        args = (controller.kind, controller.Kp, controller.Kd, pc, gc, controller.scale,
+        pc, kc = controller.model_params()
+        args = (controller.kind, controller.Kp, controller.Kd, pc, kc, controller.scale,
                 controller.saturation)
         u, work = np.zeros(3), np.empty((5, 3))
         qpos, qvel = d.qpos, d.qvel  # views into MuJoCo's state
