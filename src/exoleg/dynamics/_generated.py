@@ -482,7 +482,7 @@ def coefficients(p, g, out):
     out[20] = cy2*x13
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def gravity_sc(s_0, c_0, s_1, c_1, s_2, c_2, k):
     """G given s_i = sin(q_i), c_i = cos(q_i) and the leg's coefficients k, as a tuple."""
     k15 = k[15]
@@ -503,7 +503,7 @@ def gravity_sc(s_0, c_0, s_1, c_1, s_2, c_2, k):
     return (G0, G1, G2,)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def forward_dynamics_sc(s_0, c_0, s_1, c_1, s_2, c_2, dq0, dq1, dq2, tau0, tau1, tau2, k):
     """forward_dynamics on scalars, given s_i = sin(q_i), c_i = cos(q_i) instead of q and the
     leg's coefficients k, returning the tuple ddq: no arrays, and a stepper that knows

@@ -185,11 +185,14 @@ def _adjugate_solve(n: int, mat: str, rhs: str, out: str) -> list[str]:
     return lines
 
 
-def _function(name: str, args: str, doc: str, lines: list[str]) -> str:
+def _function(name: str, args: str, doc: str, lines: list[str], inline: bool = False) -> str:
+    """A numba kernel. error_model="numpy": a zero divisor gives inf/NaN (caught by the
+    callers' finiteness checks) instead of a branch per division to raise
+    ZeroDivisionError. ``inline``: inlined into the numba caller (the stepper's kernels:
+    as calls they cost a reference count on ``k`` each and block scheduling across them)."""
     body = "\n".join("    " + ln for ln in lines)
-    # error_model="numpy": a zero divisor gives inf/NaN (caught by the callers' finiteness
-    # checks) instead of a branch per division to raise ZeroDivisionError.
-    return (f'@njit(cache=True, error_model="numpy")\ndef {name}({args}):\n'
+    flags = ', inline="always"' if inline else ""
+    return (f'@njit(cache=True, error_model="numpy"{flags})\ndef {name}({args}):\n'
             f'    """{doc}"""\n{body}\n')
 
 
@@ -258,7 +261,7 @@ def generate(d: Derivation) -> str:
     funcs.append(_function(
         "gravity_sc", f"{trig_args}, k",
         "G given s_i = sin(q_i), c_i = cos(q_i) and the leg's coefficients k, as a tuple.",
-        g_body))
+        g_body, inline=True))
     body = hoisted(poly[:nm + n], [f"M_{j}_{k}" for j, k in upper] + [f"h{i}" for i in range(n)])
     body += [ln for ln in solve if not ln.startswith("out[")]
     body.append("return (" + ", ".join(f"w{i}" for i in range(n)) + ",)")
@@ -268,7 +271,7 @@ def generate(d: Derivation) -> str:
         "forward_dynamics on scalars, given s_i = sin(q_i), c_i = cos(q_i) instead of q and the\n"
         "    leg's coefficients k, returning the tuple ddq: no arrays, and a stepper that knows\n"
         "    sin/cos cheaply (angle addition from the previous stage) skips libm.",
-        body))
+        body, inline=True))
 
     ddq = sp.symbols(f"ddq0:{n}")
     tau_id = d.M * sp.Matrix(ddq) + h

@@ -19,7 +19,7 @@ from exoleg.sim.integrators import next_sincos, rk4_sc, sincos3
 F64 = NDArray[np.float64]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _one(p, g, kp, kd, Qr, DQr, dt, q_init, dq_init, start, out, limit):  # type: ignore[no-untyped-def]
     """One leg: writes its peaks into out (3, 3); NaN if the state became non-finite."""
     k_leg = np.empty(N_COEFFICIENTS)
@@ -27,20 +27,16 @@ def _one(p, g, kp, kd, Qr, DQr, dt, q_init, dq_init, start, out, limit):  # type
     q0, q1, q2 = q_init[0], q_init[1], q_init[2]
     v0, v1, v2 = dq_init[0], dq_init[1], dq_init[2]
     s0, c0, s1, c1, s2, c2 = sincos3(q0, q1, q2)
+    # peaks in locals (stores into ``out`` at every step would be kept in memory)
+    t0 = t1 = t2 = w0 = w1 = w2 = e0 = e1 = e2 = 0.0
     for k in range(Qr.shape[0] - 1):
         u0, u1, u2, _ = pd_law(PD_GRAVITY_KIND, kp, kd, k_leg, 1.0, limit, s0, c0, s1, c1,
                                s2, c2, q0, q1, q2, v0, v1, v2, Qr[k, 0], Qr[k, 1], Qr[k, 2],
                                DQr[k, 0], DQr[k, 1], DQr[k, 2])
         if k >= start:
-            out[0, 0] = max(out[0, 0], abs(u0))
-            out[0, 1] = max(out[0, 1], abs(u1))
-            out[0, 2] = max(out[0, 2], abs(u2))
-            out[1, 0] = max(out[1, 0], abs(v0))
-            out[1, 1] = max(out[1, 1], abs(v1))
-            out[1, 2] = max(out[1, 2], abs(v2))
-            out[2, 0] = max(out[2, 0], abs(u0 * v0))
-            out[2, 1] = max(out[2, 1], abs(u1 * v1))
-            out[2, 2] = max(out[2, 2], abs(u2 * v2))
+            t0, t1, t2 = max(t0, abs(u0)), max(t1, abs(u1)), max(t2, abs(u2))
+            w0, w1, w2 = max(w0, abs(v0)), max(w1, abs(v1)), max(w2, abs(v2))
+            e0, e1, e2 = max(e0, abs(u0 * v0)), max(e1, abs(u1 * v1)), max(e2, abs(u2 * v2))
         qn, vn, _ = rk4_sc(s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2, u0, u1, u2, k_leg, dt)
         s0, c0, s1, c1, s2, c2 = next_sincos(s0, c0, s1, c1, s2, c2, q0, q1, q2, qn, k + 1)
         q0, q1, q2 = qn
@@ -48,6 +44,9 @@ def _one(p, g, kp, kd, Qr, DQr, dt, q_init, dq_init, start, out, limit):  # type
         if not (np.isfinite(q0) and np.isfinite(q1) and np.isfinite(q2)):
             out[:, :] = np.nan
             return
+    out[0, 0], out[0, 1], out[0, 2] = t0, t1, t2
+    out[1, 0], out[1, 1], out[1, 2] = w0, w1, w2
+    out[2, 0], out[2, 1], out[2, 2] = e0, e1, e2
 
 
 @njit(parallel=True, cache=True)

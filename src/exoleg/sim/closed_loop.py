@@ -59,7 +59,7 @@ def _diagnostics(p, g, kp_eff, q, dq, q_ref, out, mats):  # type: ignore[no-unty
     out[4] = mdq
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _run(p, g, kind, kp, kd, pc, kc, scale, limit, Qr, DQr, DDQr, dt, hold,  # type: ignore[no-untyped-def]
          Q, DQ, DDQ, U, SAT, E, k0, k1, u, mask, diagnostics):
     """Integrate steps k0 .. k1-1 from the state in Q[k0], DQ[k0].
