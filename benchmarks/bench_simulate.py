@@ -48,11 +48,10 @@ def main() -> None:
     Qr, DQr, DDQr = (np.ascontiguousarray(a) for a in ref.sample(t))
     Q, DQ, DDQ, U = (np.zeros((N + 1, 3)) for _ in range(4))
     SAT, E = np.zeros(N + 1, dtype=np.int64), np.zeros((N + 1, 5))
-    pc, kc = ctrl.model_params()
 
     def exo_loop() -> None:
         Q[0], DQ[0] = 0.0, 0.0
-        _run(leg.p, leg.g, ctrl.kind, ctrl.Kp, ctrl.Kd, pc, kc, 1.0, ctrl.saturation, Qr, DQr,
+        _run(leg.p, leg.g, ctrl.kind, *ctrl.law_args(), Qr, DQr,
              DDQr, DT, 1, Q, DQ, DDQ, U, SAT, E, 0, N, np.zeros(3), np.zeros(1, np.int64), False)
 
     rows = [("exoleg compiled loop", best(exo_loop, 15))]

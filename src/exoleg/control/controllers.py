@@ -65,17 +65,23 @@ class Controller:
             if a.shape != (3,) or not np.all(np.isfinite(a)):
                 raise ParameterError(self.name, nm, f"expected 3 finite values, got {a!r}")
         u = np.empty(3)
-        mask = laws.control_law(  # type: ignore[call-arg]
-            self.kind, self.Kp, self.Kd, *self.model_params(), self.scale, self.saturation,
-            *args, u, np.empty((5, 3)))
+        mask = laws.control_law(self.kind, *self.law_args(), *args, u)  # type: ignore[call-arg]
         return u, int(mask)
 
-    def model_params(self) -> tuple[F64, F64]:
-        """(p, k): the parameter vector and the coefficients of the controller's model
-        (:attr:`LegModel.coefficients`); zeros when it uses none."""
+    def law_args(self) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...], float,
+                                tuple[float, ...]]:
+        """(Kp, Kd, model coefficients, scale, saturation) as the compiled laws take them
+        (:func:`exoleg.control.laws.law`; tuples are passed by value)."""
+        return (tuple(map(float, self.Kp)), tuple(map(float, self.Kd)), self.coefficients,
+                self.scale, tuple(map(float, self.saturation)))
+
+    @property
+    def coefficients(self) -> tuple[float, ...]:
+        """The coefficients of the controller's model (:attr:`LegModel.coefficients`);
+        zeros when it uses none."""
         if self.model is None:
-            return np.zeros(15), np.zeros(N_COEFFICIENTS)
-        return np.asarray(self.model.p), self.model.coefficients
+            return (0.0,) * N_COEFFICIENTS
+        return self.model.coefficients
 
 
 def PDGravity(model: LegModel, Kp: ArrayLike | None = None, Kd: ArrayLike | None = None,  # noqa: N802

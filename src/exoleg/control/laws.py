@@ -1,22 +1,21 @@
 """The control laws, compiled: one implementation for the simulator's loop and for Python callers.
 
 ``kind``: 0 plain PD, 1 PD + gravity compensation (paper eq 23), 2 computed torque.
-``pc`` is the controller's own model parameter vector (it may differ from the
-plant's, to study model error), ``kc`` that model's coefficients with its g
-(:func:`exoleg.dynamics.kernels.coefficients`). ``scale`` multiplies the torque (the
-paper doubles the torque applied to its detailed model). ``limit`` holds per-joint
-torque limits (inf = none). Each law returns the saturation flags as a bit mask
-(bit i set when joint i was clipped).
+``kc`` holds the coefficients of the controller's own model
+(:func:`exoleg.dynamics.kernels.coefficients` of its parameters and g; it may
+differ from the plant's, to study model error). ``scale`` multiplies the torque
+(the paper doubles the torque applied to its detailed model). ``limit`` holds
+per-joint torque limits (inf = none). Each law returns the saturation flags as a
+bit mask (bit i set when joint i was clipped).
 """
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 
-from exoleg.dynamics.kernels import coriolis_dq, gravity_sc, mass_matrix
+from exoleg.dynamics.kernels import gravity_sc, inverse_dynamics_sc
 
 PD_KIND = 0
 PD_GRAVITY_KIND = 1
@@ -34,10 +33,13 @@ def _clip(u, limit):  # type: ignore[no-untyped-def]
 
 
 @njit(inline="always", cache=True)
-def pd_law(kind, kp, kd, kc, scale, limit, s0, c0, s1, c1, s2, c2,  # type: ignore[no-untyped-def]
-           q0, q1, q2, v0, v1, v2, r0, r1, r2, w0, w1, w2):
-    """PD or PD + gravity compensation on scalars: state q, v; reference r, w (= dq_ref);
-    s_i, c_i = sin, cos of q_i. Returns (u0, u1, u2, mask)."""
+def law(kind, kp, kd, kc, scale, limit, s0, c0, s1, c1, s2, c2,  # type: ignore[no-untyped-def]
+        q0, q1, q2, v0, v1, v2, r0, r1, r2, w0, w1, w2, a0, a1, a2):
+    """Any law on scalars: state q, v (s_i, c_i = sin, cos of q_i); reference r, its
+    rate w and acceleration a. Returns (u0, u1, u2, mask).
+
+    PD: Kp (r - q) + Kd (w - v); PD + gravity compensation adds G(q); computed torque
+    is M(q) (a + Kp (r - q) + Kd (w - v)) + C(q, v) v + G(q)."""
     u0 = kp[0] * (r0 - q0) + kd[0] * (w0 - v0)
     u1 = kp[1] * (r1 - q1) + kd[1] * (w1 - v1)
     u2 = kp[2] * (r2 - q2) + kd[2] * (w2 - v2)
@@ -46,6 +48,9 @@ def pd_law(kind, kp, kd, kc, scale, limit, s0, c0, s1, c1, s2, c2,  # type: igno
         u0 += g0
         u1 += g1
         u2 += g2
+    elif kind == COMPUTED_TORQUE_KIND:
+        u0, u1, u2 = inverse_dynamics_sc(s0, c0, s1, c1, s2, c2, v0, v1, v2,
+                                         a0 + u0, a1 + u1, a2 + u2, kc)
     u0, m0 = _clip(scale * u0, limit[0])
     u1, m1 = _clip(scale * u1, limit[1])
     u2, m2 = _clip(scale * u2, limit[2])
@@ -53,29 +58,11 @@ def pd_law(kind, kp, kd, kc, scale, limit, s0, c0, s1, c1, s2, c2,  # type: igno
 
 
 @njit(cache=True)
-def control_law(kind, kp, kd, pc, kc, scale, limit, q, dq, q_ref, dq_ref, ddq_ref, u, work):  # type: ignore[no-untyped-def]
-    """Any law on arrays (3,): writes the torque into ``u``; ``work`` is scratch (5, 3).
-    Returns the saturation mask."""
-    if kind != COMPUTED_TORQUE_KIND:
-        u[0], u[1], u[2], mask = pd_law(
-            kind, kp, kd, kc, scale, limit, math.sin(q[0]), math.cos(q[0]),
-            math.sin(q[1]), math.cos(q[1]), math.sin(q[2]), math.cos(q[2]),
-            q[0], q[1], q[2], dq[0], dq[1], dq[2], q_ref[0], q_ref[1], q_ref[2],
-            dq_ref[0], dq_ref[1], dq_ref[2])
-        return mask
-    a = work[2]
-    h = work[3]
-    for i in range(3):
-        a[i] = ddq_ref[i] + kp[i] * (q_ref[i] - q[i]) + kd[i] * (dq_ref[i] - dq[i])
-    M = np.empty((3, 3))
-    mass_matrix(q, pc, M)
-    coriolis_dq(q, dq, pc, h)
-    g0, g1, g2 = gravity_sc(math.sin(q[0]), math.cos(q[0]), math.sin(q[1]), math.cos(q[1]),
-                            math.sin(q[2]), math.cos(q[2]), kc)
-    grav = (g0, g1, g2)
-    mask = 0
-    for i in range(3):
-        ui = M[i, 0] * a[0] + M[i, 1] * a[1] + M[i, 2] * a[2] + h[i] + grav[i]
-        u[i], m = _clip(scale * ui, limit[i])
-        mask |= m << i
+def control_law(kind, kp, kd, kc, scale, limit, q, dq, q_ref, dq_ref, ddq_ref, u):  # type: ignore[no-untyped-def]
+    """:func:`law` on arrays (3,): writes the torque into ``u``; returns the saturation mask."""
+    u[0], u[1], u[2], mask = law(
+        kind, kp, kd, kc, scale, limit, math.sin(q[0]), math.cos(q[0]), math.sin(q[1]),
+        math.cos(q[1]), math.sin(q[2]), math.cos(q[2]), q[0], q[1], q[2], dq[0], dq[1], dq[2],
+        q_ref[0], q_ref[1], q_ref[2], dq_ref[0], dq_ref[1], dq_ref[2],
+        ddq_ref[0], ddq_ref[1], ddq_ref[2])
     return mask

@@ -428,9 +428,9 @@ def forward_dynamics(q, dq, tau, p, g, out):
 
 
 @njit(cache=True, error_model="numpy")
-def coefficients(p, g, out):
-    """The 21 parameter-only coefficients k of forward_dynamics_sc and gravity_sc
-    into out, from the parameter vector p and g."""
+def coefficients(p, g):
+    """The 21 parameter-only coefficients k of the *_sc kernels,
+    from the parameter vector p and g, as a tuple (passed by value: no reference count)."""
     m0 = p[0]
     a0 = p[1]
     cx0 = p[2]
@@ -459,27 +459,28 @@ def coefficients(p, g, out):
     x11 = I2 + cx2*cx2*m2 + cy2*cy2*m2
     x12 = I1 + a1*a1*m2 + cx1*cx1*m1 + cy1*cy1*m1 + x11
     x13 = g*m2
-    out[0] = 2*x2
-    out[1] = 2*x4
-    out[2] = 2*x5
-    out[3] = 2*x7
-    out[4] = 2*x8
-    out[5] = 2*x9
-    out[6] = I0 + cx0*cx0*m0 + cy0*cy0*m0 + m1*x10 + m2*x10 + x12
-    out[7] = x2
-    out[8] = x4
-    out[9] = x7
-    out[10] = x8
-    out[11] = x12
-    out[12] = x5
-    out[13] = x9
-    out[14] = x11
-    out[15] = cy0*g*m0
-    out[16] = cy1*g*m1
-    out[17] = cx2*x13
-    out[18] = g*(cx0*m0 + x3 + x6)
-    out[19] = g*x1
-    out[20] = cy2*x13
+    k0 = 2*x2
+    k1 = 2*x4
+    k2 = 2*x5
+    k3 = 2*x7
+    k4 = 2*x8
+    k5 = 2*x9
+    k6 = I0 + cx0*cx0*m0 + cy0*cy0*m0 + m1*x10 + m2*x10 + x12
+    k7 = x2
+    k8 = x4
+    k9 = x7
+    k10 = x8
+    k11 = x12
+    k12 = x5
+    k13 = x9
+    k14 = x11
+    k15 = cy0*g*m0
+    k16 = cy1*g*m1
+    k17 = cx2*x13
+    k18 = g*(cx0*m0 + x3 + x6)
+    k19 = g*x1
+    k20 = cy2*x13
+    return (k0, k1, k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, k12, k13, k14, k15, k16, k17, k18, k19, k20,)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -575,6 +576,176 @@ def forward_dynamics_sc(s_0, c_0, s_1, c_1, s_2, c_2, dq0, dq1, dq2, tau0, tau1,
     w1 = (A0_1 * b0 + A1_1 * b1 + A1_2 * b2) * idet
     w2 = (A0_2 * b0 + A1_2 * b1 + A2_2 * b2) * idet
     return (w0, w1, w2,)
+
+
+@njit(cache=True, error_model="numpy")
+def inverse_dynamics_sc(s_0, c_0, s_1, c_1, s_2, c_2, dq0, dq1, dq2, ddq0, ddq1, ddq2, k):
+    """inverse_dynamics on scalars, given s_i = sin(q_i), c_i = cos(q_i) and the leg's
+    coefficients k, returning the tuple tau."""
+    k0 = k[0]
+    k1 = k[1]
+    k2 = k[2]
+    k3 = k[3]
+    k4 = k[4]
+    k5 = k[5]
+    k6 = k[6]
+    k7 = k[7]
+    k8 = k[8]
+    k9 = k[9]
+    k10 = k[10]
+    k11 = k[11]
+    k12 = k[12]
+    k13 = k[13]
+    k14 = k[14]
+    k15 = k[15]
+    k16 = k[16]
+    k17 = k[17]
+    k18 = k[18]
+    k19 = k[19]
+    k20 = k[20]
+    s_0_1 = s_0 * c_1 + c_0 * s_1
+    c_0_1 = c_0 * c_1 - s_0 * s_1
+    s_1_2 = s_1 * c_2 + c_1 * s_2
+    c_1_2 = c_1 * c_2 - s_1 * s_2
+    s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
+    c_0_1_2 = c_0_1 * c_2 - s_0_1 * s_2
+    x0 = c_2*k2 + k5*s_2
+    x1 = -k11 + x0
+    x2 = c_1_2*k8 + k10*s_1_2
+    x3 = c_2*k12 + k13*s_2 - k14
+    x4 = c_1_2*k4 - k1*s_1_2
+    x5 = c_2*k5 - k2*s_2
+    x6 = dq2*(x4 + x5)
+    x7 = dq1*dq1
+    x8 = c_1_2*k10 - k8*s_1_2
+    x9 = c_1*k9 + k7*s_1 + x8
+    x10 = dq2*dq2
+    x11 = c_2*k13 - k12*s_2
+    x12 = x11 + x8
+    x13 = c_0_1_2*k17 - k20*s_0_1_2
+    x14 = c_0_1*k16 + k19*s_0_1 + x13
+    x15 = dq0*dq0
+    x16 = dq2*x5
+    M_0_0 = c_1*k0 - c_1_2*k1 - k3*s_1 - k4*s_1_2 + k6 - x0
+    M_0_1 = c_1*k7 - k9*s_1 - x1 - x2
+    M_0_2 = -x2 - x3
+    M_1_1 = -x1
+    M_1_2 = -x3
+    M_2_2 = k14
+    h0 = c_0*k15 - dq0*(dq1*(c_1*k3 + k0*s_1 + x4) + x6) - dq1*x6 + k18*s_0 - x10*x12 + x14 - x7*x9
+    h1 = -dq0*x16 - dq1*x16 - x10*x11 + x14 + x15*x9
+    h2 = dq0*dq1*x5 + x11*x7 + x12*x15 + x13
+    t0 = M_0_0 * ddq0 + M_0_1 * ddq1 + M_0_2 * ddq2 + h0
+    t1 = M_0_1 * ddq0 + M_1_1 * ddq1 + M_1_2 * ddq2 + h1
+    t2 = M_0_2 * ddq0 + M_1_2 * ddq1 + M_2_2 * ddq2 + h2
+    return (t0, t1, t2,)
+
+
+@njit(cache=True, error_model="numpy")
+def diagnostics(q, dq, p, g):
+    """(T, V, dq^T (Mdot - 2C) dq, dq^T Mdot dq): kinetic and potential energy, the
+    verification signal of eq 29 (zero for an exact model) and the size of what cancels
+    in it, from M, Mdot and C evaluated at (q, dq)."""
+    q0 = q[0]
+    q1 = q[1]
+    q2 = q[2]
+    dq0 = dq[0]
+    dq1 = dq[1]
+    dq2 = dq[2]
+    m0 = p[0]
+    a0 = p[1]
+    cx0 = p[2]
+    cy0 = p[3]
+    I0 = p[4]
+    m1 = p[5]
+    a1 = p[6]
+    cx1 = p[7]
+    cy1 = p[8]
+    I1 = p[9]
+    m2 = p[10]
+    cx2 = p[12]
+    cy2 = p[13]
+    I2 = p[14]
+    s_0 = sin(q0)
+    c_0 = cos(q0)
+    s_1 = sin(q1)
+    c_1 = cos(q1)
+    s_2 = sin(q2)
+    c_2 = cos(q2)
+    s_0_1 = s_0 * c_1 + c_0 * s_1
+    c_0_1 = c_0 * c_1 - s_0 * s_1
+    s_1_2 = s_1 * c_2 + c_1 * s_2
+    c_1_2 = c_1 * c_2 - s_1 * s_2
+    s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
+    c_0_1_2 = c_0_1 * c_2 - s_0_1 * s_2
+    x0 = a0*a0
+    x1 = a0*m2
+    x2 = c_1_2*cy2*x1
+    x3 = m1*s_1
+    x4 = a0*cy1*x3
+    x5 = cx2*s_1_2*x1
+    x6 = a1*m2
+    x7 = a0*c_1*x6
+    x8 = c_1*m1
+    x9 = a0*cx1*x8
+    x10 = c_2*cy2*x6
+    x11 = cx2*s_2*x6
+    x12 = cx2*cx2
+    x13 = cy2*cy2
+    x14 = I2 + m2*x12 + m2*x13
+    x15 = I1 + a1*a1*m2 + cx1*cx1*m1 + cy1*cy1*m1 - 2*x10 - 2*x11 + x14
+    x16 = c_2*cx2
+    x17 = a1*x16
+    x18 = cy2*s_2
+    x19 = a1*x18
+    x20 = c_1_2*cx2
+    x21 = cy2*s_1_2
+    x22 = a0*x20 - a0*x21
+    x23 = x17 - x19 + x22
+    x24 = dq2*x23
+    x25 = cx1*x3 + cy1*x8 + m2*x20 - m2*x21 + s_1*x6
+    x26 = a0*dq1
+    x27 = x25*x26
+    x28 = m2*x24 + x27
+    x29 = -dq2*m2*(2*x17 - 2*x19 + x22) - x27
+    x30 = -m2*(x24 + x26*(x20 - x21))
+    x31 = x16 - x18
+    x32 = x31*x6
+    x33 = dq2*x32
+    x34 = -x33
+    x35 = a0*dq0*x25
+    x36 = dq0 + dq1
+    x37 = dq2 + x36
+    x38 = a0*c_0
+    M_0_0 = I0 + cx0*cx0*m0 + cy0*cy0*m0 + m1*x0 + m2*x0 + x15 - 2*x2 - 2*x4 - 2*x5 + 2*x7 + 2*x9
+    M_0_1 = x15 - x2 - x4 - x5 + x7 + x9
+    M_0_2 = I2 + m2*x12 + m2*x13 - x10 - x11 - x2 - x5
+    M_1_1 = x15
+    M_1_2 = -x10 - x11 + x14
+    M_2_2 = x14
+    Md_0_0 = -2*x28
+    Md_0_1 = x29
+    Md_0_2 = x30
+    Md_1_0 = x29
+    Md_1_1 = -2*x33
+    Md_1_2 = x34
+    Md_2_0 = x30
+    Md_2_1 = x34
+    Md_2_2 = 0
+    C_0_0 = -x28
+    C_0_1 = -x28 - x35
+    C_0_2 = -m2*x23*x37
+    C_1_0 = x34 + x35
+    C_1_1 = x34
+    C_1_2 = -x32*x37
+    C_2_0 = m2*(a1*dq1*x31 + dq0*x23)
+    C_2_1 = x32*x36
+    C_2_2 = 0
+    V = -g*(m0*(c_0*cx0 - cy0*s_0) + m1*(c_0_1*cx1 - cy1*s_0_1 + x38) + m2*(a1*c_0_1 - c_0_1_2*cy2 - cx2*s_0_1_2 + x38))
+    T = 0.5 * (dq0 * M_0_0 * dq0 + dq0 * M_0_1 * dq1 + dq0 * M_0_2 * dq2 + dq1 * M_0_1 * dq0 + dq1 * M_1_1 * dq1 + dq1 * M_1_2 * dq2 + dq2 * M_0_2 * dq0 + dq2 * M_1_2 * dq1 + dq2 * M_2_2 * dq2)
+    mdq = dq0 * Md_0_0 * dq0 + dq0 * Md_0_1 * dq1 + dq0 * Md_0_2 * dq2 + dq1 * Md_1_0 * dq0 + dq1 * Md_1_1 * dq1 + dq1 * Md_1_2 * dq2 + dq2 * Md_2_0 * dq0 + dq2 * Md_2_1 * dq1 + dq2 * Md_2_2 * dq2
+    ver = dq0 * (Md_0_0 - 2.0 * C_0_0) * dq0 + dq0 * (Md_0_1 - 2.0 * C_0_1) * dq1 + dq0 * (Md_0_2 - 2.0 * C_0_2) * dq2 + dq1 * (Md_1_0 - 2.0 * C_1_0) * dq0 + dq1 * (Md_1_1 - 2.0 * C_1_1) * dq1 + dq1 * (Md_1_2 - 2.0 * C_1_2) * dq2 + dq2 * (Md_2_0 - 2.0 * C_2_0) * dq0 + dq2 * (Md_2_1 - 2.0 * C_2_1) * dq1 + dq2 * (Md_2_2 - 2.0 * C_2_2) * dq2
+    return (T, V, ver, mdq)
 
 
 @njit(cache=True, error_model="numpy")

@@ -245,10 +245,11 @@ def generate(d: Derivation) -> str:
     poly, kexprs, trig = _hoist(d, [d.M[j, k] for j, k in upper] + list(h) + list(d.G))
     used = set().union(*(e.free_symbols for e in kexprs))
     funcs.append(_function(
-        "coefficients", "p, g, out",
-        f"The {len(kexprs)} parameter-only coefficients k of forward_dynamics_sc and gravity_sc\n"
-        "    into out, from the parameter vector p and g.",
-        _unpack(d, used, []) + _cse(kexprs, [f"out[{i}]" for i in range(len(kexprs))])))
+        "coefficients", "p, g",
+        f"The {len(kexprs)} parameter-only coefficients k of the *_sc kernels,\n"
+        "    from the parameter vector p and g, as a tuple (passed by value: no reference count).",
+        _unpack(d, used, []) + _cse(kexprs, [f"k{i}" for i in range(len(kexprs))])
+        + ["return (" + ", ".join(f"k{i}" for i in range(len(kexprs))) + ",)"]))
     trig_args = ", ".join(f"s_{i}, c_{i}" for i in range(n))
 
     def hoisted(exprs: list[sp.Expr], targets: list[str]) -> list[str]:
@@ -262,8 +263,8 @@ def generate(d: Derivation) -> str:
         "gravity_sc", f"{trig_args}, k",
         "G given s_i = sin(q_i), c_i = cos(q_i) and the leg's coefficients k, as a tuple.",
         g_body, inline=True))
-    body = hoisted(poly[:nm + n], [f"M_{j}_{k}" for j, k in upper] + [f"h{i}" for i in range(n)])
-    body += [ln for ln in solve if not ln.startswith("out[")]
+    m_h = hoisted(poly[:nm + n], [f"M_{j}_{k}" for j, k in upper] + [f"h{i}" for i in range(n)])
+    body = m_h + [ln for ln in solve if not ln.startswith("out[")]
     body.append("return (" + ", ".join(f"w{i}" for i in range(n)) + ",)")
     vel_args = ", ".join([*map(str, d.dq)] + [f"tau{i}" for i in range(n)])
     funcs.append(_function(
@@ -272,6 +273,35 @@ def generate(d: Derivation) -> str:
         "    leg's coefficients k, returning the tuple ddq: no arrays, and a stepper that knows\n"
         "    sin/cos cheaply (angle addition from the previous stage) skips libm.",
         body, inline=True))
+    body = m_h + [f"t{i} = " + " + ".join(f"M_{min(i, j)}_{max(i, j)} * ddq{j}" for j in range(n))
+                  + f" + h{i}" for i in range(n)]
+    body.append("return (" + ", ".join(f"t{i}" for i in range(n)) + ",)")
+    acc_args = ", ".join([*map(str, d.dq)] + [f"ddq{i}" for i in range(n)])
+    funcs.append(_function(
+        "inverse_dynamics_sc", f"{trig_args}, {acc_args}, k",
+        "inverse_dynamics on scalars, given s_i = sin(q_i), c_i = cos(q_i) and the leg's\n"
+        "    coefficients k, returning the tuple tau.", body))
+
+    # the simulator's per-step diagnostics in one kernel; the verification signal is the
+    # quadratic form of the evaluated matrices Mdot and C, never simplified symbolically
+    pairs = [(i, j) for i in range(n) for j in range(n)]
+    lines = _body(d, [d.M[j, k] for j, k in upper] + [d.Mdot[i, j] for i, j in pairs]
+                  + [d.C[i, j] for i, j in pairs] + [d.V],
+                  [f"M_{j}_{k}" for j, k in upper] + [f"Md_{i}_{j}" for i, j in pairs]
+                  + [f"C_{i}_{j}" for i, j in pairs] + ["V"], ["q", "dq"])
+    lines = [ln for ln in lines if not any(ln.startswith(f"{s} = ") for s in (*d.q, *d.dq))]
+    quad = [f"dq{i} * M_{min(i, j)}_{max(i, j)} * dq{j}" for i, j in pairs]
+    lines += ["T = 0.5 * (" + " + ".join(quad) + ")",
+              "mdq = " + " + ".join(f"dq{i} * Md_{i}_{j} * dq{j}" for i, j in pairs),
+              "ver = " + " + ".join(f"dq{i} * (Md_{i}_{j} - 2.0 * C_{i}_{j}) * dq{j}"
+                                    for i, j in pairs),
+              "return (T, V, ver, mdq)"]
+    funcs.append(_function(
+        "diagnostics", "q, dq, p, g",
+        "(T, V, dq^T (Mdot - 2C) dq, dq^T Mdot dq): kinetic and potential energy, the\n"
+        "    verification signal of eq 29 (zero for an exact model) and the size of what cancels\n"
+        "    in it, from M, Mdot and C evaluated at (q, dq).",
+        unpack_state[:2 * n] + lines))
 
     ddq = sp.symbols(f"ddq0:{n}")
     tau_id = d.M * sp.Matrix(ddq) + h

@@ -71,7 +71,7 @@ class LegModel:
         p = np.array([[lk.mass, lk.length, lk.com[0], lk.com[1], lk.izz] for lk in links]).ravel()
         p.setflags(write=False)
         self._p = p
-        self._k: F64 | None = None
+        self._k: tuple[float, ...] | None = None
 
     # ------------------------------------------------------------------ data
     @property
@@ -80,14 +80,11 @@ class LegModel:
         return self._p
 
     @property
-    def coefficients(self) -> F64:
-        """The parameter-only coefficients of the stepper's kernels, from p and g (read-only;
-        see :func:`exoleg.dynamics.kernels.coefficients`)."""
+    def coefficients(self) -> tuple[float, ...]:
+        """The parameter-only coefficients of the stepper's kernels, from p and g
+        (see :func:`exoleg.dynamics.kernels.coefficients`)."""
         if self._k is None:
-            k = np.empty(K.N_COEFFICIENTS)
-            K.coefficients(self._p, self.g, k)
-            k.setflags(write=False)
-            self._k = k
+            self._k = tuple(K.coefficients(self._p, self.g))
         return self._k
 
     @property

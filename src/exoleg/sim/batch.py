@@ -11,8 +11,8 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from exoleg.control.laws import PD_GRAVITY_KIND, pd_law
-from exoleg.dynamics.kernels import N_COEFFICIENTS, coefficients
+from exoleg.control.laws import PD_GRAVITY_KIND, law
+from exoleg.dynamics.kernels import coefficients
 from exoleg.errors import SimulationError
 from exoleg.sim.integrators import next_sincos, rk4_sc, sincos3
 
@@ -22,17 +22,16 @@ F64 = NDArray[np.float64]
 @njit(cache=True, error_model="numpy")
 def _one(p, g, kp, kd, Qr, DQr, dt, q_init, dq_init, start, out, limit):  # type: ignore[no-untyped-def]
     """One leg: writes its peaks into out (3, 3); NaN if the state became non-finite."""
-    k_leg = np.empty(N_COEFFICIENTS)
-    coefficients(p, g, k_leg)
+    k_leg = coefficients(p, g)
     q0, q1, q2 = q_init[0], q_init[1], q_init[2]
     v0, v1, v2 = dq_init[0], dq_init[1], dq_init[2]
     s0, c0, s1, c1, s2, c2 = sincos3(q0, q1, q2)
     # peaks in locals (stores into ``out`` at every step would be kept in memory)
     t0 = t1 = t2 = w0 = w1 = w2 = e0 = e1 = e2 = 0.0
     for k in range(Qr.shape[0] - 1):
-        u0, u1, u2, _ = pd_law(PD_GRAVITY_KIND, kp, kd, k_leg, 1.0, limit, s0, c0, s1, c1,
-                               s2, c2, q0, q1, q2, v0, v1, v2, Qr[k, 0], Qr[k, 1], Qr[k, 2],
-                               DQr[k, 0], DQr[k, 1], DQr[k, 2])
+        u0, u1, u2, _ = law(PD_GRAVITY_KIND, kp, kd, k_leg, 1.0, limit, s0, c0, s1, c1, s2, c2,
+                            q0, q1, q2, v0, v1, v2, Qr[k, 0], Qr[k, 1], Qr[k, 2],
+                            DQr[k, 0], DQr[k, 1], DQr[k, 2], 0.0, 0.0, 0.0)
         if k >= start:
             t0, t1, t2 = max(t0, abs(u0)), max(t1, abs(u1)), max(t2, abs(u2))
             w0, w1, w2 = max(w0, abs(v0)), max(w1, abs(v1)), max(w2, abs(v2))
@@ -53,7 +52,7 @@ def _one(p, g, kp, kd, Qr, DQr, dt, q_init, dq_init, start, out, limit):  # type
 def _batch(P, g, kp, kd, Qr, DQr, dt, q_init, dq_init, start):  # type: ignore[no-untyped-def]
     n = P.shape[0]
     out = np.zeros((n, 3, 3))  # [leg, (torque, speed, power), joint]
-    limit = np.full(3, np.inf)
+    limit = (np.inf, np.inf, np.inf)
     for c in prange(n):
         _one(P[c], g, kp, kd, Qr, DQr, dt, q_init, dq_init, start, out[c], limit)
     return out
@@ -65,7 +64,7 @@ def batch_gait_peaks(P: F64, g: float, kp: F64, kd: F64, q_ref: F64, dq_ref: F64
     (parameter vectors ``P`` (n, 15)) tracking ``q_ref``, ``dq_ref`` (N, 3) sampled every
     ``dt`` s, from the reference's first state; peaks from step ``start`` on."""
     P = np.ascontiguousarray(P, dtype=np.float64)
-    out = _batch(P, float(g), np.asarray(kp, float), np.asarray(kd, float),
+    out = _batch(P, float(g), tuple(map(float, kp)), tuple(map(float, kd)),
                  np.ascontiguousarray(q_ref), np.ascontiguousarray(dq_ref), float(dt),
                  np.array(q_ref[0]), np.array(dq_ref[0]), int(start))
     bad = np.flatnonzero(np.isnan(out[:, 0, 0]))

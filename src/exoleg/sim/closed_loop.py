@@ -6,94 +6,67 @@ import logging
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from exoleg.control.controllers import Controller
-from exoleg.control.laws import COMPUTED_TORQUE_KIND, control_law, pd_law
-from exoleg.dynamics.kernels import (
-    N_COEFFICIENTS,
-    coefficients,
-    coriolis_matrix,
-    forward_dynamics,
-    kinetic_energy,
-    mass_matrix,
-    mass_matrix_dot,
-    potential_energy,
-)
+from exoleg.control.laws import law
+from exoleg.dynamics.kernels import coefficients, diagnostics, forward_dynamics_sc
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError, SimulationError
 from exoleg.params.records import JOINTS
 from exoleg.reference.steps import Reference
 from exoleg.sim.integrators import RESYNC, next_sincos, rk4_sc, sincos3
 
+if TYPE_CHECKING:
+    import pyarrow as pa
+
 F64 = NDArray[np.float64]
 log = logging.getLogger(__name__)
 
 
 @njit(cache=True)
-def _diagnostics(p, g, kp_eff, q, dq, q_ref, out, mats):  # type: ignore[no-untyped-def]
+def _diagnostics(p, g, kp_eff, q, dq, q_ref, out):  # type: ignore[no-untyped-def]
     """out[0..4] = kinetic, potential, Lyapunov V (eq 26), dq^T (Mdot - 2C) dq and
-    dq^T Mdot dq (the size of the terms that cancel in the former).
-    ``mats`` is scratch (3, 3, 3)."""
-    M, Md, C = mats[0], mats[1], mats[2]
-    mass_matrix(q, p, M)
-    mass_matrix_dot(q, dq, p, Md)
-    coriolis_matrix(q, dq, p, C)
-    kin = kinetic_energy(q, dq, p)
+    dq^T Mdot dq (the size of the terms that cancel in the former)."""
+    kin, pot, ver, mdq = diagnostics(q, dq, p, g)
     vq = 0.0
-    ver = 0.0
-    mdq = 0.0
     for i in range(3):
         e = q_ref[i] - q[i]
         vq += 0.5 * kp_eff[i] * e * e
-        for j in range(3):
-            ver += dq[i] * (Md[i, j] - 2.0 * C[i, j]) * dq[j]
-            mdq += dq[i] * Md[i, j] * dq[j]
-    out[0] = kin
-    out[1] = potential_energy(q, p, g)
-    out[2] = kin + vq
-    out[3] = ver
-    out[4] = mdq
+    out[0], out[1], out[2], out[3], out[4] = kin, pot, kin + vq, ver, mdq
 
 
 @njit(cache=True, error_model="numpy")
-def _run(p, g, kind, kp, kd, pc, kc, scale, limit, Qr, DQr, DDQr, dt, hold,  # type: ignore[no-untyped-def]
+def _run(p, g, kind, kp, kd, kc, scale, limit, Qr, DQr, DDQr, dt, hold,  # type: ignore[no-untyped-def]
          Q, DQ, DDQ, U, SAT, E, k0, k1, u, mask, diagnostics):
     """Integrate steps k0 .. k1-1 from the state in Q[k0], DQ[k0].
 
-    ``u`` (3,) and ``mask`` (1,) carry the held torque and saturation flags between
-    calls (so a run can be done in chunks). With ``diagnostics``, ``E`` (N, 5) receives
-    :func:`_diagnostics` at every state. Returns the index of the first non-finite
-    state, or -1.
+    ``kp``, ``kd``, ``limit`` and ``kc`` are tuples (passed by value). ``u`` (3,) and
+    ``mask`` (1,) carry the held torque and saturation flags between calls (so a run can
+    be done in chunks). With ``diagnostics``, ``E`` (N, 5) receives :func:`_diagnostics`
+    at every state. Returns the index of the first non-finite state, or -1.
     """
-    cwork = np.empty((5, 3))
-    mats = np.empty((3, 3, 3))
-    kp_eff = np.empty(3)
-    coef = np.empty(N_COEFFICIENTS)
-    coefficients(p, g, coef)
-    for i in range(3):
-        kp_eff[i] = scale * kp[i]
+    kp_eff = (scale * kp[0], scale * kp[1], scale * kp[2])
+    coef = coefficients(p, g)
     q0, q1, q2 = Q[k0, 0], Q[k0, 1], Q[k0, 2]
     v0, v1, v2 = DQ[k0, 0], DQ[k0, 1], DQ[k0, 2]
     s0, c0, s1, c1, s2, c2 = sincos3(q0, q1, q2)
     held = k0 % hold  # steps since the controller last sampled
     for k in range(k0, k1):
         if diagnostics:
-            _diagnostics(p, g, kp_eff, Q[k], DQ[k], Qr[k], E[k], mats)
+            _diagnostics(p, g, kp_eff, Q[k], DQ[k], Qr[k], E[k])
         if held == hold:
             held = 0
         held += 1
         if held == 1:
-            if kind == COMPUTED_TORQUE_KIND:
-                mask[0] = control_law(kind, kp, kd, pc, kc, scale, limit, Q[k], DQ[k], Qr[k],
-                                      DQr[k], DDQr[k], u, cwork)
-            else:
-                u[0], u[1], u[2], mask[0] = pd_law(
-                    kind, kp, kd, kc, scale, limit, s0, c0, s1, c1, s2, c2, q0, q1, q2,
-                    v0, v1, v2, Qr[k, 0], Qr[k, 1], Qr[k, 2], DQr[k, 0], DQr[k, 1], DQr[k, 2])
+            u[0], u[1], u[2], mask[0] = law(
+                kind, kp, kd, kc, scale, limit, s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2,
+                Qr[k, 0], Qr[k, 1], Qr[k, 2], DQr[k, 0], DQr[k, 1], DQr[k, 2],
+                DDQr[k, 0], DDQr[k, 1], DDQr[k, 2])
         U[k, 0], U[k, 1], U[k, 2] = u[0], u[1], u[2]
         SAT[k] = mask[0]
         qn, vn, a = rk4_sc(s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2, u[0], u[1], u[2],
@@ -109,11 +82,12 @@ def _run(p, g, kind, kp, kd, pc, kc, scale, limit, Qr, DQr, DDQr, dt, hold,  # t
             return k + 1
     n = Q.shape[0] - 1
     if k1 == n:
-        U[n] = u
-        SAT[n] = mask[0]
-        forward_dynamics(Q[n], DQ[n], u, p, g, DDQ[n])
+        U[n, 0], U[n, 1], U[n, 2] = u[0], u[1], u[2]  # (not U[n] = u: its shape check
+        SAT[n] = mask[0]                                # compiles numba's string formatting)
+        DDQ[n, 0], DDQ[n, 1], DDQ[n, 2] = forward_dynamics_sc(
+            s0, c0, s1, c1, s2, c2, v0, v1, v2, u[0], u[1], u[2], coef)
         if diagnostics:
-            _diagnostics(p, g, kp_eff, Q[n], DQ[n], Qr[n], E[n], mats)
+            _diagnostics(p, g, kp_eff, Q[n], DQ[n], Qr[n], E[n])
     return -1
 
 
@@ -153,23 +127,30 @@ class SimResult:
             cols[name] = getattr(self, name)
         return cols
 
+    def table(self) -> pa.Table:
+        """:meth:`columns` as an Arrow table."""
+        import pyarrow as pa
+
+        return pa.table(self.columns())
+
     def to_csv(self, path: str | Path) -> Path:
-        """Write :meth:`columns` as CSV with a header line (full precision)."""
-        cols = self.columns()
+        """Write :meth:`columns` as CSV with a header line. Each number is written as the
+        shortest decimal that reads back as the same float (nothing is lost)."""
+        import pyarrow.csv as pcsv
+
+        table = self.table()
         p = Path(path)
-        np.savetxt(p, np.column_stack(list(cols.values())), delimiter=",",
-                   header=",".join(cols), comments="", fmt="%.17g")
+        with p.open("wb") as f:  # the header unquoted, as every CSV reader expects it
+            f.write((",".join(table.column_names) + "\n").encode())
+            pcsv.write_csv(table, f, pcsv.WriteOptions(include_header=False))
         return p
 
     def to_parquet(self, path: str | Path) -> Path:
-        """Write :meth:`columns` as Parquet (needs pyarrow: ``pip install exoleg[io]``)."""
-        try:
-            import pyarrow as pa
-            import pyarrow.parquet as pq
-        except ImportError as e:
-            raise ImportError("Parquet output needs pyarrow: pip install exoleg[io]") from e
+        """Write :meth:`columns` as Parquet."""
+        import pyarrow.parquet as pq
+
         p = Path(path)
-        pq.write_table(pa.table(self.columns()), p)
+        pq.write_table(self.table(), p)
         return p
 
 
@@ -235,7 +216,6 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
     Q, DQ, DDQ, U = (np.empty((n + 1, 3)) for _ in range(4))
     SAT = np.zeros(n + 1, dtype=np.int64)
     E = np.zeros((n + 1, 5))
-    pc, kc = controller.model_params()
     Q[0], DQ[0] = q_init, dq_init
     u, mask = np.zeros(3), np.zeros(1, dtype=np.int64)
     # chunks start where the stepper re-anchors its carried sin/cos anyway, so a run with
@@ -244,9 +224,8 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
     bad = -1
     for k0 in range(0, n, chunk):
         k1 = min(n, k0 + chunk)
-        bad = _run(leg.p, leg.g, controller.kind, controller.Kp, controller.Kd, pc, kc,
-                   controller.scale, controller.saturation, Qr, DQr, DDQr, dt, hold, Q, DQ, DDQ,
-                   U, SAT, E, k0, k1, u, mask, True)
+        bad = _run(leg.p, leg.g, controller.kind, *controller.law_args(), Qr, DQr, DDQr, dt,
+                   hold, Q, DQ, DDQ, U, SAT, E, k0, k1, u, mask, True)
         if progress is not None:
             progress(k1 / n)
         if bad >= 0:

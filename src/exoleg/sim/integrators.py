@@ -14,7 +14,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from exoleg.dynamics.kernels import N_COEFFICIENTS, coefficients, forward_dynamics_sc
+from exoleg.dynamics.kernels import coefficients, forward_dynamics_sc
 
 F64 = NDArray[np.float64]
 
@@ -29,7 +29,7 @@ _S3, _S5, _S7, _S9, _S11 = -1 / 6, 1 / 120, -1 / 5040, 1 / 362880, -1 / 39916800
 _C2, _C4, _C6, _C8, _C10, _C12 = -1 / 2, 1 / 24, -1 / 720, 1 / 40320, -1 / 3628800, 1 / 479001600
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _sincos_small(d):  # type: ignore[no-untyped-def]
     """(sin d, cos d). Truncation error: for |d| <= 0.008, Taylor to d^5 / d^6, below
     d^7/7! = 4.2e-19 and d^8/8! = 4.2e-22; for |d| <= 0.1, to d^11 / d^12, below 1e-22;
@@ -44,7 +44,7 @@ def _sincos_small(d):  # type: ignore[no-untyped-def]
     return sn, cs
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True)
 def _shift(s, c, d):  # type: ignore[no-untyped-def]
     """(sin(x + d), cos(x + d)) from s = sin x, c = cos x."""
     sd, cd = _sincos_small(d)
@@ -62,7 +62,7 @@ def sincos3(q0, q1, q2):  # type: ignore[no-untyped-def]
     return math.sin(q0), math.cos(q0), math.sin(q1), math.cos(q1), math.sin(q2), math.cos(q2)
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True)
 def next_sincos(s0, c0, s1, c1, s2, c2, q0, q1, q2, qn, k):  # type: ignore[no-untyped-def]
     """:func:`sincos3` of the joint angles ``qn`` (a 3-tuple) after step k, given s_i, c_i
     = sin, cos of q_i before it: by angle addition of the increments qn_i - q_i (a few
@@ -81,36 +81,32 @@ def rk4_sc(s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2, t0, t1, t2, k, h):  #
     """One RK4 step on scalars; returns (q', dq', ddq at the start), each a 3-tuple.
 
     s_i, c_i = sin, cos of q_i (a caller that needs them too, e.g. for G in the control
-    law, computes them once, or carries them by :func:`next_sincos`); ``k`` the leg's
-    coefficients (:func:`exoleg.dynamics.kernels.coefficients`).
+    law, computes them once, or carries them by :func:`next_sincos`); t_i the torque held
+    over the step; ``k`` the leg's coefficients
+    (:func:`exoleg.dynamics.kernels.coefficients`, a tuple).
 
-    Scalars and tuples only, so nothing is allocated or reference-counted in the loop.
-    The later stages' angles are q + delta with delta = h/2 v or h v; their sin/cos
-    follow by angle addition from sin/cos of the small delta, so libm is called once
-    per joint and step (it was the dominant cost).
+    Scalars and tuples only, so nothing is allocated or reference-counted. Stages 2-4
+    evaluate at angles q + c x (x the previous stage's velocity, c = h/2, h/2, h); their
+    sin/cos follow by angle addition from sin/cos of the small increment, so libm is not
+    called. The stages are a loop, so the compiler inlines the dynamics once, not thrice.
     """
     a0, a1, a2 = forward_dynamics_sc(s0, c0, s1, c1, s2, c2, v0, v1, v2, t0, t1, t2, k)
-    hh = 0.5 * h
-    u0, w0 = _shift(s0, c0, hh * v0)
-    u1, w1 = _shift(s1, c1, hh * v1)
-    u2, w2 = _shift(s2, c2, hh * v2)
-    e0, e1, e2 = v0 + hh * a0, v1 + hh * a1, v2 + hh * a2  # velocity at stage 2
-    b0, b1, b2 = forward_dynamics_sc(u0, w0, u1, w1, u2, w2, e0, e1, e2, t0, t1, t2, k)
-    u0, w0 = _shift(s0, c0, hh * e0)
-    u1, w1 = _shift(s1, c1, hh * e1)
-    u2, w2 = _shift(s2, c2, hh * e2)
-    f0, f1, f2 = v0 + hh * b0, v1 + hh * b1, v2 + hh * b2  # velocity at stage 3
-    c_0, c_1, c_2 = forward_dynamics_sc(u0, w0, u1, w1, u2, w2, f0, f1, f2, t0, t1, t2, k)
-    u0, w0 = _shift(s0, c0, h * f0)
-    u1, w1 = _shift(s1, c1, h * f1)
-    u2, w2 = _shift(s2, c2, h * f2)
-    y0, y1, y2 = v0 + h * c_0, v1 + h * c_1, v2 + h * c_2  # velocity at stage 4
-    d0, d1, d2 = forward_dynamics_sc(u0, w0, u1, w1, u2, w2, y0, y1, y2, t0, t1, t2, k)
+    x0, x1, x2 = v0, v1, v2  # the previous stage's velocity and acceleration
+    y0, y1, y2 = a0, a1, a2
+    sq0, sq1, sq2 = v0, v1, v2  # weighted sums of the stages' velocities, accelerations
+    sv0, sv1, sv2 = a0, a1, a2
+    for stage in range(3):
+        c, w = (0.5 * h, 2.0) if stage < 2 else (h, 1.0)
+        u0, w0 = _shift(s0, c0, c * x0)
+        u1, w1 = _shift(s1, c1, c * x1)
+        u2, w2 = _shift(s2, c2, c * x2)
+        x0, x1, x2 = v0 + c * y0, v1 + c * y1, v2 + c * y2
+        y0, y1, y2 = forward_dynamics_sc(u0, w0, u1, w1, u2, w2, x0, x1, x2, t0, t1, t2, k)
+        sq0, sq1, sq2 = sq0 + w * x0, sq1 + w * x1, sq2 + w * x2
+        sv0, sv1, sv2 = sv0 + w * y0, sv1 + w * y1, sv2 + w * y2
     s = h / 6.0
-    qn = (q0 + s * (v0 + 2.0 * e0 + 2.0 * f0 + y0), q1 + s * (v1 + 2.0 * e1 + 2.0 * f1 + y1),
-          q2 + s * (v2 + 2.0 * e2 + 2.0 * f2 + y2))
-    vn = (v0 + s * (a0 + 2.0 * b0 + 2.0 * c_0 + d0), v1 + s * (a1 + 2.0 * b1 + 2.0 * c_1 + d1),
-          v2 + s * (a2 + 2.0 * b2 + 2.0 * c_2 + d2))
+    qn = (q0 + s * sq0, q1 + s * sq1, q2 + s * sq2)
+    vn = (v0 + s * sv0, v1 + s * sv1, v2 + s * sv2)
     return qn, vn, (a0, a1, a2)
 
 
@@ -124,8 +120,7 @@ def rollout(p, g, q0, dq0, tau, h, n_steps):  # type: ignore[no-untyped-def]
     q0_, q1_, q2_ = Q[0, 0], Q[0, 1], Q[0, 2]
     v0_, v1_, v2_ = DQ[0, 0], DQ[0, 1], DQ[0, 2]
     t0_, t1_, t2_ = tau[0], tau[1], tau[2]
-    coef = np.empty(N_COEFFICIENTS)
-    coefficients(p, g, coef)
+    coef = coefficients(p, g)
     s0, c0, s1, c1, s2, c2 = sincos3(q0_, q1_, q2_)
     for k in range(n_steps):
         qn, vn, _ = rk4_sc(s0, c0, s1, c1, s2, c2, q0_, q1_, q2_, v0_, v1_, v2_, t0_, t1_, t2_,

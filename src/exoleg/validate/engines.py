@@ -114,14 +114,12 @@ class MujocoLeg:
         d.qpos[:], d.qvel[:] = q0, dq0
         out = np.empty((len(q_ref), 3))
         out[0] = d.qpos
-        pc, kc = controller.model_params()
-        args = (controller.kind, controller.Kp, controller.Kd, pc, kc, controller.scale,
-                controller.saturation)
-        u, work = np.zeros(3), np.empty((5, 3))
+        args = (controller.kind, *controller.law_args())
+        u = np.zeros(3)
         qpos, qvel = d.qpos, d.qvel  # views into MuJoCo's state
         for k in range(len(q_ref) - 1):
             if k % hold == 0:
-                control_law(*args, qpos, qvel, q_ref[k], dq_ref[k], ddq_ref[k], u, work)
+                control_law(*args, qpos, qvel, q_ref[k], dq_ref[k], ddq_ref[k], u)  # type: ignore[call-arg]
                 d.qfrc_applied[:] = u
             mj.mj_step(m, d)
             out[k + 1] = qpos
