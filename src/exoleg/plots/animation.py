@@ -11,14 +11,11 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.animation import FFMpegWriter, FuncAnimation  # noqa: E402
-
-from exoleg.dynamics.model import LegModel  # noqa: E402
+from exoleg.dynamics.model import LegModel
+from exoleg.plots.figures import new_figure
 
 _EXO_OFFSET = 0.025  # m, drawing offset of the exoskeleton's links behind the leg
 
@@ -39,8 +36,10 @@ def animate(leg: LegModel, t: np.ndarray, q: np.ndarray, path: str | Path, fps: 
     fk = leg.fk(q[frames])
     ref = leg.fk(q_ref[frames]) if q_ref is not None else None
     reach = float(np.sum(leg.lengths))
-    fig, ax = plt.subplots(figsize=(4, 5), dpi=80)
-    fig.subplots_adjust(left=0.2, right=0.97, top=0.97, bottom=0.1)
+    fig = new_figure(4, 5, left=0.2, right=0.97, top=0.97, bottom=0.1)
+    fig.set_dpi(80)
+    canvas = FigureCanvasAgg(fig)
+    ax = fig.subplots()
     ax.set_xlim(-0.7 * reach, 0.7 * reach)
     ax.set_ylim(-1.15 * reach, 0.25 * reach)
     ax.set_aspect("equal")
@@ -69,6 +68,8 @@ def animate(leg: LegModel, t: np.ndarray, q: np.ndarray, path: str | Path, fps: 
         return child, exo, joints, ghost, text
 
     if p.suffix == ".mp4":
+        from matplotlib.animation import FFMpegWriter, FuncAnimation
+
         FuncAnimation(fig, draw, frames=len(frames), blit=True).save(
             str(p), writer=FFMpegWriter(fps=fps))
     else:  # GIF: grab each frame from the Agg buffer (much cheaper than savefig per frame)
@@ -77,10 +78,9 @@ def animate(leg: LegModel, t: np.ndarray, q: np.ndarray, path: str | Path, fps: 
         images = []
         for k in range(len(frames)):
             draw(k)
-            fig.canvas.draw()
-            rgba = np.asarray(fig.canvas.buffer_rgba())  # type: ignore[attr-defined]  # Agg
+            canvas.draw()
+            rgba = np.asarray(canvas.buffer_rgba())
             images.append(Image.fromarray(rgba[..., :3].copy()).quantize(colors=64))
         images[0].save(p, save_all=True, append_images=images[1:], duration=round(1000 / fps),
                        loop=0)
-    plt.close(fig)
     return p

@@ -140,18 +140,17 @@ def write_csv(rows: list[Row], path: str | Path) -> Path:
 def heatmap(rows: list[Row], path: str | Path) -> Path:
     """A heat map per group and sex: age x height percentile, coloured by the fit
     (misses short / fits / misses long) with the smallest actuator margin written in."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.colors import ListedColormap
+
+    from exoleg.plots.figures import new_figure
 
     groups = list(dict.fromkeys(r.group for r in rows))
     sexes = list(dict.fromkeys(r.sex for r in rows))
     ages = sorted({r.age for r in rows})
     pcts = sorted({r.percentile for r in rows})
-    fig, axes = plt.subplots(len(sexes), len(groups), figsize=(3.2 * len(groups), 3.4 * len(sexes)),
-                             squeeze=False)
+    fig = new_figure(3.2 * len(groups), 3.4 * len(sexes), left=0.05, right=0.99, top=0.88,
+                     bottom=0.1, wspace=0.3, hspace=0.4)
+    axes = fig.subplots(len(sexes), len(groups), squeeze=False)
     cmap = ListedColormap(["#d95f02", "#1b9e77", "#7570b3"])
     for si, sex in enumerate(sexes):
         for gi, grp in enumerate(groups):
@@ -170,8 +169,6 @@ def heatmap(rows: list[Row], path: str | Path) -> Path:
                 ax.set_xlabel("age (years)", fontsize=7)
     fig.suptitle("device fit (orange: too small a child, green: fits, purple: too large); "
                  "numbers: smallest actuator margin", fontsize=8)
-    fig.subplots_adjust(left=0.05, right=0.99, top=0.88, bottom=0.1, wspace=0.3, hspace=0.4)
     p = Path(path)
     fig.savefig(p, dpi=110)
-    plt.close(fig)
     return p
