@@ -47,12 +47,12 @@ def main() -> None:
     t = np.arange(N + 1) * DT
     Qr, DQr, DDQr = (np.ascontiguousarray(a) for a in ref.sample(t))
     Q, DQ, DDQ, U = (np.zeros((N + 1, 3)) for _ in range(4))
-    SAT, E = np.zeros(N + 1, dtype=np.int64), np.zeros((N + 1, 5))
+    SAT = np.zeros(N + 1, dtype=np.int64)
 
     def exo_loop() -> None:
         Q[0], DQ[0] = 0.0, 0.0
         _run(leg.p, leg.g, ctrl.kind, *ctrl.law_args(), Qr, DQr,
-             DDQr, DT, 1, Q, DQ, DDQ, U, SAT, E, 0, N, np.zeros(3), np.zeros(1, np.int64), False)
+             DDQr, DT, 1, Q, DQ, DDQ, U, SAT, 0, N, np.zeros(3), np.zeros(1, np.int64))
 
     rows = [("exoleg compiled loop", best(exo_loop, 15))]
     rows.append(("exoleg simulate() end to end", best(

@@ -29,36 +29,58 @@ log = logging.getLogger(__name__)
 
 
 @njit(cache=True)
-def _diagnostics(p, g, kp_eff, q, dq, q_ref, out):  # type: ignore[no-untyped-def]
-    """out[0..4] = kinetic, potential, Lyapunov V (eq 26), dq^T (Mdot - 2C) dq and
-    dq^T Mdot dq (the size of the terms that cancel in the former)."""
-    kin, pot, ver, mdq = diagnostics(q, dq, p, g)
-    vq = 0.0
-    for i in range(3):
-        e = q_ref[i] - q[i]
-        vq += 0.5 * kp_eff[i] * e * e
-    out[0], out[1], out[2], out[3], out[4] = kin, pot, kin + vq, ver, mdq
+def _diagnose(p, g, kp_eff, Q, DQ, Qr, E):  # type: ignore[no-untyped-def]
+    """E[k, 0..4] = kinetic, potential, Lyapunov V (eq 26), dq^T (Mdot - 2C) dq and
+    dq^T Mdot dq (the size of the terms that cancel in the former) at every state k."""
+    for k in range(Q.shape[0]):
+        kin, pot, ver, mdq = diagnostics(Q[k], DQ[k], p, g)
+        vq = 0.0
+        for i in range(3):
+            e = Qr[k, i] - Q[k, i]
+            vq += 0.5 * kp_eff[i] * e * e
+        E[k, 0], E[k, 1], E[k, 2], E[k, 3], E[k, 4] = kin, pot, kin + vq, ver, mdq
+
+
+def _energies(leg: LegModel, controller: Controller, Q: F64, DQ: F64, Qr: F64) -> F64:
+    """:func:`_diagnose` over a run: (N, 5)."""
+    E = np.empty((len(Q), 5))
+    _diagnose(leg.p, leg.g, tuple(map(float, controller.scale * controller.Kp)), Q, DQ, Qr, E)
+    return E
+
+
+def warm_up() -> None:
+    """Compile, or load from numba's cache, the kernels a scenario needs besides the
+    stepper :func:`_run`: the per-state diagnostics and the control law an engine
+    comparison calls from Python. The command line does this in its second process
+    while the first compiles the stepper (numba compiles on one core; cold, the two
+    together take several seconds)."""
+    from exoleg import paper_leg
+    from exoleg.control import PDGravity
+    from exoleg.control.laws import control_law
+
+    leg = paper_leg()
+    ctrl = PDGravity(leg)
+    x = np.zeros((2, 3))
+    _energies(leg, ctrl, x, x, x)
+    control_law(ctrl.kind, *ctrl.law_args(), *x, *x, np.zeros(3),  # type: ignore[call-arg]
+                np.zeros(3))
 
 
 @njit(cache=True, error_model="numpy")
 def _run(p, g, kind, kp, kd, kc, scale, limit, Qr, DQr, DDQr, dt, hold,  # type: ignore[no-untyped-def]
-         Q, DQ, DDQ, U, SAT, E, k0, k1, u, mask, diagnostics):
+         Q, DQ, DDQ, U, SAT, k0, k1, u, mask):
     """Integrate steps k0 .. k1-1 from the state in Q[k0], DQ[k0].
 
     ``kp``, ``kd``, ``limit`` and ``kc`` are tuples (passed by value). ``u`` (3,) and
     ``mask`` (1,) carry the held torque and saturation flags between calls (so a run can
-    be done in chunks). With ``diagnostics``, ``E`` (N, 5) receives :func:`_diagnostics`
-    at every state. Returns the index of the first non-finite state, or -1.
+    be done in chunks). Returns the index of the first non-finite state, or -1.
     """
-    kp_eff = (scale * kp[0], scale * kp[1], scale * kp[2])
     coef = coefficients(p, g)
     q0, q1, q2 = Q[k0, 0], Q[k0, 1], Q[k0, 2]
     v0, v1, v2 = DQ[k0, 0], DQ[k0, 1], DQ[k0, 2]
     s0, c0, s1, c1, s2, c2 = sincos3(q0, q1, q2)
     held = k0 % hold  # steps since the controller last sampled
     for k in range(k0, k1):
-        if diagnostics:
-            _diagnostics(p, g, kp_eff, Q[k], DQ[k], Qr[k], E[k])
         if held == hold:
             held = 0
         held += 1
@@ -86,8 +108,6 @@ def _run(p, g, kind, kp, kd, kc, scale, limit, Qr, DQr, DDQr, dt, hold,  # type:
         SAT[n] = mask[0]                                # compiles numba's string formatting)
         DDQ[n, 0], DDQ[n, 1], DDQ[n, 2] = forward_dynamics_sc(
             s0, c0, s1, c1, s2, c2, v0, v1, v2, u[0], u[1], u[2], coef)
-        if diagnostics:
-            _diagnostics(p, g, kp_eff, Q[n], DQ[n], Qr[n], E[n])
     return -1
 
 
@@ -215,7 +235,6 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
         log.warning("sampled loop near its stability edge: h * lambda = %.3f (limit 2)", margin)
     Q, DQ, DDQ, U = (np.empty((n + 1, 3)) for _ in range(4))
     SAT = np.zeros(n + 1, dtype=np.int64)
-    E = np.zeros((n + 1, 5))
     Q[0], DQ[0] = q_init, dq_init
     u, mask = np.zeros(3), np.zeros(1, dtype=np.int64)
     # chunks start where the stepper re-anchors its carried sin/cos anyway, so a run with
@@ -225,7 +244,7 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
     for k0 in range(0, n, chunk):
         k1 = min(n, k0 + chunk)
         bad = _run(leg.p, leg.g, controller.kind, *controller.law_args(), Qr, DQr, DDQr, dt,
-                   hold, Q, DQ, DDQ, U, SAT, E, k0, k1, u, mask, True)
+                   hold, Q, DQ, DDQ, U, SAT, k0, k1, u, mask)
         if progress is not None:
             progress(k1 / n)
         if bad >= 0:
@@ -233,6 +252,7 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
     if bad >= 0:
         j = [JOINTS[i] for i in range(3) if not (np.isfinite(Q[bad, i]) and np.isfinite(DQ[bad, i]))]
         raise SimulationError(f"state became non-finite at t = {t[bad]:.6g} s ({', '.join(j)})")
+    E = _energies(leg, controller, Q, DQ, Qr)
     err = Qr - Q
     sat = ((SAT[:, None] >> np.arange(3)) & 1).astype(bool)
     return SimResult(t=t, q=Q, dq=DQ, ddq=DDQ, u=U, q_ref=Qr, error=err, kinetic=E[:, 0],
