@@ -173,7 +173,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     # (0.5-0.8 s sooner than a spawned one); elsewhere it is spawned.
     method = "fork" if sys.platform == "linux" else "spawn"
     with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context(method)) as pool:
-        pool.submit(_prepare_worker)
+        prepared = pool.submit(_prepare_worker)
         report = run_scenario(cfg["leg"], cfg["controller"], cfg["reference"], args.duration,
                               dt=args.dt, control_dt=1.0 / args.control_rate, q0=cfg["q0"],
                               detailed=cfg["detailed"],
@@ -190,6 +190,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             movie = animate(cfg["leg"], report.result.t, report.result.q, out / "gait.mp4",
                             q_ref=report.result.q_ref)
             progress("animation", 1.0)
+        prepared.result()  # (a failure there is a bug: let it show)
         paths = drawn.result()
     if args.animate:
         paths.append(movie)
