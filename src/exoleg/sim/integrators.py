@@ -91,19 +91,19 @@ def rk4_sc(s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2, t0, t1, t2, k, h):  #
     called. The stages are a loop, so the compiler inlines the dynamics once, not thrice.
     """
     a0, a1, a2 = forward_dynamics_sc(s0, c0, s1, c1, s2, c2, v0, v1, v2, t0, t1, t2, k)
-    x0, x1, x2 = v0, v1, v2  # the previous stage's velocity and acceleration
+    x0, x1, x2 = v0, v1, v2  # the previous stage's velocity (x) and acceleration (y)
     y0, y1, y2 = a0, a1, a2
     sq0, sq1, sq2 = v0, v1, v2  # weighted sums of the stages' velocities, accelerations
     sv0, sv1, sv2 = a0, a1, a2
     for stage in range(3):
-        c, w = (0.5 * h, 2.0) if stage < 2 else (h, 1.0)
+        c, wt = (0.5 * h, 2.0) if stage < 2 else (h, 1.0)  # step fraction, RK4 weight
         u0, w0 = _shift(s0, c0, c * x0)
         u1, w1 = _shift(s1, c1, c * x1)
         u2, w2 = _shift(s2, c2, c * x2)
         x0, x1, x2 = v0 + c * y0, v1 + c * y1, v2 + c * y2
         y0, y1, y2 = forward_dynamics_sc(u0, w0, u1, w1, u2, w2, x0, x1, x2, t0, t1, t2, k)
-        sq0, sq1, sq2 = sq0 + w * x0, sq1 + w * x1, sq2 + w * x2
-        sv0, sv1, sv2 = sv0 + w * y0, sv1 + w * y1, sv2 + w * y2
+        sq0, sq1, sq2 = sq0 + wt * x0, sq1 + wt * x1, sq2 + wt * x2
+        sv0, sv1, sv2 = sv0 + wt * y0, sv1 + wt * y1, sv2 + wt * y2
     s = h / 6.0
     qn = (q0 + s * sq0, q1 + s * sq1, q2 + s * sq2)
     vn = (v0 + s * sv0, v1 + s * sv1, v2 + s * sv2)
