@@ -65,22 +65,31 @@ def animate(leg: LegModel, t: np.ndarray, q: np.ndarray, path: str | Path, fps: 
             r = chain(ref, k)
             ghost.set_data(r[:, 0], r[:, 1])
         text.set_text(f"t = {t[frames[k]]:.2f} s")
-        return child, exo, joints, ghost, text
+        return ghost, exo, child, joints, text  # in drawing order
 
     if p.suffix == ".mp4":
         from matplotlib.animation import FFMpegWriter, FuncAnimation
 
         FuncAnimation(fig, draw, frames=len(frames), blit=True).save(
             str(p), writer=FFMpegWriter(fps=fps))
-    else:  # GIF: grab each frame from the Agg buffer (much cheaper than savefig per frame)
+    else:  # GIF: blit, i.e. render the axes, ticks and legend once and per frame only
+        # the moving artists over them
         from PIL import Image
 
-        images = []
+        moving = draw(0)
+        for a in moving:
+            a.set_animated(True)  # left out of the full draw
+        canvas.draw()
+        background = canvas.copy_from_bbox(fig.bbox)
+        images: list[Image.Image] = []
         for k in range(len(frames)):
             draw(k)
-            canvas.draw()
-            rgba = np.asarray(canvas.buffer_rgba())
-            images.append(Image.fromarray(rgba[..., :3].copy()).quantize(colors=64))
+            canvas.restore_region(background)
+            for a in moving:
+                ax.draw_artist(a)
+            frame = Image.fromarray(np.asarray(canvas.buffer_rgba())[..., :3].copy())
+            # (a palette per frame: mapping onto the first frame's, PIL merges near-whites)
+            images.append(frame.quantize(colors=64, method=Image.Quantize.FASTOCTREE))
         images[0].save(p, save_all=True, append_images=images[1:], duration=round(1000 / fps),
                        loop=0)
     return p
