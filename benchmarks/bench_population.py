@@ -2,7 +2,8 @@
 1 kHz, RK4, PD + gravity compensation) over many personalized legs in one parallel batch.
 
 Run: ``python benchmarks/bench_population.py [N [REPEATS]]`` (default 10,000 children,
-3 runs). Prints simulated seconds per wall second, best and median of the runs. Target (issue 4): >= 10,000 on this 2-core machine.
+3 runs). Prints simulated seconds per wall second, best and median of the runs.
+Target (issue 4): >= 10,000 on this 2-core machine.
 """
 
 from __future__ import annotations

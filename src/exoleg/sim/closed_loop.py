@@ -60,10 +60,10 @@ def warm_up() -> None:
 
     leg = paper_leg()
     ctrl = PDGravity(leg)
-    x = np.zeros((2, 3))
-    _energies(leg, ctrl, x, x, x)
-    control_law(ctrl.kind, *ctrl.law_args(), *x, *x, np.zeros(3),  # type: ignore[call-arg]
-                np.zeros(3))
+    states = np.zeros((2, 3))  # the argument types simulate() and the engines pass
+    _energies(leg, ctrl, states, states, states)
+    z = np.zeros(3)
+    control_law(ctrl.kind, *ctrl.law_args(), z, z, z, z, z, np.zeros(3))
 
 
 @njit(cache=True, error_model="numpy")
