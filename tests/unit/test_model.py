@@ -53,3 +53,64 @@ def test_detailed_is_twice_simplified():
     Q = RNG.uniform(-3, 3, (50, 3))
     assert np.allclose(d.M(Q), 2 * s.M(Q), rtol=1e-12)
     assert np.allclose(d.G(Q), 2 * s.G(Q), rtol=1e-12, atol=1e-12)
+
+
+# ------------------------------------------------------- one-state calls (exoleg.dynamics.single)
+_CALLS = {  # method -> number of state arguments
+    "M": 1, "C": 2, "Cdq": 2, "G": 1, "Mdot": 2, "forward_dynamics": 3, "inverse_dynamics": 3,
+}
+
+
+def test_single_state_fast_path_is_built_and_used():
+    # The C extension must be present where the package was built with a compiler (CI):
+    # without it every call silently takes the slow general path.
+    from exoleg.dynamics import single
+
+    assert single.call is not None
+    q = RNG.uniform(-3, 3, 3)
+    out = single.call(single.ADDRESS.gravity, single.VECTOR, LEG.g, LEG.p, q)
+    assert out is not None and np.array_equal(out, LEG.G(q[None])[0])
+
+
+def test_single_state_equals_batched_for_every_input_form():
+    # Reference: the broadcasting gufunc path (batch of one), which shares no code with the
+    # one-state path but the generated kernel: results must agree bit for bit, whatever
+    # form the one state comes in (float64 array, list, int array, strided view, float32).
+    for _ in range(20):
+        states = [RNG.uniform(-3, 3, 3) for _ in range(3)]
+        for name, n in _CALLS.items():
+            f = getattr(LEG, name)
+            want = f(*(s[None] for s in states[:n]))[0]
+            forms = [
+                [s for s in states[:n]],
+                [s.tolist() for s in states[:n]],
+                [np.repeat(s, 2)[::2] for s in states[:n]],  # non-contiguous views
+            ]
+            for args in forms:
+                assert np.array_equal(f(*args), want), name
+    ints = np.array([1, -2, 0])
+    assert np.array_equal(LEG.G(ints), LEG.G(ints.astype(float)))
+
+
+def test_single_state_fk_equals_numpy_kinematics():
+    # Reference: exoleg.kinematics.forward_kinematics (numpy) on the same leg.
+    from exoleg import kinematics
+
+    for q in RNG.uniform(-3, 3, (20, 3)):
+        fast = LEG.fk(q)
+        ref = kinematics.forward_kinematics(q, LEG.lengths, LEG.coms, LEG.offsets)
+        assert fast.keys() == ref.keys()
+        for k in ref:
+            assert np.allclose(fast[k], ref[k], rtol=0, atol=1e-15), k
+
+
+def test_single_state_non_finite_is_named():
+    import pytest
+
+    for bad in (np.array([np.nan, 0.0, 0.0]), np.array([0.0, np.inf, 0.0])):
+        with pytest.raises(exoleg.ParameterError, match="q: must be finite"):
+            LEG.G(bad)
+        with pytest.raises(exoleg.ParameterError, match="q: must be finite"):
+            LEG.fk(bad)
+    with pytest.raises(exoleg.ParameterError, match="tau: must be finite"):
+        LEG.forward_dynamics(np.zeros(3), np.zeros(3), np.array([0.0, 0.0, np.nan]))

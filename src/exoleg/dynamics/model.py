@@ -3,13 +3,18 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from exoleg import kinematics
 from exoleg.dynamics import kernels as K
+from exoleg.dynamics.single import ADDRESS as _A
+from exoleg.dynamics.single import MATRIX as _MAT
+from exoleg.dynamics.single import POINTS as _PTS
+from exoleg.dynamics.single import VECTOR as _VEC
+from exoleg.dynamics.single import call as _call
 from exoleg.errors import ParameterError
 from exoleg.params import _check
 from exoleg.params.records import JOINTS, Link
@@ -174,30 +179,51 @@ class LegModel:
     # -------------------------------------------------------------- dynamics
     def M(self, q: ArrayLike) -> F64:
         """Inertia matrix M(q) (..., 3, 3), kg m^2 (eq 17)."""
+        out = None if _call is None else _call(_A.mass_matrix, _MAT, self.g, self._p, q)
+        if out is not None:  # else not one float64 state, or not finite: the general path
+            return out
         return self._run("mass_matrix", (q,))
 
     def C(self, q: ArrayLike, dq: ArrayLike) -> F64:
         """Coriolis/centripetal matrix in Christoffel form (eq 18), (..., 3, 3)."""
+        out = None if _call is None else _call(_A.coriolis_matrix, _MAT, self.g, self._p, q, dq)
+        if out is not None:  # else not one float64 state, or not finite: the general path
+            return out
         return self._run("coriolis_matrix", (q, dq))
 
     def Cdq(self, q: ArrayLike, dq: ArrayLike) -> F64:
         """C(q, dq) dq (..., 3), N m."""
+        out = None if _call is None else _call(_A.coriolis_dq, _VEC, self.g, self._p, q, dq)
+        if out is not None:  # else not one float64 state, or not finite: the general path
+            return out
         return self._run("coriolis_dq", (q, dq))
 
     def G(self, q: ArrayLike) -> F64:
         """Gravity torque vector G(q) (..., 3), N m (eq 19)."""
+        out = None if _call is None else _call(_A.gravity, _VEC, self.g, self._p, q)
+        if out is not None:  # else not one float64 state, or not finite: the general path
+            return out
         return self._run("gravity", (q,))
 
     def Mdot(self, q: ArrayLike, dq: ArrayLike) -> F64:
         """Time derivative of M along (q, dq), (..., 3, 3)."""
+        out = None if _call is None else _call(_A.mass_matrix_dot, _MAT, self.g, self._p, q, dq)
+        if out is not None:  # else not one float64 state, or not finite: the general path
+            return out
         return self._run("mass_matrix_dot", (q, dq))
 
     def forward_dynamics(self, q: ArrayLike, dq: ArrayLike, tau: ArrayLike) -> F64:
         """Joint accelerations M^-1 (tau - C dq - G) (eq 20), (..., 3), rad/s^2."""
+        out = None if _call is None else _call(_A.forward_dynamics, _VEC, self.g, self._p, q, dq, tau)
+        if out is not None:  # else not one float64 state, or not finite: the general path
+            return out
         return self._run("forward_dynamics", (q, dq, tau))
 
     def inverse_dynamics(self, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike) -> F64:
         """Joint torques M ddq + C dq + G (eq 16), (..., 3), N m."""
+        out = None if _call is None else _call(_A.inverse_dynamics, _VEC, self.g, self._p, q, dq, ddq)
+        if out is not None:  # else not one float64 state, or not finite: the general path
+            return out
         return self._run("inverse_dynamics", (q, dq, ddq))
 
     def kinetic_energy(self, q: ArrayLike, dq: ArrayLike) -> F64:
@@ -212,9 +238,15 @@ class LegModel:
     def fk(self, q: ArrayLike) -> dict[str, F64]:
         """Named positions (..., 2) in m: hip, knee, ankle, toe, com_thigh, com_shank,
         com_foot; and ``phi``, the foot orientation (rad). Paper eqs 5-6."""
-        return kinematics.forward_kinematics(
-            self._vec("q", q, "rad"), self._p[1::5], self.coms, K.OFFSETS
-        )
+        out = None if _call is None else _call(_A.forward_kinematics, _PTS, self.g, self._p, q)
+        if out is not None:
+            fk = dict(zip(kinematics.POINTS, out))
+            fk["phi"] = out[7, 0]
+            return fk
+        qa = self._vec("q", q, "rad")
+        if not np.all(np.isfinite(qa)):
+            raise ParameterError(f"LegModel {self.name!r}", "q", "must be finite rad")
+        return kinematics.forward_kinematics(qa, self._p[1::5], self.coms, K.OFFSETS)
 
     def jacobians(self, q: ArrayLike) -> dict[str, F64]:
         """Linear Jacobians (..., 2, 3) of the toe and each COM."""
