@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass
+import os
+from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -13,11 +15,12 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from exoleg.control.controllers import Controller
-from exoleg.control.laws import law
-from exoleg.dynamics.kernels import coefficients, diagnostics, forward_dynamics_sc
+from exoleg.control.laws import COMPUTED_TORQUE_KIND, law
+from exoleg.dynamics.kernels import coefficients, diagnostics, forward_dynamics_sc, mass_matrix
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError, SimulationError
-from exoleg.params.records import JOINTS
+from exoleg.io import atomic_path
+from exoleg.params.records import JOINTS, RangeOfMotion
 from exoleg.reference.steps import Reference
 from exoleg.sim.integrators import RESYNC, next_sincos, rk4_sc, sincos3
 
@@ -41,13 +44,6 @@ def _diagnose(p, g, kp_eff, Q, DQ, Qr, E):  # type: ignore[no-untyped-def]
         E[k, 0], E[k, 1], E[k, 2], E[k, 3], E[k, 4] = kin, pot, kin + vq, ver, mdq
 
 
-def _energies(leg: LegModel, controller: Controller, Q: F64, DQ: F64, Qr: F64) -> F64:
-    """:func:`_diagnose` over a run: (N, 5)."""
-    E = np.empty((len(Q), 5))
-    _diagnose(leg.p, leg.g, tuple(map(float, controller.scale * controller.Kp)), Q, DQ, Qr, E)
-    return E
-
-
 def warm_up() -> None:
     """Compile, or load from numba's cache, the kernels a scenario needs besides the
     stepper :func:`_run`: the per-state diagnostics and the control law an engine
@@ -61,7 +57,7 @@ def warm_up() -> None:
     leg = paper_leg()
     ctrl = PDGravity(leg)
     states = np.zeros((2, 3))  # the argument types simulate() and the engines pass
-    _energies(leg, ctrl, states, states, states)
+    _diagnose(leg.p, leg.g, (1.0, 1.0, 1.0), states, states, states, np.empty((2, 5)))
     z = np.zeros(3)
     control_law(ctrl.kind, *ctrl.law_args(), z, z, z, z, z, np.zeros(3))
 
@@ -111,14 +107,117 @@ def _run(p, g, kind, kp, kd, kc, scale, limit, Qr, DQr, DDQr, dt, hold,  # type:
     return -1
 
 
+@njit(inline="always")
+def _inv3(M):  # type: ignore[no-untyped-def]
+    """Inverse of a 3 x 3 matrix by its adjugate."""
+    a, b, c = M[0, 0], M[0, 1], M[0, 2]
+    d, e, f = M[1, 0], M[1, 1], M[1, 2]
+    g, h, i = M[2, 0], M[2, 1], M[2, 2]
+    A, B, C = e * i - f * h, f * g - d * i, d * h - e * g
+    det = a * A + b * B + c * C
+    out = np.empty((3, 3))
+    out[0, 0], out[1, 0], out[2, 0] = A / det, B / det, C / det
+    out[0, 1], out[1, 1], out[2, 1] = (c * h - b * i) / det, (a * i - c * g) / det, (b * g - a * h) / det
+    out[0, 2], out[1, 2], out[2, 2] = (b * f - c * e) / det, (c * d - a * f) / det, (a * e - b * d) / det
+    return out
+
+
+@njit(inline="always")
+def _largest_real_eigenvalue(A):  # type: ignore[no-untyped-def]
+    """Largest real part of the eigenvalues of a 3 x 3 matrix: the roots of its
+    characteristic polynomial l^3 - tr l^2 + c2 l - det, by Cardano in complex numbers."""
+    tr = A[0, 0] + A[1, 1] + A[2, 2]
+    c2 = (A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0] + A[0, 0] * A[2, 2] - A[0, 2] * A[2, 0]
+          + A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])
+    det = (A[0, 0] * (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])
+           - A[0, 1] * (A[1, 0] * A[2, 2] - A[1, 2] * A[2, 0])
+           + A[0, 2] * (A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]))
+    # depressed cubic in x = l - tr/3:  x^3 + P x + Q = 0
+    P = c2 - tr * tr / 3.0
+    Q = -2.0 * tr ** 3 / 27.0 + tr * c2 / 3.0 - det
+    disc = complex(Q * Q / 4.0 + P ** 3 / 27.0) ** 0.5
+    u = (-Q / 2.0 + disc) ** (1.0 / 3.0)
+    if abs(u) < 1e-300:
+        u = (-Q / 2.0 - disc) ** (1.0 / 3.0)
+    best = -np.inf
+    w = complex(-0.5, 0.8660254037844386)  # a cube root of unity
+    for k in range(3):
+        uk = u * w ** k
+        x = uk - P / (3.0 * uk) if abs(uk) > 1e-300 else 0.0j
+        best = max(best, (x + tr / 3.0).real)
+    return best
+
+
+@njit(cache=True)
+def _margin(p, p_model, kind, kd, scale, h, postures):  # type: ignore[no-untyped-def]
+    """Largest h * Re lambda(A) over the postures (N, 3), A the gain of the held velocity
+    feedback on the plant: A = scale M_plant^-1 Kd for PD and PD + gravity compensation
+    (Kd in N m s/rad), A = scale M_plant^-1 M_model Kd for computed torque (Kd in 1/s)."""
+    Mp = np.empty((3, 3))
+    Mm = np.empty((3, 3))
+    B = np.empty((3, 3))
+    best = 0.0
+    for k in range(postures.shape[0]):
+        mass_matrix(postures[k], p, Mp)
+        Minv = _inv3(Mp)
+        if kind == COMPUTED_TORQUE_KIND:
+            mass_matrix(postures[k], p_model, Mm)
+        else:
+            Mm[:] = np.eye(3)
+        for i in range(3):  # B = M_plant^-1 M_model Kd scale (no BLAS in numba without scipy)
+            for j in range(3):
+                B[i, j] = scale * kd[j] * (Minv[i, 0] * Mm[0, j] + Minv[i, 1] * Mm[1, j]
+                                           + Minv[i, 2] * Mm[2, j])
+        best = max(best, h * _largest_real_eigenvalue(B))
+    return best
+
+
+def sampled_stability(leg: LegModel, controller: Controller, h: float,
+                      postures: ArrayLike) -> float:
+    """Largest h * lambda_max of the velocity-feedback gain over the postures (N, 3): a held
+    velocity feedback is stable only while this is < 2 (``docs/conventions.md``, "Sampled
+    control at 1 kHz"). The gain is M^-1 Kd for PD and PD + gravity compensation (Kd in
+    N m s/rad) and M^-1 M_model Kd, i.e. Kd (1/s) when the model is exact, for computed
+    torque; both times the controller's torque scale."""
+    P = np.ascontiguousarray(np.atleast_2d(np.asarray(postures, dtype=float)))
+    model = controller.model if controller.model is not None else leg
+    return float(_margin(leg.p, model.p, controller.kind,
+                         np.ascontiguousarray(controller.Kd, dtype=float), controller.scale, h, P))
+
+
+#: Memory a run keeps per step, bytes: t; q, dq, ddq, u, the three references, error and
+#: saturation (3 each); five diagnostics; float64 throughout.
+BYTES_PER_STEP = 8 * (1 + 3 * 9 + 5)
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available now (Linux: MemAvailable; else physical memory), or None."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
 @dataclass(frozen=True)
 class SimResult:
     """Named time series of a run; arrays (N,) or (N, 3), joints ordered (hip, knee, ankle).
 
-    t s; q rad; dq rad/s; ddq rad/s^2; u N m (held torque); q_ref rad; error = q_ref - q;
-    kinetic, potential J; lyapunov V of eq 26 (J); verification dq^T (Mdot - 2C) dq (W) and
-    verification_scale |dq^T Mdot dq| (W), the size of what cancels in it; saturated (N, 3);
-    stability_margin: the largest h * lambda(M^-1 Kd) checked before the run (< 2 stable).
+    t s; q rad; dq rad/s; ddq rad/s^2; u N m (held torque); q_ref rad; saturated (N, 3);
+    stability_margin: the largest h * lambda of the velocity feedback checked before the
+    run (< 2 stable, see :func:`sampled_stability`); notes: what the caller should know
+    (e.g. a run outside the device's range of motion, on request).
+
+    Computed on first access (one compiled pass over the run, then kept): error =
+    q_ref - q; kinetic, potential J; lyapunov V of eq 26 (J); verification
+    dq^T (Mdot - 2C) dq (W) and verification_scale |dq^T Mdot dq| (W), the size of
+    what cancels in it.
     """
 
     t: F64
@@ -127,14 +226,45 @@ class SimResult:
     ddq: F64
     u: F64
     q_ref: F64
-    error: F64
-    kinetic: F64
-    potential: F64
-    lyapunov: F64
-    verification: F64
-    verification_scale: F64
     saturated: NDArray[np.bool_]
     stability_margin: float = float("nan")
+    notes: tuple[str, ...] = ()
+    leg: LegModel | None = field(default=None, repr=False)
+    kp_effective: F64 | None = field(default=None, repr=False)
+
+    @cached_property
+    def error(self) -> F64:
+        return self.q_ref - self.q
+
+    @cached_property
+    def _diagnostics(self) -> F64:
+        if self.leg is None or self.kp_effective is None:
+            raise ParameterError("SimResult", "leg",
+                                 "the diagnostics need the run's leg and gains (kp_effective)")
+        E = np.empty((len(self.q), 5))
+        _diagnose(self.leg.p, self.leg.g, tuple(map(float, self.kp_effective)), self.q,
+                  self.dq, self.q_ref, E)
+        return E
+
+    @property
+    def kinetic(self) -> F64:
+        return self._diagnostics[:, 0]
+
+    @property
+    def potential(self) -> F64:
+        return self._diagnostics[:, 1]
+
+    @property
+    def lyapunov(self) -> F64:
+        return self._diagnostics[:, 2]
+
+    @property
+    def verification(self) -> F64:
+        return self._diagnostics[:, 3]
+
+    @property
+    def verification_scale(self) -> F64:
+        return np.abs(self._diagnostics[:, 4])
 
     def columns(self) -> dict[str, F64]:
         """Every series as named 1-D columns (``q_hip``, ``u_ankle``, ...), SI units, rad."""
@@ -155,57 +285,75 @@ class SimResult:
 
     def to_csv(self, path: str | Path) -> Path:
         """Write :meth:`columns` as CSV with a header line. Each number is written as the
-        shortest decimal that reads back as the same float (nothing is lost)."""
+        shortest decimal that reads back as the same float (nothing is lost). The file
+        is written whole or not at all (:func:`exoleg.io.atomic_path`)."""
         import pyarrow.csv as pcsv
 
         table = self.table()
-        p = Path(path)
-        with p.open("wb") as f:  # the header unquoted, as every CSV reader expects it
-            f.write((",".join(table.column_names) + "\n").encode())
+        with atomic_path(path) as tmp, tmp.open("wb") as f:
+            f.write((",".join(table.column_names) + "\n").encode())  # the header unquoted
             pcsv.write_csv(table, f, pcsv.WriteOptions(include_header=False))
-        return p
+        return Path(path)
 
     def to_parquet(self, path: str | Path) -> Path:
-        """Write :meth:`columns` as Parquet."""
+        """Write :meth:`columns` as Parquet, whole or not at all."""
         import pyarrow.parquet as pq
 
-        p = Path(path)
-        pq.write_table(self.table(), p)
-        return p
-
-
-def sampled_stability(leg: LegModel, Kd: ArrayLike, h: float, postures: ArrayLike) -> float:
-    """Largest h * lambda_max(M(q)^-1 Kd) over the postures: a held velocity feedback is
-    stable only while this is < 2 (``docs/conventions.md``, "Sampled control")."""
-    P = np.atleast_2d(np.asarray(postures, dtype=float))
-    lam = [np.max(np.real(np.linalg.eigvals(np.linalg.solve(leg.M(q), np.diag(Kd)))))
-           for q in P]
-    return float(h * max(lam))
+        table = self.table()
+        with atomic_path(path) as tmp:
+            pq.write_table(table, tmp)
+        return Path(path)
 
 
 def simulate(leg: LegModel, controller: Controller, reference: Reference, duration: float,
              dt: float = 1e-3, q0: ArrayLike | None = None, dq0: ArrayLike | None = None,
              control_dt: float | None = None,
-             progress: Callable[[float], None] | None = None) -> SimResult:
+             progress: Callable[[float], None] | None = None,
+             range_of_motion: RangeOfMotion | None = None,
+             beyond_range_of_motion: bool = False) -> SimResult:
     """Simulate the closed loop for ``duration`` s with RK4 steps of ``dt`` s.
 
     The controller runs every ``control_dt`` s (default ``dt``, i.e. 1 kHz at 1 ms; it
     must be a whole multiple of ``dt``) and its torque is held in between. q0, dq0
-    default to the reference's first posture at rest. Raises
-    :class:`~exoleg.errors.SimulationError` naming the time and joint if the state
-    stops being finite, and refuses gains the sampled loop cannot keep stable
-    (h * lambda >= 2). ``progress``, if given, is called with the fraction done
-    (the run is then done in about 100 chunks; the result is the same bit for bit).
+    default to the reference's first posture at rest. ``progress``, if given, is called
+    with the fraction done (the run is then done in about 100 chunks; the result is the
+    same bit for bit).
+
+    Refused before the run (:class:`~exoleg.errors.ParameterError`, naming the input and
+    what is allowed): fewer than one step; more steps than the memory available holds;
+    gains the sampled loop cannot keep stable (:func:`sampled_stability` >= 2); a start
+    posture or reference outside ``range_of_motion`` (default: the device's, paper
+    section 2.1) unless ``beyond_range_of_motion`` -- then the result's ``notes`` say so.
+    Raises :class:`~exoleg.errors.SimulationError` naming the time and joint if the state
+    stops being finite. Diagnostics (energies, V, verification signal) are computed
+    when first read.
     """
+    from exoleg.params.paper import range_of_motion as device_rom
+
     for nm, v in (("duration", duration), ("dt", dt)):
-        if not (np.isfinite(v) and v > 0):
+        if not (isinstance(v, (int, float, np.floating)) and np.isfinite(v) and v > 0):
             raise ParameterError("simulate", nm, f"must be a finite time > 0 s, got {v!r}")
     cdt = dt if control_dt is None else control_dt
+    if not (isinstance(cdt, (int, float, np.floating)) and np.isfinite(cdt) and cdt > 0):
+        raise ParameterError("simulate", "control_dt", f"must be a finite time > 0 s, got {cdt!r}")
     hold = int(round(cdt / dt))
     if hold < 1 or abs(hold * dt - cdt) > 1e-9 * cdt:
         raise ParameterError("simulate", "control_dt",
                              f"must be a whole multiple of dt = {dt} s, got {cdt!r}")
-    n = int(round(duration / dt))
+    steps = duration / dt
+    if steps < 0.5:
+        raise ParameterError("simulate", "duration",
+                             f"{duration!r} s is less than one step of dt = {dt!r} s; allowed: "
+                             f"duration >= dt")
+    avail = available_memory()
+    need = (steps + 1) * BYTES_PER_STEP
+    if avail is not None and need > 0.5 * avail:
+        raise ParameterError("simulate", "duration",
+                             f"{duration:g} s at dt = {dt:g} s is {steps:.3g} steps and needs "
+                             f"{need / 2**30:.3g} GiB; {avail / 2**30:.3g} GiB is available "
+                             f"(allowed: at most {0.5 * avail / BYTES_PER_STEP * dt:.4g} s at "
+                             "this dt, half the memory available)")
+    n = int(round(steps))
     t: F64 = (np.arange(n + 1) * dt).astype(np.float64)
     Qr, DQr, DDQr = (np.ascontiguousarray(a, dtype=np.float64) for a in reference.sample(t))
     for name, arr in (("q_ref", Qr), ("dq_ref", DQr), ("ddq_ref", DDQr)):
@@ -224,13 +372,24 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
     for name, vec in (("q0", q_init), ("dq0", dq_init)):
         if vec.shape != (3,) or not np.all(np.isfinite(vec)):
             raise ParameterError("simulate", name, f"expected 3 finite values, got {vec!r}")
-    # the stability margin depends on the posture: check the start and ~200 reference samples
-    postures = np.vstack([q_init, Qr[:: max(1, len(Qr) // 200)]])
-    margin = sampled_stability(leg, controller.scale * controller.Kd, hold * dt, postures)
+    rom = device_rom() if range_of_motion is None else range_of_motion
+    notes: list[str] = []
+    for name, arr in (("q0", q_init[None]), ("reference", Qr)):
+        out = outside_range(arr, rom)
+        if out:
+            if not beyond_range_of_motion:
+                raise ParameterError("simulate", name, out + " (allowed: the device's range of "
+                                     "motion; beyond_range_of_motion=True to simulate anyway)")
+            notes.append(f"{name} outside the device's range of motion, simulated on request: "
+                         + out)
+    # the stability margin depends on the posture: the start and ~500 reference samples
+    postures = np.vstack([q_init, Qr[:: max(1, len(Qr) // 500)]])
+    margin = sampled_stability(leg, controller, hold * dt, postures)
     if margin >= 2.0:
         raise ParameterError("simulate", "Kd/control_dt",
-                             f"h * lambda(M^-1 Kd) = {margin:.3f} >= 2: the sampled loop is "
-                             f"unstable; largest stable control step {2 * hold * dt / margin:.2e} s")
+                             f"h * lambda = {margin:.3f} >= 2 ({_GAIN_NAME[controller.kind]}): the "
+                             f"sampled loop is unstable; largest stable control step "
+                             f"{2 * hold * dt / margin:.2e} s or Kd scaled by < {2 / margin:.3g}")
     if margin > 1.8:
         log.warning("sampled loop near its stability edge: h * lambda = %.3f (limit 2)", margin)
     Q, DQ, DDQ, U = (np.empty((n + 1, 3)) for _ in range(4))
@@ -252,10 +411,30 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
     if bad >= 0:
         j = [JOINTS[i] for i in range(3) if not (np.isfinite(Q[bad, i]) and np.isfinite(DQ[bad, i]))]
         raise SimulationError(f"state became non-finite at t = {t[bad]:.6g} s ({', '.join(j)})")
-    E = _energies(leg, controller, Q, DQ, Qr)
-    err = Qr - Q
+    left = outside_range(Q, rom)
+    if left:
+        notes.append("the leg left the device's range of motion during the run: " + left)
     sat = ((SAT[:, None] >> np.arange(3)) & 1).astype(bool)
-    return SimResult(t=t, q=Q, dq=DQ, ddq=DDQ, u=U, q_ref=Qr, error=err, kinetic=E[:, 0],
-                     potential=E[:, 1], lyapunov=E[:, 2], verification=E[:, 3],
-                     verification_scale=np.abs(E[:, 4]), saturated=sat,
-                     stability_margin=margin)
+    return SimResult(t=t, q=Q, dq=DQ, ddq=DDQ, u=U, q_ref=Qr, saturated=sat,
+                     stability_margin=margin, notes=tuple(notes), leg=leg,
+                     kp_effective=controller.scale * controller.Kp)
+
+
+_GAIN_NAME = {0: "lambda of M^-1 Kd", 1: "lambda of M^-1 Kd",
+              COMPUTED_TORQUE_KIND: "lambda of M^-1 M_model Kd, Kd in 1/s"}
+
+
+def outside_range(Q: F64, rom: RangeOfMotion, tol: float = 1e-9) -> str:
+    """'' when every posture of Q (N, 3) lies within ``rom``; else where the first one
+    leaves it, in degrees (joint, value, allowed range)."""
+    below = Q < rom.lower - tol
+    above = Q > rom.upper + tol
+    bad = np.argwhere(below | above)
+    if not len(bad):
+        return ""
+    k, j = int(bad[0][0]), int(bad[0][1])
+    worst = float(np.max(np.where(below[:, j], rom.lower[j] - Q[:, j],
+                                  np.where(above[:, j], Q[:, j] - rom.upper[j], 0.0))))
+    return (f"{JOINTS[j]} at {np.degrees(Q[k, j]):.4g} deg (sample {k}; up to "
+            f"{np.degrees(worst):.3g} deg beyond), allowed {np.degrees(rom.lower[j]):g} to "
+            f"{np.degrees(rom.upper[j]):g} deg")

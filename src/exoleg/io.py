@@ -1,0 +1,157 @@
+"""Files in and out, safely: user files read with clear errors, outputs written whole or not at all.
+
+* :func:`read_text` reads a file a user named (a leg file, a device file) and turns
+  every way it can be wrong -- missing, a folder, unreadable, binary, not UTF-8,
+  absurdly large -- into one :class:`~exoleg.errors.ParameterError` naming the file.
+* :func:`atomic_path` writes one file through a temporary file in the same folder,
+  renamed over the target only when the writing succeeded: an error or an interrupt
+  leaves the previous file, or none, never a truncated one.
+* :class:`OutputFolder` does the same for a set of files (a run's time series, summary
+  and figures): they are written into a hidden staging folder inside the output
+  folder and moved into place together at :meth:`OutputFolder.commit`, the summary
+  last; interrupts are held off while they move. Files of the user's in the output
+  folder that the run does not write are never touched.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import signal
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from types import TracebackType
+
+from exoleg.errors import ParameterError
+
+#: Largest parameter file read, bytes: a leg or device file is a few kB.
+MAX_PARAMETER_FILE = 1 << 20
+
+
+def read_text(path: str | Path, what: str = "file", limit: int = MAX_PARAMETER_FILE) -> str:
+    """The text of a small UTF-8 file, or a ParameterError naming the file and the problem."""
+    p = Path(path)
+    where = str(p)
+    try:
+        if p.is_dir():
+            raise ParameterError(where, "(file)", f"is a folder; expected a {what}")
+        size = p.stat().st_size
+        if size > limit:
+            raise ParameterError(where, "(file)", f"is {size:,} bytes; a {what} is at most "
+                                                  f"{limit:,} bytes")
+        data = p.read_bytes()
+    except FileNotFoundError:
+        raise ParameterError(where, "(file)", f"no such file (expected a {what})") from None
+    except PermissionError:
+        raise ParameterError(where, "(file)", "cannot be read: permission denied") from None
+    except OSError as e:
+        raise ParameterError(where, "(file)", f"cannot be read: {e.strerror or e}") from None
+    if b"\x00" in data:
+        raise ParameterError(where, "(file)", f"is a binary file; expected a {what} (UTF-8 text)")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise ParameterError(where, "(file)", f"is not UTF-8 text (byte {e.start}); expected a "
+                                              f"{what}") from None
+
+
+def _writable_folder(folder: Path) -> Path:
+    """``folder``, created if missing; a ParameterError when that cannot be."""
+    where = str(folder)
+    if folder.exists() and not folder.is_dir():
+        raise ParameterError(where, "(output)", "exists and is not a folder; name a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise ParameterError(where, "(output)", "a parent of it is a file, not a folder") from None
+    except PermissionError:
+        raise ParameterError(where, "(output)", "cannot be created: permission denied") from None
+    except OSError as e:
+        raise ParameterError(where, "(output)", f"cannot be created: {e.strerror or e}") from None
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ParameterError(where, "(output)", "is not writable")
+    return folder
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; on success it replaces ``path``."""
+    target = Path(path)
+    folder = _writable_folder(target.parent if str(target.parent) else Path("."))
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.replace(tmp, target)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+@contextlib.contextmanager
+def _signals_held() -> Iterator[None]:
+    """SIGINT and SIGTERM wait until the block is done (main thread only)."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pending: list[int] = []
+    old = {s: signal.signal(s, lambda n, f: pending.append(n))
+           for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+        for s in pending:
+            signal.raise_signal(s)
+
+
+class OutputFolder:
+    """A run's output folder, written whole or not at all.
+
+    ``stage(name)`` gives the path to write ``name`` to (in a hidden staging folder);
+    ``commit(last=...)`` moves every staged file into the folder (``last`` after the
+    others) with interrupts held off; leaving the ``with`` block without a commit (an
+    error, Ctrl-C) removes the staging folder and leaves the folder as it was.
+    """
+
+    def __init__(self, folder: str | Path) -> None:
+        self.folder = _writable_folder(Path(folder))
+        self._staging = Path(tempfile.mkdtemp(prefix=".exoleg-staging-", dir=self.folder))
+        self._names: list[str] = []
+
+    def stage(self, name: str) -> Path:
+        """Where to write the file ``name`` (a plain file name, no folders)."""
+        if Path(name).name != name or name in ("", ".", ".."):
+            raise ParameterError(str(self.folder), "(output)", f"bad output file name {name!r}")
+        if name not in self._names:
+            self._names.append(name)
+        return self._staging / name
+
+    def commit(self, last: str | None = None) -> list[Path]:
+        """Move the staged files into the folder; returns their final paths."""
+        order = [n for n in self._names if n != last] + ([last] if last in self._names else [])
+        done = []
+        with _signals_held():
+            for n in order:
+                src = self._staging / n
+                if src.exists():
+                    os.replace(src, self.folder / n)
+                    done.append(self.folder / n)
+            shutil.rmtree(self._staging, ignore_errors=True)
+        return done
+
+    def discard(self) -> None:
+        shutil.rmtree(self._staging, ignore_errors=True)
+
+    def __enter__(self) -> OutputFolder:
+        return self
+
+    def __exit__(self, et: type[BaseException] | None, e: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.discard()
