@@ -27,6 +27,25 @@ from exoleg.sim.closed_loop import SimResult, simulate
 
 __version__ = "0.1.0"
 
+#: Subpackages loaded on first use (``exoleg.sizing.Child``, ``exoleg.export.write_urdf``),
+#: so that ``import exoleg`` stays quick and every one of them works after it.
+_LAZY = ("dynamics", "export", "io", "kinematics", "params", "plots", "sim", "sizing",
+         "validate")
+
+
+def __getattr__(name: str) -> object:
+    if name in _LAZY:
+        import importlib
+
+        module = importlib.import_module(f"exoleg.{name}")
+        globals()[name] = module
+        return module
+    raise AttributeError(f"module 'exoleg' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+
 
 def paper_leg(variant: Literal["simplified", "detailed"] = "simplified",
               g: float | None = None) -> LegModel:
@@ -48,20 +67,26 @@ def paper_leg(variant: Literal["simplified", "detailed"] = "simplified",
 
 def load_leg(path: str | Path) -> LegModel:
     """Read a leg parameter file (format: :mod:`exoleg.params.leg_file`)."""
-    links, g, name = read_leg_file(path)
+    links, g, name = read_leg_file(path)[:3]
     return LegModel(links, g=g, name=name)
 
 
-def save_leg(leg: LegModel, path: str | Path, header: str = "") -> Path:
-    """Write ``leg`` as a leg parameter file that :func:`load_leg` reads back exactly."""
-    p = Path(path)
-    p.write_text(format_leg(leg.links, leg.g, leg.name, header=header))
-    return p
+def save_leg(leg: LegModel, path: str | Path, header: str = "",
+             fit: dict[str, object] | None = None) -> Path:
+    """Write ``leg`` as a leg parameter file that :func:`load_leg` reads back exactly
+    (written whole or not at all). ``fit``: the optional ``[fit]`` record,
+    ``{"fits": bool, "note": str}`` (see :mod:`exoleg.params.leg_file`)."""
+    from exoleg.io import atomic_path
+
+    text = format_leg(leg.links, leg.g, leg.name, header=header, fit=fit)
+    with atomic_path(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+    return Path(path)
 
 
 __all__ = [
     "JOINTS", "LINKS", "Actuator", "ExolegError", "Gains", "LegModel", "Link",
     "ParameterError", "RangeOfMotion", "RigidBody", "SimResult", "SimulationError",
     "UnreachableError", "compose", "control", "load_leg", "paper_leg", "reference", "remainder",
-    "save_leg", "simulate",
+    "save_leg", "simulate", *_LAZY,
 ]

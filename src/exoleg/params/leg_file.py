@@ -19,18 +19,40 @@ Format (SI units throughout; comments allowed)::
     izz = 0.019
 
 A link gives either ``mass``/``com``/``izz`` or at least one ``part``, not both.
+
+An optional ``[fit]`` table records how the leg was made for a child (``exoleg fit``)::
+
+    [fit]
+    fits = false                  # the device does not fit this child
+    note = "upper telescope (hip-knee): child 41.2 cm, allowed 27.0-40.0 cm"
+
+Values must be plausible for a child's leg with the device on it (:data:`PLAUSIBLE`):
+a file with a 1e300 kg thigh or a centre of mass metres off its link is refused.
 """
 
 from __future__ import annotations
 
+import json
+import math
 import tomllib
 from pathlib import Path
 from typing import Any
 
 from exoleg.errors import ParameterError
 from exoleg.inertia import RigidBody
+from exoleg.io import read_text
 from exoleg.params import _check
 from exoleg.params.records import LINKS, Link
+
+#: What a leg file may hold, SI units. A link of a child's leg with the device on it:
+#: the heaviest is the thigh of a 97th-percentile 12-year-old (about 60 kg body mass,
+#: Brooks 2011 / WHO 2007) -- 0.1 of body mass (Jensen 1986-89 fractions) plus the SLE's
+#: share of 5.2 kg (paper section 2.1), under 10 kg; 25 kg leaves room for adult legs.
+#: Lengths: the device's links are 0.235-0.46 m (Table 1); 0.03-1.2 m spans any leg.
+#: The COM lies on or near its link: at most one link length from the segment between
+#: the joints. Izz about the COM is at most m a^2 (a thin rod about its centre is m a^2/12,
+#: a disc of radius a m a^2/2). g: 0 (no gravity) to 30 m/s^2.
+PLAUSIBLE = {"mass_kg": (0.0, 25.0), "length_m": (0.03, 1.2), "g": (0.0, 30.0)}
 
 _LINK_KEYS = ("name", "length", "mass", "com", "izz", "part")
 _PART_KEYS = ("name", "mass", "com", "izz")
@@ -45,11 +67,14 @@ def _body(where: str, t: dict[str, Any], name: str) -> RigidBody:
 
 def parse_leg(data: dict[str, Any], where: str) -> tuple[list[Link], float, str]:
     """Links, g and name from a parsed leg file (``where`` names it in errors)."""
-    _check.keys(where, data, ["link"], ["g", "name"])
+    _check.keys(where, data, ["link"], ["g", "name", "fit"])
     g = _check.finite(where, "g", data.get("g", 9.81))
-    if g < 0:
-        raise ParameterError(where, "g", f"must be >= 0 m/s^2, got {g}")
-    name = str(data.get("name", Path(where).stem))
+    lo, hi = PLAUSIBLE["g"]
+    if not lo <= g <= hi:
+        raise ParameterError(where, "g", f"{g} m/s^2 is not plausible (allowed {lo:g}-{hi:g})")
+    name = data.get("name", Path(where).stem)
+    if not isinstance(name, str):
+        raise ParameterError(where, "name", f"expected a string, got {name!r}")
     raw = data["link"]
     if not isinstance(raw, list) or len(raw) != 3:
         n = len(raw) if isinstance(raw, list) else "not a list"
@@ -72,39 +97,89 @@ def parse_leg(data: dict[str, Any], where: str) -> tuple[list[Link], float, str]
                 raise ParameterError(w, "part", "needs at least one part")
             links.append(Link.from_parts(_check.positive(w, "length", t["length"], "m"), parts,
                                          name=lname))
+            for j, b in enumerate(parts):
+                _plausible(f"{w} part[{j}]", b.mass, links[-1].length, b.com, b.izz)
         else:
             _check.keys(w, t, ["length", "mass", "com", "izz"], ["name"])
             b = _body(w, t, lname)
             links.append(Link(mass=b.mass, length=_check.positive(w, "length", t["length"], "m"),
                               com=b.com, izz=b.izz, name=lname))
+        lk = links[-1]
+        _plausible(w, lk.mass, lk.length, lk.com, lk.izz)
     return links, g, name
 
 
-def read_leg_file(path: str | Path) -> tuple[list[Link], float, str]:
-    """Parse and validate a leg file; errors name the file and the field."""
-    p = Path(path)
-    where = str(p)
+def _plausible(where: str, mass: float, length: float, com: tuple[float, float],
+               izz: float) -> None:
+    """Refuse values no child's leg with the device on it can have (:data:`PLAUSIBLE`)."""
+    lo, hi = PLAUSIBLE["mass_kg"]
+    if not lo < mass <= hi:
+        raise ParameterError(where, "mass", f"{mass:g} kg is not plausible for a link "
+                                            f"(allowed {lo:g}-{hi:g} kg)")
+    lo, hi = PLAUSIBLE["length_m"]
+    if not lo <= length <= hi:
+        raise ParameterError(where, "length", f"{length:g} m is not plausible for a link "
+                                              f"(allowed {lo:g}-{hi:g} m)")
+    x, y = com
+    off = math.hypot(x - min(max(x, 0.0), length), y)  # distance from the joint-to-joint segment
+    if off > length:
+        raise ParameterError(where, "com", f"({x:g}, {y:g}) m is {off:.3g} m from its "
+                                           f"{length:g} m link; allowed at most one link length")
+    if izz > mass * length * length:
+        raise ParameterError(where, "izz", f"{izz:g} kg m^2 is more than m a^2 = "
+                                           f"{mass * length * length:.3g} kg m^2 (allowed 0 to "
+                                           "m a^2 about the COM)")
+
+
+def parse_fit(data: dict[str, Any], where: str) -> dict[str, Any]:
+    """The optional ``[fit]`` table: ``{"fits": bool, "note": str}`` or {}."""
+    fit = data.get("fit")
+    if fit is None:
+        return {}
+    if not isinstance(fit, dict):
+        raise ParameterError(where, "fit", "must be a table: [fit] fits = true/false, note = '...'")
+    _check.keys(f"{where} [fit]", fit, ["fits"], ["note"])
+    if not isinstance(fit["fits"], bool):
+        raise ParameterError(where, "fit.fits", f"expected true or false, got {fit['fits']!r}")
+    if not isinstance(fit.get("note", ""), str):
+        raise ParameterError(where, "fit.note", "expected a string")
+    return {"fits": fit["fits"], "note": fit.get("note", "")}
+
+
+def read_leg_file(path: str | Path) -> tuple[list[Link], float, str, dict[str, Any]]:
+    """Parse and validate a leg file: (links, g, name, fit); errors name the file and the
+    field (a missing, binary or oversized file, a folder, bad TOML, implausible values)."""
+    where = str(path)
+    text = read_text(path, "leg parameter file (TOML)")
     try:
-        data = tomllib.loads(p.read_text())
-    except FileNotFoundError:
-        raise ParameterError(where, "(file)", "no such file") from None
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise ParameterError(where, "(syntax)", f"not valid TOML: {e}") from None
-    return parse_leg(data, where)
+    links, g, name = parse_leg(data, where)
+    return links, g, name, parse_fit(data, where)
+
+
+def _toml_string(s: str) -> str:
+    """A TOML basic string holding ``s`` exactly (JSON's escapes are valid TOML ones)."""
+    return json.dumps(s, ensure_ascii=False)
 
 
 def format_leg(links: list[Link] | tuple[Link, ...], g: float, name: str,
-               header: str = "") -> str:
-    """TOML text of a leg (full float precision, so a round trip is exact)."""
+               header: str = "", fit: dict[str, Any] | None = None) -> str:
+    """TOML text of a leg (full float precision, so a round trip is exact); ``fit``: the
+    optional ``[fit]`` table (``{"fits": bool, "note": str}``)."""
     out = [f"# {ln}" for ln in header.splitlines()] if header else []
     out += ["# exoleg leg parameters; SI units (kg, m, kg m^2). COM in the link frame,",
             "# from the proximal joint; izz about the COM.",
-            f"name = {name!r}".replace("'", '"'), f"g = {g!r}", ""]
+            f"name = {_toml_string(name)}", f"g = {g!r}", ""]
+    if fit:
+        out += ["[fit]", f"fits = {'true' if fit['fits'] else 'false'}",
+                f"note = {_toml_string(str(fit.get('note', '')))}", ""]
     for lk in links:
-        out += ["[[link]]", f'name = "{lk.name}"', f"length = {lk.length!r}"]
+        out += ["[[link]]", f"name = {_toml_string(lk.name)}", f"length = {lk.length!r}"]
         if lk.parts:
             for b in lk.parts:
-                out += ["", "[[link.part]]", f'name = "{b.name}"', f"mass = {b.mass!r}",
+                out += ["", "[[link.part]]", f"name = {_toml_string(b.name)}", f"mass = {b.mass!r}",
                         f"com = [{b.com[0]!r}, {b.com[1]!r}]", f"izz = {b.izz!r}"]
         else:
             out += [f"mass = {lk.mass!r}", f"com = [{lk.com[0]!r}, {lk.com[1]!r}]",

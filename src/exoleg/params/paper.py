@@ -40,6 +40,12 @@ def _table(where: str, data: dict[str, Any], key: str) -> dict[str, Any]:
     return t
 
 
+def device() -> dict[str, Any]:
+    """The device's adjustment data (``data/paper/device.toml``: telescope ranges,
+    footplate length and thickness, tube density), SI units."""
+    return _raw("device.toml")[1]
+
+
 def dh_offsets() -> tuple[float, float, float]:
     """D-H joint angle offsets (rad), paper Table 3."""
     where, d = _raw("dh.toml")

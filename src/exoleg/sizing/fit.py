@@ -10,15 +10,13 @@ settings lie within their ranges and the foot is not longer than the footplate.
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass, field
-from functools import cache
-from importlib import resources
 from typing import Any
 
 import numpy as np
 
 from exoleg.params import paper
+from exoleg.params.paper import device
 from exoleg.sizing.anthropometry import (
     Dimensions,
     LegLengthMethod,
@@ -26,13 +24,6 @@ from exoleg.sizing.anthropometry import (
     table1_estimate,
 )
 from exoleg.sizing.child import Child
-
-
-@cache
-def device() -> dict[str, Any]:
-    """The device's adjustment data (``data/paper/device.toml``), SI units."""
-    text = resources.files("exoleg").joinpath("data", "paper", "device.toml").read_text()
-    return tomllib.loads(text)
 
 
 @dataclass(frozen=True)

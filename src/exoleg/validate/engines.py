@@ -75,6 +75,8 @@ class MujocoLeg:
         mj = _require("mujoco")
         self._mj = mj
         self.model = mj.MjModel.from_xml_string(to_mjcf(leg, mode, timestep=timestep))
+        # the model's dynamics over every state: the exported joint ranges must not act
+        self.model.opt.disableflags |= mj.mjtDisableBit.mjDSBL_LIMIT
         self.data = mj.MjData(self.model)
 
     def _set(self, q: F64, dq: F64 | None = None, tau: F64 | None = None) -> None:
