@@ -126,6 +126,49 @@ def estimator_errors() -> list[EstimatorError]:
     return sorted(out, key=lambda r: r.rmse)
 
 
+#: Measured joint-centre lengths and foot length are plausible within this factor of
+#: their Drillis & Contini proportion of height (adult proportions; children's segment
+#: proportions differ from them by about 10 %, so 25 % is wide of any real child);
+#: ankle height, a small number measured with a large relative error, within 0.5-2x.
+PLAUSIBLE_FACTOR = {"thigh": (0.75, 1.25), "shank": (0.75, 1.25),
+                    "foot_length": (0.75, 1.25), "ankle_height": (0.5, 2.0)}
+#: Measured clinical leg length is plausible within the leg-length-to-height ratios of
+#: the 31 measured children (0.482-0.551, Pinzone 2014), widened by 10 % either way.
+LEG_LENGTH_WIDENING = 0.10
+
+
+def plausible_range(name: str, height: float) -> tuple[float, float]:
+    """(lower, upper) m of a measured dimension for a child of ``height`` m
+    (:data:`PLAUSIBLE_FACTOR`, :data:`LEG_LENGTH_WIDENING`)."""
+    if name == "leg_length":
+        _, _, h, ll = measured_children()
+        r = ll / h
+        return (float(r.min()) * (1 - LEG_LENGTH_WIDENING) * height,
+                float(r.max()) * (1 + LEG_LENGTH_WIDENING) * height)
+    lo, hi = PLAUSIBLE_FACTOR[name]
+    return lo * DRILLIS[name] * height, hi * DRILLIS[name] * height
+
+
+def check_measured(child: Child) -> list[str]:
+    """The measured dimensions of ``child`` outside :func:`plausible_range`, described
+    ("thigh 500.0 cm, plausible 23.6-39.4 cm for a height of 125.0 cm"). Raises
+    ParameterError for the first unless ``child.accept_unusual``; returns them then."""
+    out = []
+    for name in ("thigh", "shank", "leg_length", "foot_length", "ankle_height"):
+        v = getattr(child, name)
+        if v is None:
+            continue
+        lo, hi = plausible_range(name, child.height)
+        if not lo <= v <= hi:
+            msg = (f"{v * 100:.1f} cm, plausible {lo * 100:.1f}-{hi * 100:.1f} cm for a "
+                   f"height of {child.height * 100:.1f} cm")
+            if not child.accept_unusual:
+                raise ParameterError(f"Child {child.name!r}", name, msg + " (accept_unusual="
+                                     "True, or --accept-unusual, for a child who really is)")
+            out.append(f"{name} {msg}")
+    return out
+
+
 @dataclass(frozen=True)
 class Dimensions:
     """A child's dimensions, m, and where each came from (``"measured"`` or the estimator)."""
@@ -146,12 +189,15 @@ def estimate_dimensions(child: Child, leg_length_method: LegLengthMethod = "line
     scales the height-based thigh and shank estimates by measured / estimated leg
     length (the child's own proportions of leg to height).
     """
+    unusual = check_measured(child)
     H = child.height
     src: dict[str, str] = {}
 
     def pick(name: str, estimate: float, how: str) -> float:
         v = getattr(child, name)
-        src[name] = "measured" if v is not None else how
+        src[name] = ("measured" + (" (unusual, accepted on request)"
+                                   if any(u.startswith(name + " ") for u in unusual) else "")
+                     if v is not None else how)
         return float(v) if v is not None else float(estimate)
 
     ll_est = leg_length(H, child.sex, leg_length_method)

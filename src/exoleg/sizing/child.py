@@ -6,6 +6,8 @@ import warnings
 from dataclasses import dataclass
 from typing import Literal
 
+import numpy as np
+
 from exoleg.errors import ParameterError
 from exoleg.params import _check
 from exoleg.sizing import growth
@@ -29,12 +31,19 @@ class Child:
         age: years (2-20, the growth charts' span; the device targets 8-12).
         sex: ``"female"`` or ``"male"``.
         height: m. mass: body mass, kg.
-        gmfcs: GMFCS level 1-5, or None for a typically developing child.
+        gmfcs: GMFCS level, an integer 1-5; None (or 0) for a typically developing child.
         affected_side: ``"left"`` or ``"right"`` (the leg the device is worn on).
         thigh, shank: measured hip-knee and knee-ankle joint-centre distances, m.
         leg_length: measured clinical leg length (ASIS to medial malleolus), m.
         foot_length: heel to longest toe, m. ankle_height: ankle joint centre above the
-            sole, m. Each measured value overrides its estimate.
+            sole, m. Each measured value overrides its estimate, and must be plausible
+            for the child's height (:func:`exoleg.sizing.anthropometry.plausible_range`)
+            unless ``accept_unusual``.
+        accept_unusual: accept measured dimensions outside the plausible range (a child
+            who really is out of the ordinary); reports say so.
+
+    Height and mass are checked against the growth chart of the child's group at its
+    age (within +-5 SD); :attr:`charts` names the chart used for each.
     """
 
     age: float
@@ -49,6 +58,7 @@ class Child:
     foot_length: float | None = None
     ankle_height: float | None = None
     name: str = "child"
+    accept_unusual: bool = False
 
     def __post_init__(self) -> None:
         w = f"Child {self.name!r}"
@@ -57,9 +67,18 @@ class Child:
             raise ParameterError(w, "age", f"{age} years is outside 2-20 (the growth charts)")
         if self.sex not in ("female", "male"):
             raise ParameterError(w, "sex", f"unknown {self.sex!r} (allowed: female, male)")
-        if self.gmfcs is not None and (isinstance(self.gmfcs, bool) or self.gmfcs not in (1, 2, 3, 4, 5)):
-            raise ParameterError(w, "gmfcs", f"{self.gmfcs!r} is not a GMFCS level "
-                                 "(allowed: 1-5, or None for typically developing)")
+        if self.gmfcs is not None:
+            if (isinstance(self.gmfcs, bool) or not isinstance(self.gmfcs, (int, np.integer))
+                    or self.gmfcs not in (0, 1, 2, 3, 4, 5)):
+                raise ParameterError(w, "gmfcs", f"{self.gmfcs!r} ({type(self.gmfcs).__name__}) "
+                                     "is not a GMFCS level (allowed: an integer 1-5, or 0 or "
+                                     "None for typically developing)")
+            object.__setattr__(self, "gmfcs", int(self.gmfcs) or None)
+        if not isinstance(self.name, str):
+            raise ParameterError(w, "name", f"expected a string, got {self.name!r}")
+        if not isinstance(self.accept_unusual, bool):
+            raise ParameterError(w, "accept_unusual", f"expected True or False, got "
+                                 f"{self.accept_unusual!r}")
         if self.affected_side not in ("left", "right"):
             raise ParameterError(w, "affected_side",
                                  f"unknown {self.affected_side!r} (allowed: left, right)")
@@ -70,15 +89,13 @@ class Child:
             v = getattr(self, f)
             if v is not None:
                 object.__setattr__(self, f, _check.positive(w, f, v, "m"))
-        chart = self.chart
+        charts = self.charts
         for measure, value, unit in (("height", self.height, "m"), ("weight", self.mass, "kg")):
-            try:
-                z = growth.zscore(chart, self.sex, measure, age, value)
-            except ParameterError:
-                continue  # the chart has no such row (e.g. WHO weight after 10 y)
+            chart = charts[measure]
+            z = growth.zscore(chart, self.sex, measure, age, value)
             if abs(z) > MAX_ABS_Z:
-                lo = growth.value_at(chart, self.sex, measure, age, 100 * _phi(-MAX_ABS_Z))
-                hi = growth.value_at(chart, self.sex, measure, age, 100 * _phi(MAX_ABS_Z))
+                lo = growth.value_at_z(chart, self.sex, measure, age, -MAX_ABS_Z)
+                hi = growth.value_at_z(chart, self.sex, measure, age, MAX_ABS_Z)
                 field = "height" if measure == "height" else "mass"
                 raise ParameterError(w, field, f"{value:g} {unit} is {z:+.1f} SD from the {chart} "
                                      f"chart for a {age:g}-year-old {self.sex}; allowed within "
@@ -95,8 +112,8 @@ class Child:
         """The growth chart that describes this child (Brooks 2011 by GMFCS, or WHO 2007)."""
         return growth.chart_for(self.gmfcs)
 
-
-def _phi(z: float) -> float:
-    from statistics import NormalDist
-
-    return NormalDist().cdf(z)
+    @property
+    def charts(self) -> dict[str, str]:
+        """The chart used for each measure at this age (``{"height": ..., "weight": ...}``):
+        for a typically developing child CDC 2000 where WHO 2007 has no row."""
+        return {m: growth.chart_for(self.gmfcs, m, self.age) for m in ("height", "weight")}

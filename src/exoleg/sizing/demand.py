@@ -36,6 +36,32 @@ F64 = NDArray[np.float64]
 QUANTITIES = ("torque", "speed", "power")
 
 
+#: display units of each quantity: (unit, factor from SI)
+DISPLAY = {"torque": ("N m", 1.0), "speed": ("deg/s", 180.0 / np.pi), "power": ("W", 1.0)}
+
+
+@dataclass(frozen=True)
+class Exceedance:
+    """A demand over a Table 2 limit (SI units: N m, rad/s, W)."""
+
+    source: str
+    quantity: str
+    joint: str
+    demand: float
+    limit: float
+
+    @property
+    def ratio(self) -> float:
+        """demand / limit (> 1)."""
+        return self.demand / self.limit
+
+    def __str__(self) -> str:
+        unit, k = DISPLAY[self.quantity]
+        return (f"{self.joint} {self.quantity} {self.demand * k:.3g} {unit} over the "
+                f"{self.limit * k:.3g} {unit} limit by {100 * (self.ratio - 1):.0f} % "
+                f"({self.source})")
+
+
 @dataclass(frozen=True)
 class Demand:
     """Per-source demand (source -> (3 quantities, 3 joints)) and Table 2's limits (3, 3)."""
@@ -47,6 +73,17 @@ class Demand:
         """limit / demand per source, (3 quantities, 3 joints); NaN where no demand."""
         with np.errstate(divide="ignore", invalid="ignore"):
             return {k: np.where(v > 0, self.limits / v, np.inf) for k, v in self.rows.items()}
+
+    def exceedances(self) -> list[Exceedance]:
+        """Every demand over its Table 2 limit (margin < 1), largest ratio first."""
+        out = []
+        for src, v in self.rows.items():
+            for i, qn in enumerate(QUANTITIES):
+                for j, joint in enumerate(JOINTS):
+                    if np.isfinite(v[i, j]) and v[i, j] > self.limits[i, j]:
+                        out.append(Exceedance(src, qn, joint, float(v[i, j]),
+                                              float(self.limits[i, j])))
+        return sorted(out, key=lambda e: -e.ratio)
 
     def smallest_margin(self) -> tuple[float, str, str, str]:
         """(margin, source, quantity, joint) of the tightest margin."""

@@ -7,7 +7,7 @@ independent in reality). For each child: dimensions (:mod:`anthropometry`), fit
 (:mod:`fit`), personalized model (:mod:`personal`) and actuator margins
 (:mod:`demand`), the simulated normative gait of all children run as one batch.
 WHO 2007 has no weight beyond 10 years, so typically developing children older than
-10 get the Brooks GMFCS I mass percentile (stated in each row's notes).
+10 get the CDC 2000 mass percentile (stated in each row's notes).
 """
 
 from __future__ import annotations
@@ -20,7 +20,6 @@ from typing import Any
 
 import numpy as np
 
-from exoleg.errors import ParameterError
 from exoleg.sizing import growth
 from exoleg.sizing.child import Child, DesignRangeWarning
 from exoleg.sizing.demand import build_demand, simulated_gait_peaks
@@ -55,15 +54,16 @@ class Row:
     paper_rule_fits: bool
     margin: float         # smallest actuator margin (limit / demand)
     margin_where: str     # source, quantity, joint of that margin
+    within_table2: bool   # every demand within Table 2's limits (margin >= 1)
+    exceeds: str          # the demands over Table 2, "; "-separated ("" when none)
     notes: str = ""
 
 
-def _mass(chart: str, sex: str, age: float, pct: float) -> tuple[float, str]:
-    try:
-        return growth.value_at(chart, sex, "weight", age, pct), ""
-    except ParameterError:
-        return (growth.value_at("GMFCS1", sex, "weight", age, pct),
-                "mass from Brooks GMFCS I (WHO 2007 has no weight after 10 y)")
+def _mass(group: int | None, sex: str, age: float, pct: float) -> tuple[float, str]:
+    chart = growth.chart_for(group, "weight", age)
+    note = "" if chart == growth.chart_for(group) else (
+        f"mass from {chart} ({growth.chart_for(group)} has no weight at {age:g} y)")
+    return growth.value_at(chart, sex, "weight", age, pct), note
 
 
 def _binding(fit: Any) -> tuple[str, float]:
@@ -95,7 +95,7 @@ def coverage(ages: Sequence[float] = AGES, sexes: Sequence[str] = ("female", "ma
             for age in ages:
                 for pct in percentiles:
                     h = growth.value_at(chart, sex, "height", age, pct)
-                    m, note = _mass(chart, sex, age, pct)
+                    m, note = _mass(group, sex, age, pct)
                     with warnings.catch_warnings():
                         warnings.simplefilter("ignore", DesignRangeWarning)
                         c = Child(age=age, sex=sex, height=h, mass=m, gmfcs=group,  # type: ignore[arg-type]
@@ -114,13 +114,16 @@ def coverage(ages: Sequence[float] = AGES, sexes: Sequence[str] = ("female", "ma
         dem = build_demand(c.mass, leg, pct, speed, stride_time,
                            None if peaks is None else peaks[n], grid=7)
         margin, src, qty, joint = dem.smallest_margin()
+        over = dem.exceedances()
         what, by = _binding(f)
         rows.append(Row(age=c.age, sex=c.sex, group=group_name(group), percentile=pct,
                         height=c.height, mass=c.mass, thigh=f.dimensions.thigh,
                         shank=f.dimensions.shank, foot_length=f.dimensions.foot_length,
                         fits=f.fits, binding=what, by_m=by,
                         paper_rule_fits=bool(f.paper_rule["fits"]), margin=margin,
-                        margin_where=f"{src}: {qty} at the {joint}", notes=notes[n]))
+                        margin_where=f"{src}: {qty} at the {joint}",
+                        within_table2=not over, exceeds="; ".join(map(str, over)),
+                        notes=notes[n]))
     return rows
 
 
@@ -128,18 +131,21 @@ def write_csv(rows: list[Row], path: str | Path) -> Path:
     """The coverage table as CSV (lengths m, mass kg)."""
     import csv
 
-    p = Path(path)
-    with p.open("w", newline="") as fh:
+    from exoleg.io import atomic_path
+
+    with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(asdict(rows[0])))
         w.writeheader()
         for r in rows:
             w.writerow(asdict(r))
-    return p
+    return Path(path)
 
 
 def heatmap(rows: list[Row], path: str | Path) -> Path:
-    """A heat map per group and sex: age x height percentile, coloured by the fit
-    (misses short / fits / misses long) with the smallest actuator margin written in."""
+    """A heat map per group and sex: age x height percentile, coloured by the geometric
+    fit and the actuators together -- too small a child, fits and every demand within
+    Table 2, fits but a demand over Table 2, too large -- with the smallest actuator
+    margin written in (a margin below 1 is a demand over its limit, marked "!")."""
     from matplotlib.colors import ListedColormap
 
     from exoleg.plots.figures import new_figure
@@ -151,7 +157,7 @@ def heatmap(rows: list[Row], path: str | Path) -> Path:
     fig = new_figure(3.2 * len(groups), 3.4 * len(sexes), left=0.05, right=0.99, top=0.88,
                      bottom=0.1, wspace=0.3, hspace=0.4)
     axes = fig.subplots(len(sexes), len(groups), squeeze=False)
-    cmap = ListedColormap(["#d95f02", "#1b9e77", "#7570b3"])
+    cmap = ListedColormap(["#d95f02", "#1b9e77", "#e6ab02", "#7570b3"])
     for si, sex in enumerate(sexes):
         for gi, grp in enumerate(groups):
             ax = axes[si, gi]
@@ -159,16 +165,22 @@ def heatmap(rows: list[Row], path: str | Path) -> Path:
             for r in rows:
                 if r.sex == sex and r.group == grp:
                     i, j = pcts.index(r.percentile), ages.index(r.age)
-                    img[i, j] = 1 if r.fits else (0 if r.by_m < 0 else 2)
-                    ax.text(j, i, f"{r.margin:.1f}", ha="center", va="center", fontsize=6)
-            ax.imshow(img, origin="lower", cmap=cmap, vmin=0, vmax=2, aspect="auto")
+                    img[i, j] = ((1 if r.within_table2 else 2) if r.fits
+                                 else (0 if r.by_m < 0 else 3))
+                    ax.text(j, i, f"{r.margin:.2f}" + ("" if r.margin >= 1 else "!"),
+                            ha="center", va="center", fontsize=6)
+            ax.imshow(img, origin="lower", cmap=cmap, vmin=0, vmax=3, aspect="auto")
             ax.set_xticks(range(len(ages)), [f"{a:g}" for a in ages], fontsize=7)
             ax.set_yticks(range(len(pcts)), [f"P{p:g}" for p in pcts], fontsize=7)
             ax.set_title(f"{grp}, {sex}", fontsize=8)
             if si == len(sexes) - 1:
                 ax.set_xlabel("age (years)", fontsize=7)
-    fig.suptitle("device fit (orange: too small a child, green: fits, purple: too large); "
-                 "numbers: smallest actuator margin", fontsize=8)
-    p = Path(path)
-    fig.savefig(p, dpi=110)
-    return p
+    fig.suptitle("orange: child too small for the device; green: fits, every demand within "
+                 "Table 2; yellow: fits, but a demand exceeds Table 2; purple: child too large\n"
+                 "numbers: smallest actuator margin (limit / demand; ! = below 1, over the limit)",
+                 fontsize=8)
+    from exoleg.io import atomic_path
+
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format=Path(path).suffix.lstrip(".") or "png")
+    return Path(path)
