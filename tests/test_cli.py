@@ -55,7 +55,7 @@ def test_fit_writes_leg_file_that_simulate_accepts(tmp_path):
     import exoleg
 
     r = run("fit", "--age", "8", "--sex", "female", "--height", "110", "--mass", "19.1",
-            "--gmfcs", "4", "--out", str(tmp_path), "--no-simulate")
+            "--gmfcs", "4", "--out", str(tmp_path), "--no-simulate", "--write-leg")
     assert r.returncode == 0, r.stderr
     assert "DOES NOT FIT" in r.stdout and "62.8 cm" in r.stdout  # Table 1 rule: 62.8 cm
     leg = exoleg.load_leg(tmp_path / "leg.toml")

@@ -1,6 +1,12 @@
 """The ``exoleg`` command line: a thin layer over the library.
 
-Bad options exit with status 2 and a one-line message.
+Exit status: 0 done; 1 a validation that failed or a run that could not finish (the
+message says why); 2 a bad option or input (one line naming it and what is allowed);
+130 interrupted (Ctrl-C). Never a traceback: an unexpected error is one line too, with
+``EXOLEG_DEBUG=1`` to see the traceback. Outputs are written whole or not at all
+(:class:`exoleg.io.OutputFolder`): an error or Ctrl-C leaves the previous output.
+
+Tables and progress bars use rich, imported only when something is printed.
 """
 
 from __future__ import annotations
@@ -8,13 +14,23 @@ from __future__ import annotations
 import argparse
 import gc
 import json
+import math
+import os
+import signal
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
-import numpy as np
+if TYPE_CHECKING:
+    from rich.console import Console
+
+#: Stride times a child can walk, s: 8-12-year-olds walk at 0.9-1.3 s per stride
+#: (Schwartz 2008's very fast to very slow groups), children with CP slower; 0.4-4 s
+#: covers both with room. Gait SD offsets: mean +- 3 SD.
+STRIDE_TIME_RANGE = (0.4, 4.0)
+SD_RANGE = (-3.0, 3.0)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -24,21 +40,40 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"exoleg: error: {message}\n")
 
 
-def _table(rows: list[list[str]], header: list[str]) -> str:
-    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
-    line = "  ".join("-" * w for w in widths)
-    fmt = "  ".join(f"{{:<{w}}}" for w in widths)
-    return "\n".join([fmt.format(*header), line, *(fmt.format(*r) for r in rows)])
+def _console() -> Console:
+    from rich.console import Console
+
+    # on a terminal rich fits its width; piped or redirected, wide lines are kept whole
+    return Console(highlight=False, width=None if sys.stdout.isatty() else 200)
 
 
+def _table(rows: list[list[str]], header: list[str], title: str | None = None) -> None:
+    """Print a table (rich; plain columns when not on a terminal)."""
+    from rich import box
+    from rich.table import Table
+
+    t = Table(*header, title=title, box=box.SIMPLE_HEAD, title_justify="left",
+              header_style="bold", pad_edge=False)
+    for r in rows:
+        t.add_row(*r)
+    _console().print(t)
+
+
+def _say(text: str = "") -> None:
+    print(text)
+
+
+# --------------------------------------------------------------------------- option types
 def _floats(text: str, n: int | None = None) -> list[float]:
     try:
         vals = [float(v) for v in text.replace(" ", "").split(",") if v != ""]
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
+    if not vals:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}")
     if n is not None and len(vals) != n:
         raise argparse.ArgumentTypeError(f"expected {n} comma-separated numbers, got {text!r}")
-    if not all(np.isfinite(vals)):
+    if not all(math.isfinite(v) for v in vals):
         raise argparse.ArgumentTypeError(f"numbers must be finite, got {text!r}")
     return vals
 
@@ -48,23 +83,81 @@ def _three(text: str) -> list[float]:
 
 
 def _postures(text: str) -> list[list[float]]:
-    return [_floats(p, 3) for p in text.split(";") if p.strip()]
+    out = [_floats(p, 3) for p in text.split(";") if p.strip()]
+    if not out:
+        raise argparse.ArgumentTypeError(f"expected postures 'h,k,a;h,k,a', got {text!r}")
+    return out
+
+
+def _number(text: str) -> float:
+    return _floats(text, 1)[0]
+
+
+def _positive(text: str) -> float:
+    v = _number(text)
+    if v <= 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return v
+
+
+def _within(lo: float, hi: float, unit: str = "") -> Callable[[str], float]:
+    def parse(text: str) -> float:
+        v = _number(text)
+        if not lo <= v <= hi:
+            raise argparse.ArgumentTypeError(f"{text} is outside {lo:g}-{hi:g}{unit}")
+        return v
+    parse.__name__ = "number"
+    return parse
+
+
+def _percentile(text: str) -> float:
+    v = _number(text)
+    if not 0.0 < v < 100.0:
+        raise argparse.ArgumentTypeError(f"a percentile is between 0 and 100 (exclusive), got {text}")
+    return v
+
+
+def _percentiles(text: str) -> list[float]:
+    vals = _floats(text)
+    bad = [v for v in vals if not 0.0 < v < 100.0]
+    if bad:
+        raise argparse.ArgumentTypeError(f"percentiles are between 0 and 100 (exclusive), got {bad[0]:g}")
+    return vals
+
+
+def _ages(text: str) -> list[float]:
+    vals = _floats(text)
+    bad = [v for v in vals if not 2.0 <= v <= 20.0]
+    if bad:
+        raise argparse.ArgumentTypeError(f"ages are 2-20 years (the growth charts), got {bad[0]:g}")
+    return vals
 
 
 class _Progress:
-    """A one-line progress bar on stderr (only when stderr is a terminal)."""
+    """A rich progress bar on stderr, only when stderr is a terminal."""
 
     def __init__(self) -> None:
-        self.tty = sys.stderr.isatty()
+        self.bar: Any = None
+        self.tasks: dict[str, Any] = {}
+        if sys.stderr.isatty():
+            from rich.console import Console
+            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+            self.bar = Progress(TextColumn("{task.description:<10}"), BarColumn(),
+                                TextColumn("{task.percentage:>5.1f}%"), TimeElapsedColumn(),
+                                console=Console(stderr=True), transient=True)
+            self.bar.start()
 
     def __call__(self, stage: str, fraction: float) -> None:
-        if not self.tty:
+        if self.bar is None:
             return
-        n = int(30 * fraction)
-        sys.stderr.write(f"\r{stage:<10} [{'#' * n}{'.' * (30 - n)}] {100 * fraction:5.1f}%")
-        if fraction >= 1.0:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
+        if stage not in self.tasks:
+            self.tasks[stage] = self.bar.add_task(stage, total=1.0)
+        self.bar.update(self.tasks[stage], completed=fraction)
+
+    def stop(self) -> None:
+        if self.bar is not None:
+            self.bar.stop()
 
 
 # --------------------------------------------------------------------------- validate
@@ -75,23 +168,68 @@ def cmd_validate(args: argparse.Namespace) -> int:
     rows = [[c.name, c.reference, f"{c.figure:.2e}",
              (f"[{c.lower:g}, {c.tolerance:g}]" if c.lower is not None else f"<= {c.tolerance:.0e}"),
              "pass" if c.passed else "FAIL", c.detail] for c in checks]
-    print(_table(rows, ["check", "reference", "figure", "tolerance", "", "detail"]))
+    _table(rows, ["check", "reference", "figure", "tolerance", "", "detail"])
     for m in missing_engines():
-        print(f"skipped: {m} is not installed (pip install exoleg[validate])")
+        _say(f"skipped: {m} is not installed (pip install exoleg[validate])")
     failed = [c for c in checks if not c.passed]
-    print(f"\n{len(checks) - len(failed)} passed, {len(failed)} failed")
+    _say(f"\n{len(checks) - len(failed)} passed, {len(failed)} failed")
     return 1 if failed else 0
 
 
 # --------------------------------------------------------------------------- simulate
+def _paper_scenario(args: argparse.Namespace) -> bool:
+    """Whether these options run the paper's own scenario (section 6): only then are the
+    paper's figures printed beside exoleg's."""
+    return (args.reference == "paper" and args.leg is None and args.controller == "pd-gravity"
+            and args.kp is None and args.kd is None and not args.saturate
+            and args.duration == 12.0 and args.dt == 1e-3 and args.control_rate == 1000.0
+            and args.q0 is None and args.postures is None and args.times is None)
+
+
+def _check_combination(args: argparse.Namespace) -> None:
+    """Options that mean nothing with the chosen reference are refused, not ignored."""
+    from exoleg.errors import ParameterError
+
+    gait_only = {"speed": args.speed, "stride_time": args.stride_time, "sd": args.sd}
+    steps_only = {"postures": args.postures, "times": args.times}
+    if args.reference == "gait":
+        given = [k for k, v in steps_only.items() if v is not None]
+    else:
+        given = [k for k, v in gait_only.items() if v is not None]
+    if given:
+        opt = "--" + given[0].replace("_", "-")
+        allowed = ("--reference steps, minjerk or paper" if args.reference == "gait"
+                   else "--reference gait")
+        raise ParameterError("exoleg simulate", opt,
+                             f"does not apply to --reference {args.reference} (it goes with "
+                             f"{allowed})")
+    if args.times is not None and args.postures is not None and len(args.times) != len(args.postures):
+        raise ParameterError("exoleg simulate", "--times",
+                             f"{len(args.times)} times for {len(args.postures)} postures; give "
+                             "one time per posture")
+
+
 def _build(args: argparse.Namespace) -> dict[str, Any]:
     """Leg, controller, reference and run settings from the options (raises ExolegError)."""
+    import numpy as np
+
     import exoleg
     from exoleg.control import PD, ComputedTorque, PDGravity
+    from exoleg.params.leg_file import read_leg_file
     from exoleg.reference import MinJerk, Reference, SchwartzGait2008, Steps
     from exoleg.sim import scenario
 
-    leg = exoleg.load_leg(args.leg) if args.leg else exoleg.paper_leg("simplified")
+    _check_combination(args)
+    warnings: list[str] = []
+    if args.leg:
+        links, g, name, fit = read_leg_file(args.leg)
+        leg = exoleg.LegModel(links, g=g, name=name)
+        if fit and not fit["fits"]:
+            warnings.append(f"{args.leg} is a leg for a child the device does not fit "
+                            f"({fit.get('note') or 'see its [fit] record'}): the model's "
+                            "telescope settings are clamped to the device's range")
+    else:
+        leg = exoleg.paper_leg("simplified")
     sat = True if args.saturate else None
     if args.controller == "pd-gravity":
         ctrl = PDGravity(leg, args.kp, args.kd, saturation=sat)
@@ -103,124 +241,153 @@ def _build(args: argparse.Namespace) -> dict[str, Any]:
     ref: Reference
     if args.reference in ("paper", "steps", "minjerk"):
         default = scenario.paper_reference()
-        times = np.array(args.times) if args.times else default.times
-        post = np.radians(args.postures) if args.postures else default.postures
+        post: Any = np.radians(args.postures) if args.postures else default.postures
+        times: Any = (np.array(args.times, dtype=float) if args.times else
+                      default.times if args.postures is None else np.arange(len(post)) * 3.0)
         ref = (MinJerk if args.reference == "minjerk" else Steps)(times, post)
         if args.reference != "minjerk":
             changes = ref.times
     else:
-        ref = SchwartzGait2008(stride_time=args.stride_time, speed=args.speed, sd=args.sd)
+        ref = SchwartzGait2008(stride_time=args.stride_time or 1.2, speed=args.speed or "Free",
+                               sd=args.sd or 0.0)
     q0 = np.radians(args.q0) if args.q0 is not None else (
         np.zeros(3) if args.reference == "paper" else None)
     detailed = exoleg.paper_leg("detailed") if (args.reference == "paper" and not args.leg) else None
     return {"leg": leg, "controller": ctrl, "reference": ref, "q0": q0, "detailed": detailed,
-            "changes": changes if changes is not None else [0.0]}
+            "changes": changes if changes is not None else [0.0], "warnings": warnings}
 
 
-def _summary_rows(figs: dict[str, Any], paper_like: bool) -> list[list[str]]:
+def _summary_rows(figs: dict[str, Any], paper: bool) -> list[list[str]]:
+    """Figure rows; the paper's values only when the run is the paper's scenario."""
+    def ref(text: str) -> str:
+        return text if paper else "-"
+
     rows = []
     if "detailed_vs_simplified_max_deg" in figs:
         rows.append(["detailed (2x torque) vs simplified, max deg",
-                     f"{figs['detailed_vs_simplified_max_deg']:.2e}", "1e-13 (Fig. 13D)"])
+                     f"{figs['detailed_vs_simplified_max_deg']:.2e}", ref("1e-13 (Fig. 13D)")])
     for k, v in figs.items():
         if k.startswith("exoleg_vs_"):
-            rows.append([f"exoleg vs {k[10:-8]}, max deg", f"{v:.2e}", "1e-11 (Fig. 13E)"])
+            rows.append([f"exoleg vs {k[10:-8]}, max deg", f"{v:.2e}", ref("1e-11 (Fig. 13E)")])
     errs = figs["tracking_error_at_segment_ends_deg"]
     rows.append(["tracking error at segment ends, max deg", f"{max(errs):.2e}",
-                 "1e-6 (Fig. 13F)" if paper_like else "-"])
+                 ref("1e-6 (Fig. 13F)")])
     rows.append(["verification dq^T(Mdot-2C)dq, max |W|", f"{figs['verification_max_abs']:.1e}",
-                 "1e-16 (Fig. 14)"])
+                 ref("1e-16 (Fig. 14)")])
     rows.append(["   relative to |dq^T Mdot dq|", f"{figs['verification_relative']:.1e}", "-"])
     rows.append(["V (eq 26) largest rise within a segment, J",
                  f"{figs['lyapunov_max_rise_within_segments_J']:.1e}",
                  "0 in continuous time (eq 30)"])
-    rows.append(["sampled-loop margin h*lambda(M^-1 Kd)", f"{figs['sampled_stability_h_lambda']:.3f}",
+    rows.append(["sampled-loop margin h*lambda", f"{figs['sampled_stability_h_lambda']:.3f}",
                  "< 2 stable"])
     rows.append(["steps with saturated torque", str(figs["saturated_steps"]), "-"])
     return rows
 
 
+def _ignore_sigint() -> None:
+    """Worker processes leave Ctrl-C to the parent, which stops them and reports once."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _prepare_worker() -> None:
+    _ignore_sigint()
     from exoleg.sim.closed_loop import warm_up
 
     warm_up()
     import exoleg.plots.figures  # noqa: F401
 
 
-def _save_figures(report: Any, out: Path, formats: tuple[str, ...]) -> list[Path]:
+def _save_figures(report: Any, folder: Path, formats: tuple[str, ...]) -> list[str]:
     from exoleg.plots.figures import save_figures
 
-    paths = save_figures(report, out, formats)
+    paths = save_figures(report, folder, formats)
     gc.freeze()  # this worker's last task: let it exit without a final collection (see run)
-    return paths
+    return [p.name for p in paths]
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
+    import numpy as np
+
+    from exoleg.io import OutputFolder
     from exoleg.sim.scenario import run_scenario
 
     t0 = time.perf_counter()
     cfg = _build(args)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    progress = _Progress()
-    # A second process compiles the kernels the scenario needs besides the stepper and
-    # imports matplotlib while this one compiles the stepper and simulates, then draws the
-    # figures while this one writes the time series (two cores, half the wait). On Linux
-    # it is forked, before MuJoCo is loaded, and so starts with this process's imports
-    # (0.5-0.8 s sooner than a spawned one); elsewhere it is spawned.
-    method = "fork" if sys.platform == "linux" else "spawn"
-    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context(method)) as pool:
-        prepared = pool.submit(_prepare_worker)
-        report = run_scenario(cfg["leg"], cfg["controller"], cfg["reference"], args.duration,
-                              dt=args.dt, control_dt=1.0 / args.control_rate, q0=cfg["q0"],
-                              detailed=cfg["detailed"],
-                              engine=None if args.no_engine else "mujoco",
-                              changes=cfg["changes"], progress=progress)
-        drawn = pool.submit(_save_figures, report, out, ("png", "svg") if args.svg else ("png",))
-        figs = report.figures()
-        series = (report.result.to_parquet(out / "timeseries.parquet")
-                  if args.format == "parquet" else report.result.to_csv(out / "timeseries.csv"))
-        if args.animate:
-            from exoleg.plots import animate
+    for w in cfg["warnings"]:
+        _say(f"warning: {w}")
+    paper = _paper_scenario(args)
+    with OutputFolder(args.out) as out:
+        progress = _Progress()
+        # A second process compiles the kernels the scenario needs besides the stepper and
+        # imports matplotlib while this one compiles the stepper and simulates, then draws
+        # the figures while this one writes the time series (two cores, half the wait). On
+        # Linux it is forked, before MuJoCo is loaded, and so starts with this process's
+        # imports (0.5-0.8 s sooner than a spawned one); elsewhere it is spawned.
+        method = "fork" if sys.platform == "linux" else "spawn"
+        try:
+            with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context(method),
+                                     initializer=_ignore_sigint) as pool:
+                prepared = pool.submit(_prepare_worker)
+                report = run_scenario(
+                    cfg["leg"], cfg["controller"], cfg["reference"], args.duration, dt=args.dt,
+                    control_dt=1.0 / args.control_rate, q0=cfg["q0"], detailed=cfg["detailed"],
+                    engine=None if args.no_engine else "mujoco", changes=cfg["changes"],
+                    progress=progress, beyond_range_of_motion=args.beyond_rom)
+                formats = ("png", "svg") if args.svg else ("png",)
+                drawn = pool.submit(_save_figures, report, out.staging, formats)
+                figs = report.figures()
+                name = "timeseries.parquet" if args.format == "parquet" else "timeseries.csv"
+                (report.result.to_parquet if args.format == "parquet"
+                 else report.result.to_csv)(out.stage(name))
+                files = [name]
+                if args.animate:
+                    from exoleg.plots import animate
 
-            progress("animation", 0.0)
-            movie = animate(cfg["leg"], report.result.t, report.result.q, out / "gait.mp4",
-                            q_ref=report.result.q_ref)
-            progress("animation", 1.0)
-        prepared.result()  # (a failure there is a bug: let it show)
-        paths = drawn.result()
-    if args.animate:
-        paths.append(movie)
-    summary = {
-        "settings": {k: (v if not isinstance(v, np.ndarray) else v.tolist())
-                     for k, v in vars(args).items() if k != "func"},
-        "leg": cfg["leg"].name,
-        "figures": figs,
-        "notes": report.notes,
-        "files": [str(series), *map(str, paths)],
-        "wall_time_s": time.perf_counter() - t0,
-    }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=str))
+                    progress("animation", 0.0)
+                    movie = animate(cfg["leg"], report.result.t, report.result.q,
+                                    out.stage("gait.mp4"), q_ref=report.result.q_ref)
+                    out.stage(movie.name)
+                    progress("animation", 1.0)
+                prepared.result()
+                for fname in drawn.result():
+                    out.stage(fname)
+                    files.append(fname)
+                if args.animate:
+                    files.append(movie.name)
+        finally:
+            progress.stop()
+        notes = [*cfg["warnings"], *report.notes]
+        summary = {
+            "settings": {k: (v if not isinstance(v, (np.ndarray, Path)) else str(v))
+                         for k, v in vars(args).items() if k != "func"},
+            "paper_scenario": paper,
+            "leg": cfg["leg"].name,
+            "figures": figs,
+            "notes": notes,
+            "files": files,
+            "wall_time_s": time.perf_counter() - t0,
+        }
+        out.stage("summary.json").write_text(json.dumps(summary, indent=2, default=str))
+        out.commit(last="summary.json")
 
-    print(f"exoleg simulate: {args.reference} reference, {args.controller} controller, "
-          f"{args.duration:g} s at dt = {args.dt:g} s, control {args.control_rate:g} Hz, "
-          f"leg '{cfg['leg'].name}'")
-    print()
-    print(_table(_summary_rows(figs, args.reference == "paper"), ["figure", "exoleg", "paper"]))
-    print()
+    _say(f"exoleg simulate: {args.reference} reference, {args.controller} controller, "
+         f"{args.duration:g} s at dt = {args.dt:g} s, control {args.control_rate:g} Hz, "
+         f"leg '{cfg['leg'].name}'" + ("" if paper else " (not the paper's scenario: its "
+                                       "figures are not compared)"))
+    _table(_summary_rows(figs, paper), ["figure", "exoleg", "paper"])
     prow = [[r["joint"], f"{r['torque_Nm']:.1f} / {r['torque_limit_Nm']:.0f}",
              f"{r['speed_deg_s']:.0f} / {r['speed_limit_deg_s']:.0f}",
              f"{r['power_W']:.1f} / {r['power_limit_W']:.0f}",
              "yes" if r["within_limits"] else "NO"] for r in figs["peaks"]]
-    print(_table(prow, ["joint", "peak torque / limit N m", "speed / limit deg/s",
-                        "power / limit W", "within Table 2"]))
-    for n in report.notes:
-        print(f"note: {n}")
-    print(f"\nwrote {out}/: {Path(series).name}, summary.json, "
-          + ", ".join(p.name for p in paths) + f"  ({summary['wall_time_s']:.1f} s)")
+    _table(prow, ["joint", "peak torque / limit N m", "speed / limit deg/s",
+                  "power / limit W", "within Table 2"])
+    for n in notes:
+        _say(f"note: {n}")
+    _say(f"\nwrote {out.folder}/: " + ", ".join(["summary.json", *files])
+         + f"  ({summary['wall_time_s']:.1f} s)")
     return 0
 
 
@@ -229,75 +396,113 @@ def cmd_fit(args: argparse.Namespace) -> int:
     import dataclasses
     import warnings
 
+    import numpy as np
+
     import exoleg
+    from exoleg.io import OutputFolder
     from exoleg.sizing import Child, fit_device, personalized_leg
-    from exoleg.sizing.demand import actuator_demand
+    from exoleg.sizing.demand import DISPLAY, actuator_demand
 
     measured = {k: (getattr(args, k) / 100 if getattr(args, k) is not None else None)
                 for k in ("thigh", "shank", "leg_length", "foot_length", "ankle_height")}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         child = Child(age=args.age, sex=args.sex, height=args.height / 100, mass=args.mass,
-                      gmfcs=None if args.gmfcs == 0 else args.gmfcs, affected_side=args.side,
-                      name=args.name, **measured)
+                      gmfcs=args.gmfcs, affected_side=args.side, name=args.name,
+                      accept_unusual=args.accept_unusual, **measured)
     for w in caught:
-        print(f"warning: {w.message}")
-    fit = fit_device(child, args.leg_length_method)
-    leg = personalized_leg(child, fit)
-    demand = actuator_demand(child, leg, percentile=args.percentile, speed=args.speed,
-                             stride_time=args.stride_time, simulate=not args.no_simulate)
-    d = fit.dimensions
-    print(f"{child.name}: {child.age:g} y {child.sex}, {child.height * 100:.1f} cm, "
-          f"{child.mass:.1f} kg, {'GMFCS ' + str(child.gmfcs) if child.gmfcs else 'TD'} "
-          f"({child.chart} chart)\n")
-    print(_table([[k, f"{getattr(d, k) * 100:.1f}", d.sources[k]] for k in
-                  ("thigh", "shank", "ankle_height", "foot_length", "leg_length")],
-                 ["dimension", "cm", "source"]))
-    print(f"\nverdict: {'FITS' if fit.fits else 'DOES NOT FIT'}")
-    print(f"  upper telescope (hip-knee) {fit.upper * 100:.1f} cm (27-40), lower telescope "
-          f"(knee-sole) {fit.lower * 100:.1f} cm (33-46), footplate 23.5 cm")
-    for m in fit.misses:
-        print(f"  misses: {m.what}: child {m.child * 100:.1f} cm, allowed "
-              f"{m.allowed[0] * 100:.1f}-{m.allowed[1] * 100:.1f} cm, by {m.by * 100:+.2f} cm")
-    pr = fit.paper_rule
-    print(f"  paper's Table 1 rule: leg length {pr['leg_length'] * 100:.1f} cm vs 60-86 cm -> "
-          f"{'fits' if pr['fits'] else 'does not fit'}")
-    rom = fit.range_of_motion
-    print("  normative gait range (mean +- 2 SD) vs device range of motion, deg: " + ", ".join(
-        f"{j} {np.degrees(rom['gait_lower'][i]):.0f}..{np.degrees(rom['gait_upper'][i]):.0f} in "
-        f"{np.degrees(rom['device_lower'][i]):.0f}..{np.degrees(rom['device_upper'][i]):.0f}"
-        for i, j in enumerate(("hip", "knee", "ankle"))))
-    units = {"torque": ("N m", 1.0), "speed": ("deg/s", 180 / np.pi), "power": ("W", 1.0)}
-    rows = []
-    for r in demand.table():
-        u, k = units[r["quantity"]]
-        rows.append([r["source"], f"{r['quantity']} ({u})"] + [
-            f"{r[j] * k:.1f} ({r[j + '_margin']:.2f})" for j in ("hip", "knee", "ankle")])
-    lim = demand.limits
-    rows.append(["Table 2 limits", "torque / speed / power"] + [
-        f"{lim[0, j]:.0f} / {np.degrees(lim[1, j]):.0f} / {lim[2, j]:.0f}" for j in range(3)])
-    print("\nactuator demand (margin = limit / demand):")
-    print(_table(rows, ["source", "quantity", "hip", "knee", "ankle"]))
-    mg, src, qn, joint = demand.smallest_margin()
-    print(f"\nsmallest margin: {mg:.2f} ({qn} at the {joint}, {src})")
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    header = (f"personalized leg of {child.name} ({child.age:g} y {child.sex}, "
-              f"{child.height:.3f} m, {child.mass:.1f} kg) made by exoleg fit")
-    exoleg.save_leg(leg, out / "leg.toml", header=header)
-    report = {"child": dataclasses.asdict(child), "chart": child.chart,
-              "dimensions_m": dataclasses.asdict(d), "fits": fit.fits,
-              "settings_m": {"upper": fit.upper, "lower": fit.lower},
-              "link_lengths_m": list(fit.link_lengths),
-              "misses": [dataclasses.asdict(m) for m in fit.misses],
-              "paper_rule": pr, "demand": demand.table(),
-              "smallest_margin": {"margin": mg, "source": src, "quantity": qn, "joint": joint}}
-    (out / "fit.json").write_text(json.dumps(report, indent=2, default=_jsonable))
-    print(f"\nwrote {out}/leg.toml (for exoleg simulate --leg) and {out}/fit.json")
+        _say(f"warning: {w.message}")
+    with OutputFolder(args.out) as out:
+        fit = fit_device(child, args.leg_length_method)
+        leg = personalized_leg(child, fit)
+        demand = actuator_demand(child, leg, percentile=args.percentile, speed=args.speed,
+                                 stride_time=args.stride_time, simulate=not args.no_simulate)
+        over = demand.exceedances()
+        d = fit.dimensions
+        charts = child.charts
+        chart_text = charts["height"] + (f", weight {charts['weight']}"
+                                         if charts["weight"] != charts["height"] else "")
+        _say(f"{child.name}: {child.age:g} y {child.sex}, {child.height * 100:.1f} cm, "
+             f"{child.mass:.1f} kg, {'GMFCS ' + str(child.gmfcs) if child.gmfcs else 'TD'} "
+             f"({chart_text} chart)")
+        _table([[k, f"{getattr(d, k) * 100:.1f}", d.sources[k]] for k in
+                ("thigh", "shank", "ankle_height", "foot_length", "leg_length")],
+               ["dimension", "cm", "source"])
+        _say(f"geometric fit: {'FITS' if fit.fits else 'DOES NOT FIT'}")
+        _say(f"  upper telescope (hip-knee) {fit.upper * 100:.1f} cm (27-40), lower telescope "
+             f"(knee-sole) {fit.lower * 100:.1f} cm (33-46), footplate 23.5 cm")
+        for m in fit.misses:
+            _say(f"  misses: {m.what}: child {m.child * 100:.1f} cm, allowed "
+                 f"{m.allowed[0] * 100:.1f}-{m.allowed[1] * 100:.1f} cm, by {m.by * 100:+.2f} cm")
+        pr = fit.paper_rule
+        _say(f"  paper's Table 1 rule: leg length {pr['leg_length'] * 100:.1f} cm vs 60-86 cm -> "
+             f"{'fits' if pr['fits'] else 'does not fit'}")
+        rom = fit.range_of_motion
+        _say("  normative gait range (mean +- 2 SD) vs device range of motion, deg: " + ", ".join(
+            f"{j} {np.degrees(rom['gait_lower'][i]):.0f}..{np.degrees(rom['gait_upper'][i]):.0f} in "
+            f"{np.degrees(rom['device_lower'][i]):.0f}..{np.degrees(rom['device_upper'][i]):.0f}"
+            for i, j in enumerate(("hip", "knee", "ankle"))))
+        rows = []
+        for r in demand.table():
+            u, k = DISPLAY[r["quantity"]]
+            rows.append([r["source"], f"{r['quantity']} ({u})"] + [
+                f"{r[j] * k:.1f} ({r[j + '_margin']:.2f})" + ("" if r[j + "_margin"] >= 1 else " !")
+                for j in ("hip", "knee", "ankle")])
+        lim = demand.limits
+        rows.append(["Table 2 limits", "torque / speed / power"] + [
+            f"{lim[0, j]:.0f} / {np.degrees(lim[1, j]):.0f} / {lim[2, j]:.0f}" for j in range(3)])
+        _table(rows, ["source", "quantity", "hip", "knee", "ankle"],
+               title="actuator demand (margin = limit / demand; ! = over the limit)")
+        mg, src, qn, joint = demand.smallest_margin()
+        if over:
+            _say(f"actuator demand: EXCEEDS Table 2 in {len(over)} case(s):")
+            for e in over:
+                _say(f"  {e}")
+        else:
+            _say(f"actuator demand: within Table 2 (smallest margin {mg:.2f}: {qn} at the "
+                 f"{joint}, {src})")
+        verdict = ("FITS" if fit.fits and not over else
+                   "FITS geometrically, but the actuators are short of the demand" if fit.fits
+                   else "DOES NOT FIT")
+        _say(f"\nverdict: {verdict}")
+
+        notes = [f"{m.what}: child {m.child * 100:.2f} cm, allowed {m.allowed[0] * 100:.1f}-"
+                 f"{m.allowed[1] * 100:.1f} cm" for m in fit.misses]
+        notes += [f"demand over Table 2: {e}" for e in over]
+        report = {"child": dataclasses.asdict(child), "charts": charts,
+                  "dimensions_m": dataclasses.asdict(d), "fits": fit.fits,
+                  "within_table2": not over,
+                  "exceedances": [dataclasses.asdict(e) | {"ratio": e.ratio} for e in over],
+                  "settings_m": {"upper": fit.upper, "lower": fit.lower},
+                  "link_lengths_m": list(fit.link_lengths),
+                  "misses": [dataclasses.asdict(m) for m in fit.misses],
+                  "paper_rule": pr, "demand": demand.table(),
+                  "smallest_margin": {"margin": mg, "source": src, "quantity": qn,
+                                      "joint": joint},
+                  "leg_file_written": fit.fits or args.write_leg}
+        out.stage("fit.json").write_text(json.dumps(report, indent=2, default=_jsonable))
+        written = ["fit.json"]
+        if fit.fits or args.write_leg:
+            header = (f"personalized leg of {child.name} ({child.age:g} y {child.sex}, "
+                      f"{child.height:.3f} m, {child.mass:.1f} kg) made by exoleg fit")
+            if not fit.fits:
+                header += ("\nTHE DEVICE DOES NOT FIT THIS CHILD: written on request "
+                           "(--write-leg); telescope settings clamped to the device's range")
+            exoleg.save_leg(leg, out.stage("leg.toml"), header=header,
+                            fit={"fits": fit.fits, "note": "; ".join(notes)})
+            written.insert(0, "leg.toml")
+        out.commit(last="fit.json")
+    if "leg.toml" in written:
+        _say(f"wrote {out.folder}/leg.toml (for exoleg simulate --leg) and {out.folder}/fit.json")
+    else:
+        _say(f"wrote {out.folder}/fit.json; no leg file: the device does not fit this child "
+             "(--write-leg writes one anyway, marked as such)")
     return 0
 
 
 def _jsonable(o: Any) -> Any:
+    import numpy as np
+
     if isinstance(o, np.ndarray):
         return o.tolist()
     if isinstance(o, (np.floating, np.integer, np.bool_)):
@@ -308,15 +513,16 @@ def _jsonable(o: Any) -> Any:
 def cmd_population(args: argparse.Namespace) -> int:
     import collections
 
+    from exoleg.io import OutputFolder
     from exoleg.sizing.population import PERCENTILES, coverage, heatmap, write_csv
 
     t0 = time.perf_counter()
     rows = coverage(ages=args.ages, percentiles=args.percentiles or PERCENTILES,
                     stride_time=args.stride_time, simulate=not args.no_simulate)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    csv_path = write_csv(rows, out / "coverage.csv")
-    png = heatmap(rows, out / "coverage.png")
+    with OutputFolder(args.out) as out:
+        write_csv(rows, out.stage("coverage.csv"))
+        heatmap(rows, out.stage("coverage.png"))
+        out.commit()
     groups = list(dict.fromkeys(r.group for r in rows))
     table = []
     for g in groups:
@@ -327,32 +533,43 @@ def cmd_population(args: argparse.Namespace) -> int:
             miss = collections.Counter(r.binding for r in sel if not r.fits)
             worst = min(sel, key=lambda r: r.margin)
             table.append([g, sex, f"{sum(r.fits for r in sel)}/{len(sel)}",
+                          f"{sum(r.fits and r.within_table2 for r in sel)}/{len(sel)}",
                           f"{sum(r.paper_rule_fits for r in sel)}/{len(sel)}",
                           "; ".join(f"{k} x{v}" for k, v in miss.items()) or "-",
                           f"{worst.margin:.2f} ({worst.margin_where})"])
-    print(_table(table, ["group", "sex", "fit", "paper rule fits", "misses (binding limit)",
-                         "smallest actuator margin"]))
-    print("\nthe paper's design range (50th percentile):")
+    _table(table, ["group", "sex", "fits (geometry)", "fits, demand within Table 2",
+                   "paper rule fits", "misses (binding limit)", "smallest actuator margin"])
+    over = collections.Counter(w for r in rows for w in r.exceeds_where.split(", ") if w)
+    if over:
+        _say("demands over Table 2 (children, by joint and quantity): "
+             + ", ".join(f"{k} x{v}" for k, v in over.most_common()))
+    _say("\nthe paper's design range (50th percentile):")
     for grp, sex, age in (("GMFCS IV", "female", 8.0), ("GMFCS I", "male", 12.0)):
         r = [x for x in rows if x.group == grp and x.sex == sex and x.age == age
              and x.percentile == 50.0]
         if r:
             x = r[0]
-            print(f"  {grp} {sex} {age:g} y: {x.height * 100:.1f} cm -> "
-                  f"{'fits' if x.fits else 'does not fit'} ({x.binding}, "
-                  f"{x.by_m * 100:+.1f} cm); paper rule: {'fits' if x.paper_rule_fits else 'no'}")
-    print(f"\nwrote {csv_path} and {png} ({time.perf_counter() - t0:.1f} s)")
+            _say(f"  {grp} {sex} {age:g} y: {x.height * 100:.1f} cm -> "
+                 f"{'fits' if x.fits else 'does not fit'} ({x.binding}, "
+                 f"{x.by_m * 100:+.1f} cm); paper rule: {'fits' if x.paper_rule_fits else 'no'}")
+    _say(f"\nwrote {out.folder}/coverage.csv and coverage.png ({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
+# --------------------------------------------------------------------------- export
+def cmd_export(args: argparse.Namespace) -> int:
+    import exoleg
+    from exoleg.export import writers
+
+    leg = exoleg.load_leg(args.leg) if args.leg else exoleg.paper_leg(args.variant)
+    fmt = args.format or ("mjcf" if args.out.suffix == ".xml" else "urdf")
+    write = writers.write_mjcf if fmt == "mjcf" else writers.write_urdf
+    path = write(leg, args.out, mode=args.mode, frame=args.frame)
+    _say(f"wrote {path} ({fmt.upper()}, {args.mode}, {args.frame}, leg '{leg.name}')")
     return 0
 
 
 # --------------------------------------------------------------------------- parser
-def _positive(text: str) -> float:
-    v = _floats(text, 1)[0]
-    if v <= 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
-    return v
-
-
 def build_parser() -> argparse.ArgumentParser:
     ap = _Parser(prog="exoleg", description="Pediatric single-leg exoskeleton: model, control, "
                  "simulation (Sarajchi & Sirlantzis, Sensors 2023).")
@@ -367,20 +584,25 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--postures", type=_postures,
                    help="steps/minjerk postures, deg: 'h,k,a;h,k,a;...' (knee flexion < 0)")
     s.add_argument("--times", type=_floats, help="steps/minjerk times, s: '0,3,6'")
-    s.add_argument("--speed", default="Free",
-                   choices=["VerySlow", "Slow", "Free", "Fast", "VeryFast"],
-                   help="gait: Schwartz 2008 speed group")
-    s.add_argument("--stride-time", type=_positive, default=1.2, help="gait: s per cycle")
-    s.add_argument("--sd", type=float, default=0.0, help="gait: mean + sd * SD")
+    s.add_argument("--speed", choices=["VerySlow", "Slow", "Free", "Fast", "VeryFast"],
+                   help="gait: Schwartz 2008 speed group (default Free)")
+    s.add_argument("--stride-time", type=_within(*STRIDE_TIME_RANGE, " s"),
+                   help="gait: s per cycle, 0.4-4 (default 1.2)")
+    s.add_argument("--sd", type=_within(*SD_RANGE, " SD"), help="gait: mean + sd * SD, -3..3")
     s.add_argument("--controller", choices=["pd-gravity", "pd", "computed-torque"],
                    default="pd-gravity")
     s.add_argument("--kp", type=_three, help="gains 'hip,knee,ankle' (default: paper's)")
     s.add_argument("--kd", type=_three, help="gains 'hip,knee,ankle' (default: paper's)")
     s.add_argument("--saturate", action="store_true", help="clip torques at Table 2's limits")
     s.add_argument("--duration", type=_positive, default=12.0, help="s (default 12)")
-    s.add_argument("--dt", type=_positive, default=1e-3, help="RK4 step, s (default 1e-3)")
-    s.add_argument("--control-rate", type=_positive, default=1000.0, help="Hz (default 1000)")
+    s.add_argument("--dt", type=_within(1e-6, 1e-2, " s"), default=1e-3,
+                   help="RK4 step, s, 1e-6 to 1e-2 (default 1e-3)")
+    s.add_argument("--control-rate", type=_within(1.0, 1e6, " Hz"), default=1000.0,
+                   help="Hz, 1 to 1e6 (default 1000)")
     s.add_argument("--q0", type=_three, help="initial posture, deg 'h,k,a'")
+    s.add_argument("--beyond-rom", action="store_true",
+                   help="simulate a start or reference outside the device's range of motion "
+                        "(the summary says so)")
     s.add_argument("--leg", type=Path, help="leg parameter file (TOML); default: paper Table 5")
     s.add_argument("--out", type=Path, default=Path("exoleg-out"), help="output folder")
     s.add_argument("--format", choices=["csv", "parquet"], default="csv")
@@ -391,34 +613,53 @@ def build_parser() -> argparse.ArgumentParser:
 
     f = sub.add_parser("fit", help="fit the device to one child: dimensions, settings, verdict, "
                        "margins; writes the personalized leg file")
-    f.add_argument("--age", type=float, required=True, help="years")
+    f.add_argument("--age", type=_within(2.0, 20.0, " years"), required=True,
+                   help="years (2-20; the device targets 8-12)")
     f.add_argument("--sex", choices=["female", "male"], required=True)
-    f.add_argument("--height", type=_positive, required=True, help="cm")
-    f.add_argument("--mass", type=_positive, required=True, help="body mass, kg")
+    f.add_argument("--height", type=_within(50.0, 220.0, " cm"), required=True, help="cm")
+    f.add_argument("--mass", type=_within(5.0, 200.0, " kg"), required=True, help="body mass, kg")
     f.add_argument("--gmfcs", type=int, choices=[0, 1, 2, 3, 4, 5], default=0,
-                   help="GMFCS level; 0 = typically developing (WHO 2007 chart)")
+                   help="GMFCS level; 0 = typically developing (WHO 2007 / CDC 2000 charts)")
     f.add_argument("--side", choices=["left", "right"], default="right")
     for name in ("thigh", "shank", "leg-length", "foot-length", "ankle-height"):
-        f.add_argument(f"--{name}", type=_positive, help=f"measured {name}, cm")
+        f.add_argument(f"--{name}", type=_within(1.0, 200.0, " cm"), help=f"measured {name}, cm")
+    f.add_argument("--accept-unusual", action="store_true",
+                   help="accept measured dimensions outside what is plausible for the height")
     f.add_argument("--leg-length-method", choices=["linear", "drillis", "table1"],
                    default="linear")
-    f.add_argument("--percentile", type=float, default=50.0, help="gait demand percentile")
+    f.add_argument("--percentile", type=_percentile, default=50.0, help="gait demand percentile")
     f.add_argument("--speed", default="Free",
                    choices=["VerySlow", "Slow", "Free", "Fast", "VeryFast"])
-    f.add_argument("--stride-time", type=_positive, default=1.1, help="s per gait cycle")
+    f.add_argument("--stride-time", type=_within(*STRIDE_TIME_RANGE, " s"), default=1.1,
+                   help="s per gait cycle, 0.4-4")
     f.add_argument("--no-simulate", action="store_true", help="skip the simulated gait demand")
+    f.add_argument("--write-leg", action="store_true",
+                   help="write leg.toml even when the device does not fit (marked as such)")
     f.add_argument("--name", default="child")
     f.add_argument("--out", type=Path, default=Path("exoleg-fit"))
     f.set_defaults(func=cmd_fit)
 
     pop = sub.add_parser("population", help="device coverage over ages 8-12, sex, GMFCS I-IV "
                          "and TD, height percentiles")
-    pop.add_argument("--ages", type=_floats, default=[8.0, 9.0, 10.0, 11.0, 12.0])
-    pop.add_argument("--percentiles", type=_floats)
-    pop.add_argument("--stride-time", type=_positive, default=1.1)
+    pop.add_argument("--ages", type=_ages, default=[8.0, 9.0, 10.0, 11.0, 12.0])
+    pop.add_argument("--percentiles", type=_percentiles)
+    pop.add_argument("--stride-time", type=_within(*STRIDE_TIME_RANGE, " s"), default=1.1)
     pop.add_argument("--no-simulate", action="store_true")
     pop.add_argument("--out", type=Path, default=Path("exoleg-population"))
     pop.set_defaults(func=cmd_population)
+
+    e = sub.add_parser("export", help="write the leg as URDF or MJCF (limits, actuators, "
+                       "geometry)")
+    e.add_argument("--leg", type=Path, help="leg parameter file (default: the paper's leg)")
+    e.add_argument("--variant", choices=["simplified", "detailed"], default="detailed",
+                   help="the paper's leg when no --leg (default detailed)")
+    e.add_argument("--format", choices=["urdf", "mjcf"],
+                   help="default: from the suffix (.xml -> mjcf, else urdf)")
+    e.add_argument("--mode", choices=["lumped", "welded"], default="lumped")
+    e.add_argument("--frame", choices=["y-up", "z-up"], default="y-up",
+                   help="y-up: exoleg's frame; z-up: for ROS tools (REP 103)")
+    e.add_argument("--out", type=Path, required=True, help="file to write")
+    e.set_defaults(func=cmd_export)
     return ap
 
 
@@ -429,9 +670,35 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     try:
         return int(args.func(args))
-    except (ExolegError, ImportError) as e:
+    except ExolegError as e:
+        kind = "error" if isinstance(e, ValueError) else "failed"
+        print(f"exoleg: {kind}: {e}", file=sys.stderr)
+        return 2 if isinstance(e, ValueError) else 1
+    except KeyboardInterrupt:
+        print("exoleg: interrupted; nothing was written (any previous output is unchanged)",
+              file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        # the reader (e.g. `| head`) stopped reading: not an error of ours
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
+    except ImportError as e:
         print(f"exoleg: error: {e}", file=sys.stderr)
         return 2
+    except MemoryError:
+        print("exoleg: failed: out of memory (shorten --duration or raise --dt)", file=sys.stderr)
+        return 1
+    except OSError as e:
+        where = f" ({e.filename})" if getattr(e, "filename", None) else ""
+        print(f"exoleg: failed: {e.strerror or e}{where}", file=sys.stderr)
+        return 1
+    except Exception as e:  # a bug: one line, the traceback on request
+        if os.environ.get("EXOLEG_DEBUG"):
+            raise
+        print(f"exoleg: internal error: {type(e).__name__}: {e} (EXOLEG_DEBUG=1 shows the "
+              "traceback; please report it)", file=sys.stderr)
+        return 1
 
 
 def run() -> int:
@@ -440,6 +707,10 @@ def run() -> int:
     MuJoCo and matplotlib loaded); exit handlers still run."""
     code = main()
     gc.freeze()
+    try:
+        sys.stdout.flush()
+    except BrokenPipeError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     return code
 
 

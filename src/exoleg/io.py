@@ -100,15 +100,18 @@ def _signals_held() -> Iterator[None]:
         yield
         return
     pending: list[int] = []
-    old = {s: signal.signal(s, lambda n, f: pending.append(n))
-           for s in (signal.SIGINT, signal.SIGTERM)}
+
+    def hold(signum: int, frame: object) -> None:
+        pending.append(signum)
+
+    old = {s: signal.signal(s, hold) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
     finally:
         for s, h in old.items():
             signal.signal(s, h)
-        for s in pending:
-            signal.raise_signal(s)
+        for n in pending:
+            signal.raise_signal(n)
 
 
 class OutputFolder:
@@ -124,6 +127,12 @@ class OutputFolder:
         self.folder = _writable_folder(Path(folder))
         self._staging = Path(tempfile.mkdtemp(prefix=".exoleg-staging-", dir=self.folder))
         self._names: list[str] = []
+
+    @property
+    def staging(self) -> Path:
+        """The hidden staging folder (for a writer that names its own files; register
+        each with :meth:`stage`)."""
+        return self._staging
 
     def stage(self, name: str) -> Path:
         """Where to write the file ``name`` (a plain file name, no folders)."""

@@ -136,6 +136,9 @@ def save_figures(report: ScenarioReport, folder: str | Path,
         for fmt in formats:
             p = out / f"{name}.{fmt}"
             # PNG: light compression (the default level takes longer than drawing)
-            fig.savefig(p, dpi=120, pil_kwargs={"compress_level": 1} if fmt == "png" else None)
+            if fmt == "png":  # (print_svg takes no pil_kwargs)
+                fig.savefig(p, dpi=120, format=fmt, pil_kwargs={"compress_level": 1})
+            else:
+                fig.savefig(p, dpi=120, format=fmt)
             paths.append(p)
     return paths

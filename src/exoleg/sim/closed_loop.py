@@ -374,7 +374,7 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
             raise ParameterError("simulate", name, f"expected 3 finite values, got {vec!r}")
     rom = device_rom() if range_of_motion is None else range_of_motion
     notes: list[str] = []
-    for name, arr in (("q0", q_init[None]), ("reference", Qr)):
+    for name, arr in (("reference", Qr), ("q0", q_init[None])):
         out = outside_range(arr, rom)
         if out:
             if not beyond_range_of_motion:

@@ -142,7 +142,8 @@ def run_scenario(leg: LegModel, controller: Controller, reference: Reference, du
                  q0: ArrayLike | None = None, dq0: ArrayLike | None = None,
                  detailed: LegModel | None = None, detailed_scale: float = 2.0,
                  engine: str | None = "mujoco", changes: ArrayLike | None = None,
-                 progress: Callable[[str, float], None] | None = None) -> ScenarioReport:
+                 progress: Callable[[str, float], None] | None = None,
+                 beyond_range_of_motion: bool = False) -> ScenarioReport:
     """Simulate ``leg`` under ``controller`` and compare as the paper did.
 
     ``detailed``: a second plant (e.g. the welded detailed model) driven by the same
@@ -150,21 +151,23 @@ def run_scenario(leg: LegModel, controller: Controller, reference: Reference, du
     ``engine``: ``"mujoco"`` steps the exported MJCF with its own RK4 under the same
     sampled controller (Fig. 13E); None skips it. ``changes``: times at which the
     reference jumps (for the per-segment figures); defaults to the Steps' times.
+    ``beyond_range_of_motion``: see :func:`~exoleg.sim.closed_loop.simulate`.
     """
     def tick(stage: str) -> Callable[[float], None] | None:
         return None if progress is None else (lambda f: progress(stage, f))
 
     q0a = None if q0 is None else np.asarray(q0, dtype=float)
     res = simulate(leg, controller, reference, duration, dt, q0a, dq0, control_dt,
-                   progress=tick("simulate"))
+                   progress=tick("simulate"), beyond_range_of_motion=beyond_range_of_motion)
     hold = int(round((control_dt or dt) / dt))
     ch = (np.asarray(changes, dtype=float) if changes is not None
           else np.asarray(getattr(reference, "times", [0.0]), dtype=float))
-    notes: list[str] = []
+    notes: list[str] = list(res.notes)
     det = None
     if detailed is not None:
         det = simulate(detailed, controller.scaled(detailed_scale * controller.scale), reference,
-                       duration, dt, res.q[0], res.dq[0], control_dt, progress=tick("detailed"))
+                       duration, dt, res.q[0], res.dq[0], control_dt, progress=tick("detailed"),
+                       beyond_range_of_motion=beyond_range_of_motion)
     eq, ename = None, ""
     if engine == "mujoco":
         from exoleg.validate.engines import MujocoLeg, have

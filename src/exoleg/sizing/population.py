@@ -56,6 +56,7 @@ class Row:
     margin_where: str     # source, quantity, joint of that margin
     within_table2: bool   # every demand within Table 2's limits (margin >= 1)
     exceeds: str          # the demands over Table 2, "; "-separated ("" when none)
+    exceeds_where: str    # their joint and quantity, ", "-separated ("ankle speed, ...")
     notes: str = ""
 
 
@@ -123,6 +124,8 @@ def coverage(ages: Sequence[float] = AGES, sexes: Sequence[str] = ("female", "ma
                         paper_rule_fits=bool(f.paper_rule["fits"]), margin=margin,
                         margin_where=f"{src}: {qty} at the {joint}",
                         within_table2=not over, exceeds="; ".join(map(str, over)),
+                        exceeds_where=", ".join(dict.fromkeys(f"{e.joint} {e.quantity}"
+                                                              for e in over)),
                         notes=notes[n]))
     return rows
 
