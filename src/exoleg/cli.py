@@ -336,9 +336,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                     control_dt=1.0 / args.control_rate, q0=cfg["q0"], detailed=cfg["detailed"],
                     engine=None if args.no_engine else "mujoco", changes=cfg["changes"],
                     progress=progress, beyond_range_of_motion=args.beyond_rom)
+                # figures() reads the diagnostics, computed on first access: before the
+                # report is pickled for the worker (in a feeder thread), not during it
+                figs = report.figures()
                 formats = ("png", "svg") if args.svg else ("png",)
                 drawn = pool.submit(_save_figures, report, out.staging, formats)
-                figs = report.figures()
                 name = "timeseries.parquet" if args.format == "parquet" else "timeseries.csv"
                 (report.result.to_parquet if args.format == "parquet"
                  else report.result.to_csv)(out.stage(name))
@@ -663,9 +665,23 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
+def _negative_values(argv: Sequence[str]) -> list[str]:
+    """``--q0 -10,-40,5`` as ``--q0=-10,-40,5``: argparse takes a value that starts with
+    '-' for an option unless it is a single plain number, and exoleg's angles are often
+    negative (knee flexion)."""
+    out: list[str] = []
+    for a in argv:
+        if (out and out[-1].startswith("--") and "=" not in out[-1] and len(a) > 1
+                and a[0] == "-" and (a[1].isdigit() or a[1] == ".")):
+            out[-1] = f"{out[-1]}={a}"
+        else:
+            out.append(a)
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     ap = build_parser()
-    args = ap.parse_args(argv)
+    args = ap.parse_args(_negative_values(sys.argv[1:] if argv is None else argv))
     from exoleg.errors import ExolegError
 
     try:

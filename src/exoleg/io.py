@@ -60,9 +60,9 @@ def read_text(path: str | Path, what: str = "file", limit: int = MAX_PARAMETER_F
 def _writable_folder(folder: Path) -> Path:
     """``folder``, created if missing; a ParameterError when that cannot be."""
     where = str(folder)
-    if folder.exists() and not folder.is_dir():
-        raise ParameterError(where, "(output)", "exists and is not a folder; name a folder")
     try:
+        if folder.exists() and not folder.is_dir():
+            raise ParameterError(where, "(output)", "exists and is not a folder; name a folder")
         folder.mkdir(parents=True, exist_ok=True)
     except FileExistsError:
         raise ParameterError(where, "(output)", "a parent of it is a file, not a folder") from None
@@ -71,7 +71,7 @@ def _writable_folder(folder: Path) -> Path:
     except OSError as e:
         raise ParameterError(where, "(output)", f"cannot be created: {e.strerror or e}") from None
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise ParameterError(where, "(output)", "is not writable")
+        raise ParameterError(where, "(output)", "is not writable: permission denied")
     return folder
 
 
@@ -79,6 +79,8 @@ def _writable_folder(folder: Path) -> Path:
 def atomic_path(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; on success it replaces ``path``."""
     target = Path(path)
+    if target.is_dir():
+        raise ParameterError(str(target), "(output)", "is a folder; name a file to write")
     folder = _writable_folder(target.parent if str(target.parent) else Path("."))
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
     os.close(fd)
