@@ -47,8 +47,9 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     out["readonly"].chmod(0o555)
     out["bad_toml"].write_text("g = = 9.81")
     import exoleg
+    from exoleg.params.leg_file import format_leg
 
-    good = exoleg.params.leg_file.format_leg(exoleg.paper_leg().links, 9.81, "ok")
+    good = format_leg(exoleg.paper_leg().links, 9.81, "ok")
     out["heavy"].write_text(re.sub(r"mass = [0-9.e-]+", "mass = 1e300", good, count=1))
     out["com_off"].write_text(re.sub(r"com = \[[0-9.e-]+", "com = [5.1", good, count=1))
     out["two_links"].write_text(good[: good.rindex("[[link]]")])

@@ -21,6 +21,7 @@ import pytest
 import exoleg
 from exoleg.cli import main
 from exoleg.control import PD, ComputedTorque, PDGravity
+from exoleg.params.leg_file import read_leg_file
 from exoleg.reference import Steps
 from exoleg.sim.closed_loop import _run, sampled_stability
 from exoleg.sizing import Child
@@ -160,7 +161,7 @@ def test_fit_states_demand_over_table2_apart_from_geometry(tmp_path: Path) -> No
     assert fit["fits"] and not fit["within_table2"]
     assert {(e["joint"], e["quantity"]) for e in fit["exceedances"]} == {("ankle", "speed")}
     assert all(e["ratio"] > 1 for e in fit["exceedances"])
-    _, _, _, meta = exoleg.params.leg_file.read_leg_file(tmp_path / "leg.toml")
+    _, _, _, meta = read_leg_file(tmp_path / "leg.toml")
     assert meta["fits"] and "ankle speed" in meta["note"]
 
 
@@ -174,7 +175,7 @@ def test_leg_for_a_child_who_does_not_fit_only_on_request(tmp_path: Path) -> Non
     r = _cli(*args, "--out", str(tmp_path / "b"), "--write-leg")
     leg_file = tmp_path / "b" / "leg.toml"
     assert "THE DEVICE DOES NOT FIT THIS CHILD" in leg_file.read_text()
-    assert exoleg.params.leg_file.read_leg_file(leg_file)[3]["fits"] is False
+    assert read_leg_file(leg_file)[3]["fits"] is False
     s = _cli("simulate", "--leg", str(leg_file), "--duration", "0.5", "--no-engine",
              "--out", str(tmp_path / "s"))
     assert s.returncode == 0 and "warning:" in s.stdout and "does not fit" in s.stdout

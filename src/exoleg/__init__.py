@@ -14,33 +14,44 @@ signs, units): ``docs/conventions.md``. SI units and radians throughout.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
-from exoleg import control, reference
-from exoleg.dynamics.model import LegModel
 from exoleg.errors import ExolegError, ParameterError, SimulationError, UnreachableError
-from exoleg.inertia import RigidBody, compose, remainder
-from exoleg.params import paper as _paper
-from exoleg.params.leg_file import format_leg, read_leg_file
-from exoleg.params.records import JOINTS, LINKS, Actuator, Gains, Link, RangeOfMotion
-from exoleg.sim.closed_loop import SimResult, simulate
+
+if TYPE_CHECKING:
+    from exoleg import control, reference
+    from exoleg.dynamics.model import LegModel
+    from exoleg.inertia import RigidBody, compose, remainder
+    from exoleg.params.records import JOINTS, LINKS, Actuator, Gains, Link, RangeOfMotion
+    from exoleg.sim.closed_loop import SimResult, simulate
 
 __version__ = "0.1.0"
 
-#: Subpackages loaded on first use (``exoleg.sizing.Child``, ``exoleg.export.write_urdf``),
-#: so that ``import exoleg`` stays quick and every one of them works after it.
-_LAZY = ("dynamics", "export", "io", "kinematics", "params", "plots", "sim", "sizing",
-         "validate")
+#: What ``import exoleg`` offers, loaded on first use so that the import -- and the
+#: command line's start -- stay quick (numba alone takes 0.2 s to import): name -> module.
+_LAZY = {
+    "LegModel": "exoleg.dynamics.model", "SimResult": "exoleg.sim.closed_loop",
+    "simulate": "exoleg.sim.closed_loop", "RigidBody": "exoleg.inertia",
+    "compose": "exoleg.inertia", "remainder": "exoleg.inertia",
+    **{n: "exoleg.params.records" for n in ("JOINTS", "LINKS", "Actuator", "Gains", "Link",
+                                             "RangeOfMotion")},
+    # subpackages: ``exoleg.sizing.Child``, ``exoleg.export.write_urdf`` after ``import exoleg``
+    **{n: f"exoleg.{n}" for n in ("control", "dynamics", "export", "io", "kinematics",
+                                  "params", "plots", "reference", "sim", "sizing",
+                                  "validate")},
+}
 
 
 def __getattr__(name: str) -> object:
-    if name in _LAZY:
-        import importlib
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'exoleg' has no attribute {name!r}")
+    import importlib
 
-        module = importlib.import_module(f"exoleg.{name}")
-        globals()[name] = module
-        return module
-    raise AttributeError(f"module 'exoleg' has no attribute {name!r}")
+    mod = importlib.import_module(module)
+    value = mod if module == f"exoleg.{name}" else getattr(mod, name)
+    globals()[name] = value
+    return value
 
 
 def __dir__() -> list[str]:
@@ -56,6 +67,9 @@ def paper_leg(variant: Literal["simplified", "detailed"] = "simplified",
     SLE body welded together (Table 4 masses), composing to Table 5's detailed
     column (twice the simplified masses and inertias). g defaults to the paper's 9.81.
     """
+    from exoleg.dynamics.model import LegModel
+    from exoleg.params import paper as _paper
+
     grav = _paper.gravity() if g is None else g
     if variant == "simplified":
         return LegModel(_paper.table5_links("simplified"), g=grav, name="paper simplified")
@@ -67,6 +81,9 @@ def paper_leg(variant: Literal["simplified", "detailed"] = "simplified",
 
 def load_leg(path: str | Path) -> LegModel:
     """Read a leg parameter file (format: :mod:`exoleg.params.leg_file`)."""
+    from exoleg.dynamics.model import LegModel
+    from exoleg.params.leg_file import read_leg_file
+
     links, g, name = read_leg_file(path)[:3]
     return LegModel(links, g=g, name=name)
 
@@ -77,6 +94,7 @@ def save_leg(leg: LegModel, path: str | Path, header: str = "",
     (written whole or not at all). ``fit``: the optional ``[fit]`` record,
     ``{"fits": bool, "note": str}`` (see :mod:`exoleg.params.leg_file`)."""
     from exoleg.io import atomic_path
+    from exoleg.params.leg_file import format_leg
 
     text = format_leg(leg.links, leg.g, leg.name, header=header, fit=fit)
     with atomic_path(path) as tmp:
@@ -88,5 +106,5 @@ __all__ = [
     "JOINTS", "LINKS", "Actuator", "ExolegError", "Gains", "LegModel", "Link",
     "ParameterError", "RangeOfMotion", "RigidBody", "SimResult", "SimulationError",
     "UnreachableError", "compose", "control", "load_leg", "paper_leg", "reference", "remainder",
-    "save_leg", "simulate", *_LAZY,
+    "save_leg", "simulate",
 ]
