@@ -235,3 +235,11 @@ def test_unexpected_error_is_one_line(monkeypatch: pytest.MonkeyPatch,
     assert main(["validate"]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "internal error: ZeroDivisionError: a bug" in err
+
+
+def test_cli_ranges_are_the_library_s() -> None:
+    # the parser keeps its own copy (no numpy at start-up): it must not drift
+    from exoleg import cli
+    from exoleg.reference.gait import STRIDE_TIME_RANGE
+
+    assert cli.STRIDE_TIME_RANGE == STRIDE_TIME_RANGE

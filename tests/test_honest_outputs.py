@@ -49,6 +49,14 @@ def test_run_refused_before_it_starts(kwargs: dict, text: str) -> None:
         exoleg.simulate(LEG, PDGravity(LEG), Steps([0.0], [[0.0, 0.0, 0.0]]), **args)
 
 
+def test_stride_time_a_child_can_walk() -> None:
+    from exoleg.reference import SchwartzGait2008
+
+    for bad in (1e308, 0.01, float("nan")):
+        with pytest.raises(exoleg.ParameterError, match="stride_time"):
+            SchwartzGait2008(stride_time=bad)
+
+
 def test_beyond_range_of_motion_on_request_says_so() -> None:
     ref = Steps([0.0], [[0.0, np.radians(5), 0.0]])  # knee 5 deg hyperextended
     with pytest.raises(exoleg.ParameterError, match="knee at 5 deg"):

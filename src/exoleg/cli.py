@@ -26,9 +26,8 @@ from typing import TYPE_CHECKING, Any, NoReturn
 if TYPE_CHECKING:
     from rich.console import Console
 
-#: Stride times a child can walk, s: 8-12-year-olds walk at 0.9-1.3 s per stride
-#: (Schwartz 2008's very fast to very slow groups), children with CP slower; 0.4-4 s
-#: covers both with room. Gait SD offsets: mean +- 3 SD.
+#: Stride times a child can walk (as exoleg.reference.gait.STRIDE_TIME_RANGE, kept here
+#: so that the parser does not import numpy); gait SD offsets: mean +- 3 SD.
 STRIDE_TIME_RANGE = (0.4, 4.0)
 SD_RANGE = (-3.0, 3.0)
 

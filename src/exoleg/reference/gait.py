@@ -51,6 +51,12 @@ def schwartz2008(variable: str, speed: str = "Free") -> tuple[F64, F64, F64]:
     return _table()[key]
 
 
+#: Stride times a child can walk, s: 8-12-year-olds walk at about 0.9-1.3 s per stride
+#: (Schwartz 2008's very fast to very slow groups), children with CP slower; 0.4-4 s
+#: covers both with room. A stride of 1e308 s is a frozen reference, not a gait.
+STRIDE_TIME_RANGE = (0.4, 4.0)
+
+
 def gait_angles(speed: str = "Free", sd: float = 0.0) -> tuple[F64, F64]:
     """(% cycle (51,), q (51, 3) rad) of mean + sd * SD, in exoleg's signs."""
     cols = []
@@ -66,7 +72,7 @@ class SchwartzGait2008:
     """Periodic normative gait reference.
 
     Args:
-        stride_time: s per gait cycle (> 0).
+        stride_time: s per gait cycle, within :data:`STRIDE_TIME_RANGE`.
         speed: Schwartz 2008 speed group (VerySlow, Slow, Free, Fast, VeryFast).
         sd: mean + sd * SD (e.g. -1, 0, 1).
         harmonics: Fourier harmonics kept (1-24). The default 10 keeps the fit within
@@ -82,9 +88,11 @@ class SchwartzGait2008:
     phase: float = 0.0
 
     def __post_init__(self) -> None:
-        if not (np.isfinite(self.stride_time) and self.stride_time > 0):
+        lo, hi = STRIDE_TIME_RANGE
+        if not (np.isfinite(self.stride_time) and lo <= self.stride_time <= hi):
             raise ParameterError("SchwartzGait2008", "stride_time",
-                                 f"must be > 0 s, got {self.stride_time!r}")
+                                 f"{self.stride_time!r} s is not a stride a child walks "
+                                 f"(allowed {lo:g}-{hi:g} s)")
         if not (1 <= int(self.harmonics) <= 24):
             raise ParameterError("SchwartzGait2008", "harmonics",
                                  f"must be 1-24, got {self.harmonics!r}")
