@@ -84,8 +84,8 @@ def load_leg(path: str | Path) -> LegModel:
     from exoleg.dynamics.model import LegModel
     from exoleg.params.leg_file import read_leg_file
 
-    links, g, name = read_leg_file(path)[:3]
-    return LegModel(links, g=g, name=name)
+    links, g, name, meta = read_leg_file(path)
+    return LegModel(links, g=g, name=name, armature=meta.get("armature"))
 
 
 def save_leg(leg: LegModel, path: str | Path, header: str = "",
@@ -96,7 +96,8 @@ def save_leg(leg: LegModel, path: str | Path, header: str = "",
     from exoleg.io import atomic_path
     from exoleg.params.leg_file import format_leg
 
-    text = format_leg(leg.links, leg.g, leg.name, header=header, fit=fit)
+    text = format_leg(leg.links, leg.g, leg.name, header=header, fit=fit,
+                      armature=leg.armature)
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
     return Path(path)

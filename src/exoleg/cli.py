@@ -222,8 +222,8 @@ def _build(args: argparse.Namespace) -> dict[str, Any]:
     warnings: list[str] = []
     if args.leg:
         links, g, name, fit = read_leg_file(args.leg)
-        leg = exoleg.LegModel(links, g=g, name=name)
-        if fit and not fit["fits"]:
+        leg = exoleg.LegModel(links, g=g, name=name, armature=fit.get("armature"))
+        if not fit.get("fits", True):
             warnings.append(f"{args.leg} is a leg for a child the device does not fit "
                             f"({fit.get('note') or 'see its [fit] record'}): the model's "
                             "telescope settings are clamped to the device's range")

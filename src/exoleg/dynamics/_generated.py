@@ -9,7 +9,8 @@ from math import cos, sin
 from numba import njit
 
 N_JOINTS = 3
-N_COEFFICIENTS = 21
+N_PARAMS = 18  # 5 per link (m, a, cx, cy, I), then 1 per joint (armature)
+N_COEFFICIENTS = 23
 OFFSETS = (-1.5707963267948966, 0.0, 1.5707963267948966)
 
 
@@ -32,6 +33,9 @@ def mass_matrix(q, p, out):
     cx2 = p[12]
     cy2 = p[13]
     I2 = p[14]
+    arm0 = p[15]
+    arm1 = p[16]
+    arm2 = p[17]
     s_1 = sin(q1)
     c_1 = cos(q1)
     s_2 = sin(q2)
@@ -53,12 +57,12 @@ def mass_matrix(q, p, out):
     x12 = cy2*cy2
     x13 = I2 + m2*x11 + m2*x12
     x14 = I1 + a1*a1*m2 + cx1*cx1*m1 + cy1*cy1*m1 - 2*x10 + x13 - 2*x9
-    M_0_0 = I0 + cx0*cx0*m0 + cy0*cy0*m0 + m1*x0 + m2*x0 + x14 - 2*x2 - 2*x3 - 2*x4 + 2*x7 + 2*x8
+    M_0_0 = I0 + arm0 + cx0*cx0*m0 + cy0*cy0*m0 + m1*x0 + m2*x0 + x14 - 2*x2 - 2*x3 - 2*x4 + 2*x7 + 2*x8
     M_0_1 = x14 - x2 - x3 - x4 + x7 + x8
     M_0_2 = I2 + m2*x11 + m2*x12 - x10 - x2 - x4 - x9
-    M_1_1 = x14
+    M_1_1 = arm1 + x14
     M_1_2 = -x10 + x13 - x9
-    M_2_2 = x13
+    M_2_2 = arm2 + x13
     out[0, 0] = M_0_0
     out[0, 1] = M_0_1
     out[0, 2] = M_0_2
@@ -268,6 +272,9 @@ def kinetic_energy(q, dq, p):
     cx2 = p[12]
     cy2 = p[13]
     I2 = p[14]
+    arm0 = p[15]
+    arm1 = p[16]
+    arm2 = p[17]
     s_0 = sin(q0)
     c_0 = cos(q0)
     s_1 = sin(q1)
@@ -290,7 +297,7 @@ def kinetic_energy(q, dq, p):
     x9 = cx2*s_0_1_2
     x10 = x8 + x9
     x11 = a1*c_0_1
-    T = (1/2)*I0*x0 + (1/2)*I1*x1*x1 + (1/2)*I2*(dq2 + x1)*(dq2 + x1) + (1/2)*m0*x0*((c_0*cx0 - cy0*s_0)*(c_0*cx0 - cy0*s_0) + (c_0*cy0 + cx0*s_0)*(c_0*cy0 + cx0*s_0)) + (1/2)*m1*((dq0*(x2 + x3) + dq1*x2)*(dq0*(x2 + x3) + dq1*x2) + (dq0*(x4 + x5) + dq1*x4)*(dq0*(x4 + x5) + dq1*x4)) + (1/2)*m2*((dq0*(x3 + x7) + dq1*x7 + dq2*x6)*(dq0*(x3 + x7) + dq1*x7 + dq2*x6) + (-dq0*(x11 + x5 - x8 - x9) + dq1*(x10 - x11) + dq2*x10)*(-dq0*(x11 + x5 - x8 - x9) + dq1*(x10 - x11) + dq2*x10))
+    T = (1/2)*I0*x0 + (1/2)*I1*x1*x1 + (1/2)*I2*(dq2 + x1)*(dq2 + x1) + (1/2)*arm0*x0 + (1/2)*arm1*dq1*dq1 + (1/2)*arm2*dq2*dq2 + (1/2)*m0*x0*((c_0*cx0 - cy0*s_0)*(c_0*cx0 - cy0*s_0) + (c_0*cy0 + cx0*s_0)*(c_0*cy0 + cx0*s_0)) + (1/2)*m1*((dq0*(x2 + x3) + dq1*x2)*(dq0*(x2 + x3) + dq1*x2) + (dq0*(x4 + x5) + dq1*x4)*(dq0*(x4 + x5) + dq1*x4)) + (1/2)*m2*((dq0*(x3 + x7) + dq1*x7 + dq2*x6)*(dq0*(x3 + x7) + dq1*x7 + dq2*x6) + (-dq0*(x11 + x5 - x8 - x9) + dq1*(x10 - x11) + dq2*x10)*(-dq0*(x11 + x5 - x8 - x9) + dq1*(x10 - x11) + dq2*x10))
     return T
 
 
@@ -352,6 +359,9 @@ def forward_dynamics(q, dq, tau, p, g, out):
     cx2 = p[12]
     cy2 = p[13]
     I2 = p[14]
+    arm0 = p[15]
+    arm1 = p[16]
+    arm2 = p[17]
     s_0 = sin(q0)
     c_0 = cos(q0)
     s_1 = sin(q1)
@@ -400,12 +410,12 @@ def forward_dynamics(q, dq, tau, p, g, out):
     x33 = dq2*x6
     x34 = x31*x33
     x35 = a1*x32
-    M_0_0 = I0 + cx0*cx0*m0 + cy0*cy0*m0 + m1*x0 + m2*x0 + x15 - 2*x2 - 2*x4 - 2*x5 + 2*x7 + 2*x9
+    M_0_0 = I0 + arm0 + cx0*cx0*m0 + cy0*cy0*m0 + m1*x0 + m2*x0 + x15 - 2*x2 - 2*x4 - 2*x5 + 2*x7 + 2*x9
     M_0_1 = x15 - x2 - x4 - x5 + x7 + x9
     M_0_2 = I2 + m2*x12 + m2*x13 - x10 - x11 - x2 - x5
-    M_1_1 = x15
+    M_1_1 = arm1 + x15
     M_1_2 = -x10 - x11 + x14
-    M_2_2 = x14
+    M_2_2 = arm2 + x14
     h0 = -dq0*x29 - dq1*(x29 + x30) + g*m0*(c_0*cy0 + cx0*s_0) + g*m1*(x16 + x17) + g*m2*(x16 + x19) - x21*x27
     h1 = dq0*(x30 - x34) + g*m1*x17 + g*m2*x19 - x21*x34 - x32*x33
     h2 = m2*(dq0*(dq0*x26 + x35) + g*x18 + x20*x35)
@@ -429,7 +439,7 @@ def forward_dynamics(q, dq, tau, p, g, out):
 
 @njit(cache=True, error_model="numpy")
 def coefficients(p, g):
-    """The 21 parameter-only coefficients k of the *_sc kernels,
+    """The 23 parameter-only coefficients k of the *_sc kernels,
     from the parameter vector p and g, as a tuple (passed by value: no reference count)."""
     m0 = p[0]
     a0 = p[1]
@@ -445,6 +455,9 @@ def coefficients(p, g):
     cx2 = p[12]
     cy2 = p[13]
     I2 = p[14]
+    arm0 = p[15]
+    arm1 = p[16]
+    arm2 = p[17]
     x0 = a1*m2
     x1 = cx1*m1 + x0
     x2 = a0*x1
@@ -465,7 +478,7 @@ def coefficients(p, g):
     k3 = 2*x7
     k4 = 2*x8
     k5 = 2*x9
-    k6 = I0 + cx0*cx0*m0 + cy0*cy0*m0 + m1*x10 + m2*x10 + x12
+    k6 = I0 + arm0 + cx0*cx0*m0 + cy0*cy0*m0 + m1*x10 + m2*x10 + x12
     k7 = x2
     k8 = x4
     k9 = x7
@@ -474,31 +487,33 @@ def coefficients(p, g):
     k12 = x5
     k13 = x9
     k14 = x11
-    k15 = cy0*g*m0
-    k16 = cy1*g*m1
-    k17 = cx2*x13
-    k18 = g*(cx0*m0 + x3 + x6)
-    k19 = g*x1
-    k20 = cy2*x13
-    return (k0, k1, k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, k12, k13, k14, k15, k16, k17, k18, k19, k20,)
+    k15 = arm1 + x12
+    k16 = arm2 + x11
+    k17 = cy0*g*m0
+    k18 = cy1*g*m1
+    k19 = cx2*x13
+    k20 = g*(cx0*m0 + x3 + x6)
+    k21 = g*x1
+    k22 = cy2*x13
+    return (k0, k1, k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, k12, k13, k14, k15, k16, k17, k18, k19, k20, k21, k22,)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
 def gravity_sc(s_0, c_0, s_1, c_1, s_2, c_2, k):
     """G given s_i = sin(q_i), c_i = cos(q_i) and the leg's coefficients k, as a tuple."""
-    k15 = k[15]
-    k16 = k[16]
     k17 = k[17]
     k18 = k[18]
     k19 = k[19]
     k20 = k[20]
+    k21 = k[21]
+    k22 = k[22]
     s_0_1 = s_0 * c_1 + c_0 * s_1
     c_0_1 = c_0 * c_1 - s_0 * s_1
     s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
     c_0_1_2 = c_0_1 * c_2 - s_0_1 * s_2
-    x0 = c_0_1_2*k17 - k20*s_0_1_2
-    x1 = c_0_1*k16 + k19*s_0_1 + x0
-    G0 = c_0*k15 + k18*s_0 + x1
+    x0 = c_0_1_2*k19 - k22*s_0_1_2
+    x1 = c_0_1*k18 + k21*s_0_1 + x0
+    G0 = c_0*k17 + k20*s_0 + x1
     G1 = x1
     G2 = x0
     return (G0, G1, G2,)
@@ -530,6 +545,8 @@ def forward_dynamics_sc(s_0, c_0, s_1, c_1, s_2, c_2, dq0, dq1, dq2, tau0, tau1,
     k18 = k[18]
     k19 = k[19]
     k20 = k[20]
+    k21 = k[21]
+    k22 = k[22]
     s_0_1 = s_0 * c_1 + c_0 * s_1
     c_0_1 = c_0 * c_1 - s_0 * s_1
     s_1_2 = s_1 * c_2 + c_1 * s_2
@@ -537,31 +554,30 @@ def forward_dynamics_sc(s_0, c_0, s_1, c_1, s_2, c_2, dq0, dq1, dq2, tau0, tau1,
     s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
     c_0_1_2 = c_0_1 * c_2 - s_0_1 * s_2
     x0 = c_2*k2 + k5*s_2
-    x1 = -k11 + x0
-    x2 = c_1_2*k8 + k10*s_1_2
-    x3 = c_2*k12 + k13*s_2 - k14
-    x4 = c_1_2*k4 - k1*s_1_2
-    x5 = c_2*k5 - k2*s_2
-    x6 = dq2*(x4 + x5)
-    x7 = dq1*dq1
-    x8 = c_1_2*k10 - k8*s_1_2
-    x9 = c_1*k9 + k7*s_1 + x8
-    x10 = dq2*dq2
-    x11 = c_2*k13 - k12*s_2
-    x12 = x11 + x8
-    x13 = c_0_1_2*k17 - k20*s_0_1_2
-    x14 = c_0_1*k16 + k19*s_0_1 + x13
-    x15 = dq0*dq0
-    x16 = dq2*x5
+    x1 = c_1_2*k8 + k10*s_1_2
+    x2 = c_2*k12 + k13*s_2 - k14
+    x3 = c_1_2*k4 - k1*s_1_2
+    x4 = c_2*k5 - k2*s_2
+    x5 = dq2*(x3 + x4)
+    x6 = dq1*dq1
+    x7 = c_1_2*k10 - k8*s_1_2
+    x8 = c_1*k9 + k7*s_1 + x7
+    x9 = dq2*dq2
+    x10 = c_2*k13 - k12*s_2
+    x11 = x10 + x7
+    x12 = c_0_1_2*k19 - k22*s_0_1_2
+    x13 = c_0_1*k18 + k21*s_0_1 + x12
+    x14 = dq0*dq0
+    x15 = dq2*x4
     M_0_0 = c_1*k0 - c_1_2*k1 - k3*s_1 - k4*s_1_2 + k6 - x0
-    M_0_1 = c_1*k7 - k9*s_1 - x1 - x2
-    M_0_2 = -x2 - x3
-    M_1_1 = -x1
-    M_1_2 = -x3
-    M_2_2 = k14
-    h0 = c_0*k15 - dq0*(dq1*(c_1*k3 + k0*s_1 + x4) + x6) - dq1*x6 + k18*s_0 - x10*x12 + x14 - x7*x9
-    h1 = -dq0*x16 - dq1*x16 - x10*x11 + x14 + x15*x9
-    h2 = dq0*dq1*x5 + x11*x7 + x12*x15 + x13
+    M_0_1 = c_1*k7 + k11 - k9*s_1 - x0 - x1
+    M_0_2 = -x1 - x2
+    M_1_1 = k15 - x0
+    M_1_2 = -x2
+    M_2_2 = k16
+    h0 = c_0*k17 - dq0*(dq1*(c_1*k3 + k0*s_1 + x3) + x5) - dq1*x5 + k20*s_0 - x11*x9 + x13 - x6*x8
+    h1 = -dq0*x15 - dq1*x15 - x10*x9 + x13 + x14*x8
+    h2 = dq0*dq1*x4 + x10*x6 + x11*x14 + x12
     b0 = tau0 - h0
     b1 = tau1 - h1
     b2 = tau2 - h2
@@ -603,6 +619,8 @@ def inverse_dynamics_sc(s_0, c_0, s_1, c_1, s_2, c_2, dq0, dq1, dq2, ddq0, ddq1,
     k18 = k[18]
     k19 = k[19]
     k20 = k[20]
+    k21 = k[21]
+    k22 = k[22]
     s_0_1 = s_0 * c_1 + c_0 * s_1
     c_0_1 = c_0 * c_1 - s_0 * s_1
     s_1_2 = s_1 * c_2 + c_1 * s_2
@@ -610,31 +628,30 @@ def inverse_dynamics_sc(s_0, c_0, s_1, c_1, s_2, c_2, dq0, dq1, dq2, ddq0, ddq1,
     s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
     c_0_1_2 = c_0_1 * c_2 - s_0_1 * s_2
     x0 = c_2*k2 + k5*s_2
-    x1 = -k11 + x0
-    x2 = c_1_2*k8 + k10*s_1_2
-    x3 = c_2*k12 + k13*s_2 - k14
-    x4 = c_1_2*k4 - k1*s_1_2
-    x5 = c_2*k5 - k2*s_2
-    x6 = dq2*(x4 + x5)
-    x7 = dq1*dq1
-    x8 = c_1_2*k10 - k8*s_1_2
-    x9 = c_1*k9 + k7*s_1 + x8
-    x10 = dq2*dq2
-    x11 = c_2*k13 - k12*s_2
-    x12 = x11 + x8
-    x13 = c_0_1_2*k17 - k20*s_0_1_2
-    x14 = c_0_1*k16 + k19*s_0_1 + x13
-    x15 = dq0*dq0
-    x16 = dq2*x5
+    x1 = c_1_2*k8 + k10*s_1_2
+    x2 = c_2*k12 + k13*s_2 - k14
+    x3 = c_1_2*k4 - k1*s_1_2
+    x4 = c_2*k5 - k2*s_2
+    x5 = dq2*(x3 + x4)
+    x6 = dq1*dq1
+    x7 = c_1_2*k10 - k8*s_1_2
+    x8 = c_1*k9 + k7*s_1 + x7
+    x9 = dq2*dq2
+    x10 = c_2*k13 - k12*s_2
+    x11 = x10 + x7
+    x12 = c_0_1_2*k19 - k22*s_0_1_2
+    x13 = c_0_1*k18 + k21*s_0_1 + x12
+    x14 = dq0*dq0
+    x15 = dq2*x4
     M_0_0 = c_1*k0 - c_1_2*k1 - k3*s_1 - k4*s_1_2 + k6 - x0
-    M_0_1 = c_1*k7 - k9*s_1 - x1 - x2
-    M_0_2 = -x2 - x3
-    M_1_1 = -x1
-    M_1_2 = -x3
-    M_2_2 = k14
-    h0 = c_0*k15 - dq0*(dq1*(c_1*k3 + k0*s_1 + x4) + x6) - dq1*x6 + k18*s_0 - x10*x12 + x14 - x7*x9
-    h1 = -dq0*x16 - dq1*x16 - x10*x11 + x14 + x15*x9
-    h2 = dq0*dq1*x5 + x11*x7 + x12*x15 + x13
+    M_0_1 = c_1*k7 + k11 - k9*s_1 - x0 - x1
+    M_0_2 = -x1 - x2
+    M_1_1 = k15 - x0
+    M_1_2 = -x2
+    M_2_2 = k16
+    h0 = c_0*k17 - dq0*(dq1*(c_1*k3 + k0*s_1 + x3) + x5) - dq1*x5 + k20*s_0 - x11*x9 + x13 - x6*x8
+    h1 = -dq0*x15 - dq1*x15 - x10*x9 + x13 + x14*x8
+    h2 = dq0*dq1*x4 + x10*x6 + x11*x14 + x12
     t0 = M_0_0 * ddq0 + M_0_1 * ddq1 + M_0_2 * ddq2 + h0
     t1 = M_0_1 * ddq0 + M_1_1 * ddq1 + M_1_2 * ddq2 + h1
     t2 = M_0_2 * ddq0 + M_1_2 * ddq1 + M_2_2 * ddq2 + h2
@@ -666,6 +683,9 @@ def diagnostics(q, dq, p, g):
     cx2 = p[12]
     cy2 = p[13]
     I2 = p[14]
+    arm0 = p[15]
+    arm1 = p[16]
+    arm2 = p[17]
     s_0 = sin(q0)
     c_0 = cos(q0)
     s_1 = sin(q1)
@@ -717,12 +737,12 @@ def diagnostics(q, dq, p, g):
     x36 = dq0 + dq1
     x37 = dq2 + x36
     x38 = a0*c_0
-    M_0_0 = I0 + cx0*cx0*m0 + cy0*cy0*m0 + m1*x0 + m2*x0 + x15 - 2*x2 - 2*x4 - 2*x5 + 2*x7 + 2*x9
+    M_0_0 = I0 + arm0 + cx0*cx0*m0 + cy0*cy0*m0 + m1*x0 + m2*x0 + x15 - 2*x2 - 2*x4 - 2*x5 + 2*x7 + 2*x9
     M_0_1 = x15 - x2 - x4 - x5 + x7 + x9
     M_0_2 = I2 + m2*x12 + m2*x13 - x10 - x11 - x2 - x5
-    M_1_1 = x15
+    M_1_1 = arm1 + x15
     M_1_2 = -x10 - x11 + x14
-    M_2_2 = x14
+    M_2_2 = arm2 + x14
     Md_0_0 = -2*x28
     Md_0_1 = x29
     Md_0_2 = x30
@@ -774,6 +794,9 @@ def inverse_dynamics(q, dq, ddq, p, g, out):
     cx2 = p[12]
     cy2 = p[13]
     I2 = p[14]
+    arm0 = p[15]
+    arm1 = p[16]
+    arm2 = p[17]
     s_0 = sin(q0)
     c_0 = cos(q0)
     s_1 = sin(q1)
@@ -826,6 +849,6 @@ def inverse_dynamics(q, dq, ddq, p, g, out):
     x37 = dq2*x17
     x38 = x35*x37
     x39 = -x18 - x19 + x30
-    out[0] = ddq0*(I0 + cx0*cx0*m0 + cy0*cy0*m0 + m1*x34 + m2*x34 - 2*x15 - 2*x16 + 2*x27 + 2*x28 - 2*x29 + x31) + ddq1*x32 - ddq2*x22 - dq0*x26 - dq1*(x26 + x33) + g*m0*(c_0*cy0 + cx0*s_0) - x13*x7 + x2*(x0 + x1) + x5*(x0 + x4)
-    out[1] = ddq0*x32 + ddq1*x31 + ddq2*x39 + dq0*(x33 - x38) + x1*x2 - x36*x37 - x38*x7 + x4*x5
-    out[2] = -ddq0*x22 + ddq1*x39 + ddq2*x30 + dq0*m2*(a1*x36 + dq0*x12) + x17*x36*x6 + x3*x5
+    out[0] = ddq0*(I0 + arm0 + cx0*cx0*m0 + cy0*cy0*m0 + m1*x34 + m2*x34 - 2*x15 - 2*x16 + 2*x27 + 2*x28 - 2*x29 + x31) + ddq1*x32 - ddq2*x22 - dq0*x26 - dq1*(x26 + x33) + g*m0*(c_0*cy0 + cx0*s_0) - x13*x7 + x2*(x0 + x1) + x5*(x0 + x4)
+    out[1] = ddq0*x32 + ddq1*(arm1 + x31) + ddq2*x39 + dq0*(x33 - x38) + x1*x2 - x36*x37 - x38*x7 + x4*x5
+    out[2] = -ddq0*x22 + ddq1*x39 + ddq2*(arm2 + x30) + dq0*m2*(a1*x36 + dq0*x12) + x17*x36*x6 + x3*x5

@@ -7,7 +7,7 @@
  *        (exoleg.dynamics.single builds them from the generated kernels);
  * shape: 0 -> out (3,), 1 -> out (3, 3), 2 -> out (8, 2);
  * g:     gravity, m/s^2 (a float);
- * p:     the leg's parameter vector, float64 (15,);
+ * p:     the leg's parameter vector, float64 (N_PARAMS,): 5 per link, then 3 armatures;
  * a, b, c: one state each, float64 (3,).
  *
  * Returns None, without raising, when an argument is not a C-contiguous native
@@ -18,6 +18,9 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <numpy/arrayobject.h>
+
+/* exoleg.dynamics._generated.N_PARAMS; tests/unit/test_model.py checks they agree */
+#define N_PARAMS 18
 
 typedef int (*kernel_t)(double *, double *, double *, double *, double, double *);
 
@@ -57,7 +60,7 @@ static PyObject *call(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
         PyErr_SetString(PyExc_ValueError, "call: bad kernel address or shape code");
         return NULL;
     }
-    p = vector_data(args[3], 15);
+    p = vector_data(args[3], N_PARAMS);
     if (p == NULL)
         Py_RETURN_NONE;
     for (i = 4; i < nargs; i++) {
@@ -89,6 +92,12 @@ static struct PyModuleDef module = {
 
 PyMODINIT_FUNC PyInit__onecall(void)
 {
+    PyObject *m;
     import_array();
-    return PyModule_Create(&module);
+    m = PyModule_Create(&module);
+    if (m != NULL && PyModule_AddIntConstant(m, "N_PARAMS", N_PARAMS) < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
 }

@@ -9,8 +9,9 @@ shipped file differs; ``tests/validation/test_codegen.py`` also checks the
 kernels numerically against a fresh derivation.
 
 Every kernel takes the joint state ``q`` (and ``dq``) as float arrays of
-length n, the parameter vector ``p`` (5 n floats, link by link
-``m, a, cx, cy, I``; see :data:`exoleg.dynamics.derive.LINK_PARAMS`), ``g``
+length n, the parameter vector ``p`` (6 n floats: link by link
+``m, a, cx, cy, I``, then the n joint armatures; see
+:data:`exoleg.dynamics.derive.LINK_PARAMS`), ``g``
 where gravity enters, and writes into a caller-owned ``out`` array.
 """
 
@@ -319,6 +320,7 @@ def generate(d: Derivation) -> str:
         "from numba import njit\n\n"
 
         f"N_JOINTS = {n}\n"
+        f"N_PARAMS = {len(d.p)}  # 5 per link (m, a, cx, cy, I), then 1 per joint (armature)\n"
         f"N_COEFFICIENTS = {len(kexprs)}\n"
         f"OFFSETS = {tuple(d.offsets)!r}\n\n\n"
     )
@@ -343,8 +345,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         same = args.output.read_text() == src
         sys.stdout.write(f"{args.output}: {'up to date' if same else 'DIFFERS'}\n")
         return 0 if same else 1
+    changed = not args.output.exists() or args.output.read_text() != src
     args.output.write_text(src)
     sys.stdout.write(f"wrote {args.output}\n")
+    if changed:
+        # numba's on-disk cache of a function that inlines a generated kernel (the stepper,
+        # the control laws) is keyed on that function's own file, not on _generated.py:
+        # after the kernels change, every cached entry of the package must go
+        package = Path(__file__).resolve().parents[1]
+        stale = [f for f in package.rglob("__pycache__/*") if f.suffix in (".nbi", ".nbc")]
+        for f in stale:
+            f.unlink()
+        sys.stdout.write(f"removed {len(stale)} numba cache files of the old kernels\n")
     return 0
 
 

@@ -6,7 +6,11 @@ D-H offset (paper Table 3: -pi/2, 0, +pi/2 for hip, knee, ankle); its frame has
 x along the link. Each link has five parameters, kept symbolic:
 
 ``m_i`` mass, ``a_i`` length, ``cx_i``, ``cy_i`` COM in the link frame measured
-from the proximal joint, ``I_i`` centroidal inertia about z; and ``g``.
+from the proximal joint, ``I_i`` centroidal inertia about z; after the links, one per
+joint: ``arm_i``, the armature -- the actuator's rotor (and gear input) inertia
+reflected through its gear, N^2 J, which adds ``1/2 arm_i dq_i^2`` to T (the rotor
+turns N times as fast as the joint; the link's own rotation is negligible beside
+it); and ``g``.
 
 From the kinetic energy T and potential energy V (gravity along -y):
 
@@ -30,13 +34,16 @@ import sympy as sp
 
 #: Parameters per link, in the order of the parameter vector ``p``.
 LINK_PARAMS = ("m", "a", "cx", "cy", "I")
+#: Parameters per joint, after every link's: the armature (reflected rotor inertia).
+JOINT_PARAMS = ("arm",)
 
 
 @dataclass(frozen=True)
 class Derivation:
     """Symbolic equations of motion of an ``n``-link planar chain.
 
-    ``p`` is ordered link by link as :data:`LINK_PARAMS` (5 n symbols).
+    ``p`` is ordered link by link as :data:`LINK_PARAMS` (5 n symbols), then the n
+    armatures (:data:`JOINT_PARAMS`).
     """
 
     n: int
@@ -66,9 +73,11 @@ def derive(offsets: Sequence[float], simplify: bool = True) -> Derivation:
     n = len(offsets)
     q = sp.symbols(f"q0:{n}", real=True)
     dq = sp.symbols(f"dq0:{n}", real=True)
-    p = tuple(sp.Symbol(f"{name}{i}", real=True) for i in range(n) for name in LINK_PARAMS)
+    links = tuple(sp.Symbol(f"{name}{i}", real=True) for i in range(n) for name in LINK_PARAMS)
+    armature = tuple(sp.Symbol(f"arm{i}", real=True) for i in range(n))
+    p = links + armature
     g = sp.Symbol("g", real=True)
-    m, a, cx, cy, inertia = (p[k::5] for k in range(5))
+    m, a, cx, cy, inertia = (links[k::5] for k in range(5))
 
     phi = []  # absolute link angles
     acc: sp.Expr = sp.Integer(0)
@@ -88,6 +97,7 @@ def derive(offsets: Sequence[float], simplify: bool = True) -> Derivation:
         T += sp.Rational(1, 2) * m[i] * (v.T * v)[0] + sp.Rational(1, 2) * inertia[i] * omega**2
         V += m[i] * g * com[1]
         joint = joint + a[i] * sp.Matrix([c, s])
+    T += sum(sp.Rational(1, 2) * armature[i] * dq[i] ** 2 for i in range(n))
 
     M = sp.zeros(n, n)
     for j in range(n):

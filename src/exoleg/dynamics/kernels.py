@@ -4,11 +4,11 @@ The scalar kernels (``mass_matrix``, ``gravity``, ``forward_dynamics``, ...) com
 from ``_generated.py`` (see :mod:`exoleg.dynamics.codegen`) and are meant to be
 called from other numba code (the simulator's loop); each writes into an
 ``out`` array. The ``gu_*`` gufuncs wrap them for numpy callers and broadcast
-over leading axes: ``gufunc("mass_matrix")(q (..., 3), p (15,)) -> (..., 3, 3)``.
+over leading axes: ``gufunc("mass_matrix")(q (..., 3), p (18,)) -> (..., 3, 3)``.
 They are built (or loaded from numba's cache) on first use, not at import.
 
-``p`` is the parameter vector, link by link ``(m, a, cx, cy, Izz)``;
-see :meth:`exoleg.LegModel.p`.
+``p`` is the parameter vector, link by link ``(m, a, cx, cy, Izz)``, then the three
+joint armatures; see :meth:`exoleg.LegModel.p`.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from numba import guvectorize
 from exoleg.dynamics._generated import (
     N_COEFFICIENTS,
     N_JOINTS,
+    N_PARAMS,
     OFFSETS,
     coefficients,
     coriolis_dq,
@@ -42,6 +43,7 @@ from exoleg.dynamics._generated import (
 __all__ = [
     "N_COEFFICIENTS",
     "N_JOINTS",
+    "N_PARAMS",
     "OFFSETS",
     "coefficients",
     "coriolis_dq",

@@ -44,6 +44,8 @@ class LegModel:
         links: thigh, shank, foot (each a :class:`~exoleg.params.records.Link`).
         g: gravitational acceleration, m/s^2 (gravity along -y).
         name: a label used in reports.
+        armature: per joint, the actuator's rotor inertia reflected through its gear,
+            N^2 J (kg m^2), added to M's diagonal; default none (the paper's model).
 
     Every method takes joint vectors ordered (hip, knee, ankle) in rad (rad/s,
     rad/s^2, N m) of shape ``(3,)`` or ``(N, 3)``; results broadcast the same way.
@@ -53,7 +55,8 @@ class LegModel:
 
     __slots__ = ("_k", "_p", "g", "links", "name")
 
-    def __init__(self, links: Sequence[Link], g: float = 9.81, name: str = "leg") -> None:
+    def __init__(self, links: Sequence[Link], g: float = 9.81, name: str = "leg",
+                 armature: ArrayLike | None = None) -> None:
         links = tuple(links)
         if len(links) != K.N_JOINTS:
             raise ParameterError(
@@ -73,7 +76,13 @@ class LegModel:
         if self.g < 0:
             raise ParameterError(f"LegModel {name!r}", "g", f"must be >= 0 m/s^2, got {self.g}")
         self.name = name
-        p = np.array([[lk.mass, lk.length, lk.com[0], lk.com[1], lk.izz] for lk in links]).ravel()
+        arm = np.zeros(K.N_JOINTS) if armature is None else _check.vector(
+            f"LegModel {name!r}", "armature", armature, K.N_JOINTS)
+        if np.any(arm < 0):
+            raise ParameterError(f"LegModel {name!r}", "armature",
+                                 f"must be >= 0 kg m^2 per joint, got {arm.tolist()}")
+        p = np.concatenate([np.array([[lk.mass, lk.length, lk.com[0], lk.com[1], lk.izz]
+                                      for lk in links]).ravel(), arm])
         p.setflags(write=False)
         self._p = p
         self._k: tuple[float, ...] | None = None
@@ -81,7 +90,8 @@ class LegModel:
     # ------------------------------------------------------------------ data
     @property
     def p(self) -> F64:
-        """Parameter vector (15,): per link ``m, a, cx, cy, Izz`` (read-only)."""
+        """Parameter vector (18,): per link ``m, a, cx, cy, Izz``, then the three joint
+        armatures (read-only)."""
         return self._p
 
     @property
@@ -95,12 +105,21 @@ class LegModel:
     @property
     def lengths(self) -> F64:
         """Link lengths a1, a2, a3 (m)."""
-        return self._p[1::5].copy()
+        return self._p[1:15:5].copy()
 
     @property
     def coms(self) -> F64:
         """COMs (3, 2) in each link frame, from the proximal joint (m)."""
-        return self._p.reshape(3, 5)[:, 2:4].copy()
+        return self._p[:15].reshape(3, 5)[:, 2:4].copy()
+
+    @property
+    def armature(self) -> F64:
+        """Reflected actuator inertia per joint, kg m^2 (added to M's diagonal)."""
+        return self._p[15:].copy()
+
+    def with_armature(self, armature: ArrayLike) -> LegModel:
+        """The same leg with this armature (kg m^2 per joint)."""
+        return LegModel(self.links, g=self.g, name=self.name, armature=armature)
 
     @property
     def offsets(self) -> tuple[float, ...]:
@@ -114,7 +133,8 @@ class LegModel:
 
     def lumped(self) -> LegModel:
         """The same leg with each link as one body (the paper's simplified form)."""
-        return LegModel([lk.lumped() for lk in self.links], g=self.g, name=self.name)
+        return LegModel([lk.lumped() for lk in self.links], g=self.g, name=self.name,
+                        armature=self.armature)
 
     def with_links(self, **changes: Link) -> LegModel:
         """A copy with some links replaced, by name: ``leg.with_links(foot=new_foot)``."""
@@ -124,7 +144,8 @@ class LegModel:
                 raise ParameterError(
                     f"LegModel {self.name!r}", k, f"no such link (links: {', '.join(names)})"
                 )
-        return LegModel([changes.get(lk.name, lk) for lk in self.links], g=self.g, name=self.name)
+        return LegModel([changes.get(lk.name, lk) for lk in self.links], g=self.g, name=self.name,
+                        armature=self.armature)
 
     def __repr__(self) -> str:
         m = ", ".join(f"{lk.name} {lk.mass:.3f} kg" for lk in self.links)
@@ -246,11 +267,11 @@ class LegModel:
         qa = self._vec("q", q, "rad")
         if not np.all(np.isfinite(qa)):
             raise ParameterError(f"LegModel {self.name!r}", "q", "must be finite rad")
-        return kinematics.forward_kinematics(qa, self._p[1::5], self.coms, K.OFFSETS)
+        return kinematics.forward_kinematics(qa, self.lengths, self.coms, K.OFFSETS)
 
     def jacobians(self, q: ArrayLike) -> dict[str, F64]:
         """Linear Jacobians (..., 2, 3) of the toe and each COM."""
-        return kinematics.jacobians(self._vec("q", q, "rad"), self._p[1::5], self.coms, K.OFFSETS)
+        return kinematics.jacobians(self._vec("q", q, "rad"), self.lengths, self.coms, K.OFFSETS)
 
     def ik(
         self,
@@ -263,4 +284,4 @@ class LegModel:
 
         Knee flexed (q2 <= 0) by default; see :func:`exoleg.kinematics.inverse_kinematics`.
         """
-        return kinematics.inverse_kinematics(x, y, phi, self._p[1::5], branch=branch)
+        return kinematics.inverse_kinematics(x, y, phi, self.lengths, branch=branch)

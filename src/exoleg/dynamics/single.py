@@ -5,7 +5,7 @@ The generated kernels are wrapped as numba ``cfunc`` s with one C signature::
     int32 k(double *a, double *b, double *c, double *p, double g, double *out)
 
 (``a``, ``b``, ``c``: up to three state vectors (3,), ``p`` the leg's parameters
-(15,), ``out`` the result; returns 1 when every output is finite). The small C
+(``N_PARAMS``,), ``out`` the result; returns 1 when every output is finite). The small C
 extension :mod:`exoleg.dynamics._onecall` calls them by address: it checks that each
 argument is one C-contiguous float64 state, allocates the result and calls the
 kernel, about 0.1 us in all, where a numba dispatcher call alone costs about 0.3 us.
@@ -53,7 +53,7 @@ def _mass_matrix() -> Any:
     @cfunc(_SIG, cache=True)
     def f(a, b, c, p, g, out):  # type: ignore[no-untyped-def]
         o = carray(out, (3, 3))
-        K.mass_matrix(carray(a, 3), carray(p, 15), o)
+        K.mass_matrix(carray(a, 3), carray(p, K.N_PARAMS), o)
         return _finite(o)
     return f
 
@@ -62,7 +62,7 @@ def _coriolis_matrix() -> Any:
     @cfunc(_SIG, cache=True)
     def f(a, b, c, p, g, out):  # type: ignore[no-untyped-def]
         o = carray(out, (3, 3))
-        K.coriolis_matrix(carray(a, 3), carray(b, 3), carray(p, 15), o)
+        K.coriolis_matrix(carray(a, 3), carray(b, 3), carray(p, K.N_PARAMS), o)
         return _finite(o)
     return f
 
@@ -71,7 +71,7 @@ def _mass_matrix_dot() -> Any:
     @cfunc(_SIG, cache=True)
     def f(a, b, c, p, g, out):  # type: ignore[no-untyped-def]
         o = carray(out, (3, 3))
-        K.mass_matrix_dot(carray(a, 3), carray(b, 3), carray(p, 15), o)
+        K.mass_matrix_dot(carray(a, 3), carray(b, 3), carray(p, K.N_PARAMS), o)
         return _finite(o)
     return f
 
@@ -80,7 +80,7 @@ def _coriolis_dq() -> Any:
     @cfunc(_SIG, cache=True)
     def f(a, b, c, p, g, out):  # type: ignore[no-untyped-def]
         o = carray(out, 3)
-        K.coriolis_dq(carray(a, 3), carray(b, 3), carray(p, 15), o)
+        K.coriolis_dq(carray(a, 3), carray(b, 3), carray(p, K.N_PARAMS), o)
         return _finite(o)
     return f
 
@@ -89,7 +89,7 @@ def _gravity() -> Any:
     @cfunc(_SIG, cache=True)
     def f(a, b, c, p, g, out):  # type: ignore[no-untyped-def]
         o = carray(out, 3)
-        K.gravity(carray(a, 3), carray(p, 15), g, o)
+        K.gravity(carray(a, 3), carray(p, K.N_PARAMS), g, o)
         return _finite(o)
     return f
 
@@ -98,7 +98,7 @@ def _forward_dynamics() -> Any:
     @cfunc(_SIG, cache=True)
     def f(a, b, c, p, g, out):  # type: ignore[no-untyped-def]
         o = carray(out, 3)
-        K.forward_dynamics(carray(a, 3), carray(b, 3), carray(c, 3), carray(p, 15), g, o)
+        K.forward_dynamics(carray(a, 3), carray(b, 3), carray(c, 3), carray(p, K.N_PARAMS), g, o)
         return _finite(o)
     return f
 
@@ -107,7 +107,7 @@ def _inverse_dynamics() -> Any:
     @cfunc(_SIG, cache=True)
     def f(a, b, c, p, g, out):  # type: ignore[no-untyped-def]
         o = carray(out, 3)
-        K.inverse_dynamics(carray(a, 3), carray(b, 3), carray(c, 3), carray(p, 15), g, o)
+        K.inverse_dynamics(carray(a, 3), carray(b, 3), carray(c, 3), carray(p, K.N_PARAMS), g, o)
         return _finite(o)
     return f
 
@@ -118,7 +118,7 @@ def _forward_kinematics() -> Any:
         """Rows of out (8, 2): hip, knee, ankle, toe, com_thigh, com_shank, com_foot
         (x, y, m) and (phi, 0): what kinematics.forward_kinematics gives for one state."""
         q = carray(a, 3)
-        p = carray(p_, 15)
+        p = carray(p_, K.N_PARAMS)
         o = carray(out, (8, 2))
         x = 0.0
         y = 0.0

@@ -21,7 +21,10 @@ What is written (and from where):
 * effort and velocity limits: Table 2's maximum torque and velocity per joint
   (URDF ``<limit>``; MJCF ``actuatorfrcrange`` and a ``motor`` actuator per joint with
   ``ctrlrange`` +- that torque, gear 1, so ``ctrl`` is the joint torque in N m);
-* armature: rotor inertia reflected through the gear (kg m^2) when given;
+* armature: rotor inertia reflected through the gear (kg m^2): the leg's own
+  (:attr:`~exoleg.LegModel.armature`) unless given (MJCF ``armature``; URDF has no
+  such field, so a URDF user sets it on the loaded model, e.g. Pinocchio's
+  ``model.armature``);
 * geometry (visual and collision): a capsule along each of thigh and shank and a box
   for the footplate (Table 1: 23.5 cm long; section 2.3: 23 mm thick). Radii are
   drawing sizes, not measured. MuJoCo's contacts are off (``<flag contact="disable"/>``).
@@ -82,7 +85,7 @@ def _frame(leg: LegModel, frame: str) -> str:
 
 def _armature(leg: LegModel, armature: Sequence[float] | None) -> list[float]:
     if armature is None:
-        return [0.0, 0.0, 0.0]
+        return [float(a) for a in leg.armature]
     a = [float(x) for x in armature]
     if len(a) != 3 or not all(math.isfinite(x) and x >= 0 for x in a):
         raise ParameterError(f"export {leg.name!r}", "armature",

@@ -4,6 +4,7 @@ Format (SI units throughout; comments allowed)::
 
     g = 9.81                      # m/s^2
     name = "my leg"               # optional
+    armature = [0.0, 0.0, 0.0]    # optional: reflected actuator inertia per joint, kg m^2
 
     [[link]]                      # thigh, then shank, then foot
     name = "thigh"
@@ -52,7 +53,9 @@ from exoleg.params.records import LINKS, Link
 #: The COM lies on or near its link: at most one link length from the segment between
 #: the joints. Izz about the COM is at most m a^2 (a thin rod about its centre is m a^2/12,
 #: a disc of radius a m a^2/2). g: 0 (no gravity) to 30 m/s^2.
-PLAUSIBLE = {"mass_kg": (0.0, 25.0), "length_m": (0.03, 1.2), "g": (0.0, 30.0)}
+#: Armature: a rotor of at most 1e-3 kg m^2 (the largest flat motors) through 200:1 is 40.
+PLAUSIBLE = {"mass_kg": (0.0, 25.0), "length_m": (0.03, 1.2), "g": (0.0, 30.0),
+             "armature_kg_m2": (0.0, 40.0)}
 
 _LINK_KEYS = ("name", "length", "mass", "com", "izz", "part")
 _PART_KEYS = ("name", "mass", "com", "izz")
@@ -67,7 +70,7 @@ def _body(where: str, t: dict[str, Any], name: str) -> RigidBody:
 
 def parse_leg(data: dict[str, Any], where: str) -> tuple[list[Link], float, str]:
     """Links, g and name from a parsed leg file (``where`` names it in errors)."""
-    _check.keys(where, data, ["link"], ["g", "name", "fit"])
+    _check.keys(where, data, ["link"], ["g", "name", "fit", "armature"])
     g = _check.finite(where, "g", data.get("g", 9.81))
     lo, hi = PLAUSIBLE["g"]
     if not lo <= g <= hi:
@@ -146,9 +149,22 @@ def parse_fit(data: dict[str, Any], where: str) -> dict[str, Any]:
     return {"fits": fit["fits"], "note": fit.get("note", "")}
 
 
+def parse_armature(data: dict[str, Any], where: str) -> list[float]:
+    """The optional ``armature`` (3 values, kg m^2, each 0 to :data:`PLAUSIBLE`'s bound)."""
+    arm = _check.vector(where, "armature", data.get("armature", [0.0, 0.0, 0.0]), 3)
+    lo, hi = PLAUSIBLE["armature_kg_m2"]
+    bad = [a for a in arm if not lo <= a <= hi]
+    if bad:
+        raise ParameterError(where, "armature", f"{bad[0]:g} kg m^2 is not plausible "
+                                                f"(allowed {lo:g}-{hi:g} per joint)")
+    return [float(a) for a in arm]
+
+
 def read_leg_file(path: str | Path) -> tuple[list[Link], float, str, dict[str, Any]]:
-    """Parse and validate a leg file: (links, g, name, fit); errors name the file and the
-    field (a missing, binary or oversized file, a folder, bad TOML, implausible values)."""
+    """Parse and validate a leg file: (links, g, name, meta); errors name the file and the
+    field (a missing, binary or oversized file, a folder, bad TOML, implausible values).
+    ``meta`` holds the ``[fit]`` record (``fits``, ``note``) when there is one and
+    ``armature`` when it is not zero."""
     where = str(path)
     text = read_text(path, "leg parameter file (TOML)")
     try:
@@ -156,7 +172,11 @@ def read_leg_file(path: str | Path) -> tuple[list[Link], float, str, dict[str, A
     except tomllib.TOMLDecodeError as e:
         raise ParameterError(where, "(syntax)", f"not valid TOML: {e}") from None
     links, g, name = parse_leg(data, where)
-    return links, g, name, parse_fit(data, where)
+    meta = parse_fit(data, where)
+    arm = parse_armature(data, where)
+    if any(arm):
+        meta = {**meta, "armature": arm}
+    return links, g, name, meta
 
 
 def _toml_string(s: str) -> str:
@@ -165,13 +185,18 @@ def _toml_string(s: str) -> str:
 
 
 def format_leg(links: list[Link] | tuple[Link, ...], g: float, name: str,
-               header: str = "", fit: dict[str, Any] | None = None) -> str:
+               header: str = "", fit: dict[str, Any] | None = None,
+               armature: Any = None) -> str:
     """TOML text of a leg (full float precision, so a round trip is exact); ``fit``: the
     optional ``[fit]`` table (``{"fits": bool, "note": str}``)."""
     out = [f"# {ln}" for ln in header.splitlines()] if header else []
     out += ["# exoleg leg parameters; SI units (kg, m, kg m^2). COM in the link frame,",
             "# from the proximal joint; izz about the COM.",
-            f"name = {_toml_string(name)}", f"g = {g!r}", ""]
+            f"name = {_toml_string(name)}", f"g = {g!r}"]
+    if armature is not None and any(float(a) for a in armature):
+        out.append("armature = [" + ", ".join(repr(float(a)) for a in armature)
+                   + "]  # kg m^2, reflected actuator inertia per joint")
+    out.append("")
     if fit:
         out += ["[fit]", f"fits = {'true' if fit['fits'] else 'false'}",
                 f"note = {_toml_string(str(fit.get('note', '')))}", ""]

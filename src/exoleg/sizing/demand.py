@@ -149,7 +149,7 @@ def gait_reference(speed: str, z: float, stride_time: float, dt: float = 1e-3,
 
 def simulated_gait_peaks(P: F64, g: float, speed: str = "Free", z: float = 0.0,
                          stride_time: float = 1.1, dt: float = 1e-3) -> F64:
-    """Peaks (n, 3, 3) of legs ``P`` (n, 15) tracking two strides of normative gait under
+    """Peaks (n, 3, 3) of legs ``P`` (n, 18) tracking two strides of normative gait under
     the paper's controller; the second stride counts (the first settles the start)."""
     q, dq = gait_reference(speed, z, stride_time, dt)
     gains = paper.controller_gains()

@@ -65,13 +65,14 @@ def random_states(n: int, seed: int) -> tuple[F64, F64, F64]:
 
 def random_leg(rng: np.random.Generator, g: float = 9.81) -> LegModel:
     """A physically valid random leg: masses 0.1-5 kg, lengths 0.1-0.5 m, COM within the
-    link's reach, radius of gyration 1-20 cm."""
+    link's reach, radius of gyration 1-20 cm, armature 0-0.3 kg m^2 per joint (the
+    reflected rotor inertias of Table 2's gears are 0.03-0.2)."""
     links = []
     for name in ("thigh", "shank", "foot"):
         m, a = rng.uniform(0.1, 5.0), rng.uniform(0.1, 0.5)
         com = (rng.uniform(-0.2, 0.8) * a, rng.uniform(-0.1, 0.1) * a)
         links.append(Link(mass=m, length=a, com=com, izz=m * rng.uniform(0.01, 0.2) ** 2, name=name))
-    return LegModel(links, g=g, name="random")
+    return LegModel(links, g=g, name="random", armature=rng.uniform(0.0, 0.3, 3))
 
 
 def appendix_b_checks(leg: LegModel, n: int = 2000, seed: int = 0) -> list[Check]:
@@ -135,8 +136,8 @@ def welded_check(detailed: LegModel) -> list[Check]:
               "G": np.zeros((len(Q), 3))}
     for i, lk in enumerate(detailed.links):
         for b in lk.parts:
-            p = np.zeros(15)
-            p[1::5] = detailed.lengths
+            p = np.zeros(K.N_PARAMS)  # this part alone; no armature
+            p[1:15:5] = detailed.lengths
             p[5 * i: 5 * i + 5] = [b.mass, lk.length, b.com[0], b.com[1], b.izz]
             totals["M"] += K.gufunc("mass_matrix")(Q, p)
             totals["C"] += K.gufunc("coriolis_matrix")(Q, DQ, p)

@@ -46,6 +46,7 @@ class PinocchioLeg:
         self._pin = pin
         self.model = pin.buildModelFromXML(to_urdf(leg, mode))
         self.model.gravity.linear = np.array([0.0, -leg.g, 0.0])
+        self.model.armature = np.asarray(leg.armature, dtype=float)  # URDF has no armature
         self.data = self.model.createData()
 
     def M(self, q: F64) -> F64:
