@@ -23,8 +23,12 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from types import TracebackType
+from typing import TYPE_CHECKING
 
 from exoleg.errors import ParameterError
+
+if TYPE_CHECKING:
+    import pyarrow as pa
 
 #: Largest parameter file read, bytes: a leg or device file is a few kB.
 MAX_PARAMETER_FILE = 1 << 20
@@ -91,6 +95,27 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+
+
+def write_csv_table(table: pa.Table, path: str | Path) -> Path:
+    """An Arrow table as CSV with an unquoted header line; each number the shortest
+    decimal that reads back as the same float (nothing recorded is lost); written whole
+    or not at all."""
+    import pyarrow.csv as pcsv
+
+    with atomic_path(path) as tmp, tmp.open("wb") as f:
+        f.write((",".join(table.column_names) + "\n").encode())
+        pcsv.write_csv(table, f, pcsv.WriteOptions(include_header=False))
+    return Path(path)
+
+
+def write_parquet_table(table: pa.Table, path: str | Path) -> Path:
+    """An Arrow table as Parquet, written whole or not at all."""
+    import pyarrow.parquet as pq
+
+    with atomic_path(path) as tmp:
+        pq.write_table(table, tmp)
+    return Path(path)
 
 
 @contextlib.contextmanager

@@ -19,7 +19,7 @@ from exoleg.control.laws import COMPUTED_TORQUE_KIND, law
 from exoleg.dynamics.kernels import coefficients, diagnostics, forward_dynamics_sc, mass_matrix
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError, SimulationError
-from exoleg.io import atomic_path
+from exoleg.io import write_csv_table, write_parquet_table
 from exoleg.params.records import JOINTS, RangeOfMotion
 from exoleg.reference.steps import Reference
 from exoleg.sim.integrators import RESYNC, next_sincos, rk4_sc, sincos3
@@ -284,25 +284,78 @@ class SimResult:
         return pa.table(self.columns())
 
     def to_csv(self, path: str | Path) -> Path:
-        """Write :meth:`columns` as CSV with a header line. Each number is written as the
-        shortest decimal that reads back as the same float (nothing is lost). The file
-        is written whole or not at all (:func:`exoleg.io.atomic_path`)."""
-        import pyarrow.csv as pcsv
-
-        table = self.table()
-        with atomic_path(path) as tmp, tmp.open("wb") as f:
-            f.write((",".join(table.column_names) + "\n").encode())  # the header unquoted
-            pcsv.write_csv(table, f, pcsv.WriteOptions(include_header=False))
-        return Path(path)
+        """Write :meth:`columns` as CSV (:func:`exoleg.io.write_csv_table`: exact, whole
+        or not at all)."""
+        return write_csv_table(self.table(), path)
 
     def to_parquet(self, path: str | Path) -> Path:
         """Write :meth:`columns` as Parquet, whole or not at all."""
-        import pyarrow.parquet as pq
+        return write_parquet_table(self.table(), path)
 
-        table = self.table()
-        with atomic_path(path) as tmp:
-            pq.write_table(table, tmp)
-        return Path(path)
+
+def _rom(range_of_motion: RangeOfMotion | None) -> RangeOfMotion:
+    from exoleg.params.paper import range_of_motion as device_rom
+
+    return device_rom() if range_of_motion is None else range_of_motion
+
+
+def check_run(reference: Reference, duration: float, dt: float, q0: ArrayLike | None,
+              dq0: ArrayLike | None, bytes_per_step: int = BYTES_PER_STEP,
+              range_of_motion: RangeOfMotion | None = None,
+              beyond_range_of_motion: bool = False
+              ) -> tuple[F64, F64, F64, F64, F64, F64, list[str]]:
+    """What every fixed-step run checks before it starts, and the arrays it starts from:
+    (t, q_ref, dq_ref, ddq_ref, q0, dq0, notes). Refuses (ParameterError naming the input
+    and what is allowed) fewer than one step, more steps than half the memory available
+    holds at ``bytes_per_step``, a reference that is not finite or not (N, 3), a start
+    or reference outside the range of motion unless ``beyond_range_of_motion`` (then
+    ``notes`` say so)."""
+    for nm, v in (("duration", duration), ("dt", dt)):
+        if not (isinstance(v, (int, float, np.floating)) and np.isfinite(v) and v > 0):
+            raise ParameterError("simulate", nm, f"must be a finite time > 0 s, got {v!r}")
+    steps = duration / dt
+    if steps < 0.5:
+        raise ParameterError("simulate", "duration",
+                             f"{duration!r} s is less than one step of dt = {dt!r} s; allowed: "
+                             f"duration >= dt")
+    avail = available_memory()
+    need = (steps + 1) * bytes_per_step
+    if avail is not None and need > 0.5 * avail:
+        raise ParameterError("simulate", "duration",
+                             f"{duration:g} s at dt = {dt:g} s is {steps:.3g} steps and needs "
+                             f"{need / 2**30:.3g} GiB; {avail / 2**30:.3g} GiB is available "
+                             f"(allowed: at most {0.5 * avail / bytes_per_step * dt:.4g} s at "
+                             "this dt, half the memory available)")
+    n = int(round(steps))
+    t: F64 = (np.arange(n + 1) * dt).astype(np.float64)
+    Qr, DQr, DDQr = (np.ascontiguousarray(a, dtype=np.float64) for a in reference.sample(t))
+    for name, arr in (("q_ref", Qr), ("dq_ref", DQr), ("ddq_ref", DDQr)):
+        if arr.shape != (n + 1, 3):
+            raise ParameterError("simulate", "reference",
+                                 f"sample(t) returned {name} of shape {arr.shape}, expected "
+                                 f"({n + 1}, 3)")
+        nonfinite = np.argwhere(~np.isfinite(arr))
+        if len(nonfinite):
+            ks, js = int(nonfinite[0][0]), int(nonfinite[0][1])
+            raise ParameterError("simulate", "reference",
+                                 f"{name} is not finite at t = {t[ks]:.6g} s ({JOINTS[js]}): "
+                                 f"{arr[ks, js]}; references must be finite numbers")
+    q_init = Qr[0].copy() if q0 is None else np.asarray(q0, dtype=float)
+    dq_init = np.zeros(3) if dq0 is None else np.asarray(dq0, dtype=float)
+    for name, vec in (("q0", q_init), ("dq0", dq_init)):
+        if vec.shape != (3,) or not np.all(np.isfinite(vec)):
+            raise ParameterError("simulate", name, f"expected 3 finite values, got {vec!r}")
+    rom = _rom(range_of_motion)
+    notes: list[str] = []
+    for name, arr in (("reference", Qr), ("q0", q_init[None])):
+        out = outside_range(arr, rom)
+        if out:
+            if not beyond_range_of_motion:
+                raise ParameterError("simulate", name, out + " (allowed: the device's range of "
+                                     "motion; beyond_range_of_motion=True to simulate anyway)")
+            notes.append(f"{name} outside the device's range of motion, simulated on request: "
+                         + out)
+    return t, Qr, DQr, DDQr, q_init, dq_init, notes
 
 
 def simulate(leg: LegModel, controller: Controller, reference: Reference, duration: float,
@@ -328,11 +381,9 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
     stops being finite. Diagnostics (energies, V, verification signal) are computed
     when first read.
     """
-    from exoleg.params.paper import range_of_motion as device_rom
-
-    for nm, v in (("duration", duration), ("dt", dt)):
-        if not (isinstance(v, (int, float, np.floating)) and np.isfinite(v) and v > 0):
-            raise ParameterError("simulate", nm, f"must be a finite time > 0 s, got {v!r}")
+    t, Qr, DQr, DDQr, q_init, dq_init, notes = check_run(
+        reference, duration, dt, q0, dq0, range_of_motion=range_of_motion,
+        beyond_range_of_motion=beyond_range_of_motion)
     cdt = dt if control_dt is None else control_dt
     if not (isinstance(cdt, (int, float, np.floating)) and np.isfinite(cdt) and cdt > 0):
         raise ParameterError("simulate", "control_dt", f"must be a finite time > 0 s, got {cdt!r}")
@@ -340,48 +391,8 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
     if hold < 1 or abs(hold * dt - cdt) > 1e-9 * cdt:
         raise ParameterError("simulate", "control_dt",
                              f"must be a whole multiple of dt = {dt} s, got {cdt!r}")
-    steps = duration / dt
-    if steps < 0.5:
-        raise ParameterError("simulate", "duration",
-                             f"{duration!r} s is less than one step of dt = {dt!r} s; allowed: "
-                             f"duration >= dt")
-    avail = available_memory()
-    need = (steps + 1) * BYTES_PER_STEP
-    if avail is not None and need > 0.5 * avail:
-        raise ParameterError("simulate", "duration",
-                             f"{duration:g} s at dt = {dt:g} s is {steps:.3g} steps and needs "
-                             f"{need / 2**30:.3g} GiB; {avail / 2**30:.3g} GiB is available "
-                             f"(allowed: at most {0.5 * avail / BYTES_PER_STEP * dt:.4g} s at "
-                             "this dt, half the memory available)")
-    n = int(round(steps))
-    t: F64 = (np.arange(n + 1) * dt).astype(np.float64)
-    Qr, DQr, DDQr = (np.ascontiguousarray(a, dtype=np.float64) for a in reference.sample(t))
-    for name, arr in (("q_ref", Qr), ("dq_ref", DQr), ("ddq_ref", DDQr)):
-        if arr.shape != (n + 1, 3):
-            raise ParameterError("simulate", "reference",
-                                 f"sample(t) returned {name} of shape {arr.shape}, expected "
-                                 f"({n + 1}, 3)")
-        nonfinite = np.argwhere(~np.isfinite(arr))
-        if len(nonfinite):
-            ks, js = int(nonfinite[0][0]), int(nonfinite[0][1])
-            raise ParameterError("simulate", "reference",
-                                 f"{name} is not finite at t = {t[ks]:.6g} s ({JOINTS[js]}): "
-                                 f"{arr[ks, js]}; references must be finite numbers")
-    q_init = Qr[0].copy() if q0 is None else np.asarray(q0, dtype=float)
-    dq_init = np.zeros(3) if dq0 is None else np.asarray(dq0, dtype=float)
-    for name, vec in (("q0", q_init), ("dq0", dq_init)):
-        if vec.shape != (3,) or not np.all(np.isfinite(vec)):
-            raise ParameterError("simulate", name, f"expected 3 finite values, got {vec!r}")
-    rom = device_rom() if range_of_motion is None else range_of_motion
-    notes: list[str] = []
-    for name, arr in (("reference", Qr), ("q0", q_init[None])):
-        out = outside_range(arr, rom)
-        if out:
-            if not beyond_range_of_motion:
-                raise ParameterError("simulate", name, out + " (allowed: the device's range of "
-                                     "motion; beyond_range_of_motion=True to simulate anyway)")
-            notes.append(f"{name} outside the device's range of motion, simulated on request: "
-                         + out)
+    n = len(t) - 1
+    rom = _rom(range_of_motion)
     # the stability margin depends on the posture: the start and ~500 reference samples
     postures = np.vstack([q_init, Qr[:: max(1, len(Qr) // 500)]])
     margin = sampled_stability(leg, controller, hold * dt, postures)
