@@ -28,6 +28,7 @@ test: setup
 bench: setup
 	$(BIN)/python benchmarks/bench_dynamics.py
 	$(BIN)/python benchmarks/bench_simulate.py
+	$(BIN)/python benchmarks/bench_device.py
 
 codegen: setup
 	$(BIN)/python -m exoleg.dynamics.codegen

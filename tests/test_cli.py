@@ -75,3 +75,27 @@ def test_population_writes_table_and_plot(tmp_path):
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "coverage.csv").exists() and (tmp_path / "coverage.png").exists()
     assert "GMFCS IV female 8 y" in r.stdout
+
+
+def test_simulate_with_actuators(tmp_path):
+    import json
+
+    r = run("simulate", "--actuators", "--duration", "3", "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    for name in ("timeseries.csv", "summary.json", "actuators.png"):
+        assert (tmp_path / name).exists(), name
+    figs = json.loads((tmp_path / "summary.json").read_text())["figures"]
+    # reflected inertia (N^2 J) shrinks the sampled margin of the paper's gains
+    assert figs["sampled_stability_h_lambda"] < 0.1 < figs["sampled_stability_without_actuators"]
+    assert [p["joint"] for p in figs["peaks"]] == ["hip", "knee", "ankle"]
+    header = (tmp_path / "timeseries.csv").read_text().splitlines()[0].split(",")
+    assert {"tau_ankle", "u_safe_knee", "envelope_hip", "motor_speed_hip",
+            "safety_status"} <= set(header)
+    assert "armature kg m^2" in r.stdout
+
+
+def test_simulate_with_actuators_bad_options(tmp_path):
+    for args, text in ((["--saturate"], "does not apply with --actuators"),
+                       (["--dt", "0.0003"], "must divide the control period")):
+        r = run("simulate", "--actuators", "--out", str(tmp_path), *args)
+        assert r.returncode == 2 and text in r.stderr, r.stderr

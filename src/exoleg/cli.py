@@ -304,6 +304,115 @@ def _save_figures(report: Any, folder: Path, formats: tuple[str, ...]) -> list[s
     return [p.name for p in paths]
 
 
+def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
+    """``simulate --actuators``: the run through the device's actuators, encoders and
+    safety layer (:func:`exoleg.sim.device_loop.simulate_device`), against Table 2."""
+    import numpy as np
+
+    from exoleg.errors import ParameterError
+    from exoleg.io import OutputFolder
+    from exoleg.plots.figures import device_figure
+    from exoleg.sim.device_loop import simulate_device
+
+    t0 = time.perf_counter()
+    control_dt = 1.0 / args.control_rate
+    substeps = int(round(control_dt / args.dt))
+    if substeps < 1 or abs(substeps * args.dt - control_dt) > 1e-9 * control_dt:
+        raise ParameterError("exoleg simulate", "--dt", f"{args.dt:g} s must divide the "
+                             f"control period {control_dt:g} s with --actuators")
+    if args.saturate:
+        raise ParameterError("exoleg simulate", "--saturate", "does not apply with "
+                             "--actuators (the safety layer and the drives limit the torque)")
+    r = simulate_device(cfg["leg"], cfg["controller"], cfg["reference"], args.duration,
+                        control_dt=control_dt, substeps=substeps, q0=cfg["q0"])
+    ideal = None
+    if not args.no_engine:  # the same run with ideal torques, for the comparison
+        from exoleg import simulate
+
+        ideal = simulate(cfg["leg"], cfg["controller"], cfg["reference"], args.duration,
+                         dt=control_dt, q0=cfg["q0"])
+    acts = r.actuators
+    clipped = np.abs(r.u_safe) > r.envelope + 1e-12
+    rows, peaks = [], []
+    for i, a in enumerate(acts):
+        rms = float(np.sqrt(np.mean(r.tau[:, i] ** 2)))
+        peak = {
+            "joint": a.joint, "reflected_inertia_kg_m2": a.reflected_inertia,
+            "peak_command_Nm": float(np.abs(r.u_command[:, i]).max()),
+            "peak_torque_Nm": float(np.abs(r.tau[:, i]).max()),
+            "torque_limit_Nm": a.torque_limit, "rms_torque_Nm": rms,
+            "continuous_torque_Nm": a.continuous_torque,
+            "peak_speed_deg_s": float(np.degrees(np.abs(r.dq[:, i]).max())),
+            "max_velocity_deg_s": float(np.degrees(a.max_velocity)),
+            "peak_motor_speed_rpm": float(np.abs(r.motor_speed[:, i]).max() * 30 / np.pi),
+            "peak_power_W": float(np.abs(r.power[:, i]).max()), "power_W": a.power,
+            "ticks_at_envelope": int(clipped[:, i].sum()),
+        }
+        peaks.append(peak)
+        rows.append([a.joint, f"{a.reflected_inertia:.3g}",
+                     f"{peak['peak_command_Nm']:.1f} / {peak['peak_torque_Nm']:.1f} / "
+                     f"{a.torque_limit:.0f}",
+                     f"{rms:.1f} / {a.continuous_torque:.0f}",
+                     f"{peak['peak_speed_deg_s']:.0f} / {peak['max_velocity_deg_s']:.0f}",
+                     f"{peak['peak_power_W']:.1f} / {a.power:.0f}",
+                     str(peak["ticks_at_envelope"])])
+    status = np.bitwise_or.reduce(r.status)
+    figs = {
+        "sampled_stability_h_lambda": r.stability_margin,
+        "sampled_stability_without_actuators": None if ideal is None else ideal.stability_margin,
+        "max_tracking_error_last_second_deg": float(np.degrees(np.abs(
+            r.error[-int(round(1.0 / control_dt)):]).max())),
+        "ideal_max_tracking_error_last_second_deg": None if ideal is None else float(
+            np.degrees(np.abs(ideal.error[-int(round(1.0 / control_dt)):]).max())),
+        "max_encoder_error_deg": float(np.degrees(np.abs(r.q_meas - r.q).max())),
+        "safety_fault": r.fault,
+        "safety_ticks_rate_limited": int(((r.status & 16) > 0).sum()),
+        "safety_ticks_torque_clipped": int(((r.status & 8) > 0).sum()),
+        "safety_ticks_soft_limit": int(((r.status & 4) > 0).sum()),
+        "peaks": peaks,
+    }
+    with OutputFolder(args.out) as out:
+        name = "timeseries.parquet" if args.format == "parquet" else "timeseries.csv"
+        (r.to_parquet if args.format == "parquet" else r.to_csv)(out.stage(name))
+        files = [name]
+        for fmt in ("png", "svg") if args.svg else ("png",):
+            device_figure(r, out.stage(f"actuators.{fmt}"))
+            files.append(f"actuators.{fmt}")
+        summary = {"settings": {k: (str(v) if isinstance(v, Path) else v)
+                                for k, v in vars(args).items() if k != "func"},
+                   "leg": cfg["leg"].name, "figures": figs, "notes": cfg["warnings"],
+                   "actuator_sources": {a.joint: a.sources for a in acts},
+                   "files": files, "wall_time_s": time.perf_counter() - t0}
+        out.stage("summary.json").write_text(json.dumps(summary, indent=2, default=str))
+        out.commit(last="summary.json")
+    _say(f"exoleg simulate --actuators: {args.reference} reference, {args.controller} "
+         f"controller, {args.duration:g} s, control {args.control_rate:g} Hz, "
+         f"{substeps} plant step(s) per tick, leg '{cfg['leg'].name}' with the paper's "
+         "actuators (reflected inertia, friction, envelope, current loop), 20-bit encoders "
+         "and the safety layer")
+    _table(rows, ["joint", "armature kg m^2", "torque command / delivered / limit N m",
+                  "RMS / continuous N m", "speed / Table 2 deg/s", "power / rated W",
+                  "ticks at envelope"])
+    fig_rows = [["sampled-loop margin h*lambda", f"{r.stability_margin:.3f}",
+                 "-" if ideal is None else f"{ideal.stability_margin:.3f}"],
+                ["max tracking error, last second, deg",
+                 f"{figs['max_tracking_error_last_second_deg']:.2e}",
+                 "-" if ideal is None else f"{figs['ideal_max_tracking_error_last_second_deg']:.2e}"],
+                ["encoder quantisation, max deg", f"{figs['max_encoder_error_deg']:.1e}", "0"],
+                ["ticks torque-rate limited / clipped / at soft limit",
+                 f"{figs['safety_ticks_rate_limited']} / {figs['safety_ticks_torque_clipped']} / "
+                 f"{figs['safety_ticks_soft_limit']}", "-"],
+                ["safety fault", r.fault or "none", "-"]]
+    _table(fig_rows, ["figure", "with the actuators", "ideal torques"])
+    if status & 2:
+        _say(f"note: the safety layer stopped the run: {r.fault}; torque was off from then on")
+    _say("note: motor, gear and drive figures marked catalogue* in the actuator files are "
+         "to be verified against the datasheets (see summary.json, actuator_sources)")
+    _say(f"\nwrote {out.folder}/: " + ", ".join(["summary.json", *files])
+         + f"  ({summary['wall_time_s']:.1f} s)")
+    return 0
+
+
 def cmd_simulate(args: argparse.Namespace) -> int:
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
@@ -317,6 +426,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     cfg = _build(args)
     for w in cfg["warnings"]:
         _say(f"warning: {w}")
+    if args.actuators:
+        return _simulate_device(args, cfg)
     paper = _paper_scenario(args)
     with OutputFolder(args.out) as out:
         progress = _Progress()
@@ -609,7 +720,12 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--format", choices=["csv", "parquet"], default="csv")
     s.add_argument("--svg", action="store_true", help="also write SVG figures")
     s.add_argument("--animate", action="store_true", help="write a gait animation (MP4/GIF)")
-    s.add_argument("--no-engine", action="store_true", help="skip the MuJoCo comparison")
+    s.add_argument("--no-engine", action="store_true",
+                   help="skip the MuJoCo comparison (with --actuators: the ideal-torque run)")
+    s.add_argument("--actuators", action="store_true",
+                   help="run through the paper's actuators (reflected inertia, friction, "
+                        "torque-speed envelope, current loop), 20-bit encoders and the safety "
+                        "layer, and show what Table 2 allows")
     s.set_defaults(func=cmd_simulate)
 
     f = sub.add_parser("fit", help="fit the device to one child: dimensions, settings, verdict, "

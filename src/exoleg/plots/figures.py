@@ -9,6 +9,7 @@ verification signal dq^T (Mdot - 2C) dq. Fig. 15: control torques.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -17,6 +18,9 @@ from matplotlib.ticker import LogFormatter, NullLocator
 
 from exoleg.params.records import JOINTS
 from exoleg.sim.scenario import ScenarioReport
+
+if TYPE_CHECKING:
+    from exoleg.sim.device_loop import DeviceResult
 
 _BINS = 600  # points drawn per curve
 
@@ -142,3 +146,46 @@ def save_figures(report: ScenarioReport, folder: str | Path,
                 fig.savefig(p, dpi=120, format=fmt)
             paths.append(p)
     return paths
+
+
+def device_figure(result: DeviceResult, path: str | Path) -> Path:
+    """A device run (:func:`exoleg.sim.device_loop.simulate_device`): top, each joint's
+    angle against its reference (deg); bottom, its torque-speed plane -- the drive's
+    delivered torque against the joint speed, over the actuator's envelope (Table 2's
+    peak torque, rated power, maximum velocity)."""
+    from exoleg.device.actuator import envelope
+
+    fig = new_figure(11, 6.5, left=0.07, right=0.98, top=0.89, bottom=0.08, wspace=0.28,
+                     hspace=0.35)
+    axes = fig.subplots(2, 3)
+    r = result
+    t, q, qr = _thin(r.t, np.degrees(r.q), np.degrees(r.q_ref))
+    for i, j in enumerate(JOINTS):
+        ax = axes[0, i]
+        ax.plot(t, qr[:, i], "k--", lw=0.8, label="reference")
+        ax.plot(t, q[:, i], lw=1.0, label="device")
+        _title(ax, f"{j} angle (deg)")
+        ax.set_xlabel("t (s)", fontsize=8)
+        ax.legend(fontsize=7, loc="best")
+        a = r.actuators[i]
+        par = np.array(a.params())
+        w = np.linspace(0, 1.15 * a.no_load_factor * a.max_velocity, 400)
+        env = np.array([envelope(par, x) for x in w])
+        ax = axes[1, i]
+        wd = np.degrees(w)
+        ax.fill_between(wd, -env, env, color="0.9", label="envelope")
+        ax.fill_between(-wd, -env, env, color="0.9")
+        _, v, tau = _thin(r.t, np.degrees(r.dq[:, i]), r.tau[:, i])
+        ax.plot(v, tau, ".", ms=1.5, label="delivered")
+        ax.axvline(np.degrees(a.max_velocity), color="r", lw=0.6, ls=":")
+        ax.axvline(-np.degrees(a.max_velocity), color="r", lw=0.6, ls=":",
+                   label="Table 2 max velocity")
+        _title(ax, f"{j}: torque (N m) vs speed (deg/s)")
+        ax.legend(fontsize=6, loc="lower left")
+    fig.suptitle(f"device run: actuators, encoders, safety layer"
+                 f"{' -- FAULT ' + r.fault if r.fault else ''}", fontsize=10)
+    from exoleg.io import atomic_path
+
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format=Path(path).suffix.lstrip(".") or "png")
+    return Path(path)
