@@ -180,8 +180,8 @@ def test_unreadable_and_unwritable_as_a_user(files: dict[str, Path], tmp_path: P
     code = ("import sys, os, multiprocessing, concurrent.futures.process, rich.console, "
             "rich.table, "
             "rich.box, exoleg.cli, exoleg.sim.scenario, exoleg.io, exoleg.params.leg_file; "
-            "os.setgid({g}); os.setuid({u}); "
-            "sys.exit(exoleg.cli.main(sys.argv[1:]))").format(g=nobody.pw_gid, u=nobody.pw_uid)
+            f"os.setgid({nobody.pw_gid}); os.setuid({nobody.pw_uid}); "
+            "sys.exit(exoleg.cli.main(sys.argv[1:]))")
     for args, text in ((["simulate", "--leg", str(secret), "--out", str(tmp_path / "o")],
                         "permission denied"),
                        (["simulate", "--out", str(locked / "o")], "permission denied")):

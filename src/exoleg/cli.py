@@ -67,7 +67,8 @@ def _floats(text: str, n: int | None = None) -> list[float]:
     try:
         vals = [float(v) for v in text.replace(" ", "").split(",") if v != ""]
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated numbers, got {text!r}") from None
     if not vals:
         raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}")
     if n is not None and len(vals) != n:
@@ -112,7 +113,8 @@ def _within(lo: float, hi: float, unit: str = "") -> Callable[[str], float]:
 def _percentile(text: str) -> float:
     v = _number(text)
     if not 0.0 < v < 100.0:
-        raise argparse.ArgumentTypeError(f"a percentile is between 0 and 100 (exclusive), got {text}")
+        raise argparse.ArgumentTypeError(
+            f"a percentile is between 0 and 100 (exclusive), got {text}")
     return v
 
 
@@ -120,7 +122,8 @@ def _percentiles(text: str) -> list[float]:
     vals = _floats(text)
     bad = [v for v in vals if not 0.0 < v < 100.0]
     if bad:
-        raise argparse.ArgumentTypeError(f"percentiles are between 0 and 100 (exclusive), got {bad[0]:g}")
+        raise argparse.ArgumentTypeError(
+            f"percentiles are between 0 and 100 (exclusive), got {bad[0]:g}")
     return vals
 
 
@@ -165,7 +168,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
     checks = run_all(quick=args.quick)
     rows = [[c.name, c.reference, f"{c.figure:.2e}",
-             (f"[{c.lower:g}, {c.tolerance:g}]" if c.lower is not None else f"<= {c.tolerance:.0e}"),
+             (f"[{c.lower:g}, {c.tolerance:g}]" if c.lower is not None
+              else f"<= {c.tolerance:.0e}"),
              "pass" if c.passed else "FAIL", c.detail] for c in checks]
     _table(rows, ["check", "reference", "figure", "tolerance", "", "detail"])
     for m in missing_engines():
@@ -202,7 +206,8 @@ def _check_combination(args: argparse.Namespace) -> None:
         raise ParameterError("exoleg simulate", opt,
                              f"does not apply to --reference {args.reference} (it goes with "
                              f"{allowed})")
-    if args.times is not None and args.postures is not None and len(args.times) != len(args.postures):
+    if (args.times is not None and args.postures is not None
+            and len(args.times) != len(args.postures)):
         raise ParameterError("exoleg simulate", "--times",
                              f"{len(args.times)} times for {len(args.postures)} postures; give "
                              "one time per posture")
@@ -251,7 +256,8 @@ def _build(args: argparse.Namespace) -> dict[str, Any]:
                                sd=args.sd or 0.0)
     q0 = np.radians(args.q0) if args.q0 is not None else (
         np.zeros(3) if args.reference == "paper" else None)
-    detailed = exoleg.paper_leg("detailed") if (args.reference == "paper" and not args.leg) else None
+    paper_leg = args.reference == "paper" and not args.leg
+    detailed = exoleg.paper_leg("detailed") if paper_leg else None
     return {"leg": leg, "controller": ctrl, "reference": ref, "q0": q0, "detailed": detailed,
             "changes": changes if changes is not None else [0.0], "warnings": warnings}
 
@@ -397,7 +403,8 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
                  "-" if ideal is None else f"{ideal.stability_margin:.3f}"],
                 ["max tracking error, last second, deg",
                  f"{figs['max_tracking_error_last_second_deg']:.2e}",
-                 "-" if ideal is None else f"{figs['ideal_max_tracking_error_last_second_deg']:.2e}"],
+                 "-" if ideal is None
+                 else f"{figs['ideal_max_tracking_error_last_second_deg']:.2e}"],
                 ["encoder quantisation, max deg", f"{figs['max_encoder_error_deg']:.1e}", "0"],
                 ["ticks torque-rate limited / clipped / at soft limit",
                  f"{figs['safety_ticks_rate_limited']} / {figs['safety_ticks_torque_clipped']} / "
@@ -551,7 +558,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
              f"{'fits' if pr['fits'] else 'does not fit'}")
         rom = fit.range_of_motion
         _say("  normative gait range (mean +- 2 SD) vs device range of motion, deg: " + ", ".join(
-            f"{j} {np.degrees(rom['gait_lower'][i]):.0f}..{np.degrees(rom['gait_upper'][i]):.0f} in "
+            f"{j} {np.degrees(rom['gait_lower'][i]):.0f}.."
+            f"{np.degrees(rom['gait_upper'][i]):.0f} in "
             f"{np.degrees(rom['device_lower'][i]):.0f}..{np.degrees(rom['device_upper'][i]):.0f}"
             for i, j in enumerate(("hip", "knee", "ankle"))))
         rows = []

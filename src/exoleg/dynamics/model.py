@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any, Literal
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -235,14 +235,16 @@ class LegModel:
 
     def forward_dynamics(self, q: ArrayLike, dq: ArrayLike, tau: ArrayLike) -> F64:
         """Joint accelerations M^-1 (tau - C dq - G) (eq 20), (..., 3), rad/s^2."""
-        out = None if _call is None else _call(_A.forward_dynamics, _VEC, self.g, self._p, q, dq, tau)
+        out = None if _call is None else _call(_A.forward_dynamics, _VEC, self.g, self._p,
+                                               q, dq, tau)
         if out is not None:  # else not one float64 state, or not finite: the general path
             return out
         return self._run("forward_dynamics", (q, dq, tau))
 
     def inverse_dynamics(self, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike) -> F64:
         """Joint torques M ddq + C dq + G (eq 16), (..., 3), N m."""
-        out = None if _call is None else _call(_A.inverse_dynamics, _VEC, self.g, self._p, q, dq, ddq)
+        out = None if _call is None else _call(_A.inverse_dynamics, _VEC, self.g, self._p,
+                                               q, dq, ddq)
         if out is not None:  # else not one float64 state, or not finite: the general path
             return out
         return self._run("inverse_dynamics", (q, dq, ddq))
@@ -261,7 +263,7 @@ class LegModel:
         com_foot; and ``phi``, the foot orientation (rad). Paper eqs 5-6."""
         out = None if _call is None else _call(_A.forward_kinematics, _PTS, self.g, self._p, q)
         if out is not None:
-            fk = dict(zip(kinematics.POINTS, out))
+            fk = dict(zip(kinematics.POINTS, out, strict=False))  # row 7 is (phi, 0)
             fk["phi"] = out[7, 0]
             return fk
         qa = self._vec("q", q, "rad")

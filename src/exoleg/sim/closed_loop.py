@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -117,8 +117,10 @@ def _inv3(M):  # type: ignore[no-untyped-def]
     det = a * A + b * B + c * C
     out = np.empty((3, 3))
     out[0, 0], out[1, 0], out[2, 0] = A / det, B / det, C / det
-    out[0, 1], out[1, 1], out[2, 1] = (c * h - b * i) / det, (a * i - c * g) / det, (b * g - a * h) / det
-    out[0, 2], out[1, 2], out[2, 2] = (b * f - c * e) / det, (c * d - a * f) / det, (a * e - b * d) / det
+    out[0, 1], out[1, 1] = (c * h - b * i) / det, (a * i - c * g) / det
+    out[2, 1] = (b * g - a * h) / det
+    out[0, 2], out[1, 2] = (b * f - c * e) / det, (c * d - a * f) / det
+    out[2, 2] = (a * e - b * d) / det
     return out
 
 
@@ -420,7 +422,8 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
         if bad >= 0:
             break
     if bad >= 0:
-        j = [JOINTS[i] for i in range(3) if not (np.isfinite(Q[bad, i]) and np.isfinite(DQ[bad, i]))]
+        j = [JOINTS[i] for i in range(3)
+             if not (np.isfinite(Q[bad, i]) and np.isfinite(DQ[bad, i]))]
         raise SimulationError(f"state became non-finite at t = {t[bad]:.6g} s ({', '.join(j)})")
     left = outside_range(Q, rom)
     if left:
