@@ -183,9 +183,11 @@ def to_urdf(leg: LegModel, mode: Mode = "lumped", frame: Frame = "y-up",
 
 def to_mjcf(leg: LegModel, mode: Mode = "lumped", timestep: float = 1e-3,
             integrator: str = "RK4", frame: Frame = "y-up",
-            armature: Sequence[float] | None = None) -> str:
+            armature: Sequence[float] | None = None, pelvis_mass: float | None = None) -> str:
     """MJCF text of ``leg``: joint ranges, torque ranges and motor actuators, armature,
-    geometry; contacts off (see the module docstring)."""
+    geometry; contacts off (see the module docstring). ``pelvis_mass`` (kg): the walking
+    plant's pelvis -- a body at the hip carrying that mass on a vertical slide joint
+    ``pelvis_y`` (:mod:`exoleg.device.walking`)."""
     bodies = _bodies(leg, mode)
     _frame(leg, frame)
     arm = _armature(leg, armature)
@@ -202,6 +204,15 @@ def to_mjcf(leg: LegModel, mode: Mode = "lumped", timestep: float = 1e-3,
     indent = "    "
     if frame == "z-up":
         out.append(f'{indent}<body name="pelvis" axisangle="1 0 0 {_f(math.pi / 2)}">')
+        indent += "  "
+    if pelvis_mass is not None:
+        if not (math.isfinite(pelvis_mass) and pelvis_mass > 0):
+            raise ParameterError(f"export {leg.name!r}", "pelvis_mass",
+                                 f"expected a mass > 0 kg, got {pelvis_mass!r}")
+        out += [f'{indent}<body name="hip_slider">',
+                f'{indent}  <joint name="pelvis_y" type="slide" axis="0 1 0" limited="false"/>',
+                f'{indent}  <inertial pos="0 0 0" mass="{_f(pelvis_mass)}" '
+                'diaginertia="1e-6 1e-6 1e-6"/>']
         indent += "  "
     origin = 0.0
     for i, (lk, parts) in enumerate(zip(leg.links, bodies, strict=True)):
@@ -230,7 +241,7 @@ def to_mjcf(leg: LegModel, mode: Mode = "lumped", timestep: float = 1e-3,
         indent += "  "
         origin = lk.length
     out.append(f'{indent}<site name="toe" pos="{_f(origin)} 0 0"/>')
-    for _ in range(len(leg.links) + (frame == "z-up")):
+    for _ in range(len(leg.links) + (frame == "z-up") + (pelvis_mass is not None)):
         indent = indent[:-2]
         out.append(f"{indent}</body>")
     out += ["  </worldbody>", "  <actuator>"]

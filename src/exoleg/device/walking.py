@@ -1,0 +1,388 @@
+"""The walking plant: the leg on a treadmill, its foot meeting the belt through four
+compliant contacts, the pelvis free to move up and down under the body-weight share.
+
+Model (one set of equations; stance and swing differ only in which contacts act):
+
+* the hip stays at x = 0 (the treadmill keeps the child in place) and slides vertically:
+  generalized coordinates ``(y, q0, q1, q2)`` -- pelvis height (m, hip joint above the
+  belt) and the leg's joint angles;
+* the pelvis carries ``body_mass`` kg (the child's body-weight share above the hips,
+  :func:`body_weight_share`) at the hip;
+* the other leg is a one-sided support under the pelvis (it pushes, it does not pull):
+  ``F_c = max(0, k_c (y_c - y) - c_c dy)``, holding the pelvis at ``y_c`` while this
+  leg swings; ``y_c`` sits a little below this leg's stance height, so in stance this
+  leg carries the body weight;
+* the foot touches the belt at the four force-sensor points of the footplate
+  (:data:`SENSOR_POINTS`, in the foot frame, below the ankle by the sole height):
+  normal force ``max(0, k d - c dy_p)`` for a penetration d > 0, and friction
+  ``-mu F_n tanh((dx_p - v_belt) / v_s)`` against the belt's speed.
+
+Equations of motion, from the leg's own M, C, G (the generated kernels, with the
+armature) and the kinematics of its centre of mass: with Y(q) = sum m_i y_ci(q),
+p = dY/dq and b = dq^T (d^2 Y / dq^2) dq,
+
+    [ m_t  p^T ] [ddy]   [ F_c + sum F_n - m_t g - b              ]
+    [ p    M   ] [ddq] = [ tau - C dq - G + sum J_i^T (F_t, F_n)   ]
+
+(m_t = body mass + leg mass; the cross terms of d/dt dT/ddq and dT/dq cancel because
+p is a gradient). Contact forces are evaluated at the start of each plant step and held
+over it (so an engine given the same forces steps the same trajectory).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from functools import cache
+from importlib import resources
+from typing import Any
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from exoleg.device.actuator import friction
+from exoleg.dynamics.kernels import OFFSETS, coriolis_dq, gravity, mass_matrix
+from exoleg.dynamics.model import LegModel
+from exoleg.errors import ParameterError
+from exoleg.params import _check
+
+F64 = NDArray[np.float64]
+
+#: The four FlexiForce A201 points under the footplate, as fractions of the foot link's
+#: length from the ankle (heel at 0, under the ankle; first and fifth metatarsal heads;
+#: hallux), in the sagittal plane (paper section 2.3 names four sensors, not where:
+#: these are the usual insole positions).
+SENSOR_POINTS = ("heel", "met1", "met5", "hallux")
+SENSOR_X = (0.0, 0.72, 0.62, 0.95)
+
+
+@cache
+def _walking_file() -> dict[str, Any]:
+    text = resources.files("exoleg").joinpath("data", "device", "walking.toml").read_text()
+    return tomllib.loads(text)
+
+
+@dataclass(frozen=True)
+class Ground:
+    """Contact and support parameters, SI units (defaults: ``data/device/walking.toml``)."""
+
+    stiffness: float          # N/m per contact point
+    damping: float            # N s/m per contact point
+    friction: float           # Coulomb coefficient against the belt
+    slip_speed: float         # m/s: friction is mu F_n tanh(v / this)
+    support_stiffness: float  # N/m, the other leg under the pelvis
+    support_damping: float    # N s/m
+    support_drop: float       # m: the other leg holds the pelvis this far below this
+                              # leg's standing height
+    sole: float               # m: footplate height under the ankle's sole (paper: 23 mm)
+    source: str = field(default="", compare=False)
+
+    def __post_init__(self) -> None:
+        for name, lo, hi in (("stiffness", 1e3, 1e8), ("damping", 0.0, 1e6),
+                             ("friction", 0.0, 3.0), ("slip_speed", 1e-5, 1.0),
+                             ("support_stiffness", 0.0, 1e8), ("support_damping", 0.0, 1e6),
+                             ("support_drop", 0.0, 0.2), ("sole", 0.0, 0.1)):
+            v = _check.finite("Ground", name, getattr(self, name))
+            if not lo <= v <= hi:
+                raise ParameterError("Ground", name, f"{v:g} is outside {lo:g}-{hi:g}")
+            object.__setattr__(self, name, v)
+
+    @classmethod
+    def default(cls) -> Ground:
+        d = _walking_file()
+        where = "exoleg/data/device/walking.toml"
+        _check.keys(where, d, ["source", "contact", "support", "footplate_height_m"])
+        c, s = d["contact"], d["support"]
+        _check.keys(f"{where} [contact]", c, ["stiffness", "damping", "friction", "slip_speed"])
+        _check.keys(f"{where} [support]", s, ["stiffness", "damping", "drop"])
+        return cls(stiffness=c["stiffness"], damping=c["damping"], friction=c["friction"],
+                   slip_speed=c["slip_speed"], support_stiffness=s["stiffness"],
+                   support_damping=s["damping"], support_drop=s["drop"],
+                   sole=d["footplate_height_m"], source=str(d["source"]))
+
+
+def body_weight_share(body_mass: float, leg_mass: float) -> float:
+    """Mass the pelvis carries, kg: the body less both legs (this one is modelled; the
+    other is taken as heavy as this one's human part would be -- an assumption), at
+    least 1 kg."""
+    return max(1.0, body_mass - 2.0 * leg_mass)
+
+
+@dataclass(frozen=True)
+class WalkingPlant:
+    """The leg (with its armature), the pelvis mass, the ground and belt, and where the
+    four contact points sit on the foot (``points`` (4, 2), foot frame, m)."""
+
+    leg: LegModel
+    body_mass: float
+    ground: Ground
+    belt_speed: float        # m/s, the belt moves backwards (-x) at this speed
+    points: F64
+    support_height: float    # y_c, m
+
+    def __post_init__(self) -> None:
+        _check.positive("WalkingPlant", "body_mass", self.body_mass, "kg")
+        v = _check.finite("WalkingPlant", "belt_speed", self.belt_speed)
+        if not 0.0 <= v <= 3.0:
+            raise ParameterError("WalkingPlant", "belt_speed", f"{v:g} m/s is outside 0-3 m/s")
+
+    @classmethod
+    def of(cls, leg: LegModel, body_mass: float, belt_speed: float,
+           ground: Ground | None = None) -> WalkingPlant:
+        """The plant for ``leg`` carrying ``body_mass`` kg at the pelvis."""
+        gr = Ground.default() if ground is None else ground
+        a3 = float(leg.lengths[2])
+        pts = np.array([[x * a3, -gr.sole] for x in SENSOR_X])
+        standing = float(leg.lengths[0] + leg.lengths[1] + gr.sole)  # hip above the sole
+        return cls(leg=leg, body_mass=float(body_mass), ground=gr, belt_speed=float(belt_speed),
+                   points=pts, support_height=standing - gr.support_drop)
+
+    @property
+    def standing_height(self) -> float:
+        """Hip height above the belt standing straight, foot flat, m."""
+        return float(self.leg.lengths[0] + self.leg.lengths[1] + self.ground.sole)
+
+    @property
+    def leg_mass(self) -> float:
+        return float(sum(lk.mass for lk in self.leg.links))
+
+    def params(self) -> F64:
+        """What the compiled plant takes: body mass, g, contact k, c, mu, v_s, support
+        k, c, height, belt speed, then the 4 points' (x, y)."""
+        gr = self.ground
+        return np.array([self.body_mass, self.leg.g, gr.stiffness, gr.damping, gr.friction,
+                         gr.slip_speed, gr.support_stiffness, gr.support_damping,
+                         self.support_height, self.belt_speed, *self.points.ravel()])
+
+
+# indices of WalkingPlant.params()
+W_BODY, W_G, W_K, W_C, W_MU, W_VS, W_SK, W_SC, W_SY, W_BELT, W_PTS = range(11)
+
+
+@njit(cache=True)
+def contact_points(p, w, y, q, dq, dy, out):  # type: ignore[no-untyped-def]
+    """Positions and velocities of the four points: out (4, 4) rows (x, y, dx, dy), world
+    frame (hip at (0, y))."""
+    phi = 0.0
+    jx = np.zeros(4)
+    jy = np.zeros(4)
+    ph = np.zeros(3)
+    for i in range(3):
+        phi += q[i] + OFFSETS[i]
+        ph[i] = phi
+        jx[i + 1] = jx[i] + p[5 * i + 1] * math.cos(phi)
+        jy[i + 1] = jy[i] + p[5 * i + 1] * math.sin(phi)
+    c, s = math.cos(ph[2]), math.sin(ph[2])
+    for k in range(4):
+        px = w[W_PTS + 2 * k]
+        py = w[W_PTS + 2 * k + 1]
+        x = jx[2] + c * px - s * py
+        yy = jy[2] + s * px + c * py
+        vx = 0.0
+        vy = dy
+        for j in range(3):  # column j of the point's Jacobian: z x (point - joint j)
+            vx += -(yy - jy[j]) * dq[j]
+            vy += (x - jx[j]) * dq[j]
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = x, y + yy, vx, vy
+
+
+@njit(cache=True)
+def contact_forces(w, pts, F):  # type: ignore[no-untyped-def]
+    """Forces F (4, 2) (tangential x, normal y) of the belt on the four points from their
+    state ``pts`` (:func:`contact_points`): spring-damper normal force, never pulling;
+    friction against the belt. Returns the total normal force."""
+    total = 0.0
+    for k in range(4):
+        d = -pts[k, 1]  # the belt surface is y = 0
+        if d > 0.0:
+            fn = max(0.0, w[W_K] * d - w[W_C] * pts[k, 3])
+            slip = pts[k, 2] + w[W_BELT]  # the belt moves at -belt_speed
+            F[k, 0] = -w[W_MU] * fn * math.tanh(slip / w[W_VS])
+            F[k, 1] = fn
+            total += fn
+        else:
+            F[k, 0] = 0.0
+            F[k, 1] = 0.0
+    return total
+
+
+@njit(cache=True)
+def support_force(w, y, dy):  # type: ignore[no-untyped-def]
+    """The other leg under the pelvis: one-sided spring-damper, N (>= 0)."""
+    return max(0.0, w[W_SK] * (w[W_SY] - y) - w[W_SC] * dy)
+
+
+@njit(cache=True)
+def _com_terms(p, q, dq):  # type: ignore[no-untyped-def]
+    """(p_vec (3,), b, leg mass): gradient of Y = sum m_i y_ci and dq^T Hess(Y) dq."""
+    ph = np.zeros(3)
+    w = np.zeros(3)
+    phi = 0.0
+    om = 0.0
+    for i in range(3):
+        phi += q[i] + OFFSETS[i]
+        om += dq[i]
+        ph[i] = phi
+        w[i] = om
+    grad_phi = np.zeros(3)  # dY/dphi_k
+    b = 0.0
+    mass = 0.0
+    for i in range(3):
+        m = p[5 * i]
+        mass += m
+        cx, cy = p[5 * i + 2], p[5 * i + 3]
+        for k in range(i):
+            a = p[5 * k + 1]
+            grad_phi[k] += m * a * math.cos(ph[k])
+            b -= m * a * math.sin(ph[k]) * w[k] * w[k]
+        grad_phi[i] += m * (cx * math.cos(ph[i]) - cy * math.sin(ph[i]))
+        b -= m * (cx * math.sin(ph[i]) + cy * math.cos(ph[i])) * w[i] * w[i]
+    g = np.zeros(3)  # dY/dq_j = sum_{k >= j} dY/dphi_k
+    acc = 0.0
+    for j in range(2, -1, -1):
+        acc += grad_phi[j]
+        g[j] = acc
+    return g, b, mass
+
+
+@njit(cache=True)
+def _solve4(A, r):  # type: ignore[no-untyped-def]
+    """Solve the 4 x 4 system A x = r (Gaussian elimination with partial pivoting)."""
+    M = A.copy()
+    x = r.copy()
+    for c in range(4):
+        piv = c
+        for i in range(c + 1, 4):
+            if abs(M[i, c]) > abs(M[piv, c]):
+                piv = i
+        if piv != c:
+            for j in range(4):
+                M[c, j], M[piv, j] = M[piv, j], M[c, j]
+            x[c], x[piv] = x[piv], x[c]
+        for i in range(c + 1, 4):
+            f = M[i, c] / M[c, c]
+            for j in range(c, 4):
+                M[i, j] -= f * M[c, j]
+            x[i] -= f * x[c]
+    for i in range(3, -1, -1):
+        s = x[i]
+        for j in range(i + 1, 4):
+            s -= M[i, j] * x[j]
+        x[i] = s / M[i, i]
+    return x
+
+
+@njit(cache=True)
+def generalized_contact(p, w, y, q, F, out):  # type: ignore[no-untyped-def]
+    """Generalized forces (4,) of point forces F (4, 2) at the contact points: on y the
+    sum of the normal forces, on the joints sum J_i^T F_i."""
+    pts = np.empty((4, 4))
+    z = np.zeros(3)
+    contact_points(p, w, y, q, z, 0.0, pts)
+    phi = 0.0
+    jx = np.zeros(3)
+    jy = np.zeros(3)
+    for i in range(2):
+        phi += q[i] + OFFSETS[i]
+        jx[i + 1] = jx[i] + p[5 * i + 1] * math.cos(phi)
+        jy[i + 1] = jy[i] + p[5 * i + 1] * math.sin(phi)
+    out[:] = 0.0
+    for k in range(4):
+        out[0] += F[k, 1]
+        px, py = pts[k, 0], pts[k, 1] - y
+        for j in range(3):
+            out[1 + j] += -(py - jy[j]) * F[k, 0] + (px - jx[j]) * F[k, 1]
+
+
+@njit(cache=True)
+def walking_accel(p, w, y, dy, q, dq, tau, gen, out):  # type: ignore[no-untyped-def]
+    """(ddy, ddq) into out (4,) under joint torques tau (3,) and the generalized external
+    forces ``gen`` (4,) (contacts and support), gravity included."""
+    M = np.empty((3, 3))
+    mass_matrix(q, p, M)
+    Cq = np.empty(3)
+    coriolis_dq(q, dq, p, Cq)
+    G = np.empty(3)
+    gravity(q, p, w[W_G], G)
+    pv, b, m_leg = _com_terms(p, q, dq)
+    mt = w[W_BODY] + m_leg
+    A = np.empty((4, 4))
+    r = np.empty(4)
+    A[0, 0] = mt
+    for j in range(3):
+        A[0, 1 + j] = pv[j]
+        A[1 + j, 0] = pv[j]
+        for k in range(3):
+            A[1 + j, 1 + k] = M[j, k]
+        r[1 + j] = tau[j] - Cq[j] - G[j] + gen[1 + j]
+    r[0] = gen[0] - mt * w[W_G] - b
+    x = _solve4(A, r)
+    for i in range(4):
+        out[i] = x[i]
+
+
+@njit(cache=True)
+def walking_energy(p, w, y, dy, q, dq):  # type: ignore[no-untyped-def]
+    """Kinetic + potential energy of leg and pelvis, J (potential zero at y = 0)."""
+    M = np.empty((3, 3))
+    mass_matrix(q, p, M)
+    pv, _, m_leg = _com_terms(p, q, dq)
+    T = 0.5 * (w[W_BODY] + m_leg) * dy * dy
+    for j in range(3):
+        T += dy * pv[j] * dq[j]
+        for k in range(3):
+            T += 0.5 * dq[j] * M[j, k] * dq[k]
+    # potential: Y(q) = sum m_i y_ci relative to the hip
+    phi = 0.0
+    yj = 0.0
+    Y = 0.0
+    for i in range(3):
+        phi += q[i] + OFFSETS[i]
+        Y += p[5 * i] * (yj + p[5 * i + 2] * math.sin(phi) + p[5 * i + 3] * math.cos(phi))
+        yj += p[5 * i + 1] * math.sin(phi)
+    return T + w[W_G] * ((w[W_BODY] + m_leg) * y + Y)
+
+
+@njit(cache=True)
+def _deriv(p, w, A, y, dy, q, dq, tau, gen, out):  # type: ignore[no-untyped-def]
+    """(ddy, ddq) with the actuators' friction (A: (3, N_P) or an empty array for none)."""
+    t = np.empty(3)
+    for i in range(3):
+        t[i] = tau[i] - (friction(A[i], dq[i]) if A.shape[0] == 3 else 0.0)
+    walking_accel(p, w, y, dy, q, dq, t, gen, out)
+
+
+@njit(cache=True)
+def walking_step(p, w, A, x, tau, gen, h):  # type: ignore[no-untyped-def]
+    """One RK4 step of the state x (8,) = (y, q0, q1, q2, dy, dq0, dq1, dq2), in place, with
+    the joint torques ``tau`` and generalized external forces ``gen`` held (the contact
+    forces of the step's start, :func:`step_contacts`)."""
+    k = np.empty((4, 8))
+    s = x.copy()
+    a = np.empty(4)
+    for stage in range(4):
+        c = 0.0 if stage == 0 else (0.5 if stage < 3 else 1.0)
+        if stage > 0:
+            for i in range(8):
+                s[i] = x[i] + c * h * k[stage - 1, i]
+        _deriv(p, w, A, s[0], s[4], s[1:4], s[5:8], tau, gen, a)
+        for i in range(4):
+            k[stage, i] = s[4 + i]
+            k[stage, 4 + i] = a[i]
+    for i in range(8):
+        x[i] += h / 6.0 * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
+
+
+@njit(cache=True)
+def step_contacts(p, w, x, pts, F, gen):  # type: ignore[no-untyped-def]
+    """The contact and support forces at state x: points into pts (4, 4), their forces
+    into F (4, 2), the generalized forces (support included) into gen (4,). Returns the
+    support force."""
+    contact_points(p, w, x[0], x[1:4], x[5:8], x[4], pts)
+    contact_forces(w, pts, F)
+    generalized_contact(p, w, x[0], x[1:4], F, gen)
+    fc = support_force(w, x[0], x[4])
+    gen[0] += fc
+    return fc
