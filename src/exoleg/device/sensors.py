@@ -1,0 +1,133 @@
+"""The foot board's sensors as the board would send them (paper section 2.3).
+
+* **FSRs** (four FlexiForce A201 at :data:`exoleg.device.walking.SENSOR_POINTS`): the
+  normal force at each point -> the amplifier's voltage, linear in force (the sensor's
+  conductance is) with the datasheet's linearity error as a bow of at most
+  ``linearity`` of full scale -> noise -> saturation at the ADC's reference -> 12-bit
+  counts.
+* **IMU** (MPU9250 on the footplate): the gyroscope's sagittal rate (the foot's angular
+  velocity) and the accelerometer's specific force in the foot frame, each with a bias
+  drawn once per run, white noise of the datasheet's density over the sensor's
+  bandwidth, and saturation at the full-scale range.
+* Encoders: :func:`exoleg.device.actuator.encode`.
+
+Noise is drawn before a run from a seeded generator (:func:`draw_noise`), so runs are
+deterministic. Figures and their sources: ``data/device/sensors.toml``.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from importlib import resources
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from exoleg.errors import ParameterError
+from exoleg.params import _check
+
+F64 = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class FootSensors:
+    """FSR and IMU figures (SI: N, V, rad/s, m/s^2; see ``sensors.toml``)."""
+
+    fsr_full_scale: float
+    fsr_linearity: float
+    fsr_noise: float
+    adc_bits: int
+    adc_reference: float
+    fsr_full_scale_voltage: float
+    gyro_noise: float        # rad/s, one sample's standard deviation
+    gyro_bias: float         # rad/s, standard deviation of the per-run bias
+    gyro_range: float        # rad/s
+    accel_noise: float       # m/s^2, one sample
+    accel_bias: float        # m/s^2, standard deviation of the per-run bias
+    accel_range: float       # m/s^2
+    imu_position: float      # fraction of the foot from the ankle
+
+    @classmethod
+    def default(cls, noise_scale: float = 1.0) -> FootSensors:
+        """The shipped figures; ``noise_scale`` multiplies every noise and bias (0: ideal
+        sensors, 2: twice the datasheet's noise)."""
+        where = "exoleg/data/device/sensors.toml"
+        d = tomllib.loads(resources.files("exoleg").joinpath(
+            "data", "device", "sensors.toml").read_text())
+        _check.keys(where, d, ["source", "fsr", "imu"])
+        f, i = d["fsr"], d["imu"]
+        k = _check.finite("FootSensors", "noise_scale", noise_scale)
+        if not 0.0 <= k <= 100.0:
+            raise ParameterError("FootSensors", "noise_scale", f"{k:g} is outside 0-100")
+        g = 9.81
+        bw = _check.positive(where, "bandwidth_hz", i["bandwidth_hz"], "Hz")
+        out = cls(fsr_full_scale=_check.positive(where, "full_scale_N", f["full_scale_N"], "N"),
+                  fsr_linearity=_check.finite(where, "linearity", f["linearity"]),
+                  fsr_noise=k * _check.finite(where, "noise", f["noise"]),
+                  adc_bits=int(f["adc_bits"]), adc_reference=f["adc_reference_V"],
+                  fsr_full_scale_voltage=f["full_scale_V"],
+                  gyro_noise=k * math.radians(i["gyro_noise_dps_rthz"]) * math.sqrt(bw),
+                  gyro_bias=k * math.radians(i["gyro_bias_dps"]),
+                  gyro_range=math.radians(i["gyro_range_dps"]),
+                  accel_noise=k * i["accel_noise_ug_rthz"] * 1e-6 * g * math.sqrt(bw),
+                  accel_bias=k * i["accel_bias_mg"] * 1e-3 * g,
+                  accel_range=i["accel_range_g"] * g, imu_position=i["position"])
+        if not 0.0 <= out.fsr_linearity <= 0.2 or not 8 <= out.adc_bits <= 24 \
+                or not 0.0 < out.fsr_full_scale_voltage <= out.adc_reference:
+            raise ParameterError(where, "fsr", "linearity 0-0.2, adc_bits 8-24 and "
+                                 "0 < full_scale_V <= adc_reference_V")
+        return out
+
+    def params(self) -> F64:
+        """What the compiled functions take."""
+        return np.array([self.fsr_full_scale, self.fsr_linearity, self.fsr_noise,
+                         float(2**self.adc_bits - 1), self.adc_reference,
+                         self.fsr_full_scale_voltage, self.gyro_range, self.accel_range])
+
+
+S_FS, S_LIN, S_NOISE, S_COUNTS, S_REF, S_FSV, S_GRANGE, S_ARANGE = range(8)
+
+
+@njit(cache=True)
+def fsr_counts(s, force, noise):  # type: ignore[no-untyped-def]
+    """ADC counts of one FSR under ``force`` N, with the unit normal draw ``noise``."""
+    f = max(force, 0.0) / s[S_FS]
+    v = s[S_FSV] * (f + 4.0 * s[S_LIN] * f * (1.0 - f) if f < 1.0 else f)
+    v += s[S_NOISE] * s[S_FSV] * noise
+    v = min(max(v, 0.0), s[S_REF])
+    return math.floor(v / s[S_REF] * s[S_COUNTS] + 0.5)
+
+
+@njit(cache=True)
+def fsr_force(s, counts):  # type: ignore[no-untyped-def]
+    """The force (N) a reading stands for, by the linear calibration (no bow)."""
+    return counts / s[S_COUNTS] * s[S_REF] / s[S_FSV] * s[S_FS]
+
+
+@njit(cache=True)
+def imu(s, foot_rate, acc_x, acc_y, phi, g, bias_g, bias_ax, bias_ay, n_g, n_ax, n_ay):  # type: ignore[no-untyped-def]
+    """(gyro rad/s, accelerometer x, y m/s^2 in the foot frame): the true foot rate and
+    the specific force (acceleration less gravity, rotated into the foot frame) plus
+    bias and noise (already scaled), saturated at the ranges."""
+    c, sn = math.cos(phi), math.sin(phi)
+    fx, fy = acc_x, acc_y + g  # specific force in the world frame (gravity along -y)
+    ax = c * fx + sn * fy + bias_ax + n_ax
+    ay = -sn * fx + c * fy + bias_ay + n_ay
+    gr = foot_rate + bias_g + n_g
+    rg, ra = s[S_GRANGE], s[S_ARANGE]
+    return min(max(gr, -rg), rg), min(max(ax, -ra), ra), min(max(ay, -ra), ra)
+
+
+def draw_noise(sensors: FootSensors, n: int, seed: int) -> tuple[F64, F64, F64]:
+    """Seeded draws for a run of n ticks: FSR unit normals (n, 4); IMU noise (n, 3)
+    already scaled (gyro, accel x, y); the per-run biases (3,)."""
+    rng = np.random.default_rng(seed)
+    fsr = rng.standard_normal((n, 4))
+    imu_noise = rng.standard_normal((n, 3)) * np.array(
+        [sensors.gyro_noise, sensors.accel_noise, sensors.accel_noise])
+    bias = rng.standard_normal(3) * np.array(
+        [sensors.gyro_bias, sensors.accel_bias, sensors.accel_bias])
+    return fsr, imu_noise, bias
