@@ -52,10 +52,10 @@ def test_envelope_corners() -> None:
     wmax = math.radians(300)
     assert envelope(p, 0.0) == HIP.torque_limit == 150.0           # Table 2 peak
     assert envelope(p, 0.1) == 150.0
-    assert envelope(p, wmax) == pytest.approx(220.0 / wmax)         # rated power at max speed
+    assert envelope(p, wmax) == pytest.approx(3 * 220.0 / wmax)     # peak power at max speed
     assert envelope(p, -wmax) == envelope(p, wmax)
     assert envelope(p, 1.1 * wmax) == 0.0                           # no-load speed
-    assert envelope(p, 1.05 * wmax) == pytest.approx(0.5 * 220.0 / wmax)
+    assert envelope(p, 1.05 * wmax) == pytest.approx(0.5 * 3 * 220.0 / wmax)
     assert envelope(p, 100.0) == 0.0
     # continuous across the corner, never increasing with speed
     w = np.linspace(0, 1.2 * wmax, 5001)

@@ -8,9 +8,10 @@ or exoleg's documented choice). What it does, at the joint (SI units):
   (:func:`with_actuators` puts it into the model, the exports and the engines);
 * **torque from current** ``tau = N eta k_t i``, the drive's current limited to its peak;
 * **torque-speed envelope** (:func:`envelope`): the peak torque (Table 2, or what the
-  drive's peak current gives, whichever is lower) up to the speed where the rated
-  power runs out, ``P / |w|`` beyond, falling linearly to zero between Table 2's
-  maximum velocity and ``no_load_factor`` times it;
+  drive's peak current gives, whichever is lower) up to the speed where the peak power
+  (``peak_power_factor`` times Table 2's rated power) runs out, ``P / |w|`` beyond,
+  falling linearly to zero between Table 2's maximum velocity and ``no_load_factor``
+  times it;
 * **friction** (:func:`friction`): viscous ``b w`` plus Coulomb ``tau_c tanh(w / w_s)``
   (smooth near zero speed, so the dynamics stay integrable);
 * **the drive's current loop** (:func:`current_loop`): first order with the loop's
@@ -58,6 +59,7 @@ FIELDS: tuple[tuple[str, str, float, float], ...] = (
     ("peak_torque", "N m", 0.01, 1000.0),
     ("max_velocity_deg_s", "deg/s", 1.0, 5000.0),
     ("power", "W", 1.0, 10000.0),
+    ("peak_power_factor", "", 1.0, 10.0),
     ("no_load_factor", "", 1.0, 3.0),
     ("coulomb_friction", "N m", 0.0, 50.0),
     ("viscous_friction", "N m s/rad", 0.0, 50.0),
@@ -89,6 +91,7 @@ class ActuatorModel:
     peak_torque: float
     max_velocity: float
     power: float
+    peak_power_factor: float
     no_load_factor: float
     coulomb_friction: float
     viscous_friction: float
@@ -124,7 +127,8 @@ class ActuatorModel:
 
     def params(self) -> tuple[float, ...]:
         """The figures the compiled functions take (:data:`P_*` indices)."""
-        return (self.torque_limit, self.max_velocity, self.power, self.no_load_factor,
+        return (self.torque_limit, self.max_velocity, self.peak_power_factor * self.power,
+                self.no_load_factor,
                 self.coulomb_friction, self.viscous_friction, self.friction_smoothing,
                 self.current_loop_bandwidth, self.encoder_resolution, self.velocity_filter_hz,
                 self.ratio)

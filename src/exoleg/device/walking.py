@@ -51,11 +51,12 @@ from exoleg.params import _check
 F64 = NDArray[np.float64]
 
 #: The four FlexiForce A201 points under the footplate, as fractions of the foot link's
-#: length from the ankle (heel at 0, under the ankle; first and fifth metatarsal heads;
-#: hallux), in the sagittal plane (paper section 2.3 names four sensors, not where:
-#: these are the usual insole positions).
+#: length (the footplate's, Table 1: 23.5 cm) from the ankle: the heel behind it, the
+#: first and fifth metatarsal heads, the hallux -- the usual insole positions on a foot
+#: whose ankle sits a quarter of the way from the heel (paper section 2.3 names four
+#: sensors, not where). Sagittal plane: the two metatarsal heads differ only in x.
 SENSOR_POINTS = ("heel", "met1", "met5", "hallux")
-SENSOR_X = (0.0, 0.72, 0.62, 0.95)
+SENSOR_X = (-0.18, 0.45, 0.38, 0.62)
 
 
 @cache
@@ -130,19 +131,33 @@ class WalkingPlant:
 
     @classmethod
     def of(cls, leg: LegModel, body_mass: float, belt_speed: float,
-           ground: Ground | None = None) -> WalkingPlant:
-        """The plant for ``leg`` carrying ``body_mass`` kg at the pelvis."""
+           ground: Ground | None = None, ankle_height: float = 0.05,
+           support_height: float | None = None) -> WalkingPlant:
+        """The plant for ``leg`` carrying ``body_mass`` kg at the pelvis. The sensor points
+        lie ``ankle_height`` + the footplate below the ankle joint (default 5 cm: Drillis
+        & Contini's 0.039 of a 1.3 m child's height). ``support_height``: where the other
+        leg holds the pelvis; default the standing height less the ground's drop."""
         gr = Ground.default() if ground is None else ground
+        h = _check.finite("WalkingPlant", "ankle_height", ankle_height)
+        if not 0.0 <= h <= 0.2:
+            raise ParameterError("WalkingPlant", "ankle_height", f"{h:g} m is outside 0-0.2 m")
         a3 = float(leg.lengths[2])
-        pts = np.array([[x * a3, -gr.sole] for x in SENSOR_X])
-        standing = float(leg.lengths[0] + leg.lengths[1] + gr.sole)  # hip above the sole
+        depth = h + gr.sole
+        pts = np.array([[x * a3, -depth] for x in SENSOR_X])
+        standing = float(leg.lengths[0] + leg.lengths[1] + depth)  # hip above the sole
         return cls(leg=leg, body_mass=float(body_mass), ground=gr, belt_speed=float(belt_speed),
-                   points=pts, support_height=standing - gr.support_drop)
+                   points=pts, support_height=(standing - gr.support_drop
+                                               if support_height is None else support_height))
+
+    @property
+    def depth(self) -> float:
+        """The sensor points' depth below the ankle joint, m."""
+        return float(-self.points[0, 1])
 
     @property
     def standing_height(self) -> float:
         """Hip height above the belt standing straight, foot flat, m."""
-        return float(self.leg.lengths[0] + self.leg.lengths[1] + self.ground.sole)
+        return float(self.leg.lengths[0] + self.leg.lengths[1] + self.depth)
 
     @property
     def leg_mass(self) -> float:

@@ -1,0 +1,477 @@
+"""Walking with the full device: plant with contacts, sensors, the control hierarchy,
+the safety layer and the actuators, in one compiled loop.
+
+Every control tick (1 kHz):
+
+1. the foot board reads its four FSRs (the contacts' true normal forces through
+   :func:`exoleg.device.sensors.fsr_counts`) and its IMU; the encoders read the joints;
+2. the controller tick (:func:`exoleg.control.hierarchy.walk_control_step`): gait-phase
+   detection, supervisor, reference at the detected phase, phase-scheduled impedance
+   with the current pendulum's gravity model, safety layer;
+3. the drives: envelope at the measured speed, current loop;
+4. the plant (:mod:`exoleg.device.walking`): ``substeps`` RK4 steps per tick with the
+   contact and support forces of each step's start, the actuators' friction in every
+   stage.
+
+The operator's commands come as a schedule (arm at 0, walk after ``standing`` seconds
+of quiet stance in which the FSRs calibrate). The true contact events (from the
+noise-free contact forces) are kept beside the detected ones for
+:func:`detection_table`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from exoleg.control import gait_phase as gp
+from exoleg.control.hierarchy import (
+    START_FRACTION,
+    Command,
+    WalkController,
+    WalkGains,
+    walk_control_step,
+)
+from exoleg.control.safety import SafetyLimits
+from exoleg.device.actuator import (
+    ActuatorModel,
+    current_loop,
+    encode,
+    envelope,
+    filter_gain,
+    paper_actuators,
+    params_array,
+    with_actuators,
+)
+from exoleg.device.sensors import FootSensors, draw_noise, fsr_counts, imu
+from exoleg.device.walking import (
+    SENSOR_POINTS,
+    W_BELT,
+    W_SY,
+    Ground,
+    WalkingPlant,
+    contact_forces,
+    contact_points,
+    step_contacts,
+    walking_step,
+)
+from exoleg.dynamics.kernels import OFFSETS
+from exoleg.dynamics.model import LegModel
+from exoleg.errors import ParameterError, SimulationError
+from exoleg.params.records import JOINTS
+
+if TYPE_CHECKING:
+    import pyarrow as pa
+
+F64 = NDArray[np.float64]
+
+#: A region of the foot is loaded, for the true events, above this normal force, N.
+TRUE_CONTACT_N = 5.0
+
+
+@njit(inline="always")
+def _imu_point(p, x, px, py):  # type: ignore[no-untyped-def]
+    """Velocity (vx, vy) of the point (px, py) of the foot frame, world frame."""
+    phi = 0.0
+    jx = np.zeros(4)
+    jy = np.zeros(4)
+    for i in range(3):
+        phi += x[1 + i] + OFFSETS[i]
+        jx[i + 1] = jx[i] + p[5 * i + 1] * math.cos(phi)
+        jy[i + 1] = jy[i] + p[5 * i + 1] * math.sin(phi)
+    c, s = math.cos(phi), math.sin(phi)
+    X = jx[2] + c * px - s * py
+    Y = jy[2] + s * px + c * py
+    vx = 0.0
+    vy = x[4]
+    for j in range(3):
+        vx += -(Y - jy[j]) * x[5 + j]
+        vy += (X - jx[j]) * x[5 + j]
+    return vx, vy, phi
+
+
+@njit(cache=True, error_model="numpy")
+def _run_walk(p, w, A, cp, gq, gdq, cp_p, g, fx, sole, d, st, lim, sst, sup, sens,  # type: ignore[no-untyped-def]
+              fsr_noise, imu_noise, imu_bias, imu_x, imu_y, commands, h, sub,
+              support, stand_support, t_walk, stride,
+              X, QM, VM, COUNTS, FN, IMU, INFO, UC, TAU, ENV, SUP):
+    n = X.shape[0] - 1
+    x = X[0].copy()
+    pts = np.empty((4, 4))
+    F = np.empty((4, 2))
+    gen = np.empty(4)
+    b = np.empty(3)
+    qm_prev = np.empty(3)
+    qm = np.empty(3)
+    vm = np.zeros(3)
+    tau_a = np.zeros(3)
+    mean = np.zeros(3)
+    u = np.zeros(3)
+    info = np.zeros(8)
+    counts = np.zeros(4)
+    for i in range(3):
+        b[i] = filter_gain(A[i], h)
+        qm_prev[i] = encode(A[i], x[1 + i])
+        vm[i] = x[5 + i]
+    vx0, vy0, _ = _imu_point(p, x, imu_x, imu_y)
+    hs = h / sub
+    belt = w[W_BELT]
+    loaded = True
+    t_off = -1e9
+    t_strike = -1e9
+    for k in range(n + 1):
+        t = k * h
+        # 1. the foot board and the encoders
+        contact_points(p, w, x[0], x[1:4], x[5:8], x[4], pts)
+        contact_forces(w, pts, F)
+        for i in range(4):
+            FN[k, i] = F[i, 1]
+            counts[i] = fsr_counts(sens, F[i, 1], fsr_noise[k, i])
+            COUNTS[k, i] = counts[i]
+        vx, vy, phi = _imu_point(p, x, imu_x, imu_y)
+        ax = (vx - vx0) / h if k > 0 else 0.0
+        ay = (vy - vy0) / h if k > 0 else 0.0
+        vx0, vy0 = vx, vy
+        IMU[k, 0], IMU[k, 1], IMU[k, 2] = imu(sens, x[5] + x[6] + x[7], ax, ay, phi, g,
+                                              imu_bias[0], imu_bias[1], imu_bias[2],
+                                              imu_noise[k, 0], imu_noise[k, 1],
+                                              imu_noise[k, 2])
+        for i in range(3):
+            qm[i] = encode(A[i], x[1 + i])
+            if k > 0:
+                vm[i] += b[i] * ((qm[i] - qm_prev[i]) / h - vm[i])
+            qm_prev[i] = qm[i]
+            QM[k, i] = qm[i]
+            VM[k, i] = vm[i]
+        # 2. the controller tick (supervisor, detection, reference, impedance, safety)
+        walk_control_step(cp, gq, gdq, cp_p, g, fx, sole, d, st, lim, sst, sup, qm, vm,
+                          counts, t, commands[k], u, info)
+        # the treadmill runs while walking; the other leg (an actor) keeps time with this
+        # leg's true foot strikes: its own rhythm starts at each (the child's other leg
+        # feels them; the controller has only the FSRs)
+        total = F[0, 1] + F[1, 1] + F[2, 1] + F[3, 1]
+        if total > 5.0 and not loaded and t - t_off > 0.3 * stride:
+            t_strike = t
+        if total > 5.0:
+            loaded = True
+        elif loaded:
+            loaded = False
+            t_off = t
+        if info[0] == 2 and t >= t_walk:
+            w[W_BELT] = belt
+            if t_strike > t_walk:
+                xc = min((t - t_strike) / stride, 0.999)
+            else:
+                xc = min(START_FRACTION + (t - t_walk) / stride, 0.999)
+            w[W_SY] = support[min(int(xc * (support.shape[0] - 1) + 0.5),
+                                  support.shape[0] - 1)]
+        else:
+            w[W_BELT] = 0.0
+            w[W_SY] = stand_support
+        for i in range(8):
+            INFO[k, i] = info[i]
+        # 3. the drives
+        for i in range(3):
+            e = envelope(A[i], vm[i])
+            ENV[k, i] = e
+            UC[k, i] = u[i]
+        if k == n:
+            for i in range(3):
+                TAU[k, i] = tau_a[i]
+            break
+        # 4. the plant
+        acc = np.zeros(3)
+        supp = 0.0
+        for _ in range(sub):
+            for i in range(3):
+                tc = min(max(u[i], -ENV[k, i]), ENV[k, i])
+                tau_a[i], mean[i] = current_loop(A[i], tau_a[i], tc, hs)
+                acc[i] += mean[i]
+            supp += step_contacts(p, w, x, pts, F, gen)
+            walking_step(p, w, A, x, mean, gen, hs)
+        for i in range(3):
+            TAU[k, i] = acc[i] / sub
+        SUP[k] = supp / sub
+        for i in range(8):
+            X[k + 1, i] = x[i]
+            if not math.isfinite(x[i]):
+                return k + 1
+    return -1
+
+
+@dataclass(frozen=True)
+class WalkResult:
+    """A walking run's time series, SI units; joints (hip, knee, ankle), FSRs
+    (:data:`SENSOR_POINTS`). ``pelvis`` height m; q, dq true; q_meas, dq_meas; q_ref;
+    fsr (counts) and contact_force (true normal force, N) per sensor; gyro rad/s,
+    accel (2) m/s^2 (foot frame); mode, phase, gait_fraction, events (bits), safety
+    status per tick; u_safe (to the drives), tau (delivered), envelope; support (the
+    other leg's force on the pelvis, N)."""
+
+    t: F64
+    pelvis: F64
+    q: F64
+    dq: F64
+    q_meas: F64
+    dq_meas: F64
+    q_ref: F64
+    fsr: F64
+    contact_force: F64
+    gyro: F64
+    accel: F64
+    mode: NDArray[np.int64]
+    phase: NDArray[np.int64]
+    gait_fraction: F64
+    events: NDArray[np.int64]
+    safety_status: NDArray[np.int64]
+    u_safe: F64
+    tau: F64
+    envelope: F64
+    support: F64
+    plant: WalkingPlant = field(repr=False)
+    actuators: tuple[ActuatorModel, ...] = field(repr=False)
+    walk_start: float = 0.0
+    stride_time: float = 1.1
+
+    @property
+    def motor_speed(self) -> F64:
+        return self.dq * np.array([a.ratio for a in self.actuators])
+
+    @property
+    def power(self) -> F64:
+        return self.tau * self.dq
+
+    def true_events(self) -> NDArray[np.int64]:
+        """Event bits per tick from the true contact forces (> TRUE_CONTACT_N): the same
+        definitions as the detector's, without noise, thresholds on counts or debounce."""
+        return true_events(self.contact_force)
+
+    def columns(self) -> dict[str, F64]:
+        cols: dict[str, F64] = {"t": self.t, "pelvis": self.pelvis}
+        for name in ("q", "dq", "q_meas", "dq_meas", "q_ref", "u_safe", "tau", "envelope",
+                     "motor_speed", "power"):
+            arr = getattr(self, name)
+            for i, j in enumerate(JOINTS):
+                cols[f"{name}_{j}"] = arr[:, i].astype(float)
+        for i, s in enumerate(SENSOR_POINTS):
+            cols[f"fsr_{s}"] = self.fsr[:, i]
+            cols[f"contact_force_{s}"] = self.contact_force[:, i]
+        cols["gyro"] = self.gyro
+        cols["accel_x"], cols["accel_y"] = self.accel[:, 0], self.accel[:, 1]
+        for name in ("mode", "phase", "events", "safety_status"):
+            cols[name] = getattr(self, name).astype(float)
+        cols["gait_fraction"] = self.gait_fraction
+        cols["true_events"] = self.true_events().astype(float)
+        cols["support"] = self.support
+        return cols
+
+    def table(self) -> pa.Table:
+        import pyarrow as pa
+
+        return pa.table(self.columns())
+
+    def to_csv(self, path: str | Path) -> Path:
+        from exoleg.io import write_csv_table
+
+        return write_csv_table(self.table(), path)
+
+    def to_parquet(self, path: str | Path) -> Path:
+        from exoleg.io import write_parquet_table
+
+        return write_parquet_table(self.table(), path)
+
+
+def true_events(force: F64, threshold: float = TRUE_CONTACT_N) -> NDArray[np.int64]:
+    """Event bits (IC 1, FF 2, HO 4, TO 8) per sample from contact forces (N, 4)."""
+    heel = force[:, 0] > threshold
+    fore = force[:, 1:].max(axis=1) > threshold
+    out = np.zeros(len(force), dtype=np.int64)
+    phase = 0  # swing
+    for k in range(len(force)):
+        h, f = heel[k], fore[k]
+        if phase == 0:
+            if h or f:
+                out[k] |= 1
+                phase = 1
+                if h and f:
+                    out[k] |= 2
+                    phase = 2
+        elif not h and not f:
+            out[k] |= 8
+            phase = 0
+        elif phase == 1 and h and f:
+            out[k] |= 2
+            phase = 2
+        elif phase == 2 and f and not h:
+            out[k] |= 4
+            phase = 3
+    return out
+
+
+def belt_speed_for(leg: LegModel, speed: str, stride_time: float) -> float:
+    """The belt speed that matches the normative gait's stance: the ankle's mean backward
+    speed relative to the hip between 15 % and 45 % of the cycle (mid-stance), m/s."""
+    from exoleg.reference.gait import SchwartzGait2008
+
+    gait = SchwartzGait2008(stride_time=stride_time, speed=speed)
+    t = np.linspace(0.15, 0.45, 61) * stride_time
+    ankle = leg.fk(gait.sample(t)[0])["ankle"][:, 0]
+    return float(max(0.0, -(ankle[-1] - ankle[0]) / (t[-1] - t[0])))
+
+
+def hip_height(leg: LegModel, q: F64, depth: float) -> F64:
+    """Height of the hip above the belt for postures q (N, 3) with the lowest of the
+    foot's four sensor points on it, m."""
+    from exoleg.device.walking import SENSOR_X
+
+    fk = leg.fk(q)
+    phi = fk["phi"]
+    a3 = float(leg.lengths[2])
+    low = np.min([fk["ankle"][:, 1] + np.sin(phi) * x * a3 - np.cos(phi) * depth
+                  for x in SENSOR_X], axis=0)
+    return -low
+
+
+#: This leg's swing, as fractions of its cycle (Schwartz 2008: toe off near 60 %),
+#: during which the other leg holds the pelvis high enough for it to clear the belt.
+SWING = (0.62, 0.95)
+
+
+def other_leg_support(leg: LegModel, depth: float, speed: str, clearance: float,
+                      carry: float = 0.01, samples: int = 201) -> F64:
+    """The other leg's support height over this leg's cycle (samples,), m.
+
+    The other leg is an actor, not a model: while this leg swings it holds the pelvis
+    where this leg's normative swing posture clears the belt by ``clearance`` (what a
+    child's pelvis and other leg do, by rising and hip hiking: fixed at the hip's x, the
+    normative joint angles alone would scuff the toe); through this leg's stance it
+    stays ``carry`` below this leg's stance height, so this leg carries the body."""
+    from exoleg.reference.gait import SchwartzGait2008
+
+    gait = SchwartzGait2008(stride_time=1.0, speed=speed)
+    x = np.linspace(0.0, 1.0, samples)
+    hh = hip_height(leg, gait.sample(x)[0], depth)
+    swing = (x >= SWING[0]) & (x <= SWING[1])
+    h = np.where(swing, np.max(hh[swing]) + clearance, hh - carry)
+    k = max(1, samples // 40)  # smoothed over 5 % of the cycle, circularly
+    pad = np.concatenate([h[-k:], h, h[:k]])
+    return np.convolve(pad, np.ones(2 * k + 1) / (2 * k + 1), mode="same")[k:-k]
+
+
+def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str = "Free",
+                  stride_time: float = 1.1, standing: float = 1.0, noise_scale: float = 1.0,
+                  seed: int = 0, ankle_height: float = 0.05,
+                  actuators: tuple[ActuatorModel, ...] | None = None,
+                  gains: WalkGains | None = None, safety: SafetyLimits | None = None,
+                  ground: Ground | None = None, sensors: FootSensors | None = None,
+                  substeps: int = 2, control_dt: float = 1e-3) -> WalkResult:
+    """Walk ``leg`` (without actuators; theirs are added) on the treadmill for ``strides``
+    strides of ``stride_time`` s after ``standing`` s of quiet stance; ``body_mass`` is
+    the child's (the pelvis carries :func:`exoleg.device.walking.body_weight_share`).
+    ``noise_scale`` multiplies the sensors' noise (0: ideal); ``seed`` fixes it."""
+    from exoleg.device.walking import body_weight_share
+
+    if not (isinstance(strides, int) and 1 <= strides <= 10000):
+        raise ParameterError("simulate_walk", "strides", f"expected 1-10000, got {strides!r}")
+    if not (isinstance(substeps, int) and 1 <= substeps <= 100):
+        raise ParameterError("simulate_walk", "substeps", f"expected 1-100, got {substeps!r}")
+    for name, v, lo, hi in (("body_mass", body_mass, 10.0, 150.0),
+                            ("standing", standing, 0.2, 60.0),
+                            ("control_dt", control_dt, 1e-4, 1e-2)):
+        if not (np.isfinite(v) and lo <= v <= hi):
+            raise ParameterError("simulate_walk", name, f"{v!r} is outside {lo:g}-{hi:g}")
+    from exoleg.reference.gait import SchwartzGait2008
+
+    SchwartzGait2008(stride_time=stride_time, speed=speed)  # checks both
+    acts = paper_actuators() if actuators is None else tuple(actuators)
+    A = params_array(acts)
+    plant_leg = with_actuators(leg, acts)
+    share = body_weight_share(body_mass, float(sum(lk.mass for lk in leg.links)))
+    gr = Ground.default() if ground is None else ground
+    depth = ankle_height + gr.sole
+    plant = WalkingPlant.of(plant_leg, share, belt_speed_for(leg, speed, stride_time), gr,
+                            ankle_height)
+    support = other_leg_support(leg, depth, speed, gr.support_drop)  # drop: clearance
+    sens = FootSensors.default(noise_scale) if sensors is None else sensors
+    lim = SafetyLimits.paper(dt=control_dt) if safety is None else safety
+    duration = standing + strides * stride_time
+    n = int(round(duration / control_dt))
+    ctl = WalkController(plant_leg, share, gains, None, lim, speed, stride_time,
+                         float(fsr_counts(sens.params(), 20.0, 0.0)), depth)
+    commands = np.zeros(n + 1, dtype=np.int64)
+    commands[0] = Command.ARM
+    k_walk = int(round(standing / control_dt))
+    commands[k_walk] = Command.WALK
+    q0 = ctl.gains.standing
+    X = np.zeros((n + 1, 8))
+    fk = leg.fk(q0)
+    X[0, 0] = -min(fk["ankle"][1], fk["toe"][1]) + depth - 0.5 * share * leg.g / (4 * gr.stiffness)
+    X[0, 1:4] = q0
+    fsr_noise, imu_noise, bias = draw_noise(sens, n + 1, seed)
+    QM, VM, UC, TAU, ENV = (np.zeros((n + 1, 3)) for _ in range(5))
+    COUNTS, FN = np.zeros((n + 1, 4)), np.zeros((n + 1, 4))
+    IMU = np.zeros((n + 1, 3))
+    INFO = np.zeros((n + 1, 8))
+    SUP = np.zeros(n + 1)
+    bad = _run_walk(plant.leg.p, plant.params().copy(), A, ctl.cp, ctl.gq, ctl.gdq,
+                    plant_leg.p, leg.g,
+                    ctl.fx, ctl.sole, ctl.d, ctl.st, ctl.lim, ctl.sst, ctl.sup, sens.params(),
+                    fsr_noise, imu_noise, bias, sens.imu_position * float(leg.lengths[2]),
+                    -depth, commands, control_dt, substeps, support,
+                    plant.support_height, standing, stride_time, X, QM, VM, COUNTS, FN, IMU,
+                    INFO, UC, TAU, ENV, SUP)
+    if bad >= 0:
+        raise SimulationError(f"walking state became non-finite at t = {bad * control_dt:.4g} s")
+    t = np.arange(n + 1) * control_dt
+    return WalkResult(t=t, pelvis=X[:, 0], q=X[:, 1:4], dq=X[:, 5:8], q_meas=QM, dq_meas=VM,
+                      q_ref=INFO[:, 5:8], fsr=COUNTS, contact_force=FN, gyro=IMU[:, 0],
+                      accel=IMU[:, 1:3], mode=INFO[:, 0].astype(np.int64),
+                      phase=INFO[:, 1].astype(np.int64), gait_fraction=INFO[:, 2],
+                      events=INFO[:, 3].astype(np.int64),
+                      safety_status=INFO[:, 4].astype(np.int64), u_safe=UC, tau=TAU,
+                      envelope=ENV, support=SUP, plant=plant, actuators=acts,
+                      walk_start=standing, stride_time=stride_time)
+
+
+def detection_table(results: list[WalkResult], window: float = 0.2) -> list[dict[str, Any]]:
+    """Detected against true events over runs: per event, the number of true events, the
+    mean and worst timing error (detected - true, s), missed and false rates. A detected
+    event matches the nearest true event of its kind within ``window`` s."""
+    rows = []
+    for bit, name in gp.EVENT_NAMES.items():
+        errs: list[float] = []
+        n_true = n_det = missed = false = 0
+        for r in results:
+            walking = r.t >= r.walk_start
+            tt = r.t[walking & ((r.true_events() & bit) > 0)]
+            td = r.t[walking & ((r.events & bit) > 0)]
+            n_true += len(tt)
+            n_det += len(td)
+            used = np.zeros(len(td), dtype=bool)
+            for x in tt:
+                cand = np.where(~used & (np.abs(td - x) <= window))[0]
+                if not len(cand):
+                    missed += 1
+                    continue
+                j = cand[np.argmin(np.abs(td[cand] - x))]
+                used[j] = True
+                errs.append(float(td[j] - x))
+            false += int((~used).sum())
+        e = np.array(errs)
+        rows.append({"event": name, "true": n_true, "detected": n_det,
+                     "mean_error_ms": float(1e3 * e.mean()) if len(e) else float("nan"),
+                     "mean_abs_error_ms": float(1e3 * np.abs(e).mean()) if len(e) else float("nan"),
+                     "worst_error_ms": float(1e3 * e[np.argmax(np.abs(e))]) if len(e)
+                     else float("nan"),
+                     "missed_rate": missed / n_true if n_true else float("nan"),
+                     "false_rate": false / n_det if n_det else float("nan")})
+    return rows
+
+
+__all__ = ["WalkResult", "detection_table", "simulate_walk", "true_events"]
