@@ -16,7 +16,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
+from exoleg import _cache
 from exoleg.errors import ExolegError, ParameterError, SimulationError, UnreachableError
+
+_cache.guard()
 
 if TYPE_CHECKING:
     from exoleg import control, reference

@@ -129,20 +129,28 @@ def _gait(gq, gdq, x, T, out_q, out_dq, out_ddq):  # type: ignore[no-untyped-def
 
 
 @njit(cache=True)
-def stance_gravity(p, g, q, weight, out):  # type: ignore[no-untyped-def]
-    """G(q) - J_ankle(q)^T (0, weight): the stance leg holding ``weight`` N up through
-    the ankle. The weight is taken at the ankle, not at the centre of pressure: pushed
-    through the foot's lever, the pressure's own shift would feed back (the CoP moving
-    to the toes, the ankle pushing them down harder); the foot's balance on the belt is
-    left to the ankle's impedance."""
+def stance_gravity(p, g, q, fx, sole, counts, weight, out):  # type: ignore[no-untyped-def]
+    """G(q) - J_cop(q)^T (0, weight): the stance leg holding ``weight`` N up at the centre
+    of pressure the four FSR readings give (their x positions ``fx`` on the foot, at
+    ``sole`` -- negative -- on the foot frame's y axis; the foot's middle when nothing
+    is measured). Hip and knee carry the weight through the ankle, the ankle the moment
+    of the pressure's lever about it; the ankle's impedance sets where the pressure sits."""
     gravity(q, p, g, out)
+    tot = counts[0] + counts[1] + counts[2] + counts[3]
+    if tot > 0.0:
+        cx = (counts[0] * fx[0] + counts[1] * fx[1] + counts[2] * fx[2]
+              + counts[3] * fx[3]) / tot
+    else:
+        cx = 0.5 * (fx[0] + fx[3])
     phi = 0.0
     jx = np.zeros(3)
-    for i in range(2):
+    for i in range(3):
         phi += q[i] + OFFSETS[i]
-        jx[i + 1] = jx[i] + p[5 * i + 1] * math.cos(phi)
-    for j in range(2):  # J^T (0, W): W times the x lever of the ankle about joint j
-        out[j] -= (jx[2] - jx[j]) * weight
+        if i < 2:
+            jx[i + 1] = jx[i] + p[5 * i + 1] * math.cos(phi)
+    px = jx[2] + math.cos(phi) * cx - math.sin(phi) * sole
+    for j in range(3):  # J^T (0, W): W times the x lever of the pressure about joint j
+        out[j] -= (px - jx[j]) * weight
 
 
 @njit(cache=True)
@@ -199,7 +207,8 @@ def walk_control_step(cp, gq, gdq, p, g, fx, sole, d, st, lim, sst, sup, qm, vm,
     mass_matrix(qm, p, M)
     G = np.empty(3)
     if stance:
-        stance_gravity(p, g, qm, cp[C_SUPPORT] * (cp[C_BODY] + p[0] + p[5] + p[10]) * g, G)
+        stance_gravity(p, g, qm, fx, sole, counts,
+                       cp[C_SUPPORT] * (cp[C_BODY] + p[0] + p[5] + p[10]) * g, G)
     else:
         gravity(qm, p, g, G)
     cmd = np.empty(3)

@@ -104,11 +104,15 @@ class Ground:
                    sole=d["footplate_height_m"], source=str(d["source"]))
 
 
-def body_weight_share(body_mass: float, leg_mass: float) -> float:
-    """Mass the pelvis carries, kg: the body less both legs (this one is modelled; the
-    other is taken as heavy as this one's human part would be -- an assumption), at
-    least 1 kg."""
-    return max(1.0, body_mass - 2.0 * leg_mass)
+#: A whole leg's share of body mass: thigh 0.100 + shank 0.0465 + foot 0.0145 (Dempster's
+#: fractions as tabulated by Winter, Biomechanics and Motor Control of Human Movement).
+LEG_FRACTION = 0.161
+
+
+def body_weight_share(body_mass: float) -> float:
+    """Mass the pelvis carries, kg: the child's body less both legs (:data:`LEG_FRACTION`
+    each; this leg and the device are the leg model's, the other leg is the actor's)."""
+    return body_mass * (1.0 - 2.0 * LEG_FRACTION)
 
 
 @dataclass(frozen=True)

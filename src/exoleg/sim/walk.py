@@ -287,24 +287,33 @@ class WalkResult:
         return write_parquet_table(self.table(), path)
 
 
-def true_events(force: F64, threshold: float = TRUE_CONTACT_N) -> NDArray[np.int64]:
-    """Event bits (IC 1, FF 2, HO 4, TO 8) per sample from contact forces (N, 4)."""
+def true_events(force: F64, threshold: float = TRUE_CONTACT_N, dt: float = 1e-3,
+                min_swing: float = 0.15, min_stance: float = 0.15) -> NDArray[np.int64]:
+    """Event bits (IC 1, FF 2, HO 4, TO 8) per sample from contact forces (N, 4), sampled
+    every ``dt`` s: the detector's definitions on the true forces, without noise,
+    normalisation or debounce; a stride's contact (IC) needs ``min_swing`` s without one
+    before it, its toe off ``min_stance`` s after its IC (a toe tapping the belt in early
+    swing is not a stride)."""
     heel = force[:, 0] > threshold
     fore = force[:, 1:].max(axis=1) > threshold
     out = np.zeros(len(force), dtype=np.int64)
     phase = 0  # swing
+    k_ic = k_to = -10**9
     for k in range(len(force)):
         h, f = heel[k], fore[k]
         if phase == 0:
-            if h or f:
+            if (h or f) and (k - k_to) * dt >= min_swing:
+                k_ic = k
                 out[k] |= 1
                 phase = 1
                 if h and f:
                     out[k] |= 2
                     phase = 2
         elif not h and not f:
-            out[k] |= 8
-            phase = 0
+            if (k - k_ic) * dt >= min_stance:
+                out[k] |= 8
+                phase = 0
+                k_to = k
         elif phase == 1 and h and f:
             out[k] |= 2
             phase = 2
@@ -340,7 +349,7 @@ def hip_height(leg: LegModel, q: F64, depth: float) -> F64:
 
 #: This leg's swing, as fractions of its cycle (Schwartz 2008: toe off near 60 %),
 #: during which the other leg holds the pelvis high enough for it to clear the belt.
-SWING = (0.62, 0.95)
+SWING = (0.58, 0.95)
 
 
 def other_leg_support(leg: LegModel, depth: float, speed: str, clearance: float,
@@ -392,7 +401,7 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     acts = paper_actuators() if actuators is None else tuple(actuators)
     A = params_array(acts)
     plant_leg = with_actuators(leg, acts)
-    share = body_weight_share(body_mass, float(sum(lk.mass for lk in leg.links)))
+    share = body_weight_share(body_mass)
     gr = Ground.default() if ground is None else ground
     depth = ankle_height + gr.sole
     plant = WalkingPlant.of(plant_leg, share, belt_speed_for(leg, speed, stride_time), gr,

@@ -1,0 +1,89 @@
+"""Gait-phase detection on synthetic force-sensor sequences (reference: the sequences'
+own construction -- where each region is loaded is known to the millisecond)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from exoleg.control import gait_phase as gp
+
+SET = gp.DetectorSettings.default()
+FLOOR = 200.0
+D = SET.params(FLOOR, 1.0)
+
+
+def _walk(strides: int, T: float = 1.0, dt: float = 1e-3, noise: float = 0.0,
+          seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Counts (N, 4) of a heel-strike gait: heel 0-30 %, forefoot 10-60 %, swing 60-100 %;
+    and the times."""
+    t = np.arange(int(strides * T / dt)) * dt
+    x = (t / T) % 1.0
+    heel = (x < 0.30) * 2000.0
+    fore = ((x >= 0.10) & (x < 0.60)) * 1800.0
+    c = np.stack([heel, fore, 0.8 * fore, 0.6 * fore], axis=1)
+    c += np.random.default_rng(seed).normal(0.0, noise, c.shape)
+    return np.clip(c, 0.0, 4095.0), t
+
+
+def _run(counts: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    st = gp.new_state(D)
+    ev = np.array([gp.detect(D, st, c, tt) for c, tt in zip(counts, t, strict=True)])
+    return ev, st
+
+
+def test_events_at_the_constructed_times_plus_the_debounce() -> None:
+    counts, t = _walk(5)
+    ev, _ = _run(counts, t)
+    deb = SET.debounce
+    for bit, frac in ((gp.Event.FF, 0.10), (gp.Event.HO, 0.30), (gp.Event.TO, 0.60)):
+        times = t[(ev & bit) > 0]
+        assert len(times) == 5, bit
+        assert np.allclose(times % 1.0, frac + deb, atol=1.5e-3), (bit, times)
+    ic = t[(ev & gp.Event.IC) > 0]
+    # the first contact is at t = 0 + debounce; then every stride
+    assert np.allclose(ic, np.arange(5) + deb, atol=1.5e-3)
+
+
+def test_stride_time_is_the_mean_of_the_last_strides() -> None:
+    counts, t = _walk(6, T=1.2)
+    _, st = _run(counts, t)
+    assert gp.stride_time(D, st) == pytest.approx(1.2, abs=2e-3)
+
+
+def test_hysteresis_and_debounce_keep_noise_from_chattering() -> None:
+    # noise of 5 % of the loaded reading: no extra events
+    counts, t = _walk(5, noise=100.0, seed=3)
+    ev, _ = _run(counts, t)
+    for bit in gp.Event:
+        assert ((ev & bit) > 0).sum() == 5, bit
+
+
+def test_toe_walking_still_gives_initial_contact() -> None:
+    counts, t = _walk(3)
+    counts[:, 0] = 0.0  # no heel: forefoot first (a crouch or equinus gait)
+    ev, _ = _run(counts, t)
+    assert ((ev & gp.Event.IC) > 0).sum() == 3
+    assert ((ev & gp.Event.FF) > 0).sum() == 0
+
+
+def test_strides_out_of_range_are_rejected() -> None:
+    counts, t = _walk(4)
+    _, st = _run(counts, t)
+    n = st[gp.S_NSTRIDE]
+    # a stride of 3 s (3 x the expected 1 s, beyond 1.75 x) is not averaged in
+    more, t2 = _walk(2)
+    quiet = np.zeros((2000, 4))
+    seq = np.vstack([counts, quiet, more])
+    times = np.arange(len(seq)) * 1e-3
+    _, st2 = _run(seq, times)
+    assert st2[gp.S_NSTRIDE] == n + 1  # the gap stride is rejected, the next one counts
+
+
+def test_bad_settings_are_named() -> None:
+    from exoleg.errors import ParameterError
+
+    with pytest.raises(ParameterError, match="contact_on/contact_off"):
+        gp.DetectorSettings(0.1, 0.2, 20.0, 0.008, 0.15, 0.15, 3, (0.25, 1.75))
+    with pytest.raises(ParameterError, match="stride_accept"):
+        gp.DetectorSettings(0.25, 0.15, 20.0, 0.008, 0.15, 0.15, 3, (1.2, 1.75))
