@@ -99,3 +99,39 @@ def test_simulate_with_actuators_bad_options(tmp_path):
                        (["--dt", "0.0003"], "must divide the control period")):
         r = run("simulate", "--actuators", "--out", str(tmp_path), *args)
         assert r.returncode == 2 and text in r.stderr, r.stderr
+
+
+def test_simulate_walk(tmp_path):
+    import json
+
+    r = run("simulate", "--walk", "--strides", "3", "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    for name in ("timeseries.csv", "summary.json", "walk.png"):
+        assert (tmp_path / name).exists(), name
+    figs = json.loads((tmp_path / "summary.json").read_text())["figures"]
+    assert not figs["safety_fault"]
+    assert [row["event"] for row in figs["gait_phase_detection"]] == [
+        "initial contact", "foot flat", "heel off", "toe off"]
+    header = (tmp_path / "timeseries.csv").read_text().splitlines()[0].split(",")
+    assert {"fsr_heel", "phase", "true_events", "gyro", "motor_speed_knee", "power_ankle",
+            "pelvis"} <= set(header)
+    assert "gait-phase detection" in r.stdout
+
+
+def test_simulate_walk_bad_options(tmp_path):
+    for args, text in ((["--walk", "--kp", "1,2,3"], "does not apply with --walk"),
+                       (["--walk", "--reference", "gait"], "do not apply with --walk"),
+                       (["--walk", "--strides", "0"], "0 is outside 1-10000"),
+                       (["--walk", "--strides", "many"], "expected a whole number"),
+                       (["--walk", "--body-mass", "500"], "outside 10-150"),
+                       (["--strides", "3"], "goes with --walk")):
+        r = run("simulate", "--out", str(tmp_path), *args)
+        assert r.returncode == 2 and text in r.stderr, (args, r.stderr)
+        assert len(r.stderr.strip().splitlines()) == 1
+
+
+def test_validate_gait_phase_table():
+    r = run("validate", "--gait-phase", "--strides", "3")
+    assert r.returncode in (0, 1), r.stderr  # 1: a walk was stopped by the safety layer
+    assert "gait-phase detection (FSR) against the true contacts" in r.stdout
+    assert "Catalfamo" in r.stdout

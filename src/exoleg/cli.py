@@ -30,6 +30,9 @@ if TYPE_CHECKING:
 #: so that the parser does not import numpy); gait SD offsets: mean +- 3 SD.
 STRIDE_TIME_RANGE = (0.4, 4.0)
 SD_RANGE = (-3.0, 3.0)
+#: simulate --walk options' defaults (refused without --walk when changed)
+_WALK_DEFAULTS: dict[str, Any] = {"strides": 10, "body_mass": 30.0, "ankle_height": 5.0,
+                                  "noise": 1.0, "seed": 0}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -110,6 +113,19 @@ def _within(lo: float, hi: float, unit: str = "") -> Callable[[str], float]:
     return parse
 
 
+def _count(lo: int, hi: int) -> Callable[[str], int]:
+    def parse(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if not lo <= v <= hi:
+            raise argparse.ArgumentTypeError(f"{v} is outside {lo}-{hi}")
+        return v
+    parse.__name__ = "count"
+    return parse
+
+
 def _percentile(text: str) -> float:
     v = _number(text)
     if not 0.0 < v < 100.0:
@@ -164,6 +180,22 @@ class _Progress:
 
 # --------------------------------------------------------------------------- validate
 def cmd_validate(args: argparse.Namespace) -> int:
+    if args.gait_phase:
+        from exoleg.validate.gait_phase import evaluate
+
+        rows, rows_ok, runs = evaluate(strides=args.strides)
+        _table([[r.child, f"x{r.noise:g}", str(r.strides),
+                 "stopped by the safety layer" if r.fault else "ok"] for r in runs],
+               ["child", "sensor noise", "strides", "walk"])
+        _table(_detection_rows(rows), _DETECTION_HEADER,
+               title="gait-phase detection (FSR) against the true contacts, all runs")
+        if rows_ok and len(rows_ok) != len(rows) or any(r.fault for r in runs):
+            _table(_detection_rows(rows_ok), _DETECTION_HEADER,
+                   title="the same, runs the safety layer did not stop")
+        _say("published, shank gyroscope: initial contact -25 ms, foot off < 75 ms, > 98 % "
+             "detected (Catalfamo et al. 2010); children with CP: onset < 100 ms, > 99 % of "
+             "phases (Behboodi et al. 2019)")
+        return 1 if any(r.fault for r in runs) else 0
     from exoleg.validate.checks import missing_engines, run_all
 
     checks = run_all(quick=args.quick)
@@ -420,6 +452,118 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
     return 0
 
 
+def _detection_rows(rows: list[dict[str, Any]]) -> list[list[str]]:
+    def ms(v: float) -> str:
+        return "-" if v != v else f"{v:+.0f}"
+
+    def pct(v: float) -> str:
+        return "-" if v != v else f"{100 * v:.1f} %"
+
+    return [[r["event"], str(r["true"]), ms(r["mean_error_ms"]), ms(r["worst_error_ms"]),
+             pct(r["missed_rate"]), pct(r["false_rate"])] for r in rows]
+
+
+_DETECTION_HEADER = ["event", "true events", "mean error ms", "worst error ms", "missed",
+                     "false"]
+
+
+def _simulate_walk(args: argparse.Namespace) -> int:
+    """``simulate --walk``: a fitted child (or the paper's leg) walking on the treadmill
+    with the whole device (:func:`exoleg.sim.walk.simulate_walk`)."""
+    import dataclasses
+
+    import numpy as np
+
+    import exoleg
+    from exoleg.errors import ParameterError
+    from exoleg.io import OutputFolder
+    from exoleg.params.leg_file import read_leg_file
+    from exoleg.plots.figures import walk_figure
+    from exoleg.sim.walk import detection_table, simulate_walk
+
+    t0 = time.perf_counter()
+    for opt in ("postures", "times", "kp", "kd", "q0", "sd"):
+        if getattr(args, opt) is not None:
+            raise ParameterError("exoleg simulate", f"--{opt.replace('_', '-')}",
+                                 "does not apply with --walk (the walking controller's gains "
+                                 "are data/device/walking_control.toml)")
+    for opt in ("saturate", "actuators", "beyond_rom", "animate"):
+        if getattr(args, opt):
+            raise ParameterError("exoleg simulate", f"--{opt.replace('_', '-')}",
+                                 "does not apply with --walk")
+    if args.reference != "paper" or args.controller != "pd-gravity":
+        raise ParameterError("exoleg simulate", "--reference/--controller",
+                             "do not apply with --walk (it follows normative gait at the "
+                             "detected phase)")
+    notes: list[str] = []
+    if args.leg:
+        links, g, name, meta = read_leg_file(args.leg)
+        leg = exoleg.LegModel(links, g=g, name=name)
+        if not meta.get("fits", True):
+            notes.append(f"{args.leg} is a leg for a child the device does not fit")
+    else:
+        leg = exoleg.paper_leg("simplified")
+    stride = args.stride_time or 1.1
+    r = simulate_walk(leg, args.body_mass, strides=args.strides, speed=args.speed or "Free",
+                      stride_time=stride, noise_scale=args.noise, seed=args.seed,
+                      ankle_height=args.ankle_height / 100)
+    rows = detection_table([r])
+    walking = r.t >= r.walk_start + stride
+    err = np.degrees(np.sqrt(np.mean((r.q - r.q_ref)[walking] ** 2, axis=0)))
+    peaks = []
+    for i, a in enumerate(r.actuators):
+        peaks.append({"joint": a.joint, "peak_torque_Nm": float(np.abs(r.tau[:, i]).max()),
+                      "torque_limit_Nm": a.torque_limit,
+                      "rms_torque_Nm": float(np.sqrt(np.mean(r.tau[:, i] ** 2))),
+                      "continuous_torque_Nm": a.continuous_torque,
+                      "peak_speed_deg_s": float(np.degrees(np.abs(r.dq[:, i]).max())),
+                      "max_velocity_deg_s": float(np.degrees(a.max_velocity)),
+                      "peak_power_W": float(np.abs(r.power[:, i]).max()),
+                      "ticks_at_envelope": int((np.abs(r.u_safe[:, i])
+                                                > r.envelope[:, i] + 1e-12).sum()),
+                      "rms_tracking_error_deg": float(err[i])})
+    fault = bool(np.any(r.safety_status & 2))
+    if fault:
+        k = int(np.argmax(r.safety_status & 2))
+        notes.append(f"the safety layer stopped the walk at t = {r.t[k]:.3f} s; torque was off "
+                     "from then on")
+    figs = {"strides_commanded": args.strides, "body_mass_kg": args.body_mass,
+            "pelvis_mass_kg": r.plant.body_mass, "belt_speed_m_s": r.plant.belt_speed,
+            "safety_fault": fault, "peaks": peaks, "gait_phase_detection": rows,
+            "max_contact_force_N": float(r.contact_force.sum(axis=1).max())}
+    with OutputFolder(args.out) as out:
+        name = "timeseries.parquet" if args.format == "parquet" else "timeseries.csv"
+        (r.to_parquet if args.format == "parquet" else r.to_csv)(out.stage(name))
+        files = [name]
+        for fmt in ("png", "svg") if args.svg else ("png",):
+            walk_figure(r, out.stage(f"walk.{fmt}"))
+            files.append(f"walk.{fmt}")
+        summary = {"settings": {k: (str(v) if isinstance(v, Path) else v)
+                                for k, v in vars(args).items() if k != "func"},
+                   "leg": leg.name, "figures": figs, "notes": notes,
+                   "actuators": [dataclasses.asdict(a) for a in r.actuators],
+                   "files": files, "wall_time_s": time.perf_counter() - t0}
+        out.stage("summary.json").write_text(json.dumps(summary, indent=2, default=str))
+        out.commit(last="summary.json")
+    _say(f"exoleg simulate --walk: leg '{leg.name}', body {args.body_mass:g} kg (pelvis carries "
+         f"{r.plant.body_mass:.1f} kg), {args.strides} strides of {stride:g} s on a belt at "
+         f"{r.plant.belt_speed:.2f} m/s, sensor noise x{args.noise:g} (seed {args.seed})")
+    _table([[p["joint"], f"{p['rms_tracking_error_deg']:.1f}",
+             f"{p['peak_torque_Nm']:.1f} / {p['torque_limit_Nm']:.0f}",
+             f"{p['rms_torque_Nm']:.1f} / {p['continuous_torque_Nm']:.0f}",
+             f"{p['peak_speed_deg_s']:.0f} / {p['max_velocity_deg_s']:.0f}",
+             f"{p['peak_power_W']:.1f}", str(p["ticks_at_envelope"])] for p in peaks],
+           ["joint", "RMS tracking deg", "peak torque / limit N m", "RMS / continuous N m",
+            "speed / Table 2 deg/s", "peak power W", "ticks at envelope"])
+    _table(_detection_rows(rows), _DETECTION_HEADER,
+           title="gait-phase detection against the simulator's true contacts")
+    for n in notes:
+        _say(f"note: {n}")
+    _say(f"\nwrote {out.folder}/: " + ", ".join(["summary.json", *files])
+         + f"  ({summary['wall_time_s']:.1f} s)")
+    return 1 if fault else 0
+
+
 def cmd_simulate(args: argparse.Namespace) -> int:
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
@@ -430,6 +574,14 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from exoleg.sim.scenario import run_scenario
 
     t0 = time.perf_counter()
+    if args.walk:
+        return _simulate_walk(args)
+    for opt in ("strides", "body_mass", "noise", "seed", "ankle_height"):
+        if getattr(args, opt) != _WALK_DEFAULTS[opt]:
+            from exoleg.errors import ParameterError
+
+            raise ParameterError("exoleg simulate", f"--{opt.replace('_', '-')}",
+                                 "goes with --walk")
     cfg = _build(args)
     for w in cfg["warnings"]:
         _say(f"warning: {w}")
@@ -696,6 +848,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub = ap.add_subparsers(dest="command", required=True, parser_class=_Parser)
     v = sub.add_parser("validate", help="check the model against the paper, Pinocchio, MuJoCo")
     v.add_argument("--quick", action="store_true", help="fewer random legs and states")
+    v.add_argument("--gait-phase", action="store_true",
+                   help="the gait-phase detector against the true contacts: children x noise")
+    v.add_argument("--strides", type=_count(1, 1000), default=20, metavar="N",
+                   help="with --gait-phase: strides per walk, 1-1000 (default 20)")
     v.set_defaults(func=cmd_validate)
 
     s = sub.add_parser("simulate", help="closed-loop simulation; default: the paper's scenario")
@@ -734,6 +890,19 @@ def build_parser() -> argparse.ArgumentParser:
                    help="run through the paper's actuators (reflected inertia, friction, "
                         "torque-speed envelope, current loop), 20-bit encoders and the safety "
                         "layer, and show what Table 2 allows")
+    s.add_argument("--walk", action="store_true",
+                   help="walk on a treadmill with the whole device: foot contacts, FSR and IMU, "
+                        "gait-phase detection, the control hierarchy, safety layer, actuators")
+    s.add_argument("--strides", type=_count(1, 10000), default=_WALK_DEFAULTS["strides"],
+                   metavar="N", help="walk: strides, 1-10000 (default 10)")
+    s.add_argument("--body-mass", type=_within(10.0, 150.0, " kg"),
+                   default=_WALK_DEFAULTS["body_mass"], help="walk: the child's mass, kg")
+    s.add_argument("--ankle-height", type=_within(1.0, 15.0, " cm"),
+                   default=_WALK_DEFAULTS["ankle_height"], help="walk: ankle above the sole, cm")
+    s.add_argument("--noise", type=_within(0.0, 100.0), default=_WALK_DEFAULTS["noise"],
+                   help="walk: sensor noise, times the datasheets' (0: ideal)")
+    s.add_argument("--seed", type=_count(0, 2**31 - 1), default=_WALK_DEFAULTS["seed"],
+                   help="walk: noise seed")
     s.set_defaults(func=cmd_simulate)
 
     f = sub.add_parser("fit", help="fit the device to one child: dimensions, settings, verdict, "

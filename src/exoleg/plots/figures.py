@@ -21,6 +21,7 @@ from exoleg.sim.scenario import ScenarioReport
 
 if TYPE_CHECKING:
     from exoleg.sim.device_loop import DeviceResult
+    from exoleg.sim.walk import WalkResult
 
 _BINS = 600  # points drawn per curve
 
@@ -188,4 +189,71 @@ def device_figure(result: DeviceResult, path: str | Path) -> Path:
 
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110, format=Path(path).suffix.lstrip(".") or "png")
+    return Path(path)
+
+
+def walk_figure(result: WalkResult, path: str | Path) -> Path:
+    """A walking run (:func:`exoleg.sim.walk.simulate_walk`): top, each joint's angle over
+    the detected gait cycle, every stride, on the normative band (Schwartz 2008, mean
+    +- 1 SD); middle, the last three strides' FSR readings, the detected phase against
+    the true contacts, the foot gyroscope; bottom, each joint's delivered torque against
+    its speed over the actuator's envelope."""
+    from exoleg.device.actuator import envelope
+    from exoleg.device.walking import SENSOR_POINTS
+    from exoleg.reference.gait import gait_angles
+
+    r = result
+    fig = new_figure(12, 9.5, left=0.06, right=0.98, top=0.94, bottom=0.06, wspace=0.28,
+                     hspace=0.45)
+    axes = fig.subplots(3, 3)
+    walking = (r.mode == 2) & (r.t > r.walk_start + r.stride_time)
+    pct, mean = gait_angles("Free", 0.0)
+    lo, hi = gait_angles("Free", -1.0)[1], gait_angles("Free", 1.0)[1]
+    x = 100 * r.gait_fraction[walking]
+    for i, j in enumerate(JOINTS):
+        ax = axes[0, i]
+        ax.fill_between(pct, np.degrees(np.minimum(lo[:, i], hi[:, i])),
+                        np.degrees(np.maximum(lo[:, i], hi[:, i])), color="0.85",
+                        label="normative +- 1 SD")
+        ax.plot(pct, np.degrees(mean[:, i]), "k--", lw=0.8, label="normative mean")
+        ax.plot(x, np.degrees(r.q[walking, i]), ".", ms=0.8, label="device")
+        _title(ax, f"{j} angle (deg) over the gait cycle (%)")
+        ax.legend(fontsize=6, loc="best")
+    last = r.t >= r.t[-1] - 3 * r.stride_time
+    t = r.t[last]
+    ax = axes[1, 0]
+    for k, s in enumerate(SENSOR_POINTS):
+        ax.plot(t, r.fsr[last, k], lw=0.7, label=s)
+    _title(ax, "FSR readings (ADC counts)")
+    ax.legend(fontsize=6, loc="upper right")
+    ax = axes[1, 1]
+    ax.step(t, r.phase[last], where="post", lw=0.9, label="detected phase")
+    true_contact = (r.contact_force[last].sum(axis=1) > 5.0).astype(float)
+    ax.fill_between(t, -1.2, -1.2 + true_contact, step="post", color="C1", alpha=0.4,
+                    label="true contact")
+    ax.set_yticks([-1, 0, 1, 2, 3], ["", "swing", "loading", "flat", "push"], fontsize=7)
+    _title(ax, "gait phase: detected vs true contact")
+    ax.legend(fontsize=6, loc="upper right")
+    ax = axes[1, 2]
+    ax.plot(t, np.degrees(r.gyro[last]), lw=0.7)
+    _title(ax, "foot gyroscope (deg/s)")
+    for i, j in enumerate(JOINTS):
+        a = r.actuators[i]
+        par = np.array(a.params())
+        w = np.linspace(0, 1.15 * a.no_load_factor * a.max_velocity, 400)
+        env = np.array([envelope(par, v) for v in w])
+        ax = axes[2, i]
+        wd = np.degrees(w)
+        ax.fill_between(wd, -env, env, color="0.9", label="envelope")
+        ax.fill_between(-wd, -env, env, color="0.9")
+        _, v, tau = _thin(r.t, np.degrees(r.dq[:, i]), r.tau[:, i])
+        ax.plot(v, tau, ".", ms=1.2, label="delivered")
+        _title(ax, f"{j}: torque (N m) vs speed (deg/s)")
+        ax.legend(fontsize=6, loc="lower left")
+    fig.suptitle("walking with the device: actuators, sensors, gait phases, control hierarchy, "
+                 "safety layer", fontsize=10)
+    from exoleg.io import atomic_path
+
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=100, format=Path(path).suffix.lstrip(".") or "png")
     return Path(path)

@@ -37,9 +37,10 @@ class DetectionRun:
 
 def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
              children: tuple[tuple[str, float, str, int | None], ...] = CHILDREN,
-             seed: int = 0) -> tuple[list[dict[str, Any]], list[DetectionRun]]:
-    """(the detection table over every run, the runs). Each child walks ``strides`` strides
-    at each noise level."""
+             seed: int = 0
+             ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[DetectionRun]]:
+    """(the detection table over every run, over the runs the safety layer did not stop,
+    the runs). Each child walks ``strides`` strides at each noise level."""
     from exoleg.sim.walk import detection_table, simulate_walk
     from exoleg.sizing import Child, estimate_dimensions, fit_device, personalized_leg
     from exoleg.sizing import growth
@@ -58,4 +59,5 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
                               ankle_height=ankle)
             results.append(r)
             runs.append(DetectionRun(label, n, strides, bool(np.any(r.safety_status & 2))))
-    return detection_table(results), runs
+    ok = [r for r, run in zip(results, runs, strict=True) if not run.fault]
+    return detection_table(results), detection_table(ok) if ok else [], runs
