@@ -199,11 +199,11 @@ def cmd_validate(args: argparse.Namespace) -> int:
     from exoleg.validate.checks import missing_engines, run_all
 
     checks = run_all(quick=args.quick)
-    rows = [[c.name, c.reference, f"{c.figure:.2e}",
+    check_rows = [[c.name, c.reference, f"{c.figure:.2e}",
              (f"[{c.lower:g}, {c.tolerance:g}]" if c.lower is not None
               else f"<= {c.tolerance:.0e}"),
              "pass" if c.passed else "FAIL", c.detail] for c in checks]
-    _table(rows, ["check", "reference", "figure", "tolerance", "", "detail"])
+    _table(check_rows, ["check", "reference", "figure", "tolerance", "", "detail"])
     for m in missing_engines():
         _say(f"skipped: {m} is not installed (pip install exoleg[validate])")
     failed = [c for c in checks if not c.passed]
@@ -510,7 +510,7 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     rows = detection_table([r])
     walking = r.t >= r.walk_start + stride
     err = np.degrees(np.sqrt(np.mean((r.q - r.q_ref)[walking] ** 2, axis=0)))
-    peaks = []
+    peaks: list[dict[str, Any]] = []
     for i, a in enumerate(r.actuators):
         peaks.append({"joint": a.joint, "peak_torque_Nm": float(np.abs(r.tau[:, i]).max()),
                       "torque_limit_Nm": a.torque_limit,

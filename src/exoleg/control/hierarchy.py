@@ -274,7 +274,7 @@ class WalkController:
         self.info = np.zeros(INFO_SIZE)
 
     def step(self, sensors: dict[str, ArrayLike], t: float) -> dict[str, object]:
-        command = int(sensors.get("command", Command.NONE))  # type: ignore[call-overload]
+        command = int(np.asarray(sensors.get("command", Command.NONE)))
         walk_control_step(self.cp, self.gq, self.gdq, self.leg.p, self.leg.g, self.fx,
                           self.sole, self.d, self.st, self.lim, self.sst, self.sup,
                           np.asarray(sensors["q"], dtype=float),

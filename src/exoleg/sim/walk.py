@@ -437,7 +437,7 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                     INFO, UC, TAU, ENV, SUP)
     if bad >= 0:
         raise SimulationError(f"walking state became non-finite at t = {bad * control_dt:.4g} s")
-    t = np.arange(n + 1) * control_dt
+    t: F64 = np.arange(n + 1, dtype=np.float64) * control_dt
     return WalkResult(t=t, pelvis=X[:, 0], q=X[:, 1:4], dq=X[:, 5:8], q_meas=QM, dq_meas=VM,
                       q_ref=INFO[:, 5:8], fsr=COUNTS, contact_force=FN, gyro=IMU[:, 0],
                       accel=IMU[:, 1:3], mode=INFO[:, 0].astype(np.int64),

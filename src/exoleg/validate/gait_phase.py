@@ -42,8 +42,7 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
     """(the detection table over every run, over the runs the safety layer did not stop,
     the runs). Each child walks ``strides`` strides at each noise level."""
     from exoleg.sim.walk import detection_table, simulate_walk
-    from exoleg.sizing import Child, estimate_dimensions, fit_device, personalized_leg
-    from exoleg.sizing import growth
+    from exoleg.sizing import Child, estimate_dimensions, fit_device, growth, personalized_leg
 
     results, runs = [], []
     for label, age, sex, gmfcs in children:
