@@ -10,8 +10,9 @@ the child's detected phase and cadence, and the safety layer -- one compiled tic
   at the gait fraction the detector measures since the child's last initial contact,
   over the child's own stride time (mean of the last strides) -- not a clock.
 * **Impedance**: the inertial feedforward M(q) ddq_ref of the controller's model (with
-  the actuators' reflected inertia), PD with gains per phase (stance, swing: ``data/device/walking_control
-  .toml``) plus gravity compensation from the controller's model: in swing the hanging
+  the actuators' reflected inertia), PD with gains per phase (stance, swing:
+  ``data/device/walking_control.toml``) plus gravity compensation from the controller's
+  model: in swing the hanging
   leg's G(q) (the paper's eq 19); in stance the inverted pendulum's -- G(q) less
   ``support`` times the body weight carried at the centre of pressure the FSRs measure,
   ``G(q) - support J_cop(q)^T (0, m g)``.
