@@ -342,6 +342,25 @@ def _save_figures(report: Any, folder: Path, formats: tuple[str, ...]) -> list[s
     return [p.name for p in paths]
 
 
+def _actuator_peaks(acts: Any, tau: Any, dq: Any, u_safe: Any, env: Any) -> list[dict[str, Any]]:
+    """Per actuator, what a run asked of it against its limits (SI; speeds in deg/s)."""
+    import numpy as np
+
+    out = []
+    for i, a in enumerate(acts):
+        out.append({
+            "joint": a.joint, "reflected_inertia_kg_m2": a.reflected_inertia,
+            "peak_torque_Nm": float(np.abs(tau[:, i]).max()), "torque_limit_Nm": a.torque_limit,
+            "rms_torque_Nm": float(np.sqrt(np.mean(tau[:, i] ** 2))),
+            "continuous_torque_Nm": a.continuous_torque,
+            "peak_speed_deg_s": float(np.degrees(np.abs(dq[:, i]).max())),
+            "max_velocity_deg_s": float(np.degrees(a.max_velocity)),
+            "peak_motor_speed_rpm": float(np.abs(dq[:, i]).max() * a.ratio * 30 / np.pi),
+            "peak_power_W": float(np.abs(tau[:, i] * dq[:, i]).max()), "power_W": a.power,
+            "ticks_at_envelope": int((np.abs(u_safe[:, i]) > env[:, i] + 1e-12).sum())})
+    return out
+
+
 def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
     """``simulate --actuators``: the run through the device's actuators, encoders and
     safety layer (:func:`exoleg.sim.device_loop.simulate_device`), against Table 2."""
@@ -370,27 +389,14 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
         ideal = simulate(cfg["leg"], cfg["controller"], cfg["reference"], args.duration,
                          dt=control_dt, q0=cfg["q0"])
     acts = r.actuators
-    clipped = np.abs(r.u_safe) > r.envelope + 1e-12
-    rows, peaks = [], []
-    for i, a in enumerate(acts):
-        rms = float(np.sqrt(np.mean(r.tau[:, i] ** 2)))
-        peak = {
-            "joint": a.joint, "reflected_inertia_kg_m2": a.reflected_inertia,
-            "peak_command_Nm": float(np.abs(r.u_command[:, i]).max()),
-            "peak_torque_Nm": float(np.abs(r.tau[:, i]).max()),
-            "torque_limit_Nm": a.torque_limit, "rms_torque_Nm": rms,
-            "continuous_torque_Nm": a.continuous_torque,
-            "peak_speed_deg_s": float(np.degrees(np.abs(r.dq[:, i]).max())),
-            "max_velocity_deg_s": float(np.degrees(a.max_velocity)),
-            "peak_motor_speed_rpm": float(np.abs(r.motor_speed[:, i]).max() * 30 / np.pi),
-            "peak_power_W": float(np.abs(r.power[:, i]).max()), "power_W": a.power,
-            "ticks_at_envelope": int(clipped[:, i].sum()),
-        }
-        peaks.append(peak)
+    peaks = _actuator_peaks(acts, r.tau, r.dq, r.u_safe, r.envelope)
+    rows = []
+    for i, (a, peak) in enumerate(zip(acts, peaks, strict=True)):
+        peak["peak_command_Nm"] = float(np.abs(r.u_command[:, i]).max())
         rows.append([a.joint, f"{a.reflected_inertia:.3g}",
                      f"{peak['peak_command_Nm']:.1f} / {peak['peak_torque_Nm']:.1f} / "
                      f"{a.torque_limit:.0f}",
-                     f"{rms:.1f} / {a.continuous_torque:.0f}",
+                     f"{peak['rms_torque_Nm']:.1f} / {a.continuous_torque:.0f}",
                      f"{peak['peak_speed_deg_s']:.0f} / {peak['max_velocity_deg_s']:.0f}",
                      f"{peak['peak_power_W']:.1f} / {a.power:.0f}",
                      str(peak["ticks_at_envelope"])])
@@ -510,18 +516,9 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     rows = detection_table([r])
     walking = r.t >= r.walk_start + stride
     err = np.degrees(np.sqrt(np.mean((r.q - r.q_ref)[walking] ** 2, axis=0)))
-    peaks: list[dict[str, Any]] = []
-    for i, a in enumerate(r.actuators):
-        peaks.append({"joint": a.joint, "peak_torque_Nm": float(np.abs(r.tau[:, i]).max()),
-                      "torque_limit_Nm": a.torque_limit,
-                      "rms_torque_Nm": float(np.sqrt(np.mean(r.tau[:, i] ** 2))),
-                      "continuous_torque_Nm": a.continuous_torque,
-                      "peak_speed_deg_s": float(np.degrees(np.abs(r.dq[:, i]).max())),
-                      "max_velocity_deg_s": float(np.degrees(a.max_velocity)),
-                      "peak_power_W": float(np.abs(r.power[:, i]).max()),
-                      "ticks_at_envelope": int((np.abs(r.u_safe[:, i])
-                                                > r.envelope[:, i] + 1e-12).sum()),
-                      "rms_tracking_error_deg": float(err[i])})
+    peaks = _actuator_peaks(r.actuators, r.tau, r.dq, r.u_safe, r.envelope)
+    for p, e in zip(peaks, err, strict=True):
+        p["rms_tracking_error_deg"] = float(e)
     fault = bool(np.any(r.safety_status & 2))
     if fault:
         k = int(np.argmax(r.safety_status & 2))

@@ -20,6 +20,7 @@ from exoleg.params.records import JOINTS
 from exoleg.sim.scenario import ScenarioReport
 
 if TYPE_CHECKING:
+    from exoleg.device.actuator import ActuatorModel
     from exoleg.sim.device_loop import DeviceResult
     from exoleg.sim.walk import WalkResult
 
@@ -149,13 +150,32 @@ def save_figures(report: ScenarioReport, folder: str | Path,
     return paths
 
 
+def _torque_speed(ax: Axes, actuator: ActuatorModel, t: np.ndarray, dq: np.ndarray,
+                  tau: np.ndarray) -> None:
+    """One joint's delivered torque against its speed over the actuator's envelope, with
+    Table 2's maximum velocity marked."""
+    from exoleg.device.actuator import envelope
+
+    par = np.array(actuator.params())
+    w = np.linspace(0, 1.15 * actuator.no_load_factor * actuator.max_velocity, 400)
+    env = np.array([envelope(par, x) for x in w])
+    wd = np.degrees(w)
+    ax.fill_between(wd, -env, env, color="0.9", label="envelope")
+    ax.fill_between(-wd, -env, env, color="0.9")
+    _, v, tq = _thin(t, np.degrees(dq), tau)
+    ax.plot(v, tq, ".", ms=1.2, label="delivered")
+    vmax = np.degrees(actuator.max_velocity)
+    ax.axvline(vmax, color="r", lw=0.6, ls=":")
+    ax.axvline(-vmax, color="r", lw=0.6, ls=":", label="Table 2 max velocity")
+    _title(ax, f"{actuator.joint}: torque (N m) vs speed (deg/s)")
+    ax.legend(fontsize=6, loc="lower left")
+
+
 def device_figure(result: DeviceResult, path: str | Path) -> Path:
     """A device run (:func:`exoleg.sim.device_loop.simulate_device`): top, each joint's
     angle against its reference (deg); bottom, its torque-speed plane -- the drive's
     delivered torque against the joint speed, over the actuator's envelope (Table 2's
     peak torque, rated power, maximum velocity)."""
-    from exoleg.device.actuator import envelope
-
     fig = new_figure(11, 6.5, left=0.07, right=0.98, top=0.89, bottom=0.08, wspace=0.28,
                      hspace=0.35)
     axes = fig.subplots(2, 3)
@@ -168,21 +188,7 @@ def device_figure(result: DeviceResult, path: str | Path) -> Path:
         _title(ax, f"{j} angle (deg)")
         ax.set_xlabel("t (s)", fontsize=8)
         ax.legend(fontsize=7, loc="best")
-        a = r.actuators[i]
-        par = np.array(a.params())
-        w = np.linspace(0, 1.15 * a.no_load_factor * a.max_velocity, 400)
-        env = np.array([envelope(par, x) for x in w])
-        ax = axes[1, i]
-        wd = np.degrees(w)
-        ax.fill_between(wd, -env, env, color="0.9", label="envelope")
-        ax.fill_between(-wd, -env, env, color="0.9")
-        _, v, tau = _thin(r.t, np.degrees(r.dq[:, i]), r.tau[:, i])
-        ax.plot(v, tau, ".", ms=1.5, label="delivered")
-        ax.axvline(np.degrees(a.max_velocity), color="r", lw=0.6, ls=":")
-        ax.axvline(-np.degrees(a.max_velocity), color="r", lw=0.6, ls=":",
-                   label="Table 2 max velocity")
-        _title(ax, f"{j}: torque (N m) vs speed (deg/s)")
-        ax.legend(fontsize=6, loc="lower left")
+        _torque_speed(axes[1, i], r.actuators[i], r.t, r.dq[:, i], r.tau[:, i])
     fig.suptitle(f"device run: actuators, encoders, safety layer"
                  f"{' -- FAULT ' + r.fault if r.fault else ''}", fontsize=10)
     from exoleg.io import atomic_path
@@ -198,7 +204,6 @@ def walk_figure(result: WalkResult, path: str | Path) -> Path:
     +- 1 SD); middle, the last three strides' FSR readings, the detected phase against
     the true contacts, the foot gyroscope; bottom, each joint's delivered torque against
     its speed over the actuator's envelope."""
-    from exoleg.device.actuator import envelope
     from exoleg.device.walking import SENSOR_POINTS
     from exoleg.reference.gait import gait_angles
 
@@ -237,19 +242,8 @@ def walk_figure(result: WalkResult, path: str | Path) -> Path:
     ax = axes[1, 2]
     ax.plot(t, np.degrees(r.gyro[last]), lw=0.7)
     _title(ax, "foot gyroscope (deg/s)")
-    for i, j in enumerate(JOINTS):
-        a = r.actuators[i]
-        par = np.array(a.params())
-        w = np.linspace(0, 1.15 * a.no_load_factor * a.max_velocity, 400)
-        env = np.array([envelope(par, v) for v in w])
-        ax = axes[2, i]
-        wd = np.degrees(w)
-        ax.fill_between(wd, -env, env, color="0.9", label="envelope")
-        ax.fill_between(-wd, -env, env, color="0.9")
-        _, v, tau = _thin(r.t, np.degrees(r.dq[:, i]), r.tau[:, i])
-        ax.plot(v, tau, ".", ms=1.2, label="delivered")
-        _title(ax, f"{j}: torque (N m) vs speed (deg/s)")
-        ax.legend(fontsize=6, loc="lower left")
+    for i in range(3):
+        _torque_speed(axes[2, i], r.actuators[i], r.t, r.dq[:, i], r.tau[:, i])
     fig.suptitle("walking with the device: actuators, sensors, gait phases, control hierarchy, "
                  "safety layer", fontsize=10)
     from exoleg.io import atomic_path

@@ -7,8 +7,6 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
-from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numba import njit
@@ -19,13 +17,10 @@ from exoleg.control.laws import COMPUTED_TORQUE_KIND, law
 from exoleg.dynamics.kernels import coefficients, diagnostics, forward_dynamics_sc, mass_matrix
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError, SimulationError
-from exoleg.io import write_csv_table, write_parquet_table
 from exoleg.params.records import JOINTS, RangeOfMotion
 from exoleg.reference.steps import Reference
 from exoleg.sim.integrators import RESYNC, next_sincos, rk4_sc, sincos3
-
-if TYPE_CHECKING:
-    import pyarrow as pa
+from exoleg.sim.series import TimeSeries
 
 F64 = NDArray[np.float64]
 log = logging.getLogger(__name__)
@@ -208,7 +203,7 @@ def available_memory() -> int | None:
 
 
 @dataclass(frozen=True)
-class SimResult:
+class SimResult(TimeSeries):
     """Named time series of a run; arrays (N,) or (N, 3), joints ordered (hip, knee, ankle).
 
     t s; q rad; dq rad/s; ddq rad/s^2; u N m (held torque); q_ref rad; saturated (N, 3);
@@ -279,20 +274,6 @@ class SimResult:
             cols[name] = getattr(self, name)
         return cols
 
-    def table(self) -> pa.Table:
-        """:meth:`columns` as an Arrow table."""
-        import pyarrow as pa
-
-        return pa.table(self.columns())
-
-    def to_csv(self, path: str | Path) -> Path:
-        """Write :meth:`columns` as CSV (:func:`exoleg.io.write_csv_table`: exact, whole
-        or not at all)."""
-        return write_csv_table(self.table(), path)
-
-    def to_parquet(self, path: str | Path) -> Path:
-        """Write :meth:`columns` as Parquet, whole or not at all."""
-        return write_parquet_table(self.table(), path)
 
 
 def _rom(range_of_motion: RangeOfMotion | None) -> RangeOfMotion:

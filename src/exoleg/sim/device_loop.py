@@ -25,8 +25,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numba import njit
@@ -52,9 +50,7 @@ from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError, SimulationError
 from exoleg.params.records import JOINTS
 from exoleg.reference.steps import Reference
-
-if TYPE_CHECKING:
-    import pyarrow as pa
+from exoleg.sim.series import TimeSeries
 
 F64 = NDArray[np.float64]
 
@@ -168,7 +164,7 @@ def _run_device(p, g, kind, kp, kd, kc, scale, limit, A, lim, state, Qr, DQr, DD
 
 
 @dataclass(frozen=True)
-class DeviceResult:
+class DeviceResult(TimeSeries):
     """Time series of a device run, (N,) or (N, 3), joints (hip, knee, ankle), SI units.
 
     t s; q, dq the true state (rad, rad/s); q_meas, dq_meas what the encoders and the
@@ -222,20 +218,6 @@ class DeviceResult:
         cols["safety_status"] = self.status.astype(float)
         return cols
 
-    def table(self) -> pa.Table:
-        import pyarrow as pa
-
-        return pa.table(self.columns())
-
-    def to_csv(self, path: str | Path) -> Path:
-        from exoleg.io import write_csv_table
-
-        return write_csv_table(self.table(), path)
-
-    def to_parquet(self, path: str | Path) -> Path:
-        from exoleg.io import write_parquet_table
-
-        return write_parquet_table(self.table(), path)
 
 
 def simulate_device(leg: LegModel, controller: Controller, reference: Reference,

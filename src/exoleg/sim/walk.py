@@ -23,8 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -65,9 +64,7 @@ from exoleg.dynamics.kernels import OFFSETS
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError, SimulationError
 from exoleg.params.records import JOINTS
-
-if TYPE_CHECKING:
-    import pyarrow as pa
+from exoleg.sim.series import TimeSeries
 
 F64 = NDArray[np.float64]
 
@@ -206,7 +203,7 @@ def _run_walk(p, w, A, cp, gq, gdq, cp_p, g, fx, sole, d, st, lim, sst, sup, sen
 
 
 @dataclass(frozen=True)
-class WalkResult:
+class WalkResult(TimeSeries):
     """A walking run's time series, SI units; joints (hip, knee, ankle), FSRs
     (:data:`SENSOR_POINTS`). ``pelvis`` height m; q, dq true; q_meas, dq_meas; q_ref;
     fsr (counts) and contact_force (true normal force, N) per sensor; gyro rad/s,
@@ -271,20 +268,6 @@ class WalkResult:
         cols["support"] = self.support
         return cols
 
-    def table(self) -> pa.Table:
-        import pyarrow as pa
-
-        return pa.table(self.columns())
-
-    def to_csv(self, path: str | Path) -> Path:
-        from exoleg.io import write_csv_table
-
-        return write_csv_table(self.table(), path)
-
-    def to_parquet(self, path: str | Path) -> Path:
-        from exoleg.io import write_parquet_table
-
-        return write_parquet_table(self.table(), path)
 
 
 def true_events(force: F64, threshold: float = TRUE_CONTACT_N, dt: float = 1e-3,
