@@ -381,7 +381,8 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
         raise ParameterError("exoleg simulate", "--saturate", "does not apply with "
                              "--actuators (the safety layer and the drives limit the torque)")
     r = simulate_device(cfg["leg"], cfg["controller"], cfg["reference"], args.duration,
-                        control_dt=control_dt, substeps=substeps, q0=cfg["q0"])
+                        control_dt=control_dt, substeps=substeps, q0=cfg["q0"],
+                        device=args.device)
     ideal = None
     if not args.no_engine:  # the same run with ideal torques, for the comparison
         from exoleg import simulate
@@ -512,7 +513,7 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     stride = args.stride_time or 1.1
     r = simulate_walk(leg, args.body_mass, strides=args.strides, speed=args.speed or "Free",
                       stride_time=stride, noise_scale=args.noise, seed=args.seed,
-                      ankle_height=args.ankle_height / 100)
+                      ankle_height=args.ankle_height / 100, device=args.device)
     rows = detection_table([r])
     walking = r.t >= r.walk_start + stride
     err = np.degrees(np.sqrt(np.mean((r.q - r.q_ref)[walking] ** 2, axis=0)))
@@ -573,6 +574,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     if args.walk:
         return _simulate_walk(args)
+    if args.device is not None and not args.actuators:
+        from exoleg.errors import ParameterError
+
+        raise ParameterError("exoleg simulate", "--device", "goes with --walk or --actuators")
     for opt in ("strides", "body_mass", "noise", "seed", "ankle_height"):
         if getattr(args, opt) != _WALK_DEFAULTS[opt]:
             from exoleg.errors import ParameterError
@@ -900,6 +905,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="walk: sensor noise, times the datasheets' (0: ideal)")
     s.add_argument("--seed", type=_count(0, 2**31 - 1), default=_WALK_DEFAULTS["seed"],
                    help="walk: noise seed")
+    s.add_argument("--device", type=Path, help="with --walk or --actuators: a folder of device "
+                   "files (actuators/*.toml, sensors.toml, gait_phase.toml, "
+                   "walking_control.toml, safety.toml, walking.toml) replacing the shipped ones")
     s.set_defaults(func=cmd_simulate)
 
     f = sub.add_parser("fit", help="fit the device to one child: dimensions, settings, verdict, "

@@ -20,10 +20,9 @@ the last IC over it. Thresholds, hysteresis, debounce and stride rules are data
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass
 from enum import IntEnum
-from importlib import resources
+from pathlib import Path
 
 import numpy as np
 from numba import njit
@@ -86,19 +85,29 @@ class DetectorSettings:
             raise ParameterError(w, "stride_accept", f"need 0 < lo < 1 < hi, got {lo}, {hi}")
 
     @classmethod
-    def default(cls) -> DetectorSettings:
-        where = "exoleg/data/device/gait_phase.toml"
-        d = tomllib.loads(resources.files("exoleg").joinpath(
-            "data", "device", "gait_phase.toml").read_text())
-        _check.keys(where, d, ["source", "contact_on", "contact_off", "calibration_floor_N",
-                               "debounce_ms", "min_swing_ms", "min_stance_ms",
-                               "strides_averaged", "stride_accept"])
+    def default(cls, folder: str | Path | None = None) -> DetectorSettings:
+        """From ``gait_phase.toml`` (a device folder's, :mod:`exoleg.device.files`, or the
+        package's)."""
+        from exoleg.device.files import load
+
+        where, d = load("gait_phase.toml", folder)
+        v = _check.ranged(where, {k: x for k, x in d.items() if k != "stride_accept"}, {
+            "contact_on": (0.0, 1.0, ""), "contact_off": (0.0, 1.0, ""),
+            "calibration_floor_N": (0.1, 1e3, "N"), "debounce_ms": (0.0, 200.0, "ms"),
+            "min_swing_ms": (0.0, 2000.0, "ms"), "min_stance_ms": (0.0, 2000.0, "ms"),
+            "strides_averaged": (1.0, 10.0, "")})
+        if "stride_accept" not in d:
+            raise ParameterError(where, "stride_accept", "missing ([lower, upper] multiples)")
         acc = _check.vector(where, "stride_accept", d["stride_accept"], 2)
-        return cls(contact_on=d["contact_on"], contact_off=d["contact_off"],
-                   calibration_floor=d["calibration_floor_N"], debounce=d["debounce_ms"] / 1e3,
-                   min_swing=d["min_swing_ms"] / 1e3, min_stance=d["min_stance_ms"] / 1e3,
-                   strides_averaged=int(d["strides_averaged"]),
-                   stride_accept=(float(acc[0]), float(acc[1])))
+        try:
+            return cls(contact_on=v["contact_on"], contact_off=v["contact_off"],
+                       calibration_floor=v["calibration_floor_N"],
+                       debounce=v["debounce_ms"] / 1e3, min_swing=v["min_swing_ms"] / 1e3,
+                       min_stance=v["min_stance_ms"] / 1e3,
+                       strides_averaged=int(v["strides_averaged"]),
+                       stride_accept=(float(acc[0]), float(acc[1])))
+        except ParameterError as e:  # a rule across fields: name the file
+            raise ParameterError(where, e.field, e.problem) from None
 
     def params(self, floor_counts: float, expected_stride: float) -> F64:
         """For :func:`detect`: thresholds, times, the calibration floor in counts, the

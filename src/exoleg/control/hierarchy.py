@@ -27,10 +27,9 @@ runtime will run.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from enum import IntEnum
-from importlib import resources
+from pathlib import Path
 
 import numpy as np
 from numba import njit
@@ -90,15 +89,22 @@ class WalkGains:
         object.__setattr__(self, "support", s)
 
     @classmethod
-    def default(cls) -> WalkGains:
-        where = "exoleg/data/device/walking_control.toml"
-        d = tomllib.loads(resources.files("exoleg").joinpath(
-            "data", "device", "walking_control.toml").read_text())
-        _check.keys(where, d, ["source", "kp_stance", "kd_stance", "kp_swing", "kd_swing",
-                               "standing_deg", "support"])
-        return cls(kp_stance=d["kp_stance"], kd_stance=d["kd_stance"], kp_swing=d["kp_swing"],
-                   kd_swing=d["kd_swing"], standing=np.radians(d["standing_deg"]),
-                   support=d["support"])
+    def default(cls, folder: str | Path | None = None) -> WalkGains:
+        """From ``walking_control.toml`` (a device folder's, :mod:`exoleg.device.files`,
+        or the package's)."""
+        from exoleg.device.files import load
+
+        where, d = load("walking_control.toml", folder)
+        names = ("kp_stance", "kd_stance", "kp_swing", "kd_swing", "standing_deg")
+        _check.keys(where, d, [*names, "support"], ["source"])
+        vec = {n: _check.vector(where, n, d[n], 3) for n in names}
+        try:
+            return cls(kp_stance=vec["kp_stance"], kd_stance=vec["kd_stance"],
+                       kp_swing=vec["kp_swing"], kd_swing=vec["kd_swing"],
+                       standing=np.radians(vec["standing_deg"]),
+                       support=_check.finite(where, "support", d["support"]))
+        except ParameterError as e:  # a range checked by the record: name the file
+            raise ParameterError(where, e.field, e.problem) from None
 
     def params(self, body_mass: float) -> F64:
         return np.array([*self.kp_stance, *self.kd_stance, *self.kp_swing, *self.kd_swing,

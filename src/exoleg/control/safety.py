@@ -23,12 +23,9 @@ simulator, the runtime and the hardware-in-the-loop tests run the same code.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from enum import IntEnum
-from functools import cache
-from importlib import resources
-from typing import Any
+from pathlib import Path
 
 import numpy as np
 from numba import njit
@@ -109,27 +106,32 @@ class SafetyLimits:
         object.__setattr__(self, "dt", dt)
 
     @classmethod
-    def paper(cls, dt: float = 1e-3) -> SafetyLimits:
-        """The defaults: the paper's range of motion and Table 2, with
-        ``data/device/safety.toml``'s margins and rates."""
+    def paper(cls, dt: float = 1e-3, folder: str | Path | None = None) -> SafetyLimits:
+        """The defaults: the paper's range of motion and Table 2, with ``safety.toml``'s
+        margins and rates (a device folder's, :mod:`exoleg.device.files`, or the
+        package's)."""
+        from exoleg.device.files import load
         from exoleg.params import paper
 
-        d = _safety_file()
-        where = "exoleg/data/device/safety.toml"
-        _check.keys(where, d, ["source", "hard_margin_deg", "torque_fraction",
-                               "max_torque_rate", "overspeed_factor"])
+        where, d = load("safety.toml", folder)
+        v = _check.ranged(where, {k: x for k, x in d.items() if k != "max_torque_rate"},
+                          {"hard_margin_deg": (0.0, 45.0, "deg"),
+                           "torque_fraction": (0.01, 1.0, ""),
+                           "overspeed_factor": (0.1, 3.0, "")})
+        if "max_torque_rate" not in d:
+            raise ParameterError(where, "max_torque_rate", "missing (3 rates, N m/s)")
+        rate = _check.vector(where, "max_torque_rate", d["max_torque_rate"], 3)
         rom = paper.range_of_motion()
         acts = paper.actuators()
-        frac = _check.positive(where, "torque_fraction", d["torque_fraction"])
-        over = _check.positive(where, "overspeed_factor", d["overspeed_factor"])
-        return cls(lower=rom.lower, upper=rom.upper,
-                   hard_margin=math.radians(_check.finite(where, "hard_margin_deg",
-                                                          d["hard_margin_deg"])),
-                   max_torque=frac * np.array([a.max_torque for a in acts]),
-                   max_torque_rate=_check.vector(where, "max_torque_rate",
-                                                 d["max_torque_rate"], 3),
-                   max_speed=over * np.array([a.max_velocity for a in acts]), dt=dt,
-                   source=str(d["source"]))
+        try:
+            return cls(lower=rom.lower, upper=rom.upper,
+                       hard_margin=math.radians(v["hard_margin_deg"]),
+                       max_torque=v["torque_fraction"] * np.array([a.max_torque for a in acts]),
+                       max_torque_rate=rate,
+                       max_speed=v["overspeed_factor"] * np.array([a.max_velocity for a in acts]),
+                       dt=dt, source=str(d.get("source", where)))
+        except ParameterError as e:  # a range checked by the record: name the file
+            raise ParameterError(where, e.field, e.problem) from None
 
     def as_tuple(self) -> tuple[float, ...]:
         """The limits as the compiled tick takes them: lower, upper, max torque, max torque
@@ -137,12 +139,6 @@ class SafetyLimits:
         return (*map(float, self.lower), *map(float, self.upper), *map(float, self.max_torque),
                 *map(float, self.max_torque_rate * self.dt), *map(float, self.max_speed),
                 float(self.hard_margin))
-
-
-@cache
-def _safety_file() -> dict[str, Any]:
-    text = resources.files("exoleg").joinpath("data", "device", "safety.toml").read_text()
-    return tomllib.loads(text)
 
 
 @njit(cache=True)

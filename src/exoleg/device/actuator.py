@@ -27,7 +27,6 @@ from __future__ import annotations
 import math
 import tomllib
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -184,14 +183,16 @@ def load_actuator(path: str | Path) -> ActuatorModel:
     return parse_actuator(data, str(path))
 
 
-def paper_actuators() -> tuple[ActuatorModel, ActuatorModel, ActuatorModel]:
-    """The paper's three actuation units (hip, knee, ankle), from the shipped files."""
+def paper_actuators(folder: str | Path | None = None
+                    ) -> tuple[ActuatorModel, ActuatorModel, ActuatorModel]:
+    """The three actuation units (hip, knee, ankle): a device folder's ``actuators/*.toml``
+    where it has them (:mod:`exoleg.device.files`), else the paper's shipped files."""
+    from exoleg.device.files import load
+
     out = []
     for j in JOINTS:
-        where = f"exoleg/data/device/actuators/{j}.toml"
-        text = resources.files("exoleg").joinpath("data", "device", "actuators",
-                                                  f"{j}.toml").read_text()
-        a = parse_actuator(tomllib.loads(text), where)
+        where, data = load(f"actuators/{j}.toml", folder)
+        a = parse_actuator(data, where)
         if a.joint != j:
             raise ParameterError(where, "joint", f"is {a.joint!r}; this file is the {j}'s")
         out.append(a)

@@ -18,9 +18,8 @@ deterministic. Figures and their sources: ``data/device/sensors.toml``.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
-from importlib import resources
+from pathlib import Path
 
 import numpy as np
 from numba import njit
@@ -51,35 +50,41 @@ class FootSensors:
     imu_position: float      # fraction of the foot from the ankle
 
     @classmethod
-    def default(cls, noise_scale: float = 1.0) -> FootSensors:
-        """The shipped figures; ``noise_scale`` multiplies every noise and bias (0: ideal
-        sensors, 2: twice the datasheet's noise)."""
-        where = "exoleg/data/device/sensors.toml"
-        d = tomllib.loads(resources.files("exoleg").joinpath(
-            "data", "device", "sensors.toml").read_text())
-        _check.keys(where, d, ["source", "fsr", "imu"])
-        f, i = d["fsr"], d["imu"]
+    def default(cls, noise_scale: float = 1.0, folder: str | Path | None = None) -> FootSensors:
+        """From ``sensors.toml`` (a device folder's, :mod:`exoleg.device.files`, or the
+        package's); ``noise_scale`` multiplies every noise and bias (0: ideal sensors, 2:
+        twice the datasheets' noise)."""
+        from exoleg.device.files import load
+
+        where, d = load("sensors.toml", folder)
+        _check.keys(where, d, ["fsr", "imu"], ["source"])
+        f = _check.ranged(f"{where} [fsr]", d["fsr"], {
+            "full_scale_N": (1.0, 1e4, "N"), "linearity": (0.0, 0.2, ""),
+            "noise": (0.0, 0.5, ""), "adc_bits": (8.0, 24.0, "bit"),
+            "adc_reference_V": (0.5, 10.0, "V"), "full_scale_V": (0.1, 10.0, "V")})
+        if f["adc_bits"] != int(f["adc_bits"]) or f["full_scale_V"] > f["adc_reference_V"]:
+            raise ParameterError(f"{where} [fsr]", "adc_bits/full_scale_V",
+                                 "adc_bits a whole number; full_scale_V <= adc_reference_V")
+        i = _check.ranged(f"{where} [imu]", d["imu"], {
+            "gyro_noise_dps_rthz": (0.0, 10.0, "deg/s/sqrt(Hz)"),
+            "gyro_bias_dps": (0.0, 100.0, "deg/s"), "gyro_range_dps": (10.0, 1e4, "deg/s"),
+            "accel_noise_ug_rthz": (0.0, 1e5, "ug/sqrt(Hz)"),
+            "accel_bias_mg": (0.0, 1e3, "mg"), "accel_range_g": (1.0, 100.0, "g"),
+            "bandwidth_hz": (1.0, 1e4, "Hz"), "position": (-0.5, 1.0, "")})
         k = _check.finite("FootSensors", "noise_scale", noise_scale)
         if not 0.0 <= k <= 100.0:
             raise ParameterError("FootSensors", "noise_scale", f"{k:g} is outside 0-100")
         g = 9.81
-        bw = _check.positive(where, "bandwidth_hz", i["bandwidth_hz"], "Hz")
-        out = cls(fsr_full_scale=_check.positive(where, "full_scale_N", f["full_scale_N"], "N"),
-                  fsr_linearity=_check.finite(where, "linearity", f["linearity"]),
-                  fsr_noise=k * _check.finite(where, "noise", f["noise"]),
-                  adc_bits=int(f["adc_bits"]), adc_reference=f["adc_reference_V"],
-                  fsr_full_scale_voltage=f["full_scale_V"],
-                  gyro_noise=k * math.radians(i["gyro_noise_dps_rthz"]) * math.sqrt(bw),
-                  gyro_bias=k * math.radians(i["gyro_bias_dps"]),
-                  gyro_range=math.radians(i["gyro_range_dps"]),
-                  accel_noise=k * i["accel_noise_ug_rthz"] * 1e-6 * g * math.sqrt(bw),
-                  accel_bias=k * i["accel_bias_mg"] * 1e-3 * g,
-                  accel_range=i["accel_range_g"] * g, imu_position=i["position"])
-        if not 0.0 <= out.fsr_linearity <= 0.2 or not 8 <= out.adc_bits <= 24 \
-                or not 0.0 < out.fsr_full_scale_voltage <= out.adc_reference:
-            raise ParameterError(where, "fsr", "linearity 0-0.2, adc_bits 8-24 and "
-                                 "0 < full_scale_V <= adc_reference_V")
-        return out
+        rt = math.sqrt(i["bandwidth_hz"])
+        return cls(fsr_full_scale=f["full_scale_N"], fsr_linearity=f["linearity"],
+                   fsr_noise=k * f["noise"], adc_bits=int(f["adc_bits"]),
+                   adc_reference=f["adc_reference_V"], fsr_full_scale_voltage=f["full_scale_V"],
+                   gyro_noise=k * math.radians(i["gyro_noise_dps_rthz"]) * rt,
+                   gyro_bias=k * math.radians(i["gyro_bias_dps"]),
+                   gyro_range=math.radians(i["gyro_range_dps"]),
+                   accel_noise=k * i["accel_noise_ug_rthz"] * 1e-6 * g * rt,
+                   accel_bias=k * i["accel_bias_mg"] * 1e-3 * g,
+                   accel_range=i["accel_range_g"] * g, imu_position=i["position"])
 
     def params(self) -> F64:
         """What the compiled functions take."""

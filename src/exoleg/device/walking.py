@@ -32,11 +32,8 @@ over it (so an engine given the same forces steps the same trajectory).
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
-from functools import cache
-from importlib import resources
-from typing import Any
+from pathlib import Path
 
 import numpy as np
 from numba import njit
@@ -57,12 +54,6 @@ F64 = NDArray[np.float64]
 #: sensors, not where). Sagittal plane: the two metatarsal heads differ only in x.
 SENSOR_POINTS = ("heel", "met1", "met5", "hallux")
 SENSOR_X = (-0.18, 0.45, 0.38, 0.62)
-
-
-@cache
-def _walking_file() -> dict[str, Any]:
-    text = resources.files("exoleg").joinpath("data", "device", "walking.toml").read_text()
-    return tomllib.loads(text)
 
 
 @dataclass(frozen=True)
@@ -91,17 +82,25 @@ class Ground:
             object.__setattr__(self, name, v)
 
     @classmethod
-    def default(cls) -> Ground:
-        d = _walking_file()
-        where = "exoleg/data/device/walking.toml"
-        _check.keys(where, d, ["source", "contact", "support", "footplate_height_m"])
-        c, s = d["contact"], d["support"]
-        _check.keys(f"{where} [contact]", c, ["stiffness", "damping", "friction", "slip_speed"])
-        _check.keys(f"{where} [support]", s, ["stiffness", "damping", "drop"])
+    def default(cls, folder: str | Path | None = None) -> Ground:
+        """From ``walking.toml`` (a device folder's, :mod:`exoleg.device.files`, or the
+        package's)."""
+        from exoleg.device.files import load
+
+        where, d = load("walking.toml", folder)
+        _check.keys(where, d, ["contact", "support", "footplate_height_m"], ["source"])
+        c = _check.ranged(f"{where} [contact]", d["contact"],
+                          {"stiffness": (1e3, 1e8, "N/m"), "damping": (0.0, 1e6, "N s/m"),
+                           "friction": (0.0, 3.0, ""), "slip_speed": (1e-5, 1.0, "m/s")})
+        s = _check.ranged(f"{where} [support]", d["support"],
+                          {"stiffness": (0.0, 1e8, "N/m"), "damping": (0.0, 1e6, "N s/m"),
+                           "drop": (0.0, 0.2, "m")})
+        sole = _check.ranged(where, {"footplate_height_m": d["footplate_height_m"]},
+                             {"footplate_height_m": (0.0, 0.1, "m")})["footplate_height_m"]
         return cls(stiffness=c["stiffness"], damping=c["damping"], friction=c["friction"],
                    slip_speed=c["slip_speed"], support_stiffness=s["stiffness"],
-                   support_damping=s["damping"], support_drop=s["drop"],
-                   sole=d["footplate_height_m"], source=str(d["source"]))
+                   support_damping=s["damping"], support_drop=s["drop"], sole=sole,
+                   source=str(d.get("source", where)))
 
 
 #: A whole leg's share of body mass: thigh 0.100 + shank 0.0465 + foot 0.0145 (Dempster's

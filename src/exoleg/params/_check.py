@@ -58,3 +58,20 @@ def keys(where: str, table: Mapping[str, Any], required: Iterable[str],
             raise ParameterError(
                 where, k, "unknown field (allowed: " + ", ".join(sorted(allowed)) + ")"
             )
+
+
+def ranged(where: str, table: Any, spec: Mapping[str, tuple[float, float, str]],
+           optional: Iterable[str] = ("source",)) -> dict[str, float]:
+    """The numbers of ``table`` named in ``spec`` (name -> (lower, upper, unit)), each
+    finite and within its range; no key missing, none unknown (``optional`` aside)."""
+    if not isinstance(table, Mapping):
+        raise ParameterError(where, "(table)", f"expected a table of {', '.join(spec)}")
+    keys(where, table, spec, optional)
+    out = {}
+    for name, (lo, hi, unit) in spec.items():
+        v = finite(where, name, table[name])
+        if not lo <= v <= hi:
+            u = f" {unit}" if unit else ""
+            raise ParameterError(where, name, f"{v:g}{u} is outside {lo:g}-{hi:g}{u}")
+        out[name] = v
+    return out

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 from numba import njit
@@ -224,7 +225,8 @@ def simulate_device(leg: LegModel, controller: Controller, reference: Reference,
                     duration: float, actuators: tuple[ActuatorModel, ...] | None = None,
                     safety: SafetyLimits | None = None, control_dt: float = 1e-3,
                     substeps: int = 1, q0: ArrayLike | None = None,
-                    dq0: ArrayLike | None = None) -> DeviceResult:
+                    dq0: ArrayLike | None = None,
+                    device: str | Path | None = None) -> DeviceResult:
     """Run ``controller`` on the device for ``duration`` s (see the module docstring).
 
     ``leg``: the child + device model without actuators (its armature is replaced by
@@ -234,15 +236,18 @@ def simulate_device(leg: LegModel, controller: Controller, reference: Reference,
     is a simulation; the runtime arms on the operator's command). ``substeps``: plant
     steps per control tick. Refuses what :func:`exoleg.simulate` refuses (duration,
     memory, range of motion of the start and reference) with the same messages.
+    ``device``: a device folder (:mod:`exoleg.device.files`) for the actuators and limits.
     """
+    from exoleg.device.files import check_folder
     from exoleg.sim.closed_loop import check_run, sampled_stability
 
-    acts = paper_actuators() if actuators is None else tuple(actuators)
+    folder = None if device is None else check_folder(device)
+    acts = paper_actuators(folder) if actuators is None else tuple(actuators)
     A = params_array(acts)
     if not (isinstance(substeps, int) and 1 <= substeps <= 1000):
         raise ParameterError("simulate_device", "substeps",
                              f"expected a whole number 1-1000, got {substeps!r}")
-    lim = SafetyLimits.paper(dt=control_dt) if safety is None else safety
+    lim = SafetyLimits.paper(control_dt, folder) if safety is None else safety
     if abs(lim.dt - control_dt) > 1e-12:
         raise ParameterError("simulate_device", "safety",
                              f"its dt {lim.dt} s differs from control_dt {control_dt} s")

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -362,11 +363,16 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                   actuators: tuple[ActuatorModel, ...] | None = None,
                   gains: WalkGains | None = None, safety: SafetyLimits | None = None,
                   ground: Ground | None = None, sensors: FootSensors | None = None,
-                  substeps: int = 2, control_dt: float = 1e-3) -> WalkResult:
+                  substeps: int = 2, control_dt: float = 1e-3,
+                  device: str | Path | None = None) -> WalkResult:
     """Walk ``leg`` (without actuators; theirs are added) on the treadmill for ``strides``
     strides of ``stride_time`` s after ``standing`` s of quiet stance; ``body_mass`` is
     the child's (the pelvis carries :func:`exoleg.device.walking.body_weight_share`).
-    ``noise_scale`` multiplies the sensors' noise (0: ideal); ``seed`` fixes it."""
+    ``noise_scale`` multiplies the sensors' noise (0: ideal); ``seed`` fixes it.
+    ``device``: a device folder (:mod:`exoleg.device.files`) whose files replace the
+    shipped actuators, sensors, detector settings, gains, safety limits and ground."""
+    from exoleg.control.gait_phase import DetectorSettings
+    from exoleg.device.files import check_folder
     from exoleg.device.walking import body_weight_share
 
     if not (isinstance(strides, int) and 1 <= strides <= 10000):
@@ -381,20 +387,23 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     from exoleg.reference.gait import SchwartzGait2008
 
     SchwartzGait2008(stride_time=stride_time, speed=speed)  # checks both
-    acts = paper_actuators() if actuators is None else tuple(actuators)
+    folder = None if device is None else check_folder(device)
+    acts = paper_actuators(folder) if actuators is None else tuple(actuators)
     A = params_array(acts)
     plant_leg = with_actuators(leg, acts)
     share = body_weight_share(body_mass)
-    gr = Ground.default() if ground is None else ground
+    gr = Ground.default(folder) if ground is None else ground
     depth = ankle_height + gr.sole
     plant = WalkingPlant.of(plant_leg, share, belt_speed_for(leg, speed, stride_time), gr,
                             ankle_height)
     support = other_leg_support(leg, depth, speed, gr.support_drop)  # drop: clearance
-    sens = FootSensors.default(noise_scale) if sensors is None else sensors
-    lim = SafetyLimits.paper(dt=control_dt) if safety is None else safety
+    sens = FootSensors.default(noise_scale, folder) if sensors is None else sensors
+    lim = SafetyLimits.paper(control_dt, folder) if safety is None else safety
     duration = standing + strides * stride_time
     n = int(round(duration / control_dt))
-    ctl = WalkController(plant_leg, share, gains, None, lim, speed, stride_time,
+    ctl = WalkController(plant_leg, share,
+                         WalkGains.default(folder) if gains is None else gains,
+                         DetectorSettings.default(folder), lim, speed, stride_time,
                          float(fsr_counts(sens.params(), 20.0, 0.0)), depth)
     commands = np.zeros(n + 1, dtype=np.int64)
     commands[0] = Command.ARM

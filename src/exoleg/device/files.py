@@ -1,0 +1,56 @@
+"""The device's data files, from the package or from a user's device folder.
+
+A device folder (``exoleg simulate --walk --device DIR``) may hold any of
+:data:`FILES` and an ``actuators/`` folder with ``hip.toml``, ``knee.toml``,
+``ankle.toml``; what it does not hold comes from the package's ``data/device``. Every
+file is read with :func:`exoleg.io.read_text` and validated by its loader, so a bad file
+is one error naming the file, the field and what is allowed.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from exoleg.errors import ParameterError
+from exoleg.io import read_text
+
+FILES = ("safety.toml", "walking.toml", "sensors.toml", "gait_phase.toml",
+         "walking_control.toml")
+ACTUATOR_FILES = ("hip.toml", "knee.toml", "ankle.toml")
+
+
+def check_folder(folder: str | Path) -> Path:
+    """A device folder: it exists, and holds nothing but the device's files."""
+    p = Path(folder)
+    if not p.is_dir():
+        raise ParameterError(str(p), "(device folder)", "is not a folder")
+    allowed = set(FILES) | {"actuators"}
+    for f in p.iterdir():
+        if f.name not in allowed and not f.name.startswith("."):
+            raise ParameterError(str(p), f.name, "unknown device file (allowed: "
+                                 + ", ".join(sorted(allowed)) + ")")
+    act = p / "actuators"
+    if act.exists():
+        for f in act.iterdir():
+            if f.name not in ACTUATOR_FILES and not f.name.startswith("."):
+                raise ParameterError(str(act), f.name, "unknown actuator file (allowed: "
+                                     + ", ".join(ACTUATOR_FILES) + ")")
+    return p
+
+
+def load(name: str, folder: str | Path | None = None) -> tuple[str, dict[str, Any]]:
+    """(where, parsed TOML) of device file ``name`` (e.g. ``"sensors.toml"`` or
+    ``"actuators/hip.toml"``): the folder's when it has one, else the package's."""
+    if folder is not None and (Path(folder) / name).exists():
+        path = Path(folder) / name
+        where, text = str(path), read_text(path, f"device file {name} (TOML)")
+    else:
+        where = f"exoleg/data/device/{name}"
+        text = resources.files("exoleg").joinpath("data", "device", *name.split("/")).read_text()
+    try:
+        return where, tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise ParameterError(where, "(syntax)", f"not valid TOML: {e}") from None
