@@ -2,7 +2,9 @@
 
 Each FSR reading is normalised by its running maximum (a floor keeps an unloaded start
 from dividing by nothing); the heel region is the heel sensor, the forefoot the largest
-of the metatarsal and hallux sensors. A region is loaded above ``contact_on`` and
+of the metatarsal and hallux sensors; toe off also needs the sum of all four under the
+off threshold of its own running maximum (a load spread over several sensors, each
+below its threshold, is still a foot on the ground). A region is loaded above ``contact_on`` and
 unloaded below ``contact_off`` (hysteresis), and a change counts only once it has held
 for ``debounce_ms``. From the two regions:
 
@@ -122,7 +124,8 @@ D_ON, D_OFF, D_FLOOR, D_DEBOUNCE, D_MINSW, D_MINST, D_NAVG, D_ACC_LO, D_ACC_HI, 
 # state layout
 (S_PHASE, S_HEEL_RAW, S_FORE_RAW, S_HEEL, S_FORE, S_HEEL_SINCE, S_FORE_SINCE, S_T_IC,
  S_T_TO, S_NSTRIDE, S_MAX) = range(11)
-S_HIST = S_MAX + 4
+S_TOTAL_MAX = S_MAX + 4
+S_HIST = S_MAX + 5
 STATE_SIZE = S_HIST + 10
 
 
@@ -134,6 +137,7 @@ def new_state(settings_params: F64) -> F64:
     s[S_HEEL_SINCE] = s[S_FORE_SINCE] = -1.0
     s[S_T_IC] = s[S_T_TO] = -1e9
     s[S_MAX:S_MAX + 4] = settings_params[D_FLOOR]
+    s[S_TOTAL_MAX] = settings_params[D_FLOOR]
     return s
 
 
@@ -171,6 +175,9 @@ def detect(d, st, counts, t):  # type: ignore[no-untyped-def]
     for i in range(4):
         if counts[i] > st[S_MAX + i]:
             st[S_MAX + i] = counts[i]
+    total = counts[0] + counts[1] + counts[2] + counts[3]
+    if total > st[S_TOTAL_MAX]:
+        st[S_TOTAL_MAX] = total
     heel = counts[0] / st[S_MAX]
     fore = max(counts[1] / st[S_MAX + 1], counts[2] / st[S_MAX + 2],
                counts[3] / st[S_MAX + 3])
@@ -178,6 +185,9 @@ def detect(d, st, counts, t):  # type: ignore[no-untyped-def]
     _region(st, S_FORE_RAW, S_FORE, S_FORE_SINCE, fore, d[D_ON], d[D_OFF], t, d[D_DEBOUNCE])
     h = st[S_HEEL] > 0.5
     f = st[S_FORE] > 0.5
+    # the whole foot unloaded, too: a load spread over several sensors, each below its own
+    # threshold, is still a foot on the ground
+    lifted = total / st[S_TOTAL_MAX] < d[D_OFF]
     phase = int(st[S_PHASE])
     ev = 0
     if phase <= 0:  # swing or unknown
@@ -197,7 +207,7 @@ def detect(d, st, counts, t):  # type: ignore[no-untyped-def]
             else:
                 phase = 1
     else:
-        if not h and not f:
+        if not h and not f and lifted:
             if t - st[S_T_IC] >= d[D_MINST]:
                 ev |= 8
                 st[S_T_TO] = t
