@@ -843,6 +843,55 @@ def cmd_export(args: argparse.Namespace) -> int:
     return 0
 
 
+# --------------------------------------------------------------------------- run, log
+_MODES = {0: "disarmed", 1: "standing", 2: "walking", 3: "fault"}
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    import exoleg
+    from exoleg.runtime.session import run, summarize
+
+    leg = exoleg.load_leg(args.leg) if args.leg else None
+    res, path = run(args.backend, args.duration, args.out, period=1.0 / args.rate,
+                    arm=args.arm, walk_after=args.walk_after, leg=leg,
+                    body_mass=args.body_mass, seed=args.seed, realtime=not args.no_realtime)
+    s = summarize(path)
+    t = res.timing
+    _say(f"exoleg run --backend {args.backend}: {res.ticks} ticks at {args.rate:g} Hz, ended "
+         f"by {res.stopped_by}" + (f" ({', '.join(res.realtime)})" if res.realtime else ""))
+    _table([[f"{t.get('p50_us', 0):.1f}", f"{t.get('p99_us', 0):.1f}",
+             f"{t.get('p999_us', 0):.1f}", f"{t.get('max_us', 0):.1f}",
+             str(t.get("missed", 0))]],
+           ["late p50 us", "p99 us", "p99.9 us", "max us", "deadlines missed (> 1 period)"])
+    _say("ticks per mode: " + ", ".join(f"{_MODES.get(m, m)} {n}"
+                                        for m, n in s["ticks_per_mode"].items())
+         + f"; initial contacts {s['initial_contacts']}"
+         + (f"; safety fault at {s['first_fault_s']:.3f} s" if s["first_fault_s"] else ""))
+    _say(f"\nwrote {path} (crash-safe: at most {20} ticks lost if killed) and "
+         f"{Path(args.out) / 'run.json'}")
+    stopped = res.stopped_by
+    return 0 if stopped == "duration" else (130 if stopped.startswith("signal") else 1)
+
+
+def cmd_log_summary(args: argparse.Namespace) -> int:
+    from exoleg.io import OutputFolder
+    from exoleg.runtime.session import summarize, to_table
+
+    s = summarize(args.log)
+    _table([[k, str(v)] for k, v in s.items()], ["", "value"],
+           title=f"session log {args.log}")
+    if args.csv or args.parquet:
+        from exoleg.io import write_csv_table, write_parquet_table
+
+        target = Path(args.csv or args.parquet)
+        with OutputFolder(target.parent if str(target.parent) else ".") as out:
+            (write_csv_table if args.csv else write_parquet_table)(
+                to_table(args.log), out.stage(target.name))
+            out.commit()
+        _say(f"wrote {target}")
+    return 0
+
+
 # --------------------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
     ap = _Parser(prog="exoleg", description="Pediatric single-leg exoskeleton: model, control, "
@@ -946,6 +995,33 @@ def build_parser() -> argparse.ArgumentParser:
     pop.add_argument("--no-simulate", action="store_true")
     pop.add_argument("--out", type=Path, default=Path("exoleg-population"))
     pop.set_defaults(func=cmd_population)
+
+    r = sub.add_parser("run", help="drive the device (or a simulated one) at a fixed rate: "
+                       "sensors -> control hierarchy -> safety layer -> drives, logged")
+    r.add_argument("--backend", choices=["sim"], default="sim",
+                   help="sim: the simulated device in real time (canopen, ethercat: not yet)")
+    r.add_argument("--duration", type=_within(0.01, 86400.0, " s"), required=True, help="s")
+    r.add_argument("--rate", type=_within(10.0, 10000.0, " Hz"), default=1000.0,
+                   help="control rate, Hz (default 1000)")
+    r.add_argument("--arm", action="store_true",
+                   help="sim: the operator's arming, given at start (no motion without it)")
+    r.add_argument("--walk-after", type=_within(0.0, 86400.0, " s"),
+                   help="sim: the operator's walk command this many seconds in (needs --arm)")
+    r.add_argument("--leg", type=Path, help="leg file (from exoleg fit); default the paper's")
+    r.add_argument("--body-mass", type=_within(10.0, 150.0, " kg"), default=30.0)
+    r.add_argument("--seed", type=_count(0, 2**31 - 1), default=0, help="sim: sensor noise")
+    r.add_argument("--no-realtime", action="store_true",
+                   help="do not ask for CPU affinity and SCHED_FIFO")
+    r.add_argument("--out", type=Path, default=Path("exoleg-session"))
+    r.set_defaults(func=cmd_run)
+
+    lg = sub.add_parser("log", help="read a session log")
+    lsub = lg.add_subparsers(dest="log_command", required=True, parser_class=_Parser)
+    ls = lsub.add_parser("summary", help="what a session log holds (also a cut one)")
+    ls.add_argument("log", type=Path, help="session.log, or the folder of exoleg run --out")
+    ls.add_argument("--csv", type=Path, help="also write the series as CSV")
+    ls.add_argument("--parquet", type=Path, help="also write the series as Parquet")
+    ls.set_defaults(func=cmd_log_summary)
 
     e = sub.add_parser("export", help="write the leg as URDF or MJCF (limits, actuators, "
                        "geometry)")

@@ -280,6 +280,13 @@ class WalkController:
         self.u = np.zeros(3)
         self.info = np.zeros(INFO_SIZE)
 
+    def warm_up(self) -> None:
+        """Compile (or load from numba's cache) the tick on copies of the state."""
+        walk_control_step(self.cp, self.gq, self.gdq, self.leg.p, self.leg.g, self.fx,
+                          self.sole, self.d, self.st.copy(), self.lim, self.sst.copy(),
+                          self.sup.copy(), np.zeros(3), np.zeros(3), np.zeros(4), 0.0, 0,
+                          np.zeros(3), np.zeros(INFO_SIZE))
+
     def step(self, sensors: dict[str, ArrayLike], t: float) -> dict[str, object]:
         command = int(np.asarray(sensors.get("command", Command.NONE)))
         walk_control_step(self.cp, self.gq, self.gdq, self.leg.p, self.leg.g, self.fx,

@@ -94,112 +94,144 @@ def _imu_point(p, x, px, py):  # type: ignore[no-untyped-def]
     return vx, vy, phi
 
 
+#: layout of a simulated device's state (:func:`device_sense`, :func:`device_actuate`):
+#: the plant state x (8), the drives' torques (3), the encoders' last readings (3), the
+#: filtered velocities (3), the IMU point's last velocity (2), the other leg's timing
+#: (loaded, t_off, t_strike) and the belt's speed
+P_X, P_TAU, P_QM, P_VM, P_VIMU, P_LOADED, P_TOFF, P_TSTRIKE, P_BELT = 0, 8, 11, 14, 17, 19, 20, \
+    21, 22
+P_SIZE = 23
+
+
+def device_state(plant: WalkingPlant, A: F64, x0: F64, imu_x: float, imu_y: float) -> F64:
+    """A simulated device's state at rest in ``x0`` (8,) (see :data:`P_SIZE`)."""
+    S = np.zeros(P_SIZE)
+    S[P_X:P_X + 8] = x0
+    for i in range(3):
+        S[P_QM + i] = encode(A[i], x0[1 + i])
+        S[P_VM + i] = x0[5 + i]
+    vx, vy, _ = _imu_point(plant.leg.p, x0, imu_x, imu_y)
+    S[P_VIMU], S[P_VIMU + 1] = vx, vy
+    S[P_LOADED] = 1.0
+    S[P_TOFF] = S[P_TSTRIKE] = -1e9
+    S[P_BELT] = plant.belt_speed
+    return S
+
+
 @njit(cache=True, error_model="numpy")
-def _run_walk(p, w, A, cp, gq, gdq, cp_p, g, fx, sole, d, st, lim, sst, sup, sens,  # type: ignore[no-untyped-def]
-              fsr_noise, imu_noise, imu_bias, imu_x, imu_y, commands, h, sub,
-              support, stand_support, t_walk, stride,
-              X, QM, VM, COUNTS, FN, IMU, INFO, UC, TAU, ENV, SUP):
-    n = X.shape[0] - 1
-    x = X[0].copy()
+def device_sense(p, w, A, sens, g, imu_x, imu_y, S, h, first,  # type: ignore[no-untyped-def]
+                 fsr_noise, imu_noise, imu_bias, counts, qm, vm, imu_out, fn):
+    """What the device's sensors read now: FSR counts (4,), encoder angles and filtered
+    rates (3,), IMU (gyro, accel x, y); and the true normal forces ``fn`` (4,)."""
+    x = S[P_X:P_X + 8]
+    pts = np.empty((4, 4))
+    F = np.empty((4, 2))
+    contact_points(p, w, x[0], x[1:4], x[5:8], x[4], pts)
+    contact_forces(w, pts, F)
+    for i in range(4):
+        fn[i] = F[i, 1]
+        counts[i] = fsr_counts(sens, F[i, 1], fsr_noise[i])
+    vx, vy, phi = _imu_point(p, x, imu_x, imu_y)
+    ax = 0.0 if first else (vx - S[P_VIMU]) / h
+    ay = 0.0 if first else (vy - S[P_VIMU + 1]) / h
+    S[P_VIMU], S[P_VIMU + 1] = vx, vy
+    imu_out[0], imu_out[1], imu_out[2] = imu(sens, x[5] + x[6] + x[7], ax, ay, phi, g,
+                                             imu_bias[0], imu_bias[1], imu_bias[2],
+                                             imu_noise[0], imu_noise[1], imu_noise[2])
+    for i in range(3):
+        q = encode(A[i], x[1 + i])
+        if not first:
+            S[P_VM + i] += filter_gain(A[i], h) * ((q - S[P_QM + i]) / h - S[P_VM + i])
+        S[P_QM + i] = q
+        qm[i] = q
+        vm[i] = S[P_VM + i]
+
+
+@njit(cache=True, error_model="numpy")
+def device_actuate(p, w, A, S, h, sub, u, fn, walking, t, t_walk, stride, support,  # type: ignore[no-untyped-def]
+                   stand_support, env, tau):
+    """The drives and ``sub`` plant steps over one tick of ``h`` s under the torque command
+    ``u`` (3,): the envelope at the measured speed (into ``env``), the current loop (the
+    mean torque delivered into ``tau``), contacts held per step. The treadmill runs and the
+    other leg (an actor) keeps time with this leg's true foot strikes (from ``fn``) while
+    ``walking``. Returns (the other leg's mean force on the pelvis, 1 if the state is
+    still finite)."""
+    total = fn[0] + fn[1] + fn[2] + fn[3]
+    if total > 5.0 and S[P_LOADED] < 0.5 and t - S[P_TOFF] > 0.3 * stride:
+        S[P_TSTRIKE] = t
+    if total > 5.0:
+        S[P_LOADED] = 1.0
+    elif S[P_LOADED] > 0.5:
+        S[P_LOADED] = 0.0
+        S[P_TOFF] = t
+    if walking and t >= t_walk:
+        w[W_BELT] = S[P_BELT]
+        if S[P_TSTRIKE] > t_walk:
+            xc = min((t - S[P_TSTRIKE]) / stride, 0.999)
+        else:
+            xc = min(START_FRACTION + (t - t_walk) / stride, 0.999)
+        w[W_SY] = support[min(int(xc * (support.shape[0] - 1) + 0.5), support.shape[0] - 1)]
+    else:
+        w[W_BELT] = 0.0
+        w[W_SY] = stand_support
+    for i in range(3):
+        env[i] = envelope(A[i], S[P_VM + i])
+    x = S[P_X:P_X + 8]
     pts = np.empty((4, 4))
     F = np.empty((4, 2))
     gen = np.empty(4)
-    b = np.empty(3)
-    qm_prev = np.empty(3)
-    qm = np.empty(3)
-    vm = np.zeros(3)
-    tau_a = np.zeros(3)
-    mean = np.zeros(3)
+    mean = np.empty(3)
+    acc = np.zeros(3)
+    supp = 0.0
+    hs = h / sub
+    for _ in range(sub):
+        for i in range(3):
+            tc = min(max(u[i], -env[i]), env[i])
+            S[P_TAU + i], mean[i] = current_loop(A[i], S[P_TAU + i], tc, hs)
+            acc[i] += mean[i]
+        supp += step_contacts(p, w, x, pts, F, gen)
+        walking_step(p, w, A, x, mean, gen, hs)
+    for i in range(3):
+        tau[i] = acc[i] / sub
+    ok = 1
+    for i in range(8):
+        if not math.isfinite(x[i]):
+            ok = 0
+    return supp / sub, ok
+
+
+@njit(cache=True, error_model="numpy")
+def _run_walk(p, w, A, cp, gq, gdq, cp_p, g, fx, sole, d, st, lim, sst, sup, sens,  # type: ignore[no-untyped-def]
+              fsr_noise, imu_noise, imu_bias, imu_x, imu_y, commands, h, sub,
+              support, stand_support, t_walk, stride, S,
+              X, QM, VM, COUNTS, FN, IMU, INFO, UC, TAU, ENV, SUP):
+    n = X.shape[0] - 1
     u = np.zeros(3)
     info = np.zeros(8)
-    counts = np.zeros(4)
-    for i in range(3):
-        b[i] = filter_gain(A[i], h)
-        qm_prev[i] = encode(A[i], x[1 + i])
-        vm[i] = x[5 + i]
-    vx0, vy0, _ = _imu_point(p, x, imu_x, imu_y)
-    hs = h / sub
-    belt = w[W_BELT]
-    loaded = True
-    t_off = -1e9
-    t_strike = -1e9
     for k in range(n + 1):
         t = k * h
         # 1. the foot board and the encoders
-        contact_points(p, w, x[0], x[1:4], x[5:8], x[4], pts)
-        contact_forces(w, pts, F)
-        for i in range(4):
-            FN[k, i] = F[i, 1]
-            counts[i] = fsr_counts(sens, F[i, 1], fsr_noise[k, i])
-            COUNTS[k, i] = counts[i]
-        vx, vy, phi = _imu_point(p, x, imu_x, imu_y)
-        ax = (vx - vx0) / h if k > 0 else 0.0
-        ay = (vy - vy0) / h if k > 0 else 0.0
-        vx0, vy0 = vx, vy
-        IMU[k, 0], IMU[k, 1], IMU[k, 2] = imu(sens, x[5] + x[6] + x[7], ax, ay, phi, g,
-                                              imu_bias[0], imu_bias[1], imu_bias[2],
-                                              imu_noise[k, 0], imu_noise[k, 1],
-                                              imu_noise[k, 2])
-        for i in range(3):
-            qm[i] = encode(A[i], x[1 + i])
-            if k > 0:
-                vm[i] += b[i] * ((qm[i] - qm_prev[i]) / h - vm[i])
-            qm_prev[i] = qm[i]
-            QM[k, i] = qm[i]
-            VM[k, i] = vm[i]
+        device_sense(p, w, A, sens, g, imu_x, imu_y, S, h, k == 0, fsr_noise[k],
+                     imu_noise[k], imu_bias, COUNTS[k], QM[k], VM[k], IMU[k], FN[k])
         # 2. the controller tick (supervisor, detection, reference, impedance, safety)
-        walk_control_step(cp, gq, gdq, cp_p, g, fx, sole, d, st, lim, sst, sup, qm, vm,
-                          counts, t, commands[k], u, info)
-        # the treadmill runs while walking; the other leg (an actor) keeps time with this
-        # leg's true foot strikes: its own rhythm starts at each (the child's other leg
-        # feels them; the controller has only the FSRs)
-        total = F[0, 1] + F[1, 1] + F[2, 1] + F[3, 1]
-        if total > 5.0 and not loaded and t - t_off > 0.3 * stride:
-            t_strike = t
-        if total > 5.0:
-            loaded = True
-        elif loaded:
-            loaded = False
-            t_off = t
-        if info[0] == 2 and t >= t_walk:
-            w[W_BELT] = belt
-            if t_strike > t_walk:
-                xc = min((t - t_strike) / stride, 0.999)
-            else:
-                xc = min(START_FRACTION + (t - t_walk) / stride, 0.999)
-            w[W_SY] = support[min(int(xc * (support.shape[0] - 1) + 0.5),
-                                  support.shape[0] - 1)]
-        else:
-            w[W_BELT] = 0.0
-            w[W_SY] = stand_support
+        walk_control_step(cp, gq, gdq, cp_p, g, fx, sole, d, st, lim, sst, sup, QM[k], VM[k],
+                          COUNTS[k], t, commands[k], u, info)
         for i in range(8):
             INFO[k, i] = info[i]
-        # 3. the drives
         for i in range(3):
-            e = envelope(A[i], vm[i])
-            ENV[k, i] = e
             UC[k, i] = u[i]
         if k == n:
             for i in range(3):
-                TAU[k, i] = tau_a[i]
+                ENV[k, i] = envelope(A[i], VM[k, i])
+                TAU[k, i] = S[P_TAU + i]
             break
-        # 4. the plant
-        acc = np.zeros(3)
-        supp = 0.0
-        for _ in range(sub):
-            for i in range(3):
-                tc = min(max(u[i], -ENV[k, i]), ENV[k, i])
-                tau_a[i], mean[i] = current_loop(A[i], tau_a[i], tc, hs)
-                acc[i] += mean[i]
-            supp += step_contacts(p, w, x, pts, F, gen)
-            walking_step(p, w, A, x, mean, gen, hs)
-        for i in range(3):
-            TAU[k, i] = acc[i] / sub
-        SUP[k] = supp / sub
+        # 3. the drives and 4. the plant
+        SUP[k], ok = device_actuate(p, w, A, S, h, sub, u, FN[k], info[0] == 2, t, t_walk,
+                                    stride, support, stand_support, ENV[k], TAU[k])
         for i in range(8):
-            X[k + 1, i] = x[i]
-            if not math.isfinite(x[i]):
-                return k + 1
+            X[k + 1, i] = S[P_X + i]
+        if not ok:
+            return k + 1
     return -1
 
 
@@ -357,6 +389,77 @@ def other_leg_support(leg: LegModel, depth: float, speed: str, clearance: float,
     return np.convolve(pad, np.ones(2 * k + 1) / (2 * k + 1), mode="same")[k:-k]
 
 
+@dataclass(frozen=True)
+class SimulatedDevice:
+    """Everything a simulated walking device is made of, and the controller made for it
+    (:func:`prepare_walk`): the plant, its actuators (``A``, their compiled parameters),
+    the sensors, the other leg's support table, the controller and the start state."""
+
+    leg: LegModel
+    plant: WalkingPlant
+    actuators: tuple[ActuatorModel, ...]
+    A: F64
+    sensors: FootSensors
+    support: F64
+    depth: float
+    imu_x: float
+    controller: WalkController
+    x0: F64
+    stride_time: float
+    safety: SafetyLimits
+
+    def state(self) -> F64:
+        """A fresh device state at the start posture (:data:`P_SIZE`)."""
+        return device_state(self.plant, self.A, self.x0, self.imu_x, -self.depth)
+
+
+def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
+                 stride_time: float = 1.1, noise_scale: float = 1.0,
+                 ankle_height: float = 0.05, actuators: tuple[ActuatorModel, ...] | None = None,
+                 gains: WalkGains | None = None, safety: SafetyLimits | None = None,
+                 ground: Ground | None = None, sensors: FootSensors | None = None,
+                 control_dt: float = 1e-3, device: str | Path | None = None
+                 ) -> SimulatedDevice:
+    """The simulated device and its controller for ``leg`` (without actuators; theirs are
+    added) and a child of ``body_mass`` kg (see :func:`simulate_walk`)."""
+    from exoleg.control.gait_phase import DetectorSettings
+    from exoleg.device.files import check_folder
+    from exoleg.device.walking import body_weight_share
+    from exoleg.reference.gait import SchwartzGait2008
+
+    for name, v, lo, hi in (("body_mass", body_mass, 10.0, 150.0),
+                            ("control_dt", control_dt, 1e-4, 1e-2),
+                            ("ankle_height", ankle_height, 0.0, 0.2)):
+        if not (np.isfinite(v) and lo <= v <= hi):
+            raise ParameterError("simulate_walk", name, f"{v!r} is outside {lo:g}-{hi:g}")
+    SchwartzGait2008(stride_time=stride_time, speed=speed)  # checks both
+    folder = None if device is None else check_folder(device)
+    acts = paper_actuators(folder) if actuators is None else tuple(actuators)
+    A = params_array(acts)
+    plant_leg = with_actuators(leg, acts)
+    share = body_weight_share(body_mass)
+    gr = Ground.default(folder) if ground is None else ground
+    depth = ankle_height + gr.sole
+    plant = WalkingPlant.of(plant_leg, share, belt_speed_for(leg, speed, stride_time), gr,
+                            ankle_height)
+    sens = FootSensors.default(noise_scale, folder) if sensors is None else sensors
+    lim = SafetyLimits.paper(control_dt, folder) if safety is None else safety
+    ctl = WalkController(plant_leg, share,
+                         WalkGains.default(folder) if gains is None else gains,
+                         DetectorSettings.default(folder), lim, speed, stride_time,
+                         float(fsr_counts(sens.params(), 20.0, 0.0)), depth)
+    q0 = ctl.gains.standing
+    fk = leg.fk(q0)
+    x0 = np.zeros(8)
+    x0[0] = (-min(fk["ankle"][1], fk["toe"][1]) + depth
+             - 0.5 * share * leg.g / (4 * gr.stiffness))
+    x0[1:4] = q0
+    return SimulatedDevice(leg=leg, plant=plant, actuators=acts, A=A, sensors=sens,
+                           support=other_leg_support(leg, depth, speed, gr.support_drop),
+                           depth=depth, imu_x=sens.imu_position * float(leg.lengths[2]),
+                           controller=ctl, x0=x0, stride_time=stride_time, safety=lim)
+
+
 def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str = "Free",
                   stride_time: float = 1.1, standing: float = 1.0, noise_scale: float = 1.0,
                   seed: int = 0, ankle_height: float = 0.05,
@@ -371,62 +474,33 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     ``noise_scale`` multiplies the sensors' noise (0: ideal); ``seed`` fixes it.
     ``device``: a device folder (:mod:`exoleg.device.files`) whose files replace the
     shipped actuators, sensors, detector settings, gains, safety limits and ground."""
-    from exoleg.control.gait_phase import DetectorSettings
-    from exoleg.device.files import check_folder
-    from exoleg.device.walking import body_weight_share
-
     if not (isinstance(strides, int) and 1 <= strides <= 10000):
         raise ParameterError("simulate_walk", "strides", f"expected 1-10000, got {strides!r}")
     if not (isinstance(substeps, int) and 1 <= substeps <= 100):
         raise ParameterError("simulate_walk", "substeps", f"expected 1-100, got {substeps!r}")
-    for name, v, lo, hi in (("body_mass", body_mass, 10.0, 150.0),
-                            ("standing", standing, 0.2, 60.0),
-                            ("control_dt", control_dt, 1e-4, 1e-2)):
-        if not (np.isfinite(v) and lo <= v <= hi):
-            raise ParameterError("simulate_walk", name, f"{v!r} is outside {lo:g}-{hi:g}")
-    from exoleg.reference.gait import SchwartzGait2008
-
-    SchwartzGait2008(stride_time=stride_time, speed=speed)  # checks both
-    folder = None if device is None else check_folder(device)
-    acts = paper_actuators(folder) if actuators is None else tuple(actuators)
-    A = params_array(acts)
-    plant_leg = with_actuators(leg, acts)
-    share = body_weight_share(body_mass)
-    gr = Ground.default(folder) if ground is None else ground
-    depth = ankle_height + gr.sole
-    plant = WalkingPlant.of(plant_leg, share, belt_speed_for(leg, speed, stride_time), gr,
-                            ankle_height)
-    support = other_leg_support(leg, depth, speed, gr.support_drop)  # drop: clearance
-    sens = FootSensors.default(noise_scale, folder) if sensors is None else sensors
-    lim = SafetyLimits.paper(control_dt, folder) if safety is None else safety
-    duration = standing + strides * stride_time
-    n = int(round(duration / control_dt))
-    ctl = WalkController(plant_leg, share,
-                         WalkGains.default(folder) if gains is None else gains,
-                         DetectorSettings.default(folder), lim, speed, stride_time,
-                         float(fsr_counts(sens.params(), 20.0, 0.0)), depth)
+    if not (np.isfinite(standing) and 0.2 <= standing <= 60.0):
+        raise ParameterError("simulate_walk", "standing", f"{standing!r} is outside 0.2-60")
+    dev = prepare_walk(leg, body_mass, speed, stride_time, noise_scale, ankle_height,
+                       actuators, gains, safety, ground, sensors, control_dt, device)
+    ctl, plant, sens = dev.controller, dev.plant, dev.sensors
+    n = int(round((standing + strides * stride_time) / control_dt))
     commands = np.zeros(n + 1, dtype=np.int64)
     commands[0] = Command.ARM
-    k_walk = int(round(standing / control_dt))
-    commands[k_walk] = Command.WALK
-    q0 = ctl.gains.standing
+    commands[int(round(standing / control_dt))] = Command.WALK
     X = np.zeros((n + 1, 8))
-    fk = leg.fk(q0)
-    X[0, 0] = -min(fk["ankle"][1], fk["toe"][1]) + depth - 0.5 * share * leg.g / (4 * gr.stiffness)
-    X[0, 1:4] = q0
+    X[0] = dev.x0
     fsr_noise, imu_noise, bias = draw_noise(sens, n + 1, seed)
     QM, VM, UC, TAU, ENV = (np.zeros((n + 1, 3)) for _ in range(5))
     COUNTS, FN = np.zeros((n + 1, 4)), np.zeros((n + 1, 4))
     IMU = np.zeros((n + 1, 3))
     INFO = np.zeros((n + 1, 8))
     SUP = np.zeros(n + 1)
-    bad = _run_walk(plant.leg.p, plant.params().copy(), A, ctl.cp, ctl.gq, ctl.gdq,
-                    plant_leg.p, leg.g,
-                    ctl.fx, ctl.sole, ctl.d, ctl.st, ctl.lim, ctl.sst, ctl.sup, sens.params(),
-                    fsr_noise, imu_noise, bias, sens.imu_position * float(leg.lengths[2]),
-                    -depth, commands, control_dt, substeps, support,
-                    plant.support_height, standing, stride_time, X, QM, VM, COUNTS, FN, IMU,
-                    INFO, UC, TAU, ENV, SUP)
+    bad = _run_walk(plant.leg.p, plant.params().copy(), dev.A, ctl.cp, ctl.gq, ctl.gdq,
+                    ctl.leg.p, leg.g, ctl.fx, ctl.sole, ctl.d, ctl.st, ctl.lim, ctl.sst,
+                    ctl.sup, sens.params(), fsr_noise, imu_noise, bias, dev.imu_x, -dev.depth,
+                    commands, control_dt, substeps, dev.support, plant.support_height,
+                    standing, stride_time, dev.state(), X, QM, VM, COUNTS, FN, IMU, INFO, UC,
+                    TAU, ENV, SUP)
     if bad >= 0:
         raise SimulationError(f"walking state became non-finite at t = {bad * control_dt:.4g} s")
     t: F64 = np.arange(n + 1, dtype=np.float64) * control_dt
@@ -436,7 +510,7 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                       phase=INFO[:, 1].astype(np.int64), gait_fraction=INFO[:, 2],
                       events=INFO[:, 3].astype(np.int64),
                       safety_status=INFO[:, 4].astype(np.int64), u_safe=UC, tau=TAU,
-                      envelope=ENV, support=SUP, plant=plant, actuators=acts,
+                      envelope=ENV, support=SUP, plant=plant, actuators=dev.actuators,
                       walk_start=standing, stride_time=stride_time)
 
 

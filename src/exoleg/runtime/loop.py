@@ -1,0 +1,180 @@
+"""The fixed-rate loop and its timing, and a session: sensors -> controller -> drives.
+
+:class:`RateClock` keeps the period on CPython: it sleeps until ``spin`` seconds before
+each deadline and busy-waits the rest (a plain ``time.sleep`` wakes 80-115 us late on
+this kind of machine; sleeping short and spinning brings the median to ~0), counts
+every tick's lateness and the deadlines missed by more than a period. What CPython on a
+stock kernel can promise is a good median and p99, not a bound: the garbage collector,
+the scheduler and page faults give a tail of milliseconds. The session freezes the heap
+(no collection in the loop) and asks for CPU affinity and SCHED_FIFO where permitted;
+hard real time needs the loop on a real-time kernel, or the tick in C on an isolated
+core, with this process above it as the operator's side.
+
+:func:`run_session` runs one session on a backend (``read``/``write``/``advance``) and a
+controller (``step(sensors, t) -> {"tau": ...}``): the same controller objects
+``exoleg simulate`` runs. A controller exception, a non-finite command or SIGINT/SIGTERM
+takes the torque off at once, the reason goes to the log's summary, and the log closes.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import gc
+import os
+import signal
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from exoleg.runtime.log import SessionLog
+
+F64 = NDArray[np.float64]
+
+
+class RateClock:
+    """Ticks every ``period`` s from the first :meth:`wait`; keeps each tick's lateness."""
+
+    def __init__(self, period: float, spin: float = 2e-4, capacity: int = 1 << 20) -> None:
+        self.period = float(period)
+        self.spin = float(spin)
+        self.late = np.zeros(capacity)
+        self.n = 0
+        self.next = 0.0
+
+    def start(self) -> None:
+        self.next = time.perf_counter() + self.period
+
+    def wait(self) -> float:
+        """Wait for the next deadline; returns how late it was reached (s)."""
+        sleep = self.next - self.spin - time.perf_counter()
+        if sleep > 0:
+            time.sleep(sleep)
+        while True:
+            now = time.perf_counter()
+            if now >= self.next:
+                break
+        late = now - self.next
+        if self.n < len(self.late):
+            self.late[self.n] = late
+        self.n += 1
+        self.next += self.period
+        if late > self.period:  # missed: resynchronise instead of running to catch up
+            self.next = now + self.period
+        return late
+
+    def stats(self) -> dict[str, float]:
+        """Lateness p50/p99/p99.9/max (us) and deadlines missed by more than a period."""
+        x = self.late[: min(self.n, len(self.late))] * 1e6
+        if not len(x):
+            return {"ticks": 0}
+        return {"ticks": int(self.n), "p50_us": float(np.percentile(x, 50)),
+                "p99_us": float(np.percentile(x, 99)),
+                "p999_us": float(np.percentile(x, 99.9)), "max_us": float(x.max()),
+                "missed": int((x > self.period * 1e6).sum())}
+
+
+def realtime_settings() -> list[str]:
+    """Pin to the last CPU and ask for SCHED_FIFO where the OS permits; what was done."""
+    done = []
+    with contextlib.suppress(AttributeError, OSError):
+        cpus = sorted(os.sched_getaffinity(0))
+        os.sched_setaffinity(0, {cpus[-1]})
+        done.append(f"pinned to CPU {cpus[-1]}")
+    with contextlib.suppress(AttributeError, OSError, PermissionError):
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(10))
+        done.append("SCHED_FIFO priority 10")
+    return done
+
+
+class Backend(Protocol):
+    def read(self, t: float) -> dict[str, Any]: ...
+    def write(self, tau: F64) -> None: ...
+    def advance(self, t: float, walking: bool = False) -> None: ...
+    def safe(self) -> None: ...
+    def record(self) -> F64: ...
+    columns: list[str]
+
+
+@dataclass
+class SessionResult:
+    ticks: int
+    stopped_by: str
+    timing: dict[str, float]
+    realtime: list[str] = field(default_factory=list)
+
+
+#: the log's columns around the backend's own (:attr:`Backend.columns`)
+LOG_HEAD = ["t", "late"]
+LOG_TAIL = ["u_hip", "u_knee", "u_ankle", "mode", "phase", "events", "safety_status"]
+
+
+def run_session(backend: Backend, controller: Any, duration: float, period: float,
+                log: SessionLog, commands: dict[int, int] | None = None,
+                realtime: bool = True,
+                on_tick: Callable[[int, dict[str, Any]], int | None] | None = None
+                ) -> SessionResult:
+    """Run ``duration`` s of ticks; ``commands``: tick -> operator command (arm, walk...).
+    ``on_tick(k, out)`` may return a command for the next tick (the control API's way in).
+    Every tick: read, step, write, advance, log. Returns how it ended."""
+    stop: list[str] = []
+
+    def on_signal(signum: int, frame: object) -> None:
+        stop.append(signal.Signals(signum).name)
+
+    for part in (backend, controller):  # compile before the clock starts
+        warm = getattr(part, "warm_up", None)
+        if warm is not None:
+            warm()
+    old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    rt = realtime_settings() if realtime else []
+    clock = RateClock(period)
+    n = int(round(duration / period))
+    pending = dict(commands or {})
+    zero = np.zeros(3)
+    reason = "duration"
+    gc.collect()
+    gc.freeze()
+    gc.disable()  # no collection pauses in the loop
+    clock.start()
+    k = 0
+    try:
+        for k in range(n):
+            t = k * period
+            sensors = backend.read(t)
+            sensors["command"] = pending.pop(k, 0)
+            try:
+                out = controller.step(sensors, t)
+                tau = np.asarray(out["tau"], dtype=float)
+                if tau.shape != (3,) or not np.all(np.isfinite(tau)):
+                    raise ValueError(f"controller gave {tau!r}")
+            except Exception as e:  # the controller failed: torque off, stop
+                backend.write(zero)
+                backend.safe()
+                reason = f"controller error: {type(e).__name__}: {e}"
+                break
+            backend.write(tau)
+            log.append(np.concatenate([[t, clock.late[k - 1] if k else 0.0], backend.record(),
+                                       tau, [out["mode"], out["phase"], out["events"],
+                                             out["safety_status"]]]))
+            if on_tick is not None:
+                cmd = on_tick(k, out)
+                if cmd:
+                    pending[k + 1] = cmd
+            if stop:
+                backend.write(zero)
+                backend.safe()
+                reason = f"signal {stop[0]}: torque off"
+                break
+            backend.advance(t, out["mode"] == 2)
+            clock.wait()
+    finally:
+        gc.enable()
+        gc.unfreeze()
+        for s, h in old.items():
+            signal.signal(s, h)
+        log.close()
+    return SessionResult(ticks=k + 1, stopped_by=reason, timing=clock.stats(), realtime=rt)

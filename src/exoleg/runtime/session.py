@@ -1,0 +1,83 @@
+"""``exoleg run`` and ``exoleg log summary``: a session on a backend, its log, its report."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from exoleg.errors import ParameterError
+from exoleg.runtime.log import MAX_LOSS_TICKS, SessionLog, read_log
+from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, SessionResult, run_session
+
+BACKENDS = ("sim",)
+
+
+def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
+        arm: bool = False, walk_after: float | None = None, leg: Any = None,
+        body_mass: float = 30.0, seed: int = 0, realtime: bool = True
+        ) -> tuple[SessionResult, Path]:
+    """One session: the device (``backend``) under the walking controller for
+    ``duration`` s, logged to ``out``/session.log. On ``sim`` the operator's arming may
+    be given here (``arm``), and walking from ``walk_after`` s."""
+    import exoleg
+    from exoleg.control.hierarchy import Command
+    from exoleg.io import _writable_folder
+
+    if backend not in BACKENDS:
+        raise ParameterError("exoleg run", "--backend", f"unknown {backend!r} (allowed: "
+                             + ", ".join(BACKENDS) + "; canopen and ethercat are not built yet)")
+    if walk_after is not None and not arm:
+        raise ParameterError("exoleg run", "--walk-after", "needs --arm (no motion without "
+                             "arming)")
+    from exoleg.runtime.sim_backend import SimBackend
+
+    b = SimBackend(leg if leg is not None else exoleg.paper_leg(), body_mass, period,
+                   seed=seed)
+    folder = _writable_folder(Path(out))
+    path = folder / "session.log"
+    log = SessionLog(path, LOG_HEAD + b.columns + LOG_TAIL,
+                     {"period": period, "backend": backend, "max_loss_ticks": MAX_LOSS_TICKS,
+                      "leg": b.dev.leg.name, "body_mass": body_mass})
+    commands: dict[int, int] = {}
+    if arm:
+        commands[0] = int(Command.ARM)
+    if walk_after is not None:
+        commands[max(1, int(round(walk_after / period)))] = int(Command.WALK)
+    res = run_session(b, b.controller, duration, period, log, commands, realtime=realtime)
+    summary = {"backend": backend, "ticks": res.ticks, "stopped_by": res.stopped_by,
+               "timing_us": res.timing, "realtime": res.realtime,
+               "log": str(path), "max_loss_ticks_on_a_crash": MAX_LOSS_TICKS}
+    (folder / "run.json").write_text(json.dumps(summary, indent=2))
+    return res, path
+
+
+def summarize(path: str | Path) -> dict[str, Any]:
+    """What a session log holds: length, modes, faults, events, timing, tail dropped."""
+    header, cols, cut = read_log(path)
+    n = len(cols["t"])
+    period = float(header.get("period", 1e-3))
+    late = cols["late"][1:] * 1e6 if n > 1 else np.zeros(0)
+    modes = {int(m): int((cols["mode"] == m).sum()) for m in np.unique(cols["mode"])}
+    status = cols["safety_status"].astype(np.int64)
+    faulted = np.nonzero(status & 2)[0]
+    return {"ticks": n, "duration_s": n * period, "period_s": period,
+            "backend": header.get("backend", "?"), "leg": header.get("leg", "?"),
+            "ticks_per_mode": modes,
+            "first_fault_s": float(cols["t"][faulted[0]]) if len(faulted) else None,
+            "initial_contacts": int(((cols["events"].astype(np.int64) & 1) > 0).sum()),
+            "late_p50_us": float(np.percentile(late, 50)) if len(late) else 0.0,
+            "late_p99_us": float(np.percentile(late, 99)) if len(late) else 0.0,
+            "late_max_us": float(late.max()) if len(late) else 0.0,
+            "missed_deadlines": int((late > period * 1e6).sum()),
+            "cut_record_bytes": cut}
+
+
+def to_table(path: str | Path) -> Any:
+    """The log as an Arrow table (the same series format as ``exoleg simulate``)."""
+    import pyarrow as pa
+
+    _, cols, _ = read_log(path)
+    return pa.table(cols)

@@ -1,0 +1,93 @@
+"""The ``sim`` backend: the simulated walking device (:mod:`exoleg.sim.walk`) stepped in
+real time in this process -- the same plant, drives and sensors ``exoleg simulate
+--walk`` runs, one tick at a time, so ``exoleg run`` works on any machine."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from exoleg.dynamics.model import LegModel
+from exoleg.params.records import JOINTS
+from exoleg.sim.walk import SimulatedDevice, device_actuate, device_sense, prepare_walk
+
+F64 = NDArray[np.float64]
+_CHUNK = 4096  # ticks of noise drawn at once
+
+
+class SimBackend:
+    """``read(t)`` the sensors, ``write(tau)`` the drives' commands, ``advance(t, walking)``
+    one tick of the plant; ``record()`` what the log keeps of the device per tick."""
+
+    columns = ([f"q_meas_{j}" for j in JOINTS] + [f"dq_meas_{j}" for j in JOINTS]
+               + ["fsr_heel", "fsr_met1", "fsr_met5", "fsr_hallux", "gyro"]
+               + [f"q_{j}" for j in JOINTS] + ["pelvis"] + [f"tau_{j}" for j in JOINTS])
+
+    def __init__(self, leg: LegModel, body_mass: float, period: float = 1e-3,
+                 substeps: int = 2, seed: int = 0, **walk: Any) -> None:
+        self.dev: SimulatedDevice = prepare_walk(leg, body_mass, control_dt=period, **walk)
+        self.period = period
+        self.substeps = substeps
+        self.S = self.dev.state()
+        self.w = self.dev.plant.params().copy()
+        self.p = self.dev.plant.leg.p
+        self.sens = self.dev.sensors.params()
+        self.rng = np.random.default_rng(seed)
+        from exoleg.device.sensors import draw_noise
+
+        self._draw = lambda: draw_noise(self.dev.sensors, _CHUNK, int(self.rng.integers(2**31)))
+        self.fsr_noise, self.imu_noise, self.bias = self._draw()
+        self.k = 0
+        self.counts, self.fn = np.zeros(4), np.zeros(4)
+        self.qm, self.vm, self.imu = np.zeros(3), np.zeros(3), np.zeros(3)
+        self.u, self.env, self.tau = np.zeros(3), np.zeros(3), np.zeros(3)
+        self.walk_start = -1.0
+
+    @property
+    def controller(self) -> Any:
+        """The walking controller made for this device (:class:`WalkController`)."""
+        return self.dev.controller
+
+    def warm_up(self) -> None:
+        """Compile (or load from numba's cache) the tick's functions on copies of the state,
+        so that the first real tick is not late by the compile time."""
+        S, w = self.S.copy(), self.w.copy()
+        c, f, q, v, m = (np.zeros(4), np.zeros(4), np.zeros(3), np.zeros(3), np.zeros(3))
+        device_sense(self.p, w, self.dev.A, self.sens, self.dev.leg.g, self.dev.imu_x,
+                     -self.dev.depth, S, self.period, True, self.fsr_noise[0],
+                     self.imu_noise[0], self.bias, c, q, v, m, f)
+        device_actuate(self.p, w, self.dev.A, S, self.period, self.substeps, np.zeros(3), f,
+                       False, 0.0, 1e18, self.dev.stride_time, self.dev.support,
+                       self.dev.plant.support_height, np.zeros(3), np.zeros(3))
+
+    def read(self, t: float) -> dict[str, Any]:
+        i = self.k % _CHUNK
+        if i == 0 and self.k:
+            self.fsr_noise, self.imu_noise, _ = self._draw()
+        device_sense(self.p, self.w, self.dev.A, self.sens, self.dev.leg.g, self.dev.imu_x,
+                     -self.dev.depth, self.S, self.period, self.k == 0, self.fsr_noise[i],
+                     self.imu_noise[i], self.bias, self.counts, self.qm, self.vm, self.imu,
+                     self.fn)
+        return {"q": self.qm, "dq": self.vm, "fsr": self.counts, "gyro": self.imu[0]}
+
+    def write(self, tau: F64) -> None:
+        self.u[:] = tau
+
+    def safe(self) -> None:
+        """Torque off (the simulated drives' quick stop)."""
+        self.u[:] = 0.0
+
+    def advance(self, t: float, walking: bool = False) -> None:
+        if walking and self.walk_start < 0:
+            self.walk_start = t
+        device_actuate(self.p, self.w, self.dev.A, self.S, self.period, self.substeps, self.u,
+                       self.fn, walking, t, self.walk_start if walking else 1e18,
+                       self.dev.stride_time, self.dev.support, self.dev.plant.support_height,
+                       self.env, self.tau)
+        self.k += 1
+
+    def record(self) -> F64:
+        return np.concatenate([self.qm, self.vm, self.counts, self.imu[:1], self.S[1:4],
+                               self.S[:1], self.tau])

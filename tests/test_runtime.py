@@ -1,0 +1,156 @@
+"""The runtime on the ``sim`` backend: sessions, faults by injection, the crash-safe log.
+
+References: the supervisor's and safety layer's rules (torque off on a fault, the same
+tick); the log's format (complete records, contiguous ticks, at most the unwritten batch
+lost on SIGKILL). Timing is measured by the benchmark, not asserted here.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import exoleg
+from exoleg.control.hierarchy import Command
+from exoleg.runtime.log import MAX_LOSS_TICKS, SessionLog, read_log
+from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, run_session
+from exoleg.runtime.sim_backend import SimBackend
+
+
+def _cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "exoleg.cli", *args], capture_output=True,
+                          text=True, check=False, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def backend_factory():  # type: ignore[no-untyped-def]
+    leg = exoleg.paper_leg()
+    return lambda: SimBackend(leg, 30.0)
+
+
+def _session(tmp_path: Path, backend: SimBackend, controller, duration: float,  # type: ignore[no-untyped-def]
+             commands: dict[int, int]):
+    log = SessionLog(tmp_path / "s.log", LOG_HEAD + backend.columns + LOG_TAIL,
+                     {"period": 1e-3})
+    res = run_session(backend, controller, duration, 1e-3, log, commands, realtime=False)
+    return res, read_log(tmp_path / "s.log")[1]
+
+
+def test_cli_run_and_log_summary(tmp_path: Path) -> None:
+    r = _cli("run", "--backend", "sim", "--duration", "2", "--arm", "--walk-after", "1",
+             "--no-realtime", "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    run = json.loads((tmp_path / "run.json").read_text())
+    assert run["ticks"] == 2000 and run["stopped_by"] == "duration"
+    s = _cli("log", "summary", str(tmp_path), "--csv", str(tmp_path / "series.csv"))
+    assert s.returncode == 0, s.stderr
+    header = (tmp_path / "series.csv").read_text().splitlines()[0].split(",")
+    assert {"t", "q_meas_knee", "fsr_heel", "u_ankle", "mode", "safety_status"} <= set(header)
+    _, cols, cut = read_log(tmp_path / "session.log")
+    assert cut == 0 and set(np.unique(cols["mode"])) == {1.0, 2.0}  # standing, walking
+
+
+def test_no_motion_without_arming(tmp_path: Path, backend_factory) -> None:  # type: ignore[no-untyped-def]
+    b = backend_factory()
+    res, cols = _session(tmp_path, b, b.controller, 0.5, {100: Command.WALK})
+    assert np.all(cols["mode"] == 0)  # a walk command without arming changes nothing
+    for j in ("u_hip", "u_knee", "u_ankle"):
+        assert np.all(cols[j] == 0.0)
+
+
+def test_estop_takes_torque_off_the_same_tick(tmp_path: Path, backend_factory) -> None:  # type: ignore[no-untyped-def]
+    b = backend_factory()
+    res, cols = _session(tmp_path, b, b.controller, 1.0, {0: Command.ARM, 500: Command.ESTOP})
+    assert np.any(cols["u_knee"][:500] != 0.0)
+    assert np.all(cols["mode"][500:] == 3)  # FAULT, latched
+    for j in ("u_hip", "u_knee", "u_ankle"):
+        assert np.all(cols[j][500:] == 0.0), j  # from the E-stop's own tick
+
+
+class _Failing:
+    """A controller that fails at a tick: raising, or a NaN command."""
+
+    def __init__(self, inner, k: int, how: str) -> None:  # type: ignore[no-untyped-def]
+        self.inner, self.k, self.how, self.n = inner, k, how, 0
+
+    def step(self, sensors, t):  # type: ignore[no-untyped-def]
+        out = self.inner.step(sensors, t)
+        self.n += 1
+        if self.n > self.k:
+            if self.how == "raise":
+                raise RuntimeError("injected")
+            out["tau"] = np.array([0.0, np.nan, 0.0])
+        return out
+
+
+@pytest.mark.parametrize("how", ["raise", "nan"])
+def test_controller_failure_takes_torque_off(tmp_path: Path, backend_factory, how: str) -> None:  # type: ignore[no-untyped-def]
+    b = backend_factory()
+    res, cols = _session(tmp_path, b, _Failing(b.controller, 300, how), 1.0, {0: Command.ARM})
+    assert res.stopped_by.startswith("controller error")
+    assert np.array_equal(b.u, np.zeros(3))  # the drives were told zero
+    assert len(cols["t"]) == 300  # the failing tick is not logged as a command
+
+
+def test_sigterm_stops_with_torque_off(tmp_path: Path) -> None:
+    p = subprocess.Popen([sys.executable, "-m", "exoleg.cli", "run", "--duration", "60",
+                          "--arm", "--no-realtime", "--out", str(tmp_path)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    log = tmp_path / "session.log"
+    deadline = time.time() + 120
+    while time.time() < deadline and (not log.exists() or log.stat().st_size < 100_000):
+        time.sleep(0.2)
+    p.send_signal(signal.SIGTERM)
+    p.communicate(timeout=60)
+    assert p.returncode == 130
+    run = json.loads((tmp_path / "run.json").read_text())
+    assert run["stopped_by"] == "signal SIGTERM: torque off"
+
+
+def test_log_survives_sigkill(tmp_path: Path) -> None:
+    p = subprocess.Popen([sys.executable, "-m", "exoleg.cli", "run", "--duration", "60",
+                          "--arm", "--no-realtime", "--out", str(tmp_path)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    log = tmp_path / "session.log"
+    deadline = time.time() + 120
+    while time.time() < deadline and (not log.exists() or log.stat().st_size < 200_000):
+        time.sleep(0.2)
+    header, before, _ = read_log(log)
+    seen = len(before["t"])
+    os.kill(p.pid, signal.SIGKILL)
+    p.wait(timeout=30)
+    header, cols, cut = read_log(log)
+    n = len(cols["t"])
+    assert n >= seen > 0  # nothing already written is lost
+    # whole records, ticks contiguous from 0: no garbage, no gap
+    assert np.allclose(cols["t"], np.arange(n) * header["period"], atol=1e-12)
+    assert cut < 8 * len(header["columns"])
+    assert header["max_loss_ticks"] == MAX_LOSS_TICKS
+
+
+def test_log_summary_of_a_cut_and_of_a_bad_file(tmp_path: Path) -> None:
+    r = _cli("run", "--duration", "0.5", "--no-realtime", "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    log = tmp_path / "session.log"
+    data = log.read_bytes()
+    log.write_bytes(data[:-13])  # a record cut short, as a crash mid-write would
+    s = _cli("log", "summary", str(log))
+    assert s.returncode == 0 and "cut_record_bytes" in s.stdout
+    (tmp_path / "bad.log").write_bytes(b"\x00\x01binary")
+    for bad, text in ((tmp_path / "bad.log", "not an exoleg session log"),
+                      (tmp_path / "missing.log", "no such session log")):
+        s = _cli("log", "summary", str(bad))
+        assert s.returncode == 2 and text in s.stderr and len(s.stderr.splitlines()) == 1
+
+
+def test_run_refuses_walking_without_arming(tmp_path: Path) -> None:
+    r = _cli("run", "--duration", "1", "--walk-after", "0.5", "--out", str(tmp_path))
+    assert r.returncode == 2 and "needs --arm" in r.stderr
