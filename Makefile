@@ -29,6 +29,7 @@ bench: setup
 	$(BIN)/python benchmarks/bench_dynamics.py
 	$(BIN)/python benchmarks/bench_simulate.py
 	$(BIN)/python benchmarks/bench_device.py
+	$(BIN)/python benchmarks/bench_runtime.py
 
 codegen: setup
 	$(BIN)/python -m exoleg.dynamics.codegen
