@@ -1,0 +1,156 @@
+"""The CiA 402 drive state machine (IEC 61800-7-201 / CiA 402 part 2), written once for
+every transport and for the simulated drives.
+
+* :func:`decode` turns a statusword (object 0x6041) into a :class:`State`;
+* :class:`Drive` is the drive's side: it takes controlwords (0x6040) and faults and
+  moves through the states as the standard's transition table says, and gives the
+  statusword back -- the simulated EPOS4 node's state machine;
+* :func:`controlword_towards` is the master's side: the next controlword on the way
+  from a state to Operation Enabled (arming) or to Switch On Disabled (disarming),
+  one transition per call, as a drive must be walked through them.
+
+Quick stop and fault reset follow the standard: the quick-stop bit is active low, a
+fault reset acts on the rising edge of bit 7.
+"""
+
+from __future__ import annotations
+
+from enum import Enum
+
+# controlword bits (0x6040)
+SWITCH_ON, ENABLE_VOLTAGE, QUICK_STOP, ENABLE_OPERATION, FAULT_RESET = 1, 2, 4, 8, 128
+# the standard's device control commands
+SHUTDOWN = ENABLE_VOLTAGE | QUICK_STOP                          # 0x0006
+SWITCH_ON_CMD = SWITCH_ON | ENABLE_VOLTAGE | QUICK_STOP         # 0x0007
+ENABLE_OPERATION_CMD = SWITCH_ON_CMD | ENABLE_OPERATION         # 0x000F
+DISABLE_VOLTAGE = 0x0000
+QUICK_STOP_CMD = ENABLE_VOLTAGE                                 # 0x0002
+DISABLE_OPERATION = SWITCH_ON_CMD                               # 0x0007
+FAULT_RESET_CMD = FAULT_RESET                                   # 0x0080
+
+
+class State(Enum):
+    """The states, with (mask, value) of their statusword bits 0-3, 5, 6."""
+
+    NOT_READY_TO_SWITCH_ON = (0x4F, 0x00)
+    SWITCH_ON_DISABLED = (0x4F, 0x40)
+    READY_TO_SWITCH_ON = (0x6F, 0x21)
+    SWITCHED_ON = (0x6F, 0x23)
+    OPERATION_ENABLED = (0x6F, 0x27)
+    QUICK_STOP_ACTIVE = (0x6F, 0x07)
+    FAULT_REACTION_ACTIVE = (0x4F, 0x0F)
+    FAULT = (0x4F, 0x08)
+
+
+#: the statusword a drive reports in each state (voltage enabled bit 4 where it is)
+STATUSWORD = {
+    State.NOT_READY_TO_SWITCH_ON: 0x0000, State.SWITCH_ON_DISABLED: 0x0040,
+    State.READY_TO_SWITCH_ON: 0x0031, State.SWITCHED_ON: 0x0033,
+    State.OPERATION_ENABLED: 0x0037, State.QUICK_STOP_ACTIVE: 0x0017,
+    State.FAULT_REACTION_ACTIVE: 0x001F, State.FAULT: 0x0018,
+}
+
+
+def decode(statusword: int) -> State:
+    """The state a statusword reports. Raises ValueError for a word no state matches."""
+    for s in State:
+        mask, value = s.value
+        if statusword & mask == value:
+            return s
+    raise ValueError(f"statusword 0x{statusword:04X} matches no CiA 402 state")
+
+
+def _command(cw: int) -> str:
+    """The device control command a controlword carries (bits 0-3, 7)."""
+    if cw & FAULT_RESET:
+        return "fault_reset"
+    if not cw & ENABLE_VOLTAGE:
+        return "disable_voltage"
+    if not cw & QUICK_STOP:
+        return "quick_stop"
+    if not cw & SWITCH_ON:
+        return "shutdown"
+    if cw & ENABLE_OPERATION:
+        return "enable_operation"
+    return "switch_on"  # also "disable operation" from Operation Enabled
+
+
+class Drive:
+    """A drive's CiA 402 state machine. Starts in Switch On Disabled (after its own
+    Not Ready To Switch On self-test). ``torque_allowed`` only in Operation Enabled."""
+
+    def __init__(self) -> None:
+        self.state = State.SWITCH_ON_DISABLED
+        self._last_cw = 0
+
+    @property
+    def statusword(self) -> int:
+        return STATUSWORD[self.state]
+
+    @property
+    def torque_allowed(self) -> bool:
+        return self.state is State.OPERATION_ENABLED
+
+    def fault(self) -> None:
+        """A drive fault (overcurrent, a lost SYNC, ...): the torque goes off and the drive
+        is in Fault (its fault reaction -- Fault Reaction Active -- completes within the
+        tick here, as the torque is simply removed)."""
+        self.state = State.FAULT
+
+    def controlword(self, cw: int) -> State:
+        """Apply a controlword; returns the new state (transitions of CiA 402 Fig. 4)."""
+        cmd = _command(cw)
+        rising_reset = bool(cw & FAULT_RESET) and not self._last_cw & FAULT_RESET
+        self._last_cw = cw
+        s = self.state
+        if s is State.FAULT:
+            if rising_reset:
+                self.state = State.SWITCH_ON_DISABLED                  # 15
+            return self.state
+        if cmd == "fault_reset":
+            return self.state
+        if cmd == "disable_voltage":
+            if s is not State.NOT_READY_TO_SWITCH_ON:
+                self.state = State.SWITCH_ON_DISABLED                  # 7, 9, 10, 12
+        elif cmd == "quick_stop":
+            if s is State.OPERATION_ENABLED:
+                self.state = State.QUICK_STOP_ACTIVE                   # 11
+            elif s in (State.READY_TO_SWITCH_ON, State.SWITCHED_ON):
+                self.state = State.SWITCH_ON_DISABLED                  # 7, 10
+            elif s is State.QUICK_STOP_ACTIVE:
+                pass
+        elif cmd == "shutdown":
+            if s in (State.SWITCH_ON_DISABLED, State.SWITCHED_ON, State.OPERATION_ENABLED):
+                self.state = State.READY_TO_SWITCH_ON                  # 2, 6, 8
+            elif s is State.QUICK_STOP_ACTIVE:
+                self.state = State.SWITCH_ON_DISABLED                  # 12
+        elif cmd == "switch_on":
+            if s is State.READY_TO_SWITCH_ON:
+                self.state = State.SWITCHED_ON                         # 3
+            elif s is State.OPERATION_ENABLED:
+                self.state = State.SWITCHED_ON                         # 5
+            elif s is State.QUICK_STOP_ACTIVE:
+                self.state = State.SWITCH_ON_DISABLED                  # 12
+        elif cmd == "enable_operation":
+            if s is State.SWITCHED_ON:
+                self.state = State.OPERATION_ENABLED                   # 4
+            elif s is State.READY_TO_SWITCH_ON:
+                self.state = State.SWITCHED_ON                         # 3 (EPOS: 3 then 4)
+            elif s is State.QUICK_STOP_ACTIVE:
+                self.state = State.OPERATION_ENABLED                   # 16
+        return self.state
+
+
+def controlword_towards(state: State, enable: bool) -> int:
+    """The master's next controlword from ``state`` towards Operation Enabled
+    (``enable``) or Switch On Disabled (not): one transition per call."""
+    if state is State.FAULT:
+        return FAULT_RESET_CMD if enable else DISABLE_VOLTAGE
+    if not enable:
+        return QUICK_STOP_CMD if state is State.OPERATION_ENABLED else DISABLE_VOLTAGE
+    return {State.SWITCH_ON_DISABLED: SHUTDOWN, State.READY_TO_SWITCH_ON: SWITCH_ON_CMD,
+            State.SWITCHED_ON: ENABLE_OPERATION_CMD,
+            State.OPERATION_ENABLED: ENABLE_OPERATION_CMD,
+            State.QUICK_STOP_ACTIVE: DISABLE_VOLTAGE,
+            State.FAULT_REACTION_ACTIVE: DISABLE_VOLTAGE,
+            State.NOT_READY_TO_SWITCH_ON: DISABLE_VOLTAGE}[state]

@@ -1,0 +1,114 @@
+"""The CiA 402 state machine and the unit conversions (reference: CiA 402 part 2's
+statusword table and transitions 2-16; the definitions of counts and per-mille torque)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from exoleg.device.actuator import paper_actuators
+from exoleg.errors import ParameterError
+from exoleg.hw import cia402 as c
+from exoleg.hw.units import JointScaling
+
+
+@pytest.mark.parametrize("word,state", [
+    (0x0000, c.State.NOT_READY_TO_SWITCH_ON), (0x0040, c.State.SWITCH_ON_DISABLED),
+    (0x0021, c.State.READY_TO_SWITCH_ON), (0x0023, c.State.SWITCHED_ON),
+    (0x0027, c.State.OPERATION_ENABLED), (0x0007, c.State.QUICK_STOP_ACTIVE),
+    (0x000F, c.State.FAULT_REACTION_ACTIVE), (0x0008, c.State.FAULT),
+    (0x0637, c.State.OPERATION_ENABLED),  # remote, target reached, voltage: ignored bits
+])
+def test_decode_statusword(word: int, state: c.State) -> None:
+    assert c.decode(word) is state
+    assert c.decode(c.STATUSWORD[state]) is state
+
+
+def test_arming_walks_transitions_2_3_4() -> None:
+    d = c.Drive()
+    seen = []
+    while not d.torque_allowed:
+        d.controlword(c.controlword_towards(c.decode(d.statusword), True))
+        seen.append(d.state)
+    assert seen == [c.State.READY_TO_SWITCH_ON, c.State.SWITCHED_ON,
+                    c.State.OPERATION_ENABLED]
+
+
+def test_quick_stop_then_disable() -> None:
+    d = c.Drive()
+    for cw in (c.SHUTDOWN, c.SWITCH_ON_CMD, c.ENABLE_OPERATION_CMD):
+        d.controlword(cw)
+    assert d.controlword(c.QUICK_STOP_CMD) is c.State.QUICK_STOP_ACTIVE       # 11
+    assert not d.torque_allowed
+    assert d.controlword(c.DISABLE_VOLTAGE) is c.State.SWITCH_ON_DISABLED    # 12
+    # disarming from Operation Enabled goes through quick stop
+    assert c.controlword_towards(c.State.OPERATION_ENABLED, False) == c.QUICK_STOP_CMD
+
+
+def test_fault_and_reset_on_the_rising_edge_only() -> None:
+    d = c.Drive()
+    for cw in (c.SHUTDOWN, c.SWITCH_ON_CMD, c.ENABLE_OPERATION_CMD):
+        d.controlword(cw)
+    d.fault()
+    assert d.state is c.State.FAULT and not d.torque_allowed
+    assert d.controlword(c.ENABLE_OPERATION_CMD) is c.State.FAULT  # no way out but reset
+    assert d.controlword(c.FAULT_RESET_CMD) is c.State.SWITCH_ON_DISABLED  # 15
+    d.fault()
+    assert d.controlword(c.FAULT_RESET_CMD) is c.State.FAULT  # bit 7 held: no new edge
+    d.controlword(0)
+    assert d.controlword(c.FAULT_RESET_CMD) is c.State.SWITCH_ON_DISABLED
+
+
+def test_unknown_statusword() -> None:
+    with pytest.raises(ValueError, match="matches no CiA 402 state"):
+        c.decode(0x0001)  # "ready" without its quick-stop bit: no state
+
+
+@given(st.lists(st.integers(0, 0xFFFF), max_size=30))
+def test_property_torque_only_by_the_enable_path(words: list[int]) -> None:
+    """Whatever controlwords arrive, Operation Enabled is entered only from Switched On
+    (transition 4) or Quick Stop Active (16), by an enable-operation command."""
+    d = c.Drive()
+    for w in words:
+        before = d.state
+        after = d.controlword(w)
+        if after is c.State.OPERATION_ENABLED and before is not c.State.OPERATION_ENABLED:
+            assert before in (c.State.SWITCHED_ON, c.State.QUICK_STOP_ACTIVE)
+            assert w & 0x8F == c.ENABLE_OPERATION_CMD
+
+
+SC = JointScaling.of(paper_actuators()[2], offset_counts=123456, direction=-1)
+
+
+@given(st.floats(-math.pi + 1e-6, math.pi - 1e-6))
+def test_counts_round_trip_within_half_a_count(q: float) -> None:
+    assert abs(SC.to_rad(SC.to_counts(q)) - q) <= math.pi / 2**20 * (1 + 1e-9)
+
+
+def test_counts_offset_direction_and_wrap() -> None:
+    assert SC.to_counts(0.0) == 123456 and SC.to_rad(123456) == 0.0
+    assert SC.to_rad(123456 - 2**18) == pytest.approx(math.pi / 2)  # direction -1
+    assert SC.to_rad((123456 + 2**20 - 5) % 2**20) == pytest.approx(5 * 2 * math.pi / 2**20)
+
+
+@given(st.floats(-150.0, 150.0))
+def test_torque_round_trip_within_half_a_per_mille(tau: float) -> None:
+    step = SC.rated_motor_torque * SC.ratio * SC.efficiency / 1000
+    assert abs(SC.to_nm(SC.to_per_mille(tau)) - tau) <= step / 2 * (1 + 1e-9)
+
+
+def test_torque_scale_and_saturation() -> None:
+    a = paper_actuators()[2]
+    rated = a.torque_constant * a.continuous_current  # 0.0534 x 15 = 0.801 N m
+    assert SC.to_per_mille(-(a.ratio * a.efficiency * rated)) == 1000  # direction -1
+    assert SC.to_per_mille(1e9) == -32768 and SC.to_per_mille(-1e9) == 32767
+
+
+def test_bad_scaling() -> None:
+    with pytest.raises(ParameterError, match="direction"):
+        JointScaling(20, 0, 2, 100.0, 0.8, 0.5)
+    with pytest.raises(ParameterError, match="offset_counts"):
+        JointScaling(20, 2**20, 1, 100.0, 0.8, 0.5)
