@@ -867,7 +867,9 @@ def cmd_run(args: argparse.Namespace) -> int:
                                         for m, n in s["ticks_per_mode"].items())
          + f"; initial contacts {s['initial_contacts']}"
          + (f"; safety fault at {s['first_fault_s']:.3f} s" if s["first_fault_s"] else ""))
-    _say(f"\nwrote {path} (crash-safe: at most {20} ticks lost if killed) and "
+    from exoleg.runtime.log import MAX_LOSS_TICKS
+
+    _say(f"\nwrote {path} (crash-safe: at most {MAX_LOSS_TICKS} ticks lost if killed) and "
          f"{Path(args.out) / 'run.json'}")
     stopped = res.stopped_by
     return 0 if stopped == "duration" else (130 if stopped.startswith("signal") else 1)

@@ -141,6 +141,7 @@ def run_session(backend: Backend, controller: Any, duration: float, period: floa
     gc.disable()  # no collection pauses in the loop
     clock.start()
     k = 0
+    late = 0.0
     try:
         for k in range(n):
             t = k * period
@@ -157,7 +158,7 @@ def run_session(backend: Backend, controller: Any, duration: float, period: floa
                 reason = f"controller error: {type(e).__name__}: {e}"
                 break
             backend.write(tau)
-            log.append(np.concatenate([[t, clock.late[k - 1] if k else 0.0], backend.record(),
+            log.append(np.concatenate([[t, late], backend.record(),
                                        tau, [out["mode"], out["phase"], out["events"],
                                              out["safety_status"]]]))
             if on_tick is not None:
@@ -170,7 +171,7 @@ def run_session(backend: Backend, controller: Any, duration: float, period: floa
                 reason = f"signal {stop[0]}: torque off"
                 break
             backend.advance(t, out["mode"] == 2)
-            clock.wait()
+            late = clock.wait()
     finally:
         gc.enable()
         gc.unfreeze()

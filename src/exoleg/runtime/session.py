@@ -38,6 +38,14 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
                    seed=seed)
     folder = _writable_folder(Path(out))
     path = folder / "session.log"
+    import shutil
+
+    need = (duration / period) * 8 * (len(LOG_HEAD) + len(b.columns) + len(LOG_TAIL))
+    free = shutil.disk_usage(folder).free
+    if need > 0.9 * free:
+        raise ParameterError("exoleg run", "--duration",
+                             f"{duration:g} s of log needs {need / 2**30:.3g} GiB; "
+                             f"{free / 2**30:.3g} GiB is free in {folder}")
     log = SessionLog(path, LOG_HEAD + b.columns + LOG_TAIL,
                      {"period": period, "backend": backend, "max_loss_ticks": MAX_LOSS_TICKS,
                       "leg": b.dev.leg.name, "body_mass": body_mass})
