@@ -852,9 +852,19 @@ def cmd_run(args: argparse.Namespace) -> int:
     from exoleg.runtime.session import run, summarize
 
     leg = exoleg.load_leg(args.leg) if args.leg else None
+    if args.backend != "canopen" and args.interface is not None:
+        from exoleg.errors import ParameterError
+
+        raise ParameterError("exoleg run", "--interface", "goes with --backend canopen")
+    if args.backend == "canopen" and args.interface not in (None, "virtual") and args.arm:
+        from exoleg.errors import ParameterError
+
+        raise ParameterError("exoleg run", "--arm", "only on the sim backend or the virtual "
+                             "bus: on a real device the operator arms")
     res, path = run(args.backend, args.duration, args.out, period=1.0 / args.rate,
                     arm=args.arm, walk_after=args.walk_after, leg=leg,
-                    body_mass=args.body_mass, seed=args.seed, realtime=not args.no_realtime)
+                    body_mass=args.body_mass, seed=args.seed, realtime=not args.no_realtime,
+                    interface=args.interface or "virtual", channel=args.channel)
     s = summarize(path)
     t = res.timing
     _say(f"exoleg run --backend {args.backend}: {res.ticks} ticks at {args.rate:g} Hz, ended "
@@ -1000,8 +1010,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("run", help="drive the device (or a simulated one) at a fixed rate: "
                        "sensors -> control hierarchy -> safety layer -> drives, logged")
-    r.add_argument("--backend", choices=["sim"], default="sim",
-                   help="sim: the simulated device in real time (canopen, ethercat: not yet)")
+    r.add_argument("--backend", choices=["sim", "canopen"], default="sim",
+                   help="sim: the simulated device in real time; canopen: CiA 402 drives and "
+                        "the foot board over CAN (ethercat: not yet)")
+    r.add_argument("--interface", help="canopen: python-can interface, 'virtual' (default: "
+                   "hardware in the loop with simulated nodes) or e.g. 'socketcan'")
+    r.add_argument("--channel", default="exoleg", help="canopen: the bus channel (e.g. can0)")
     r.add_argument("--duration", type=_within(0.01, 86400.0, " s"), required=True, help="s")
     r.add_argument("--rate", type=_within(10.0, 10000.0, " Hz"), default=1000.0,
                    help="control rate, Hz (default 1000)")

@@ -146,6 +146,10 @@ def run_session(backend: Backend, controller: Any, duration: float, period: floa
         for k in range(n):
             t = k * period
             sensors = backend.read(t)
+            if sensors.get("fault"):  # the drives or the bus: torque off, stop
+                backend.safe()
+                reason = f"device fault: {sensors['fault']}"
+                break
             sensors["command"] = pending.pop(k, 0)
             try:
                 out = controller.step(sensors, t)
@@ -158,6 +162,9 @@ def run_session(backend: Backend, controller: Any, duration: float, period: floa
                 reason = f"controller error: {type(e).__name__}: {e}"
                 break
             backend.write(tau)
+            set_enabled = getattr(backend, "set_enabled", None)
+            if set_enabled is not None:  # the drives follow the supervisor's arming
+                set_enabled(out["mode"] in (1, 2))
             log.append(np.concatenate([[t, late], backend.record(),
                                        tau, [out["mode"], out["phase"], out["events"],
                                              out["safety_status"]]]))

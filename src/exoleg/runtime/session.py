@@ -12,13 +12,14 @@ from exoleg.errors import ParameterError
 from exoleg.runtime.log import MAX_LOSS_TICKS, SessionLog, read_log
 from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, SessionResult, run_session
 
-BACKENDS = ("sim",)
+BACKENDS = ("sim", "canopen")
 
 
 def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         arm: bool = False, walk_after: float | None = None, leg: Any = None,
-        body_mass: float = 30.0, seed: int = 0, realtime: bool = True
-        ) -> tuple[SessionResult, Path]:
+        body_mass: float = 30.0, seed: int = 0, realtime: bool = True,
+        interface: str = "virtual", channel: str = "exoleg",
+        inject: Any = None) -> tuple[SessionResult, Path]:
     """One session: the device (``backend``) under the walking controller for
     ``duration`` s, logged to ``out``/session.log. On ``sim`` the operator's arming may
     be given here (``arm``), and walking from ``walk_after`` s."""
@@ -28,14 +29,24 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
 
     if backend not in BACKENDS:
         raise ParameterError("exoleg run", "--backend", f"unknown {backend!r} (allowed: "
-                             + ", ".join(BACKENDS) + "; canopen and ethercat are not built yet)")
+                             + ", ".join(BACKENDS) + "; ethercat is not built yet)")
     if walk_after is not None and not arm:
         raise ParameterError("exoleg run", "--walk-after", "needs --arm (no motion without "
                              "arming)")
     from exoleg.runtime.sim_backend import SimBackend
 
-    b = SimBackend(leg if leg is not None else exoleg.paper_leg(), body_mass, period,
-                   seed=seed)
+    sim = SimBackend(leg if leg is not None else exoleg.paper_leg(), body_mass, period,
+                     seed=seed)
+    controller = sim.controller
+    rig = None
+    b: Any = sim
+    if backend == "canopen":
+        from exoleg.hw.canopen_backend import CanopenBackend, SimulatedRig
+
+        if interface == "virtual":  # hardware in the loop: the simulated nodes answer
+            sim.warm_up()
+            rig = SimulatedRig(sim, interface, channel)
+        b = CanopenBackend(sim.dev.actuators, period, interface, channel)
     folder = _writable_folder(Path(out))
     path = folder / "session.log"
     import shutil
@@ -48,13 +59,27 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
                              f"{free / 2**30:.3g} GiB is free in {folder}")
     log = SessionLog(path, LOG_HEAD + b.columns + LOG_TAIL,
                      {"period": period, "backend": backend, "max_loss_ticks": MAX_LOSS_TICKS,
-                      "leg": b.dev.leg.name, "body_mass": body_mass})
+                      "leg": sim.dev.leg.name, "body_mass": body_mass,
+                      "interface": interface if backend == "canopen" else None})
     commands: dict[int, int] = {}
     if arm:
         commands[0] = int(Command.ARM)
     if walk_after is not None:
         commands[max(1, int(round(walk_after / period)))] = int(Command.WALK)
-    res = run_session(b, b.controller, duration, period, log, commands, realtime=realtime)
+    def on_tick(k: int, out: dict[str, Any]) -> None:
+        if rig is not None:
+            rig.walking = out["mode"] == 2  # the treadmill: scenery of the simulation
+        if inject is not None:
+            inject(k, rig)
+
+    try:
+        res = run_session(b, controller, duration, period, log, commands, realtime=realtime,
+                          on_tick=on_tick)
+    finally:
+        if backend == "canopen":
+            b.close()
+            if rig is not None:
+                rig.close()
     summary = {"backend": backend, "ticks": res.ticks, "stopped_by": res.stopped_by,
                "timing_us": res.timing, "realtime": res.realtime,
                "log": str(path), "max_loss_ticks_on_a_crash": MAX_LOSS_TICKS}

@@ -1,0 +1,248 @@
+"""The ``canopen`` backend: the three drives as CiA 402 nodes and the foot board as a CAN
+node, driven over python-canopen / python-can -- on a real machine a SocketCAN interface,
+in tests a virtual bus on which :class:`SimulatedRig` answers: simulated EPOS4 nodes
+(``data/device/canopen/epos4_sim.eds``, the CiA 402 state machine of
+:mod:`exoleg.hw.cia402`, cyclic synchronous torque by PDO on every SYNC) and a simulated
+foot board, around the simulated device of :mod:`exoleg.sim.walk`. The master code here
+is what would drive the real nodes: hardware-in-the-loop of the whole protocol stack.
+
+Node ids: ankle 1, knee 2, hip 3 (the paper's chain, ankle -> knee -> hip), foot board
+16. Per tick the master sends each drive its RPDO1 (controlword 0x6040, target torque
+0x6071 per mille of rated torque), then SYNC; each drive answers with TPDO1 (statusword
+0x6041, position actual 0x6064 in encoder counts, torque actual 0x6077) and the foot board
+with two frames (:data:`FOOT_FSR_COB`, :data:`FOOT_IMU_COB`). The torque commanded at a
+tick acts from the next SYNC (the bus's one-cycle delay).
+
+Foot board frames (little endian): ``0x180 + 16``: four uint16 FSR counts (heel, met1,
+met5, hallux); ``0x280 + 16``: int16 gyro (mrad/s), int16 accel x, y (cm/s^2).
+"""
+
+from __future__ import annotations
+
+import struct
+import threading
+from importlib import resources
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from exoleg.errors import ParameterError
+from exoleg.hw import cia402
+from exoleg.hw.units import JointScaling
+
+F64 = NDArray[np.float64]
+DRIVE_IDS = {"ankle": 1, "knee": 2, "hip": 3}
+FOOT_ID = 16
+FOOT_FSR_COB = 0x180 + FOOT_ID
+FOOT_IMU_COB = 0x280 + FOOT_ID
+JOINT_ORDER = ("hip", "knee", "ankle")
+
+
+def eds_path() -> str:
+    return str(resources.files("exoleg").joinpath("data", "device", "canopen",
+                                                  "epos4_sim.eds"))
+
+
+def _network(interface: str, channel: str) -> Any:
+    try:
+        import canopen
+    except ImportError as e:
+        raise ImportError("python-canopen is needed for the canopen backend: pip install "
+                          "'exoleg[hw]'") from e
+    net = canopen.Network()
+    try:
+        net.connect(interface=interface, channel=channel, receive_own_messages=False)
+    except Exception as e:  # python-can raises many kinds for a missing interface
+        raise ParameterError("exoleg run", "--interface",
+                             f"cannot open {interface!r} channel {channel!r}: {e}") from None
+    return net
+
+
+class SimulatedRig:
+    """The simulated drives and foot board on the bus, around a simulated device. On each
+    SYNC: the drives' CiA 402 state machines take their controlwords; the torques of the
+    drives in Operation Enabled act on the plant for one tick; then every node sends
+    what its sensors read."""
+
+    def __init__(self, device: Any, interface: str = "virtual", channel: str = "exoleg",
+                 offsets: dict[str, int] | None = None) -> None:
+        import canopen
+
+        self.dev = device  # a SimBackend: the plant, its sensors and its drives' model
+        self.net = _network(interface, channel)
+        self.nodes: dict[str, Any] = {}
+        self.drives: dict[str, cia402.Drive] = {}
+        self.scaling: dict[str, JointScaling] = {}
+        for i, j in enumerate(JOINT_ORDER):
+            node = canopen.LocalNode(DRIVE_IDS[j], eds_path())
+            self.net.add_node(node)
+            node.rpdo.read(from_od=True)
+            node.tpdo.read(from_od=True)
+            node.rpdo[1].subscribe()
+            self.nodes[j] = node
+            self.drives[j] = cia402.Drive()
+            self.scaling[j] = JointScaling.of(device.dev.actuators[i],
+                                              (offsets or {}).get(j, 0))
+        self.silent: set[str] = set()  # nodes that stop answering (fault injection)
+        self.walking = False
+        self.lock = threading.Lock()
+        self.sensors = device.read(0.0)  # the device as it starts
+        self.net.subscribe(0x80, self._on_sync)
+
+    def _on_sync(self, can_id: int, data: bytes, timestamp: float) -> None:
+        with self.lock:
+            tau = np.zeros(3)
+            for i, j in enumerate(JOINT_ORDER):
+                rp = self.nodes[j].rpdo[1]
+                d = self.drives[j]
+                d.controlword(int(rp["Controlword"].raw))
+                if d.torque_allowed:
+                    tau[i] = self.scaling[j].to_nm(int(rp["Target torque"].raw))
+            self.dev.write(tau)
+            self.dev.advance(self.dev.k * self.dev.period, self.walking)
+            sensors = self.sensors = self.dev.read(self.dev.k * self.dev.period)
+            for i, j in enumerate(JOINT_ORDER):
+                if j in self.silent:
+                    continue
+                tp = self.nodes[j].tpdo[1]
+                tp["Statusword"].raw = self.drives[j].statusword
+                tp["Position actual value"].raw = self.scaling[j].to_counts(
+                    float(sensors["q"][i]))
+                tp["Torque actual value"].raw = self.scaling[j].to_per_mille(
+                    float(self.dev.tau[i]))
+                tp.transmit()
+            if "foot" not in self.silent:
+                c = np.clip(np.round(sensors["fsr"]), 0, 65535).astype(int)
+                self.net.send_message(FOOT_FSR_COB, struct.pack("<4H", *c))
+                g = int(np.clip(round(1000 * sensors["gyro"]), -32768, 32767))
+                self.net.send_message(FOOT_IMU_COB, struct.pack("<3h", g, 0, 0))
+
+    def fault(self, joint: str) -> None:
+        """Inject a drive fault (e.g. overcurrent): the drive goes to Fault."""
+        with self.lock:
+            self.drives[joint].fault()
+
+    def close(self) -> None:
+        self.net.disconnect()
+
+
+class CanopenBackend:
+    """The master side: ``read`` sends the pending commands and SYNC and waits for every
+    node's answer (``timeout`` s: a missing PDO is a fault); ``write`` stages the torques
+    and ``set_enabled`` the CiA 402 walk towards Operation Enabled or away from it."""
+
+    columns = ([f"q_meas_{j}" for j in JOINT_ORDER] + [f"dq_meas_{j}" for j in JOINT_ORDER]
+               + ["fsr_heel", "fsr_met1", "fsr_met5", "fsr_hallux", "gyro"]
+               + [f"state_{j}" for j in JOINT_ORDER] + ["bus_us"])
+
+    def __init__(self, actuators: tuple[Any, ...], period: float = 1e-3,
+                 interface: str = "virtual", channel: str = "exoleg", timeout: float = 5e-3,
+                 offsets: dict[str, int] | None = None) -> None:
+        import canopen
+
+        self.net = _network(interface, channel)
+        self.period = period
+        self.timeout = timeout
+        self.nodes: dict[str, Any] = {}
+        self.scaling: dict[str, JointScaling] = {}
+        for i, j in enumerate(JOINT_ORDER):
+            node = canopen.RemoteNode(DRIVE_IDS[j], eds_path())
+            self.net.add_node(node)
+            node.rpdo.read(from_od=True)
+            node.tpdo.read(from_od=True)
+            node.tpdo[1].subscribe()
+            self.nodes[j] = node
+            self.scaling[j] = JointScaling.of(actuators[i], (offsets or {}).get(j, 0))
+        self.foot = threading.Event()
+        self.fsr = np.zeros(4)
+        self.gyro = 0.0
+        self._fsr_seen = False
+        self.net.subscribe(FOOT_FSR_COB, self._on_fsr)
+        self.net.subscribe(FOOT_IMU_COB, self._on_imu)
+        self.enabled = False
+        self.tau = np.zeros(3)
+        self.q_prev = np.zeros(3)
+        self.vm = np.zeros(3)
+        self.states = [cia402.State.SWITCH_ON_DISABLED] * 3
+        self.first = True
+        self.bus_us = 0.0
+        self.b = np.array([1.0 - np.exp(-2 * np.pi * a.velocity_filter_hz * period)
+                           for a in actuators])
+
+    def _on_fsr(self, can_id: int, data: bytes, timestamp: float) -> None:
+        self.fsr[:] = struct.unpack("<4H", bytes(data))
+        self._fsr_seen = True
+
+    def _on_imu(self, can_id: int, data: bytes, timestamp: float) -> None:
+        self.gyro = struct.unpack("<3h", bytes(data))[0] / 1000.0
+        self.foot.set()
+
+    def set_enabled(self, enable: bool) -> None:
+        self.enabled = bool(enable)
+
+    def write(self, tau: F64) -> None:
+        self.tau[:] = tau
+
+    def safe(self) -> None:
+        """Torque off now: zero torque and quick stop to every drive, with a SYNC."""
+        self.tau[:] = 0.0
+        self.enabled = False
+        for j in JOINT_ORDER:
+            rp = self.nodes[j].rpdo[1]
+            rp["Controlword"].raw = cia402.QUICK_STOP_CMD
+            rp["Target torque"].raw = 0
+            rp.transmit()
+        self.net.sync.transmit()
+
+    def read(self, t: float) -> dict[str, Any]:
+        import time
+
+        t0 = time.perf_counter()
+        for i, j in enumerate(JOINT_ORDER):
+            rp = self.nodes[j].rpdo[1]
+            rp["Controlword"].raw = cia402.controlword_towards(self.states[i], self.enabled)
+            rp["Target torque"].raw = self.scaling[j].to_per_mille(float(self.tau[i]))
+            rp.transmit()
+            self.nodes[j].tpdo[1].is_received = False
+        self.foot.clear()
+        self.net.sync.transmit()
+        fault = ""
+        q = np.zeros(3)
+        for i, j in enumerate(JOINT_ORDER):
+            tp = self.nodes[j].tpdo[1]
+            with tp.receive_condition:
+                if not tp.is_received:
+                    tp.receive_condition.wait(self.timeout)
+            if not tp.is_received:
+                fault = f"no PDO from the {j} drive (node {DRIVE_IDS[j]}) within " \
+                        f"{self.timeout * 1e3:g} ms"
+                break
+            state = cia402.decode(int(tp["Statusword"].raw))
+            self.states[i] = state
+            if state in (cia402.State.FAULT, cia402.State.FAULT_REACTION_ACTIVE):
+                fault = f"the {j} drive (node {DRIVE_IDS[j]}) is in {state.name}"
+            q[i] = self.scaling[j].to_rad(int(tp["Position actual value"].raw))
+        if not fault and not self.foot.wait(self.timeout):
+            fault = f"no frame from the foot board (node {FOOT_ID}) within " \
+                    f"{self.timeout * 1e3:g} ms"
+        if not self.first:
+            self.vm += self.b * ((q - self.q_prev) / self.period - self.vm)
+        self.first = False
+        self.q_prev = q
+        self.bus_us = (time.perf_counter() - t0) * 1e6
+        out: dict[str, Any] = {"q": q, "dq": self.vm.copy(), "fsr": self.fsr.copy(),
+                               "gyro": self.gyro}
+        if fault:
+            out["fault"] = fault
+        return out
+
+    def advance(self, t: float, walking: bool = False) -> None:
+        """Nothing to step here: the drives act at the next SYNC."""
+
+    def record(self) -> F64:
+        return np.concatenate([self.q_prev, self.vm, self.fsr, [self.gyro],
+                               [s.value[1] for s in self.states], [self.bus_us]])
+
+    def close(self) -> None:
+        self.net.disconnect()
