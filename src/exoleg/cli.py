@@ -861,10 +861,21 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         raise ParameterError("exoleg run", "--arm", "only on the sim backend or the virtual "
                              "bus: on a real device the operator arms")
+    api = None
+    if args.api:
+        from exoleg.runtime.control_api import ControlAPI
+
+        api = ControlAPI(args.out)
+        if args.api_host not in ("127.0.0.1", "localhost", "::1"):
+            _say(f"warning: the control API listens on {args.api_host}, not only on this "
+                 "machine, without TLS: anyone on that network who has the token controls "
+                 "the device")
+        _say(f"control API: http://{args.api_host}:{args.api_port}/state  token: {api.token}")
     res, path = run(args.backend, args.duration, args.out, period=1.0 / args.rate,
                     arm=args.arm, walk_after=args.walk_after, leg=leg,
                     body_mass=args.body_mass, seed=args.seed, realtime=not args.no_realtime,
-                    interface=args.interface or "virtual", channel=args.channel)
+                    interface=args.interface or "virtual", channel=args.channel, api=api,
+                    api_host=args.api_host, api_port=args.api_port)
     s = summarize(path)
     t = res.timing
     _say(f"exoleg run --backend {args.backend}: {res.ticks} ticks at {args.rate:g} Hz, ended "
@@ -1026,6 +1037,11 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--leg", type=Path, help="leg file (from exoleg fit); default the paper's")
     r.add_argument("--body-mass", type=_within(10.0, 150.0, " kg"), default=30.0)
     r.add_argument("--seed", type=_count(0, 2**31 - 1), default=0, help="sim: sensor noise")
+    r.add_argument("--api", action="store_true",
+                   help="serve the control API (state, stream, commands with a token)")
+    r.add_argument("--api-host", default="127.0.0.1",
+                   help="the API's address (default loopback only)")
+    r.add_argument("--api-port", type=_count(1024, 65535), default=8765)
     r.add_argument("--no-realtime", action="store_true",
                    help="do not ask for CPU affinity and SCHED_FIFO")
     r.add_argument("--out", type=Path, default=Path("exoleg-session"))

@@ -115,11 +115,11 @@ LOG_TAIL = ["u_hip", "u_knee", "u_ankle", "mode", "phase", "events", "safety_sta
 def run_session(backend: Backend, controller: Any, duration: float, period: float,
                 log: SessionLog, commands: dict[int, int] | None = None,
                 realtime: bool = True,
-                on_tick: Callable[[int, dict[str, Any]], int | None] | None = None
-                ) -> SessionResult:
+                on_tick: Callable[[int, dict[str, Any], dict[str, Any], float], int | None]
+                | None = None) -> SessionResult:
     """Run ``duration`` s of ticks; ``commands``: tick -> operator command (arm, walk...).
-    ``on_tick(k, out)`` may return a command for the next tick (the control API's way in).
-    Every tick: read, step, write, advance, log. Returns how it ended."""
+    ``on_tick(k, out, sensors, late)`` may return a command for the next tick (the control
+    API's way in). Every tick: read, step, write, advance, log. Returns how it ended."""
     stop: list[str] = []
 
     def on_signal(signum: int, frame: object) -> None:
@@ -129,7 +129,11 @@ def run_session(backend: Backend, controller: Any, duration: float, period: floa
         warm = getattr(part, "warm_up", None)
         if warm is not None:
             warm()
-    old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    import threading
+
+    main = threading.current_thread() is threading.main_thread()  # only it gets signals
+    old = ({s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+           if main else {})
     rt = realtime_settings() if realtime else []
     clock = RateClock(period)
     n = int(round(duration / period))
@@ -169,8 +173,8 @@ def run_session(backend: Backend, controller: Any, duration: float, period: floa
                                        tau, [out["mode"], out["phase"], out["events"],
                                              out["safety_status"]]]))
             if on_tick is not None:
-                cmd = on_tick(k, out)
-                if cmd:
+                cmd = on_tick(k, out, sensors, late)
+                if cmd and k + 1 not in pending:
                     pending[k + 1] = cmd
             if stop:
                 backend.write(zero)

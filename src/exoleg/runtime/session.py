@@ -19,10 +19,13 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         arm: bool = False, walk_after: float | None = None, leg: Any = None,
         body_mass: float = 30.0, seed: int = 0, realtime: bool = True,
         interface: str = "virtual", channel: str = "exoleg",
-        inject: Any = None) -> tuple[SessionResult, Path]:
+        inject: Any = None, api: Any = None, api_host: str = "127.0.0.1",
+        api_port: int = 8765) -> tuple[SessionResult, Path]:
     """One session: the device (``backend``) under the walking controller for
     ``duration`` s, logged to ``out``/session.log. On ``sim`` the operator's arming may
-    be given here (``arm``), and walking from ``walk_after`` s."""
+    be given here (``arm``), and walking from ``walk_after`` s. ``api``: a
+    :class:`~exoleg.runtime.control_api.ControlAPI` to serve on ``api_host``:``api_port``
+    while the session runs."""
     import exoleg
     from exoleg.control.hierarchy import Command
     from exoleg.io import _writable_folder
@@ -66,16 +69,33 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         commands[0] = int(Command.ARM)
     if walk_after is not None:
         commands[max(1, int(round(walk_after / period)))] = int(Command.WALK)
-    def on_tick(k: int, out: dict[str, Any]) -> None:
+
+    def on_tick(k: int, out: dict[str, Any], sensors: dict[str, Any], late: float
+                ) -> int | None:
         if rig is not None:
             rig.walking = out["mode"] == 2  # the treadmill: scenery of the simulation
         if inject is not None:
             inject(k, rig)
+        if api is None:
+            return None
+        if k % 10 == 0:  # 100 Hz: enough for a person, cheap for the loop
+            api.publish({"t": k * period, "mode": int(out["mode"]), "phase": int(out["phase"]),
+                         "events": int(out["events"]),
+                         "safety_status": int(out["safety_status"]),
+                         "q": [float(x) for x in sensors["q"]],
+                         "tau": [float(x) for x in out["tau"]],
+                         "fsr": [float(x) for x in sensors["fsr"]], "late_us": late * 1e6})
+        return int(api.next_command())
 
+    if api is not None:
+        api.log_path = folder / "control.log"
+        api.start(api_host, api_port)
     try:
         res = run_session(b, controller, duration, period, log, commands, realtime=realtime,
                           on_tick=on_tick)
     finally:
+        if api is not None:
+            api.stop()
         if backend == "canopen":
             b.close()
             if rig is not None:
