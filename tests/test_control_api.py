@@ -75,3 +75,34 @@ def test_control_api_arms_refuses_without_token_and_estops(tmp_path: Path) -> No
     assert [(a["command"], a["accepted"]) for a in actions] == [
         ("arm", False), ("jump", False), ("arm", True), ("estop", True)]
     assert all(a["source"] == "127.0.0.1" and a["time"] > 0 for a in actions)
+
+
+def test_gains_within_bounds_only(tmp_path: Path) -> None:
+    port = _free_port()
+    api = ControlAPI(tmp_path)
+    t = threading.Thread(target=lambda: run("sim", 4.0, tmp_path, realtime=False, api=api,
+                                            api_port=port))
+    t.start()
+    base = f"http://127.0.0.1:{port}"
+    _wait(f"{base}/state", "mode", 0)
+    g = httpx.get(f"{base}/gains").json()
+    kp = g["gains"]["kp_swing"]
+    assert g["bounds"]["kp_swing"][2] == [0.0, 2 * kp[2]]  # shown with the gains
+    auth = {"Authorization": f"Bearer {api.token}"}
+    assert httpx.post(f"{base}/gains", json={"kp_swing": [1, 2, 3]}).status_code == 401
+    r = httpx.post(f"{base}/gains", json={"kp_swing": [kp[0], kp[1], 3 * kp[2]]},
+                   headers=auth)
+    assert r.status_code == 422 and "kp_swing[2]" in r.json()["error"]
+    r = httpx.post(f"{base}/gains", json={"support": 1.5}, headers=auth)
+    assert r.status_code == 422 and "outside 0-1" in r.json()["error"]
+    r = httpx.post(f"{base}/gains", json={"kp_swing": [kp[0], kp[1], 1.5 * kp[2]],
+                                          "support": 0.5}, headers=auth)
+    assert r.status_code == 200
+    deadline = time.time() + 10
+    while time.time() < deadline:
+        now = httpx.get(f"{base}/gains").json()["gains"]
+        if now["support"] == [0.5]:
+            break
+        time.sleep(0.05)
+    assert now["kp_swing"][2] == pytest.approx(1.5 * kp[2]) and now["support"] == [0.5]
+    t.join(timeout=60)

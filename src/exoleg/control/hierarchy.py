@@ -280,6 +280,23 @@ class WalkController:
         self.u = np.zeros(3)
         self.info = np.zeros(INFO_SIZE)
 
+    _SLOTS = {"kp_stance": C_KP_ST, "kd_stance": C_KD_ST, "kp_swing": C_KP_SW,
+              "kd_swing": C_KD_SW}
+
+    def gains_now(self) -> dict[str, list[float]]:
+        """The gains in force (N m/rad, N m s/rad per joint) and the support level."""
+        out = {k: [float(x) for x in self.cp[i:i + 3]] for k, i in self._SLOTS.items()}
+        out["support"] = [float(self.cp[C_SUPPORT])]
+        return out
+
+    def set_gains(self, change: dict[str, list[float]]) -> None:
+        """Change gains between ticks (the caller checked their bounds)."""
+        for k, v in change.items():
+            if k == "support":
+                self.cp[C_SUPPORT] = float(v[0])
+            else:
+                self.cp[self._SLOTS[k]:self._SLOTS[k] + 3] = v
+
     def warm_up(self) -> None:
         """Compile (or load from numba's cache) the tick on copies of the state."""
         walk_control_step(self.cp, self.gq, self.gdq, self.leg.p, self.leg.g, self.fx,

@@ -85,6 +85,8 @@ class SimulatedRig:
             self.scaling[j] = JointScaling.of(device.dev.actuators[i],
                                               (offsets or {}).get(j, 0))
         self.silent: set[str] = set()  # nodes that stop answering (fault injection)
+        self.frozen = False            # the foot board repeats its last frames (injection)
+        self.jump = np.zeros(3)        # rad added to the encoders' readings (injection)
         self.walking = False
         self.lock = threading.Lock()
         self.sensors = device.read(0.0)  # the device as it starts
@@ -108,20 +110,24 @@ class SimulatedRig:
                 tp = self.nodes[j].tpdo[1]
                 tp["Statusword"].raw = self.drives[j].statusword
                 tp["Position actual value"].raw = self.scaling[j].to_counts(
-                    float(sensors["q"][i]))
+                    float(sensors["q"][i] + self.jump[i]))
                 tp["Torque actual value"].raw = self.scaling[j].to_per_mille(
                     float(self.dev.tau[i]))
                 tp.transmit()
             if "foot" not in self.silent:
-                c = np.clip(np.round(sensors["fsr"]), 0, 65535).astype(int)
-                self.net.send_message(FOOT_FSR_COB, struct.pack("<4H", *c))
-                g = int(np.clip(round(1000 * sensors["gyro"]), -32768, 32767))
-                self.net.send_message(FOOT_IMU_COB, struct.pack("<3h", g, 0, 0))
+                if not self.frozen or not hasattr(self, "_frames"):
+                    c = np.clip(np.round(sensors["fsr"]), 0, 65535).astype(int)
+                    g = int(np.clip(round(1000 * sensors["gyro"]), -32768, 32767))
+                    self._frames = (struct.pack("<4H", *c), struct.pack("<3h", g, 0, 0))
+                self.net.send_message(FOOT_FSR_COB, self._frames[0])
+                self.net.send_message(FOOT_IMU_COB, self._frames[1])
 
-    def fault(self, joint: str) -> None:
-        """Inject a drive fault (e.g. overcurrent): the drive goes to Fault."""
+    def fault(self, joint: str, code: int = 0x2310) -> None:
+        """Inject a drive fault (default 0x2310, continuous overcurrent): the drive goes
+        to Fault and sends its EMCY message."""
         with self.lock:
             self.drives[joint].fault()
+            self.nodes[joint].emcy.send(code)
 
     def close(self) -> None:
         self.net.disconnect()
@@ -152,8 +158,10 @@ class CanopenBackend:
             node.rpdo.read(from_od=True)
             node.tpdo.read(from_od=True)
             node.tpdo[1].subscribe()
+            node.emcy.add_callback(self._on_emcy(j))
             self.nodes[j] = node
             self.scaling[j] = JointScaling.of(actuators[i], (offsets or {}).get(j, 0))
+        self.emcy: list[tuple[str, Any]] = []
         self.foot = threading.Event()
         self.fsr = np.zeros(4)
         self.gyro = 0.0
@@ -169,6 +177,11 @@ class CanopenBackend:
         self.bus_us = 0.0
         self.b = np.array([1.0 - np.exp(-2 * np.pi * a.velocity_filter_hz * period)
                            for a in actuators])
+
+    def _on_emcy(self, joint: str) -> Any:
+        def on(err: Any) -> None:
+            self.emcy.append((joint, err))
+        return on
 
     def _on_fsr(self, can_id: int, data: bytes, timestamp: float) -> None:
         self.fsr[:] = struct.unpack("<4H", bytes(data))
@@ -223,6 +236,10 @@ class CanopenBackend:
             if state in (cia402.State.FAULT, cia402.State.FAULT_REACTION_ACTIVE):
                 fault = f"the {j} drive (node {DRIVE_IDS[j]}) is in {state.name}"
             q[i] = self.scaling[j].to_rad(int(tp["Position actual value"].raw))
+        if not fault and self.emcy:
+            j, err = self.emcy[0]
+            fault = (f"EMCY from the {j} drive (node {DRIVE_IDS[j]}): 0x{err.code:04X} "
+                     f"{err.get_desc()}")
         if not fault and not self.foot.wait(self.timeout):
             fault = f"no frame from the foot board (node {FOOT_ID}) within " \
                     f"{self.timeout * 1e3:g} ms"

@@ -14,6 +14,12 @@ Endpoints (JSON):
 * ``POST /command`` ``{"command": "arm" | "stand" | "walk" | "disarm" | "estop" |
   "reset"}``: needs ``Authorization: Bearer <token>`` (printed when the session starts)
   -- except ``estop``, which anyone who can see the device may send;
+* ``GET /gains``: the walking controller's gains now and the bounds a change must keep
+  (each gain 0 to twice its configured value, the support level 0-1);
+* ``POST /gains`` ``{"kp_stance": [hip, knee, ankle], ...}`` (any of ``kp_stance``,
+  ``kd_stance``, ``kp_swing``, ``kd_swing``, ``support``): needs the token; a value
+  outside its bounds is refused with the reason (422); accepted changes act from the
+  next tick;
 * ``GET /log``: every control action so far (time, source, command, accepted or why not).
 
 Every control action is also appended to ``control.log`` (JSON lines) beside the session
@@ -43,6 +49,9 @@ class ControlAPI:
 
     def __init__(self, folder: str | Path, token: str | None = None) -> None:
         self.token = token or secrets.token_urlsafe(16)
+        self.gains: dict[str, list[float]] = {}   # now (set by the session)
+        self.bounds: dict[str, list[list[float]]] = {}
+        self.gain_changes: queue.Queue[dict[str, list[float]]] = queue.Queue()
         self.snapshot: dict[str, Any] = {}
         self.lock = threading.Lock()
         self.commands: queue.Queue[tuple[int, str]] = queue.Queue()
@@ -55,6 +64,20 @@ class ControlAPI:
     def publish(self, state: dict[str, Any]) -> None:
         with self.lock:
             self.snapshot = state
+
+    def set_gains(self, gains: dict[str, list[float]]) -> None:
+        """The controller's gains now; the bounds are set from the first call."""
+        with self.lock:
+            self.gains = {k: list(v) for k, v in gains.items()}
+            if not self.bounds:
+                self.bounds = {k: [[0.0, 1.0]] * len(v) if k == "support" else
+                               [[0.0, 2.0 * x] for x in v] for k, v in gains.items()}
+
+    def next_gains(self) -> dict[str, list[float]] | None:
+        try:
+            return self.gain_changes.get_nowait()
+        except queue.Empty:
+            return None
 
     def next_command(self) -> int:
         """The oldest queued command (0: none), one per tick."""
@@ -110,6 +133,43 @@ class ControlAPI:
             self._record(source, name, True)
             return JSONResponse({"queued": name})
 
+        async def gains(request: Request) -> JSONResponse:
+            if request.method == "GET":
+                with self.lock:
+                    return JSONResponse({"gains": self.gains, "bounds": self.bounds})
+            source = request.client.host if request.client else "?"
+            auth = request.headers.get("authorization", "")
+            if not secrets.compare_digest(auth, f"Bearer {self.token}"):
+                self._record(source, "gains", False, "no valid token")
+                return JSONResponse({"error": "changing gains needs the session's token"},
+                                    status_code=401)
+            try:
+                body = await request.json()
+                change = {str(k): [float(x) for x in (v if isinstance(v, list) else [v])]
+                          for k, v in dict(body).items()}
+            except (ValueError, TypeError):
+                self._record(source, "gains", False, "bad request")
+                return JSONResponse({"error": "expected JSON {name: [hip, knee, ankle]}"},
+                                    status_code=400)
+            with self.lock:
+                bounds = dict(self.bounds)
+            for k, v in change.items():
+                if k not in bounds:
+                    why = f"unknown gain {k!r} (allowed: {', '.join(bounds)})"
+                elif len(v) != len(bounds[k]):
+                    why = f"{k}: expected {len(bounds[k])} values, got {len(v)}"
+                else:
+                    why = next((f"{k}[{i}] = {x:g} is outside {lo:g}-{hi:g}"
+                                for i, (x, (lo, hi)) in enumerate(zip(v, bounds[k],
+                                                                      strict=True))
+                                if not (lo <= x <= hi)), "")
+                if why:
+                    self._record(source, f"gains {k}", False, why)
+                    return JSONResponse({"error": why, "bounds": bounds}, status_code=422)
+            self.gain_changes.put(change)
+            self._record(source, "gains " + ", ".join(change), True)
+            return JSONResponse({"queued": change})
+
         async def stream(ws: WebSocket) -> None:
             import asyncio
 
@@ -124,6 +184,7 @@ class ControlAPI:
                 return
 
         return Starlette(routes=[Route("/state", state), Route("/log", log),
+                                 Route("/gains", gains, methods=["GET", "POST"]),
                                  Route("/command", command, methods=["POST"]),
                                  WebSocketRoute("/stream", stream)])
 

@@ -20,12 +20,13 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         body_mass: float = 30.0, seed: int = 0, realtime: bool = True,
         interface: str = "virtual", channel: str = "exoleg",
         inject: Any = None, api: Any = None, api_host: str = "127.0.0.1",
-        api_port: int = 8765) -> tuple[SessionResult, Path]:
+        api_port: int = 8765, bus_timeout: float = 5e-3) -> tuple[SessionResult, Path]:
     """One session: the device (``backend``) under the walking controller for
     ``duration`` s, logged to ``out``/session.log. On ``sim`` the operator's arming may
     be given here (``arm``), and walking from ``walk_after`` s. ``api``: a
     :class:`~exoleg.runtime.control_api.ControlAPI` to serve on ``api_host``:``api_port``
-    while the session runs."""
+    while the session runs. ``bus_timeout``: how long the canopen master waits for every
+    node's answer before it is a fault (s)."""
     import exoleg
     from exoleg.control.hierarchy import Command
     from exoleg.io import _writable_folder
@@ -49,7 +50,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         if interface == "virtual":  # hardware in the loop: the simulated nodes answer
             sim.warm_up()
             rig = SimulatedRig(sim, interface, channel)
-        b = CanopenBackend(sim.dev.actuators, period, interface, channel)
+        b = CanopenBackend(sim.dev.actuators, period, interface, channel, bus_timeout)
     folder = _writable_folder(Path(out))
     path = folder / "session.log"
     import shutil
@@ -78,6 +79,10 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
             inject(k, rig)
         if api is None:
             return None
+        change = api.next_gains()
+        if change is not None:
+            controller.set_gains(change)
+            api.set_gains(controller.gains_now())
         if k % 10 == 0:  # 100 Hz: enough for a person, cheap for the loop
             api.publish({"t": k * period, "mode": int(out["mode"]), "phase": int(out["phase"]),
                          "events": int(out["events"]),
@@ -89,6 +94,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
 
     if api is not None:
         api.log_path = folder / "control.log"
+        api.set_gains(controller.gains_now())
         api.start(api_host, api_port)
     try:
         res = run_session(b, controller, duration, period, log, commands, realtime=realtime,
