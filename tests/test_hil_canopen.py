@@ -104,3 +104,33 @@ def test_implausible_encoder_jump_is_a_fault(tmp_path: Path) -> None:
     res, _ = hil(1.0, tmp_path, arm=True, channel="hil-jump",
                  inject=inject)
     assert res.stopped_by.startswith("device fault: implausible joint reading: joint 1")
+
+
+def test_lost_heartbeat_is_a_fault(tmp_path: Path) -> None:
+    def inject(k: int, rig) -> None:  # type: ignore[no-untyped-def]
+        if k == 300:
+            rig.nodes["ankle"].nmt.stop_heartbeat()
+
+    res, path = hil(2.0, tmp_path, arm=True, channel="hil-heartbeat", inject=inject)
+    assert res.stopped_by.startswith("device fault: no heartbeat from the ankle drive (node 1)")
+    # lost after 3 periods of 50 ms: within 300 + 150 + 50 (the last beat) ticks
+    assert len(read_log(path)[1]["t"]) <= 300 + 200 + 20
+
+
+@pytest.mark.parametrize("fault,text", [
+    ("rated", "hip drive (node 3): 0x6076: motor rated torque 1 mN m"),
+    ("offset", "knee drive (node 2): (homing): the joint reads"),
+])
+def test_start_up_refuses_a_misconfigured_device(tmp_path: Path, fault: str,
+                                                  text: str) -> None:
+    from exoleg.errors import ParameterError
+
+    def inject(k: int, rig) -> None:  # type: ignore[no-untyped-def]
+        if k == -1 and fault == "rated":
+            rig.nodes["hip"].sdo[0x6076].raw = 1
+        if k == -1 and fault == "offset":
+            rig.jump[1] = 2.0  # the knee's encoder reads 115 deg off
+            rig.nodes["knee"].sdo[0x6064].raw = rig.scaling["knee"].to_counts(2.0)
+
+    with pytest.raises(ParameterError, match=text.replace("(", r"\(").replace(")", r"\)")):
+        hil(1.0, tmp_path, arm=True, channel=f"hil-start-{fault}", inject=inject)

@@ -84,6 +84,10 @@ class SimulatedRig:
             self.drives[j] = cia402.Drive()
             self.scaling[j] = JointScaling.of(device.dev.actuators[i],
                                               (offsets or {}).get(j, 0))
+            # configured as the device file says (a real drive: by its commissioning)
+            rated: Any = node.sdo[0x6076]
+            rated.raw = rated_torque_mnm(self.scaling[j])
+            node.nmt.start_heartbeat(HEARTBEAT_MS)
         self.silent: set[str] = set()  # nodes that stop answering (fault injection)
         self.frozen = False            # the foot board repeats its last frames (injection)
         self.jump = np.zeros(3)        # rad added to the encoders' readings (injection)
@@ -105,6 +109,8 @@ class SimulatedRig:
             self.dev.advance(self.dev.k * self.dev.period, self.walking)
             sensors = self.sensors = self.dev.read(self.dev.k * self.dev.period)
             for i, j in enumerate(JOINT_ORDER):
+                self.nodes[j].sdo[0x6064].raw = self.scaling[j].to_counts(
+                    float(sensors["q"][i] + self.jump[i]))  # for SDO reads (start-up)
                 if j in self.silent:
                     continue
                 tp = self.nodes[j].tpdo[1]
@@ -130,7 +136,22 @@ class SimulatedRig:
             self.nodes[joint].emcy.send(code)
 
     def close(self) -> None:
+        for node in self.nodes.values():
+            node.nmt.stop_heartbeat()
         self.net.disconnect()
+
+
+#: the drives' heartbeat period, ms; the master calls a node lost after HEARTBEAT_LOST
+#: of them without one
+HEARTBEAT_MS = 50
+HEARTBEAT_LOST = 3
+#: CiA 402 device type of a servo drive (object 0x1000)
+SERVO_DEVICE_TYPE = 0x00020192
+
+
+def rated_torque_mnm(scaling: JointScaling) -> int:
+    """Object 0x6076 (motor rated torque, mN m) as the device file gives it."""
+    return int(round(1000.0 * scaling.rated_motor_torque))
 
 
 class CanopenBackend:
@@ -175,6 +196,9 @@ class CanopenBackend:
         self.states = [cia402.State.SWITCH_ON_DISABLED] * 3
         self.first = True
         self.bus_us = 0.0
+        import time as _time
+
+        self.started = _time.time()
         self.b = np.array([1.0 - np.exp(-2 * np.pi * a.velocity_filter_hz * period)
                            for a in actuators])
 
@@ -190,6 +214,45 @@ class CanopenBackend:
     def _on_imu(self, can_id: int, data: bytes, timestamp: float) -> None:
         self.gyro = struct.unpack("<3h", bytes(data))[0] / 1000.0
         self.foot.set()
+
+    def start_up(self, lower: F64, upper: F64, margin: float) -> list[str]:
+        """Before any motion: every drive answers (SDO), is a CiA 402 servo drive, is
+        configured as the device file says (rated torque 0x6076) and set to cyclic
+        synchronous torque (0x6060 = 10); the leg, read from the absolute encoders (the
+        homing), is within its range of motion (``lower``/``upper`` rad, plus ``margin``).
+        Raises ParameterError naming the node and what is wrong; returns what it checked."""
+        done = []
+        for i, j in enumerate(JOINT_ORDER):
+            node, where = self.nodes[j], f"{j} drive (node {DRIVE_IDS[j]})"
+            try:
+                kind = int(node.sdo[0x1000].raw)
+                rated = int(node.sdo[0x6076].raw)
+                node.sdo[0x6060].raw = 10
+                mode = int(node.sdo[0x6060].raw)
+                q = self.scaling[j].to_rad(int(node.sdo[0x6064].raw))
+            except Exception as e:  # SDO timeout or abort
+                raise ParameterError(where, "(start-up)", f"does not answer: {e}") from None
+            if kind != SERVO_DEVICE_TYPE:
+                raise ParameterError(where, "0x1000", f"device type 0x{kind:08X}, not a CiA "
+                                     f"402 servo drive (0x{SERVO_DEVICE_TYPE:08X})")
+            want = rated_torque_mnm(self.scaling[j])
+            if rated != want:
+                raise ParameterError(where, "0x6076", f"motor rated torque {rated} mN m; the "
+                                     f"device file says {want} mN m (torques would be scaled "
+                                     "wrongly)")
+            if mode != 10:
+                raise ParameterError(where, "0x6060", f"mode {mode} after setting cyclic "
+                                     "synchronous torque (10)")
+            if not lower[i] - margin <= q <= upper[i] + margin:
+                raise ParameterError(where, "(homing)", f"the joint reads {np.degrees(q):.1f}"
+                                     f" deg, outside its range of motion "
+                                     f"{np.degrees(lower[i]):.0f} to {np.degrees(upper[i]):.0f}"
+                                     " deg: check the encoder offset before any motion")
+            done.append(f"{where}: CiA 402 servo, rated torque {rated} mN m, CST, "
+                        f"at {np.degrees(q):.1f} deg")
+        self.q_prev = np.array([self.scaling[j].to_rad(int(self.nodes[j].sdo[0x6064].raw))
+                                for j in JOINT_ORDER])
+        return done
 
     def set_enabled(self, enable: bool) -> None:
         self.enabled = bool(enable)
@@ -236,6 +299,14 @@ class CanopenBackend:
             if state in (cia402.State.FAULT, cia402.State.FAULT_REACTION_ACTIVE):
                 fault = f"the {j} drive (node {DRIVE_IDS[j]}) is in {state.name}"
             q[i] = self.scaling[j].to_rad(int(tp["Position actual value"].raw))
+        if not fault:
+            now = time.time()
+            for j in JOINT_ORDER:
+                last = self.nodes[j].nmt.timestamp or self.started
+                if now - last > HEARTBEAT_LOST * HEARTBEAT_MS / 1000.0:
+                    fault = (f"no heartbeat from the {j} drive (node {DRIVE_IDS[j]}) for "
+                             f"{(now - last) * 1e3:.0f} ms")
+                    break
         if not fault and self.emcy:
             j, err = self.emcy[0]
             fault = (f"EMCY from the {j} drive (node {DRIVE_IDS[j]}): 0x{err.code:04X} "

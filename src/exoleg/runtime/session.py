@@ -50,7 +50,16 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         if interface == "virtual":  # hardware in the loop: the simulated nodes answer
             sim.warm_up()
             rig = SimulatedRig(sim, interface, channel)
+            if inject is not None:
+                inject(-1, rig)  # a fault before the start (misconfiguration, offsets)
         b = CanopenBackend(sim.dev.actuators, period, interface, channel, bus_timeout)
+        try:
+            b.start_up(sim.dev.safety.lower, sim.dev.safety.upper, sim.dev.safety.hard_margin)
+        except BaseException:
+            b.close()
+            if rig is not None:
+                rig.close()
+            raise
     folder = _writable_folder(Path(out))
     path = folder / "session.log"
     import shutil
