@@ -19,7 +19,6 @@ met5, hallux); ``0x280 + 16``: int16 gyro (mrad/s), int16 accel x, y (cm/s^2).
 
 from __future__ import annotations
 
-import struct
 import threading
 from importlib import resources
 from typing import Any
@@ -29,14 +28,14 @@ from numpy.typing import NDArray
 
 from exoleg.errors import ParameterError
 from exoleg.hw import cia402
-from exoleg.hw.units import JointScaling
+from exoleg.hw.rig import FOOT_FSR, FOOT_IMU, JOINT_ORDER, DriveRig
+from exoleg.hw.units import JointScaling, rated_torque_mnm
 
 F64 = NDArray[np.float64]
 DRIVE_IDS = {"ankle": 1, "knee": 2, "hip": 3}
 FOOT_ID = 16
 FOOT_FSR_COB = 0x180 + FOOT_ID
 FOOT_IMU_COB = 0x280 + FOOT_ID
-JOINT_ORDER = ("hip", "knee", "ankle")
 
 
 def eds_path() -> str:
@@ -59,80 +58,60 @@ def _network(interface: str, channel: str) -> Any:
     return net
 
 
-class SimulatedRig:
-    """The simulated drives and foot board on the bus, around a simulated device. On each
-    SYNC: the drives' CiA 402 state machines take their controlwords; the torques of the
-    drives in Operation Enabled act on the plant for one tick; then every node sends
-    what its sensors read."""
+class SimulatedRig(DriveRig):
+    """The simulated drives and foot board on the CAN bus (:class:`DriveRig`): on each
+    SYNC, one bus cycle, then every node sends its PDO -- the silent ones excepted (fault
+    injection: ``silent`` holds joints or ``"foot"``)."""
 
     def __init__(self, device: Any, interface: str = "virtual", channel: str = "exoleg",
                  offsets: dict[str, int] | None = None) -> None:
         import canopen
 
-        self.dev = device  # a SimBackend: the plant, its sensors and its drives' model
+        super().__init__(device, offsets)
         self.net = _network(interface, channel)
         self.nodes: dict[str, Any] = {}
-        self.drives: dict[str, cia402.Drive] = {}
-        self.scaling: dict[str, JointScaling] = {}
-        for i, j in enumerate(JOINT_ORDER):
+        for j in JOINT_ORDER:
             node = canopen.LocalNode(DRIVE_IDS[j], eds_path())
             self.net.add_node(node)
             node.rpdo.read(from_od=True)
             node.tpdo.read(from_od=True)
             node.rpdo[1].subscribe()
             self.nodes[j] = node
-            self.drives[j] = cia402.Drive()
-            self.scaling[j] = JointScaling.of(device.dev.actuators[i],
-                                              (offsets or {}).get(j, 0))
             # configured as the device file says (a real drive: by its commissioning)
             rated: Any = node.sdo[0x6076]
             rated.raw = rated_torque_mnm(self.scaling[j])
+            pos: Any = node.sdo[0x6064]
+            pos.raw = self.position(JOINT_ORDER.index(j))
             node.nmt.start_heartbeat(HEARTBEAT_MS)
-        self.silent: set[str] = set()  # nodes that stop answering (fault injection)
-        self.frozen = False            # the foot board repeats its last frames (injection)
-        self.jump = np.zeros(3)        # rad added to the encoders' readings (injection)
-        self.walking = False
+        self.silent: set[str] = set()
         self.lock = threading.Lock()
-        self.sensors = device.read(0.0)  # the device as it starts
         self.net.subscribe(0x80, self._on_sync)
 
     def _on_sync(self, can_id: int, data: bytes, timestamp: float) -> None:
         with self.lock:
-            tau = np.zeros(3)
+            rps = [self.nodes[j].rpdo[1] for j in JOINT_ORDER]
+            self.cycle([int(rp["Controlword"].raw) for rp in rps],
+                       [int(rp["Target torque"].raw) for rp in rps])
             for i, j in enumerate(JOINT_ORDER):
-                rp = self.nodes[j].rpdo[1]
-                d = self.drives[j]
-                d.controlword(int(rp["Controlword"].raw))
-                if d.torque_allowed:
-                    tau[i] = self.scaling[j].to_nm(int(rp["Target torque"].raw))
-            self.dev.write(tau)
-            self.dev.advance(self.dev.k * self.dev.period, self.walking)
-            sensors = self.sensors = self.dev.read(self.dev.k * self.dev.period)
-            for i, j in enumerate(JOINT_ORDER):
-                self.nodes[j].sdo[0x6064].raw = self.scaling[j].to_counts(
-                    float(sensors["q"][i] + self.jump[i]))  # for SDO reads (start-up)
+                status, counts, torque = self.drive(i)
+                self.nodes[j].sdo[0x6064].raw = counts  # for SDO reads (start-up)
                 if j in self.silent:
                     continue
                 tp = self.nodes[j].tpdo[1]
-                tp["Statusword"].raw = self.drives[j].statusword
-                tp["Position actual value"].raw = self.scaling[j].to_counts(
-                    float(sensors["q"][i] + self.jump[i]))
-                tp["Torque actual value"].raw = self.scaling[j].to_per_mille(
-                    float(self.dev.tau[i]))
+                tp["Statusword"].raw = status
+                tp["Position actual value"].raw = counts
+                tp["Torque actual value"].raw = torque
                 tp.transmit()
             if "foot" not in self.silent:
-                if not self.frozen or not hasattr(self, "_frames"):
-                    c = np.clip(np.round(sensors["fsr"]), 0, 65535).astype(int)
-                    g = int(np.clip(round(1000 * sensors["gyro"]), -32768, 32767))
-                    self._frames = (struct.pack("<4H", *c), struct.pack("<3h", g, 0, 0))
-                self.net.send_message(FOOT_FSR_COB, self._frames[0])
-                self.net.send_message(FOOT_IMU_COB, self._frames[1])
+                fsr, imu = self.foot()
+                self.net.send_message(FOOT_FSR_COB, fsr)
+                self.net.send_message(FOOT_IMU_COB, imu)
 
     def fault(self, joint: str, code: int = 0x2310) -> None:
         """Inject a drive fault (default 0x2310, continuous overcurrent): the drive goes
         to Fault and sends its EMCY message."""
         with self.lock:
-            self.drives[joint].fault()
+            super().fault(joint)
             self.nodes[joint].emcy.send(code)
 
     def close(self) -> None:
@@ -145,13 +124,7 @@ class SimulatedRig:
 #: of them without one
 HEARTBEAT_MS = 50
 HEARTBEAT_LOST = 3
-#: CiA 402 device type of a servo drive (object 0x1000)
-SERVO_DEVICE_TYPE = 0x00020192
 
-
-def rated_torque_mnm(scaling: JointScaling) -> int:
-    """Object 0x6076 (motor rated torque, mN m) as the device file gives it."""
-    return int(round(1000.0 * scaling.rated_motor_torque))
 
 
 class CanopenBackend:
@@ -208,11 +181,11 @@ class CanopenBackend:
         return on
 
     def _on_fsr(self, can_id: int, data: bytes, timestamp: float) -> None:
-        self.fsr[:] = struct.unpack("<4H", bytes(data))
+        self.fsr[:] = FOOT_FSR.unpack(bytes(data))
         self._fsr_seen = True
 
     def _on_imu(self, can_id: int, data: bytes, timestamp: float) -> None:
-        self.gyro = struct.unpack("<3h", bytes(data))[0] / 1000.0
+        self.gyro = FOOT_IMU.unpack(bytes(data))[0] / 1000.0
         self.foot.set()
 
     def start_up(self, lower: F64, upper: F64, margin: float) -> list[str]:
@@ -227,29 +200,14 @@ class CanopenBackend:
             try:
                 kind = int(node.sdo[0x1000].raw)
                 rated = int(node.sdo[0x6076].raw)
-                node.sdo[0x6060].raw = 10
+                node.sdo[0x6060].raw = cia402.CST
                 mode = int(node.sdo[0x6060].raw)
                 q = self.scaling[j].to_rad(int(node.sdo[0x6064].raw))
             except Exception as e:  # SDO timeout or abort
                 raise ParameterError(where, "(start-up)", f"does not answer: {e}") from None
-            if kind != SERVO_DEVICE_TYPE:
-                raise ParameterError(where, "0x1000", f"device type 0x{kind:08X}, not a CiA "
-                                     f"402 servo drive (0x{SERVO_DEVICE_TYPE:08X})")
-            want = rated_torque_mnm(self.scaling[j])
-            if rated != want:
-                raise ParameterError(where, "0x6076", f"motor rated torque {rated} mN m; the "
-                                     f"device file says {want} mN m (torques would be scaled "
-                                     "wrongly)")
-            if mode != 10:
-                raise ParameterError(where, "0x6060", f"mode {mode} after setting cyclic "
-                                     "synchronous torque (10)")
-            if not lower[i] - margin <= q <= upper[i] + margin:
-                raise ParameterError(where, "(homing)", f"the joint reads {np.degrees(q):.1f}"
-                                     f" deg, outside its range of motion "
-                                     f"{np.degrees(lower[i]):.0f} to {np.degrees(upper[i]):.0f}"
-                                     " deg: check the encoder offset before any motion")
-            done.append(f"{where}: CiA 402 servo, rated torque {rated} mN m, CST, "
-                        f"at {np.degrees(q):.1f} deg")
+            done.append(cia402.check_drive(where, kind, rated,
+                                           rated_torque_mnm(self.scaling[j]), mode, q,
+                                           lower[i], upper[i], margin))
         self.q_prev = np.array([self.scaling[j].to_rad(int(self.nodes[j].sdo[0x6064].raw))
                                 for j in JOINT_ORDER])
         return done

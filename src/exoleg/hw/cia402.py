@@ -154,3 +154,38 @@ def controlword_towards(state: State, enable: bool) -> int:
             State.QUICK_STOP_ACTIVE: DISABLE_VOLTAGE,
             State.FAULT_REACTION_ACTIVE: DISABLE_VOLTAGE,
             State.NOT_READY_TO_SWITCH_ON: DISABLE_VOLTAGE}[state]
+
+
+#: CiA 402 device type of a servo drive (object 0x1000)
+SERVO_DEVICE_TYPE = 0x00020192
+#: modes of operation (0x6060): cyclic synchronous torque
+CST = 10
+
+
+def check_drive(where: str, device_type: int, rated_mnm: int, want_rated_mnm: int,
+                mode: int, q: float, lower: float, upper: float, margin: float) -> str:
+    """The start-up check of one drive, the same over every transport: a CiA 402 servo
+    drive (0x1000), the device file's rated torque (0x6076, mN m), cyclic synchronous
+    torque (0x6060), and a joint -- read from its absolute encoder, the homing -- within
+    its range of motion (``lower``/``upper`` rad, plus ``margin``). Raises ParameterError
+    naming the drive (``where``) and the object; returns what it checked."""
+    from math import degrees
+
+    from exoleg.errors import ParameterError
+
+    if device_type != SERVO_DEVICE_TYPE:
+        raise ParameterError(where, "0x1000", f"device type 0x{device_type:08X}, not a CiA "
+                             f"402 servo drive (0x{SERVO_DEVICE_TYPE:08X})")
+    if rated_mnm != want_rated_mnm:
+        raise ParameterError(where, "0x6076", f"motor rated torque {rated_mnm} mN m; the "
+                             f"device file says {want_rated_mnm} mN m (torques would be "
+                             "scaled wrongly)")
+    if mode != CST:
+        raise ParameterError(where, "0x6060", f"mode {mode} after setting cyclic "
+                             f"synchronous torque ({CST})")
+    if not lower - margin <= q <= upper + margin:
+        raise ParameterError(where, "(homing)", f"the joint reads {degrees(q):.1f} deg, "
+                             f"outside its range of motion {degrees(lower):.0f} to "
+                             f"{degrees(upper):.0f} deg: check the encoder offset before "
+                             "any motion")
+    return f"{where}: CiA 402 servo, rated torque {rated_mnm} mN m, CST, at {degrees(q):.1f} deg"

@@ -76,3 +76,8 @@ class JointScaling:
         """Joint torque (N m) of a drive's per-mille torque."""
         return (self.direction * per_mille / 1000.0 * self.rated_motor_torque * self.ratio
                 * self.efficiency)
+
+
+def rated_torque_mnm(scaling: JointScaling) -> int:
+    """Object 0x6076 (motor rated torque, mN m) as the device file gives it."""
+    return int(round(1000.0 * scaling.rated_motor_torque))
