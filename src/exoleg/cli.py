@@ -852,15 +852,20 @@ def cmd_run(args: argparse.Namespace) -> int:
     from exoleg.runtime.session import run, summarize
 
     leg = exoleg.load_leg(args.leg) if args.leg else None
-    if args.backend != "canopen" and args.interface is not None:
+    from exoleg.runtime.session import SIMULATED_BUS
+
+    if args.backend == "sim" and args.interface is not None:
         from exoleg.errors import ParameterError
 
-        raise ParameterError("exoleg run", "--interface", "goes with --backend canopen")
-    if args.backend == "canopen" and args.interface not in (None, "virtual") and args.arm:
+        raise ParameterError("exoleg run", "--interface", "goes with --backend canopen or "
+                             "ethercat")
+    if args.backend != "sim" and args.interface not in (None, SIMULATED_BUS[args.backend]) \
+            and args.arm:
         from exoleg.errors import ParameterError
 
-        raise ParameterError("exoleg run", "--arm", "only on the sim backend or the virtual "
-                             "bus: on a real device the operator arms")
+        raise ParameterError("exoleg run", "--arm", "only on the sim backend or simulated "
+                             "nodes (canopen --interface virtual, ethercat --interface "
+                             "fake): on a real device the operator arms")
     api = None
     if args.api:
         from exoleg.runtime.control_api import ControlAPI
@@ -874,7 +879,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     res, path = run(args.backend, args.duration, args.out, period=1.0 / args.rate,
                     arm=args.arm, walk_after=args.walk_after, leg=leg,
                     body_mass=args.body_mass, seed=args.seed, realtime=not args.no_realtime,
-                    interface=args.interface or "virtual", channel=args.channel, api=api,
+                    interface=args.interface, channel=args.channel, api=api,
                     api_host=args.api_host, api_port=args.api_port)
     s = summarize(path)
     t = res.timing
@@ -1021,11 +1026,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("run", help="drive the device (or a simulated one) at a fixed rate: "
                        "sensors -> control hierarchy -> safety layer -> drives, logged")
-    r.add_argument("--backend", choices=["sim", "canopen"], default="sim",
+    r.add_argument("--backend", choices=["sim", "canopen", "ethercat"], default="sim",
                    help="sim: the simulated device in real time; canopen: CiA 402 drives and "
-                        "the foot board over CAN (ethercat: not yet)")
+                        "the foot board over CAN; ethercat: the same over EtherCAT (pysoem)")
     r.add_argument("--interface", help="canopen: python-can interface, 'virtual' (default: "
-                   "hardware in the loop with simulated nodes) or e.g. 'socketcan'")
+                   "hardware in the loop with simulated nodes) or e.g. 'socketcan'; "
+                   "ethercat: network interface (e.g. eth0), or 'fake' (default: simulated "
+                   "slaves at the process-data level)")
     r.add_argument("--channel", default="exoleg", help="canopen: the bus channel (e.g. can0)")
     r.add_argument("--duration", type=_within(0.01, 86400.0, " s"), required=True, help="s")
     r.add_argument("--rate", type=_within(10.0, 10000.0, " Hz"), default=1000.0,

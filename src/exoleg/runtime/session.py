@@ -12,28 +12,31 @@ from exoleg.errors import ParameterError
 from exoleg.runtime.log import MAX_LOSS_TICKS, SessionLog, read_log
 from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, SessionResult, run_session
 
-BACKENDS = ("sim", "canopen")
+BACKENDS = ("sim", "canopen", "ethercat")
+#: the --interface that puts simulated nodes on the bus (hardware in the loop)
+SIMULATED_BUS = {"canopen": "virtual", "ethercat": "fake"}
 
 
 def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         arm: bool = False, walk_after: float | None = None, leg: Any = None,
         body_mass: float = 30.0, seed: int = 0, realtime: bool = True,
-        interface: str = "virtual", channel: str = "exoleg",
+        interface: str | None = None, channel: str = "exoleg",
         inject: Any = None, api: Any = None, api_host: str = "127.0.0.1",
         api_port: int = 8765, bus_timeout: float = 5e-3) -> tuple[SessionResult, Path]:
     """One session: the device (``backend``) under the walking controller for
     ``duration`` s, logged to ``out``/session.log. On ``sim`` the operator's arming may
     be given here (``arm``), and walking from ``walk_after`` s. ``api``: a
     :class:`~exoleg.runtime.control_api.ControlAPI` to serve on ``api_host``:``api_port``
-    while the session runs. ``bus_timeout``: how long the canopen master waits for every
-    node's answer before it is a fault (s)."""
+    while the session runs. ``interface``: the canopen or ethercat backend's (default
+    :data:`SIMULATED_BUS`: simulated nodes). ``bus_timeout``: how long the master waits
+    for every node's answer before it is a fault (s)."""
     import exoleg
     from exoleg.control.hierarchy import Command
     from exoleg.io import _writable_folder
 
     if backend not in BACKENDS:
         raise ParameterError("exoleg run", "--backend", f"unknown {backend!r} (allowed: "
-                             + ", ".join(BACKENDS) + "; ethercat is not built yet)")
+                             + ", ".join(BACKENDS) + ")")
     if walk_after is not None and not arm:
         raise ParameterError("exoleg run", "--walk-after", "needs --arm (no motion without "
                              "arming)")
@@ -42,21 +45,36 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     sim = SimBackend(leg if leg is not None else exoleg.paper_leg(), body_mass, period,
                      seed=seed)
     controller = sim.controller
-    rig = None
+    rig: Any = None
     b: Any = sim
-    if backend == "canopen":
-        from exoleg.hw.canopen_backend import CanopenBackend, SimulatedRig
-
-        if interface == "virtual":  # hardware in the loop: the simulated nodes answer
+    if backend != "sim":
+        interface = interface or SIMULATED_BUS[backend]
+        simulated = interface == SIMULATED_BUS[backend]
+        if simulated:  # hardware in the loop: the simulated nodes answer
             sim.warm_up()
-            rig = SimulatedRig(sim, interface, channel)
-            if inject is not None:
-                inject(-1, rig)  # a fault before the start (misconfiguration, offsets)
-        b = CanopenBackend(sim.dev.actuators, period, interface, channel, bus_timeout)
+        if backend == "canopen":
+            from exoleg.hw.canopen_backend import CanopenBackend, SimulatedRig
+
+            rig = SimulatedRig(sim, interface, channel) if simulated else None
+        else:
+            from exoleg.hw.ethercat_backend import SimulatedSegment
+
+            rig = SimulatedSegment(sim) if simulated else None
+        if inject is not None and rig is not None:
+            inject(-1, rig)  # a fault before the start (misconfiguration, offsets)
         try:
+            if backend == "canopen":
+                b = CanopenBackend(sim.dev.actuators, period, interface, channel,
+                                   bus_timeout)
+            else:
+                from exoleg.hw.ethercat_backend import EthercatBackend
+
+                b = EthercatBackend(sim.dev.actuators, period, interface, master=rig,
+                                    timeout=bus_timeout)
             b.start_up(sim.dev.safety.lower, sim.dev.safety.upper, sim.dev.safety.hard_margin)
         except BaseException:
-            b.close()
+            if b is not sim:
+                b.close()
             if rig is not None:
                 rig.close()
             raise
@@ -73,7 +91,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     log = SessionLog(path, LOG_HEAD + b.columns + LOG_TAIL,
                      {"period": period, "backend": backend, "max_loss_ticks": MAX_LOSS_TICKS,
                       "leg": sim.dev.leg.name, "body_mass": body_mass,
-                      "interface": interface if backend == "canopen" else None})
+                      "interface": interface if backend != "sim" else None})
     commands: dict[int, int] = {}
     if arm:
         commands[0] = int(Command.ARM)
@@ -111,7 +129,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     finally:
         if api is not None:
             api.stop()
-        if backend == "canopen":
+        if backend != "sim":
             b.close()
             if rig is not None:
                 rig.close()

@@ -1,0 +1,409 @@
+"""The ``ethercat`` backend: the same CiA 402 logic as the ``canopen`` backend
+(:mod:`exoleg.hw.cia402`, :mod:`exoleg.hw.units`) over CANopen-over-EtherCAT, with pysoem
+(SOEM) as the master -- the paper's arrangement (§2.4: EPOS4 drives chained on EtherCAT,
+the foot sensors and IMU bridged into it).
+
+The segment, in the paper's chain order: slave 1 the ankle drive, 2 the knee, 3 the hip,
+4 the foot board. Before SAFE-OP the master writes each drive's PDO mapping by CoE SDO
+(:data:`RX_MAP`, :data:`TX_MAP`), so the process data below is a contract, not an
+assumption about the drive's defaults:
+
+* drive outputs (RxPDO 0x1600, 5 bytes): controlword 0x6040 u16, target torque 0x6071
+  i16 (per mille of rated torque), modes of operation 0x6060 i8;
+* drive inputs (TxPDO 0x1A00, 9 bytes): statusword 0x6041 u16, position actual 0x6064
+  i32 (counts), torque actual 0x6077 i16, modes of operation display 0x6061 i8;
+* foot board inputs (14 bytes): four uint16 FSR counts and three int16 IMU values, the
+  layout of the CAN frames (:mod:`exoleg.hw.rig`).
+
+Per tick: outputs written, one ``send_processdata``/``receive_processdata`` exchange; a
+working counter below the expected one, a drive in Fault, an EMCY or a slave that left
+OP is a fault. The torque commanded at a tick acts from the next exchange.
+
+Without a network interface and the drives, nothing here can reach real hardware: the
+tests (and ``--interface fake``) stop at the process-data level, with
+:class:`SimulatedSegment` standing in for ``pysoem.Master`` -- it records the SDO writes
+and checks the PDO mapping the master wrote against the layout above, and answers the
+exchanges from the simulated device (:class:`exoleg.hw.rig.DriveRig`). What it cannot
+show: the EPOS4's own object dictionary, distributed clocks, real bus timing.
+"""
+
+from __future__ import annotations
+
+import struct
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from exoleg.errors import ParameterError
+from exoleg.hw import cia402
+from exoleg.hw.rig import JOINT_ORDER, DriveRig
+from exoleg.hw.units import JointScaling, rated_torque_mnm
+
+F64 = NDArray[np.float64]
+#: EtherCAT application-layer states (ETG.1000.6)
+INIT, PREOP, SAFEOP, OP = 1, 2, 4, 8
+#: position on the segment (1-based, the paper's chain ankle -> knee -> hip), foot last
+SLAVE_POS = {"ankle": 1, "knee": 2, "hip": 3}
+FOOT_POS = 4
+#: maxon's EtherCAT vendor id and the name its EPOS4 drives report (check against the
+#: ESI file of your drives)
+MAXON_VENDOR_ID = 0x000000FB
+DRIVE_NAME = "EPOS4"
+FOOT_NAME = "exoleg foot board"
+RX = struct.Struct("<Hhb")
+TX = struct.Struct("<Hihb")
+FOOT_IN = struct.Struct("<4H3h")
+#: PDO mapping entries (index << 16 | subindex << 8 | bits)
+RX_MAP = (0x60400010, 0x60710010, 0x60600008)
+TX_MAP = (0x60410010, 0x60640020, 0x60770010, 0x60610008)
+
+
+def pdo_mapping_writes() -> list[tuple[int, int, bytes]]:
+    """The CoE SDO writes (index, subindex, data) that map a drive's PDOs: each mapping
+    object cleared, its entries written, its count set; then the sync managers' PDO
+    assignment (0x1C12 outputs -> 0x1600, 0x1C13 inputs -> 0x1A00)."""
+    w: list[tuple[int, int, bytes]] = []
+    for obj, entries in ((0x1600, RX_MAP), (0x1A00, TX_MAP)):
+        w.append((obj, 0, bytes([0])))
+        w += [(obj, k + 1, struct.pack("<I", e)) for k, e in enumerate(entries)]
+        w.append((obj, 0, bytes([len(entries)])))
+    for sm, obj in ((0x1C12, 0x1600), (0x1C13, 0x1A00)):
+        w += [(sm, 0, bytes([0])), (sm, 1, struct.pack("<H", obj)), (sm, 0, bytes([1]))]
+    return w
+
+
+def _open_master(interface: str) -> Any:
+    try:
+        import pysoem
+    except ImportError as e:
+        raise ImportError("pysoem is needed for the ethercat backend: pip install "
+                          "'exoleg[hw]'") from e
+    master = pysoem.Master()
+    try:
+        master.open(interface)
+    except Exception as e:  # pysoem raises ConnectionError for a missing interface
+        raise ParameterError("exoleg run", "--interface",
+                             f"cannot open {interface!r} for EtherCAT: {e} (it needs a "
+                             "network interface wired to the drives, and raw-socket "
+                             "permission: root or CAP_NET_RAW)") from None
+    return master
+
+
+class EthercatBackend:
+    """The master side, the same interface as the canopen backend: ``start_up`` brings
+    the segment to OP after checking every slave, ``read`` exchanges one cycle of
+    process data, ``write`` stages the torques, ``set_enabled`` the CiA 402 walk."""
+
+    columns = ([f"q_meas_{j}" for j in JOINT_ORDER] + [f"dq_meas_{j}" for j in JOINT_ORDER]
+               + ["fsr_heel", "fsr_met1", "fsr_met5", "fsr_hallux", "gyro"]
+               + [f"state_{j}" for j in JOINT_ORDER] + ["bus_us"])
+
+    def __init__(self, actuators: tuple[Any, ...], period: float = 1e-3,
+                 interface: str = "fake", master: Any = None, timeout: float = 5e-3,
+                 offsets: dict[str, int] | None = None) -> None:
+        self.master = master if master is not None else _open_master(interface)
+        self.period = period
+        self.timeout = timeout
+        self.scaling = {j: JointScaling.of(actuators[i], (offsets or {}).get(j, 0))
+                        for i, j in enumerate(JOINT_ORDER)}
+        self.slaves: dict[str, Any] = {}
+        self.foot_slave: Any = None
+        self.emcy: list[tuple[str, Any]] = []
+        self.enabled = False
+        self.tau = np.zeros(3)
+        self.q_prev = np.zeros(3)
+        self.vm = np.zeros(3)
+        self.fsr = np.zeros(4)
+        self.gyro = 0.0
+        self.states = [cia402.State.SWITCH_ON_DISABLED] * 3
+        self.first = True
+        self.bus_us = 0.0
+        self.b = np.array([1.0 - np.exp(-2 * np.pi * a.velocity_filter_hz * period)
+                           for a in actuators])
+
+    def _emcy(self, joint: str) -> Any:
+        def on(msg: Any) -> None:
+            self.emcy.append((joint, msg))
+        return on
+
+    def start_up(self, lower: F64, upper: F64, margin: float) -> list[str]:
+        """Discover the segment (four slaves: three EPOS4 drives, the foot board, in the
+        chain's order), check every drive as the canopen backend does
+        (:func:`cia402.check_drive`: device type, rated torque, cyclic synchronous
+        torque, homing within the range of motion), map the PDOs, and bring the segment
+        to OP -- the drives stay in Switch On Disabled until the operator arms. Raises
+        ParameterError naming the slave and what is wrong; returns what it checked."""
+        m = self.master
+        n = m.config_init()
+        if n != FOOT_POS:
+            raise ParameterError("EtherCAT segment", "(start-up)", f"{n} slaves found; the "
+                                 f"device has {FOOT_POS} (ankle, knee, hip drives, foot "
+                                 "board): check the cabling")
+        done = []
+        for j in sorted(JOINT_ORDER, key=SLAVE_POS.__getitem__):  # along the segment
+            s = m.slaves[SLAVE_POS[j] - 1]
+            where = f"{j} drive (slave {SLAVE_POS[j]})"
+            if s.man != MAXON_VENDOR_ID or DRIVE_NAME not in s.name:
+                raise ParameterError(where, "(identity)", f"is {s.name!r} of vendor "
+                                     f"0x{s.man:08X}, not a maxon {DRIVE_NAME}: check the "
+                                     "chain's order")
+            try:
+                kind = struct.unpack("<I", s.sdo_read(0x1000, 0, 4))[0]
+                rated = struct.unpack("<I", s.sdo_read(0x6076, 0, 4))[0]
+                s.sdo_write(0x6060, 0, struct.pack("<b", cia402.CST))
+                mode = struct.unpack("<b", s.sdo_read(0x6060, 0, 1))[0]
+                counts = struct.unpack("<i", s.sdo_read(0x6064, 0, 4))[0]
+            except Exception as e:  # SDO abort or mailbox timeout
+                raise ParameterError(where, "(start-up)", f"does not answer: {e}") from None
+            i = JOINT_ORDER.index(j)
+            q = self.scaling[j].to_rad(counts)
+            done.append(cia402.check_drive(where, kind, rated,
+                                           rated_torque_mnm(self.scaling[j]), mode, q,
+                                           lower[i], upper[i], margin))
+            self.q_prev[i] = q
+            s.config_func = self._mapper(s)
+            s.add_emergency_callback(self._emcy(j))
+            self.slaves[j] = s
+        self.foot_slave = m.slaves[FOOT_POS - 1]
+        if FOOT_NAME not in self.foot_slave.name:
+            raise ParameterError(f"slave {FOOT_POS}", "(identity)",
+                                 f"is {self.foot_slave.name!r}, not the {FOOT_NAME}")
+        m.config_map()
+        if m.state_check(SAFEOP, 50_000) != SAFEOP:
+            raise ParameterError("EtherCAT segment", "(start-up)", "did not reach SAFE-OP: "
+                                 + self._al_status())
+        m.state = OP
+        m.send_processdata()       # valid outputs (Switch On Disabled, no torque) before OP
+        m.receive_processdata(2000)
+        m.write_state()
+        if m.state_check(OP, 50_000) != OP:
+            raise ParameterError("EtherCAT segment", "(start-up)", "did not reach OP: "
+                                 + self._al_status())
+        done.append(f"EtherCAT segment in OP, expected working counter {m.expected_wkc}")
+        return done
+
+    def _mapper(self, slave: Any) -> Any:
+        def config(_pos: int) -> None:
+            for index, sub, data in pdo_mapping_writes():
+                slave.sdo_write(index, sub, data)
+        return config
+
+    def _al_status(self) -> str:
+        self.master.read_state()
+        bad = [f"slave {k + 1} in state {s.state} (AL status 0x{s.al_status:04X})"
+               for k, s in enumerate(self.master.slaves) if s.state != self.master.state]
+        return "; ".join(bad) or "no slave reports why"
+
+    def set_enabled(self, enable: bool) -> None:
+        self.enabled = bool(enable)
+
+    def write(self, tau: F64) -> None:
+        self.tau[:] = tau
+
+    def _exchange(self) -> int:
+        self.master.send_processdata()
+        return int(self.master.receive_processdata(int(self.timeout * 1e6)))
+
+    def safe(self) -> None:
+        """Torque off now: zero torque and quick stop to every drive, in one exchange."""
+        self.tau[:] = 0.0
+        self.enabled = False
+        for j in JOINT_ORDER:
+            self.slaves[j].output = RX.pack(cia402.QUICK_STOP_CMD, 0, cia402.CST)
+        self._exchange()
+
+    def read(self, t: float) -> dict[str, Any]:
+        t0 = time.perf_counter()
+        for i, j in enumerate(JOINT_ORDER):
+            self.slaves[j].output = RX.pack(
+                cia402.controlword_towards(self.states[i], self.enabled),
+                self.scaling[j].to_per_mille(float(self.tau[i])), cia402.CST)
+        wkc = self._exchange()
+        fault = ""
+        q = self.q_prev.copy()
+        if wkc < self.master.expected_wkc:
+            fault = (f"EtherCAT working counter {wkc}, expected {self.master.expected_wkc}: "
+                     "a slave did not answer the process data")
+        else:
+            for i, j in enumerate(JOINT_ORDER):
+                status, counts, _, _ = TX.unpack(bytes(self.slaves[j].input))
+                state = cia402.decode(status)
+                self.states[i] = state
+                if state in (cia402.State.FAULT, cia402.State.FAULT_REACTION_ACTIVE):
+                    fault = fault or (f"the {j} drive (slave {SLAVE_POS[j]}) is in "
+                                      f"{state.name}")
+                q[i] = self.scaling[j].to_rad(counts)
+            v = FOOT_IN.unpack(bytes(self.foot_slave.input))
+            self.fsr[:] = v[:4]
+            self.gyro = v[4] / 1000.0
+        if not fault and self.emcy:
+            j, msg = self.emcy[0]
+            fault = (f"EMCY from the {j} drive (slave {SLAVE_POS[j]}): "
+                     f"0x{msg.error_code:04X}")
+        if not self.first:
+            self.vm += self.b * ((q - self.q_prev) / self.period - self.vm)
+        self.first = False
+        self.q_prev = q
+        self.bus_us = (time.perf_counter() - t0) * 1e6
+        out: dict[str, Any] = {"q": q, "dq": self.vm.copy(), "fsr": self.fsr.copy(),
+                               "gyro": self.gyro}
+        if fault:
+            out["fault"] = fault
+        return out
+
+    def advance(self, t: float, walking: bool = False) -> None:
+        """Nothing to step here: the drives act at the next exchange."""
+
+    def record(self) -> F64:
+        return np.concatenate([self.q_prev, self.vm, self.fsr, [self.gyro],
+                               [s.value[1] for s in self.states], [self.bus_us]])
+
+    def close(self) -> None:
+        """Segment to INIT (the drives' outputs stop, the drives' fault reaction takes
+        the torque off), interface closed."""
+        m = self.master
+        try:
+            m.state = INIT
+            m.write_state()
+        finally:
+            m.close()
+
+
+@dataclass
+class Emergency:
+    """An EMCY as pysoem hands it to the callback (the fields the master reads)."""
+
+    slave_pos: int
+    error_code: int
+    error_reg: int = 0
+
+
+class _Slave:
+    """One simulated slave at the process-data level, with pysoem's slave attributes."""
+
+    def __init__(self, name: str, man: int, n_in: int, objects: dict[int, bytes]) -> None:
+        self.name, self.man, self.id, self.rev = name, man, 0, 0
+        self.input = bytes(n_in)
+        self.output = b""
+        self.objects = dict(objects)        # (index) -> value of subindex 0
+        self.sdo_log: list[tuple[int, int, bytes]] = []
+        self.config_func: Any = None
+        self.callbacks: list[Any] = []
+        self.state = INIT
+        self.al_status = 0
+        self.answers = True                 # False: it drops out of the exchange
+
+    def sdo_read(self, index: int, subindex: int, size: int = 0) -> bytes:
+        if index not in self.objects or subindex:
+            raise RuntimeError(f"SDO abort 0x06020000 (object 0x{index:04X}:{subindex} "
+                               "does not exist)")
+        return self.objects[index]
+
+    def sdo_write(self, index: int, subindex: int, data: bytes) -> None:
+        self.sdo_log.append((index, subindex, bytes(data)))
+        if subindex == 0 and index in self.objects:
+            self.objects[index] = bytes(data)
+
+    def add_emergency_callback(self, callback: Any) -> None:
+        self.callbacks.append(callback)
+
+
+class SimulatedSegment(DriveRig):
+    """Stands in for ``pysoem.Master`` on a segment of three simulated EPOS4 drives and a
+    foot board around a simulated device (:class:`DriveRig`). Every exchange is one bus
+    cycle. A slave goes to SAFE-OP only if the PDO mapping its master wrote is
+    :func:`pdo_mapping_writes`. Fault injection: ``fault(joint, code)`` (Fault and an
+    EMCY), ``silent`` (slaves out of the exchange: the working counter drops), and the
+    rig's ``jump`` and ``frozen``."""
+
+    def __init__(self, device: Any, offsets: dict[str, int] | None = None) -> None:
+        super().__init__(device, offsets)
+        self.slaves: list[Any] = [None] * FOOT_POS
+        for i, j in enumerate(JOINT_ORDER):
+            objects = {0x1000: struct.pack("<I", cia402.SERVO_DEVICE_TYPE),
+                       0x6076: struct.pack("<I", rated_torque_mnm(self.scaling[j])),
+                       0x6060: struct.pack("<b", 0),
+                       0x6064: struct.pack("<i", self.position(i))}
+            self.slaves[SLAVE_POS[j] - 1] = _Slave(DRIVE_NAME, MAXON_VENDOR_ID, TX.size,
+                                                   objects)
+        self.slaves[FOOT_POS - 1] = _Slave(FOOT_NAME, 0, FOOT_IN.size, {})
+        self.state = INIT
+        self.expected_wkc = 0
+        self.silent: set[str] = set()
+        self.lock = threading.Lock()
+        self._answer()
+
+    def config_init(self) -> int:
+        for s in self.slaves:
+            s.state = PREOP
+        return len(self.slaves)
+
+    def config_map(self) -> int:
+        for k, s in enumerate(self.slaves):
+            if s.config_func is not None:
+                s.config_func(k + 1)
+            drive = s.name == DRIVE_NAME
+            ok = not drive or [w for w in s.sdo_log if w[0] in (0x1600, 0x1A00, 0x1C12,
+                                                                0x1C13)] == pdo_mapping_writes()
+            s.state, s.al_status = (SAFEOP, 0) if ok else (PREOP, 0x001D)  # invalid output
+        self.state = SAFEOP                                                # configuration
+        # outputs (drives) count 2 per slave on a read-write exchange, inputs 1
+        self.expected_wkc = 3 * 2 + 1 if len(self.slaves) == FOOT_POS else 0
+        return 3 * (RX.size + TX.size) + FOOT_IN.size  # the IO map's bytes
+
+    def state_check(self, state: int, timeout: int = 50_000) -> int:
+        return min(s.state for s in self.slaves)
+
+    def read_state(self) -> int:
+        return min(s.state for s in self.slaves)
+
+    def write_state(self) -> None:
+        for s in self.slaves:
+            if self.state == OP and s.state == SAFEOP:
+                s.state = OP
+            elif self.state < s.state:
+                s.state = self.state
+
+    def send_processdata(self) -> int:
+        with self.lock:
+            if self.state_check(OP) == OP:
+                cws, targets = [], []
+                for j in JOINT_ORDER:
+                    out = self.slaves[SLAVE_POS[j] - 1].output
+                    cw, target, _ = RX.unpack(out) if len(out) == RX.size else (0, 0, 0)
+                    cws.append(cw)
+                    targets.append(target)
+                self.cycle(cws, targets)
+                self._answer()
+        return 1
+
+    def _answer(self) -> None:
+        for i, j in enumerate(JOINT_ORDER):
+            s = self.slaves[SLAVE_POS[j] - 1]
+            status, counts, torque = self.drive(i)
+            s.objects[0x6064] = struct.pack("<i", counts)  # for SDO reads (start-up)
+            if j not in self.silent:
+                s.input = TX.pack(status, counts, torque, cia402.CST)
+        if "foot" not in self.silent:
+            fsr, imu = self.foot()
+            self.slaves[FOOT_POS - 1].input = fsr + imu
+
+    def receive_processdata(self, timeout: int = 2000) -> int:
+        if self.state_check(SAFEOP) < SAFEOP:
+            return 0
+        alive = [j for j in (*JOINT_ORDER, "foot") if j not in self.silent]
+        return 2 * len([j for j in alive if j != "foot"]) + ("foot" in alive)
+
+    def fault(self, joint: str, code: int = 0x2310) -> None:
+        """A drive fault (default 0x2310, continuous overcurrent) with its EMCY."""
+        with self.lock:
+            super().fault(joint)
+            for cb in self.slaves[SLAVE_POS[joint] - 1].callbacks:
+                cb(Emergency(SLAVE_POS[joint], code))
+
+    def close(self) -> None:
+        self.state = INIT

@@ -1,0 +1,141 @@
+"""The ethercat backend at the process-data level: the real master code (exoleg's
+EthercatBackend, written against pysoem's Master/slave interface) against a simulated
+segment -- without a network interface and EPOS4 drives, nothing closer to the hardware
+can run here. References: the CiA 402 objects' indexes and sizes (0x6040 u16, 0x6071
+i16, 0x6060 i8, 0x6041 u16, 0x6064 i32, 0x6077 i16, 0x6061 i8), the ETG's PDO mapping
+and assignment objects (0x1600, 0x1A00, 0x1C12, 0x1C13) and the CiA 402 transitions."""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from exoleg.errors import ParameterError
+from exoleg.hw import cia402
+from exoleg.runtime.log import read_log
+from exoleg.runtime.session import run
+
+ENABLED = cia402.State.OPERATION_ENABLED.value[1]
+T = 0.05  # s, the master's wait (a slow answer on a shared machine is not under test)
+
+
+def hil(duration: float, folder: Path, **kw):  # type: ignore[no-untyped-def]
+    return run("ethercat", duration, folder, realtime=False, bus_timeout=T, **kw)
+
+
+def test_mapping_arming_walking_and_torque_over_process_data(tmp_path: Path) -> None:
+    seen: dict[str, object] = {}
+
+    def inject(k: int, rig) -> None:  # type: ignore[no-untyped-def]
+        seen["rig"] = rig
+        if k == 100:
+            seen["al"] = [s.state for s in rig.slaves]
+
+    res, path = hil(2.0, tmp_path, arm=True, walk_after=1.0, inject=inject)
+    assert res.stopped_by == "duration"
+    rig = seen["rig"]
+    # the PDO mapping each drive received, against the CiA 402 objects written out here
+    rx = [0x6040_00_10, 0x6071_00_10, 0x6060_00_08]
+    tx = [0x6041_00_10, 0x6064_00_20, 0x6077_00_10, 0x6061_00_08]
+    for s in rig.slaves[:3]:  # type: ignore[attr-defined]
+        writes = {(i, sub): d for i, sub, d in s.sdo_log}
+        assert [struct.unpack("<I", writes[0x1600, k + 1])[0] for k in range(3)] == rx
+        assert [struct.unpack("<I", writes[0x1A00, k + 1])[0] for k in range(4)] == tx
+        assert writes[0x1600, 0] == bytes([3]) and writes[0x1A00, 0] == bytes([4])
+        assert struct.unpack("<H", writes[0x1C12, 1])[0] == 0x1600
+        assert struct.unpack("<H", writes[0x1C13, 1])[0] == 0x1A00
+        # process data sized by those entries: 16+16+8 bits out, 16+32+16+8 bits in
+        assert len(s.output) == 5 and len(s.input) == 9
+        assert s.state == 1  # INIT: the master closed the segment at the end
+    assert seen["al"] == [8, 8, 8, 8]  # every slave in OP while the session ran
+    _, c, _ = read_log(path)
+    for j in ("hip", "knee", "ankle"):
+        states = list(dict.fromkeys(c[f"state_{j}"].astype(int)))
+        assert states == [0x40, 0x21, 0x23, ENABLED], (j, states)  # transitions 2, 3, 4
+    walking = c["mode"] == 2
+    assert np.degrees(np.ptp(c["q_meas_knee"][walking])) > 30  # torque reached the plant
+
+
+def test_no_torque_without_arming(tmp_path: Path) -> None:
+    _, path = hil(0.5, tmp_path)
+    _, c, _ = read_log(path)
+    for j in ("hip", "knee", "ankle"):
+        assert np.all(c[f"state_{j}"] == 0x40) and np.all(c[f"u_{j}"] == 0.0)
+
+
+@pytest.mark.parametrize("what,text", [
+    ("fault", "device fault: "),
+    ("silent", "device fault: EtherCAT working counter 5, expected 7"),
+    ("jump", "device fault: implausible joint reading: joint 1"),
+])
+def test_faults_take_torque_off(tmp_path: Path, what: str, text: str) -> None:
+    def inject(k: int, rig) -> None:  # type: ignore[no-untyped-def]
+        if k == 600:
+            if what == "fault":
+                rig.fault("knee")
+            elif what == "silent":
+                rig.silent.add("hip")
+            else:
+                rig.jump[1] = 0.5
+
+    res, path = hil(2.0, tmp_path, arm=True, walk_after=0.5, inject=inject)
+    assert res.stopped_by.startswith(text), res.stopped_by
+    if what == "fault":  # the EMCY or the Fault statusword, whichever comes first
+        assert ("EMCY from the knee drive (slave 2): 0x2310" in res.stopped_by
+                or "the knee drive (slave 2) is in FAULT" in res.stopped_by)
+    assert len(read_log(path)[1]["t"]) <= 603  # within two ticks
+
+
+@pytest.mark.parametrize("fault,text", [
+    ("rated", r"hip drive \(slave 3\): 0x6076: motor rated torque 1 mN m"),
+    ("offset", r"knee drive \(slave 2\): \(homing\): the joint reads"),
+    ("order", r"ankle drive \(slave 1\): \(identity\): is 'exoleg foot board'"),
+    ("missing", r"EtherCAT segment: \(start-up\): 3 slaves found"),
+])
+def test_start_up_refuses_a_misconfigured_segment(tmp_path: Path, fault: str,
+                                                  text: str) -> None:
+    def inject(k: int, rig) -> None:  # type: ignore[no-untyped-def]
+        if k != -1:
+            return
+        if fault == "rated":
+            rig.slaves[2].objects[0x6076] = struct.pack("<I", 1)
+        elif fault == "offset":
+            rig.slaves[1].objects[0x6064] = struct.pack("<i", rig.scaling["knee"].to_counts(2.0))
+        elif fault == "order":
+            rig.slaves.insert(0, rig.slaves.pop())
+        else:
+            rig.slaves.pop(0)
+
+    with pytest.raises(ParameterError, match=text):
+        hil(1.0, tmp_path, arm=True, inject=inject)
+
+
+def test_a_wrong_pdo_mapping_stops_at_safe_op() -> None:
+    """A drive that does not take the mapping stays in PRE-OP; the master says which."""
+    import exoleg
+    from exoleg.hw.ethercat_backend import EthercatBackend, SimulatedSegment
+    from exoleg.runtime.sim_backend import SimBackend
+
+    sim = SimBackend(exoleg.paper_leg(), 30.0)
+    seg = SimulatedSegment(sim)
+    b = EthercatBackend(sim.dev.actuators, master=seg)
+    real = b._mapper
+
+    def short_mapper(slave):  # type: ignore[no-untyped-def]
+        config = real(slave)
+        return lambda pos: (config(pos), slave.sdo_log.pop())  # the last write is lost
+    b._mapper = short_mapper  # type: ignore[method-assign]
+    s = sim.dev.safety
+    with pytest.raises(ParameterError, match=r"did not reach SAFE-OP: slave 1 in state 2 "
+                                             r"\(AL status 0x001D\)"):
+        b.start_up(s.lower, s.upper, s.hard_margin)
+
+
+def test_a_missing_interface_is_a_clear_error(tmp_path: Path) -> None:
+    pytest.importorskip("pysoem", reason="pysoem (exoleg[hw])")
+    with pytest.raises(ParameterError, match="--interface: cannot open 'exoleg-nonexistent0' "
+                                             "for EtherCAT"):
+        run("ethercat", 1.0, tmp_path, interface="exoleg-nonexistent0", realtime=False)
