@@ -47,7 +47,9 @@ def main() -> None:
               f"deadlines missed by more than a period: {t['missed']}; ended by "
               f"{res.stopped_by}")
         if bus is not None:
-            print(f"  bus round trip (RPDOs + SYNC -> every node's answer): p50 "
+            what = ("RPDOs + SYNC -> every node's answer" if backend == "canopen" else
+                    "outputs -> one process-data exchange -> inputs")
+            print(f"  bus round trip ({what}): p50 "
                   f"{np.percentile(bus, 50):.0f} us, p99 {np.percentile(bus, 99):.0f} us, max "
                   f"{bus.max():.0f} us")
 
