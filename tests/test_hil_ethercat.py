@@ -68,7 +68,7 @@ def test_no_torque_without_arming(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("what,text", [
     ("fault", "device fault: "),
-    ("silent", "device fault: EtherCAT working counter 5, expected 7"),
+    ("silent", "device fault: EtherCAT working counter 7, expected 10"),
     ("jump", "device fault: implausible joint reading: joint 1"),
 ])
 def test_faults_take_torque_off(tmp_path: Path, what: str, text: str) -> None:

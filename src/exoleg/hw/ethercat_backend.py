@@ -16,8 +16,10 @@ assumption about the drive's defaults:
   layout of the CAN frames (:mod:`exoleg.hw.rig`).
 
 Per tick: outputs written, one ``send_processdata``/``receive_processdata`` exchange; a
-working counter below the expected one, a drive in Fault, an EMCY or a slave that left
-OP is a fault. The torque commanded at a tick acts from the next exchange.
+working counter below the expected one (a slave silent, or out of OP), a drive in Fault
+or an EMCY is a fault. The torque commanded at a tick acts from the next exchange. EMCY
+messages come with mailbox traffic (SOEM reads them there); the statusword's Fault state,
+in the process data, is the check every tick.
 
 Without a network interface and the drives, nothing here can reach real hardware: the
 tests (and ``--interface fake``) stop at the process-data level, with
@@ -351,8 +353,8 @@ class SimulatedSegment(DriveRig):
                                                                 0x1C13)] == pdo_mapping_writes()
             s.state, s.al_status = (SAFEOP, 0) if ok else (PREOP, 0x001D)  # invalid output
         self.state = SAFEOP                                                # configuration
-        # outputs (drives) count 2 per slave on a read-write exchange, inputs 1
-        self.expected_wkc = 3 * 2 + 1 if len(self.slaves) == FOOT_POS else 0
+        # SOEM's expectation: 2 per slave with outputs, 1 per slave with inputs
+        self.expected_wkc = 3 * (2 + 1) + 1
         return 3 * (RX.size + TX.size) + FOOT_IN.size  # the IO map's bytes
 
     def state_check(self, state: int, timeout: int = 50_000) -> int:
@@ -395,8 +397,8 @@ class SimulatedSegment(DriveRig):
     def receive_processdata(self, timeout: int = 2000) -> int:
         if self.state_check(SAFEOP) < SAFEOP:
             return 0
-        alive = [j for j in (*JOINT_ORDER, "foot") if j not in self.silent]
-        return 2 * len([j for j in alive if j != "foot"]) + ("foot" in alive)
+        drives = [j for j in JOINT_ORDER if j not in self.silent]
+        return 3 * len(drives) + ("foot" not in self.silent)
 
     def fault(self, joint: str, code: int = 0x2310) -> None:
         """A drive fault (default 0x2310, continuous overcurrent) with its EMCY."""
