@@ -271,9 +271,12 @@ def test_failure_midway_keeps_the_previous_output(
 def test_ctrl_c_in_a_real_run_exits_130_with_one_line(tmp_path: Path) -> None:
     out = tmp_path / "out"
     before = _previous(out)
+    # Ctrl-C as in a terminal: SIGINT at its default even when this test runs from a
+    # background job (which starts with SIGINT ignored, and its children inherit that)
     proc = subprocess.Popen([sys.executable, "-m", "exoleg.cli", "simulate", "--duration",
                              "3000", "--no-engine", "--out", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     time.sleep(3.0)  # imported and running: 3000 s simulated and written take ~10 s
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=120)
