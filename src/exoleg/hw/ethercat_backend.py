@@ -98,14 +98,16 @@ def _open_master(interface: str) -> Any:
 class EthercatBackend:
     """The master side, the same interface as the canopen backend: ``start_up`` brings
     the segment to OP after checking every slave, ``read`` exchanges one cycle of
-    process data, ``write`` stages the torques, ``set_enabled`` the CiA 402 walk."""
+    process data, ``write`` stages the torques, ``set_enabled`` the CiA 402 walk.
+    ``master``: a ``pysoem.Master``-like object to use (a :class:`SimulatedSegment`);
+    without one, pysoem opens ``interface``."""
 
     columns = ([f"q_meas_{j}" for j in JOINT_ORDER] + [f"dq_meas_{j}" for j in JOINT_ORDER]
                + ["fsr_heel", "fsr_met1", "fsr_met5", "fsr_hallux", "gyro"]
                + [f"state_{j}" for j in JOINT_ORDER] + ["bus_us"])
 
     def __init__(self, actuators: tuple[Any, ...], period: float = 1e-3,
-                 interface: str = "fake", master: Any = None, timeout: float = 5e-3,
+                 interface: str = "eth0", master: Any = None, timeout: float = 5e-3,
                  offsets: dict[str, int] | None = None) -> None:
         self.master = master if master is not None else _open_master(interface)
         self.period = period
