@@ -154,3 +154,29 @@ def test_log_summary_of_a_cut_and_of_a_bad_file(tmp_path: Path) -> None:
 def test_run_refuses_walking_without_arming(tmp_path: Path) -> None:
     r = _cli("run", "--duration", "1", "--walk-after", "0.5", "--out", str(tmp_path))
     assert r.returncode == 2 and "needs --arm" in r.stderr
+
+
+def test_loop_overrun_takes_torque_off(tmp_path: Path, backend_factory) -> None:  # type: ignore[no-untyped-def]
+    """A stall longer than the overrun limit (injected: one tick's controller sleeps
+    80 ms) stops the session with the torque off; the stalled tick is the last logged.
+    Reference: OVERRUN_S, the limit the loop documents."""
+    import time as _time
+
+    from exoleg.runtime.loop import OVERRUN_S
+
+    class Stalling:
+        def __init__(self, inner) -> None:  # type: ignore[no-untyped-def]
+            self.inner, self.n = inner, 0
+
+        def step(self, sensors, t):  # type: ignore[no-untyped-def]
+            self.n += 1
+            if self.n == 300:
+                _time.sleep(OVERRUN_S + 0.03)
+            return self.inner.step(sensors, t)
+
+    b = backend_factory()
+    res, cols = _session(tmp_path, b, Stalling(b.controller), 1.0, {0: Command.ARM})
+    assert res.stopped_by.startswith("loop overrun: tick 300 started "), res.stopped_by
+    assert np.array_equal(b.u, np.zeros(3))  # the drives were told zero
+    assert len(cols["t"]) == 300
+    assert np.any(cols["u_knee"] != 0.0)  # it was applying torque before

@@ -113,6 +113,12 @@ class SessionResult:
 #: eight times the fastest joint of Table 2).
 FROZEN_S = 0.25
 JUMP_RAD = 0.1
+#: A tick later than this, s, is a loop overrun: the drives have held a stale torque for
+#: that long, so the torque goes off. 50 ms: four times the worst stall a stock kernel on
+#: this shared 2-core VM gave (12.4 ms in ``benchmarks/bench_runtime.py``, a few stalls of
+#: 2-12 ms a minute), half a drive's own watchdog (EtherCAT's sync manager default,
+#: 100 ms). On a real-time kernel it can be tightened (``run(..., overrun=)``).
+OVERRUN_S = 0.05
 
 
 class SensorWatch:
@@ -155,10 +161,11 @@ def run_session(backend: Backend, controller: Any, duration: float, period: floa
                 log: SessionLog, commands: dict[int, int] | None = None,
                 realtime: bool = True,
                 on_tick: Callable[[int, dict[str, Any], dict[str, Any], float], int | None]
-                | None = None) -> SessionResult:
+                | None = None, overrun: float = OVERRUN_S) -> SessionResult:
     """Run ``duration`` s of ticks; ``commands``: tick -> operator command (arm, walk...).
     ``on_tick(k, out, sensors, late)`` may return a command for the next tick (the control
-    API's way in). Every tick: read, step, write, advance, log. Returns how it ended."""
+    API's way in). Every tick: read, step, write, advance, log. A tick later than
+    ``overrun`` s takes the torque off and stops. Returns how it ended."""
     stop: list[str] = []
 
     def on_signal(signum: int, frame: object) -> None:
@@ -224,6 +231,12 @@ def run_session(backend: Backend, controller: Any, duration: float, period: floa
                 break
             backend.advance(t, out["mode"] == 2)
             late = clock.wait()
+            if late > overrun:  # the drives held a stale torque too long
+                backend.write(zero)
+                backend.safe()
+                reason = (f"loop overrun: tick {k + 1} started {late * 1e3:.1f} ms late "
+                          f"(limit {overrun * 1e3:g} ms): torque off")
+                break
     finally:
         gc.enable()
         gc.unfreeze()

@@ -10,7 +10,7 @@ import numpy as np
 
 from exoleg.errors import ParameterError
 from exoleg.runtime.log import MAX_LOSS_TICKS, SessionLog, read_log
-from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, SessionResult, run_session
+from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, OVERRUN_S, SessionResult, run_session
 
 BACKENDS = ("sim", "canopen", "ethercat")
 #: the --interface that puts simulated nodes on the bus (hardware in the loop)
@@ -22,14 +22,16 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         body_mass: float = 30.0, seed: int = 0, realtime: bool = True,
         interface: str | None = None, channel: str = "exoleg",
         inject: Any = None, api: Any = None, api_host: str = "127.0.0.1",
-        api_port: int = 8765, bus_timeout: float = 5e-3) -> tuple[SessionResult, Path]:
+        api_port: int = 8765, bus_timeout: float = 5e-3,
+        overrun: float = OVERRUN_S) -> tuple[SessionResult, Path]:
     """One session: the device (``backend``) under the walking controller for
     ``duration`` s, logged to ``out``/session.log. On ``sim`` the operator's arming may
     be given here (``arm``), and walking from ``walk_after`` s. ``api``: a
     :class:`~exoleg.runtime.control_api.ControlAPI` to serve on ``api_host``:``api_port``
     while the session runs. ``interface``: the canopen or ethercat backend's (default
     :data:`SIMULATED_BUS`: simulated nodes). ``bus_timeout``: how long the master waits
-    for every node's answer before it is a fault (s)."""
+    for every node's answer before it is a fault (s); ``overrun``: how late a tick may
+    start before it is a fault (s)."""
     import exoleg
     from exoleg.control.hierarchy import Command
     from exoleg.io import _writable_folder
@@ -125,7 +127,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         api.start(api_host, api_port)
     try:
         res = run_session(b, controller, duration, period, log, commands, realtime=realtime,
-                          on_tick=on_tick)
+                          on_tick=on_tick, overrun=overrun)
     finally:
         if api is not None:
             api.stop()
