@@ -20,6 +20,7 @@ met5, hallux); ``0x280 + 16``: int16 gyro (mrad/s), int16 accel x, y (cm/s^2).
 from __future__ import annotations
 
 import threading
+import time
 from importlib import resources
 from typing import Any
 
@@ -28,8 +29,9 @@ from numpy.typing import NDArray
 
 from exoleg.errors import ParameterError
 from exoleg.hw import cia402
+from exoleg.hw.master import DriveMaster
 from exoleg.hw.rig import FOOT_FSR, FOOT_IMU, JOINT_ORDER, DriveRig
-from exoleg.hw.units import JointScaling, rated_torque_mnm
+from exoleg.hw.units import rated_torque_mnm
 
 F64 = NDArray[np.float64]
 DRIVE_IDS = {"ankle": 1, "knee": 2, "hip": 3}
@@ -127,26 +129,20 @@ HEARTBEAT_LOST = 3
 
 
 
-class CanopenBackend:
+class CanopenBackend(DriveMaster):
     """The master side: ``read`` sends the pending commands and SYNC and waits for every
     node's answer (``timeout`` s: a missing PDO is a fault); ``write`` stages the torques
     and ``set_enabled`` the CiA 402 walk towards Operation Enabled or away from it."""
-
-    columns = ([f"q_meas_{j}" for j in JOINT_ORDER] + [f"dq_meas_{j}" for j in JOINT_ORDER]
-               + ["fsr_heel", "fsr_met1", "fsr_met5", "fsr_hallux", "gyro"]
-               + [f"state_{j}" for j in JOINT_ORDER] + ["bus_us"])
 
     def __init__(self, actuators: tuple[Any, ...], period: float = 1e-3,
                  interface: str = "virtual", channel: str = "exoleg", timeout: float = 5e-3,
                  offsets: dict[str, int] | None = None) -> None:
         import canopen
 
+        super().__init__(actuators, period, timeout, offsets)
         self.net = _network(interface, channel)
-        self.period = period
-        self.timeout = timeout
         self.nodes: dict[str, Any] = {}
-        self.scaling: dict[str, JointScaling] = {}
-        for i, j in enumerate(JOINT_ORDER):
+        for j in JOINT_ORDER:
             node = canopen.RemoteNode(DRIVE_IDS[j], eds_path())
             self.net.add_node(node)
             node.rpdo.read(from_od=True)
@@ -154,26 +150,10 @@ class CanopenBackend:
             node.tpdo[1].subscribe()
             node.emcy.add_callback(self._on_emcy(j))
             self.nodes[j] = node
-            self.scaling[j] = JointScaling.of(actuators[i], (offsets or {}).get(j, 0))
-        self.emcy: list[tuple[str, Any]] = []
         self.foot = threading.Event()
-        self.fsr = np.zeros(4)
-        self.gyro = 0.0
-        self._fsr_seen = False
         self.net.subscribe(FOOT_FSR_COB, self._on_fsr)
         self.net.subscribe(FOOT_IMU_COB, self._on_imu)
-        self.enabled = False
-        self.tau = np.zeros(3)
-        self.q_prev = np.zeros(3)
-        self.vm = np.zeros(3)
-        self.states = [cia402.State.SWITCH_ON_DISABLED] * 3
-        self.first = True
-        self.bus_us = 0.0
-        import time as _time
-
-        self.started = _time.time()
-        self.b = np.array([1.0 - np.exp(-2 * np.pi * a.velocity_filter_hz * period)
-                           for a in actuators])
+        self.started = time.time()
 
     def _on_emcy(self, joint: str) -> Any:
         def on(err: Any) -> None:
@@ -182,7 +162,6 @@ class CanopenBackend:
 
     def _on_fsr(self, can_id: int, data: bytes, timestamp: float) -> None:
         self.fsr[:] = FOOT_FSR.unpack(bytes(data))
-        self._fsr_seen = True
 
     def _on_imu(self, can_id: int, data: bytes, timestamp: float) -> None:
         self.gyro = FOOT_IMU.unpack(bytes(data))[0] / 1000.0
@@ -194,29 +173,14 @@ class CanopenBackend:
         synchronous torque (0x6060 = 10); the leg, read from the absolute encoders (the
         homing), is within its range of motion (``lower``/``upper`` rad, plus ``margin``).
         Raises ParameterError naming the node and what is wrong; returns what it checked."""
-        done = []
-        for i, j in enumerate(JOINT_ORDER):
-            node, where = self.nodes[j], f"{j} drive (node {DRIVE_IDS[j]})"
-            try:
-                kind = int(node.sdo[0x1000].raw)
-                rated = int(node.sdo[0x6076].raw)
-                node.sdo[0x6060].raw = cia402.CST
-                mode = int(node.sdo[0x6060].raw)
-                q = self.scaling[j].to_rad(int(node.sdo[0x6064].raw))
-            except Exception as e:  # SDO timeout or abort
-                raise ParameterError(where, "(start-up)", f"does not answer: {e}") from None
-            done.append(cia402.check_drive(where, kind, rated,
-                                           rated_torque_mnm(self.scaling[j]), mode, q,
-                                           lower[i], upper[i], margin))
-        self.q_prev = np.array([self.scaling[j].to_rad(int(self.nodes[j].sdo[0x6064].raw))
-                                for j in JOINT_ORDER])
-        return done
+        def configure(j: str) -> tuple[int, int, int, int]:
+            sdo = self.nodes[j].sdo
+            sdo[0x6060].raw = cia402.CST
+            return (int(sdo[0x1000].raw), int(sdo[0x6076].raw), int(sdo[0x6060].raw),
+                    int(sdo[0x6064].raw))
 
-    def set_enabled(self, enable: bool) -> None:
-        self.enabled = bool(enable)
-
-    def write(self, tau: F64) -> None:
-        self.tau[:] = tau
+        where = {j: f"{j} drive (node {DRIVE_IDS[j]})" for j in JOINT_ORDER}
+        return self.check_drives(JOINT_ORDER, where, configure, lower, upper, margin)
 
     def safe(self) -> None:
         """Torque off now: zero torque and quick stop to every drive, with a SYNC."""
@@ -230,13 +194,10 @@ class CanopenBackend:
         self.net.sync.transmit()
 
     def read(self, t: float) -> dict[str, Any]:
-        import time
-
         t0 = time.perf_counter()
         for i, j in enumerate(JOINT_ORDER):
             rp = self.nodes[j].rpdo[1]
-            rp["Controlword"].raw = cia402.controlword_towards(self.states[i], self.enabled)
-            rp["Target torque"].raw = self.scaling[j].to_per_mille(float(self.tau[i]))
+            rp["Controlword"].raw, rp["Target torque"].raw = self.command(i)
             rp.transmit()
             self.nodes[j].tpdo[1].is_received = False
         self.foot.clear()
@@ -272,23 +233,7 @@ class CanopenBackend:
         if not fault and not self.foot.wait(self.timeout):
             fault = f"no frame from the foot board (node {FOOT_ID}) within " \
                     f"{self.timeout * 1e3:g} ms"
-        if not self.first:
-            self.vm += self.b * ((q - self.q_prev) / self.period - self.vm)
-        self.first = False
-        self.q_prev = q
-        self.bus_us = (time.perf_counter() - t0) * 1e6
-        out: dict[str, Any] = {"q": q, "dq": self.vm.copy(), "fsr": self.fsr.copy(),
-                               "gyro": self.gyro}
-        if fault:
-            out["fault"] = fault
-        return out
-
-    def advance(self, t: float, walking: bool = False) -> None:
-        """Nothing to step here: the drives act at the next SYNC."""
-
-    def record(self) -> F64:
-        return np.concatenate([self.q_prev, self.vm, self.fsr, [self.gyro],
-                               [s.value[1] for s in self.states], [self.bus_us]])
+        return self.sensed(q, fault, t0)
 
     def close(self) -> None:
         self.net.disconnect()

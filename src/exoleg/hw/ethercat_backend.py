@@ -42,8 +42,9 @@ from numpy.typing import NDArray
 
 from exoleg.errors import ParameterError
 from exoleg.hw import cia402
+from exoleg.hw.master import DriveMaster
 from exoleg.hw.rig import JOINT_ORDER, DriveRig
-from exoleg.hw.units import JointScaling, rated_torque_mnm
+from exoleg.hw.units import rated_torque_mnm
 
 F64 = NDArray[np.float64]
 #: EtherCAT application-layer states (ETG.1000.6)
@@ -95,39 +96,20 @@ def _open_master(interface: str) -> Any:
     return master
 
 
-class EthercatBackend:
+class EthercatBackend(DriveMaster):
     """The master side, the same interface as the canopen backend: ``start_up`` brings
     the segment to OP after checking every slave, ``read`` exchanges one cycle of
     process data, ``write`` stages the torques, ``set_enabled`` the CiA 402 walk.
     ``master``: a ``pysoem.Master``-like object to use (a :class:`SimulatedSegment`);
     without one, pysoem opens ``interface``."""
 
-    columns = ([f"q_meas_{j}" for j in JOINT_ORDER] + [f"dq_meas_{j}" for j in JOINT_ORDER]
-               + ["fsr_heel", "fsr_met1", "fsr_met5", "fsr_hallux", "gyro"]
-               + [f"state_{j}" for j in JOINT_ORDER] + ["bus_us"])
-
     def __init__(self, actuators: tuple[Any, ...], period: float = 1e-3,
                  interface: str = "eth0", master: Any = None, timeout: float = 5e-3,
                  offsets: dict[str, int] | None = None) -> None:
+        super().__init__(actuators, period, timeout, offsets)
         self.master = master if master is not None else _open_master(interface)
-        self.period = period
-        self.timeout = timeout
-        self.scaling = {j: JointScaling.of(actuators[i], (offsets or {}).get(j, 0))
-                        for i, j in enumerate(JOINT_ORDER)}
         self.slaves: dict[str, Any] = {}
         self.foot_slave: Any = None
-        self.emcy: list[tuple[str, Any]] = []
-        self.enabled = False
-        self.tau = np.zeros(3)
-        self.q_prev = np.zeros(3)
-        self.vm = np.zeros(3)
-        self.fsr = np.zeros(4)
-        self.gyro = 0.0
-        self.states = [cia402.State.SWITCH_ON_DISABLED] * 3
-        self.first = True
-        self.bus_us = 0.0
-        self.b = np.array([1.0 - np.exp(-2 * np.pi * a.velocity_filter_hz * period)
-                           for a in actuators])
 
     def _emcy(self, joint: str) -> Any:
         def on(msg: Any) -> None:
@@ -147,31 +129,25 @@ class EthercatBackend:
             raise ParameterError("EtherCAT segment", "(start-up)", f"{n} slaves found; the "
                                  f"device has {FOOT_POS} (ankle, knee, hip drives, foot "
                                  "board): check the cabling")
-        done = []
-        for j in sorted(JOINT_ORDER, key=SLAVE_POS.__getitem__):  # along the segment
+        where = {j: f"{j} drive (slave {SLAVE_POS[j]})" for j in JOINT_ORDER}
+
+        def configure(j: str) -> tuple[int, int, int, int]:
             s = m.slaves[SLAVE_POS[j] - 1]
-            where = f"{j} drive (slave {SLAVE_POS[j]})"
             if s.man != MAXON_VENDOR_ID or DRIVE_NAME not in s.name:
-                raise ParameterError(where, "(identity)", f"is {s.name!r} of vendor "
+                raise ParameterError(where[j], "(identity)", f"is {s.name!r} of vendor "
                                      f"0x{s.man:08X}, not a maxon {DRIVE_NAME}: check the "
                                      "chain's order")
-            try:
-                kind = struct.unpack("<I", s.sdo_read(0x1000, 0, 4))[0]
-                rated = struct.unpack("<I", s.sdo_read(0x6076, 0, 4))[0]
-                s.sdo_write(0x6060, 0, struct.pack("<b", cia402.CST))
-                mode = struct.unpack("<b", s.sdo_read(0x6060, 0, 1))[0]
-                counts = struct.unpack("<i", s.sdo_read(0x6064, 0, 4))[0]
-            except Exception as e:  # SDO abort or mailbox timeout
-                raise ParameterError(where, "(start-up)", f"does not answer: {e}") from None
-            i = JOINT_ORDER.index(j)
-            q = self.scaling[j].to_rad(counts)
-            done.append(cia402.check_drive(where, kind, rated,
-                                           rated_torque_mnm(self.scaling[j]), mode, q,
-                                           lower[i], upper[i], margin))
-            self.q_prev[i] = q
+            s.sdo_write(0x6060, 0, struct.pack("<b", cia402.CST))
+            values = tuple(struct.unpack(f, s.sdo_read(index, 0, struct.calcsize(f)))[0]
+                           for index, f in ((0x1000, "<I"), (0x6076, "<I"), (0x6060, "<b"),
+                                            (0x6064, "<i")))
             s.config_func = self._mapper(s)
             s.add_emergency_callback(self._emcy(j))
             self.slaves[j] = s
+            return values
+
+        along = tuple(sorted(JOINT_ORDER, key=SLAVE_POS.__getitem__))  # the segment's order
+        done = self.check_drives(along, where, configure, lower, upper, margin)
         self.foot_slave = m.slaves[FOOT_POS - 1]
         if FOOT_NAME not in self.foot_slave.name:
             raise ParameterError(f"slave {FOOT_POS}", "(identity)",
@@ -202,12 +178,6 @@ class EthercatBackend:
                for k, s in enumerate(self.master.slaves) if s.state != self.master.state]
         return "; ".join(bad) or "no slave reports why"
 
-    def set_enabled(self, enable: bool) -> None:
-        self.enabled = bool(enable)
-
-    def write(self, tau: F64) -> None:
-        self.tau[:] = tau
-
     def _exchange(self) -> int:
         self.master.send_processdata()
         return int(self.master.receive_processdata(int(self.timeout * 1e6)))
@@ -223,9 +193,7 @@ class EthercatBackend:
     def read(self, t: float) -> dict[str, Any]:
         t0 = time.perf_counter()
         for i, j in enumerate(JOINT_ORDER):
-            self.slaves[j].output = RX.pack(
-                cia402.controlword_towards(self.states[i], self.enabled),
-                self.scaling[j].to_per_mille(float(self.tau[i])), cia402.CST)
+            self.slaves[j].output = RX.pack(*self.command(i), cia402.CST)
         wkc = self._exchange()
         fault = ""
         q = self.q_prev.copy()
@@ -248,23 +216,7 @@ class EthercatBackend:
             j, msg = self.emcy[0]
             fault = (f"EMCY from the {j} drive (slave {SLAVE_POS[j]}): "
                      f"0x{msg.error_code:04X}")
-        if not self.first:
-            self.vm += self.b * ((q - self.q_prev) / self.period - self.vm)
-        self.first = False
-        self.q_prev = q
-        self.bus_us = (time.perf_counter() - t0) * 1e6
-        out: dict[str, Any] = {"q": q, "dq": self.vm.copy(), "fsr": self.fsr.copy(),
-                               "gyro": self.gyro}
-        if fault:
-            out["fault"] = fault
-        return out
-
-    def advance(self, t: float, walking: bool = False) -> None:
-        """Nothing to step here: the drives act at the next exchange."""
-
-    def record(self) -> F64:
-        return np.concatenate([self.q_prev, self.vm, self.fsr, [self.gyro],
-                               [s.value[1] for s in self.states], [self.bus_us]])
+        return self.sensed(q, fault, t0)
 
     def close(self) -> None:
         """Segment to INIT (the drives' outputs stop, the drives' fault reaction takes

@@ -1,0 +1,106 @@
+"""What every transport's master keeps, written once: the joints' scaling, the staged
+torques and the arming, each drive's CiA 402 state and the controlword walking it, the
+measured velocity (the drives' filter of :func:`exoleg.device.actuator.filter_gain`, as
+in simulation), the foot board's last data, and the log's columns. The canopen and
+ethercat backends add only their bus exchange (``read``), start-up, ``safe`` and
+``close``."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from exoleg.device.actuator import filter_gain
+from exoleg.errors import ParameterError
+from exoleg.hw import cia402
+from exoleg.hw.rig import JOINT_ORDER
+from exoleg.hw.units import JointScaling, rated_torque_mnm
+
+F64 = NDArray[np.float64]
+
+
+class DriveMaster:
+    """The master's side of three CiA 402 drives and the foot board, whatever the bus."""
+
+    columns = ([f"q_meas_{j}" for j in JOINT_ORDER] + [f"dq_meas_{j}" for j in JOINT_ORDER]
+               + ["fsr_heel", "fsr_met1", "fsr_met5", "fsr_hallux", "gyro"]
+               + [f"state_{j}" for j in JOINT_ORDER] + ["bus_us"])
+
+    def __init__(self, actuators: tuple[Any, ...], period: float, timeout: float,
+                 offsets: dict[str, int] | None) -> None:
+        self.period = period
+        self.timeout = timeout
+        self.scaling = {j: JointScaling.of(actuators[i], (offsets or {}).get(j, 0))
+                        for i, j in enumerate(JOINT_ORDER)}
+        self.b = np.array([filter_gain(np.array(a.params()), period) for a in actuators])
+        self.emcy: list[tuple[str, Any]] = []
+        self.enabled = False
+        self.tau = np.zeros(3)
+        self.q_prev = np.zeros(3)
+        self.vm = np.zeros(3)
+        self.fsr = np.zeros(4)
+        self.gyro = 0.0
+        self.states = [cia402.State.SWITCH_ON_DISABLED] * 3
+        self.first = True
+        self.bus_us = 0.0
+
+    def check_drives(self, order: tuple[str, ...], where: dict[str, str], configure: Any,
+                     lower: F64, upper: F64, margin: float) -> list[str]:
+        """The start-up check of every drive, in ``order`` (the bus's): ``configure(j)``
+        sets drive ``j`` to cyclic synchronous torque and returns its device type
+        (0x1000), rated torque (0x6076, mN m), mode (0x6060) and position (0x6064,
+        counts) as the bus reads them; :func:`cia402.check_drive` judges them. The
+        positions read become the velocity filter's start. Raises ParameterError naming
+        the drive (``where[j]``); returns what it checked."""
+        done = []
+        for j in order:
+            try:
+                kind, rated, mode, counts = configure(j)
+            except ParameterError:
+                raise
+            except Exception as e:  # SDO abort or timeout
+                raise ParameterError(where[j], "(start-up)", f"does not answer: {e}") from None
+            i = JOINT_ORDER.index(j)
+            q = self.scaling[j].to_rad(counts)
+            done.append(cia402.check_drive(where[j], kind, rated,
+                                           rated_torque_mnm(self.scaling[j]), mode, q,
+                                           lower[i], upper[i], margin))
+            self.q_prev[i] = q
+        return done
+
+    def set_enabled(self, enable: bool) -> None:
+        self.enabled = bool(enable)
+
+    def write(self, tau: F64) -> None:
+        self.tau[:] = tau
+
+    def command(self, i: int) -> tuple[int, int]:
+        """Drive ``i``'s controlword (one CiA 402 transition towards the arming) and
+        target torque (per mille) for this tick."""
+        j = JOINT_ORDER[i]
+        return (cia402.controlword_towards(self.states[i], self.enabled),
+                self.scaling[j].to_per_mille(float(self.tau[i])))
+
+    def sensed(self, q: F64, fault: str, t0: float) -> dict[str, Any]:
+        """This tick's sensors from the joint angles read (``q``, rad), with the velocity
+        filtered, the bus time since ``t0`` (``time.perf_counter``) and any ``fault``."""
+        if not self.first:
+            self.vm += self.b * ((q - self.q_prev) / self.period - self.vm)
+        self.first = False
+        self.q_prev = q
+        self.bus_us = (time.perf_counter() - t0) * 1e6
+        out: dict[str, Any] = {"q": q, "dq": self.vm.copy(), "fsr": self.fsr.copy(),
+                               "gyro": self.gyro}
+        if fault:
+            out["fault"] = fault
+        return out
+
+    def advance(self, t: float, walking: bool = False) -> None:
+        """Nothing to step here: the drives act at the next bus cycle."""
+
+    def record(self) -> F64:
+        return np.concatenate([self.q_prev, self.vm, self.fsr, [self.gyro],
+                               [s.value[1] for s in self.states], [self.bus_us]])
