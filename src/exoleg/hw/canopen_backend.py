@@ -128,7 +128,6 @@ HEARTBEAT_MS = 50
 HEARTBEAT_LOST = 3
 
 
-
 class CanopenBackend(DriveMaster):
     """The master side: ``read`` sends the pending commands and SYNC and waits for every
     node's answer (``timeout`` s: a missing PDO is a fault); ``write`` stages the torques
@@ -148,17 +147,12 @@ class CanopenBackend(DriveMaster):
             node.rpdo.read(from_od=True)
             node.tpdo.read(from_od=True)
             node.tpdo[1].subscribe()
-            node.emcy.add_callback(self._on_emcy(j))
+            node.emcy.add_callback(self.on_emcy(j))
             self.nodes[j] = node
         self.foot = threading.Event()
         self.net.subscribe(FOOT_FSR_COB, self._on_fsr)
         self.net.subscribe(FOOT_IMU_COB, self._on_imu)
         self.started = time.time()
-
-    def _on_emcy(self, joint: str) -> Any:
-        def on(err: Any) -> None:
-            self.emcy.append((joint, err))
-        return on
 
     def _on_fsr(self, can_id: int, data: bytes, timestamp: float) -> None:
         self.fsr[:] = FOOT_FSR.unpack(bytes(data))

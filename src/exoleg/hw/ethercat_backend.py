@@ -111,11 +111,6 @@ class EthercatBackend(DriveMaster):
         self.slaves: dict[str, Any] = {}
         self.foot_slave: Any = None
 
-    def _emcy(self, joint: str) -> Any:
-        def on(msg: Any) -> None:
-            self.emcy.append((joint, msg))
-        return on
-
     def start_up(self, lower: F64, upper: F64, margin: float) -> list[str]:
         """Discover the segment (four slaves: three EPOS4 drives, the foot board, in the
         chain's order), check every drive as the canopen backend does
@@ -142,7 +137,7 @@ class EthercatBackend(DriveMaster):
                            for index, f in ((0x1000, "<I"), (0x6076, "<I"), (0x6060, "<b"),
                                             (0x6064, "<i")))
             s.config_func = self._mapper(s)
-            s.add_emergency_callback(self._emcy(j))
+            s.add_emergency_callback(self.on_emcy(j))
             self.slaves[j] = s
             return values
 

@@ -71,6 +71,12 @@ class DriveMaster:
             self.q_prev[i] = q
         return done
 
+    def on_emcy(self, joint: str) -> Any:
+        """A callback keeping the EMCY messages of ``joint``'s drive (read in ``read``)."""
+        def on(msg: Any) -> None:
+            self.emcy.append((joint, msg))
+        return on
+
     def set_enabled(self, enable: bool) -> None:
         self.enabled = bool(enable)
 
