@@ -54,25 +54,24 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         simulated = interface == SIMULATED_BUS[backend]
         if simulated:  # hardware in the loop: the simulated nodes answer
             sim.warm_up()
+        acts = sim.dev.actuators
+        master: Any  # makes the bus's master (after the rig is on the bus)
         if backend == "canopen":
             from exoleg.hw.canopen_backend import CanopenBackend, SimulatedRig
 
             rig = SimulatedRig(sim, interface, channel) if simulated else None
+            master = lambda: CanopenBackend(acts, period, interface, channel,  # noqa: E731
+                                            bus_timeout)
         else:
-            from exoleg.hw.ethercat_backend import SimulatedSegment
+            from exoleg.hw.ethercat_backend import EthercatBackend, SimulatedSegment
 
             rig = SimulatedSegment(sim) if simulated else None
+            master = lambda: EthercatBackend(acts, period, interface,  # noqa: E731
+                                             master=rig, timeout=bus_timeout)
         if inject is not None and rig is not None:
             inject(-1, rig)  # a fault before the start (misconfiguration, offsets)
         try:
-            if backend == "canopen":
-                b = CanopenBackend(sim.dev.actuators, period, interface, channel,
-                                   bus_timeout)
-            else:
-                from exoleg.hw.ethercat_backend import EthercatBackend
-
-                b = EthercatBackend(sim.dev.actuators, period, interface, master=rig,
-                                    timeout=bus_timeout)
+            b = master()
             b.start_up(sim.dev.safety.lower, sim.dev.safety.upper, sim.dev.safety.hard_margin)
         except BaseException:
             if b is not sim:
