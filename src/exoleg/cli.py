@@ -849,23 +849,18 @@ _MODES = {0: "disarmed", 1: "standing", 2: "walking", 3: "fault"}
 
 def cmd_run(args: argparse.Namespace) -> int:
     import exoleg
-    from exoleg.runtime.session import run, summarize
-
-    leg = exoleg.load_leg(args.leg) if args.leg else None
-    from exoleg.runtime.session import SIMULATED_BUS
+    from exoleg.errors import ParameterError
+    from exoleg.runtime.session import SIMULATED_BUS, run, summarize
 
     if args.backend == "sim" and args.interface is not None:
-        from exoleg.errors import ParameterError
-
         raise ParameterError("exoleg run", "--interface", "goes with --backend canopen or "
                              "ethercat")
     if args.backend != "sim" and args.interface not in (None, SIMULATED_BUS[args.backend]) \
             and args.arm:
-        from exoleg.errors import ParameterError
-
         raise ParameterError("exoleg run", "--arm", "only on the sim backend or simulated "
                              "nodes (canopen --interface virtual, ethercat --interface "
                              "fake): on a real device the operator arms")
+    leg = exoleg.load_leg(args.leg) if args.leg else None
     api = None
     if args.api:
         from exoleg.runtime.control_api import ControlAPI
