@@ -666,15 +666,14 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
 # --------------------------------------------------------------------------- fit
 def cmd_fit(args: argparse.Namespace) -> int:
-    import dataclasses
     import warnings
 
     import numpy as np
 
-    import exoleg
     from exoleg.io import OutputFolder
-    from exoleg.sizing import Child, fit_device, personalized_leg
-    from exoleg.sizing.demand import DISPLAY, actuator_demand
+    from exoleg.sizing import Child
+    from exoleg.sizing.demand import DISPLAY
+    from exoleg.sizing.report import fit_report
 
     measured = {k: (getattr(args, k) / 100 if getattr(args, k) is not None else None)
                 for k in ("thigh", "shank", "leg_length", "foot_length", "ankle_height")}
@@ -686,11 +685,10 @@ def cmd_fit(args: argparse.Namespace) -> int:
     for w in caught:
         _say(f"warning: {w.message}")
     with OutputFolder(args.out) as out:
-        fit = fit_device(child, args.leg_length_method)
-        leg = personalized_leg(child, fit)
-        demand = actuator_demand(child, leg, percentile=args.percentile, speed=args.speed,
-                                 stride_time=args.stride_time, simulate=not args.no_simulate)
-        over = demand.exceedances()
+        rep = fit_report(child, args.leg_length_method, percentile=args.percentile,
+                         speed=args.speed, stride_time=args.stride_time,
+                         simulate=not args.no_simulate)
+        fit, demand, over = rep.fit, rep.demand, rep.over
         d = fit.dimensions
         charts = child.charts
         chart_text = charts["height"] + (f", weight {charts['weight']}"
@@ -735,35 +733,12 @@ def cmd_fit(args: argparse.Namespace) -> int:
         else:
             _say(f"actuator demand: within Table 2 (smallest margin {mg:.2f}: {qn} at the "
                  f"{joint}, {src})")
-        verdict = ("FITS" if fit.fits and not over else
-                   "FITS geometrically, but the actuators are short of the demand" if fit.fits
-                   else "DOES NOT FIT")
-        _say(f"\nverdict: {verdict}")
-
-        notes = [f"{m.what}: child {m.child * 100:.2f} cm, allowed {m.allowed[0] * 100:.1f}-"
-                 f"{m.allowed[1] * 100:.1f} cm" for m in fit.misses]
-        notes += [f"demand over Table 2: {e}" for e in over]
-        report = {"child": dataclasses.asdict(child), "charts": charts,
-                  "dimensions_m": dataclasses.asdict(d), "fits": fit.fits,
-                  "within_table2": not over,
-                  "exceedances": [dataclasses.asdict(e) | {"ratio": e.ratio} for e in over],
-                  "settings_m": {"upper": fit.upper, "lower": fit.lower},
-                  "link_lengths_m": list(fit.link_lengths),
-                  "misses": [dataclasses.asdict(m) for m in fit.misses],
-                  "paper_rule": pr, "demand": demand.table(),
-                  "smallest_margin": {"margin": mg, "source": src, "quantity": qn,
-                                      "joint": joint},
-                  "leg_file_written": fit.fits or args.write_leg}
-        out.stage("fit.json").write_text(json.dumps(report, indent=2, default=_jsonable))
+        _say(f"\nverdict: {rep.verdict}")
+        write_leg = fit.fits or args.write_leg
+        out.stage("fit.json").write_text(json.dumps(rep.record(write_leg), indent=2))
         written = ["fit.json"]
-        if fit.fits or args.write_leg:
-            header = (f"personalized leg of {child.name} ({child.age:g} y {child.sex}, "
-                      f"{child.height:.3f} m, {child.mass:.1f} kg) made by exoleg fit")
-            if not fit.fits:
-                header += ("\nTHE DEVICE DOES NOT FIT THIS CHILD: written on request "
-                           "(--write-leg); telescope settings clamped to the device's range")
-            exoleg.save_leg(leg, out.stage("leg.toml"), header=header,
-                            fit={"fits": fit.fits, "note": "; ".join(notes)})
+        if write_leg:
+            rep.save_leg(out.stage("leg.toml"))
             written.insert(0, "leg.toml")
         out.commit(last="fit.json")
     if "leg.toml" in written:
@@ -772,16 +747,6 @@ def cmd_fit(args: argparse.Namespace) -> int:
         _say(f"wrote {out.folder}/fit.json; no leg file: the device does not fit this child "
              "(--write-leg writes one anyway, marked as such)")
     return 0
-
-
-def _jsonable(o: Any) -> Any:
-    import numpy as np
-
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer, np.bool_)):
-        return o.item()
-    return str(o)
 
 
 def cmd_population(args: argparse.Namespace) -> int:
