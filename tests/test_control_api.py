@@ -1,12 +1,16 @@
-"""The runtime's control API against a running ``sim`` session: state, the token, the
-E-stop anyone may send, the control actions logged. References: the supervisor's rules
-(arming, E-stop latched) and the API's documented contract."""
+"""The control API (``exoleg run --hmi``) against a running ``sim`` session, and the loop
+link under it. References: the supervisor's rules (arming, E-stop latched), the API's
+documented contract (token, one operator, bounds, every action logged), the session log."""
 
 from __future__ import annotations
 
 import json
-import socket
-import threading
+import os
+import re
+import signal
+import ssl
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -16,18 +20,31 @@ import pytest
 pytest.importorskip("starlette", reason="starlette (exoleg[api])")
 httpx = pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
 
-from exoleg.runtime.control_api import ControlAPI  # noqa: E402
+from exoleg.control.hierarchy import Command  # noqa: E402
+from exoleg.errors import ParameterError  # noqa: E402
+from exoleg.hmi.server import bind_check  # noqa: E402
+from exoleg.hmi.testing import free_port  # noqa: E402
+from exoleg.runtime.link import RING, LoopLink  # noqa: E402
 from exoleg.runtime.log import read_log  # noqa: E402
-from exoleg.runtime.session import run  # noqa: E402
+
+EXE = str(Path(sys.executable).with_name("exoleg"))
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
+def _start(args: list[str], out: Path) -> tuple[subprocess.Popen, str]:  # type: ignore[type-arg]
+    said = out.with_suffix(".txt")
+    proc = subprocess.Popen([EXE, *args], stdout=said.open("w"), stderr=subprocess.STDOUT,
+                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    deadline = time.time() + 60
+    while time.time() < deadline:
+        m = re.search(r"token \(for every control action\): (\S+)", said.read_text())
+        if m:
+            return proc, m.group(1)
+        assert proc.poll() is None, said.read_text()
+        time.sleep(0.05)
+    raise AssertionError(said.read_text())
 
 
-def _wait(url: str, key: str, want: object, timeout: float = 20.0) -> dict:
+def _wait(url: str, key: str, want: object, timeout: float = 30.0) -> dict:
     deadline = time.time() + timeout
     state: dict = {}
     while time.time() < deadline:
@@ -41,68 +58,131 @@ def _wait(url: str, key: str, want: object, timeout: float = 20.0) -> dict:
     raise AssertionError(f"{key} never became {want!r}: {state}")
 
 
-def test_control_api_arms_refuses_without_token_and_estops(tmp_path: Path) -> None:
-    port = _free_port()
-    api = ControlAPI(tmp_path)
-    result: dict = {}
-    def session() -> None:
-        result["res"], result["path"] = run("sim", 8.0, tmp_path, realtime=False, api=api,
-                                            api_port=port)
-
-    t = threading.Thread(target=session)
-    t.start()
-    base = f"http://127.0.0.1:{port}"
-    _wait(f"{base}/state", "mode", 0)  # running, disarmed
-    r = httpx.post(f"{base}/command", json={"command": "arm"})
-    assert r.status_code == 401  # a control action without the token is refused
-    r = httpx.post(f"{base}/command", json={"command": "jump"},
-                   headers={"Authorization": f"Bearer {api.token}"})
-    assert r.status_code == 400 and "allowed" in r.json()["error"]
-    r = httpx.post(f"{base}/command", json={"command": "arm"},
-                   headers={"Authorization": f"Bearer {api.token}"})
-    assert r.status_code == 200
-    _wait(f"{base}/state", "mode", 1)  # standing
-    r = httpx.post(f"{base}/command", json={"command": "estop"})  # anyone may stop it
-    assert r.status_code == 200
-    state = _wait(f"{base}/state", "mode", 3)  # fault, latched
-    t.join(timeout=60)
-    assert state["tau"] == [0.0, 0.0, 0.0]
-    _, cols, _ = read_log(result["path"])
+def test_run_hmi_token_operator_gains_estop(tmp_path: Path) -> None:
+    port = free_port()
+    out = tmp_path / "s"
+    proc, token = _start(["run", "--backend", "sim", "--duration", "12", "--hmi",
+                          "--hmi-port", str(port), "--out", str(out)], tmp_path / "run")
+    base = f"http://127.0.0.1:{port}/api"
+    try:
+        _wait(f"{base}/state", "running", "running")
+        auth = {"Authorization": f"Bearer {token}"}
+        # without the token: refused; with it but without control: refused
+        assert httpx.post(f"{base}/command", json={"command": "arm"}).status_code == 401
+        r = httpx.post(f"{base}/command", json={"command": "arm"}, headers=auth)
+        assert r.status_code == 409 and "take control first" in r.json()["error"]
+        r = httpx.post(f"{base}/operator", json={"name": "ann"}, headers=auth)
+        assert r.status_code == 200
+        op = {**auth, "X-Operator": r.json()["operator"]}
+        # a second operator, even with the token, views only
+        r = httpx.post(f"{base}/operator", json={"name": "bob"}, headers=auth)
+        assert r.status_code == 409 and "held by ann" in r.json()["error"]
+        r = httpx.post(f"{base}/command", json={"command": "jump"}, headers=op)
+        assert r.status_code == 400 and "allowed: arm" in r.json()["error"]
+        assert httpx.post(f"{base}/command", json={"command": "arm"},
+                          headers=op).status_code == 200
+        _wait(f"{base}/state", "mode", 1)  # standing
+        # gains: shown with their bounds; outside refused with the reason (422)
+        g = httpx.get(f"{base}/gains").json()
+        kp = g["gains"]["kp_swing"]
+        assert g["bounds"]["kp_swing"][2] == [0.0, 2 * kp[2]]
+        r = httpx.post(f"{base}/gains", json={"kp_swing": [kp[0], kp[1], 3 * kp[2]]},
+                       headers=op)
+        assert r.status_code == 422 and f"kp_swing[2] = {3 * kp[2]:g} is outside" in \
+            r.json()["error"]
+        r = httpx.post(f"{base}/gains", json={"support": 1.5}, headers=op)
+        assert r.status_code == 422 and "outside 0-1" in r.json()["error"]
+        r = httpx.post(f"{base}/gains", json={"kp_swing": [kp[0], kp[1], 1.5 * kp[2]],
+                                              "support": 0.5}, headers=op)
+        assert r.status_code == 200
+        deadline = time.time() + 10
+        while httpx.get(f"{base}/gains").json()["gains"]["support"] != [0.5]:
+            assert time.time() < deadline
+            time.sleep(0.05)
+        assert httpx.get(f"{base}/gains").json()["gains"]["kp_swing"][2] == \
+            pytest.approx(1.5 * kp[2])
+        # anyone may stop it: no token, no control
+        assert httpx.post(f"{base}/command", json={"command": "estop"}).status_code == 200
+        state = _wait(f"{base}/state", "mode", 3)  # fault, latched
+        assert state["tau"] == [0.0, 0.0, 0.0]
+        assert proc.wait(timeout=60) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    _, cols, _ = read_log(out / "session.log")
     k = int(np.argmax(cols["mode"] == 3))
     for j in ("hip", "knee", "ankle"):
         assert np.all(cols[f"u_{j}"][k:] == 0.0)  # torque off from the E-stop's tick on
-    actions = [json.loads(x) for x in (tmp_path / "control.log").read_text().splitlines()]
-    assert [(a["command"], a["accepted"]) for a in actions] == [
-        ("arm", False), ("jump", False), ("arm", True), ("estop", True)]
-    assert all(a["source"] == "127.0.0.1" and a["time"] > 0 for a in actions)
+    actions = [json.loads(x) for x in (out / "control.log").read_text().splitlines()]
+    assert [(a["command"].split(" ")[0], a["accepted"]) for a in actions
+            if a["source"] != "loop"] == [
+        ("arm", False), ("arm", False), ("take", True), ("take", False), ("jump", False),
+        ("arm", True), ("gains", False), ("gains", False), ("gains", True), ("estop", True)]
+    applied = [a for a in actions if a["source"] == "loop"]
+    assert [a["command"] for a in applied] == ["arm", "estop"]
+    assert applied[1]["tick"] == k  # the loop applied the E-stop at the tick the log shows
+    assert all(a["time"] > 0 and a["source"] for a in actions)
 
 
-def test_gains_within_bounds_only(tmp_path: Path) -> None:
-    port = _free_port()
-    api = ControlAPI(tmp_path)
-    t = threading.Thread(target=lambda: run("sim", 4.0, tmp_path, realtime=False, api=api,
-                                            api_port=port))
-    t.start()
-    base = f"http://127.0.0.1:{port}"
-    _wait(f"{base}/state", "mode", 0)
-    g = httpx.get(f"{base}/gains").json()
-    kp = g["gains"]["kp_swing"]
-    assert g["bounds"]["kp_swing"][2] == [0.0, 2 * kp[2]]  # shown with the gains
-    auth = {"Authorization": f"Bearer {api.token}"}
-    assert httpx.post(f"{base}/gains", json={"kp_swing": [1, 2, 3]}).status_code == 401
-    r = httpx.post(f"{base}/gains", json={"kp_swing": [kp[0], kp[1], 3 * kp[2]]},
-                   headers=auth)
-    assert r.status_code == 422 and "kp_swing[2]" in r.json()["error"]
-    r = httpx.post(f"{base}/gains", json={"support": 1.5}, headers=auth)
-    assert r.status_code == 422 and "outside 0-1" in r.json()["error"]
-    r = httpx.post(f"{base}/gains", json={"kp_swing": [kp[0], kp[1], 1.5 * kp[2]],
-                                          "support": 0.5}, headers=auth)
-    assert r.status_code == 200
-    deadline = time.time() + 10
-    while time.time() < deadline:
-        now = httpx.get(f"{base}/gains").json()["gains"]
-        if now["support"] == [0.5]:
-            break
-        time.sleep(0.05)
-    assert now["kp_swing"][2] == pytest.approx(1.5 * kp[2]) and now["support"] == [0.5]
-    t.join(timeout=60)
+def test_link_estop_goes_first_and_applied_commands_are_timed() -> None:
+    link = LoopLink.new()
+    for c, rid in ((Command.ARM, 1), (Command.WALK, 2), (Command.ESTOP, 3)):
+        link.web_send(int(c), rid)
+    time.sleep(0.05)
+    cmd, change = link.loop_poll()
+    assert cmd == Command.ESTOP and change is None  # queued last, applied first
+    out = {"events": 0, "safety_status": 0, "mode": 3, "phase": 0, "tau": np.zeros(3)}
+    sensors = {"command": int(Command.ESTOP), "q": np.zeros(3), "dq": np.zeros(3),
+               "fsr": np.zeros(4)}
+    before = time.time()
+    link.loop_tick(7, 0.007, out, sensors, 0.0, 1e-3, publish=True)
+    n, done = LoopLink.applied(link.web_copy(), 0)
+    assert n == 1 and done[0][:3] == (int(Command.ESTOP), 3, 7) and done[0][3] >= before
+    assert LoopLink.snapshot(link.web_copy())["running"] == "running"
+    assert [link.loop_poll()[0] for _ in range(3)] == [Command.ARM, Command.WALK, 0]
+    for k, c in ((8, Command.ARM), (9, Command.WALK)):  # applied in the order handed out
+        link.loop_tick(k, 0.0, out, {**sensors, "command": int(c)}, 0.0, 1e-3, publish=False)
+    assert [x[1:3] for x in LoopLink.applied(link.web_copy(), 1)[1]] == [(1, 8), (2, 9)]
+    # the ring keeps the last RING applied commands
+    for k in range(RING + 5):
+        link.web_send(int(Command.ARM), 100 + k)
+        assert link.loop_poll()[0] == Command.ARM
+        link.loop_tick(k, 0.0, out, {**sensors, "command": int(Command.ARM)}, 0.0, 1e-3,
+                       publish=False)
+    n, done = LoopLink.applied(link.web_copy(), 0)
+    assert n == RING + 8 and len(done) == RING and done[-1][1] == 100 + RING + 4
+
+
+def test_bind_elsewhere_needs_tls_or_says_so(tmp_path: Path) -> None:
+    assert bind_check("127.0.0.1", None, None) == ""
+    assert "without TLS" in bind_check("0.0.0.0", None, None)
+    with pytest.raises(ParameterError, match="both or neither"):
+        bind_check("0.0.0.0", "cert.pem", None)
+    with pytest.raises(ParameterError, match="no such file"):
+        bind_check("0.0.0.0", str(tmp_path / "c"), str(tmp_path / "k"))
+
+
+def test_hmi_over_tls_and_a_port_in_use(tmp_path: Path) -> None:
+    if subprocess.run(["openssl", "version"], capture_output=True).returncode != 0:
+        pytest.skip("openssl is not installed (to make a test certificate)")
+    cert, key = tmp_path / "cert.pem", tmp_path / "key.pem"
+    subprocess.run(["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "1",
+                    "-subj", "/CN=127.0.0.1", "-addext", "subjectAltName=IP:127.0.0.1",
+                    "-keyout", str(key), "-out", str(cert)], check=True, capture_output=True)
+    port = free_port()
+    proc, token = _start(["hmi", "--sessions", str(tmp_path / "s"), "--port", str(port),
+                          "--tls-cert", str(cert), "--tls-key", str(key)], tmp_path / "hmi")
+    try:
+        said = (tmp_path / "hmi.txt").read_text()
+        assert f"https://127.0.0.1:{port}/#token={token}" in said
+        r = httpx.get(f"https://127.0.0.1:{port}/api/info", timeout=10,
+                      verify=ssl.create_default_context(cafile=str(cert)))
+        assert r.status_code == 200 and r.json()["backend"] == "sim"
+        # the same port again: one line, exit 2
+        busy = subprocess.run([EXE, "hmi", "--sessions", str(tmp_path / "s"), "--port",
+                               str(port)], capture_output=True, text=True, timeout=60)
+        assert busy.returncode == 2 and busy.stderr.count("\n") == 1
+        assert f"cannot listen on 127.0.0.1:{port}" in busy.stderr
+    finally:
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=30) == 130  # Ctrl-C, as every exoleg command

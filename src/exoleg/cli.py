@@ -61,8 +61,12 @@ def _table(rows: list[list[str]], header: list[str], title: str | None = None) -
     _console().print(t)
 
 
-def _say(text: str = "") -> None:
-    print(text)
+def _say(text: str = "", flush: bool = False) -> None:
+    print(text, flush=flush)
+
+
+def _url(host: str, port: int, tls: object) -> str:
+    return f"{'https' if tls else 'http'}://{f'[{host}]' if ':' in host else host}:{port}"
 
 
 # --------------------------------------------------------------------------- option types
@@ -826,21 +830,33 @@ def cmd_run(args: argparse.Namespace) -> int:
                              "nodes (canopen --interface virtual, ethercat --interface "
                              "fake): on a real device the operator arms")
     leg = exoleg.load_leg(args.leg) if args.leg else None
-    api = None
-    if args.api:
-        from exoleg.runtime.control_api import ControlAPI
+    link = web = None
+    if args.hmi:
+        import secrets
 
-        api = ControlAPI(args.out)
-        if args.api_host not in ("127.0.0.1", "localhost", "::1"):
-            _say(f"warning: the control API listens on {args.api_host}, not only on this "
-                 "machine, without TLS: anyone on that network who has the token controls "
-                 "the device")
-        _say(f"control API: http://{args.api_host}:{args.api_port}/state  token: {api.token}")
-    res, path = run(args.backend, args.duration, args.out, period=1.0 / args.rate,
-                    arm=args.arm, walk_after=args.walk_after, leg=leg,
-                    body_mass=args.body_mass, seed=args.seed, realtime=not args.no_realtime,
-                    interface=args.interface, channel=args.channel, api=api,
-                    api_host=args.api_host, api_port=args.api_port)
+        from exoleg.hmi.server import bind_check, start_process
+        from exoleg.io import _writable_folder
+        from exoleg.runtime.link import LoopLink
+
+        warning = bind_check(args.hmi_host, args.tls_cert, args.tls_key)
+        link, token = LoopLink.new(), secrets.token_urlsafe(16)
+        web = start_process(link, _writable_folder(args.out), token, args.hmi_host,
+                            args.hmi_port, args.tls_cert, args.tls_key, args.backend,
+                            str(args.leg) if args.leg else None)
+        if warning:
+            _say(warning)
+        _say(f"operator interface: {_url(args.hmi_host, args.hmi_port, args.tls_cert)}"
+             f"/#token={token}\ntoken (for every control action): {token}", flush=True)
+    try:
+        res, path = run(args.backend, args.duration, args.out, period=1.0 / args.rate,
+                        arm=args.arm, walk_after=args.walk_after, leg=leg,
+                        body_mass=args.body_mass, seed=args.seed,
+                        realtime=not args.no_realtime, interface=args.interface,
+                        channel=args.channel, link=link)
+    finally:
+        if web is not None:
+            web.terminate()
+            web.join(timeout=5)
     s = summarize(path)
     t = res.timing
     _say(f"exoleg run --backend {args.backend}: {res.ticks} ticks at {args.rate:g} Hz, ended "
@@ -859,6 +875,29 @@ def cmd_run(args: argparse.Namespace) -> int:
          f"{Path(args.out) / 'run.json'}")
     stopped = res.stopped_by
     return 0 if stopped == "duration" else (130 if stopped.startswith("signal") else 1)
+
+
+def cmd_hmi(args: argparse.Namespace) -> int:
+    from exoleg.errors import ParameterError
+    from exoleg.hmi.server import HMI, bind_check, listen, serve
+    from exoleg.io import _writable_folder
+    from exoleg.runtime.session import SIMULATED_BUS
+
+    if args.backend == "sim" and args.interface is not None:
+        raise ParameterError("exoleg hmi", "--interface", "goes with --backend canopen or "
+                             "ethercat")
+    warning = bind_check(args.host, args.tls_cert, args.tls_key)
+    listen(args.host, args.port).close()  # a port in use is said now, in one line
+    hmi = HMI(_writable_folder(args.sessions), backend=args.backend,
+              interface=args.interface or SIMULATED_BUS.get(args.backend))
+    if warning:
+        _say(warning)
+    _say(f"operator interface: {_url(args.host, args.port, args.tls_cert)}/#token="
+         f"{hmi.api.token}\ntoken (for every control action): {hmi.api.token}\n"
+         f"sessions are recorded in {hmi.root}; Ctrl-C stops the interface (a running "
+         "session ends, torque off)", flush=True)
+    serve(hmi, args.host, args.port, args.tls_cert, args.tls_key)
+    return 0
 
 
 def cmd_log_summary(args: argparse.Namespace) -> int:
@@ -1004,15 +1043,24 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--leg", type=Path, help="leg file (from exoleg fit); default the paper's")
     r.add_argument("--body-mass", type=_within(10.0, 150.0, " kg"), default=30.0)
     r.add_argument("--seed", type=_count(0, 2**31 - 1), default=0, help="sim: sensor noise")
-    r.add_argument("--api", action="store_true",
-                   help="serve the control API (state, stream, commands with a token)")
-    r.add_argument("--api-host", default="127.0.0.1",
-                   help="the API's address (default loopback only)")
-    r.add_argument("--api-port", type=_count(1024, 65535), default=8765)
+    r.add_argument("--hmi", action="store_true",
+                   help="serve the operator interface (and its control API) for this session")
+    _web_options(r, "--hmi-host", "--hmi-port")
     r.add_argument("--no-realtime", action="store_true",
                    help="do not ask for CPU affinity and SCHED_FIFO")
     r.add_argument("--out", type=Path, default=Path("exoleg-session"))
     r.set_defaults(func=cmd_run)
+
+    h = sub.add_parser("hmi", help="the operator interface: fit a child, run and watch "
+                       "sessions, review recorded ones (a web page on this machine)")
+    h.add_argument("--backend", choices=["sim", "canopen", "ethercat"], default="sim",
+                   help="what the sessions drive (default: the simulated device)")
+    h.add_argument("--interface", help="canopen/ethercat: as for exoleg run (default: the "
+                   "simulated nodes)")
+    _web_options(h, "--host", "--port")
+    h.add_argument("--sessions", type=Path, default=Path("exoleg-sessions"),
+                   help="folder of recorded sessions and fitted children")
+    h.set_defaults(func=cmd_hmi)
 
     lg = sub.add_parser("log", help="read a session log")
     lsub = lg.add_subparsers(dest="log_command", required=True, parser_class=_Parser)
@@ -1035,6 +1083,14 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--out", type=Path, required=True, help="file to write")
     e.set_defaults(func=cmd_export)
     return ap
+
+
+def _web_options(p: argparse.ArgumentParser, host: str, port: str) -> None:
+    p.add_argument(host, default="127.0.0.1", help="address to listen on (default: this "
+                   "machine only; another address needs TLS or prints a warning)")
+    p.add_argument(port, type=_count(1024, 65535), default=8780)
+    p.add_argument("--tls-cert", help="TLS certificate (PEM) to serve https")
+    p.add_argument("--tls-key", help="the certificate's private key (PEM)")
 
 
 def _negative_values(argv: Sequence[str]) -> list[str]:

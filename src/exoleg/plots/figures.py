@@ -251,3 +251,59 @@ def walk_figure(result: WalkResult, path: str | Path) -> Path:
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=100, format=Path(path).suffix.lstrip(".") or "png")
     return Path(path)
+
+
+def session_figure(log_path: str | Path, path: str | Path) -> Path:
+    """A recorded session (``exoleg run``, the operator interface): top, each joint's
+    measured angle (deg) with the supervisor's mode shaded; middle, each joint's commanded
+    torque against its speed over the actuator's envelope; bottom, the FSR readings, the
+    detected gait phase, and the loop's lateness per tick."""
+    from exoleg.device.actuator import paper_actuators
+    from exoleg.io import atomic_path
+    from exoleg.runtime.log import read_log
+
+    header, c, _ = read_log(log_path)
+    t = c["t"]
+    fig = new_figure(12, 9, left=0.06, right=0.98, top=0.93, bottom=0.06, wspace=0.28,
+                     hspace=0.45)
+    axes = fig.subplots(3, 3)
+    mode = c["mode"]
+    shades = {1: ("C2", "standing"), 2: ("C0", "walking"), 3: ("C3", "fault")}
+    acts = paper_actuators()
+    for i, j in enumerate(JOINTS):
+        ax = axes[0, i]
+        tt, q = _thin(t, np.degrees(c[f"q_meas_{j}"]))
+        ax.plot(tt, q, lw=0.9, color="k")
+        for m, (color, label) in shades.items():
+            on = (mode == m).astype(float)
+            if on.any():
+                ax.fill_between(t, 0, 1, where=on > 0, transform=ax.get_xaxis_transform(),
+                                color=color, alpha=0.12, lw=0, label=label)
+        _title(ax, f"{j} angle (deg); shading: mode")
+        ax.set_xlabel("t (s)", fontsize=8)
+        ax.legend(fontsize=6, loc="best")
+        _torque_speed(axes[1, i], acts[i], t, c[f"dq_meas_{j}"], c[f"u_{j}"])
+    ax = axes[2, 0]
+    fsr = [k for k in c if k.startswith("fsr_")]
+    for k in fsr:
+        ax.plot(*_thin(t, c[k]), lw=0.6, label=k[4:])
+    _title(ax, "FSR readings (ADC counts)")
+    ax.legend(fontsize=6, loc="upper right")
+    ax = axes[2, 1]
+    ax.step(*_thin(t, c["phase"]), where="post", lw=0.8)
+    ax.set_yticks([-1, 0, 1, 2, 3], ["unknown", "swing", "loading", "flat", "push"],
+                  fontsize=7)
+    _title(ax, "detected gait phase")
+    ax = axes[2, 2]
+    ax.plot(*_thin(t, c["late"] * 1e6), lw=0.6)
+    period = float(header.get("period", 1e-3))
+    ax.axhline(period * 1e6, color="r", lw=0.6, ls=":", label="one period")
+    ax.set_yscale("symlog", linthresh=10.0)
+    _title(ax, "loop lateness per tick (us)")
+    ax.legend(fontsize=6)
+    fig.suptitle(f"session {Path(log_path).parent.name}: {header.get('backend', '?')} "
+                 f"backend, {len(t) * period:.1f} s, leg {header.get('leg', '?')}",
+                 fontsize=10)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=90, format="png")
+    return Path(path)

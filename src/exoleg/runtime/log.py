@@ -76,26 +76,46 @@ class SessionLog:
             self.fd = -1
 
 
-def read_log(path: str | Path) -> tuple[dict[str, Any], dict[str, F64], int]:
-    """(header, columns (name -> (N,)), bytes of a cut final record dropped)."""
+def _open(path: str | Path) -> tuple[Path, Any]:
     p = Path(path)
     if p.is_dir():
         p = p / "session.log"
     try:
-        data = p.read_bytes()
+        return p, p.open("rb")
     except FileNotFoundError:
         raise ParameterError(str(p), "(log)", "no such session log") from None
     except OSError as e:
         raise ParameterError(str(p), "(log)", f"cannot be read: {e.strerror or e}") from None
-    end = data.find(b"\n")
-    if not data.startswith(MAGIC) or end < 0:
+
+
+def _header(p: Path, f: Any) -> tuple[dict[str, Any], list[str], int]:
+    line = f.readline(1 << 20)
+    if not line.startswith(MAGIC) or not line.endswith(b"\n"):
         raise ParameterError(str(p), "(log)", "is not an exoleg session log")
     try:
-        header = json.loads(data[len(MAGIC):end])
+        header = json.loads(line[len(MAGIC):-1])
         cols = list(header["columns"])
     except (ValueError, KeyError, TypeError):
         raise ParameterError(str(p), "(log)", "has a damaged header") from None
-    body = data[end + 1:]
+    return header, cols, len(line)
+
+
+def read_header(path: str | Path) -> tuple[dict[str, Any], int]:
+    """(header, whole ticks recorded so far) without reading the records: a log being
+    written may be read."""
+    p, f = _open(path)
+    with f:
+        header, cols, start = _header(p, f)
+        size = os.fstat(f.fileno()).st_size
+    return header, (size - start) // (8 * len(cols))
+
+
+def read_log(path: str | Path) -> tuple[dict[str, Any], dict[str, F64], int]:
+    """(header, columns (name -> (N,)), bytes of a cut final record dropped)."""
+    p, f = _open(path)
+    with f:
+        header, cols, _ = _header(p, f)
+        body = f.read()
     width = 8 * len(cols)
     n = len(body) // width
     arr = np.frombuffer(body[: n * width], dtype=np.float64).reshape(n, len(cols))

@@ -157,19 +157,24 @@ LOG_HEAD = ["t", "late"]
 LOG_TAIL = ["u_hip", "u_knee", "u_ankle", "mode", "phase", "events", "safety_status"]
 
 
+#: what ``on_tick`` returns to end the session (torque off, log closed)
+END_SESSION = -1
+
+
 def run_session(backend: Backend, controller: Any, duration: float, period: float,
                 log: SessionLog, commands: dict[int, int] | None = None,
                 realtime: bool = True,
                 on_tick: Callable[[int, dict[str, Any], dict[str, Any], float], int | None]
                 | None = None, overrun: float = OVERRUN_S) -> SessionResult:
     """Run ``duration`` s of ticks; ``commands``: tick -> operator command (arm, walk...).
-    ``on_tick(k, out, sensors, late)`` may return a command for the next tick (the control
-    API's way in). Every tick: read, step, write, advance, log. A tick later than
-    ``overrun`` s takes the torque off and stops. Returns how it ended."""
+    ``on_tick(k, out, sensors, late)`` may return a command for the next tick (the
+    operator's way in), or :data:`END_SESSION`. Every tick: read, step, write, advance,
+    log. A tick later than ``overrun`` s takes the torque off and stops. Returns how it
+    ended."""
     stop: list[str] = []
 
     def on_signal(signum: int, frame: object) -> None:
-        stop.append(signal.Signals(signum).name)
+        stop.append(f"signal {signal.Signals(signum).name}")
 
     for part in (backend, controller):  # compile before the clock starts
         warm = getattr(part, "warm_up", None)
@@ -222,12 +227,17 @@ def run_session(backend: Backend, controller: Any, duration: float, period: floa
                                              out["safety_status"]]]))
             if on_tick is not None:
                 cmd = on_tick(k, out, sensors, late)
-                if cmd and k + 1 not in pending:
-                    pending[k + 1] = cmd
+                if cmd == END_SESSION:
+                    stop.append("the operator ended the session")
+                elif cmd:
+                    j = k + 1
+                    while j in pending:  # after the commands already set for a tick
+                        j += 1
+                    pending[j] = cmd
             if stop:
                 backend.write(zero)
                 backend.safe()
-                reason = f"signal {stop[0]}: torque off"
+                reason = f"{stop[0]}: torque off"
                 break
             backend.advance(t, out["mode"] == 2)
             late = clock.wait()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import time
 from pathlib import Path
 from typing import Any
 
@@ -21,14 +22,14 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         arm: bool = False, walk_after: float | None = None, leg: Any = None,
         body_mass: float = 30.0, seed: int = 0, realtime: bool = True,
         interface: str | None = None, channel: str = "exoleg",
-        inject: Any = None, api: Any = None, api_host: str = "127.0.0.1",
-        api_port: int = 8765, bus_timeout: float = 5e-3,
+        inject: Any = None, link: Any = None, bus_timeout: float = 5e-3,
         overrun: float = OVERRUN_S) -> tuple[SessionResult, Path]:
     """One session: the device (``backend``) under the walking controller for
     ``duration`` s, logged to ``out``/session.log. On ``sim`` the operator's arming may
-    be given here (``arm``), and walking from ``walk_after`` s. ``api``: a
-    :class:`~exoleg.runtime.control_api.ControlAPI` to serve on ``api_host``:``api_port``
-    while the session runs. ``interface``: the canopen or ethercat backend's (default
+    be given here (``arm``), and walking from ``walk_after`` s. ``link``: a
+    :class:`~exoleg.runtime.link.LoopLink` to the operator's side (the HMI and its
+    control API, in another process): the loop publishes to it at 100 Hz and takes its
+    commands. ``interface``: the canopen or ethercat backend's (default
     :data:`SIMULATED_BUS`: simulated nodes). ``bus_timeout``: how long the master waits
     for every node's answer before it is a fault (s); ``overrun``: how late a tick may
     start before it is a fault (s)."""
@@ -92,6 +93,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     log = SessionLog(path, LOG_HEAD + b.columns + LOG_TAIL,
                      {"period": period, "backend": backend, "max_loss_ticks": MAX_LOSS_TICKS,
                       "leg": sim.dev.leg.name, "body_mass": body_mass,
+                      "started": time.time(),
                       "interface": interface if backend != "sim" else None})
     commands: dict[int, int] = {}
     if arm:
@@ -105,36 +107,32 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
             rig.walking = out["mode"] == 2  # the treadmill: scenery of the simulation
         if inject is not None:
             inject(k, rig)
-        if api is None:
+        if link is None:
             return None
-        change = api.next_gains()
+        # 100 Hz to the operator's side: enough for a person, cheap for the loop
+        link.loop_tick(k, k * period, out, sensors, late, period, publish=k % 10 == 0)
+        cmd, change = link.loop_poll()
         if change is not None:
             controller.set_gains(change)
-            api.set_gains(controller.gains_now())
-        if k % 10 == 0:  # 100 Hz: enough for a person, cheap for the loop
-            api.publish({"t": k * period, "mode": int(out["mode"]), "phase": int(out["phase"]),
-                         "events": int(out["events"]),
-                         "safety_status": int(out["safety_status"]),
-                         "q": [float(x) for x in sensors["q"]],
-                         "tau": [float(x) for x in out["tau"]],
-                         "fsr": [float(x) for x in sensors["fsr"]], "late_us": late * 1e6})
-        return int(api.next_command())
+            link.loop_gains(controller.gains_now())
+        return cmd
 
-    if api is not None:
-        api.log_path = folder / "control.log"
-        api.set_gains(controller.gains_now())
-        api.start(api_host, api_port)
+    started = time.time()
+    if link is not None:
+        link.loop_gains(controller.gains_now())
     try:
         res = run_session(b, controller, duration, period, log, commands, realtime=realtime,
                           on_tick=on_tick, overrun=overrun)
     finally:
-        if api is not None:
-            api.stop()
+        if link is not None:
+            link.loop_ended()
         if backend != "sim":
             b.close()
             if rig is not None:
                 rig.close()
-    summary = {"backend": backend, "ticks": res.ticks, "stopped_by": res.stopped_by,
+    summary = {"backend": backend, "started": started, "period": period,
+               "duration_s": res.ticks * period, "leg": sim.dev.leg.name,
+               "ticks": res.ticks, "stopped_by": res.stopped_by,
                "timing_us": res.timing, "realtime": res.realtime,
                "log": str(path), "max_loss_ticks_on_a_crash": MAX_LOSS_TICKS}
     (folder / "run.json").write_text(json.dumps(summary, indent=2))

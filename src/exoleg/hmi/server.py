@@ -1,0 +1,536 @@
+"""The operator interface's server: the pages (shipped in ``exoleg/hmi/static``, no
+internet needed), the control API of the session (:mod:`exoleg.runtime.control_api`),
+the child's fitting, starting and ending sessions, and the recorded sessions.
+
+Processes: the web server never shares a process with a 1 kHz loop. Under ``exoleg hmi``
+the server is the main process and each session runs in a process of its own, started
+from the *Control* page; under ``exoleg run --hmi`` the command's process runs the loop
+and the server runs in a child process (:func:`start_process`). Both talk through a
+:class:`~exoleg.runtime.link.LoopLink`. The server keeps off the CPU the loop is pinned
+to.
+
+Every request that changes what the device does -- take control, keep a child's fit,
+start or end a session, a command, a gain -- needs the token printed at start-up and
+the operator holding control; an E-stop needs neither.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import multiprocessing as mp
+import os
+import re
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from exoleg.errors import ParameterError
+from exoleg.runtime.control_api import ControlAPI, loopback
+from exoleg.runtime.link import LoopLink
+
+STATIC = Path(__file__).parent / "static"
+#: the longest session the HMI starts, s (a session may be ended at any time before)
+MAX_DURATION = 3600.0
+DEFAULT_BODY_MASS = 30.0
+_CHILD_FIELDS = {"age": (2.0, 20.0), "height": (50.0, 220.0), "mass": (8.0, 150.0)}
+_MEASURED = ("thigh", "shank", "leg_length", "foot_length", "ankle_height")
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_-]+", "-", text).strip("-")[:40] or "child"
+
+
+def _session_process(link: LoopLink, backend: str, interface: str | None, duration: float,
+                     folder: str, leg_path: str | None, body_mass: float) -> None:
+    """A session's own process (``exoleg hmi``): runs the loop until its duration, an
+    E-stop fault, the operator's end or a signal."""
+    import exoleg
+    from exoleg.runtime.session import run
+
+    try:
+        leg = exoleg.load_leg(leg_path) if leg_path else None
+        run(backend, duration, folder, leg=leg, body_mass=body_mass, arm=False,
+            interface=interface, link=link)
+    except BaseException as e:  # said on the Sessions page; the torque is off either way
+        (Path(folder) / "failed.json").write_text(json.dumps(
+            {"error": f"{type(e).__name__}: {e}", "time": time.time()}))
+        link.loop_ended()
+
+
+def device_info(leg: Any) -> dict[str, Any]:
+    """What the live page draws with: link lengths and D-H offsets (the same kinematics
+    as :func:`exoleg.kinematics.forward_kinematics`), the range of motion, the FSR
+    positions, each actuator's torque limits and torque-speed envelope (SI units)."""
+    from exoleg.device.actuator import envelope, paper_actuators
+    from exoleg.device.walking import SENSOR_POINTS, SENSOR_X
+    from exoleg.dynamics._generated import OFFSETS
+    from exoleg.params import paper
+
+    acts = paper_actuators()
+    rom = paper.range_of_motion()
+    out: dict[str, Any] = {
+        "leg": leg.name, "lengths": [float(x) for x in leg.lengths], "offsets": list(OFFSETS),
+        "rom_lower": rom.lower.tolist(), "rom_upper": rom.upper.tolist(),
+        "sensors": list(SENSOR_POINTS),
+        "sensor_x": [float(x) * float(leg.lengths[2]) for x in SENSOR_X], "actuators": []}
+    for a in acts:
+        par = np.array(a.params())
+        w = np.linspace(0.0, 1.1 * a.no_load_factor * a.max_velocity, 60)
+        out["actuators"].append({
+            "joint": a.joint, "torque_limit": a.torque_limit,
+            "continuous_torque": a.continuous_torque, "max_velocity": a.max_velocity,
+            "envelope_speed": w.tolist(),
+            "envelope_torque": [float(envelope(par, x)) for x in w]})
+    return out
+
+
+class HMI:
+    """The server's state: the session (running or not), the child kept for the next
+    session, the sessions folder."""
+
+    def __init__(self, root: str | Path, backend: str = "sim", interface: str | None = None,
+                 token: str | None = None, fixed: tuple[LoopLink, Path] | None = None,
+                 leg: Any = None) -> None:
+        import exoleg
+
+        self.root = Path(root)
+        self.root.mkdir(parents=True, exist_ok=True)
+        self.api = ControlAPI(token, folder=self.root)
+        self.backend, self.interface = backend, interface
+        self.fixed = fixed is not None
+        self.lock = threading.RLock()
+        self.child: dict[str, Any] | None = None  # the fit kept for the next session
+        self.child_leg: Path | None = None
+        self.proc: Any = None
+        self.session: Path | None = None
+        self.leg = leg if leg is not None else exoleg.paper_leg()
+        self.info = device_info(self.leg)
+        if fixed is not None:
+            self.session = Path(fixed[1])
+            self.api.attach(fixed[0], self.session)
+
+    # ------------------------------------------------------------------ sessions
+    def start(self, duration: float, source: str) -> tuple[int, dict[str, Any]]:
+        """Start a session (its own process) with the child kept, if any."""
+        with self.lock:
+            if self.fixed:
+                return 409, {"error": "this HMI serves one session run by `exoleg run`; it "
+                                      "cannot start another"}
+            if self.proc is not None and self.proc.is_alive():
+                return 409, {"error": f"session {self.session.name if self.session else ''}"
+                                      " is running; end it first"}
+            if not (np.isfinite(duration) and 1.0 <= duration <= MAX_DURATION):
+                return 422, {"error": f"duration {duration:g} s is outside 1-"
+                                      f"{MAX_DURATION:g} s"}
+            if self.child is not None and not self.child["fits"]:
+                return 409, {"error": f"the device does not fit {self.child['child']['name']}"
+                                      f": {'; '.join(self.child['notes'])}"}
+            name = time.strftime("%Y%m%d-%H%M%S") + "-" + _slug(
+                self.child["child"]["name"] if self.child else "paper-leg")
+            folder = self.root / name
+            folder.mkdir()
+            if self.child is not None:
+                (folder / "child.json").write_text(json.dumps(self.child, indent=2))
+                (folder / "leg.toml").write_bytes(Path(str(self.child_leg)).read_bytes())
+            link = LoopLink.new()
+            mass = float(self.child["child"]["mass"]) if self.child else DEFAULT_BODY_MASS
+            self.proc = mp.get_context("spawn").Process(
+                target=_session_process, name="exoleg-session", daemon=True,
+                args=(link, self.backend, self.interface, duration, str(folder),
+                      str(folder / "leg.toml") if self.child else None, mass))
+            self.proc.start()
+            self.session = folder
+            self.api.attach(link, folder)
+            self.api.record(source, f"start session {name} ({duration:g} s, "
+                            f"{self.backend})", True)
+            threading.Thread(target=self._watch, args=(self.proc, link), daemon=True).start()
+            return 200, {"session": name}
+
+    def _watch(self, proc: Any, link: LoopLink) -> None:
+        proc.join()
+        self.api.poll_applied()
+        why = self.summary(self.session)["stopped_by"] if self.session else "?"
+        self.api.record("hmi", "session ended", True, why=why)
+        with self.lock:
+            if self.api.link is link:
+                self.api.detach()
+
+    def end(self, source: str) -> tuple[int, dict[str, Any]]:
+        with self.lock:
+            link = self.api.link
+            if link is None:
+                return 409, {"error": "no session is running"}
+        link.web_end()
+        self.api.record(source, "end session", True)
+        return 200, {"ending": self.session.name if self.session else ""}
+
+    def close(self) -> None:
+        """Stop a running session (its process ends with the torque off)."""
+        with self.lock:
+            proc, link = self.proc, self.api.link
+        if proc is not None and proc.is_alive():
+            if link is not None:
+                link.web_end()
+            proc.join(timeout=5)
+            if proc.is_alive():
+                proc.terminate()
+                proc.join(timeout=5)
+
+    # ------------------------------------------------------------------ the child
+    def fit(self, body: dict[str, Any], source: str) -> tuple[int, dict[str, Any]]:
+        """Fit the device to the child described (age y, height cm, mass kg, optional
+        measured dimensions cm) and keep the fit for the next session."""
+        import warnings
+
+        from exoleg.sizing import Child
+        from exoleg.sizing.report import fit_report
+
+        try:
+            values: dict[str, Any] = {}
+            for k, (lo, hi) in _CHILD_FIELDS.items():
+                values[k] = float(body.get(k, "nan"))
+                if not lo <= values[k] <= hi:
+                    raise ParameterError("child", k, f"{body.get(k)!r} is outside {lo:g}-"
+                                         f"{hi:g}" + (" cm" if k == "height" else ""))
+            for k in _MEASURED:
+                v = body.get(k)
+                if v not in (None, ""):
+                    x = float(v)
+                    if not 1.0 <= x <= 150.0:
+                        raise ParameterError("child", k, f"{v!r} cm is outside 1-150 cm")
+                    values[k] = x / 100
+            gmfcs = body.get("gmfcs")
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                child = Child(age=values.pop("age"), sex=str(body.get("sex", "")),
+                              height=values.pop("height") / 100, mass=values.pop("mass"),
+                              gmfcs=int(gmfcs) if gmfcs not in (None, "", "0") else None,
+                              affected_side=str(body.get("side", "right")),  # type: ignore
+                              name=str(body.get("name", "child"))[:60] or "child",
+                              **values)
+            rep = fit_report(child)
+        except (ParameterError, ValueError, TypeError) as e:
+            self.api.record(source, "fit", False, str(e))
+            return 422, {"error": str(e)}
+        record = rep.record(leg_file_written=True)
+        record["warnings"] = [str(w.message) for w in caught]
+        folder = self.root / "children" / _slug(child.name)
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / "fit.json").write_text(json.dumps(record, indent=2))
+        rep.save_leg(folder / "leg.toml")
+        with self.lock:
+            self.child, self.child_leg = record, folder / "leg.toml"
+            if not self.fixed:  # the next session's leg
+                self.leg = rep.leg
+                self.info = device_info(rep.leg)
+        self.api.record(source, f"fit {child.name}: {rep.verdict}", True)
+        return 200, record
+
+    def children(self) -> list[dict[str, Any]]:
+        """The children fitted here before (their fit records), by name."""
+        out = []
+        for f in sorted((self.root / "children").glob("*/fit.json")):
+            with contextlib.suppress(OSError, ValueError):
+                out.append(json.loads(f.read_text())["child"])
+        return out
+
+    # ------------------------------------------------------------------ recorded sessions
+    def folder_of(self, name: str) -> Path | None:
+        """A recorded session's folder, only by its own name (nothing outside the root)."""
+        p = self.root / name
+        if "/" in name or name.startswith(".") or not self._recorded(p):
+            return None
+        return p
+
+    @staticmethod
+    def _recorded(p: Path) -> bool:
+        return (p / "session.log").is_file() or (p / "failed.json").is_file()
+
+    def summary(self, folder: Path) -> dict[str, Any]:
+        """One recorded session's line: child, start, duration, how it ended."""
+        from exoleg.runtime.log import read_header
+
+        def read(name: str) -> dict[str, Any]:
+            try:
+                return dict(json.loads((folder / name).read_text()))
+            except (OSError, ValueError):
+                return {}
+
+        run, child, failed = read("run.json"), read("child.json"), read("failed.json")
+        live = folder == self.session and self.api.link is not None
+        try:
+            header, ticks = read_header(folder / "session.log")
+        except ParameterError as e:
+            header, ticks, failed = {}, 0, failed or {"error": str(e)}
+        return {"name": folder.name,
+                "child": child.get("child", {}).get("name", f"({header.get('leg', '?')})"),
+                "started": float(header.get("started", folder.stat().st_mtime)),
+                "backend": header.get("backend", "?"),
+                "duration_s": ticks * float(header.get("period", 1e-3)),
+                "stopped_by": failed.get("error") or run.get("stopped_by")
+                or ("running" if live else "ended without a summary (log kept)"),
+                "running": live}
+
+    def sessions(self) -> list[dict[str, Any]]:
+        rows = [self.summary(p) for p in self.root.iterdir() if self._recorded(p)]
+        return sorted(rows, key=lambda r: -float(r["started"]))
+
+    def detail(self, folder: Path) -> dict[str, Any]:
+        from exoleg.runtime.session import summarize
+
+        out = self.summary(folder)
+        try:
+            out["log"] = summarize(folder / "session.log")
+        except ParameterError as e:
+            out["log"] = {"error": str(e)}
+        try:
+            out["control"] = [json.loads(x) for x in
+                              (folder / "control.log").read_text().splitlines() if x.strip()]
+        except (OSError, ValueError):
+            out["control"] = []
+        return out
+
+    def plot(self, folder: Path) -> Path:
+        """The session's figure, made once per log state."""
+        from exoleg.plots.figures import session_figure
+
+        png = folder / "session.png"
+        log = folder / "session.log"
+        if not png.exists() or png.stat().st_mtime < log.stat().st_mtime:
+            session_figure(log, png)
+        return png
+
+    def export(self, folder: Path, fmt: str) -> Path:
+        """The session's log as CSV or Parquet (the same series as ``exoleg simulate``)."""
+        from exoleg.io import write_csv_table, write_parquet_table
+        from exoleg.runtime.session import to_table
+
+        out = folder / f"session.{fmt}"
+        log = folder / "session.log"
+        if not out.exists() or out.stat().st_mtime < log.stat().st_mtime:
+            (write_csv_table if fmt == "csv" else write_parquet_table)(to_table(log), out)
+        return out
+
+    # ------------------------------------------------------------------ the web app
+    def app(self) -> Any:
+        from starlette.applications import Starlette
+        from starlette.concurrency import run_in_threadpool
+        from starlette.requests import Request
+        from starlette.responses import FileResponse, JSONResponse, Response
+        from starlette.routing import Mount, Route
+        from starlette.staticfiles import StaticFiles
+
+        api = self.api
+
+        def source_of(request: Request) -> str:
+            c = request.client
+            return f"{c.host}:{c.port}" if c else "?"
+
+        async def body_of(request: Request) -> dict[str, Any]:
+            try:
+                body = await request.json()
+            except ValueError:
+                return {}
+            return body if isinstance(body, dict) else {}
+
+        def guarded(what: str, request: Request) -> JSONResponse | None:
+            why = api.authorise(request.headers, source_of(request), what)
+            if why:
+                return JSONResponse({"error": why}, 401 if "token" in why else 409)
+            return None
+
+        async def index(request: Request) -> Response:
+            return FileResponse(STATIC / "index.html")
+
+        async def info(request: Request) -> JSONResponse:
+            with self.lock:
+                return JSONResponse({
+                    "device": self.info, "backend": self.backend, "fixed": self.fixed,
+                    "child": self.child, "session": self.session.name if self.session
+                    else None, "max_duration": MAX_DURATION,
+                    "children": self.children()})
+
+        async def fit(request: Request) -> JSONResponse:
+            refused = guarded("fit", request)
+            if refused:
+                return refused
+            body = await body_of(request)
+            status, out = await run_in_threadpool(self.fit, body, source_of(request))
+            return JSONResponse(out, status)
+
+        async def session_start(request: Request) -> JSONResponse:
+            refused = guarded("start session", request)
+            if refused:
+                return refused
+            body = await body_of(request)
+            try:
+                duration = float(body.get("duration", 60.0))
+            except (TypeError, ValueError):
+                duration = float("nan")
+            status, out = self.start(duration, source_of(request))
+            if status != 200:
+                api.record(source_of(request), "start session", False, out["error"])
+            return JSONResponse(out, status)
+
+        async def session_end(request: Request) -> JSONResponse:
+            refused = guarded("end session", request)
+            if refused:
+                return refused
+            status, out = self.end(source_of(request))
+            return JSONResponse(out, status)
+
+        async def sessions(request: Request) -> JSONResponse:
+            return JSONResponse(await run_in_threadpool(self.sessions))
+
+        def recorded(request: Request) -> Path:
+            folder = self.folder_of(request.path_params["name"])
+            if folder is None:
+                raise LookupError(request.path_params["name"])
+            return folder
+
+        async def session_detail(request: Request) -> Response:
+            try:
+                folder = recorded(request)
+            except LookupError as e:
+                return JSONResponse({"error": f"no recorded session {e}"}, 404)
+            return JSONResponse(await run_in_threadpool(self.detail, folder))
+
+        async def session_file(request: Request) -> Response:
+            try:
+                folder = recorded(request)
+            except LookupError as e:
+                return JSONResponse({"error": f"no recorded session {e}"}, 404)
+            kind = request.path_params["kind"]
+            try:
+                if kind == "plot.png":
+                    path = await run_in_threadpool(self.plot, folder)
+                    return FileResponse(path, media_type="image/png")
+                if kind in ("session.csv", "session.parquet"):
+                    fmt = kind.split(".")[1]
+                    path = await run_in_threadpool(self.export, folder, fmt)
+                    return FileResponse(path, filename=f"{folder.name}.{fmt}")
+            except (ParameterError, OSError) as e:
+                return JSONResponse({"error": f"session {folder.name}: {e}"}, 409)
+            return JSONResponse({"error": f"unknown file {kind!r} (allowed: plot.png, "
+                                          "session.csv, session.parquet)"}, 404)
+
+        @contextlib.asynccontextmanager
+        async def lifespan(app: Any) -> Any:
+            import asyncio
+
+            task = asyncio.create_task(api.watch_applied())
+            yield
+            task.cancel()
+
+        routes = [Route("/", index), Route("/api/info", info),
+                  Route("/api/fit", fit, methods=["POST"]),
+                  Route("/api/session/start", session_start, methods=["POST"]),
+                  Route("/api/session/end", session_end, methods=["POST"]),
+                  Route("/api/sessions", sessions),
+                  Route("/api/sessions/{name}", session_detail),
+                  Route("/api/sessions/{name}/{kind}", session_file),
+                  Mount("/api", routes=api.routes()),
+                  Mount("/static", app=StaticFiles(directory=STATIC), name="static")]
+        return Starlette(routes=routes, lifespan=lifespan)
+
+
+def keep_off_loop_cpu() -> None:
+    """Run the web side on every CPU but the one the loop pins itself to."""
+    with contextlib.suppress(AttributeError, OSError):
+        cpus = sorted(os.sched_getaffinity(0))
+        if len(cpus) > 1:
+            os.sched_setaffinity(0, set(cpus[:-1]))
+
+
+def bind_check(host: str, certfile: str | None, keyfile: str | None) -> str:
+    """'' on loopback or with TLS; else the warning to print. Refuses half a TLS pair."""
+    if (certfile is None) != (keyfile is None):
+        raise ParameterError("exoleg hmi", "--tls-cert/--tls-key", "give both or neither")
+    for f in (certfile, keyfile):
+        if f is not None and not Path(f).is_file():
+            raise ParameterError("exoleg hmi", "--tls-cert/--tls-key", f"{f}: no such file")
+    if loopback(host) or certfile:
+        return ""
+    return (f"warning: the operator interface listens on {host} without TLS: anyone on "
+            "that network who sees the token in transit can control the device (give "
+            "--tls-cert and --tls-key)")
+
+
+def listen(host: str, port: int, what: str = "exoleg hmi") -> Any:
+    """A listening socket on ``host``:``port``, or a ParameterError saying why not."""
+    import socket
+
+    try:
+        family, kind, proto, _, addr = socket.getaddrinfo(host, port,
+                                                          type=socket.SOCK_STREAM)[0]
+        sock = socket.socket(family, kind, proto)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        sock.bind(addr)
+        sock.listen(64)
+    except OSError as e:
+        raise ParameterError(what, "--port", f"cannot listen on {host}:{port}: "
+                             f"{e.strerror or e}") from None
+    return sock
+
+
+def serve(hmi: HMI, host: str = "127.0.0.1", port: int = 8780, certfile: str | None = None,
+          keyfile: str | None = None, ready: Any = None) -> None:
+    """Serve ``hmi`` in this process until interrupted (then a running session ends,
+    torque off). ``ready``: a connection told 'ok' once listening, or why not."""
+    import uvicorn
+
+    keep_off_loop_cpu()
+    try:
+        sock = listen(host, port)
+    except ParameterError as e:
+        if ready is None:
+            raise
+        ready.send(str(e))
+        return
+    config = uvicorn.Config(hmi.app(), log_level="warning", ssl_certfile=certfile,
+                            ssl_keyfile=keyfile, lifespan="on")
+    server = uvicorn.Server(config)
+    if ready is not None:
+        def tell() -> None:
+            while not server.started and not server.should_exit:
+                time.sleep(0.01)
+            ready.send("ok" if server.started else "stopped before it listened")
+
+        threading.Thread(target=tell, daemon=True).start()
+    try:
+        server.run(sockets=[sock])
+    finally:
+        hmi.close()
+
+
+def _serve_process(link: LoopLink, folder: str, token: str, host: str, port: int,
+                   certfile: str | None, keyfile: str | None, backend: str,
+                   leg_path: str | None, ready: Any) -> None:
+    import exoleg
+
+    leg = exoleg.load_leg(leg_path) if leg_path else None
+    hmi = HMI(Path(folder).parent, backend=backend, token=token, fixed=(link, Path(folder)),
+              leg=leg)
+    serve(hmi, host, port, certfile, keyfile, ready)
+
+
+def start_process(link: LoopLink, folder: Path, token: str, host: str, port: int,
+                  certfile: str | None = None, keyfile: str | None = None,
+                  backend: str = "sim", leg_path: str | None = None) -> Any:
+    """``exoleg run --hmi``: the server in a child process for the session run here;
+    returns the process once it listens (raises with the reason if it cannot)."""
+    ctx = mp.get_context("spawn")
+    receiver, sender = ctx.Pipe(duplex=False)
+    proc = ctx.Process(target=_serve_process, name="exoleg-hmi", daemon=True,
+                       args=(link, str(folder), token, host, port, certfile, keyfile,
+                             backend, leg_path, sender))
+    proc.start()
+    said = receiver.recv() if receiver.poll(60) else "did not start within 60 s"
+    if said != "ok":
+        proc.terminate()
+        raise ParameterError("exoleg run --hmi", "--hmi-port", said)
+    return proc

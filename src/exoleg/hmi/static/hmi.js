@@ -1,0 +1,362 @@
+// exoleg operator interface. Angles and torques arrive in SI units (rad, N m); the page
+// shows degrees where people read. The loop runs in another process: nothing here can
+// slow it. The E-stop is sent without a token, from any page, by anyone.
+"use strict";
+
+const MODES = ["DISARMED", "STANDING", "WALKING", "FAULT"];
+const PHASES = {"-1": "unknown", 0: "swing", 1: "loading", 2: "foot flat", 3: "push-off"};
+const SAFETY = [[1, "disarmed: torque zero"], [2, "FAULT: torque off (latched)"],
+                [4, "beyond the soft range-of-motion limit"], [8, "torque clipped"],
+                [16, "torque rate limited"]];
+const EVENTS = [[1, "initial contact"], [2, "foot flat"], [4, "heel off"], [8, "toe off"]];
+const JOINTS = ["hip", "knee", "ankle"];
+const GAINS = ["kp_stance", "kd_stance", "kp_swing", "kd_swing"];
+const WINDOW = 5.0;  // s of history on the charts
+const DEG = 180 / Math.PI;
+
+const S = {
+  token: "", operator: sessionStorage.getItem("exoleg-operator") || "",
+  info: null, state: null, hist: [], events: [], updates: [], lastMode: null,
+};
+
+// ---------------------------------------------------------------- plumbing
+const $ = (id) => document.getElementById(id);
+const esc = (x) => String(x).replace(/[&<>"']/g, (c) => ({"&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&#39;"}[c]));
+
+function say(text, ok) {
+  const m = $("message");
+  m.textContent = text;
+  m.className = ok ? "ok" : "error";
+}
+
+async function call(method, url, body) {
+  const headers = {"Content-Type": "application/json"};
+  if (S.token) headers["Authorization"] = "Bearer " + S.token;
+  if (S.operator) headers["X-Operator"] = S.operator;
+  let r;
+  try {
+    r = await fetch(url, {method, headers, body: body === undefined ? undefined : JSON.stringify(body)});
+  } catch (e) {
+    return {ok: false, status: 0, data: {error: "the server does not answer: " + e}};
+  }
+  let data = {};
+  try { data = await r.json(); } catch (e) { data = {}; }
+  return {ok: r.ok, status: r.status, data};
+}
+
+async function act(method, url, body, done) {
+  const r = await call(method, url, body);
+  if (r.ok) { say(done || "done", true); } else { say("refused: " + (r.data.error || r.status), false); }
+  return r;
+}
+
+// ---------------------------------------------------------------- E-stop: always there
+async function estop(ev) {
+  const clicked = performance.timeOrigin + (ev && ev.timeStamp ? ev.timeStamp : performance.now());
+  window.lastEstopClick = clicked;
+  const r = await call("POST", "/api/command", {command: "estop", clicked_at: clicked});
+  if (r.ok) say("E-STOP sent: torque off", true); else say("E-STOP: " + (r.data.error || r.status), false);
+}
+$("estop").addEventListener("click", estop);
+document.addEventListener("keydown", (e) => { if (e.key === "Escape") { e.preventDefault(); estop(e); } });
+
+// ---------------------------------------------------------------- pages
+function show() {
+  const page = (location.hash || "#live").slice(1);
+  for (const p of ["child", "live", "control", "sessions"]) {
+    $("page-" + p).classList.toggle("shown", p === page);
+    $("nav-" + p).classList.toggle("active", p === page);
+  }
+  if (page === "sessions") loadSessions();
+  if (page === "control") loadGains();
+}
+window.addEventListener("hashchange", show);
+
+// ---------------------------------------------------------------- state stream
+function connect() {
+  const ws = new WebSocket((location.protocol === "https:" ? "wss://" : "ws://") + location.host + "/api/stream");
+  ws.onmessage = (m) => {
+    const s = JSON.parse(m.data);
+    const now = performance.now();
+    S.updates.push(now);
+    while (S.updates.length && S.updates[0] < now - 2000) S.updates.shift();
+    if (s.running === undefined || s.running === "none" || s.tick === undefined) { S.state = s; return; }
+    const last = S.hist.length ? S.hist[S.hist.length - 1] : null;
+    if (!last || s.t !== last.t) {
+      if (last && s.t < last.t) S.hist = [];
+      S.hist.push(s);
+      while (S.hist.length && S.hist[0].t < s.t - WINDOW) S.hist.shift();
+      for (const [bit, name] of EVENTS) if (s.events & bit) S.events.unshift(`${s.t.toFixed(2)} s: ${name}`);
+      if (S.lastMode !== null && s.mode !== S.lastMode) S.events.unshift(`${s.t.toFixed(2)} s: ${MODES[S.lastMode]} -> ${MODES[s.mode]}`);
+      S.lastMode = s.mode;
+      S.events.length = Math.min(S.events.length, 12);
+    }
+    S.state = s;
+  };
+  ws.onclose = () => setTimeout(connect, 500);
+}
+
+// ---------------------------------------------------------------- drawing
+function legPoints(q, lengths, offsets) {
+  // the same chain as exoleg.kinematics.forward_kinematics: phi_i = sum (q_k + offset_k)
+  const pts = [[0, 0]];
+  let phi = 0;
+  for (let i = 0; i < 3; i++) {
+    phi += q[i] + offsets[i];
+    const [x, y] = pts[i];
+    pts.push([x + lengths[i] * Math.cos(phi), y + lengths[i] * Math.sin(phi)]);
+  }
+  return pts;  // hip, knee, ankle, toe (m; x forward, y up)
+}
+window.legPoints = legPoints;
+
+function drawLeg(s) {
+  const c = $("leg"), g = c.getContext("2d"), d = S.info.device;
+  const reach = d.lengths.reduce((a, b) => a + b, 0);
+  const k = c.height / (1.25 * reach), ox = c.width / 2, oy = 0.12 * c.height;
+  const px = (p) => [ox + k * p[0], oy - k * p[1]];
+  g.clearRect(0, 0, c.width, c.height);
+  g.strokeStyle = "#ddd"; g.beginPath(); g.moveTo(0, oy + k * (reach * 0.98)); g.lineTo(c.width, oy + k * (reach * 0.98)); g.stroke();
+  const chain = (q, color, width, dash) => {
+    const p = legPoints(q, d.lengths, d.offsets).map(px);
+    g.setLineDash(dash); g.strokeStyle = color; g.lineWidth = width; g.lineCap = "round";
+    g.beginPath(); g.moveTo(...p[0]); for (const x of p.slice(1)) g.lineTo(...x); g.stroke();
+    g.setLineDash([]);
+    return p;
+  };
+  chain(s.q_ref, "#999", 2, [6, 4]);
+  const p = chain(s.q, "#e67e22", 8, []);
+  g.fillStyle = "#1565c0";
+  for (const x of p.slice(0, 3)) { g.beginPath(); g.arc(x[0], x[1], 6, 0, 2 * Math.PI); g.fill(); }
+}
+
+function axes(g, x0, y0, w, h, ylo, yhi, title) {
+  g.strokeStyle = "#bbb"; g.lineWidth = 1; g.strokeRect(x0, y0, w, h);
+  g.fillStyle = "#333"; g.font = "11px sans-serif";
+  g.fillText(title, x0 + 4, y0 + 12);
+  g.fillText(yhi.toFixed(0), x0 - 28, y0 + 10); g.fillText(ylo.toFixed(0), x0 - 28, y0 + h);
+  return (v) => y0 + h - (v - ylo) / (yhi - ylo) * h;
+}
+
+function drawAngles() {
+  const c = $("angles"), g = c.getContext("2d"), d = S.info.device;
+  g.clearRect(0, 0, c.width, c.height);
+  if (!S.hist.length) return;
+  const tEnd = S.hist[S.hist.length - 1].t, h = 95, x0 = 34, w = c.width - 44;
+  const X = (t) => x0 + (t - (tEnd - WINDOW)) / WINDOW * w;
+  JOINTS.forEach((j, i) => {
+    const lo = d.rom_lower[i] * DEG - 5, hi = d.rom_upper[i] * DEG + 5, y0 = 6 + i * (h + 12);
+    const Y = axes(g, x0, y0, w, h, lo, hi, j);
+    g.strokeStyle = "#ef9a9a"; g.setLineDash([3, 3]);
+    for (const v of [d.rom_lower[i] * DEG, d.rom_upper[i] * DEG]) { g.beginPath(); g.moveTo(x0, Y(v)); g.lineTo(x0 + w, Y(v)); g.stroke(); }
+    g.setLineDash([]);
+    for (const [key, color, dash] of [["q_ref", "#888", [6, 4]], ["q", "#e67e22", []]]) {
+      g.strokeStyle = color; g.lineWidth = 1.6; g.setLineDash(dash); g.beginPath();
+      S.hist.forEach((s, n) => { const y = Y(s[key][i] * DEG); n ? g.lineTo(X(s.t), y) : g.moveTo(X(s.t), y); });
+      g.stroke(); g.setLineDash([]);
+    }
+  });
+}
+
+function drawTorques(s) {
+  const c = $("torques"), g = c.getContext("2d"), acts = S.info.device.actuators;
+  g.clearRect(0, 0, c.width, c.height);
+  const gap = 40, w = (c.width - 3 * gap) / 3 - 4, h = c.height - 30;
+  acts.forEach((a, i) => {
+    const x0 = gap + i * (w + gap), y0 = 6;
+    const wmax = a.envelope_speed[a.envelope_speed.length - 1] * DEG, tmax = a.torque_limit * 1.15;
+    const X = (v) => x0 + (v + wmax) / (2 * wmax) * w, Y = axes(g, x0, y0, w, h, -tmax, tmax, a.joint);
+    g.fillStyle = "rgba(120,144,156,0.18)"; g.beginPath();
+    a.envelope_speed.forEach((v, n) => { const p = [X(v * DEG), Y(a.envelope_torque[n])]; n ? g.lineTo(...p) : g.moveTo(...p); });
+    for (let n = a.envelope_speed.length - 1; n >= 0; n--) g.lineTo(X(-a.envelope_speed[n] * DEG), Y(a.envelope_torque[n]));
+    for (let n = 0; n < a.envelope_speed.length; n++) g.lineTo(X(-a.envelope_speed[n] * DEG), Y(-a.envelope_torque[n]));
+    for (let n = a.envelope_speed.length - 1; n >= 0; n--) g.lineTo(X(a.envelope_speed[n] * DEG), Y(-a.envelope_torque[n]));
+    g.fill();
+    g.fillStyle = "#90a4ae";
+    for (const h0 of S.hist.slice(-50)) g.fillRect(X(h0.dq[i] * DEG) - 1, Y(h0.tau[i]) - 1, 2, 2);
+    g.fillStyle = "#c62828"; g.beginPath(); g.arc(X(s.dq[i] * DEG), Y(s.tau[i]), 4, 0, 2 * Math.PI); g.fill();
+    g.fillStyle = "#333"; g.fillText("speed (deg/s)", x0 + w / 2 - 30, y0 + h + 14);
+  });
+  $("torque-table").innerHTML = "<tr><th></th>" + JOINTS.map((j) => `<th>${j}</th>`).join("") + "</tr>" +
+    "<tr><td>torque (N m)</td>" + s.tau.map((x) => `<td>${x.toFixed(1)}</td>`).join("") + "</tr>" +
+    "<tr><td>peak limit (N m)</td>" + acts.map((a) => `<td>${a.torque_limit.toFixed(0)}</td>`).join("") + "</tr>" +
+    "<tr><td>continuous (N m)</td>" + acts.map((a) => `<td>${a.continuous_torque.toFixed(0)}</td>`).join("") + "</tr>";
+}
+
+function drawFsr(s) {
+  const c = $("fsr"), g = c.getContext("2d"), d = S.info.device;
+  g.clearRect(0, 0, c.width, c.height);
+  const xs = d.sensor_x, lo = Math.min(...xs) - 0.03, hi = Math.max(...xs) + 0.04;
+  const X = (x) => 20 + (x - lo) / (hi - lo) * (c.width - 40);
+  g.fillStyle = "#eceff1"; g.beginPath(); g.ellipse(c.width / 2, 75, c.width / 2 - 10, 40, 0, 0, 2 * Math.PI); g.fill();
+  xs.forEach((x, i) => {
+    const v = Math.max(0, Math.min(1, s.fsr[i] / 4095));
+    g.fillStyle = `rgb(${Math.round(255 * v)},${Math.round(120 * (1 - v))},${Math.round(200 * (1 - v))})`;
+    g.beginPath(); g.arc(X(x), 75, 8 + 16 * v, 0, 2 * Math.PI); g.fill();
+    g.fillStyle = "#333"; g.font = "11px sans-serif"; g.fillText(`${d.sensors[i]} ${s.fsr[i].toFixed(0)}`, X(x) - 22, 128 + 14 * (i % 2));
+  });
+}
+
+function frame() {
+  const s = S.state;
+  if (s && S.info) {
+    const running = s.running === "running";  // ticking (not starting, not ended)
+    const known = s.running && s.running !== "none";
+    $("hdr-session").textContent = known ? `session ${S.info.session || ""}: ${s.running}` : "no session";
+    const mode = running || s.running === "ended" ? MODES[s.mode] : "-";
+    for (const id of ["hdr-mode", "mode", "ctl-mode"]) $(id).textContent = mode;
+    $("hdr-mode").className = "mode" + (running ? " m" + s.mode : "");
+    $("rate").textContent = (S.updates.length / 2).toFixed(0) + " per s";
+    if (running && $("page-live").classList.contains("shown")) {
+      drawLeg(s); drawAngles(); drawTorques(s); drawFsr(s);
+      $("phase").textContent = PHASES[s.phase] || s.phase;
+      const bits = SAFETY.filter(([b]) => s.safety_status & b).map(([, n]) => n);
+      $("safety").textContent = bits.length ? bits.join("; ") : "nominal";
+      $("events").innerHTML = S.events.map((e) => `<li>${esc(e)}</li>`).join("");
+      $("t").textContent = s.t.toFixed(2) + " s";
+      $("late").textContent = s.late_us.toFixed(1) + " us";
+      $("late-max").textContent = s.late_max_us.toFixed(1) + " us";
+      $("missed").textContent = s.missed;
+    }
+  }
+  requestAnimationFrame(frame);
+}
+
+// ---------------------------------------------------------------- control
+async function refreshOperator() {
+  const r = await call("GET", "/api/operator");
+  if (!r.ok) return;
+  const h = r.data.holder;
+  if (!r.data.you && S.operator && h) { S.operator = ""; sessionStorage.removeItem("exoleg-operator"); }
+  $("hdr-operator").textContent = r.data.you ? `you (${h.name}) hold control` : (h ? `view only: ${h.name} holds control` : "view only");
+  $("holder").textContent = h ? `Control is held by ${h.name} (${h.source}).` : "Nobody holds control.";
+}
+
+async function refreshInfo() {
+  const r = await call("GET", "/api/info");
+  if (!r.ok) return;
+  S.info = r.data;
+  const st = S.state || {};
+  $("session-line").textContent = (r.data.fixed ? "This interface serves the session run by `exoleg run`. " : "") +
+    (r.data.session ? `Last session: ${r.data.session}. ` : "") + (r.data.child ? `Child: ${r.data.child.child.name} (${r.data.child.verdict}).` : "Child: none fitted (paper leg).") +
+    ` Backend: ${r.data.backend}.`;
+  $("children").innerHTML = r.data.children.map((c, i) => `<li><a href="#child" data-i="${i}">${esc(c.name)}: ${c.age} y, ${(c.height * 100).toFixed(1)} cm, ${c.mass} kg</a></li>`).join("");
+  for (const a of $("children").querySelectorAll("a")) a.onclick = () => pickChild(r.data.children[+a.dataset.i]);
+  if (r.data.child && !$("fit-result").dataset.shown) showFit(r.data.child);
+}
+
+function pickChild(c) {
+  const f = $("child-form");
+  for (const k of ["name", "age", "sex", "mass"]) f.elements[k].value = c[k];
+  f.elements.height.value = (c.height * 100).toFixed(1);
+  f.elements.gmfcs.value = c.gmfcs || 0;
+  f.elements.side.value = c.affected_side;
+  for (const k of ["thigh", "shank", "leg_length", "foot_length", "ankle_height"]) f.elements[k].value = c[k] ? (c[k] * 100).toFixed(1) : "";
+}
+
+function showFit(f) {
+  const cls = f.verdict === "FITS" ? "fits" : (f.fits ? "short" : "nofit");
+  const margin = (x) => x === null ? "-" : x.toFixed(2);
+  const rows = f.demand.map((r) => `<tr><td>${esc(r.source)}</td><td>${esc(r.quantity)}</td>` +
+    JOINTS.map((j) => `<td class="${r[j + "_margin"] !== null && r[j + "_margin"] < 1 ? "over" : ""}">${margin(r[j + "_margin"])}</td>`).join("") + "</tr>").join("");
+  $("fit-result").innerHTML = `<h3>${esc(f.child.name)}</h3><p id="verdict" class="verdict ${cls}">${f.verdict}</p>
+    <p>Telescopes: upper (hip-knee) <b>${(f.settings_m.upper * 100).toFixed(1)} cm</b> (27-40),
+    lower (knee-sole) <b>${(f.settings_m.lower * 100).toFixed(1)} cm</b> (33-46); footplate 23.5 cm.</p>
+    ${f.notes.length ? "<ul>" + f.notes.map((n) => `<li class="over">${esc(n)}</li>`).join("") + "</ul>" : ""}
+    ${f.warnings.length ? "<ul>" + f.warnings.map((n) => `<li>${esc(n)}</li>`).join("") + "</ul>" : ""}
+    <h3>Actuator margins (Table 2 limit / demand; below 1 is over the limit)</h3>
+    <table><tr><th>source</th><th>quantity</th><th>hip</th><th>knee</th><th>ankle</th></tr>${rows}</table>
+    <p class="muted">Kept for the next session started from the Control page.</p>`;
+  $("fit-result").dataset.shown = "1";
+}
+
+$("child-form").addEventListener("submit", async (e) => {
+  e.preventDefault();
+  const body = Object.fromEntries(new FormData($("child-form")).entries());
+  say("fitting...", true);
+  const r = await act("POST", "/api/fit", body, "fitted and kept for the next session");
+  if (r.ok) { showFit(r.data); refreshInfo(); }
+});
+
+$("take").onclick = async () => {
+  S.token = $("token").value.trim() || S.token;
+  sessionStorage.setItem("exoleg-token", S.token);
+  const r = await act("POST", "/api/operator", {name: $("op-name").value}, "you hold control");
+  if (r.ok) { S.operator = r.data.operator; sessionStorage.setItem("exoleg-operator", S.operator); }
+  refreshOperator();
+};
+$("release").onclick = async () => {
+  await act("DELETE", "/api/operator", undefined, "control given up");
+  S.operator = ""; sessionStorage.removeItem("exoleg-operator"); refreshOperator();
+};
+$("start").onclick = async () => {
+  const r = await act("POST", "/api/session/start", {duration: +$("duration").value}, "session started");
+  if (r.ok) { S.hist = []; S.events = []; S.lastMode = null; refreshInfo(); }
+};
+$("end").onclick = () => act("POST", "/api/session/end", {}, "session ending: torque off");
+for (const b of document.querySelectorAll("[data-command]"))
+  b.onclick = () => act("POST", "/api/command", {command: b.dataset.command}, b.dataset.command + " sent");
+
+async function loadGains() {
+  const r = await call("GET", "/api/gains");
+  const t = $("gains");
+  if (!r.ok || !r.data.gains || !r.data.gains.support) { t.innerHTML = "<tr><td class='muted'>no session running</td></tr>"; return; }
+  const {gains, bounds} = r.data;
+  t.innerHTML = "<tr><th></th>" + JOINTS.map((j) => `<th>${j}</th>`).join("") + "</tr>" +
+    GAINS.map((k) => `<tr><td>${k}</td>` + gains[k].map((v, i) =>
+      `<td><input id="g-${k}-${i}" type="number" step="any" value="${+v.toFixed(3)}"><div class="bounds">${bounds[k][i][0]}-${+bounds[k][i][1].toFixed(3)}</div></td>`).join("") + "</tr>").join("") +
+    `<tr><td>support (assistance)</td><td colspan="3"><input id="g-support-0" type="number" step="0.05" value="${gains.support[0]}"><span class="bounds"> 0-1</span></td></tr>`;
+}
+
+$("apply-gains").onclick = async () => {
+  const body = {};
+  for (const k of GAINS) body[k] = [0, 1, 2].map((i) => +$(`g-${k}-${i}`).value);
+  body.support = [+$("g-support-0").value];
+  const r = await act("POST", "/api/gains", body, "gains changed");
+  if (r.ok) setTimeout(loadGains, 300);
+};
+
+// ---------------------------------------------------------------- sessions
+async function loadSessions() {
+  const r = await call("GET", "/api/sessions");
+  if (!r.ok) return;
+  $("sessions").tBodies[0].innerHTML = r.data.map((s) => `<tr data-name="${esc(s.name)}"><td>${esc(s.name)}</td><td>${esc(s.child)}</td>
+    <td>${new Date(s.started * 1000).toLocaleString()}</td><td>${s.duration_s === null ? "-" : s.duration_s.toFixed(1) + " s"}</td>
+    <td>${esc(s.stopped_by)}</td></tr>`).join("");
+  for (const tr of $("sessions").tBodies[0].rows) tr.onclick = () => openSession(tr.dataset.name);
+}
+
+async function openSession(name) {
+  const r = await call("GET", "/api/sessions/" + encodeURIComponent(name));
+  if (!r.ok) { say(r.data.error, false); return; }
+  const d = r.data, L = d.log, base = "/api/sessions/" + encodeURIComponent(name);
+  if (L.error) { $("session-detail").innerHTML = `<h3>${esc(name)}</h3><p class="over">${esc(d.stopped_by)}</p><p>${esc(L.error)}</p>`; return; }
+  $("session-detail").innerHTML = `<h3>${esc(name)}</h3>
+    <p><a id="export-csv" href="${base}/session.csv">Export CSV</a> · <a id="export-parquet" href="${base}/session.parquet">Export Parquet</a></p>
+    <table><tr><td>child</td><td>${esc(d.child)}</td></tr><tr><td>backend</td><td>${L.backend}</td></tr>
+    <tr><td>duration</td><td>${L.duration_s.toFixed(2)} s (${L.ticks} ticks)</td></tr>
+    <tr><td>ended by</td><td>${esc(d.stopped_by)}</td></tr>
+    <tr><td>first fault</td><td>${L.first_fault_s === null ? "none" : L.first_fault_s.toFixed(3) + " s"}</td></tr>
+    <tr><td>initial contacts</td><td>${L.initial_contacts}</td></tr>
+    <tr><td>lateness p50 / p99 / max</td><td>${L.late_p50_us.toFixed(1)} / ${L.late_p99_us.toFixed(1)} / ${L.late_max_us.toFixed(0)} us</td></tr>
+    <tr><td>deadlines missed</td><td>${L.missed_deadlines}</td></tr></table>
+    <p><img id="session-plot" alt="session plot" src="${base}/plot.png?t=${Date.now()}"></p>
+    <h3>Control actions</h3><table><tr><th>time</th><th>source</th><th>action</th><th>accepted</th><th>note</th></tr>
+    ${d.control.map((a) => `<tr><td>${new Date(a.time * 1000).toLocaleTimeString()}</td><td>${esc(a.source)}</td><td>${esc(a.command)}</td>
+      <td>${a.accepted ? "yes" : "no"}</td><td>${esc(a.why || (a.after_click_ms !== undefined ? a.after_click_ms + " ms after the click" : (a.after_request_ms !== undefined ? a.after_request_ms + " ms after the request" : "")))}</td></tr>`).join("")}</table>`;
+}
+
+// ---------------------------------------------------------------- start
+(function init() {
+  const m = location.hash.match(/token=([^&]+)/);
+  S.token = m ? decodeURIComponent(m[1]) : (sessionStorage.getItem("exoleg-token") || "");
+  if (m) { sessionStorage.setItem("exoleg-token", S.token); history.replaceState(null, "", location.pathname + "#live"); }
+  $("token").value = S.token;
+  show(); connect(); refreshInfo(); refreshOperator();
+  setInterval(() => {
+    refreshOperator();
+    if (S.state && S.state.running === "running" && !$("g-support-0")) loadGains();
+  }, 1000);
+  setInterval(refreshInfo, 3000);
+  requestAnimationFrame(frame);
+})();

@@ -1,0 +1,221 @@
+"""The link between the 1 kHz loop and the operator's side, across processes.
+
+The loop and the web server never share a process: a web server in the loop's process
+would hold the GIL for milliseconds at a time (JSON, WebSocket frames, page requests) and
+the loop would wait for it. The link is two OS objects the loop can use without ever
+blocking:
+
+* a **shared-memory block** the loop writes (a seqlock: an odd sequence number while it
+  writes) -- the latest tick at 100 Hz, the gains in force, and a ring of the commands
+  the controller has applied with the wall time it applied them; the web side copies it
+  when it likes and retries a torn copy;
+* a **pipe** from the web side to the loop, which the loop polls once a tick without
+  waiting: commands, gain changes, and the request to end the session. An E-stop found
+  in the pipe goes before anything queued with it.
+
+:class:`LoopLink` is picklable (its parts are ``multiprocessing`` objects): made in one
+process, passed to the other as a ``Process`` argument.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import time
+from collections import deque
+from typing import Any
+
+import numpy as np
+
+from exoleg.control.hierarchy import Command
+from exoleg.runtime.loop import END_SESSION
+
+#: gains the operator may change, in the order they sit in the shared block
+GAIN_NAMES = ("kp_stance", "kd_stance", "kp_swing", "kd_swing", "support")
+_GAIN_SIZES = (3, 3, 3, 3, 1)
+RING = 32
+
+_FIELDS = [("seq", 1), ("t", 1), ("mode", 1), ("phase", 1), ("gait_fraction", 1),
+           ("events", 1), ("safety_status", 1), ("q", 3), ("dq", 3), ("q_ref", 3),
+           ("tau", 3), ("fsr", 4), ("late_us", 1), ("late_max_us", 1), ("missed", 1),
+           ("tick", 1), ("running", 1), ("gains", sum(_GAIN_SIZES)), ("applied", 1),
+           ("ring", 4 * RING)]
+_AT: dict[str, slice] = {}
+_n = 0
+for _name, _size in _FIELDS:
+    _AT[_name] = slice(_n, _n + _size)
+    _n += _size
+SIZE = _n
+#: the fields a snapshot carries as lists (the rest are numbers)
+_VECTORS = {"q", "dq", "q_ref", "tau", "fsr"}
+
+
+class LoopLink:
+    """Shared block + command pipe between the loop (``loop_*`` methods) and the web
+    side (``web_*`` methods). Make it with :meth:`new` before starting the other
+    process."""
+
+    #: where the gains sit in a copy of the shared block
+    GAINS = _AT["gains"]
+
+    def __init__(self, block: Any, receiver: Any, sender: Any) -> None:
+        self.block = block
+        self.receiver = receiver
+        self.sender = sender
+        self._view: np.ndarray | None = None
+        self._queue: deque[tuple[int, int]] = deque()
+        self._inflight: list[tuple[int, int]] = []
+        self._events = 0
+        self._status = 0
+        self._late_max = 0.0
+        self._missed = 0
+
+    @classmethod
+    def new(cls) -> LoopLink:
+        ctx = mp.get_context("spawn")
+        receiver, sender = ctx.Pipe(duplex=False)
+        return cls(ctx.RawArray("d", SIZE), receiver, sender)
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {"block": self.block, "receiver": self.receiver, "sender": self.sender}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__init__(state["block"], state["receiver"], state["sender"])  # type: ignore[misc]
+
+    @property
+    def view(self) -> np.ndarray:
+        if self._view is None:
+            self._view = np.frombuffer(self.block, dtype=np.float64)
+        return self._view
+
+    # ------------------------------------------------------------ the loop's side
+    def _begin(self) -> np.ndarray:
+        v = self.view
+        v[0] += 1.0  # odd: being written
+        return v
+
+    def loop_gains(self, gains: dict[str, list[float]]) -> None:
+        """The gains in force (at the start and after every change)."""
+        v = self._begin()
+        v[_AT["gains"]] = np.concatenate([gains[k] for k in GAIN_NAMES])
+        v[0] += 1.0
+
+    def loop_ended(self) -> None:
+        """The session is over (``running``: 0 before the first tick, 1 from it on)."""
+        v = self._begin()
+        v[_AT["running"]] = 2.0
+        v[0] += 1.0
+
+    def loop_poll(self) -> tuple[int, dict[str, list[float]] | None]:
+        """What the web side sent: (command for the next tick or 0, a gain change or
+        None). Never waits; an E-stop goes first."""
+        change = None
+        while self.receiver.poll():
+            kind, value, rid = self.receiver.recv()
+            if kind == "gains":
+                change = value  # the web side checked the bounds
+            elif value == Command.ESTOP:
+                self._queue.appendleft((int(value), int(rid)))
+            else:
+                self._queue.append((int(value), int(rid)))
+        if not self._queue:
+            return 0, change
+        code, rid = self._queue.popleft()
+        self._inflight.append((code, rid))
+        return code, change
+
+    def loop_tick(self, k: int, t: float, out: dict[str, Any], sensors: dict[str, Any],
+                  late: float, period: float, publish: bool) -> None:
+        """After tick ``k``: note a command the controller applied this tick (with the
+        wall time, after the drives' command was written) and, when ``publish``, the
+        tick's state."""
+        self._events |= int(out["events"])
+        self._status |= int(out["safety_status"])
+        self._late_max = max(self._late_max, late)
+        if late > period:
+            self._missed += 1
+        applied = int(sensors.get("command", 0))
+        hit = next((x for x in self._inflight if x[0] == applied), None) if applied else None
+        if not publish and hit is None:
+            return
+        v = self._begin()
+        if hit is not None:
+            self._inflight.remove(hit)
+            n = int(v[_AT["applied"]][0])
+            i = _AT["ring"].start + 4 * (n % RING)
+            v[i:i + 4] = (hit[0], hit[1], k, time.time())
+            v[_AT["applied"]] = n + 1
+        if publish:
+            v[_AT["t"]] = t
+            v[_AT["mode"]] = int(out["mode"])
+            v[_AT["phase"]] = int(out["phase"])
+            v[_AT["gait_fraction"]] = float(out.get("gait_fraction", 0.0))
+            v[_AT["events"]] = self._events
+            v[_AT["safety_status"]] = self._status
+            v[_AT["q"]] = sensors["q"]
+            v[_AT["dq"]] = sensors["dq"]
+            v[_AT["q_ref"]] = out.get("q_ref", np.zeros(3))
+            v[_AT["tau"]] = out["tau"]
+            v[_AT["fsr"]] = sensors["fsr"]
+            v[_AT["late_us"]] = late * 1e6
+            v[_AT["late_max_us"]] = self._late_max * 1e6
+            v[_AT["missed"]] = self._missed
+            v[_AT["tick"]] = k
+            v[_AT["running"]] = 1.0
+            self._events = self._status = 0
+            self._late_max = 0.0
+        v[0] += 1.0
+
+    # ------------------------------------------------------------ the web side
+    def web_send(self, command: int, request_id: int = 0) -> None:
+        self.sender.send(("command", int(command), int(request_id)))
+
+    def web_gains(self, change: dict[str, list[float]]) -> None:
+        self.sender.send(("gains", change, 0))
+
+    def web_end(self) -> None:
+        self.sender.send(("command", END_SESSION, 0))
+
+    def web_copy(self) -> np.ndarray:
+        """A consistent copy of the shared block (retries a copy torn by a write)."""
+        v = self.view
+        for _ in range(1000):
+            s = v[0]
+            c = v.copy()
+            if s % 2 == 0 and v[0] == s:
+                return c
+            time.sleep(1e-5)
+        raise RuntimeError("the loop's shared block stayed mid-write for 10 ms")
+
+    @staticmethod
+    def snapshot(c: np.ndarray) -> dict[str, Any]:
+        """The latest tick as JSON-ready values (angles rad, torques N m, FSR counts)."""
+        out: dict[str, Any] = {}
+        for name in ("t", "mode", "phase", "gait_fraction", "events", "safety_status",
+                     "q", "dq", "q_ref", "tau", "fsr", "late_us", "late_max_us", "missed",
+                     "tick", "running"):
+            x = c[_AT[name]]
+            out[name] = [float(a) for a in x] if name in _VECTORS else float(x[0])
+        for name in ("mode", "phase", "events", "safety_status", "missed", "tick"):
+            out[name] = int(out[name])
+        out["running"] = ("starting", "running", "ended")[int(out["running"])]
+        return out
+
+    @staticmethod
+    def gains(c: np.ndarray) -> dict[str, list[float]]:
+        g = c[_AT["gains"]]
+        out, i = {}, 0
+        for name, n in zip(GAIN_NAMES, _GAIN_SIZES, strict=True):
+            out[name] = [float(x) for x in g[i:i + n]]
+            i += n
+        return out
+
+    @staticmethod
+    def applied(c: np.ndarray, since: int) -> tuple[int, list[tuple[int, int, int, float]]]:
+        """Commands applied after the first ``since``: (count now, [(command, request
+        id, tick, wall time)])."""
+        n = int(c[_AT["applied"]][0])
+        ring = c[_AT["ring"]].reshape(RING, 4)
+        first = max(since, n - RING)
+        return n, [(int(ring[i % RING, 0]), int(ring[i % RING, 1]), int(ring[i % RING, 2]),
+                    float(ring[i % RING, 3])) for i in range(first, n)]
+
