@@ -6,7 +6,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup simulate validate test bench codegen
+.PHONY: setup browser simulate validate test bench codegen
 
 setup: $(STAMP)
 
@@ -22,7 +22,20 @@ simulate: setup
 validate: setup
 	$(BIN)/exoleg validate $(ARGS)
 
-test: setup
+# The operator interface's browser tests drive Debian's Chromium and its driver (packages
+# chromium, chromium-driver). Installed here when missing and this user may (root with
+# apt-get); otherwise those tests skip and say why.
+browser:
+	@if ! command -v chromium >/dev/null || ! command -v chromedriver >/dev/null; then \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    echo "make: installing Debian's chromium and chromium-driver for the browser tests"; \
+	    (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq \
+	      chromium chromium-driver >/dev/null) || \
+	      echo "make: Chromium could not be installed: the browser tests will skip"; \
+	  else echo "make: no Chromium and no root to install it: the browser tests will skip"; fi; \
+	fi
+
+test: setup browser
 	$(BIN)/python -m pytest $(ARGS)
 
 bench: setup
@@ -30,6 +43,7 @@ bench: setup
 	$(BIN)/python benchmarks/bench_simulate.py
 	$(BIN)/python benchmarks/bench_device.py
 	$(BIN)/python benchmarks/bench_runtime.py
+	$(BIN)/python benchmarks/bench_hmi.py
 
 codegen: setup
 	$(BIN)/python -m exoleg.dynamics.codegen

@@ -186,3 +186,23 @@ def test_hmi_over_tls_and_a_port_in_use(tmp_path: Path) -> None:
     finally:
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=30) == 130  # Ctrl-C, as every exoleg command
+
+
+def test_hmi_refuses_what_it_must(tmp_path: Path) -> None:
+    from exoleg.hmi.server import HMI
+
+    real = HMI(tmp_path / "a", backend="canopen", interface="socketcan")
+    status, out = real.start(10.0, "test", arm=True)
+    assert status == 409 and "on a real device the operator arms" in out["error"]
+    sim = HMI(tmp_path / "b")
+    for duration in (0.5, float("nan"), 1e6):
+        status, out = sim.start(duration, "test")
+        assert status == 422 and "is outside 1-3600 s" in out["error"]
+    status, out = sim.fit({"name": "Eve", "age": 10, "sex": "female", "height": 500,
+                           "mass": 32}, "test")
+    assert status == 422 and "height" in out["error"] and "outside 50-220" in out["error"]
+    status, out = sim.fit({"name": "Eve", "age": 10, "sex": "female", "height": 138,
+                           "mass": 32, "thigh": 90}, "test")
+    assert status == 422 and "thigh" in out["error"]  # implausible for her height
+    assert sim.folder_of("../a") is None and sim.folder_of(".") is None
+    assert not sim.sessions() and sim.proc is None  # nothing started by any of it

@@ -73,7 +73,7 @@ def hmi(tmp_path_factory: pytest.TempPathFactory) -> Any:
 
 @pytest.fixture(scope="module")
 def operator(hmi: Any) -> Any:
-    d = chromium()
+    d = chromium(1400, 1350)  # the whole Live page in one screenshot
     d.get(hmi.page)
     yield d
     d.quit()

@@ -6,10 +6,13 @@ repeated here."""
 
 from __future__ import annotations
 
+import os
 import re
 import shlex
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 README = Path(__file__).resolve().parents[1] / "README.md"
@@ -35,8 +38,31 @@ def test_readme_shell_commands_run_as_written(tmp_path: Path) -> None:
     assert commands, "the README shows exoleg commands"
     for cmd in commands:
         argv = shlex.split(cmd)[1:]
+        if argv[0] == "hmi":  # a server: it must start, answer, and stop on Ctrl-C
+            _serves(argv, tmp_path)
+            continue
         r = subprocess.run([sys.executable, "-m", "exoleg.cli", *argv], cwd=tmp_path,
                            capture_output=True, text=True, check=False, timeout=600)
         assert r.returncode == 0, (cmd, r.stderr)
     make = [ln for ln in lines if ln.startswith("make ")]
     assert make[:2] == ["make simulate", "make test"]  # the two fresh-machine commands
+
+
+def _serves(argv: list[str], cwd: Path) -> None:
+    import httpx
+
+    out = cwd / "hmi.txt"
+    with out.open("w") as f:
+        proc = subprocess.Popen([sys.executable, "-m", "exoleg.cli", *argv], cwd=cwd,
+                                stdout=f, stderr=subprocess.STDOUT,
+                                env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    try:
+        deadline = time.time() + 60
+        while not (m := re.search(r"operator interface: (\S+)/#token=", out.read_text())):
+            assert proc.poll() is None and time.time() < deadline, out.read_text()
+            time.sleep(0.05)
+        assert httpx.get(m.group(1) + "/api/info", timeout=10).status_code == 200
+        assert "E-STOP" in httpx.get(m.group(1) + "/", timeout=10).text
+    finally:
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=30) == 130, out.read_text()

@@ -31,6 +31,7 @@ import numpy as np
 from exoleg.errors import ParameterError
 from exoleg.runtime.control_api import ControlAPI, loopback
 from exoleg.runtime.link import LoopLink
+from exoleg.runtime.session import SIMULATED_BUS
 
 STATIC = Path(__file__).parent / "static"
 #: the longest session the HMI starts, s (a session may be ended at any time before)
@@ -45,7 +46,7 @@ def _slug(text: str) -> str:
 
 
 def _session_process(link: LoopLink, backend: str, interface: str | None, duration: float,
-                     folder: str, leg_path: str | None, body_mass: float) -> None:
+                     folder: str, leg_path: str | None, body_mass: float, arm: bool) -> None:
     """A session's own process (``exoleg hmi``): runs the loop until its duration, an
     E-stop fault, the operator's end or a signal."""
     import exoleg
@@ -53,7 +54,7 @@ def _session_process(link: LoopLink, backend: str, interface: str | None, durati
 
     try:
         leg = exoleg.load_leg(leg_path) if leg_path else None
-        run(backend, duration, folder, leg=leg, body_mass=body_mass, arm=False,
+        run(backend, duration, folder, leg=leg, body_mass=body_mass, arm=arm,
             interface=interface, link=link)
     except BaseException as e:  # said on the Sessions page; the torque is off either way
         (Path(folder) / "failed.json").write_text(json.dumps(
@@ -114,9 +115,15 @@ class HMI:
             self.api.attach(fixed[0], self.session)
 
     # ------------------------------------------------------------------ sessions
-    def start(self, duration: float, source: str) -> tuple[int, dict[str, Any]]:
-        """Start a session (its own process) with the child kept, if any."""
+    def start(self, duration: float, source: str, arm: bool = False
+              ) -> tuple[int, dict[str, Any]]:
+        """Start a session (its own process) with the child kept, if any. ``arm``: arm as
+        the loop starts -- only on the simulated device, whose child has no muscles of its
+        own and folds within about a second while the device is disarmed."""
         with self.lock:
+            if arm and self.interface != SIMULATED_BUS.get(self.backend):
+                return 409, {"error": "arming as the session starts is for the simulated "
+                                      "device only: on a real device the operator arms"}
             if self.fixed:
                 return 409, {"error": "this HMI serves one session run by `exoleg run`; it "
                                       "cannot start another"}
@@ -141,12 +148,12 @@ class HMI:
             self.proc = mp.get_context("spawn").Process(
                 target=_session_process, name="exoleg-session", daemon=True,
                 args=(link, self.backend, self.interface, duration, str(folder),
-                      str(folder / "leg.toml") if self.child else None, mass))
+                      str(folder / "leg.toml") if self.child else None, mass, arm))
             self.proc.start()
             self.session = folder
             self.api.attach(link, folder)
             self.api.record(source, f"start session {name} ({duration:g} s, "
-                            f"{self.backend})", True)
+                            f"{self.backend}{', armed at start' if arm else ''})", True)
             threading.Thread(target=self._watch, args=(self.proc, link), daemon=True).start()
             return 200, {"session": name}
 
@@ -206,12 +213,12 @@ class HMI:
             gmfcs = body.get("gmfcs")
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
-                child = Child(age=values.pop("age"), sex=str(body.get("sex", "")),
+                child = Child(age=values.pop("age"), sex=str(body.get("sex", "")),  # type: ignore[arg-type]
                               height=values.pop("height") / 100, mass=values.pop("mass"),
                               gmfcs=int(gmfcs) if gmfcs not in (None, "", "0") else None,
-                              affected_side=str(body.get("side", "right")),  # type: ignore
+                              affected_side=str(body.get("side", "right")),  # type: ignore[arg-type]
                               name=str(body.get("name", "child"))[:60] or "child",
-                              **values)
+                              **values)  # Child checks sex and side and names what is allowed
             rep = fit_report(child)
         except (ParameterError, ValueError, TypeError) as e:
             self.api.record(source, "fit", False, str(e))
@@ -350,6 +357,7 @@ class HMI:
             with self.lock:
                 return JSONResponse({
                     "device": self.info, "backend": self.backend, "fixed": self.fixed,
+                    "simulated": self.interface == SIMULATED_BUS.get(self.backend),
                     "child": self.child, "session": self.session.name if self.session
                     else None, "max_duration": MAX_DURATION,
                     "children": self.children()})
@@ -371,7 +379,8 @@ class HMI:
                 duration = float(body.get("duration", 60.0))
             except (TypeError, ValueError):
                 duration = float("nan")
-            status, out = self.start(duration, source_of(request))
+            status, out = self.start(duration, source_of(request),
+                                     arm=body.get("arm") is True)
             if status != 200:
                 api.record(source_of(request), "start session", False, out["error"])
             return JSONResponse(out, status)

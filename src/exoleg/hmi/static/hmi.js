@@ -240,6 +240,7 @@ async function refreshInfo() {
   $("session-line").textContent = (r.data.fixed ? "This interface serves the session run by `exoleg run`. " : "") +
     (r.data.session ? `Last session: ${r.data.session}. ` : "") + (r.data.child ? `Child: ${r.data.child.child.name} (${r.data.child.verdict}).` : "Child: none fitted (paper leg).") +
     ` Backend: ${r.data.backend}.`;
+  for (const id of ["arm-start-line", "arm-start-note"]) $(id).style.display = r.data.simulated ? "" : "none";
   $("children").innerHTML = r.data.children.map((c, i) => `<li><a href="#child" data-i="${i}">${esc(c.name)}: ${c.age} y, ${(c.height * 100).toFixed(1)} cm, ${c.mass} kg</a></li>`).join("");
   for (const a of $("children").querySelectorAll("a")) a.onclick = () => pickChild(r.data.children[+a.dataset.i]);
   if (r.data.child && !$("fit-result").dataset.shown) showFit(r.data.child);
@@ -290,7 +291,7 @@ $("release").onclick = async () => {
   S.operator = ""; sessionStorage.removeItem("exoleg-operator"); refreshOperator();
 };
 $("start").onclick = async () => {
-  const r = await act("POST", "/api/session/start", {duration: +$("duration").value}, "session started");
+  const r = await act("POST", "/api/session/start", {duration: +$("duration").value, arm: $("arm-start").checked}, "session started");
   if (r.ok) { S.hist = []; S.events = []; S.lastMode = null; refreshInfo(); }
 };
 $("end").onclick = () => act("POST", "/api/session/end", {}, "session ending: torque off");

@@ -1,0 +1,105 @@
+"""Benchmark: the operator interface -- how long an E-stop clicked in the browser takes to
+reach the drives' command, and whether a browser watching the Live page slows the loop.
+
+Run: ``python benchmarks/bench_hmi.py [sessions] [seconds]`` (default 8 sessions, 20 s).
+Needs Debian's chromium and chromium-driver (``make test`` installs them as root).
+
+What is timed, end to end on loopback: ``exoleg hmi`` (sim backend) serves the page to a
+real headless Chromium; per session the page starts a session armed at the start, walks,
+and the E-stop button is clicked. The page stamps the click (the event's time,
+``performance.timeOrigin + event.timeStamp``, the same wall clock as the server's); the
+loop stamps the tick at which the controller applied the E-stop, after the drives'
+command (zero torque) was written (``time.time()``); the server logs the difference
+(``control.log``: ``after_click_ms``). Goal (issue 13): <= 50 ms.
+
+Then the loop's lateness with the Live page open in Chromium (drawing at the browser's
+frame rate from the 50 Hz stream) against the same session with no interface at all
+(``exoleg run``), same duration, same machine, same run: the loop runs in its own process
+and the web server keeps off its CPU, so the two should not differ beyond this VM's noise.
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import httpx
+import numpy as np
+
+from exoleg.hmi.testing import browser_missing, chromium, served_hmi
+from exoleg.runtime.session import run, summarize
+
+SESSIONS = int(sys.argv[1]) if len(sys.argv) > 1 else 8
+SECONDS = float(sys.argv[2]) if len(sys.argv) > 2 else 20.0
+
+
+def wait(check, timeout=60.0):  # type: ignore[no-untyped-def]
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        x = check()
+        if x:
+            return x
+        time.sleep(0.02)
+    raise TimeoutError
+
+
+def one_session(d, url: str, walk_for: float) -> dict:  # type: ignore[no-untyped-def]
+    """Start (armed), walk for ``walk_for`` s on the Live page, E-stop by the button;
+    the applied E-stop's log entry and the session's folder."""
+    mode = lambda: d.find_element("id", "ctl-mode").get_attribute("textContent")  # noqa: E731
+    d.find_element("id", "nav-control").click()
+    if not d.find_element("id", "arm-start").is_selected():
+        d.find_element("id", "arm-start").click()
+    d.find_element("id", "start").click()
+    wait(lambda: mode() == "STANDING")
+    d.find_element("id", "cmd-walk").click()
+    wait(lambda: mode() == "WALKING")
+    d.find_element("id", "nav-live").click()
+    time.sleep(walk_for)
+    d.find_element("id", "estop").click()
+    entry = wait(lambda: [a for a in httpx.get(f"{url}/api/log").json()
+                          if a["source"] == "loop" and a["command"] == "estop"])[0]
+    d.find_element("id", "nav-control").click()
+    d.find_element("id", "end").click()
+    wait(lambda: httpx.get(f"{url}/api/state").json().get("running") in ("ended", "none"))
+    time.sleep(0.5)
+    return entry
+
+
+def main() -> None:
+    missing = browser_missing()
+    if missing:
+        sys.exit(f"bench_hmi: no headless browser: {missing}")
+    with tempfile.TemporaryDirectory() as tmp, served_hmi(Path(tmp) / "s") as hmi:
+        d = chromium()
+        try:
+            d.get(hmi.page)
+            d.find_element("id", "nav-control").click()
+            d.find_element("id", "take").click()
+            wait(lambda: "hold control" in d.find_element("id", "hdr-operator").text)
+            entries = [one_session(d, hmi.url, SECONDS if k == 0 else 1.0)
+                       for k in range(SESSIONS)]
+        finally:
+            d.quit()
+        clicks = np.array([e["after_click_ms"] for e in entries])
+        requests = np.array([e["after_request_ms"] for e in entries])
+        print(f"E-stop, click in Chromium -> drives' command written, {SESSIONS} sessions "
+              "(goal <= 50 ms):")
+        for name, x in (("from the click", clicks), ("from the request's arrival", requests)):
+            print(f"  {name:<28} p50 {np.median(x):6.2f} ms   max {x.max():6.2f} ms")
+        first = min(Path(tmp, "s").glob("2*"), key=lambda p: p.name)
+        watched = summarize(first / "session.log")
+    with tempfile.TemporaryDirectory() as tmp:
+        _, path = run("sim", watched["duration_s"], tmp, arm=True, walk_after=1.0)
+        alone = summarize(path)
+    print(f"\nloop lateness, {watched['duration_s']:.1f} s session (sim, 1 kHz):")
+    print(f"  {'':<36} {'p50 us':>8} {'p99 us':>8} {'max us':>9} {'missed':>7}")
+    for name, s in (("Live page open in Chromium", watched), ("no interface (exoleg run)", alone)):
+        print(f"  {name:<36} {s['late_p50_us']:8.2f} {s['late_p99_us']:8.2f} "
+              f"{s['late_max_us']:9.1f} {s['missed_deadlines']:7d}")
+
+
+if __name__ == "__main__":
+    main()
