@@ -206,3 +206,34 @@ def test_hmi_refuses_what_it_must(tmp_path: Path) -> None:
     assert status == 422 and "thigh" in out["error"]  # implausible for her height
     assert sim.folder_of("../a") is None and sim.folder_of(".") is None
     assert not sim.sessions() and sim.proc is None  # nothing started by any of it
+
+
+def test_session_ends_torque_off_when_the_interface_dies(tmp_path: Path) -> None:
+    """Fault injection: the server's process killed (SIGKILL) mid-session -- nobody could
+    stop the device from the page, so the session ends with the torque off."""
+    from exoleg.hmi.testing import served_hmi
+
+    with served_hmi(tmp_path / "s") as hmi:
+        base = f"{hmi.url}/api"
+        auth = {"Authorization": f"Bearer {hmi.token}"}
+        op = {**auth, "X-Operator": httpx.post(f"{base}/operator", json={"name": "ann"},
+                                               headers=auth).json()["operator"]}
+        r = httpx.post(f"{base}/session/start", json={"duration": 120, "arm": True},
+                       headers=op)
+        assert r.status_code == 200
+        _wait(f"{base}/state", "mode", 1)  # armed at the start: standing
+        hmi.process.kill()
+        killed = time.time()
+        hmi.process.wait()
+        folder = tmp_path / "s" / r.json()["session"]
+        deadline = time.time() + 30
+        while not (folder / "run.json").exists():
+            assert time.time() < deadline, "the session went on without its interface"
+            time.sleep(0.05)
+    run = json.loads((folder / "run.json").read_text())
+    assert run["stopped_by"] == ("the operator interface's process is gone (nobody could "
+                                 "stop it): torque off")
+    # noticed within 100 ticks (0.1 s); the summary written after the torque went off
+    assert (folder / "run.json").stat().st_mtime - killed < 1.0
+    _, cols, _ = read_log(folder / "session.log")
+    assert np.all(cols["mode"][1:] == 1)  # it had stood, armed, until then

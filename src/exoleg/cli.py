@@ -887,7 +887,7 @@ def cmd_hmi(args: argparse.Namespace) -> int:
         raise ParameterError("exoleg hmi", "--interface", "goes with --backend canopen or "
                              "ethercat")
     warning = bind_check(args.host, args.tls_cert, args.tls_key)
-    listen(args.host, args.port).close()  # a port in use is said now, in one line
+    sock = listen(args.host, args.port)  # a port in use is said now, in one line
     hmi = HMI(_writable_folder(args.sessions), backend=args.backend,
               interface=args.interface or SIMULATED_BUS.get(args.backend))
     if warning:
@@ -896,7 +896,7 @@ def cmd_hmi(args: argparse.Namespace) -> int:
          f"{hmi.api.token}\ntoken (for every control action): {hmi.api.token}\n"
          f"sessions are recorded in {hmi.root}; Ctrl-C stops the interface (a running "
          "session ends, torque off)", flush=True)
-    serve(hmi, args.host, args.port, args.tls_cert, args.tls_key)
+    serve(hmi, args.host, args.port, args.tls_cert, args.tls_key, sock=sock)
     return 0
 
 

@@ -46,12 +46,15 @@ def _slug(text: str) -> str:
 
 
 def _session_process(link: LoopLink, backend: str, interface: str | None, duration: float,
-                     folder: str, leg_path: str | None, body_mass: float, arm: bool) -> None:
+                     folder: str, leg_path: str | None, body_mass: float, arm: bool,
+                     server: int) -> None:
     """A session's own process (``exoleg hmi``): runs the loop until its duration, an
-    E-stop fault, the operator's end or a signal."""
+    E-stop fault, the operator's end, a signal, or the end of the server's process
+    (``server``: its pid) -- then nobody could stop it from the page."""
     import exoleg
     from exoleg.runtime.session import run
 
+    link.server_pid = server
     try:
         leg = exoleg.load_leg(leg_path) if leg_path else None
         run(backend, duration, folder, leg=leg, body_mass=body_mass, arm=arm,
@@ -148,20 +151,21 @@ class HMI:
             self.proc = mp.get_context("spawn").Process(
                 target=_session_process, name="exoleg-session", daemon=True,
                 args=(link, self.backend, self.interface, duration, str(folder),
-                      str(folder / "leg.toml") if self.child else None, mass, arm))
+                      str(folder / "leg.toml") if self.child else None, mass, arm,
+                      os.getpid()))
             self.proc.start()
             self.session = folder
             self.api.attach(link, folder)
             self.api.record(source, f"start session {name} ({duration:g} s, "
                             f"{self.backend}{', armed at start' if arm else ''})", True)
-            threading.Thread(target=self._watch, args=(self.proc, link), daemon=True).start()
+            threading.Thread(target=self._watch, args=(self.proc, link, folder),
+                             daemon=True).start()
             return 200, {"session": name}
 
-    def _watch(self, proc: Any, link: LoopLink) -> None:
+    def _watch(self, proc: Any, link: LoopLink, folder: Path) -> None:
         proc.join()
         self.api.poll_applied()
-        why = self.summary(self.session)["stopped_by"] if self.session else "?"
-        self.api.record("hmi", "session ended", True, why=why)
+        self.api.record("hmi", "session ended", True, why=self.summary(folder)["stopped_by"])
         with self.lock:
             if self.api.link is link:
                 self.api.detach()
@@ -210,12 +214,15 @@ class HMI:
                     if not 1.0 <= x <= 150.0:
                         raise ParameterError("child", k, f"{v!r} cm is outside 1-150 cm")
                     values[k] = x / 100
-            gmfcs = body.get("gmfcs")
+            gmfcs = str(body.get("gmfcs") or "0")
+            if gmfcs not in ("0", "1", "2", "3", "4", "5"):
+                raise ParameterError("child", "gmfcs", f"{gmfcs!r} is not a GMFCS level "
+                                     "(allowed: 1-5, or 0 for typically developing)")
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 child = Child(age=values.pop("age"), sex=str(body.get("sex", "")),  # type: ignore[arg-type]
                               height=values.pop("height") / 100, mass=values.pop("mass"),
-                              gmfcs=int(gmfcs) if gmfcs not in (None, "", "0") else None,
+                              gmfcs=int(gmfcs) or None,
                               affected_side=str(body.get("side", "right")),  # type: ignore[arg-type]
                               name=str(body.get("name", "child"))[:60] or "child",
                               **values)  # Child checks sex and side and names what is allowed
@@ -487,14 +494,15 @@ def listen(host: str, port: int, what: str = "exoleg hmi") -> Any:
 
 
 def serve(hmi: HMI, host: str = "127.0.0.1", port: int = 8780, certfile: str | None = None,
-          keyfile: str | None = None, ready: Any = None) -> None:
+          keyfile: str | None = None, ready: Any = None, sock: Any = None) -> None:
     """Serve ``hmi`` in this process until interrupted (then a running session ends,
-    torque off). ``ready``: a connection told 'ok' once listening, or why not."""
+    torque off). ``sock``: already listening (:func:`listen`); ``ready``: a connection
+    told 'ok' once listening, or why not."""
     import uvicorn
 
     keep_off_loop_cpu()
     try:
-        sock = listen(host, port)
+        sock = sock if sock is not None else listen(host, port)
     except ParameterError as e:
         if ready is None:
             raise

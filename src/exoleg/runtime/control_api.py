@@ -143,20 +143,20 @@ class ControlAPI:
     def poll_applied(self) -> None:
         """Log the commands the loop has applied since the last call, with the time from
         the request (and from the click) to the tick that wrote the drives' command."""
-        with self.lock:
+        with self.lock:  # the server's task and the HMI's session watcher both call it
             link = self.link
-        if link is None:
-            return
-        n, done = LoopLink.applied(link.web_copy(), self.seen_applied)
-        self.seen_applied = n
-        for code, rid, tick, wall in done:
-            req = self.requests.pop(rid, {})
-            extra: dict[str, Any] = {"tick": tick, "request": rid}
-            if "received" in req:
-                extra["after_request_ms"] = round((wall - req["received"]) * 1e3, 3)
-            if "clicked_at" in req:
-                extra["after_click_ms"] = round((wall - req["clicked_at"]) * 1e3, 3)
-            self.record("loop", NAMES.get(code, str(code)), True, applied=wall, **extra)
+            if link is None:
+                return
+            n, done = LoopLink.applied(link.web_copy(), self.seen_applied)
+            self.seen_applied = n
+            for code, rid, tick, wall in done:
+                req = self.requests.pop(rid, {})
+                extra: dict[str, Any] = {"tick": tick, "request": rid}
+                if "received" in req:
+                    extra["after_request_ms"] = round((wall - req["received"]) * 1e3, 3)
+                if "clicked_at" in req:
+                    extra["after_click_ms"] = round((wall - req["clicked_at"]) * 1e3, 3)
+                self.record("loop", NAMES.get(code, str(code)), True, applied=wall, **extra)
 
     # ------------------------------------------------------------------ control
     def holder(self) -> dict[str, Any] | None:

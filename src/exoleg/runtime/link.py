@@ -20,6 +20,7 @@ process, passed to the other as a ``Process`` argument.
 from __future__ import annotations
 
 import multiprocessing as mp
+import os
 import time
 from collections import deque
 from typing import Any
@@ -27,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from exoleg.control.hierarchy import Command
-from exoleg.runtime.loop import END_SESSION
+from exoleg.runtime.loop import END_SESSION, LINK_LOST
 
 #: gains the operator may change, in the order they sit in the shared block
 GAIN_NAMES = ("kp_stance", "kd_stance", "kp_swing", "kd_swing", "support")
@@ -68,6 +69,8 @@ class LoopLink:
         self._status = 0
         self._late_max = 0.0
         self._missed = 0
+        self.server_pid = 0  # the loop ends when this process is gone (0: not watched)
+        self._polls = 0
 
     @classmethod
     def new(cls) -> LoopLink:
@@ -107,8 +110,12 @@ class LoopLink:
 
     def loop_poll(self) -> tuple[int, dict[str, list[float]] | None]:
         """What the web side sent: (command for the next tick or 0, a gain change or
-        None). Never waits; an E-stop goes first."""
+        None). Never waits; an E-stop goes first. :data:`LINK_LOST` once the server's
+        process (:attr:`server_pid`) is gone: checked every 100 calls."""
         change = None
+        self._polls += 1
+        if self.server_pid and self._polls % 100 == 0 and os.getppid() != self.server_pid:
+            return LINK_LOST, None
         while self.receiver.poll():
             kind, value, rid = self.receiver.recv()
             if kind == "gains":

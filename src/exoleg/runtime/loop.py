@@ -157,8 +157,11 @@ LOG_HEAD = ["t", "late"]
 LOG_TAIL = ["u_hip", "u_knee", "u_ankle", "mode", "phase", "events", "safety_status"]
 
 
-#: what ``on_tick`` returns to end the session (torque off, log closed)
+#: what ``on_tick`` returns to end the session (torque off, log closed), and why
 END_SESSION = -1
+LINK_LOST = -2
+ENDS = {END_SESSION: "the operator ended the session",
+        LINK_LOST: "the operator interface's process is gone (nobody could stop it)"}
 
 
 def run_session(backend: Backend, controller: Any, duration: float, period: float,
@@ -168,7 +171,7 @@ def run_session(backend: Backend, controller: Any, duration: float, period: floa
                 | None = None, overrun: float = OVERRUN_S) -> SessionResult:
     """Run ``duration`` s of ticks; ``commands``: tick -> operator command (arm, walk...).
     ``on_tick(k, out, sensors, late)`` may return a command for the next tick (the
-    operator's way in), or :data:`END_SESSION`. Every tick: read, step, write, advance,
+    operator's way in), or :data:`END_SESSION` / :data:`LINK_LOST`. Every tick: read, step, write, advance,
     log. A tick later than ``overrun`` s takes the torque off and stops. Returns how it
     ended."""
     stop: list[str] = []
@@ -227,8 +230,8 @@ def run_session(backend: Backend, controller: Any, duration: float, period: floa
                                              out["safety_status"]]]))
             if on_tick is not None:
                 cmd = on_tick(k, out, sensors, late)
-                if cmd == END_SESSION:
-                    stop.append("the operator ended the session")
+                if cmd in ENDS:
+                    stop.append(ENDS[cmd])
                 elif cmd:
                     j = k + 1
                     while j in pending:  # after the commands already set for a tick
