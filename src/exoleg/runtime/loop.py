@@ -171,9 +171,9 @@ def run_session(backend: Backend, controller: Any, duration: float, period: floa
                 | None = None, overrun: float = OVERRUN_S) -> SessionResult:
     """Run ``duration`` s of ticks; ``commands``: tick -> operator command (arm, walk...).
     ``on_tick(k, out, sensors, late)`` may return a command for the next tick (the
-    operator's way in), or :data:`END_SESSION` / :data:`LINK_LOST`. Every tick: read, step, write, advance,
-    log. A tick later than ``overrun`` s takes the torque off and stops. Returns how it
-    ended."""
+    operator's way in), or :data:`END_SESSION` / :data:`LINK_LOST` (:data:`ENDS`). Every
+    tick: read, step, write, advance, log. A tick later than ``overrun`` s takes the
+    torque off and stops. Returns how it ended."""
     stop: list[str] = []
 
     def on_signal(signum: int, frame: object) -> None:
