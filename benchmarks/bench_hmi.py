@@ -28,21 +28,11 @@ from pathlib import Path
 import httpx
 import numpy as np
 
-from exoleg.hmi.testing import browser_missing, chromium, served_hmi
+from exoleg.hmi.testing import browser_missing, chromium, served_hmi, wait_until
 from exoleg.runtime.session import run, summarize
 
 SESSIONS = int(sys.argv[1]) if len(sys.argv) > 1 else 8
 SECONDS = float(sys.argv[2]) if len(sys.argv) > 2 else 20.0
-
-
-def wait(check, timeout=60.0):  # type: ignore[no-untyped-def]
-    deadline = time.time() + timeout
-    while time.time() < deadline:
-        x = check()
-        if x:
-            return x
-        time.sleep(0.02)
-    raise TimeoutError
 
 
 def one_session(d, url: str, walk_for: float) -> dict:  # type: ignore[no-untyped-def]
@@ -53,17 +43,19 @@ def one_session(d, url: str, walk_for: float) -> dict:  # type: ignore[no-untype
     if not d.find_element("id", "arm-start").is_selected():
         d.find_element("id", "arm-start").click()
     d.find_element("id", "start").click()
-    wait(lambda: mode() == "STANDING")
+    wait_until("standing", lambda: mode() == "STANDING", 60)
     d.find_element("id", "cmd-walk").click()
-    wait(lambda: mode() == "WALKING")
+    wait_until("walking", lambda: mode() == "WALKING")
     d.find_element("id", "nav-live").click()
     time.sleep(walk_for)
     d.find_element("id", "estop").click()
-    entry = wait(lambda: [a for a in httpx.get(f"{url}/api/log").json()
-                          if a["source"] == "loop" and a["command"] == "estop"])[0]
+    entry = wait_until("the E-stop applied", lambda: [
+        a for a in httpx.get(f"{url}/api/log").json()
+        if a["source"] == "loop" and a["command"] == "estop"])[0]
     d.find_element("id", "nav-control").click()
     d.find_element("id", "end").click()
-    wait(lambda: httpx.get(f"{url}/api/state").json().get("running") in ("ended", "none"))
+    wait_until("the session's end", lambda: httpx.get(f"{url}/api/state").json()
+               .get("running") in ("ended", "none"))
     time.sleep(0.5)
     return entry
 
@@ -78,7 +70,8 @@ def main() -> None:
             d.get(hmi.page)
             d.find_element("id", "nav-control").click()
             d.find_element("id", "take").click()
-            wait(lambda: "hold control" in d.find_element("id", "hdr-operator").text)
+            wait_until("control", lambda: "hold control" in
+                       d.find_element("id", "hdr-operator").text)
             entries = [one_session(d, hmi.url, SECONDS if k == 0 else 1.0)
                        for k in range(SESSIONS)]
         finally:

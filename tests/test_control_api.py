@@ -23,7 +23,7 @@ httpx = pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
 from exoleg.control.hierarchy import Command  # noqa: E402
 from exoleg.errors import ParameterError  # noqa: E402
 from exoleg.hmi.server import bind_check  # noqa: E402
-from exoleg.hmi.testing import free_port  # noqa: E402
+from exoleg.hmi.testing import free_port, wait_until  # noqa: E402
 from exoleg.runtime.link import RING, LoopLink  # noqa: E402
 from exoleg.runtime.log import read_log  # noqa: E402
 
@@ -45,17 +45,8 @@ def _start(args: list[str], out: Path) -> tuple[subprocess.Popen, str]:  # type:
 
 
 def _wait(url: str, key: str, want: object, timeout: float = 30.0) -> dict:
-    deadline = time.time() + timeout
-    state: dict = {}
-    while time.time() < deadline:
-        try:
-            state = httpx.get(url, timeout=1.0).json()
-        except httpx.HTTPError:
-            state = {}
-        if state.get(key) == want:
-            return state
-        time.sleep(0.05)
-    raise AssertionError(f"{key} never became {want!r}: {state}")
+    return dict(wait_until(f"{key} = {want!r} at {url}", lambda: (
+        s := httpx.get(url, timeout=1.0).json()).get(key) == want and s, timeout))
 
 
 def test_run_hmi_token_operator_gains_estop(tmp_path: Path) -> None:
@@ -66,6 +57,8 @@ def test_run_hmi_token_operator_gains_estop(tmp_path: Path) -> None:
     base = f"http://127.0.0.1:{port}/api"
     try:
         _wait(f"{base}/state", "running", "running")
+        # addressed to another name (a page rebinding its name to 127.0.0.1): refused
+        assert httpx.get(f"{base}/state", headers={"Host": "evil.example"}).status_code == 400
         auth = {"Authorization": f"Bearer {token}"}
         # without the token: refused; with it but without control: refused
         assert httpx.post(f"{base}/command", json={"command": "arm"}).status_code == 401
@@ -95,10 +88,8 @@ def test_run_hmi_token_operator_gains_estop(tmp_path: Path) -> None:
         r = httpx.post(f"{base}/gains", json={"kp_swing": [kp[0], kp[1], 1.5 * kp[2]],
                                               "support": 0.5}, headers=op)
         assert r.status_code == 200
-        deadline = time.time() + 10
-        while httpx.get(f"{base}/gains").json()["gains"]["support"] != [0.5]:
-            assert time.time() < deadline
-            time.sleep(0.05)
+        wait_until("the gains in force", lambda: httpx.get(f"{base}/gains").json()["gains"]
+                   ["support"] == [0.5], 10)
         assert httpx.get(f"{base}/gains").json()["gains"]["kp_swing"][2] == \
             pytest.approx(1.5 * kp[2])
         # anyone may stop it: no token, no control
@@ -226,10 +217,8 @@ def test_session_ends_torque_off_when_the_interface_dies(tmp_path: Path) -> None
         killed = time.time()
         hmi.process.wait()
         folder = tmp_path / "s" / r.json()["session"]
-        deadline = time.time() + 30
-        while not (folder / "run.json").exists():
-            assert time.time() < deadline, "the session went on without its interface"
-            time.sleep(0.05)
+        wait_until("the session ended without its interface",
+                   (folder / "run.json").exists)
     run = json.loads((folder / "run.json").read_text())
     assert run["stopped_by"] == ("the operator interface's process is gone (nobody could "
                                  "stop it): torque off")

@@ -23,26 +23,17 @@ import pytest
 pytest.importorskip("starlette", reason="starlette (exoleg[api])")
 httpx = pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
 
-from exoleg.hmi.testing import browser_missing, chromium, served_hmi  # noqa: E402
+from exoleg.hmi.testing import (  # noqa: E402
+    browser_missing,
+    chromium,
+    served_hmi,
+    wait_until,
+)
 
 missing = browser_missing()
 pytestmark = pytest.mark.skipif(bool(missing), reason=f"no headless browser: {missing}")
 
 SHOTS = Path(__file__).resolve().parents[1] / "build" / "screenshots"
-
-
-def wait_for(what: str, check: Any, timeout: float = 30.0, every: float = 0.1) -> Any:
-    deadline = time.time() + timeout
-    last = None
-    while time.time() < deadline:
-        try:
-            last = check()
-        except Exception as e:  # a page still loading
-            last = e
-        if last and not isinstance(last, Exception):
-            return last
-        time.sleep(every)
-    raise AssertionError(f"{what}: still {last!r} after {timeout} s")
 
 
 def text(driver: Any, id_: str) -> str:
@@ -56,7 +47,7 @@ def shot(driver: Any, name: str) -> None:
 
 def goto(driver: Any, page: str) -> None:
     driver.find_element("id", f"nav-{page}").click()
-    wait_for(f"page {page}", lambda: driver.find_element("id", f"page-{page}").is_displayed())
+    wait_until(f"page {page}", lambda: driver.find_element("id", f"page-{page}").is_displayed())
 
 
 def fill(driver: Any, id_: str, value: object) -> None:
@@ -91,7 +82,7 @@ def test_child_page_fits_and_keeps_the_child(hmi: Any, operator: Any) -> None:
     d = operator
     goto(d, "control")
     d.find_element("id", "take").click()
-    wait_for("control taken", lambda: "you (operator) hold control" in text(d, "hdr-operator"))
+    wait_until("control taken", lambda: "you (operator) hold control" in text(d, "hdr-operator"))
     goto(d, "child")
     form = d.find_element("id", "child-form")
     for name, value in (("name", "Ada"), ("age", "10"), ("height", "138"), ("mass", "32")):
@@ -99,7 +90,7 @@ def test_child_page_fits_and_keeps_the_child(hmi: Any, operator: Any) -> None:
         field.clear()
         field.send_keys(value)
     d.find_element("id", "fit").click()
-    verdict = wait_for("the fit's verdict", lambda: text(d, "verdict"), timeout=60)
+    verdict = wait_until("the fit's verdict", lambda: text(d, "verdict"), timeout=60)
     # the same child through exoleg's own fitting (exoleg.sizing.report.fit_report)
     from exoleg.sizing import Child
     from exoleg.sizing.report import fit_report
@@ -109,7 +100,7 @@ def test_child_page_fits_and_keeps_the_child(hmi: Any, operator: Any) -> None:
     page = text(d, "fit-result")
     assert f"upper (hip-knee) {rep.fit.upper * 100:.1f} cm" in page
     assert f"lower (knee-sole) {rep.fit.lower * 100:.1f} cm" in page
-    wait_for("the child listed", lambda: "Ada: 10 y" in text(d, "children"))
+    wait_until("the child listed", lambda: "Ada: 10 y" in text(d, "children"))
     kept = json.loads((hmi.sessions / "children" / "Ada" / "fit.json").read_text())
     assert kept["verdict"] == rep.verdict and (hmi.sessions / "children" / "Ada" /
                                                "leg.toml").is_file()
@@ -122,12 +113,12 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
     goto(d, "control")
     fill(d, "duration", 120)
     d.find_element("id", "start").click()
-    wait_for("session running, disarmed", lambda: text(d, "ctl-mode") == "DISARMED",
+    wait_until("session running, disarmed", lambda: text(d, "ctl-mode") == "DISARMED",
              timeout=60)
     d.find_element("id", "cmd-arm").click()
-    wait_for("standing", lambda: text(d, "ctl-mode") == "STANDING")
+    wait_until("standing", lambda: text(d, "ctl-mode") == "STANDING")
     d.find_element("id", "cmd-walk").click()
-    wait_for("walking", lambda: text(d, "ctl-mode") == "WALKING")
+    wait_until("walking", lambda: text(d, "ctl-mode") == "WALKING")
     shot(d, "control")
 
     # Live: read at >= 20 Hz (the stream is 50 Hz), the leg drawn with exoleg's kinematics
@@ -150,17 +141,17 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
 
     # Gains: outside the bounds refused with the reason, inside accepted
     goto(d, "control")
-    wait_for("gains shown", lambda: d.find_element("id", "g-kp_swing-2"))
+    wait_until("gains shown", lambda: d.find_element("id", "g-kp_swing-2"))
     g = httpx.get(f"{hmi.url}/api/gains").json()
     kp = g["gains"]["kp_swing"][2]
     fill(d, "g-kp_swing-2", 3 * kp)
     d.find_element("id", "apply-gains").click()
-    msg = wait_for("refusal", lambda: "refused" in text(d, "message") and text(d, "message"))
+    msg = wait_until("refusal", lambda: "refused" in text(d, "message") and text(d, "message"))
     assert f"kp_swing[2] = {3 * kp:g} is outside 0-{2 * kp:g}" in msg
     fill(d, "g-kp_swing-2", 1.5 * kp)
     fill(d, "g-support-0", 0.6)
     d.find_element("id", "apply-gains").click()
-    wait_for("gains in force", lambda: httpx.get(f"{hmi.url}/api/gains").json()["gains"]
+    wait_until("gains in force", lambda: httpx.get(f"{hmi.url}/api/gains").json()["gains"]
              ["support"] == [0.6])
     assert httpx.get(f"{hmi.url}/api/gains").json()["gains"]["kp_swing"][2] == \
         pytest.approx(1.5 * kp)
@@ -169,26 +160,26 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
     v = viewer
     goto(v, "control")
     v.find_element("id", "cmd-disarm").click()
-    assert "refused: no valid token" in wait_for("refusal", lambda: text(v, "message"))
+    assert "refused: no valid token" in wait_until("refusal", lambda: text(v, "message"))
     fill(v, "token", hmi.token)
     fill(v, "op-name", "second")
     v.find_element("id", "take").click()
-    assert "control is held by operator" in wait_for(
+    assert "control is held by operator" in wait_until(
         "view only", lambda: "refused" in text(v, "message") and text(v, "message"))
     assert text(d, "ctl-mode") == "WALKING"  # nothing the viewer did changed the device
 
     # ... but the viewer's E-stop (the Esc key) stops the device
     goto(v, "live")
     v.find_element("tag name", "body").send_keys("\ue00c")  # Escape
-    wait_for("fault", lambda: text(d, "ctl-mode") == "FAULT")
+    wait_until("fault", lambda: text(d, "ctl-mode") == "FAULT")
     shot(v, "estop")
-    applied = wait_for("the E-stop applied", lambda: [
+    applied = wait_until("the E-stop applied", lambda: [
         a for a in httpx.get(f"{hmi.url}/api/log").json()
         if a["source"] == "loop" and a["command"] == "estop"])
     assert applied[0]["after_click_ms"] < 50.0  # the goal, end to end on loopback
     d.find_element("id", "end").click()
     folder = next(hmi.sessions.glob("*-Ada"))
-    wait_for("the session's summary", lambda: (folder / "run.json").exists(), timeout=30)
+    wait_until("the session's summary", lambda: (folder / "run.json").exists(), timeout=30)
 
     # the runtime's log: the torque is zero from the E-stop's tick on
     from exoleg.runtime.log import read_log
@@ -210,12 +201,12 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
 def test_sessions_page_lists_plots_and_exports(hmi: Any, operator: Any) -> None:
     d = operator
     goto(d, "sessions")
-    row = wait_for("the session listed", lambda: [
+    row = wait_until("the session listed", lambda: [
         r for r in d.find_elements("css selector", "#sessions tbody tr")
         if "Ada" in r.text])[0]
     assert "the operator ended the session" in row.text or "duration" in row.text
     row.click()
-    wait_for("the plot", lambda: d.execute_script(
+    wait_until("the plot", lambda: d.execute_script(
         "const i = document.getElementById('session-plot'); return i && i.complete && "
         "i.naturalWidth > 0;"), timeout=60)
     shot(d, "sessions")

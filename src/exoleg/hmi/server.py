@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from exoleg.errors import ParameterError
-from exoleg.runtime.control_api import ControlAPI, loopback
+from exoleg.runtime.control_api import ControlAPI, body_of, loopback, source_of
 from exoleg.runtime.link import LoopLink
 from exoleg.runtime.session import SIMULATED_BUS
 
@@ -60,9 +60,16 @@ def _session_process(link: LoopLink, backend: str, interface: str | None, durati
         run(backend, duration, folder, leg=leg, body_mass=body_mass, arm=arm,
             interface=interface, link=link)
     except BaseException as e:  # said on the Sessions page; the torque is off either way
-        (Path(folder) / "failed.json").write_text(json.dumps(
-            {"error": f"{type(e).__name__}: {e}", "time": time.time()}))
+        _write_json(Path(folder) / "failed.json",
+                    {"error": f"{type(e).__name__}: {e}", "time": time.time()})
         link.loop_ended()
+
+
+def _write_json(path: Path, record: dict[str, Any]) -> None:
+    from exoleg.io import atomic_path
+
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(record, indent=2))
 
 
 def device_info(leg: Any) -> dict[str, Any]:
@@ -113,6 +120,7 @@ class HMI:
         self.session: Path | None = None
         self.leg = leg if leg is not None else exoleg.paper_leg()
         self.info = device_info(self.leg)
+        self.host = "127.0.0.1"  # where it listens (set by serve)
         if fixed is not None:
             self.session = Path(fixed[1])
             self.api.attach(fixed[0], self.session)
@@ -139,12 +147,16 @@ class HMI:
             if self.child is not None and not self.child["fits"]:
                 return 409, {"error": f"the device does not fit {self.child['child']['name']}"
                                       f": {'; '.join(self.child['notes'])}"}
-            name = time.strftime("%Y%m%d-%H%M%S") + "-" + _slug(
+            stem = time.strftime("%Y%m%d-%H%M%S") + "-" + _slug(
                 self.child["child"]["name"] if self.child else "paper-leg")
+            name, n = stem, 1
+            while (self.root / name).exists():  # never into a recorded session's folder
+                n += 1
+                name = f"{stem}-{n}"
             folder = self.root / name
             folder.mkdir()
             if self.child is not None:
-                (folder / "child.json").write_text(json.dumps(self.child, indent=2))
+                _write_json(folder / "child.json", self.child)
                 (folder / "leg.toml").write_bytes(Path(str(self.child_leg)).read_bytes())
             link = LoopLink.new()
             mass = float(self.child["child"]["mass"]) if self.child else DEFAULT_BODY_MASS
@@ -234,7 +246,7 @@ class HMI:
         record["warnings"] = [str(w.message) for w in caught]
         folder = self.root / "children" / _slug(child.name)
         folder.mkdir(parents=True, exist_ok=True)
-        (folder / "fit.json").write_text(json.dumps(record, indent=2))
+        _write_json(folder / "fit.json", record)
         rep.save_leg(folder / "leg.toml")
         with self.lock:
             self.child, self.child_leg = record, folder / "leg.toml"
@@ -340,23 +352,6 @@ class HMI:
 
         api = self.api
 
-        def source_of(request: Request) -> str:
-            c = request.client
-            return f"{c.host}:{c.port}" if c else "?"
-
-        async def body_of(request: Request) -> dict[str, Any]:
-            try:
-                body = await request.json()
-            except ValueError:
-                return {}
-            return body if isinstance(body, dict) else {}
-
-        def guarded(what: str, request: Request) -> JSONResponse | None:
-            why = api.authorise(request.headers, source_of(request), what)
-            if why:
-                return JSONResponse({"error": why}, 401 if "token" in why else 409)
-            return None
-
         async def index(request: Request) -> Response:
             return FileResponse(STATIC / "index.html")
 
@@ -370,7 +365,7 @@ class HMI:
                     "children": self.children()})
 
         async def fit(request: Request) -> JSONResponse:
-            refused = guarded("fit", request)
+            refused = api.refusal(request, "fit")
             if refused:
                 return refused
             body = await body_of(request)
@@ -378,7 +373,7 @@ class HMI:
             return JSONResponse(out, status)
 
         async def session_start(request: Request) -> JSONResponse:
-            refused = guarded("start session", request)
+            refused = api.refusal(request, "start session")
             if refused:
                 return refused
             body = await body_of(request)
@@ -393,7 +388,7 @@ class HMI:
             return JSONResponse(out, status)
 
         async def session_end(request: Request) -> JSONResponse:
-            refused = guarded("end session", request)
+            refused = api.refusal(request, "end session")
             if refused:
                 return refused
             status, out = self.end(source_of(request))
@@ -451,7 +446,15 @@ class HMI:
                   Route("/api/sessions/{name}/{kind}", session_file),
                   Mount("/api", routes=api.routes()),
                   Mount("/static", app=StaticFiles(directory=STATIC), name="static")]
-        return Starlette(routes=routes, lifespan=lifespan)
+        from starlette.middleware import Middleware
+        from starlette.middleware.trustedhost import TrustedHostMiddleware
+
+        # on loopback, only requests addressed to loopback names: a page elsewhere that
+        # rebinds its own name to 127.0.0.1 cannot read the state
+        hosts = (["127.0.0.1", "localhost", "[::1]", self.host] if loopback(self.host)
+                 else ["*"])
+        return Starlette(routes=routes, lifespan=lifespan,
+                         middleware=[Middleware(TrustedHostMiddleware, allowed_hosts=hosts)])
 
 
 def keep_off_loop_cpu() -> None:
@@ -501,6 +504,7 @@ def serve(hmi: HMI, host: str = "127.0.0.1", port: int = 8780, certfile: str | N
     import uvicorn
 
     keep_off_loop_cpu()
+    hmi.host = host
     try:
         sock = sock if sock is not None else listen(host, port)
     except ParameterError as e:

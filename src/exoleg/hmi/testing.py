@@ -13,7 +13,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -51,6 +51,23 @@ def chromium(width: int = 1400, height: int = 1000) -> Any:
         options.add_argument(flag)
     return webdriver.Chrome(service=Service(str(shutil.which("chromedriver"))),
                             options=options)
+
+
+def wait_until(what: str, check: Callable[[], Any], timeout: float = 30.0,
+               every: float = 0.05) -> Any:
+    """``check()``'s first truthy value (an exception counts as not yet: a page still
+    loading, a server not yet up); an AssertionError naming ``what`` after ``timeout`` s."""
+    deadline = time.time() + timeout
+    last: Any = None
+    while time.time() < deadline:
+        try:
+            last = check()
+        except Exception as e:
+            last = e
+        if last and not isinstance(last, Exception):
+            return last
+        time.sleep(every)
+    raise AssertionError(f"{what}: still {last!r} after {timeout:g} s")
 
 
 def free_port() -> int:

@@ -52,6 +52,21 @@ LEASE_S = 5.0
 STREAM_HZ = 50.0
 
 
+def source_of(request: Any) -> str:
+    """Who sent ``request``: address and port."""
+    c = request.client
+    return f"{c.host}:{c.port}" if c else "?"
+
+
+async def body_of(request: Any) -> dict[str, Any]:
+    """The request's JSON object ({} when it is not one)."""
+    try:
+        body = await request.json()
+    except ValueError:
+        return {}
+    return body if isinstance(body, dict) else {}
+
+
 def loopback(host: str) -> bool:
     return host in ("127.0.0.1", "localhost", "::1") or host.startswith("127.")
 
@@ -228,23 +243,22 @@ class ControlAPI:
         link.web_send(int(COMMANDS[name]), rid)
         return ""
 
+    def refusal(self, request: Any, what: str) -> Any:
+        """None when ``request`` may do ``what`` (:meth:`authorise`); else the refusal to
+        send (401 without the token, 409 without control)."""
+        from starlette.responses import JSONResponse
+
+        why = self.authorise(request.headers, source_of(request), what)
+        if not why:
+            return None
+        return JSONResponse({"error": why}, 401 if "token" in why else 409)
+
     # ------------------------------------------------------------------ the routes
     def routes(self) -> list[Any]:
         from starlette.requests import Request
         from starlette.responses import JSONResponse
         from starlette.routing import Route, WebSocketRoute
         from starlette.websockets import WebSocket, WebSocketDisconnect
-
-        def source_of(request: Request) -> str:
-            c = request.client
-            return f"{c.host}:{c.port}" if c else "?"
-
-        async def body_of(request: Request) -> dict[str, Any] | None:
-            try:
-                body = await request.json()
-            except ValueError:
-                return None
-            return body if isinstance(body, dict) else None
 
         async def state(request: Request) -> JSONResponse:
             return JSONResponse(self.state())
@@ -264,13 +278,14 @@ class ControlAPI:
                 return JSONResponse({"holder": self.public(op), "you": mine,
                                      "lease_s": LEASE_S})
             if request.method == "DELETE":
-                if self.authorise(request.headers, source, "give up control"):
-                    return JSONResponse({"error": "you do not hold control"}, 409)
+                refused = self.refusal(request, "give up control")
+                if refused:
+                    return refused
                 with self.lock:
                     self.operator = None
                 self.record(source, "give up control", True)
                 return JSONResponse({"holder": None})
-            body = await body_of(request) or {}
+            body = await body_of(request)
             name = str(body.get("name", "")).strip()[:40] or "operator"
             status, out = self.take(request.headers, source, name)
             return JSONResponse(out, status)
@@ -278,16 +293,16 @@ class ControlAPI:
         async def command(request: Request) -> JSONResponse:
             source = source_of(request)
             body = await body_of(request)
-            name = str(body.get("command", "")) if body else ""
+            name = str(body.get("command", ""))
             if name not in COMMANDS:
                 why = f"unknown command {name!r} (allowed: {', '.join(COMMANDS)})"
                 self.record(source, name or "?", False, why)
                 return JSONResponse({"error": why}, 400)
             if name not in UNGUARDED:
-                why = self.authorise(request.headers, source, name)
-                if why:
-                    return JSONResponse({"error": why}, 401 if "token" in why else 409)
-            clicked = body.get("clicked_at") if body else None
+                refused = self.refusal(request, name)
+                if refused:
+                    return refused
+            clicked = body.get("clicked_at")
             clicked_at = float(clicked) / 1e3 if isinstance(clicked, (int, float)) else None
             why = self.send(name, source, clicked_at)
             if why:
@@ -301,13 +316,13 @@ class ControlAPI:
                 g, b = self.gains()
                 return JSONResponse({"gains": g, "bounds": b})
             source = source_of(request)
-            why = self.authorise(request.headers, source, "gains")
-            if why:
-                return JSONResponse({"error": why}, 401 if "token" in why else 409)
+            refused = self.refusal(request, "gains")
+            if refused:
+                return refused
             body = await body_of(request)
             try:
                 change = {str(k): [float(x) for x in (v if isinstance(v, list) else [v])]
-                          for k, v in (body or {}).items()}
+                          for k, v in body.items()}
             except (ValueError, TypeError):
                 change = {}
             why = (self.check_gains(change) if change else
