@@ -175,12 +175,16 @@ class HMI:
             return 200, {"session": name}
 
     def _watch(self, proc: Any, link: LoopLink, folder: Path) -> None:
+        """When the session's process ends: its last applied commands and how it ended
+        go to its control.log, and the page sees no session."""
         proc.join()
-        self.api.poll_applied()
-        self.api.record("hmi", "session ended", True, why=self.summary(folder)["stopped_by"])
         with self.lock:
-            if self.api.link is link:
-                self.api.detach()
+            if self.api.link is not link:  # a new session started in between
+                return
+            self.api.poll_applied()
+            self.api.detach()
+            self.api.record("hmi", "session ended", True,
+                            why=self.summary(folder)["stopped_by"])
 
     def end(self, source: str) -> tuple[int, dict[str, Any]]:
         with self.lock:
