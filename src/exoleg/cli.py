@@ -896,8 +896,9 @@ def cmd_hmi(args: argparse.Namespace) -> int:
          f"{hmi.api.token}\ntoken (for every control action): {hmi.api.token}\n"
          f"sessions are recorded in {hmi.root}; Ctrl-C stops the interface (a running "
          "session ends, torque off)", flush=True)
-    serve(hmi, args.host, args.port, args.tls_cert, args.tls_key, sock=sock)
-    return 0
+    stopped = serve(hmi, args.host, args.port, args.tls_cert, args.tls_key, sock=sock)
+    _say(f"operator interface stopped ({stopped or 'server ended'})")
+    return 130 if stopped else 0  # stopped by a signal, as exoleg run
 
 
 def cmd_log_summary(args: argparse.Namespace) -> int:

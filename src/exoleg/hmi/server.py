@@ -501,11 +501,18 @@ def listen(host: str, port: int, what: str = "exoleg hmi") -> Any:
 
 
 def serve(hmi: HMI, host: str = "127.0.0.1", port: int = 8780, certfile: str | None = None,
-          keyfile: str | None = None, ready: Any = None, sock: Any = None) -> None:
-    """Serve ``hmi`` in this process until interrupted (then a running session ends,
-    torque off). ``sock``: already listening (:func:`listen`); ``ready``: a connection
-    told 'ok' once listening, or why not."""
+          keyfile: str | None = None, ready: Any = None, sock: Any = None) -> str:
+    """Serve ``hmi`` in this process until SIGINT or SIGTERM (then a running session
+    ends, torque off); returns the signal's name. ``sock``: already listening
+    (:func:`listen`); ``ready``: a connection told 'ok' once listening, or why not."""
+    import signal
+
     import uvicorn
+
+    class Server(uvicorn.Server):
+        @contextlib.contextmanager
+        def capture_signals(self) -> Any:  # the signals are ours (below), not re-raised
+            yield
 
     keep_off_loop_cpu()
     hmi.host = host
@@ -515,10 +522,18 @@ def serve(hmi: HMI, host: str = "127.0.0.1", port: int = 8780, certfile: str | N
         if ready is None:
             raise
         ready.send(str(e))
-        return
+        return ""
     config = uvicorn.Config(hmi.app(), log_level="warning", ssl_certfile=certfile,
                             ssl_keyfile=keyfile, lifespan="on")
-    server = uvicorn.Server(config)
+    server = Server(config)
+    got: list[str] = []
+
+    def on_signal(signum: int, frame: object) -> None:
+        got.append(signal.Signals(signum).name)
+        server.force_exit = server.should_exit  # a second Ctrl-C: do not wait for clients
+        server.should_exit = True
+
+    old = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
     if ready is not None:
         def tell() -> None:
             while not server.started and not server.should_exit:
@@ -529,7 +544,10 @@ def serve(hmi: HMI, host: str = "127.0.0.1", port: int = 8780, certfile: str | N
     try:
         server.run(sockets=[sock])
     finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
         hmi.close()
+    return got[0] if got else ""
 
 
 def _serve_process(link: LoopLink, folder: str, token: str, host: str, port: int,
