@@ -127,6 +127,15 @@ CASES: list[tuple[str, list[str], str]] = [
     # export
     ("export leg binary", ["export", "--leg", "{binary}", "--out", "{folder}/x.urdf"], "binary"),
     ("export out is a folder", ["export", "--out", "{folder}"], "is a folder"),
+    # the operator interface (each refused before it listens)
+    ("hmi port 80", ["hmi", "--port", "80"], "outside 1024-65535"),
+    ("hmi sessions is a file", ["hmi", "--sessions", "{afile}"], "not a folder"),
+    ("hmi half a TLS pair", ["hmi", "--tls-cert", "{afile}"], "give both or neither"),
+    ("hmi TLS files missing", ["hmi", "--tls-cert", "{folder}/c", "--tls-key",
+                               "{folder}/k"], "no such file"),
+    ("hmi interface on sim", ["hmi", "--interface", "virtual"], "goes with --backend"),
+    ("run hmi half a TLS pair", ["run", "--duration", "1", "--hmi", "--tls-key", "{afile}"],
+     "give both or neither"),
     # any command
     ("unknown option", ["validate", "--bogus"], "unrecognized arguments"),
     ("no command", [], "required"),
