@@ -130,7 +130,11 @@ def test_link_estop_goes_first_and_applied_commands_are_timed() -> None:
     n, done = LoopLink.applied(link.web_copy(), 0)
     assert n == 1 and done[0][:3] == (int(Command.ESTOP), 3, 7) and done[0][3] >= before
     assert LoopLink.snapshot(link.web_copy())["running"] == "running"
-    assert [link.loop_poll()[0] for _ in range(3)] == [Command.ARM, Command.WALK, 0]
+    link.web_gains({"kp_swing": [1.0, 2.0, 3.0]})
+    link.web_gains({"support": [0.5]})  # two changes within a tick: both act
+    cmd, change = link.loop_poll()
+    assert cmd == Command.ARM and change == {"kp_swing": [1.0, 2.0, 3.0], "support": [0.5]}
+    assert [link.loop_poll()[0] for _ in range(2)] == [Command.WALK, 0]
     for k, c in ((8, Command.ARM), (9, Command.WALK)):  # applied in the order handed out
         link.loop_tick(k, 0.0, out, {**sensors, "command": int(c)}, 0.0, 1e-3, publish=False)
     assert [x[1:3] for x in LoopLink.applied(link.web_copy(), 1)[1]] == [(1, 8), (2, 9)]

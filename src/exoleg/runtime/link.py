@@ -119,7 +119,7 @@ class LoopLink:
         while self.receiver.poll():
             kind, value, rid = self.receiver.recv()
             if kind == "gains":
-                change = value  # the web side checked the bounds
+                change = {**(change or {}), **value}  # bounds checked on the web side
             elif value == Command.ESTOP:
                 self._queue.appendleft((int(value), int(rid)))
             else:
