@@ -117,6 +117,11 @@ def test_run_hmi_token_operator_gains_estop(tmp_path: Path) -> None:
 
 def test_link_estop_goes_first_and_applied_commands_are_timed() -> None:
     link = LoopLink.new()
+    assert LoopLink.gains(link.web_copy()) is None  # not published yet
+    zero = {"kp_stance": [0.0] * 3, "kd_stance": [0.0] * 3, "kp_swing": [0.0] * 3,
+            "kd_swing": [0.0] * 3, "support": [0.0]}
+    link.loop_gains(zero)  # all gains at their lower bound are still gains
+    assert LoopLink.gains(link.web_copy()) == zero
     for c, rid in ((Command.ARM, 1), (Command.WALK, 2), (Command.ESTOP, 3)):
         link.web_send(int(c), rid)
     time.sleep(0.05)

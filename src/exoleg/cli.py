@@ -365,13 +365,42 @@ def _actuator_peaks(acts: Any, tau: Any, dq: Any, u_safe: Any, env: Any) -> list
     return out
 
 
+def _settings(args: argparse.Namespace) -> dict[str, Any]:
+    """The options a run was given, for its summary (paths and arrays as text)."""
+    import numpy as np
+
+    return {k: (str(v) if isinstance(v, (Path, np.ndarray)) else v)
+            for k, v in vars(args).items() if k != "func"}
+
+
+def _write_run(args: argparse.Namespace, result: Any, figure: Any, stem: str, t0: float,
+               summary: dict[str, Any]) -> str:
+    """A run's outputs, committed together: the time series (``--format``), its figure
+    (PNG, and SVG with ``--svg``) and ``summary.json`` (the settings, ``summary``, the
+    files, the wall time). Returns the line that says what was written."""
+    from exoleg.io import OutputFolder
+
+    with OutputFolder(args.out) as out:
+        name = "timeseries.parquet" if args.format == "parquet" else "timeseries.csv"
+        (result.to_parquet if args.format == "parquet" else result.to_csv)(out.stage(name))
+        files = [name]
+        for fmt in ("png", "svg") if args.svg else ("png",):
+            figure(result, out.stage(f"{stem}.{fmt}"))
+            files.append(f"{stem}.{fmt}")
+        record = {"settings": _settings(args), **summary, "files": files,
+                  "wall_time_s": time.perf_counter() - t0}
+        out.stage("summary.json").write_text(json.dumps(record, indent=2, default=str))
+        out.commit(last="summary.json")
+    return (f"\nwrote {out.folder}/: " + ", ".join(["summary.json", *files])
+            + f"  ({record['wall_time_s']:.1f} s)")
+
+
 def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
     """``simulate --actuators``: the run through the device's actuators, encoders and
     safety layer (:func:`exoleg.sim.device_loop.simulate_device`), against Table 2."""
     import numpy as np
 
     from exoleg.errors import ParameterError
-    from exoleg.io import OutputFolder
     from exoleg.plots.figures import device_figure
     from exoleg.sim.device_loop import simulate_device
 
@@ -420,20 +449,9 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
         "safety_ticks_soft_limit": int(((r.status & 4) > 0).sum()),
         "peaks": peaks,
     }
-    with OutputFolder(args.out) as out:
-        name = "timeseries.parquet" if args.format == "parquet" else "timeseries.csv"
-        (r.to_parquet if args.format == "parquet" else r.to_csv)(out.stage(name))
-        files = [name]
-        for fmt in ("png", "svg") if args.svg else ("png",):
-            device_figure(r, out.stage(f"actuators.{fmt}"))
-            files.append(f"actuators.{fmt}")
-        summary = {"settings": {k: (str(v) if isinstance(v, Path) else v)
-                                for k, v in vars(args).items() if k != "func"},
-                   "leg": cfg["leg"].name, "figures": figs, "notes": cfg["warnings"],
-                   "actuator_sources": {a.joint: a.sources for a in acts},
-                   "files": files, "wall_time_s": time.perf_counter() - t0}
-        out.stage("summary.json").write_text(json.dumps(summary, indent=2, default=str))
-        out.commit(last="summary.json")
+    wrote = _write_run(args, r, device_figure, "actuators", t0,
+                       {"leg": cfg["leg"].name, "figures": figs, "notes": cfg["warnings"],
+                        "actuator_sources": {a.joint: a.sources for a in acts}})
     _say(f"exoleg simulate --actuators: {args.reference} reference, {args.controller} "
          f"controller, {args.duration:g} s, control {args.control_rate:g} Hz, "
          f"{substeps} plant step(s) per tick, leg '{cfg['leg'].name}' with the paper's "
@@ -458,8 +476,7 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
         _say(f"note: the safety layer stopped the run: {r.fault}; torque was off from then on")
     _say("note: motor, gear and drive figures marked catalogue* in the actuator files are "
          "to be verified against the datasheets (see summary.json, actuator_sources)")
-    _say(f"\nwrote {out.folder}/: " + ", ".join(["summary.json", *files])
-         + f"  ({summary['wall_time_s']:.1f} s)")
+    _say(wrote)
     return 0
 
 
@@ -487,7 +504,6 @@ def _simulate_walk(args: argparse.Namespace) -> int:
 
     import exoleg
     from exoleg.errors import ParameterError
-    from exoleg.io import OutputFolder
     from exoleg.params.leg_file import read_leg_file
     from exoleg.plots.figures import walk_figure
     from exoleg.sim.walk import detection_table, simulate_walk
@@ -533,20 +549,9 @@ def _simulate_walk(args: argparse.Namespace) -> int:
             "pelvis_mass_kg": r.plant.body_mass, "belt_speed_m_s": r.plant.belt_speed,
             "safety_fault": fault, "peaks": peaks, "gait_phase_detection": rows,
             "max_contact_force_N": float(r.contact_force.sum(axis=1).max())}
-    with OutputFolder(args.out) as out:
-        name = "timeseries.parquet" if args.format == "parquet" else "timeseries.csv"
-        (r.to_parquet if args.format == "parquet" else r.to_csv)(out.stage(name))
-        files = [name]
-        for fmt in ("png", "svg") if args.svg else ("png",):
-            walk_figure(r, out.stage(f"walk.{fmt}"))
-            files.append(f"walk.{fmt}")
-        summary = {"settings": {k: (str(v) if isinstance(v, Path) else v)
-                                for k, v in vars(args).items() if k != "func"},
-                   "leg": leg.name, "figures": figs, "notes": notes,
-                   "actuators": [dataclasses.asdict(a) for a in r.actuators],
-                   "files": files, "wall_time_s": time.perf_counter() - t0}
-        out.stage("summary.json").write_text(json.dumps(summary, indent=2, default=str))
-        out.commit(last="summary.json")
+    wrote = _write_run(args, r, walk_figure, "walk", t0,
+                       {"leg": leg.name, "figures": figs, "notes": notes,
+                        "actuators": [dataclasses.asdict(a) for a in r.actuators]})
     _say(f"exoleg simulate --walk: leg '{leg.name}', body {args.body_mass:g} kg (pelvis carries "
          f"{r.plant.body_mass:.1f} kg), {args.strides} strides of {stride:g} s on a belt at "
          f"{r.plant.belt_speed:.2f} m/s, sensor noise x{args.noise:g} (seed {args.seed})")
@@ -561,16 +566,13 @@ def _simulate_walk(args: argparse.Namespace) -> int:
            title="gait-phase detection against the simulator's true contacts")
     for n in notes:
         _say(f"note: {n}")
-    _say(f"\nwrote {out.folder}/: " + ", ".join(["summary.json", *files])
-         + f"  ({summary['wall_time_s']:.1f} s)")
+    _say(wrote)
     return 1 if fault else 0
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
-
-    import numpy as np
 
     from exoleg.io import OutputFolder
     from exoleg.sim.scenario import run_scenario
@@ -638,8 +640,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             progress.stop()
         notes = [*cfg["warnings"], *report.notes]
         summary = {
-            "settings": {k: (v if not isinstance(v, (np.ndarray, Path)) else str(v))
-                         for k, v in vars(args).items() if k != "func"},
+            "settings": _settings(args),
             "paper_scenario": paper,
             "leg": cfg["leg"].name,
             "figures": figs,

@@ -130,10 +130,9 @@ class ControlAPI:
             link = self.link
         if link is None:
             return {}, {}
-        c = link.web_copy()
-        if not c[LoopLink.GAINS].any():  # not yet published by the session
+        g = LoopLink.gains(link.web_copy())
+        if g is None:  # not yet published by the session
             return {}, {}
-        g = LoopLink.gains(c)
         with self.lock:
             if not self.bounds:
                 self.bounds = {k: [[0.0, 1.0]] * len(v) if k == "support" else
@@ -233,7 +232,7 @@ class ControlAPI:
             link = self.link
             if link is None:
                 return "no session is running"
-            running = LoopLink.snapshot(link.web_copy())["running"]
+            running = LoopLink.running(link.web_copy())
             if running != "running" and name not in UNGUARDED:
                 return f"the session is {running}: commands go once its loop runs"
             rid = self.next_id

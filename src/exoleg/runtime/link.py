@@ -38,7 +38,8 @@ RING = 32
 _FIELDS = [("seq", 1), ("t", 1), ("mode", 1), ("phase", 1), ("gait_fraction", 1),
            ("events", 1), ("safety_status", 1), ("q", 3), ("dq", 3), ("q_ref", 3),
            ("tau", 3), ("fsr", 4), ("late_us", 1), ("late_max_us", 1), ("missed", 1),
-           ("tick", 1), ("running", 1), ("gains", sum(_GAIN_SIZES)), ("applied", 1),
+           ("tick", 1), ("running", 1), ("gains_set", 1), ("gains", sum(_GAIN_SIZES)),
+           ("applied", 1),
            ("ring", 4 * RING)]
 _AT: dict[str, slice] = {}
 _n = 0
@@ -48,15 +49,13 @@ for _name, _size in _FIELDS:
 SIZE = _n
 #: the fields a snapshot carries as lists (the rest are numbers)
 _VECTORS = {"q", "dq", "q_ref", "tau", "fsr"}
+_RUNNING = ("starting", "running", "ended")
 
 
 class LoopLink:
     """Shared block + command pipe between the loop (``loop_*`` methods) and the web
     side (``web_*`` methods). Make it with :meth:`new` before starting the other
     process."""
-
-    #: where the gains sit in a copy of the shared block
-    GAINS = _AT["gains"]
 
     def __init__(self, block: Any, receiver: Any, sender: Any) -> None:
         self.block = block
@@ -100,6 +99,7 @@ class LoopLink:
         """The gains in force (at the start and after every change)."""
         v = self._begin()
         v[_AT["gains"]] = np.concatenate([gains[k] for k in GAIN_NAMES])
+        v[_AT["gains_set"]] = 1.0
         v[0] += 1.0
 
     def loop_ended(self) -> None:
@@ -204,11 +204,19 @@ class LoopLink:
             out[name] = [float(a) for a in x] if name in _VECTORS else float(x[0])
         for name in ("mode", "phase", "events", "safety_status", "missed", "tick"):
             out[name] = int(out[name])
-        out["running"] = ("starting", "running", "ended")[int(out["running"])]
+        out["running"] = _RUNNING[int(out["running"])]
         return out
 
     @staticmethod
-    def gains(c: np.ndarray) -> dict[str, list[float]]:
+    def running(c: np.ndarray) -> str:
+        """'starting' (before the first tick), 'running' or 'ended'."""
+        return _RUNNING[int(c[_AT["running"]][0])]
+
+    @staticmethod
+    def gains(c: np.ndarray) -> dict[str, list[float]] | None:
+        """The gains in force; None before the session has published them."""
+        if not c[_AT["gains_set"]][0]:
+            return None
         g = c[_AT["gains"]]
         out, i = {}, 0
         for name, n in zip(GAIN_NAMES, _GAIN_SIZES, strict=True):

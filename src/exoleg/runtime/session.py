@@ -90,10 +90,11 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         raise ParameterError("exoleg run", "--duration",
                              f"{duration:g} s of log needs {need / 2**30:.3g} GiB; "
                              f"{free / 2**30:.3g} GiB is free in {folder}")
+    started = time.time()
     log = SessionLog(path, LOG_HEAD + b.columns + LOG_TAIL,
                      {"period": period, "backend": backend, "max_loss_ticks": MAX_LOSS_TICKS,
                       "leg": sim.dev.leg.name, "body_mass": body_mass,
-                      "started": time.time(),
+                      "started": started,
                       "interface": interface if backend != "sim" else None})
     commands: dict[int, int] = {}
     if arm:
@@ -117,7 +118,6 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
             link.loop_gains(controller.gains_now())
         return cmd
 
-    started = time.time()
     if link is not None:
         link.loop_gains(controller.gains_now())
     try:
