@@ -675,13 +675,14 @@ def cmd_fit(args: argparse.Namespace) -> int:
 
     import numpy as np
 
+    from exoleg.entry import MEASURED
     from exoleg.io import OutputFolder
     from exoleg.sizing import Child
     from exoleg.sizing.demand import DISPLAY
     from exoleg.sizing.report import fit_report
 
     measured = {k: (getattr(args, k) / 100 if getattr(args, k) is not None else None)
-                for k in ("thigh", "shank", "leg_length", "foot_length", "ankle_height")}
+                for k in MEASURED}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         child = Child(age=args.age, sex=args.sex, height=args.height / 100, mass=args.mass,
@@ -990,16 +991,20 @@ def build_parser() -> argparse.ArgumentParser:
 
     f = sub.add_parser("fit", help="fit the device to one child: dimensions, settings, verdict, "
                        "margins; writes the personalized leg file")
-    f.add_argument("--age", type=_within(2.0, 20.0, " years"), required=True,
+    from exoleg.entry import CHILD_ENTRY, MEASURED
+
+    entry = {k: _within(lo, hi, " " + unit) for k, (lo, hi, unit) in CHILD_ENTRY.items()}
+    f.add_argument("--age", type=entry["age"], required=True,
                    help="years (2-20; the device targets 8-12)")
     f.add_argument("--sex", choices=["female", "male"], required=True)
-    f.add_argument("--height", type=_within(50.0, 220.0, " cm"), required=True, help="cm")
-    f.add_argument("--mass", type=_within(5.0, 200.0, " kg"), required=True, help="body mass, kg")
+    f.add_argument("--height", type=entry["height"], required=True, help="cm")
+    f.add_argument("--mass", type=entry["mass"], required=True, help="body mass, kg")
     f.add_argument("--gmfcs", type=int, choices=[0, 1, 2, 3, 4, 5], default=0,
                    help="GMFCS level; 0 = typically developing (WHO 2007 / CDC 2000 charts)")
     f.add_argument("--side", choices=["left", "right"], default="right")
-    for name in ("thigh", "shank", "leg-length", "foot-length", "ankle-height"):
-        f.add_argument(f"--{name}", type=_within(1.0, 200.0, " cm"), help=f"measured {name}, cm")
+    for name in MEASURED:
+        f.add_argument(f"--{name.replace('_', '-')}", type=entry["measured"],
+                       help=f"measured {name.replace('_', ' ')}, cm")
     f.add_argument("--accept-unusual", action="store_true",
                    help="accept measured dimensions outside what is plausible for the height")
     f.add_argument("--leg-length-method", choices=["linear", "drillis", "table1"],

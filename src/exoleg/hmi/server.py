@@ -37,8 +37,6 @@ STATIC = Path(__file__).parent / "static"
 #: the longest session the HMI starts, s (a session may be ended at any time before)
 MAX_DURATION = 3600.0
 DEFAULT_BODY_MASS = 30.0
-_CHILD_FIELDS = {"age": (2.0, 20.0), "height": (50.0, 220.0), "mass": (8.0, 150.0)}
-_MEASURED = ("thigh", "shank", "leg_length", "foot_length", "ankle_height")
 
 
 def _slug(text: str) -> str:
@@ -213,23 +211,23 @@ class HMI:
         measured dimensions cm) and keep the fit for the next session."""
         import warnings
 
+        from exoleg.entry import CHILD_ENTRY, MEASURED
         from exoleg.sizing import Child
         from exoleg.sizing.report import fit_report
 
+        def typed(k: str, v: Any, kind: str) -> float:
+            lo, hi, unit = CHILD_ENTRY[kind]
+            x = float(v)
+            if not lo <= x <= hi:
+                raise ParameterError("child", k, f"{v!r} is outside {lo:g}-{hi:g} {unit}")
+            return x
+
         try:
-            values: dict[str, Any] = {}
-            for k, (lo, hi) in _CHILD_FIELDS.items():
-                values[k] = float(body.get(k, "nan"))
-                if not lo <= values[k] <= hi:
-                    raise ParameterError("child", k, f"{body.get(k)!r} is outside {lo:g}-"
-                                         f"{hi:g}" + (" cm" if k == "height" else ""))
-            for k in _MEASURED:
-                v = body.get(k)
-                if v not in (None, ""):
-                    x = float(v)
-                    if not 1.0 <= x <= 150.0:
-                        raise ParameterError("child", k, f"{v!r} cm is outside 1-150 cm")
-                    values[k] = x / 100
+            values: dict[str, Any] = {k: typed(k, body.get(k, "nan"), k)
+                                      for k in ("age", "height", "mass")}
+            for k in MEASURED:
+                if body.get(k) not in (None, ""):
+                    values[k] = typed(k, body[k], "measured") / 100
             gmfcs = str(body.get("gmfcs") or "0")
             if gmfcs not in ("0", "1", "2", "3", "4", "5"):
                 raise ParameterError("child", "gmfcs", f"{gmfcs!r} is not a GMFCS level "

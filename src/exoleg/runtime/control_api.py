@@ -50,6 +50,7 @@ UNGUARDED = {"estop"}
 #: an operator's hold on control lapses after this long without a request from them, s
 LEASE_S = 5.0
 STREAM_HZ = 50.0
+NO_TOKEN = "no valid token (Authorization: Bearer <the token printed at start-up>)"
 
 
 def source_of(request: Any) -> str:
@@ -180,13 +181,15 @@ class ControlAPI:
                 self.operator = op = None
             return op
 
+    def has_token(self, headers: Any) -> bool:
+        return secrets.compare_digest(headers.get("authorization", ""), f"Bearer {self.token}")
+
     def authorise(self, headers: Any, source: str, what: str) -> str:
         """'' when the request carries the token and the operator holding control; else
         why not (and the refusal is logged)."""
         why = ""
-        if not secrets.compare_digest(headers.get("authorization", ""),
-                                      f"Bearer {self.token}"):
-            why = "no valid token (Authorization: Bearer <the token printed at start-up>)"
+        if not self.has_token(headers):
+            why = NO_TOKEN
         else:
             op = self.holder()
             oid = headers.get("x-operator", "")
@@ -203,11 +206,9 @@ class ControlAPI:
         return why
 
     def take(self, headers: Any, source: str, name: str) -> tuple[int, dict[str, Any]]:
-        if not secrets.compare_digest(headers.get("authorization", ""),
-                                      f"Bearer {self.token}"):
-            why = "no valid token (Authorization: Bearer <the token printed at start-up>)"
-            self.record(source, f"take control ({name})", False, why)
-            return 401, {"error": why}
+        if not self.has_token(headers):
+            self.record(source, f"take control ({name})", False, NO_TOKEN)
+            return 401, {"error": NO_TOKEN}
         with self.lock:
             op = self.holder()
             if op is not None and op["id"] != headers.get("x-operator", ""):

@@ -1,0 +1,10 @@
+"""What a person may type for a child, in the units they type: the bounds the command line
+(``exoleg fit``) and the operator interface share before :class:`exoleg.sizing.Child`
+checks the values against the growth charts. Kept free of imports so that the command
+line's parser stays fast."""
+
+#: name -> (lowest, highest, unit); "measured": any measured dimension
+CHILD_ENTRY = {"age": (2.0, 20.0, "years"), "height": (50.0, 220.0, "cm"),
+               "mass": (5.0, 200.0, "kg"), "measured": (1.0, 200.0, "cm")}
+#: the dimensions that may be measured (Child's fields, m; typed in cm)
+MEASURED = ("thigh", "shank", "leg_length", "foot_length", "ankle_height")
