@@ -231,7 +231,8 @@ def test_session_ends_torque_off_when_the_interface_dies(tmp_path: Path) -> None
     run = json.loads((folder / "run.json").read_text())
     assert run["stopped_by"] == ("the operator interface's process is gone (nobody could "
                                  "stop it): torque off")
-    # noticed within 100 ticks (0.1 s); the summary written after the torque went off
+    # noticed within 100 ticks (0.1 s); the summary written after the torque went off:
+    # measured 0.07-0.08 s from the kill to run.json (3 runs); 1 s leaves room for CI load
     assert (folder / "run.json").stat().st_mtime - killed < 1.0
     _, cols, _ = read_log(folder / "session.log")
     assert np.all(cols["mode"][1:] == 1)  # it had stood, armed, until then
