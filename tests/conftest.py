@@ -14,3 +14,15 @@ def pytest_sessionstart(session):
         if missing:
             raise pytest.UsageError(
                 f"CI is set but {', '.join(missing)} is missing: install exoleg[validate]")
+
+
+@pytest.fixture
+def sched_fifo() -> None:
+    """Skips the test where this process may not ask for SCHED_FIFO (not root, no
+    CAP_SYS_NICE): the real-time settings under test would silently not apply."""
+    try:
+        policy, param = os.sched_getscheduler(0), os.sched_getparam(0)
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))
+        os.sched_setscheduler(0, policy, param)
+    except (AttributeError, OSError):
+        pytest.skip("SCHED_FIFO not permitted here (root or CAP_SYS_NICE)")

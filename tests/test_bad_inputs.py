@@ -134,6 +134,10 @@ CASES: list[tuple[str, list[str], str]] = [
     ("hmi TLS files missing", ["hmi", "--tls-cert", "{folder}/c", "--tls-key",
                                "{folder}/k"], "no such file"),
     ("hmi interface on sim", ["hmi", "--interface", "virtual"], "goes with --backend"),
+    ("run bus timeout on sim", ["run", "--duration", "1", "--bus-timeout", "5"],
+     "goes with --backend"),
+    ("run bus timeout 0", ["run", "--backend", "canopen", "--duration", "1", "--bus-timeout",
+                           "0"], "outside 0.1-50 ms"),
     ("run hmi half a TLS pair", ["run", "--duration", "1", "--hmi", "--tls-key", "{afile}"],
      "give both or neither"),
     # any command

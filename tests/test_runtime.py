@@ -180,3 +180,51 @@ def test_loop_overrun_takes_torque_off(tmp_path: Path, backend_factory) -> None:
     assert np.array_equal(b.u, np.zeros(3))  # the drives were told zero
     assert len(cols["t"]) == 300
     assert np.any(cols["u_knee"] != 0.0)  # it was applying torque before
+
+
+def test_isolated_cpus_read_the_kernel_cpu_list(tmp_path: Path) -> None:
+    """Reference: the kernel's cpu-list format of /sys/devices/system/cpu/isolated
+    (Documentation/admin-guide/cputopology.rst): ranges and singles, comma-separated,
+    an empty line when no CPU is isolated."""
+    from exoleg.runtime.loop import isolated_cpus
+
+    f = tmp_path / "isolated"
+    f.write_text("2-3,5\n")
+    assert isolated_cpus(str(f)) == {2, 3, 5}
+    f.write_text("\n")
+    assert isolated_cpus(str(f)) == set()
+    assert isolated_cpus(str(tmp_path / "missing")) == set()
+
+
+def test_realtime_settings_raise_the_bus_threads_and_are_undone(tmp_path: Path,
+                                                                sched_fifo: None) -> None:
+    """The bus's threads run SCHED_FIFO above the loop's thread while the session runs;
+    afterwards the caller's thread has its scheduling, affinity and the GIL's switch
+    interval back. Reference: LOOP_PRIORITY/IO_PRIORITY, what realtime_settings
+    documents."""
+    import threading
+
+    from exoleg.runtime.loop import IO_PRIORITY, LOOP_PRIORITY
+
+    seen: dict[str, int] = {}
+    release = threading.Event()
+    bus = threading.Thread(target=release.wait, daemon=True)
+    bus.start()
+    before = (os.sched_getscheduler(0), os.sched_getaffinity(0), sys.getswitchinterval())
+
+    class Watching(SimBackend):
+        def read(self, t):  # type: ignore[no-untyped-def]
+            if not seen:
+                seen["loop"] = os.sched_getparam(0).sched_priority
+                seen["bus"] = os.sched_getparam(bus.native_id).sched_priority
+                seen["bus_policy"] = os.sched_getscheduler(bus.native_id)
+            return super().read(t)
+
+    b = Watching(exoleg.paper_leg(), 30.0, 1e-3)
+    log = SessionLog(tmp_path / "s.log", LOG_HEAD + b.columns + LOG_TAIL, {"period": 1e-3})
+    res = run_session(b, b.controller, 0.05, 1e-3, log, realtime=True, io_threads=[bus])
+    release.set()
+    assert res.stopped_by == "duration"
+    assert seen == {"loop": LOOP_PRIORITY, "bus": IO_PRIORITY, "bus_policy": os.SCHED_FIFO}
+    assert (os.sched_getscheduler(0), os.sched_getaffinity(0),
+            sys.getswitchinterval()) == before

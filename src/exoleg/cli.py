@@ -823,9 +823,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     from exoleg.errors import ParameterError
     from exoleg.runtime.session import SIMULATED_BUS, run, summarize
 
-    if args.backend == "sim" and args.interface is not None:
-        raise ParameterError("exoleg run", "--interface", "goes with --backend canopen or "
-                             "ethercat")
+    for given, option in ((args.interface, "--interface"), (args.bus_timeout, "--bus-timeout")):
+        if args.backend == "sim" and given is not None:
+            raise ParameterError("exoleg run", option, "goes with --backend canopen or "
+                                 "ethercat")
     if args.backend != "sim" and args.interface not in (None, SIMULATED_BUS[args.backend]) \
             and args.arm:
         raise ParameterError("exoleg run", "--arm", "only on the sim backend or simulated "
@@ -854,7 +855,9 @@ def cmd_run(args: argparse.Namespace) -> int:
                         arm=args.arm, walk_after=args.walk_after, leg=leg,
                         body_mass=args.body_mass, seed=args.seed,
                         realtime=not args.no_realtime, interface=args.interface,
-                        channel=args.channel, link=link)
+                        channel=args.channel, link=link,
+                        bus_timeout=None if args.bus_timeout is None
+                        else args.bus_timeout * 1e-3)
     finally:
         if web is not None:
             web.terminate()
@@ -1040,6 +1043,10 @@ def build_parser() -> argparse.ArgumentParser:
                    "ethercat: network interface (e.g. eth0), or 'fake' (default: simulated "
                    "slaves at the process-data level)")
     r.add_argument("--channel", default="exoleg", help="canopen: the bus channel (e.g. can0)")
+    r.add_argument("--bus-timeout", type=_within(0.1, 50.0, " ms"),
+                   help="canopen/ethercat: how long the master waits for every node's answer "
+                        "before it is a fault, ms (default 5; 20 on simulated nodes, threads "
+                        "of this computer)")
     r.add_argument("--duration", type=_within(0.01, 86400.0, " s"), required=True, help="s")
     r.add_argument("--rate", type=_within(10.0, 10000.0, " Hz"), default=1000.0,
                    help="control rate, Hz (default 1000)")
@@ -1054,7 +1061,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="serve the operator interface (and its control API) for this session")
     _web_options(r, "--hmi-host", "--hmi-port")
     r.add_argument("--no-realtime", action="store_true",
-                   help="do not ask for CPU affinity and SCHED_FIFO")
+                   help="do not ask for SCHED_FIFO (nor an isolated CPU, nor the bus threads' "
+                        "priority)")
     r.add_argument("--out", type=Path, default=Path("exoleg-session"))
     r.set_defaults(func=cmd_run)
 

@@ -6,8 +6,8 @@ Processes: the web server never shares a process with a 1 kHz loop. Under ``exol
 the server is the main process and each session runs in a process of its own, started
 from the *Control* page; under ``exoleg run --hmi`` the command's process runs the loop
 and the server runs in a child process (:func:`start_process`). Both talk through a
-:class:`~exoleg.runtime.link.LoopLink`. The server keeps off the CPU the loop is pinned
-to.
+:class:`~exoleg.runtime.link.LoopLink`. The server keeps off the loop's CPU
+(:func:`keep_off_loop_cpu`); a session's process takes back all CPUs.
 
 Every request that changes what the device does -- take control, keep a child's fit,
 start or end a session, a command, a gain -- needs the token printed at start-up and
@@ -53,6 +53,8 @@ def _session_process(link: LoopLink, backend: str, interface: str | None, durati
     from exoleg.runtime.session import run
 
     link.server_pid = server
+    with contextlib.suppress(AttributeError, OSError):  # not the server's CPUs: all of them
+        os.sched_setaffinity(0, range(os.cpu_count() or 1))
     try:
         leg = exoleg.load_leg(leg_path) if leg_path else None
         run(backend, duration, folder, leg=leg, body_mass=body_mass, arm=arm,
@@ -460,11 +462,18 @@ class HMI:
 
 
 def keep_off_loop_cpu() -> None:
-    """Run the web side on every CPU but the one the loop pins itself to."""
+    """Run the web side off the loop's CPU: off the isolated CPUs, where the loop pins
+    itself if the kernel keeps any (:func:`~exoleg.runtime.loop.realtime_settings`),
+    else off the last CPU, left to the loop."""
+    from exoleg.runtime.loop import isolated_cpus
+
     with contextlib.suppress(AttributeError, OSError):
-        cpus = sorted(os.sched_getaffinity(0))
-        if len(cpus) > 1:
-            os.sched_setaffinity(0, set(cpus[:-1]))
+        isolated = isolated_cpus()
+        cpus = sorted(os.sched_getaffinity(0) - isolated)
+        if not isolated:
+            cpus = cpus[:-1]
+        if cpus:
+            os.sched_setaffinity(0, set(cpus))
 
 
 def bind_check(host: str, certfile: str | None, keyfile: str | None) -> str:
