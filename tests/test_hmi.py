@@ -120,6 +120,7 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
     d.find_element("id", "cmd-walk").click()
     wait_until("walking", lambda: text(d, "ctl-mode") == "WALKING")
     shot(d, "control")
+    _server_keeps_off_the_loops_cpu(hmi.process.pid)
 
     # Live: read at >= 20 Hz (the stream is 50 Hz), the leg drawn with exoleg's kinematics
     goto(d, "live")
@@ -224,3 +225,21 @@ def test_sessions_page_lists_plots_and_exports(hmi: Any, operator: Any) -> None:
     pq_href = d.find_element("id", "export-parquet").get_attribute("href")
     table = pq.read_table(io.BytesIO(httpx.get(pq_href, timeout=60).content))
     assert np.array_equal(table.column("u_ankle").to_numpy(), cols["u_ankle"])
+
+
+def _server_keeps_off_the_loops_cpu(server: int) -> None:
+    """The server runs off the loop's CPU (the last one, none being isolated here) and
+    the session's process has the CPUs the server was started with (this test's)."""
+    import os
+
+    from exoleg.runtime.loop import isolated_cpus
+
+    cpus = os.sched_getaffinity(0)
+    if len(cpus) < 2 or isolated_cpus():
+        return
+    assert os.sched_getaffinity(server) == cpus - {max(cpus)}
+    kids = Path(f"/proc/{server}/task/{server}/children").read_text().split()
+    sessions = [int(k) for k in kids
+                if b"resource_tracker" not in Path(f"/proc/{k}/cmdline").read_bytes()]
+    assert len(sessions) == 1, kids
+    assert os.sched_getaffinity(sessions[0]) == cpus

@@ -193,6 +193,8 @@ def test_isolated_cpus_read_the_kernel_cpu_list(tmp_path: Path) -> None:
     assert isolated_cpus(str(f)) == {2, 3, 5}
     f.write_text("\n")
     assert isolated_cpus(str(f)) == set()
+    f.write_text("not a list\n")
+    assert isolated_cpus(str(f)) == set()
     assert isolated_cpus(str(tmp_path / "missing")) == set()
 
 

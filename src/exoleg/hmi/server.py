@@ -7,7 +7,7 @@ the server is the main process and each session runs in a process of its own, st
 from the *Control* page; under ``exoleg run --hmi`` the command's process runs the loop
 and the server runs in a child process (:func:`start_process`). Both talk through a
 :class:`~exoleg.runtime.link.LoopLink`. The server keeps off the loop's CPU
-(:func:`keep_off_loop_cpu`); a session's process takes back all CPUs.
+(:func:`keep_off_loop_cpu`); a session's process takes back the CPUs the server had.
 
 Every request that changes what the device does -- take control, keep a child's fit,
 start or end a session, a command, a gain -- needs the token printed at start-up and
@@ -45,16 +45,18 @@ def _slug(text: str) -> str:
 
 def _session_process(link: LoopLink, backend: str, interface: str | None, duration: float,
                      folder: str, leg_path: str | None, body_mass: float, arm: bool,
-                     server: int) -> None:
+                     server: int, cpus: set[int] | None) -> None:
     """A session's own process (``exoleg hmi``): runs the loop until its duration, an
     E-stop fault, the operator's end, a signal, or the end of the server's process
-    (``server``: its pid) -- then nobody could stop it from the page."""
+    (``server``: its pid) -- then nobody could stop it from the page. ``cpus``: the CPUs
+    the server had before it kept off the loop's (:func:`keep_off_loop_cpu`)."""
     import exoleg
     from exoleg.runtime.session import run
 
     link.server_pid = server
-    with contextlib.suppress(AttributeError, OSError):  # not the server's CPUs: all of them
-        os.sched_setaffinity(0, range(os.cpu_count() or 1))
+    if cpus:
+        with contextlib.suppress(AttributeError, OSError):
+            os.sched_setaffinity(0, cpus)
     try:
         leg = exoleg.load_leg(leg_path) if leg_path else None
         run(backend, duration, folder, leg=leg, body_mass=body_mass, arm=arm,
@@ -121,6 +123,7 @@ class HMI:
         self.leg = leg if leg is not None else exoleg.paper_leg()
         self.info = device_info(self.leg)
         self.host = "127.0.0.1"  # where it listens (set by serve)
+        self.cpus: set[int] | None = None  # the server's CPUs before keep_off_loop_cpu
         if fixed is not None:
             self.session = Path(fixed[1])
             self.api.attach(fixed[0], self.session)
@@ -164,7 +167,7 @@ class HMI:
                 target=_session_process, name="exoleg-session", daemon=True,
                 args=(link, self.backend, self.interface, duration, str(folder),
                       str(folder / "leg.toml") if self.child else None, mass, arm,
-                      os.getpid()))
+                      os.getpid(), self.cpus))
             self.proc.start()
             self.session = folder
             self.api.attach(link, folder)
@@ -461,19 +464,24 @@ class HMI:
                          middleware=[Middleware(TrustedHostMiddleware, allowed_hosts=hosts)])
 
 
-def keep_off_loop_cpu() -> None:
+def keep_off_loop_cpu() -> set[int] | None:
     """Run the web side off the loop's CPU: off the isolated CPUs, where the loop pins
     itself if the kernel keeps any (:func:`~exoleg.runtime.loop.realtime_settings`),
-    else off the last CPU, left to the loop."""
+    else off the last CPU, left to the loop. Returns the CPUs it had (None if unknown)."""
     from exoleg.runtime.loop import isolated_cpus
 
-    with contextlib.suppress(AttributeError, OSError):
-        isolated = isolated_cpus()
-        cpus = sorted(os.sched_getaffinity(0) - isolated)
-        if not isolated:
-            cpus = cpus[:-1]
-        if cpus:
+    try:
+        before = os.sched_getaffinity(0)
+    except (AttributeError, OSError):
+        return None
+    isolated = isolated_cpus()
+    cpus = sorted(before - isolated)
+    if not isolated:
+        cpus = cpus[:-1]
+    if cpus:
+        with contextlib.suppress(OSError):
             os.sched_setaffinity(0, set(cpus))
+    return before
 
 
 def bind_check(host: str, certfile: str | None, keyfile: str | None) -> str:
@@ -521,7 +529,7 @@ def serve(hmi: HMI, host: str = "127.0.0.1", port: int = 8780, certfile: str | N
         def capture_signals(self) -> Any:  # the signals are ours (below), not re-raised
             yield
 
-    keep_off_loop_cpu()
+    hmi.cpus = keep_off_loop_cpu()
     hmi.host = host
     try:
         sock = sock if sock is not None else listen(host, port)

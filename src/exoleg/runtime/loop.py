@@ -90,14 +90,13 @@ IO_PRIORITY = 11
 
 def isolated_cpus(path: str = "/sys/devices/system/cpu/isolated") -> set[int]:
     """The CPUs the kernel keeps for pinned tasks (``isolcpus=``); empty when none."""
-    try:
-        text = Path(path).read_text().strip()
-    except OSError:
-        return set()
     cpus: set[int] = set()
-    for part in filter(None, text.split(",")):
-        lo, _, hi = part.partition("-")
-        cpus.update(range(int(lo), int(hi or lo) + 1))
+    try:
+        for part in filter(None, Path(path).read_text().strip().split(",")):
+            lo, _, hi = part.partition("-")
+            cpus.update(range(int(lo), int(hi or lo) + 1))
+    except (OSError, ValueError):  # no such file, or not a CPU list: nothing isolated
+        return set()
     return cpus
 
 
@@ -113,7 +112,9 @@ def realtime_settings(io_threads: Sequence[threading.Thread] = (),
     and the bus threads at normal priority, every run lost a drive's answer within
     0.1 s; bus threads raised and the GIL's interval cut, 3 runs in 5 still did (the
     pinned loop cannot leave the CPU when the kernel gives it to other tasks for
-    milliseconds); unpinned as well, none in 5."""
+    milliseconds); unpinned as well, 2 in 10 -- a stock kernel still stalls even a
+    SCHED_FIFO thread ~5.5 ms then, hence the simulated nodes' longer bus timeout
+    (:data:`exoleg.runtime.session.SIMULATED_BUS_TIMEOUT_S`)."""
     done = []
     if io_threads:
         switch = min(sys.getswitchinterval(), period / 4)
@@ -242,7 +243,7 @@ def run_session(backend: Backend, controller: Any, duration: float, period: floa
     ``on_tick(k, out, sensors, late)`` may return a command for the next tick (the
     operator's way in), or :data:`END_SESSION` / :data:`LINK_LOST` (:data:`ENDS`). Every
     tick: read, step, write, advance, log. A tick later than ``overrun`` s takes the
-    torque off and stops. With ``realtime``, the loop runs pinned at SCHED_FIFO and the
+    torque off and stops. With ``realtime``, the loop runs at SCHED_FIFO and the
     ``io_threads`` above it (:func:`realtime_settings`); this thread's scheduling is
     restored afterwards. Returns how it ended."""
     stop: list[str] = []
