@@ -23,6 +23,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
+from exoleg.entry import BODY_MASS, CHILD_ENTRY, DEFAULT_BODY_MASS, MEASURED
+
 if TYPE_CHECKING:
     from rich.console import Console
 
@@ -31,8 +33,8 @@ if TYPE_CHECKING:
 STRIDE_TIME_RANGE = (0.4, 4.0)
 SD_RANGE = (-3.0, 3.0)
 #: simulate --walk options' defaults (refused without --walk when changed)
-_WALK_DEFAULTS: dict[str, Any] = {"strides": 10, "body_mass": 30.0, "ankle_height": 5.0,
-                                  "noise": 1.0, "seed": 0}
+_WALK_DEFAULTS: dict[str, Any] = {"strides": 10, "body_mass": DEFAULT_BODY_MASS,
+                                  "ankle_height": 5.0, "noise": 1.0, "seed": 0}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -115,6 +117,9 @@ def _within(lo: float, hi: float, unit: str = "") -> Callable[[str], float]:
         return v
     parse.__name__ = "number"
     return parse
+
+
+_body_mass = _within(BODY_MASS[0], BODY_MASS[1], " " + BODY_MASS[2])
 
 
 def _count(lo: int, hi: int) -> Callable[[str], int]:
@@ -225,6 +230,21 @@ def _paper_scenario(args: argparse.Namespace) -> bool:
             and args.q0 is None and args.postures is None and args.times is None)
 
 
+def _read_leg(path: Path) -> tuple[Any, str]:
+    """A leg file as a :class:`~exoleg.LegModel`, and a warning ('' if none) when it is a
+    leg for a child the device does not fit (its ``[fit]`` record)."""
+    import exoleg
+    from exoleg.params.leg_file import read_leg_file
+
+    links, g, name, meta = read_leg_file(path)
+    leg = exoleg.LegModel(links, g=g, name=name, armature=meta.get("armature"))
+    if meta.get("fits", True):
+        return leg, ""
+    return leg, (f"{path} is a leg for a child the device does not fit "
+                 f"({meta.get('note') or 'see its [fit] record'}): the model's telescope "
+                 "settings are clamped to the device's range")
+
+
 def _check_combination(args: argparse.Namespace) -> None:
     """Options that mean nothing with the chosen reference are refused, not ignored."""
     from exoleg.errors import ParameterError
@@ -255,19 +275,14 @@ def _build(args: argparse.Namespace) -> dict[str, Any]:
 
     import exoleg
     from exoleg.control import PD, ComputedTorque, PDGravity
-    from exoleg.params.leg_file import read_leg_file
     from exoleg.reference import MinJerk, Reference, SchwartzGait2008, Steps
     from exoleg.sim import scenario
 
     _check_combination(args)
     warnings: list[str] = []
     if args.leg:
-        links, g, name, fit = read_leg_file(args.leg)
-        leg = exoleg.LegModel(links, g=g, name=name, armature=fit.get("armature"))
-        if not fit.get("fits", True):
-            warnings.append(f"{args.leg} is a leg for a child the device does not fit "
-                            f"({fit.get('note') or 'see its [fit] record'}): the model's "
-                            "telescope settings are clamped to the device's range")
+        leg, warning = _read_leg(args.leg)
+        warnings += [warning] if warning else []
     else:
         leg = exoleg.paper_leg("simplified")
     sat = True if args.saturate else None
@@ -504,7 +519,6 @@ def _simulate_walk(args: argparse.Namespace) -> int:
 
     import exoleg
     from exoleg.errors import ParameterError
-    from exoleg.params.leg_file import read_leg_file
     from exoleg.plots.figures import walk_figure
     from exoleg.sim.walk import detection_table, simulate_walk
 
@@ -524,10 +538,8 @@ def _simulate_walk(args: argparse.Namespace) -> int:
                              "detected phase)")
     notes: list[str] = []
     if args.leg:
-        links, g, name, meta = read_leg_file(args.leg)
-        leg = exoleg.LegModel(links, g=g, name=name)
-        if not meta.get("fits", True):
-            notes.append(f"{args.leg} is a leg for a child the device does not fit")
+        leg, warning = _read_leg(args.leg)
+        notes += [warning] if warning else []
     else:
         leg = exoleg.paper_leg("simplified")
     stride = args.stride_time or 1.1
@@ -675,7 +687,6 @@ def cmd_fit(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from exoleg.entry import MEASURED
     from exoleg.io import OutputFolder
     from exoleg.sizing import Child
     from exoleg.sizing.demand import DISPLAY
@@ -818,21 +829,33 @@ def cmd_export(args: argparse.Namespace) -> int:
 _MODES = {0: "disarmed", 1: "standing", 2: "walking", 3: "fault"}
 
 
+def _bus_options(command: str, backend: str, **given: Any) -> None:
+    """Refuses an option of the bus backends (``given``: name -> value, None when not
+    given) on the ``sim`` backend."""
+    from exoleg.errors import ParameterError
+
+    for name, value in given.items():
+        if backend == "sim" and value is not None:
+            raise ParameterError(command, f"--{name.replace('_', '-')}",
+                                 "goes with --backend canopen or ethercat")
+
+
 def cmd_run(args: argparse.Namespace) -> int:
-    import exoleg
     from exoleg.errors import ParameterError
     from exoleg.runtime.session import SIMULATED_BUS, run, summarize
 
-    for given, option in ((args.interface, "--interface"), (args.bus_timeout, "--bus-timeout")):
-        if args.backend == "sim" and given is not None:
-            raise ParameterError("exoleg run", option, "goes with --backend canopen or "
-                                 "ethercat")
+    _bus_options("exoleg run", args.backend, interface=args.interface,
+                 bus_timeout=args.bus_timeout)
     if args.backend != "sim" and args.interface not in (None, SIMULATED_BUS[args.backend]) \
             and args.arm:
         raise ParameterError("exoleg run", "--arm", "only on the sim backend or simulated "
                              "nodes (canopen --interface virtual, ethercat --interface "
                              "fake): on a real device the operator arms")
-    leg = exoleg.load_leg(args.leg) if args.leg else None
+    leg = None
+    if args.leg:
+        leg, warning = _read_leg(args.leg)
+        if warning:
+            _say(f"warning: {warning}")
     link = web = None
     if args.hmi:
         import secrets
@@ -883,14 +906,11 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_hmi(args: argparse.Namespace) -> int:
-    from exoleg.errors import ParameterError
     from exoleg.hmi.server import HMI, bind_check, listen, serve
     from exoleg.io import _writable_folder
     from exoleg.runtime.session import SIMULATED_BUS
 
-    if args.backend == "sim" and args.interface is not None:
-        raise ParameterError("exoleg hmi", "--interface", "goes with --backend canopen or "
-                             "ethercat")
+    _bus_options("exoleg hmi", args.backend, interface=args.interface)
     warning = bind_check(args.host, args.tls_cert, args.tls_key)
     sock = listen(args.host, args.port)  # a port in use is said now, in one line
     hmi = HMI(_writable_folder(args.sessions), backend=args.backend,
@@ -979,7 +999,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "gait-phase detection, the control hierarchy, safety layer, actuators")
     s.add_argument("--strides", type=_count(1, 10000), default=_WALK_DEFAULTS["strides"],
                    metavar="N", help="walk: strides, 1-10000 (default 10)")
-    s.add_argument("--body-mass", type=_within(10.0, 150.0, " kg"),
+    s.add_argument("--body-mass", type=_body_mass,
                    default=_WALK_DEFAULTS["body_mass"], help="walk: the child's mass, kg")
     s.add_argument("--ankle-height", type=_within(1.0, 15.0, " cm"),
                    default=_WALK_DEFAULTS["ankle_height"], help="walk: ankle above the sole, cm")
@@ -994,8 +1014,6 @@ def build_parser() -> argparse.ArgumentParser:
 
     f = sub.add_parser("fit", help="fit the device to one child: dimensions, settings, verdict, "
                        "margins; writes the personalized leg file")
-    from exoleg.entry import CHILD_ENTRY, MEASURED
-
     entry = {k: _within(lo, hi, " " + unit) for k, (lo, hi, unit) in CHILD_ENTRY.items()}
     f.add_argument("--age", type=entry["age"], required=True,
                    help="years (2-20; the device targets 8-12)")
@@ -1055,7 +1073,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--walk-after", type=_within(0.0, 86400.0, " s"),
                    help="sim: the operator's walk command this many seconds in (needs --arm)")
     r.add_argument("--leg", type=Path, help="leg file (from exoleg fit); default the paper's")
-    r.add_argument("--body-mass", type=_within(10.0, 150.0, " kg"), default=30.0)
+    r.add_argument("--body-mass", type=_body_mass, default=DEFAULT_BODY_MASS,
+                   help="the simulated child's mass, kg")
     r.add_argument("--seed", type=_count(0, 2**31 - 1), default=0, help="sim: sensor noise")
     r.add_argument("--hmi", action="store_true",
                    help="serve the operator interface (and its control API) for this session")

@@ -8,3 +8,7 @@ CHILD_ENTRY = {"age": (2.0, 20.0, "years"), "height": (50.0, 220.0, "cm"),
                "mass": (5.0, 200.0, "kg"), "measured": (1.0, 200.0, "cm")}
 #: the dimensions that may be measured (Child's fields, m; typed in cm)
 MEASURED = ("thigh", "shank", "leg_length", "foot_length", "ankle_height")
+#: the walking simulation's child (``exoleg simulate --walk``, ``exoleg run`` and the
+#: operator interface's sessions): body mass bounds and the mass without a fitted child
+BODY_MASS = (10.0, 150.0, "kg")
+DEFAULT_BODY_MASS = 30.0

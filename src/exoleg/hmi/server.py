@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from exoleg.entry import DEFAULT_BODY_MASS
 from exoleg.errors import ParameterError
 from exoleg.runtime.control_api import ControlAPI, body_of, loopback, source_of
 from exoleg.runtime.link import LoopLink
@@ -36,7 +37,6 @@ from exoleg.runtime.session import SIMULATED_BUS
 STATIC = Path(__file__).parent / "static"
 #: the longest session the HMI starts, s (a session may be ended at any time before)
 MAX_DURATION = 3600.0
-DEFAULT_BODY_MASS = 30.0
 
 
 def _slug(text: str) -> str:

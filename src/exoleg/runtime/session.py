@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from exoleg.entry import DEFAULT_BODY_MASS
 from exoleg.errors import ParameterError
 from exoleg.runtime.log import MAX_LOSS_TICKS, SessionLog, read_log
 from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, OVERRUN_S, SessionResult, run_session
@@ -28,7 +29,7 @@ SIMULATED_BUS_TIMEOUT_S = 20e-3
 
 def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         arm: bool = False, walk_after: float | None = None, leg: Any = None,
-        body_mass: float = 30.0, seed: int = 0, realtime: bool = True,
+        body_mass: float = DEFAULT_BODY_MASS, seed: int = 0, realtime: bool = True,
         interface: str | None = None, channel: str = "exoleg",
         inject: Any = None, link: Any = None, bus_timeout: float | None = None,
         overrun: float = OVERRUN_S) -> tuple[SessionResult, Path]:

@@ -221,6 +221,20 @@ class DeviceResult(TimeSeries):
 
 
 
+def device_parts(device: str | Path | None, actuators: tuple[ActuatorModel, ...] | None,
+                 safety: SafetyLimits | None, control_dt: float
+                 ) -> tuple[Path | None, tuple[ActuatorModel, ...], F64, SafetyLimits]:
+    """The device folder checked (None: the shipped files), the actuators and their
+    parameter array, and the safety limits at ``control_dt`` -- each given, or read from
+    the folder."""
+    from exoleg.device.files import check_folder
+
+    folder = None if device is None else check_folder(device)
+    acts = paper_actuators(folder) if actuators is None else tuple(actuators)
+    lim = SafetyLimits.paper(control_dt, folder) if safety is None else safety
+    return folder, acts, params_array(acts), lim
+
+
 def simulate_device(leg: LegModel, controller: Controller, reference: Reference,
                     duration: float, actuators: tuple[ActuatorModel, ...] | None = None,
                     safety: SafetyLimits | None = None, control_dt: float = 1e-3,
@@ -238,16 +252,12 @@ def simulate_device(leg: LegModel, controller: Controller, reference: Reference,
     memory, range of motion of the start and reference) with the same messages.
     ``device``: a device folder (:mod:`exoleg.device.files`) for the actuators and limits.
     """
-    from exoleg.device.files import check_folder
     from exoleg.sim.closed_loop import check_run, sampled_stability
 
-    folder = None if device is None else check_folder(device)
-    acts = paper_actuators(folder) if actuators is None else tuple(actuators)
-    A = params_array(acts)
     if not (isinstance(substeps, int) and 1 <= substeps <= 1000):
         raise ParameterError("simulate_device", "substeps",
                              f"expected a whole number 1-1000, got {substeps!r}")
-    lim = SafetyLimits.paper(control_dt, folder) if safety is None else safety
+    _, acts, A, lim = device_parts(device, actuators, safety, control_dt)
     if abs(lim.dt - control_dt) > 1e-12:
         raise ParameterError("simulate_device", "safety",
                              f"its dt {lim.dt} s differs from control_dt {control_dt} s")

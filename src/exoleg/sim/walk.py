@@ -45,8 +45,6 @@ from exoleg.device.actuator import (
     encode,
     envelope,
     filter_gain,
-    paper_actuators,
-    params_array,
     with_actuators,
 )
 from exoleg.device.sensors import FootSensors, draw_noise, fsr_counts, imu
@@ -423,19 +421,18 @@ def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
     """The simulated device and its controller for ``leg`` (without actuators; theirs are
     added) and a child of ``body_mass`` kg (see :func:`simulate_walk`)."""
     from exoleg.control.gait_phase import DetectorSettings
-    from exoleg.device.files import check_folder
     from exoleg.device.walking import body_weight_share
+    from exoleg.entry import BODY_MASS
     from exoleg.reference.gait import SchwartzGait2008
+    from exoleg.sim.device_loop import device_parts
 
-    for name, v, lo, hi in (("body_mass", body_mass, 10.0, 150.0),
+    for name, v, lo, hi in (("body_mass", body_mass, *BODY_MASS[:2]),
                             ("control_dt", control_dt, 1e-4, 1e-2),
                             ("ankle_height", ankle_height, 0.0, 0.2)):
         if not (np.isfinite(v) and lo <= v <= hi):
             raise ParameterError("simulate_walk", name, f"{v!r} is outside {lo:g}-{hi:g}")
     SchwartzGait2008(stride_time=stride_time, speed=speed)  # checks both
-    folder = None if device is None else check_folder(device)
-    acts = paper_actuators(folder) if actuators is None else tuple(actuators)
-    A = params_array(acts)
+    folder, acts, A, lim = device_parts(device, actuators, safety, control_dt)
     plant_leg = with_actuators(leg, acts)
     share = body_weight_share(body_mass)
     gr = Ground.default(folder) if ground is None else ground
@@ -443,7 +440,6 @@ def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
     plant = WalkingPlant.of(plant_leg, share, belt_speed_for(leg, speed, stride_time), gr,
                             ankle_height)
     sens = FootSensors.default(noise_scale, folder) if sensors is None else sensors
-    lim = SafetyLimits.paper(control_dt, folder) if safety is None else safety
     ctl = WalkController(plant_leg, share,
                          WalkGains.default(folder) if gains is None else gains,
                          DetectorSettings.default(folder), lim, speed, stride_time,
