@@ -23,7 +23,7 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from types import TracebackType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from exoleg.errors import ParameterError
 
@@ -95,6 +95,16 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+
+
+def write_json(path: str | Path, record: Any) -> Path:
+    """``record`` as indented JSON at ``path``, written whole or not at all (a reader --
+    the operator interface listing a session still running -- never sees half)."""
+    import json
+
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(record, indent=2))
+    return Path(path)
 
 
 def write_csv_table(table: pa.Table, path: str | Path) -> Path:

@@ -31,7 +31,7 @@ def test_walks_ten_strides_without_a_fault(walk) -> None:  # type: ignore[no-unt
     # measured 1.5, 6.0, 10.2 deg (the ankle lags at push-off, where its torque is clipped)
     assert np.all(err < [3.0, 9.0, 13.0]), err
     # stance carries the body: the contact forces' mean over the walk is near the weight
-    # share times the stance fraction (about 0.6)
+    # share times the stance fraction (about 0.6; measured 0.55)
     weight = (walk.plant.body_mass + walk.plant.leg_mass) * LEG.g
     mean = walk.contact_force[walk.t > walk.walk_start].sum(axis=1).mean()
     assert 0.4 * weight < mean < 0.9 * weight
@@ -46,10 +46,12 @@ def test_detector_against_true_events(walk) -> None:  # type: ignore[no-untyped-
         assert row["true"] >= 9, row
         assert row["missed_rate"] == 0 and row["false_rate"] == 0, row
         assert abs(row["worst_error_ms"]) <= 10.0, row
-    for name in ("foot flat", "heel off"):  # only where the heel is loaded
+    # only where the heel is loaded: measured (seed 1) 1 foot flat, 8 ms late, and 2 heel
+    # offs, 19 ms worst (the heel FSR unloads slowly): bounded at 20 ms, that rounded up
+    for name in ("foot flat", "heel off"):
         row = rows[name]
-        assert row["false_rate"] in (0, 0.0) or np.isnan(row["false_rate"]), row
-        assert row["true"] == 0 or abs(row["worst_error_ms"]) <= 20.0, row
+        assert row["true"] >= 1 and row["false_rate"] == 0, row
+        assert abs(row["worst_error_ms"]) <= 20.0, row
 
 
 def test_deterministic_per_seed() -> None:

@@ -30,6 +30,7 @@ import numpy as np
 
 from exoleg.entry import DEFAULT_BODY_MASS
 from exoleg.errors import ParameterError
+from exoleg.io import write_json
 from exoleg.runtime.control_api import ControlAPI, body_of, loopback, source_of
 from exoleg.runtime.link import LoopLink
 from exoleg.runtime.session import SIMULATED_BUS
@@ -62,16 +63,9 @@ def _session_process(link: LoopLink, backend: str, interface: str | None, durati
         run(backend, duration, folder, leg=leg, body_mass=body_mass, arm=arm,
             interface=interface, link=link)
     except BaseException as e:  # said on the Sessions page; the torque is off either way
-        _write_json(Path(folder) / "failed.json",
+        write_json(Path(folder) / "failed.json",
                     {"error": f"{type(e).__name__}: {e}", "time": time.time()})
         link.loop_ended()
-
-
-def _write_json(path: Path, record: dict[str, Any]) -> None:
-    from exoleg.io import atomic_path
-
-    with atomic_path(path) as tmp:
-        tmp.write_text(json.dumps(record, indent=2))
 
 
 def device_info(leg: Any) -> dict[str, Any]:
@@ -159,7 +153,7 @@ class HMI:
             folder = self.root / name
             folder.mkdir()
             if self.child is not None:
-                _write_json(folder / "child.json", self.child)
+                write_json(folder / "child.json", self.child)
                 (folder / "leg.toml").write_bytes(Path(str(self.child_leg)).read_bytes())
             link = LoopLink.new()
             mass = float(self.child["child"]["mass"]) if self.child else DEFAULT_BODY_MASS
@@ -253,7 +247,7 @@ class HMI:
         record["warnings"] = [str(w.message) for w in caught]
         folder = self.root / "children" / _slug(child.name)
         folder.mkdir(parents=True, exist_ok=True)
-        _write_json(folder / "fit.json", record)
+        write_json(folder / "fit.json", record)
         rep.save_leg(folder / "leg.toml")
         with self.lock:
             self.child, self.child_leg = record, folder / "leg.toml"

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import threading
 import time
 from pathlib import Path
@@ -45,7 +44,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     start before it is a fault (s)."""
     import exoleg
     from exoleg.control.hierarchy import Command
-    from exoleg.io import _writable_folder
+    from exoleg.io import _writable_folder, write_json
 
     if backend not in BACKENDS:
         raise ParameterError("exoleg run", "--backend", f"unknown {backend!r} (allowed: "
@@ -155,7 +154,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
                "bus_timeout_ms": None if bus_timeout is None else bus_timeout * 1e3,
                "timing_us": res.timing, "realtime": res.realtime,
                "log": str(path), "max_loss_ticks_on_a_crash": MAX_LOSS_TICKS}
-    (folder / "run.json").write_text(json.dumps(summary, indent=2))
+    write_json(folder / "run.json", summary)
     return res, path
 
 
