@@ -230,3 +230,14 @@ def test_realtime_settings_raise_the_bus_threads_and_are_undone(tmp_path: Path,
     assert seen == {"loop": LOOP_PRIORITY, "bus": IO_PRIORITY, "bus_policy": os.SCHED_FIFO}
     assert (os.sched_getscheduler(0), os.sched_getaffinity(0),
             sys.getswitchinterval()) == before
+
+
+def test_run_refuses_arming_a_real_device_at_the_start(tmp_path: Path) -> None:
+    """The library refuses it, not only the command line and the HMI: on a real bus the
+    operator arms. Checked before any bus is opened (there is no can0 here: opening it
+    would fail differently)."""
+    from exoleg.errors import ParameterError
+    from exoleg.runtime.session import run
+
+    with pytest.raises(ParameterError, match="on a real device the operator arms"):
+        run("canopen", 1.0, tmp_path, arm=True, interface="socketcan", channel="can0")

@@ -841,16 +841,12 @@ def _bus_options(command: str, backend: str, **given: Any) -> None:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from exoleg.errors import ParameterError
-    from exoleg.runtime.session import SIMULATED_BUS, run, summarize
+    from exoleg.runtime.session import check_options, run, summarize
 
     _bus_options("exoleg run", args.backend, interface=args.interface,
                  bus_timeout=args.bus_timeout)
-    if args.backend != "sim" and args.interface not in (None, SIMULATED_BUS[args.backend]) \
-            and args.arm:
-        raise ParameterError("exoleg run", "--arm", "only on the sim backend or simulated "
-                             "nodes (canopen --interface virtual, ethercat --interface "
-                             "fake): on a real device the operator arms")
+    bus_timeout = None if args.bus_timeout is None else args.bus_timeout * 1e-3
+    check_options(args.backend, args.interface, args.arm, args.walk_after, bus_timeout)
     leg = None
     if args.leg:
         leg, warning = _read_leg(args.leg)
@@ -878,9 +874,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                         arm=args.arm, walk_after=args.walk_after, leg=leg,
                         body_mass=args.body_mass, seed=args.seed,
                         realtime=not args.no_realtime, interface=args.interface,
-                        channel=args.channel, link=link,
-                        bus_timeout=None if args.bus_timeout is None
-                        else args.bus_timeout * 1e-3)
+                        channel=args.channel, link=link, bus_timeout=bus_timeout)
     finally:
         if web is not None:
             web.terminate()

@@ -33,7 +33,7 @@ from exoleg.errors import ParameterError
 from exoleg.io import write_json
 from exoleg.runtime.control_api import ControlAPI, body_of, loopback, source_of
 from exoleg.runtime.link import LoopLink
-from exoleg.runtime.session import SIMULATED_BUS
+from exoleg.runtime.session import SIMULATED_BUS, check_options
 
 STATIC = Path(__file__).parent / "static"
 #: the longest session the HMI starts, s (a session may be ended at any time before)
@@ -129,9 +129,10 @@ class HMI:
         the loop starts -- only on the simulated device, whose child has no muscles of its
         own and folds within about a second while the device is disarmed."""
         with self.lock:
-            if arm and self.interface != SIMULATED_BUS.get(self.backend):
-                return 409, {"error": "arming as the session starts is for the simulated "
-                                      "device only: on a real device the operator arms"}
+            try:
+                check_options(self.backend, self.interface, arm)
+            except ParameterError as e:  # arming at the start on a real device
+                return 409, {"error": f"arm as the session starts: {e.problem}"}
             if self.fixed:
                 return 409, {"error": "this HMI serves one session run by `exoleg run`; it "
                                       "cannot start another"}

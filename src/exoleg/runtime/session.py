@@ -26,6 +26,29 @@ BUS_TIMEOUT_S = 5e-3
 SIMULATED_BUS_TIMEOUT_S = 20e-3
 
 
+def check_options(backend: str, interface: str | None = None, arm: bool = False,
+                  walk_after: float | None = None, bus_timeout: float | None = None,
+                  overrun: float = OVERRUN_S) -> None:
+    """Refuses (ParameterError) what :func:`run` refuses before it touches a bus: an
+    unknown backend, arming at the start on a real device (there the operator arms, not
+    a command line), walking without arming, a bus timeout outside 0.1 ms to the
+    overrun limit."""
+    if backend not in BACKENDS:
+        raise ParameterError("exoleg run", "--backend", f"unknown {backend!r} (allowed: "
+                             + ", ".join(BACKENDS) + ")")
+    if arm and backend != "sim" and interface not in (None, SIMULATED_BUS[backend]):
+        raise ParameterError("exoleg run", "--arm", "only on the sim backend or simulated "
+                             "nodes (canopen --interface virtual, ethercat --interface "
+                             "fake): on a real device the operator arms")
+    if bus_timeout is not None and not 1e-4 <= bus_timeout <= overrun:
+        raise ParameterError("exoleg run", "--bus-timeout",
+                             f"{bus_timeout * 1e3:g} ms (allowed 0.1 ms to the overrun limit, "
+                             f"{overrun * 1e3:g} ms)")
+    if walk_after is not None and not arm:
+        raise ParameterError("exoleg run", "--walk-after", "needs --arm (no motion without "
+                             "arming)")
+
+
 def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         arm: bool = False, walk_after: float | None = None, leg: Any = None,
         body_mass: float = DEFAULT_BODY_MASS, seed: int = 0, realtime: bool = True,
@@ -46,16 +69,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     from exoleg.control.hierarchy import Command
     from exoleg.io import _writable_folder, write_json
 
-    if backend not in BACKENDS:
-        raise ParameterError("exoleg run", "--backend", f"unknown {backend!r} (allowed: "
-                             + ", ".join(BACKENDS) + ")")
-    if bus_timeout is not None and not 1e-4 <= bus_timeout <= overrun:
-        raise ParameterError("exoleg run", "--bus-timeout",
-                             f"{bus_timeout * 1e3:g} ms (allowed 0.1 ms to the overrun limit, "
-                             f"{overrun * 1e3:g} ms)")
-    if walk_after is not None and not arm:
-        raise ParameterError("exoleg run", "--walk-after", "needs --arm (no motion without "
-                             "arming)")
+    check_options(backend, interface, arm, walk_after, bus_timeout, overrun)
     from exoleg.runtime.sim_backend import SimBackend
 
     sim = SimBackend(leg if leg is not None else exoleg.paper_leg(), body_mass, period,
