@@ -241,3 +241,54 @@ def test_run_refuses_arming_a_real_device_at_the_start(tmp_path: Path) -> None:
 
     with pytest.raises(ParameterError, match="on a real device the operator arms"):
         run("canopen", 1.0, tmp_path, arm=True, interface="socketcan", channel="can0")
+
+
+@pytest.mark.parametrize("where", ["log", "operator link"])
+def test_any_failure_in_the_tick_takes_torque_off(tmp_path: Path, backend_factory,  # type: ignore[no-untyped-def]
+                                                  where: str) -> None:
+    """Fault injection beyond the controller: the log's disk fills (OSError from the
+    append) or the operator's side fails, at tick 300 of an armed session. The torque
+    goes off, the reason is kept and the log up to the failure is readable. Reference:
+    run_session's contract (module docstring)."""
+    import errno
+
+    class FullDisk(SessionLog):
+        def append(self, row):  # type: ignore[no-untyped-def]
+            if row[0] >= 0.3 and where == "log":
+                raise OSError(errno.ENOSPC, "No space left on device")
+            super().append(row)
+
+    def on_tick(k, out, sensors, late):  # type: ignore[no-untyped-def]
+        if k == 300 and where == "operator link":
+            raise BrokenPipeError("the operator's pipe broke")
+
+    b = backend_factory()
+    log = FullDisk(tmp_path / "s.log", LOG_HEAD + b.columns + LOG_TAIL, {"period": 1e-3})
+    res = run_session(b, b.controller, 1.0, 1e-3, log, {0: Command.ARM}, realtime=False,
+                      on_tick=on_tick)
+    assert res.stopped_by == {"log": "loop error: OSError: [Errno 28] No space left on "
+                                     "device: torque off",
+                              "operator link": "loop error: BrokenPipeError: the operator's "
+                                               "pipe broke: torque off"}[where]
+    assert np.array_equal(b.u, np.zeros(3))  # the drives were told zero
+    cols = read_log(tmp_path / "s.log")[1]
+    assert len(cols["t"]) == 300 + (where == "operator link")  # logged before on_tick
+    assert np.any(cols["u_knee"] != 0.0)  # it was applying torque before
+
+
+def test_gain_change_is_all_or_nothing_within_walk_gains(backend_factory) -> None:  # type: ignore[no-untyped-def]
+    """WalkController.set_gains refuses a value WalkGains refuses (not finite, negative,
+    over 1e4 N m/rad, support outside 0-1, an unknown name, a wrong length) and then
+    changes nothing; a valid change acts. Reference: WalkGains' documented ranges."""
+    from exoleg.errors import ParameterError
+
+    c = backend_factory().controller
+    before = c.gains_now()
+    for bad in ({"kp_swing": [1.0, float("nan"), 1.0]}, {"kd_stance": [-1.0, 0.0, 0.0]},
+                {"kp_stance": [2e4, 0.0, 0.0]}, {"support": [1.5]}, {"kp": [1.0, 1.0, 1.0]},
+                {"kp_swing": [1.0, 1.0]}, {"kd_swing": [1.0, 1.0, 1.0], "support": [-0.1]}):
+        with pytest.raises(ParameterError):
+            c.set_gains(bad)
+        assert c.gains_now() == before, bad
+    c.set_gains({"kp_swing": [10.0, 20.0, 30.0], "support": [0.25]})
+    assert c.gains_now() == {**before, "kp_swing": [10.0, 20.0, 30.0], "support": [0.25]}

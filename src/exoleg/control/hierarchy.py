@@ -30,6 +30,7 @@ import math
 from dataclasses import dataclass
 from enum import IntEnum
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -290,12 +291,23 @@ class WalkController:
         return out
 
     def set_gains(self, change: dict[str, list[float]]) -> None:
-        """Change gains between ticks (the caller checked their bounds)."""
-        for k, v in change.items():
-            if k == "support":
-                self.cp[C_SUPPORT] = float(v[0])
-            else:
-                self.cp[self._SLOTS[k]:self._SLOTS[k] + 3] = v
+        """Change gains between ticks: all of ``change`` or, if any value is unknown,
+        not finite or outside what :class:`WalkGains` allows, none (ParameterError).
+        The operator interface's tighter bounds are its own (checked before)."""
+        where = "WalkController.set_gains"
+        now = self.gains_now()
+        for k in change:
+            if k not in now:
+                raise ParameterError(where, k, f"unknown gain (allowed: {', '.join(now)})")
+        new: dict[str, Any] = {**now, **change}
+        try:  # WalkGains checks each vector (3 finite values) and its range
+            g = WalkGains(**{k: new[k] for k in self._SLOTS}, standing=self.gains.standing,
+                          support=_check.vector(where, "support", new["support"], 1)[0])
+        except ParameterError as e:
+            raise ParameterError(where, e.field, e.problem) from None
+        self.cp[:C_STAND] = np.concatenate([g.kp_stance, g.kd_stance, g.kp_swing,
+                                            g.kd_swing])
+        self.cp[C_SUPPORT] = g.support
 
     def warm_up(self) -> None:
         """Compile (or load from numba's cache) the tick on copies of the state."""

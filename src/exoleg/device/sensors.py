@@ -107,12 +107,6 @@ def fsr_counts(s, force, noise):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def fsr_force(s, counts):  # type: ignore[no-untyped-def]
-    """The force (N) a reading stands for, by the linear calibration (no bow)."""
-    return counts / s[S_COUNTS] * s[S_REF] / s[S_FSV] * s[S_FS]
-
-
-@njit(cache=True)
 def imu(s, foot_rate, acc_x, acc_y, phi, g, bias_g, bias_ax, bias_ay, n_g, n_ax, n_ay):  # type: ignore[no-untyped-def]
     """(gyro rad/s, accelerometer x, y m/s^2 in the foot frame): the true foot rate and
     the specific force (acceleration less gravity, rotated into the foot frame) plus

@@ -14,7 +14,8 @@ core, with this process above it as the operator's side.
 :func:`run_session` runs one session on a backend (``read``/``write``/``advance``) and a
 controller (``step(sensors, t) -> {"tau": ...}``): the same controller objects
 ``exoleg simulate`` runs. A controller exception, a non-finite command or SIGINT/SIGTERM
-takes the torque off at once, the reason goes to the log's summary, and the log closes.
+takes the torque off at once, the reason goes to the log's summary, and the log closes;
+so does any other failure in the tick (the bus, the log's disk, the operator's link).
 """
 
 from __future__ import annotations
@@ -321,6 +322,14 @@ def run_session(backend: Backend, controller: Any, duration: float, period: floa
                 reason = (f"loop overrun: tick {k + 1} started {late * 1e3:.1f} ms late "
                           f"(limit {overrun * 1e3:g} ms): torque off")
                 break
+    except BaseException as e:  # the bus, the log (disk full), the operator's link...
+        with contextlib.suppress(Exception):  # the torque off first, whatever failed
+            backend.write(zero)
+        with contextlib.suppress(Exception):
+            backend.safe()
+        if not isinstance(e, Exception):
+            raise
+        reason = f"loop error: {type(e).__name__}: {e}: torque off"
     finally:
         gc.enable()
         gc.unfreeze()
