@@ -10,7 +10,7 @@ from exoleg.control import gait_phase as gp
 
 SET = gp.DetectorSettings.default()
 FLOOR = 200.0
-D = SET.params(FLOOR, 1.0)
+D = SET.record(FLOOR, 1.0)
 
 
 def _walk(strides: int, T: float = 1.0, dt: float = 1e-3, noise: float = 0.0,
@@ -70,14 +70,14 @@ def test_toe_walking_still_gives_initial_contact() -> None:
 def test_strides_out_of_range_are_rejected() -> None:
     counts, t = _walk(4)
     _, st = _run(counts, t)
-    n = st[gp.S_NSTRIDE]
+    n = st[0]["n_stride"]
     # a stride of 3 s (3 x the expected 1 s, beyond 1.75 x) is not averaged in
     more, t2 = _walk(2)
     quiet = np.zeros((2000, 4))
     seq = np.vstack([counts, quiet, more])
     times = np.arange(len(seq)) * 1e-3
     _, st2 = _run(seq, times)
-    assert st2[gp.S_NSTRIDE] == n + 1  # the gap stride is rejected, the next one counts
+    assert st2[0]["n_stride"] == n + 1  # the gap stride is rejected, the next one counts
 
 
 def test_bad_settings_are_named() -> None:

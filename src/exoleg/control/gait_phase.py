@@ -31,6 +31,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from exoleg.errors import ParameterError
+from exoleg.layout import F8, I8, new
 from exoleg.params import _check
 
 F64 = NDArray[np.float64]
@@ -111,121 +112,141 @@ class DetectorSettings:
         except ParameterError as e:  # a rule across fields: name the file
             raise ParameterError(where, e.field, e.problem) from None
 
-    def params(self, floor_counts: float, expected_stride: float) -> F64:
-        """For :func:`detect`: thresholds, times, the calibration floor in counts, the
-        expected stride time."""
-        return np.array([self.contact_on, self.contact_off, floor_counts, self.debounce,
-                         self.min_swing, self.min_stance, float(self.strides_averaged),
-                         self.stride_accept[0], self.stride_accept[1], expected_stride])
+    def record(self, floor_counts: float, expected_stride: float) -> NDArray[np.void]:
+        """For :func:`detect` (:data:`SETTINGS`): thresholds, times, the calibration
+        floor in counts, the expected stride time."""
+        r = new(SETTINGS)
+        for name in ("contact_on", "contact_off", "debounce", "min_swing", "min_stance",
+                     "strides_averaged"):
+            r[name] = getattr(self, name)
+        r["floor"], r["expected_stride"] = floor_counts, expected_stride
+        r["accept_lo"], r["accept_hi"] = self.stride_accept
+        return r
 
 
-D_ON, D_OFF, D_FLOOR, D_DEBOUNCE, D_MINSW, D_MINST, D_NAVG, D_ACC_LO, D_ACC_HI, D_EXPECTED = \
-    range(10)
-# state layout
-(S_PHASE, S_HEEL_RAW, S_FORE_RAW, S_HEEL, S_FORE, S_HEEL_SINCE, S_FORE_SINCE, S_T_IC,
- S_T_TO, S_NSTRIDE, S_MAX) = range(11)
-S_TOTAL_MAX = S_MAX + 4
-S_HIST = S_MAX + 5
-STATE_SIZE = S_HIST + 10
+#: The detector's settings as :func:`detect` reads them (:meth:`DetectorSettings.record`):
+#: thresholds (normalised), the calibration floor (ADC counts), times (s), the stride
+#: rules and the stride time expected before any is measured (s).
+SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("floor", F8),
+                     ("debounce", F8), ("min_swing", F8), ("min_stance", F8),
+                     ("strides_averaged", I8), ("accept_lo", F8), ("accept_hi", F8),
+                     ("expected_stride", F8)])
+#: Strides remembered (the most :attr:`DetectorSettings.strides_averaged` allows).
+HISTORY = 10
+#: The detector's state: the phase (:class:`Phase`); per region (heel, forefoot) the
+#: raw and the debounced loaded flags and since when the raw one differs (s, -1: it
+#: does not); the times of the last initial contact and toe off (s); the strides
+#: accepted; the running maxima per sensor and of their sum (counts); the accepted
+#: stride times, newest first (s).
+STATE = np.dtype([("phase", I8), ("heel_raw", np.bool_), ("fore_raw", np.bool_),
+                  ("heel", np.bool_), ("fore", np.bool_), ("heel_since", F8),
+                  ("fore_since", F8), ("t_ic", F8), ("t_to", F8), ("n_stride", I8),
+                  ("max", F8, 4), ("total_max", F8), ("history", F8, HISTORY)])
 
 
-def new_state(settings_params: F64) -> F64:
+def new_state(settings: NDArray[np.void]) -> NDArray[np.void]:
     """A detector's state before its first reading: phase unknown, running maxima at the
     floor, no strides."""
-    s = np.zeros(STATE_SIZE)
-    s[S_PHASE] = Phase.UNKNOWN
-    s[S_HEEL_SINCE] = s[S_FORE_SINCE] = -1.0
-    s[S_T_IC] = s[S_T_TO] = -1e9
-    s[S_MAX:S_MAX + 4] = settings_params[D_FLOOR]
-    s[S_TOTAL_MAX] = settings_params[D_FLOOR]
+    s = new(STATE)
+    s["phase"] = Phase.UNKNOWN
+    s["heel_since"] = s["fore_since"] = -1.0
+    s["t_ic"] = s["t_to"] = -1e9
+    s["max"] = settings[0]["floor"]
+    s["total_max"] = settings[0]["floor"]
     return s
 
 
 @njit(inline="always")
-def _region(st, raw_i, deb_i, since_i, value, on, off, t, debounce):  # type: ignore[no-untyped-def]
-    raw = value > (off if st[raw_i] > 0.5 else on)
-    st[raw_i] = 1.0 if raw else 0.0
-    if (st[deb_i] > 0.5) != raw:
-        if st[since_i] < 0.0:
-            st[since_i] = t
-        if t - st[since_i] >= debounce - 1e-12:
-            st[deb_i] = 1.0 if raw else 0.0
-            st[since_i] = -1.0
+def _region(raw_was, loaded, since, value, on, off, t, debounce):  # type: ignore[no-untyped-def]
+    """One region's hysteresis and debounce: (raw, loaded, since) after ``value``."""
+    raw = value > (off if raw_was else on)
+    if loaded != raw:
+        if since < 0.0:
+            since = t
+        if t - since >= debounce - 1e-12:
+            loaded = raw
+            since = -1.0
     else:
-        st[since_i] = -1.0
+        since = -1.0
+    return raw, loaded, since
 
 
 @njit(cache=True)
 def stride_time(d, st):  # type: ignore[no-untyped-def]
     """The current stride estimate, s: the mean of the last accepted strides, or the
     expected one before any."""
-    n = int(min(st[S_NSTRIDE], d[D_NAVG]))
+    s = st[0]
+    n = min(s.n_stride, d[0].strides_averaged)
     if n == 0:
-        return d[D_EXPECTED]
+        return d[0].expected_stride
     acc = 0.0
     for i in range(n):
-        acc += st[S_HIST + i]
+        acc += s.history[i]
     return acc / n
 
 
 @njit(cache=True)
 def detect(d, st, counts, t):  # type: ignore[no-untyped-def]
     """One reading of the four FSRs (ADC counts: heel, met1, met5, hallux) at time t.
-    Updates the state; returns the events (bits of :class:`Event`) of this tick."""
+    ``d``: :data:`SETTINGS`, ``st``: :data:`STATE` (updated). Returns the events (bits
+    of :class:`Event`) of this tick."""
+    D = d[0]
+    s = st[0]
     for i in range(4):
-        if counts[i] > st[S_MAX + i]:
-            st[S_MAX + i] = counts[i]
+        if counts[i] > s.max[i]:
+            s.max[i] = counts[i]
     total = counts[0] + counts[1] + counts[2] + counts[3]
-    if total > st[S_TOTAL_MAX]:
-        st[S_TOTAL_MAX] = total
-    heel = counts[0] / st[S_MAX]
-    fore = max(counts[1] / st[S_MAX + 1], counts[2] / st[S_MAX + 2],
-               counts[3] / st[S_MAX + 3])
-    _region(st, S_HEEL_RAW, S_HEEL, S_HEEL_SINCE, heel, d[D_ON], d[D_OFF], t, d[D_DEBOUNCE])
-    _region(st, S_FORE_RAW, S_FORE, S_FORE_SINCE, fore, d[D_ON], d[D_OFF], t, d[D_DEBOUNCE])
-    h = st[S_HEEL] > 0.5
-    f = st[S_FORE] > 0.5
+    if total > s.total_max:
+        s.total_max = total
+    heel = counts[0] / s.max[0]
+    fore = max(counts[1] / s.max[1], counts[2] / s.max[2], counts[3] / s.max[3])
+    s.heel_raw, s.heel, s.heel_since = _region(s.heel_raw, s.heel, s.heel_since, heel,
+                                               D.contact_on, D.contact_off, t, D.debounce)
+    s.fore_raw, s.fore, s.fore_since = _region(s.fore_raw, s.fore, s.fore_since, fore,
+                                               D.contact_on, D.contact_off, t, D.debounce)
+    h = s.heel
+    f = s.fore
     # the whole foot unloaded, too: a load spread over several sensors, each below its own
     # threshold, is still a foot on the ground
-    lifted = total / st[S_TOTAL_MAX] < d[D_OFF]
-    phase = int(st[S_PHASE])
+    lifted = total / s.total_max < D.contact_off
+    phase = s.phase
     ev = 0
-    if phase <= 0:  # swing or unknown
-        if (h or f) and (phase < 0 or t - st[S_T_TO] >= d[D_MINSW]):
-            ev |= 1
-            dt = t - st[S_T_IC]
+    if phase <= Phase.SWING:  # swing or unknown
+        if (h or f) and (phase == Phase.UNKNOWN or t - s.t_to >= D.min_swing):
+            ev |= Event.IC
+            dt = t - s.t_ic
             expected = stride_time(d, st)
-            if phase == 0 and d[D_ACC_LO] * expected <= dt <= d[D_ACC_HI] * expected:
-                for i in range(9, 0, -1):
-                    st[S_HIST + i] = st[S_HIST + i - 1]
-                st[S_HIST] = dt
-                st[S_NSTRIDE] += 1
-            st[S_T_IC] = t
+            if phase == Phase.SWING and D.accept_lo * expected <= dt <= D.accept_hi * expected:
+                for i in range(HISTORY - 1, 0, -1):
+                    s.history[i] = s.history[i - 1]
+                s.history[0] = dt
+                s.n_stride += 1
+            s.t_ic = t
             if h and f:
-                ev |= 2
-                phase = 2
+                ev |= Event.FF
+                phase = Phase.FLAT
             else:
-                phase = 1
+                phase = Phase.LOADING
     else:
         if not h and not f and lifted:
-            if t - st[S_T_IC] >= d[D_MINST]:
-                ev |= 8
-                st[S_T_TO] = t
-                phase = 0
-        elif phase == 1 and h and f:
-            ev |= 2
-            phase = 2
-        elif phase == 2 and f and not h:
-            ev |= 4
-            phase = 3
-    st[S_PHASE] = phase
+            if t - s.t_ic >= D.min_stance:
+                ev |= Event.TO
+                s.t_to = t
+                phase = Phase.SWING
+        elif phase == Phase.LOADING and h and f:
+            ev |= Event.FF
+            phase = Phase.FLAT
+        elif phase == Phase.FLAT and f and not h:
+            ev |= Event.HO
+            phase = Phase.PUSH
+    s.phase = phase
     return ev
 
 
 @njit(cache=True)
 def gait_fraction(d, st, t):  # type: ignore[no-untyped-def]
     """Fraction of the gait cycle since the last initial contact, in [0, 1)."""
-    if st[S_T_IC] < -1e8:
+    if st[0].t_ic < -1e8:
         return 0.0
-    x = (t - st[S_T_IC]) / stride_time(d, st)
+    x = (t - st[0].t_ic) / stride_time(d, st)
     return min(x, 0.999999)

@@ -28,8 +28,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from enum import IntEnum
 from pathlib import Path
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -37,30 +37,16 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from exoleg.control import gait_phase as gp
+from exoleg.control import safety as sf
+from exoleg.control.contract import OUTPUT, SENSORS, Command, Mode, output_dict
 from exoleg.control.safety import SafetyLimits, safety_step
 from exoleg.dynamics.kernels import OFFSETS, gravity, mass_matrix
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
+from exoleg.layout import F8, I8, new
 from exoleg.params import _check
 
 F64 = NDArray[np.float64]
-
-
-class Mode(IntEnum):
-    DISARMED = 0
-    STANDING = 1
-    WALKING = 2
-    FAULT = 3
-
-
-class Command(IntEnum):
-    NONE = 0
-    ARM = 1
-    STAND = 2
-    WALK = 3
-    DISARM = 4
-    ESTOP = 5
-    RESET = 6
 
 
 @dataclass(frozen=True)
@@ -107,19 +93,32 @@ class WalkGains:
         except ParameterError as e:  # a range checked by the record: name the file
             raise ParameterError(where, e.field, e.problem) from None
 
-    def params(self, body_mass: float) -> F64:
-        return np.array([*self.kp_stance, *self.kd_stance, *self.kp_swing, *self.kd_swing,
-                         *self.standing, self.support, body_mass, START_FRACTION])
+    #: The gains an operator may change between ticks (:meth:`WalkController.set_gains`).
+    TUNABLE = ("kp_stance", "kd_stance", "kp_swing", "kd_swing", "support")
+
+    def record(self, body_mass: float, g: float, fsr_x: ArrayLike, sole: float
+               ) -> NDArray[np.void]:
+        """The controller's parameters as the compiled tick reads them (:data:`PARAMS`)."""
+        r = new(PARAMS)
+        for name in (*self.TUNABLE, "standing"):
+            r[name] = getattr(self, name)
+        r["body_mass"], r["start_fraction"], r["g"] = body_mass, START_FRACTION, g
+        r["fsr_x"], r["sole"] = fsr_x, sole
+        return r
 
 
-C_KP_ST, C_KD_ST, C_KP_SW, C_KD_SW, C_STAND = 0, 3, 6, 9, 12
-C_SUPPORT, C_BODY, C_START = 15, 16, 17
 #: Walking starts at this fraction of the cycle (mid-stance: the gait nearest to standing).
 START_FRACTION = 0.3
-# supervisor state: mode; info out: mode, phase, gait fraction, events, safety status,
-# q_ref (3)
-SUP_SIZE = 2
-INFO_SIZE = 8
+#: The walking controller's parameters (:meth:`WalkGains.record`): impedance per phase
+#: (N m/rad, N m s/rad), the standing posture (rad), the stance support (0-1), the
+#: body mass the pelvis carries (kg), where walking starts in the cycle, g (m/s^2), the
+#: FSRs' x on the foot (m) and their y in the foot frame (m, negative: below the ankle).
+PARAMS = np.dtype([("kp_stance", F8, 3), ("kd_stance", F8, 3), ("kp_swing", F8, 3),
+                   ("kd_swing", F8, 3), ("standing", F8, 3), ("support", F8),
+                   ("body_mass", F8), ("start_fraction", F8), ("g", F8), ("fsr_x", F8, 4),
+                   ("sole", F8)])
+#: The supervisor's state: its mode (:class:`Mode`).
+SUPERVISOR = np.dtype([("mode", I8)])
 
 
 @njit(inline="always")
@@ -162,52 +161,81 @@ def stance_gravity(p, g, q, fx, sole, counts, weight, out):  # type: ignore[no-u
 
 
 @njit(cache=True)
-def walk_control_step(cp, gq, gdq, p, g, fx, sole, d, st, lim, sst, sup, qm, vm, counts,  # type: ignore[no-untyped-def]
-                      t, command, u, info):
-    """One control tick. Inputs: the controller's parameters ``cp`` (:meth:`WalkGains
-    .params`), gait tables ``gq``, ``gdq`` (K, 3) (rad, rad per cycle), its leg model
-    ``p``, ``g``; the FSR positions ``fx`` (4,) and sole height; the detector's settings
-    ``d`` and state ``st``; the safety limits ``lim`` and state ``sst``; the supervisor
-    state ``sup``; the measured joint angles and rates ``qm``, ``vm``; the FSR counts;
-    the time; the operator's command. Writes the torque to the drives into ``u`` and
-    ``info`` (mode, phase, gait fraction, events, safety status, q_ref)."""
-    mode = int(sup[0])
-    # the supervisor
-    if command == 1 and mode == 0 and sst[1] == 0:        # arm
-        sst[0] = 1.0
-        mode = 1
-    elif command == 3 and mode == 1:                      # walk: from mid-stance, where the
-        mode = 2                                          # gait is nearest to standing
-        st[gp.S_T_IC] = t - cp[C_START] * gp.stride_time(d, st)
-    elif command == 2 and mode == 2:                      # stand
-        mode = 1
-    elif command == 4:                                    # disarm
-        sst[0] = 0.0
-        if mode != 3:
-            mode = 0
-    elif command == 5:                                    # E-stop
-        if sst[1] == 0:
-            sst[1] = 1.0
-            sst[2] = -1.0
-        sst[0] = 0.0
-        mode = 3
-    elif command == 6 and mode == 3 and sst[1] != 0:      # reset (the caller checked the
-        for i in range(sst.shape[0]):                     # state is sane: SafetyLayer.reset)
-            sst[i] = 0.0
-        mode = 0
-    ev = gp.detect(d, st, counts, t)
-    phase = int(st[gp.S_PHASE])
-    stance = phase >= 1 or mode == 1
+def _supervise(cp, d, st, lim, sst, sup, sens, t):  # type: ignore[no-untyped-def]
+    """The supervisor: the operator's command against the mode; the safety layer's own
+    arm, E-stop and reset. Returns the command refused (NONE if it applied or none
+    came) and the fault a refused reset found still holding."""
+    c = sens.command
+    mode = sup[0].mode
+    refused = Command.NONE
+    if c == Command.ARM:
+        if mode == Mode.DISARMED and sf.arm(sst):
+            mode = Mode.STANDING
+        else:
+            refused = c
+    elif c == Command.WALK:  # from mid-stance, where the gait is nearest to standing
+        if mode == Mode.STANDING:
+            mode = Mode.WALKING
+            st[0].t_ic = t - cp[0].start_fraction * gp.stride_time(d, st)
+        else:
+            refused = c
+    elif c == Command.STAND:
+        if mode == Mode.WALKING:
+            mode = Mode.STANDING
+        else:
+            refused = c
+    elif c == Command.DISARM:
+        sf.disarm(sst)
+        if mode != Mode.FAULT:
+            mode = Mode.DISARMED
+    elif c == Command.ESTOP:
+        sf.estop(sst)
+        mode = Mode.FAULT
+    elif c == Command.RESET:
+        if mode == Mode.FAULT and sst[0].fault != sf.Fault.NONE:
+            held, _ = sf.reset(lim, sst, sens.q, sens.dq)
+            if held == sf.Fault.NONE:
+                mode = Mode.DISARMED
+            else:
+                refused = c
+        else:
+            refused = c
+    elif c != Command.NONE:
+        refused = c
+    sup[0].mode = mode
+    return refused
+
+
+@njit(cache=True)
+def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, sens, t, out):  # type: ignore[no-untyped-def]
+    """One control tick. ``cp``: the controller's parameters (:data:`PARAMS`); ``gq``,
+    ``gdq``: the gait tables (K, 3), (K, 6) (rad, rad per cycle); ``p``: its leg model's
+    parameter vector; ``d``, ``st``: the detector's settings and state
+    (:data:`~exoleg.control.gait_phase.SETTINGS`, ``STATE``); ``lim``, ``sst``: the
+    safety layer's (:data:`~exoleg.control.safety.LIMITS`, ``STATE``); ``sup``: the
+    supervisor's (:data:`SUPERVISOR`); ``sens``: this tick's readings and command
+    (:data:`~exoleg.control.contract.SENSORS`); ``t`` s. Writes ``out``
+    (:data:`~exoleg.control.contract.OUTPUT`). Every record is a one-element array."""
+    C = cp[0]
+    s = sens[0]
+    o = out[0]
+    refused = _supervise(cp, d, st, lim, sst, sup, s, t)
+    mode = sup[0].mode
+    qm = s.q
+    vm = s.dq
+    ev = gp.detect(d, st, s.fsr, t)
+    phase = st[0].phase
+    stance = phase >= gp.Phase.LOADING or mode == Mode.STANDING
     qr = np.empty(3)
     dqr = np.empty(3)
     ddqr = np.zeros(3)
     x = 0.0
-    if mode == 2:
+    if mode == Mode.WALKING:
         x = gp.gait_fraction(d, st, t)
         _gait(gq, gdq, x, gp.stride_time(d, st), qr, dqr, ddqr)
     else:
         for j in range(3):
-            qr[j] = cp[C_STAND + j]
+            qr[j] = C.standing[j]
             dqr[j] = 0.0
     # inertial feedforward M(q) ddq_ref: with the actuators' reflected inertia in the
     # controller's model, what it takes to follow the gait's accelerations
@@ -215,26 +243,30 @@ def walk_control_step(cp, gq, gdq, p, g, fx, sole, d, st, lim, sst, sup, qm, vm,
     mass_matrix(qm, p, M)
     G = np.empty(3)
     if stance:
-        stance_gravity(p, g, qm, fx, sole, counts,
-                       cp[C_SUPPORT] * (cp[C_BODY] + p[0] + p[5] + p[10]) * g, G)
+        stance_gravity(p, C.g, qm, C.fsr_x, C.sole, s.fsr,
+                       C.support * (C.body_mass + p[0] + p[5] + p[10]) * C.g, G)
     else:
-        gravity(qm, p, g, G)
+        gravity(qm, p, C.g, G)
     cmd = np.empty(3)
     for j in range(3):
-        kp = cp[C_KP_ST + j] if stance else cp[C_KP_SW + j]
-        kd = cp[C_KD_ST + j] if stance else cp[C_KD_SW + j]
+        kp = C.kp_stance[j] if stance else C.kp_swing[j]
+        kd = C.kd_stance[j] if stance else C.kd_swing[j]
         cmd[j] = (kp * (qr[j] - qm[j]) + kd * (dqr[j] - vm[j]) + G[j]
                   + M[j, 0] * ddqr[0] + M[j, 1] * ddqr[1] + M[j, 2] * ddqr[2])
-    status = safety_step(lim, sst, qm, vm, cmd, False, u)
-    if sst[1] != 0:
-        mode = 3
-    sup[0] = mode
-    info[0] = mode
-    info[1] = phase
-    info[2] = x
-    info[3] = ev
-    info[4] = status
-    info[5], info[6], info[7] = qr[0], qr[1], qr[2]
+    status = safety_step(lim, sst, qm, vm, cmd, False, o.tau)
+    if sst[0].fault != sf.Fault.NONE:
+        mode = Mode.FAULT
+    sup[0].mode = mode
+    o.mode = mode
+    o.phase = phase
+    o.gait_fraction = x
+    o.events = ev
+    o.safety_status = status
+    for j in range(3):
+        o.q_ref[j] = qr[j]
+    o.fault = sst[0].fault
+    o.fault_joint = sst[0].fault_joint
+    o.refused = refused
 
 
 def gait_tables(speed: str = "Free", sd: float = 0.0, samples: int = 201) -> tuple[F64, F64]:
@@ -249,13 +281,15 @@ def gait_tables(speed: str = "Free", sd: float = 0.0, samples: int = 201) -> tup
 
 
 class WalkController:
-    """The hierarchy with its state, behind ``step(sensors, t) -> commands``.
+    """The hierarchy with its state, behind ``step(sensors, t) -> output``.
 
-    ``sensors``: a mapping with ``q`` and ``dq`` (measured, rad, rad/s, (3,)) and ``fsr``
-    (four ADC counts); optional ``command`` (:class:`Command`). ``sole``: the sensors'
-    depth below the ankle joint, m (ankle height + footplate). Returns a dict: ``tau``
-    (3,) N m for the drives, ``mode``, ``phase``, ``gait_fraction``, ``events``,
-    ``safety_status``, ``q_ref``.
+    ``sensors``: a mapping of :data:`~exoleg.control.contract.SENSORS` fields -- ``q``
+    and ``dq`` (measured, rad, rad/s, (3,)) and ``fsr`` (four ADC counts) required;
+    ``gyro``, ``accel`` and ``command`` (:class:`Command`) optional. ``sole``: the
+    sensors' depth below the ankle joint, m (ankle height + footplate). Returns the
+    :data:`~exoleg.control.contract.OUTPUT` fields as a dict (:func:`output_dict`):
+    ``tau`` (3,) N m for the drives, ``mode``, ``phase``, ``gait_fraction``, ``events``,
+    ``safety_status``, ``q_ref``, ``fault``, ``fault_joint``, ``refused``.
     """
 
     def __init__(self, leg: LegModel, body_mass: float, gains: WalkGains | None = None,
@@ -265,30 +299,34 @@ class WalkController:
                  sole: float = 0.073) -> None:
         from exoleg.device.walking import SENSOR_X
 
+        w = "WalkController"
+        for name, v, kind in (("leg", leg, LegModel), ("gains", gains, WalkGains),
+                              ("detector", detector, gp.DetectorSettings),
+                              ("safety", safety, SafetyLimits)):
+            if v is not None and not isinstance(v, kind):
+                raise ParameterError(w, name, f"expected {kind.__name__}, got "
+                                     f"{type(v).__name__}")
+        _check.positive(w, "body_mass", body_mass, "kg")
         self.leg = leg
         self.gains = WalkGains.default() if gains is None else gains
         self.detector = gp.DetectorSettings.default() if detector is None else detector
         self.safety = SafetyLimits.paper() if safety is None else safety
-        self.cp = self.gains.params(body_mass)
+        self.cp = self.gains.record(body_mass, leg.g, np.array(SENSOR_X) * float(leg.lengths[2]),
+                                    -float(sole))  # the sensors' y in the foot frame
         self.gq, self.gdq = gait_tables(speed)
-        self.d = self.detector.params(fsr_floor_counts, expected_stride)
+        self.d = self.detector.record(fsr_floor_counts, expected_stride)
         self.st = gp.new_state(self.d)
-        self.lim = self.safety.as_tuple()
-        self.sst = np.zeros(6)
-        self.sup = np.zeros(SUP_SIZE)
-        self.fx = np.array(SENSOR_X) * float(leg.lengths[2])
-        self.sole = -float(sole)  # the sensors' y in the foot frame: below the ankle
-        self.u = np.zeros(3)
-        self.info = np.zeros(INFO_SIZE)
-
-    _SLOTS = {"kp_stance": C_KP_ST, "kd_stance": C_KD_ST, "kp_swing": C_KP_SW,
-              "kd_swing": C_KD_SW}
+        self.lim = self.safety.record()
+        self.sst = new(sf.STATE)
+        self.sst[0]["fault_joint"] = -1
+        self.sup = new(SUPERVISOR)
+        self.sens = new(SENSORS)
+        self.out = new(OUTPUT)
 
     def gains_now(self) -> dict[str, list[float]]:
         """The gains in force (N m/rad, N m s/rad per joint) and the support level."""
-        out = {k: [float(x) for x in self.cp[i:i + 3]] for k, i in self._SLOTS.items()}
-        out["support"] = [float(self.cp[C_SUPPORT])]
-        return out
+        c = self.cp[0]
+        return {k: [float(x) for x in np.atleast_1d(c[k])] for k in WalkGains.TUNABLE}
 
     def set_gains(self, change: dict[str, list[float]]) -> None:
         """Change gains between ticks: all of ``change`` or, if any value is unknown,
@@ -299,32 +337,43 @@ class WalkController:
         for k in change:
             if k not in now:
                 raise ParameterError(where, k, f"unknown gain (allowed: {', '.join(now)})")
-        new: dict[str, Any] = {**now, **change}
+        new_: dict[str, Any] = {**now, **change}
         try:  # WalkGains checks each vector (3 finite values) and its range
-            g = WalkGains(**{k: new[k] for k in self._SLOTS}, standing=self.gains.standing,
-                          support=_check.vector(where, "support", new["support"], 1)[0])
+            g = WalkGains(**{k: new_[k] for k in WalkGains.TUNABLE if k != "support"},
+                          standing=self.gains.standing,
+                          support=_check.vector(where, "support", new_["support"], 1)[0])
         except ParameterError as e:
             raise ParameterError(where, e.field, e.problem) from None
-        self.cp[:C_STAND] = np.concatenate([g.kp_stance, g.kd_stance, g.kp_swing,
-                                            g.kd_swing])
-        self.cp[C_SUPPORT] = g.support
+        for k in WalkGains.TUNABLE:
+            self.cp[0][k] = getattr(g, k)
+
+    def compiled(self) -> tuple[Any, ...]:
+        """What :func:`walk_control_step` takes before the tick's readings, in its order:
+        parameters, gait tables, leg model, detector settings and state, safety limits and
+        state, supervisor state (the state records are this controller's own)."""
+        return (self.cp, self.gq, self.gdq, self.leg.p, self.d, self.st, self.lim, self.sst,
+                self.sup)
 
     def warm_up(self) -> None:
         """Compile (or load from numba's cache) the tick on copies of the state."""
-        walk_control_step(self.cp, self.gq, self.gdq, self.leg.p, self.leg.g, self.fx,
-                          self.sole, self.d, self.st.copy(), self.lim, self.sst.copy(),
-                          self.sup.copy(), np.zeros(3), np.zeros(3), np.zeros(4), 0.0, 0,
-                          np.zeros(3), np.zeros(INFO_SIZE))
+        parts = [x.copy() for x in self.compiled()]
+        walk_control_step(*parts, new(SENSORS), 0.0, new(OUTPUT))
 
-    def step(self, sensors: dict[str, ArrayLike], t: float) -> dict[str, object]:
-        command = int(np.asarray(sensors.get("command", Command.NONE)))
-        walk_control_step(self.cp, self.gq, self.gdq, self.leg.p, self.leg.g, self.fx,
-                          self.sole, self.d, self.st, self.lim, self.sst, self.sup,
-                          np.asarray(sensors["q"], dtype=float),
-                          np.asarray(sensors["dq"], dtype=float),
-                          np.asarray(sensors["fsr"], dtype=float), float(t), command,
-                          self.u, self.info)
-        return {"tau": self.u.copy(), "mode": Mode(int(self.info[0])),
-                "phase": gp.Phase(int(self.info[1])), "gait_fraction": float(self.info[2]),
-                "events": int(self.info[3]), "safety_status": int(self.info[4]),
-                "q_ref": self.info[5:8].copy()}
+    def step(self, sensors: Mapping[str, Any], t: float) -> dict[str, Any]:
+        """One tick on ``sensors`` at ``t`` s (see the class)."""
+        w = "WalkController.step"
+        r = self.sens[0]
+        r["q"] = _check.reading(w, "q", sensors["q"] if "q" in sensors else None, 3)
+        r["dq"] = _check.reading(w, "dq", sensors["dq"] if "dq" in sensors else None, 3)
+        r["fsr"] = _check.reading(w, "fsr", sensors["fsr"] if "fsr" in sensors else None, 4)
+        r["gyro"] = sensors.get("gyro", 0.0)
+        c = sensors.get("command", Command.NONE)
+        if isinstance(c, bool) or not isinstance(c, (int, np.integer)) or c not in COMMANDS:
+            raise ParameterError(w, "command", f"{c!r} is not a command (allowed: "
+                                 f"{', '.join(f'{m.value} {m.name}' for m in Command)})")
+        r["command"] = int(c)
+        walk_control_step(*self.compiled(), self.sens, float(t), self.out)
+        return output_dict(self.out)
+
+
+COMMANDS = frozenset(int(m) for m in Command)

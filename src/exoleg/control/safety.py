@@ -32,6 +32,7 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from exoleg.errors import ParameterError
+from exoleg.layout import F8, I8, new
 from exoleg.params import _check
 from exoleg.params.records import JOINTS
 
@@ -58,9 +59,14 @@ class Limited(IntEnum):
     RATE = 16           # limited by the torque rate
 
 
-# state array layout
-_ARMED, _FAULT, _FAULT_JOINT, _PREV = 0, 1, 2, 3
-STATE_SIZE = 6
+#: The safety layer's limits as the compiled tick reads them (:meth:`SafetyLimits.record`):
+#: per joint the range of motion (rad), Table 2's torque (N m), the largest torque change
+#: in one tick (N m) and the overspeed threshold (rad/s); the hard margin (rad).
+LIMITS = np.dtype([("lower", F8, 3), ("upper", F8, 3), ("max_torque", F8, 3),
+                   ("max_step", F8, 3), ("max_speed", F8, 3), ("hard_margin", F8)])
+#: The safety layer's state: armed, the latched fault (:class:`Fault`) and its joint (-1
+#: for none or an E-stop), the torque allowed last tick (N m).
+STATE = np.dtype([("armed", np.bool_), ("fault", I8), ("fault_joint", I8), ("prev", F8, 3)])
 
 
 @dataclass(frozen=True)
@@ -133,66 +139,120 @@ class SafetyLimits:
         except ParameterError as e:  # a range checked by the record: name the file
             raise ParameterError(where, e.field, e.problem) from None
 
-    def as_tuple(self) -> tuple[float, ...]:
-        """The limits as the compiled tick takes them: lower, upper, max torque, max torque
-        change per tick, max speed (3 each), then the hard margin."""
-        return (*map(float, self.lower), *map(float, self.upper), *map(float, self.max_torque),
-                *map(float, self.max_torque_rate * self.dt), *map(float, self.max_speed),
-                float(self.hard_margin))
+    def record(self) -> NDArray[np.void]:
+        """The limits as the compiled tick takes them (:data:`LIMITS`)."""
+        r = new(LIMITS)
+        r["lower"], r["upper"], r["max_torque"] = self.lower, self.upper, self.max_torque
+        r["max_step"] = self.max_torque_rate * self.dt
+        r["max_speed"], r["hard_margin"] = self.max_speed, self.hard_margin
+        return r
 
 
 @njit(cache=True)
-def safety_step(lim, state, q, dq, u_cmd, estop, u):  # type: ignore[no-untyped-def]
-    """One tick. ``lim``: :meth:`SafetyLimits.as_tuple`; ``state`` (6,): armed, fault,
-    fault joint, previous torque (3); ``q``, ``dq``, ``u_cmd`` (3,); ``estop`` bool.
-    Writes the allowed torque into ``u`` (3,) and returns the status bits (:class:`Limited`).
-    The output is finite and within the limits for any input."""
+def check_state(lim, q, dq, u_cmd):  # type: ignore[no-untyped-def]
+    """The fault the measured state ``q``, ``dq`` and the command ``u_cmd`` (3,) latch
+    (:class:`Fault`; NONE when sane) and its joint, joint by joint: a non-finite value,
+    overspeed, beyond the hard margin."""
+    L = lim[0]
+    for i in range(3):
+        if not (math.isfinite(q[i]) and math.isfinite(dq[i]) and math.isfinite(u_cmd[i])):
+            return Fault.NONFINITE, i
+        if abs(dq[i]) > L.max_speed[i]:
+            return Fault.OVERSPEED, i
+        if q[i] < L.lower[i] - L.hard_margin or q[i] > L.upper[i] + L.hard_margin:
+            return Fault.HARD_LIMIT, i
+    return Fault.NONE, -1
+
+
+@njit(cache=True)
+def arm(state):  # type: ignore[no-untyped-def]
+    """Allow torque; refused (returns False) while a fault is latched."""
+    s = state[0]
+    if s.fault != Fault.NONE:
+        return False
+    s.armed = True
+    return True
+
+
+@njit(cache=True)
+def disarm(state):  # type: ignore[no-untyped-def]
+    """No torque from the next tick on (the torque rate does not apply to stopping)."""
+    state[0].armed = False
+
+
+@njit(cache=True)
+def estop(state):  # type: ignore[no-untyped-def]
+    """E-stop: torque off from the next tick, latched (an earlier fault stays the one
+    latched), disarmed."""
+    s = state[0]
+    if s.fault == Fault.NONE:
+        s.fault = Fault.ESTOP
+        s.fault_joint = -1
+    s.armed = False
+
+
+@njit(cache=True)
+def reset(lim, state, q, dq):  # type: ignore[no-untyped-def]
+    """Clear a latched fault, disarmed, if the state ``q``, ``dq`` is sane
+    (:func:`check_state`). Returns the fault that still holds and its joint (NONE, -1
+    when cleared); the state is unchanged then."""
+    f, j = check_state(lim, q, dq, np.zeros(3))
+    if f != Fault.NONE:
+        return f, j
+    s = state[0]
+    s.armed = False
+    s.fault = Fault.NONE
+    s.fault_joint = -1
+    for i in range(3):
+        s.prev[i] = 0.0
+    return Fault.NONE, -1
+
+
+@njit(cache=True)
+def safety_step(lim, state, q, dq, u_cmd, estop_input, u):  # type: ignore[no-untyped-def]
+    """One tick. ``lim``: :data:`LIMITS` (:meth:`SafetyLimits.record`); ``state``:
+    :data:`STATE`; ``q``, ``dq``, ``u_cmd`` (3,); ``estop_input`` bool. Writes the
+    allowed torque into ``u`` (3,) and returns the status bits (:class:`Limited`). The
+    output is finite and within the limits for any input."""
+    L = lim[0]
+    s = state[0]
     status = 0
-    if estop and state[_FAULT] == 0:
-        state[_FAULT] = 1  # Fault.ESTOP
-        state[_FAULT_JOINT] = -1
-    if state[_FAULT] == 0:
-        for i in range(3):
-            if not (math.isfinite(q[i]) and math.isfinite(dq[i]) and math.isfinite(u_cmd[i])):
-                state[_FAULT] = 2  # Fault.NONFINITE
-                state[_FAULT_JOINT] = i
-                break
-            if abs(dq[i]) > lim[12 + i]:
-                state[_FAULT] = 3  # Fault.OVERSPEED
-                state[_FAULT_JOINT] = i
-                break
-            if q[i] < lim[i] - lim[15] or q[i] > lim[3 + i] + lim[15]:
-                state[_FAULT] = 4  # Fault.HARD_LIMIT
-                state[_FAULT_JOINT] = i
-                break
-    if state[_FAULT] != 0 or state[_ARMED] == 0:
-        status |= 2 if state[_FAULT] != 0 else 1
+    if estop_input and s.fault == Fault.NONE:
+        s.fault = Fault.ESTOP
+        s.fault_joint = -1
+    if s.fault == Fault.NONE:
+        f, j = check_state(lim, q, dq, u_cmd)
+        if f != Fault.NONE:
+            s.fault = f
+            s.fault_joint = j
+    if s.fault != Fault.NONE or not s.armed:
+        status |= Limited.FAULT if s.fault != Fault.NONE else Limited.DISARMED
         for i in range(3):
             u[i] = 0.0
-            state[_PREV + i] = 0.0
+            s.prev[i] = 0.0
         return status
     for i in range(3):
         v = u_cmd[i]
-        if (q[i] > lim[3 + i] and v > 0.0) or (q[i] < lim[i] and v < 0.0):
+        if (q[i] > L.upper[i] and v > 0.0) or (q[i] < L.lower[i] and v < 0.0):
             v = 0.0  # no torque that pushes further out of the range of motion
-            status |= 4
-        tmax = lim[6 + i]
+            status |= Limited.SOFT_LIMIT
+        tmax = L.max_torque[i]
         if v > tmax:
             v = tmax
-            status |= 8
+            status |= Limited.TORQUE
         elif v < -tmax:
             v = -tmax
-            status |= 8
-        step = lim[9 + i]
-        prev = state[_PREV + i]
+            status |= Limited.TORQUE
+        step = L.max_step[i]
+        prev = s.prev[i]
         if v > prev + step:
             v = prev + step
-            status |= 16
+            status |= Limited.RATE
         elif v < prev - step:
             v = prev - step
-            status |= 16
+            status |= Limited.RATE
         u[i] = v
-        state[_PREV + i] = v
+        s.prev[i] = v
     return status
 
 
@@ -202,66 +262,77 @@ class SafetyLayer:
 
     def __init__(self, limits: SafetyLimits | None = None) -> None:
         self.limits = SafetyLimits.paper() if limits is None else limits
-        self._lim = self.limits.as_tuple()
-        self.state = np.zeros(STATE_SIZE)
-        self._u = np.zeros(3)
+        if not isinstance(self.limits, SafetyLimits):
+            raise ParameterError("SafetyLayer", "limits",
+                                 f"expected SafetyLimits, got {type(self.limits).__name__}")
+        self._lim = self.limits.record()
+        self.state = new(STATE)
+        self.state[0]["fault_joint"] = -1
 
     # ------------------------------------------------------------------ commands
     @property
     def armed(self) -> bool:
-        return bool(self.state[_ARMED])
+        return bool(self.state[0]["armed"])
 
     @property
     def fault(self) -> Fault:
-        return Fault(int(self.state[_FAULT]))
+        return Fault(int(self.state[0]["fault"]))
 
     @property
     def fault_joint(self) -> str:
         """The joint of the latched fault ('' for none or for an E-stop)."""
-        j = int(self.state[_FAULT_JOINT])
-        return JOINTS[j] if self.fault not in (Fault.NONE, Fault.ESTOP) and j >= 0 else ""
+        return joint_name(self.fault, int(self.state[0]["fault_joint"]))
 
     def arm(self) -> None:
         """Allow torque. Refused while a fault is latched (:meth:`reset` first)."""
-        if self.fault != Fault.NONE:
-            raise ParameterError("SafetyLayer", "arm", f"refused: {self.fault.name} is latched"
-                                 f"{' (' + self.fault_joint + ')' if self.fault_joint else ''}; "
-                                 "reset() first")
-        self.state[_ARMED] = 1.0
+        if not arm(self.state):
+            raise ParameterError("SafetyLayer", "arm",
+                                 f"refused: {fault_text(self.fault, self.fault_joint)} is "
+                                 "latched; reset() first")
 
     def disarm(self) -> None:
         """No torque from the next tick on (the torque rate does not apply to stopping)."""
-        self.state[_ARMED] = 0.0
+        disarm(self.state)
 
     def estop(self) -> None:
         """E-stop from a command (as the input would): torque off from the next tick, latched."""
-        if self.state[_FAULT] == 0:
-            self.state[_FAULT] = float(Fault.ESTOP)
-            self.state[_FAULT_JOINT] = -1
-        self.state[_ARMED] = 0.0
+        estop(self.state)
 
     def reset(self, q: ArrayLike, dq: ArrayLike, estop_input: bool = False) -> None:
         """Clear a latched fault, disarmed: only with the E-stop input released and the
         state finite, within the range of motion plus the hard margin, below overspeed."""
-        qa, va = np.asarray(q, dtype=float), np.asarray(dq, dtype=float)
+        qa = _check.reading("SafetyLayer.reset", "q", q, 3)
+        va = _check.reading("SafetyLayer.reset", "dq", dq, 3)
         if estop_input:
             raise ParameterError("SafetyLayer", "reset", "refused: the E-stop is still pressed")
-        probe, u, z = np.zeros(STATE_SIZE), np.zeros(3), np.zeros(3)
-        probe[_ARMED] = 1.0
-        safety_step(self._lim, probe, qa, va, z, False, u)
-        if probe[_FAULT] != 0:
-            f = Fault(int(probe[_FAULT]))
-            j = JOINTS[int(probe[_FAULT_JOINT])]
-            raise ParameterError("SafetyLayer", "reset", f"refused: {f.name} still holds "
-                                 f"({j})")
-        self.state[:] = 0.0
+        f, j = reset(self._lim, self.state, qa, va)
+        if f != Fault.NONE:
+            raise ParameterError("SafetyLayer", "reset", f"refused: {still_holds(f, j)}")
 
     # ---------------------------------------------------------------------- tick
     def step(self, q: ArrayLike, dq: ArrayLike, u_cmd: ArrayLike,
              estop: bool = False) -> tuple[F64, int]:
         """The torque allowed this tick (3,) N m and the status bits (:class:`Limited`)."""
+        w = "SafetyLayer.step"
         u = np.empty(3)
-        status = safety_step(self._lim, self.state, np.asarray(q, dtype=float),
-                             np.asarray(dq, dtype=float), np.asarray(u_cmd, dtype=float),
-                             bool(estop), u)
+        status = safety_step(self._lim, self.state, _check.reading(w, "q", q, 3),
+                             _check.reading(w, "dq", dq, 3),
+                             _check.reading(w, "u_cmd", u_cmd, 3), bool(estop), u)
         return u, int(status)
+
+
+def joint_name(fault: Fault, joint: int) -> str:
+    """The joint a latched fault names ('' for none, an E-stop, or no joint)."""
+    return JOINTS[joint] if fault not in (Fault.NONE, Fault.ESTOP) and 0 <= joint < 3 else ""
+
+
+def fault_text(fault: Fault, joint: str = "") -> str:
+    """A fault as people read it: ``OVERSPEED (ankle)``."""
+    return f"{fault.name}{f' ({joint})' if joint else ''}"
+
+
+def still_holds(fault: int, joint: int) -> str:
+    """Why a reset was refused: ``HARD_LIMIT still holds (hip)``."""
+    f = Fault(int(fault))
+    jn = joint_name(f, int(joint))
+    return f"{f.name} still holds{f' ({jn})' if jn else ''}"

@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
+from exoleg.layout import F8, new
 from exoleg.io import read_text
 from exoleg.params import _check
 from exoleg.params.records import JOINTS
@@ -124,19 +125,24 @@ class ActuatorModel:
         """rad per count."""
         return 2 * math.pi / 2**self.encoder_bits
 
-    def params(self) -> tuple[float, ...]:
-        """The figures the compiled functions take (:data:`P_*` indices)."""
-        return (self.torque_limit, self.max_velocity, self.peak_power_factor * self.power,
-                self.no_load_factor,
-                self.coulomb_friction, self.viscous_friction, self.friction_smoothing,
-                self.current_loop_bandwidth, self.encoder_resolution, self.velocity_filter_hz,
-                self.ratio)
+    def record(self) -> NDArray[np.void]:
+        """The figures the compiled functions take (:data:`ACTUATOR`)."""
+        r = new(ACTUATOR)
+        r[0] = (self.torque_limit, self.max_velocity, self.peak_power_factor * self.power,
+                self.no_load_factor, self.coulomb_friction, self.viscous_friction,
+                self.friction_smoothing, self.current_loop_bandwidth, self.encoder_resolution,
+                self.velocity_filter_hz, self.ratio)
+        return r
 
 
-# indices into ActuatorModel.params()
-P_TORQUE, P_SPEED, P_POWER, P_NO_LOAD, P_COULOMB, P_VISCOUS, P_SMOOTH, P_BANDWIDTH, \
-    P_RESOLUTION, P_FILTER, P_RATIO = range(11)
-N_P = 11
+#: An actuator as the compiled functions read it (:meth:`ActuatorModel.record`), joint
+#: side: torque limit (N m), speed limit (rad/s), peak power (W), the no-load speed as a
+#: multiple of the speed limit, Coulomb (N m) and viscous (N m s/rad) friction and the
+#: Coulomb term's smoothing speed (rad/s), the current loop's bandwidth (Hz), the
+#: encoder's resolution (rad), the velocity filter's cut-off (Hz), the gear ratio.
+ACTUATOR = np.dtype([("torque", F8), ("speed", F8), ("power", F8), ("no_load", F8),
+                     ("coulomb", F8), ("viscous", F8), ("smoothing", F8), ("bandwidth", F8),
+                     ("resolution", F8), ("filter_hz", F8), ("ratio", F8)])
 
 
 def parse_actuator(data: dict[str, Any], where: str) -> ActuatorModel:
@@ -205,27 +211,29 @@ def with_actuators(leg: LegModel, actuators: tuple[ActuatorModel, ...] | None = 
     return leg.with_armature([a.reflected_inertia for a in acts])
 
 
-def params_array(actuators: tuple[ActuatorModel, ...]) -> F64:
-    """(3, N_P) parameters of the three actuators, for the compiled loop."""
+def params_array(actuators: tuple[ActuatorModel, ...]) -> NDArray[np.void]:
+    """The three actuators (3,) of :data:`ACTUATOR`, for the compiled loop (``A[i:i + 1]``
+    is joint i's record)."""
     if len(actuators) != 3 or [a.joint for a in actuators] != list(JOINTS):
         raise ParameterError("actuators", "joint",
                              "need the hip, knee and ankle actuators, in that order")
-    return np.array([a.params() for a in actuators])
+    return np.concatenate([a.record() for a in actuators])
 
 
 # ------------------------------------------------------------------ compiled behaviour
 @njit(cache=True)
 def envelope(par, w):  # type: ignore[no-untyped-def]
-    """Largest joint torque (N m, >= 0) the actuator ``par`` (:meth:`ActuatorModel.params`)
+    """Largest joint torque (N m, >= 0) the actuator ``par`` (:data:`ACTUATOR`)
     delivers at joint speed ``w`` (rad/s)."""
+    P = par[0]
     s = abs(w)
-    t = par[P_TORQUE]
+    t = P.torque
     if s > 0.0:
-        t = min(t, par[P_POWER] / s)
-    wmax = par[P_SPEED]
+        t = min(t, P.power / s)
+    wmax = P.speed
     if s > wmax:
-        w0 = par[P_NO_LOAD] * wmax
-        corner = min(par[P_TORQUE], par[P_POWER] / wmax)
+        w0 = P.no_load * wmax
+        corner = min(P.torque, P.power / wmax)
         t = corner * max(0.0, (w0 - s) / (w0 - wmax))
     return t
 
@@ -234,7 +242,8 @@ def envelope(par, w):  # type: ignore[no-untyped-def]
 def friction(par, w):  # type: ignore[no-untyped-def]
     """Friction torque at the joint, N m, opposing the speed w: viscous plus smooth
     Coulomb (tanh over ``friction_smoothing``)."""
-    return par[P_VISCOUS] * w + par[P_COULOMB] * math.tanh(w / par[P_SMOOTH])
+    P = par[0]
+    return P.viscous * w + P.coulomb * math.tanh(w / P.smoothing)
 
 
 @njit(cache=True)
@@ -242,7 +251,7 @@ def current_loop(par, tau, tau_cmd, h):  # type: ignore[no-untyped-def]
     """The drive's torque (current) loop over a step of ``h`` s with the command held:
     first order of bandwidth f_c, exactly discretised. Returns (torque at the end of the
     step, mean torque over the step)."""
-    T = 1.0 / (2.0 * math.pi * par[P_BANDWIDTH])
+    T = 1.0 / (2.0 * math.pi * par[0].bandwidth)
     e = math.exp(-h / T)
     end = tau_cmd + (tau - tau_cmd) * e
     mean = tau_cmd + (tau - tau_cmd) * (T / h) * (1.0 - e)
@@ -252,7 +261,7 @@ def current_loop(par, tau, tau_cmd, h):  # type: ignore[no-untyped-def]
 @njit(cache=True)
 def encode(par, q):  # type: ignore[no-untyped-def]
     """The joint encoder's reading of angle q (rad): quantised to 2pi / 2^bits."""
-    r = par[P_RESOLUTION]
+    r = par[0].resolution
     return math.floor(q / r + 0.5) * r
 
 
@@ -260,4 +269,4 @@ def encode(par, q):  # type: ignore[no-untyped-def]
 def filter_gain(par, h):  # type: ignore[no-untyped-def]
     """Gain b of the velocity low-pass y += b (x - y) sampled every h s (exact for a
     first-order filter of ``velocity_filter_hz`` with the input held)."""
-    return 1.0 - math.exp(-2.0 * math.pi * par[P_FILTER] * h)
+    return 1.0 - math.exp(-2.0 * math.pi * par[0].filter_hz * h)

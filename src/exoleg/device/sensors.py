@@ -26,6 +26,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from exoleg.errors import ParameterError
+from exoleg.layout import F8, new
 from exoleg.params import _check
 
 F64 = NDArray[np.float64]
@@ -86,24 +87,33 @@ class FootSensors:
                    accel_bias=k * i["accel_bias_mg"] * 1e-3 * g,
                    accel_range=i["accel_range_g"] * g, imu_position=i["position"])
 
-    def params(self) -> F64:
-        """What the compiled functions take."""
-        return np.array([self.fsr_full_scale, self.fsr_linearity, self.fsr_noise,
-                         float(2**self.adc_bits - 1), self.adc_reference,
-                         self.fsr_full_scale_voltage, self.gyro_range, self.accel_range])
+    def record(self) -> NDArray[np.void]:
+        """What the compiled functions take (:data:`BOARD`)."""
+        r = new(BOARD)
+        r[0] = (self.fsr_full_scale, self.fsr_linearity, self.fsr_noise,
+                float(2**self.adc_bits - 1), self.adc_reference, self.fsr_full_scale_voltage,
+                self.gyro_range, self.accel_range)
+        return r
 
 
-S_FS, S_LIN, S_NOISE, S_COUNTS, S_REF, S_FSV, S_GRANGE, S_ARANGE = range(8)
+#: The foot board as the compiled functions read it (:meth:`FootSensors.record`): the
+#: FSR's full scale (N), linearity error and noise (fractions of full scale), the ADC's
+#: top count and reference (V), the FSR's full-scale voltage (V), the IMU's ranges
+#: (rad/s, m/s^2).
+BOARD = np.dtype([("full_scale", F8), ("linearity", F8), ("noise", F8), ("counts", F8),
+                  ("reference", F8), ("full_scale_v", F8), ("gyro_range", F8),
+                  ("accel_range", F8)])
 
 
 @njit(cache=True)
 def fsr_counts(s, force, noise):  # type: ignore[no-untyped-def]
     """ADC counts of one FSR under ``force`` N, with the unit normal draw ``noise``."""
-    f = max(force, 0.0) / s[S_FS]
-    v = s[S_FSV] * (f + 4.0 * s[S_LIN] * f * (1.0 - f) if f < 1.0 else f)
-    v += s[S_NOISE] * s[S_FSV] * noise
-    v = min(max(v, 0.0), s[S_REF])
-    return math.floor(v / s[S_REF] * s[S_COUNTS] + 0.5)
+    b = s[0]
+    f = max(force, 0.0) / b.full_scale
+    v = b.full_scale_v * (f + 4.0 * b.linearity * f * (1.0 - f) if f < 1.0 else f)
+    v += b.noise * b.full_scale_v * noise
+    v = min(max(v, 0.0), b.reference)
+    return math.floor(v / b.reference * b.counts + 0.5)
 
 
 @njit(cache=True)
@@ -116,7 +126,7 @@ def imu(s, foot_rate, acc_x, acc_y, phi, g, bias_g, bias_ax, bias_ay, n_g, n_ax,
     ax = c * fx + sn * fy + bias_ax + n_ax
     ay = -sn * fx + c * fy + bias_ay + n_ay
     gr = foot_rate + bias_g + n_g
-    rg, ra = s[S_GRANGE], s[S_ARANGE]
+    rg, ra = s[0].gyro_range, s[0].accel_range
     return min(max(gr, -rg), rg), min(max(ax, -ra), ra), min(max(ay, -ra), ra)
 
 

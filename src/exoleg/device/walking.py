@@ -42,7 +42,9 @@ from numpy.typing import NDArray
 from exoleg.device.actuator import friction
 from exoleg.dynamics.kernels import OFFSETS, coriolis_dq, gravity, mass_matrix
 from exoleg.dynamics.model import LegModel
+from exoleg.control.contract import SENSOR_POINTS
 from exoleg.errors import ParameterError
+from exoleg.layout import F8, new
 from exoleg.params import _check
 
 F64 = NDArray[np.float64]
@@ -52,7 +54,6 @@ F64 = NDArray[np.float64]
 #: first and fifth metatarsal heads, the hallux -- the usual insole positions on a foot
 #: whose ankle sits a quarter of the way from the heel (paper section 2.3 names four
 #: sensors, not where). Sagittal plane: the two metatarsal heads differ only in x.
-SENSOR_POINTS = ("heel", "met1", "met5", "hallux")
 SENSOR_X = (-0.18, 0.45, 0.38, 0.62)
 
 
@@ -166,17 +167,28 @@ class WalkingPlant:
     def leg_mass(self) -> float:
         return float(sum(lk.mass for lk in self.leg.links))
 
-    def params(self) -> F64:
-        """What the compiled plant takes: body mass, g, contact k, c, mu, v_s, support
-        k, c, height, belt speed, then the 4 points' (x, y)."""
+    def record(self) -> NDArray[np.void]:
+        """What the compiled plant takes (:data:`PLANT`)."""
         gr = self.ground
-        return np.array([self.body_mass, self.leg.g, gr.stiffness, gr.damping, gr.friction,
-                         gr.slip_speed, gr.support_stiffness, gr.support_damping,
-                         self.support_height, self.belt_speed, *self.points.ravel()])
+        r = new(PLANT)
+        r["body_mass"], r["g"], r["stiffness"], r["damping"] = (
+            self.body_mass, self.leg.g, gr.stiffness, gr.damping)
+        r["friction"], r["slip_speed"] = gr.friction, gr.slip_speed
+        r["support_stiffness"], r["support_damping"] = gr.support_stiffness, gr.support_damping
+        r["support_height"], r["belt_speed"], r["points"] = (
+            self.support_height, self.belt_speed, self.points)
+        return r
 
 
-# indices of WalkingPlant.params()
-W_BODY, W_G, W_K, W_C, W_MU, W_VS, W_SK, W_SC, W_SY, W_BELT, W_PTS = range(11)
+#: The walking plant's parameters as its compiled functions read them
+#: (:meth:`WalkingPlant.record`): the pelvis mass (kg), g, each contact's k (N/m), c
+#: (N s/m), mu and slip speed (m/s), the other leg's support k, c and height (m), the
+#: belt's speed (m/s; the scenery changes it and the support height as it runs), and the
+#: four contact points (x, y) in the foot frame (m).
+PLANT = np.dtype([("body_mass", F8), ("g", F8), ("stiffness", F8), ("damping", F8),
+                  ("friction", F8), ("slip_speed", F8), ("support_stiffness", F8),
+                  ("support_damping", F8), ("support_height", F8), ("belt_speed", F8),
+                  ("points", F8, (4, 2))])
 
 
 @njit(cache=True)
@@ -193,9 +205,10 @@ def contact_points(p, w, y, q, dq, dy, out):  # type: ignore[no-untyped-def]
         jx[i + 1] = jx[i] + p[5 * i + 1] * math.cos(phi)
         jy[i + 1] = jy[i] + p[5 * i + 1] * math.sin(phi)
     c, s = math.cos(ph[2]), math.sin(ph[2])
+    P = w[0].points
     for k in range(4):
-        px = w[W_PTS + 2 * k]
-        py = w[W_PTS + 2 * k + 1]
+        px = P[k, 0]
+        py = P[k, 1]
         x = jx[2] + c * px - s * py
         yy = jy[2] + s * px + c * py
         vx = 0.0
@@ -211,13 +224,14 @@ def contact_forces(w, pts, F):  # type: ignore[no-untyped-def]
     """Forces F (4, 2) (tangential x, normal y) of the belt on the four points from their
     state ``pts`` (:func:`contact_points`): spring-damper normal force, never pulling;
     friction against the belt. Returns the total normal force."""
+    W = w[0]
     total = 0.0
     for k in range(4):
         d = -pts[k, 1]  # the belt surface is y = 0
         if d > 0.0:
-            fn = max(0.0, w[W_K] * d - w[W_C] * pts[k, 3])
-            slip = pts[k, 2] + w[W_BELT]  # the belt moves at -belt_speed
-            F[k, 0] = -w[W_MU] * fn * math.tanh(slip / w[W_VS])
+            fn = max(0.0, W.stiffness * d - W.damping * pts[k, 3])
+            slip = pts[k, 2] + W.belt_speed  # the belt moves at -belt_speed
+            F[k, 0] = -W.friction * fn * math.tanh(slip / W.slip_speed)
             F[k, 1] = fn
             total += fn
         else:
@@ -229,7 +243,8 @@ def contact_forces(w, pts, F):  # type: ignore[no-untyped-def]
 @njit(cache=True)
 def support_force(w, y, dy):  # type: ignore[no-untyped-def]
     """The other leg under the pelvis: one-sided spring-damper, N (>= 0)."""
-    return max(0.0, w[W_SK] * (w[W_SY] - y) - w[W_SC] * dy)
+    W = w[0]
+    return max(0.0, W.support_stiffness * (W.support_height - y) - W.support_damping * dy)
 
 
 @njit(cache=True)
@@ -323,9 +338,9 @@ def walking_accel(p, w, y, dy, q, dq, tau, gen, out):  # type: ignore[no-untyped
     Cq = np.empty(3)
     coriolis_dq(q, dq, p, Cq)
     G = np.empty(3)
-    gravity(q, p, w[W_G], G)
+    gravity(q, p, w[0].g, G)
     pv, b, m_leg = _com_terms(p, q, dq)
-    mt = w[W_BODY] + m_leg
+    mt = w[0].body_mass + m_leg
     A = np.empty((4, 4))
     r = np.empty(4)
     A[0, 0] = mt
@@ -335,7 +350,7 @@ def walking_accel(p, w, y, dy, q, dq, tau, gen, out):  # type: ignore[no-untyped
         for k in range(3):
             A[1 + j, 1 + k] = M[j, k]
         r[1 + j] = tau[j] - Cq[j] - G[j] + gen[1 + j]
-    r[0] = gen[0] - mt * w[W_G] - b
+    r[0] = gen[0] - mt * w[0].g - b
     x = _solve4(A, r)
     for i in range(4):
         out[i] = x[i]
@@ -347,7 +362,7 @@ def walking_energy(p, w, y, dy, q, dq):  # type: ignore[no-untyped-def]
     M = np.empty((3, 3))
     mass_matrix(q, p, M)
     pv, _, m_leg = _com_terms(p, q, dq)
-    T = 0.5 * (w[W_BODY] + m_leg) * dy * dy
+    T = 0.5 * (w[0].body_mass + m_leg) * dy * dy
     for j in range(3):
         T += dy * pv[j] * dq[j]
         for k in range(3):
@@ -360,15 +375,16 @@ def walking_energy(p, w, y, dy, q, dq):  # type: ignore[no-untyped-def]
         phi += q[i] + OFFSETS[i]
         Y += p[5 * i] * (yj + p[5 * i + 2] * math.sin(phi) + p[5 * i + 3] * math.cos(phi))
         yj += p[5 * i + 1] * math.sin(phi)
-    return T + w[W_G] * ((w[W_BODY] + m_leg) * y + Y)
+    return T + w[0].g * ((w[0].body_mass + m_leg) * y + Y)
 
 
 @njit(cache=True)
 def _deriv(p, w, A, y, dy, q, dq, tau, gen, out):  # type: ignore[no-untyped-def]
-    """(ddy, ddq) with the actuators' friction (A: (3, N_P) or an empty array for none)."""
+    """(ddy, ddq) with the actuators' friction (A: (3,) of
+    :data:`~exoleg.device.actuator.ACTUATOR`, or an empty one for none)."""
     t = np.empty(3)
     for i in range(3):
-        t[i] = tau[i] - (friction(A[i], dq[i]) if A.shape[0] == 3 else 0.0)
+        t[i] = tau[i] - (friction(A[i:i + 1], dq[i]) if A.shape[0] == 3 else 0.0)
     walking_accel(p, w, y, dy, q, dq, t, gen, out)
 
 

@@ -35,7 +35,7 @@ class DriveMaster:
         self.timeout = timeout
         self.scaling = {j: JointScaling.of(actuators[i], (offsets or {}).get(j, 0))
                         for i, j in enumerate(JOINT_ORDER)}
-        self.b = np.array([filter_gain(np.array(a.params()), period) for a in actuators])
+        self.b = np.array([filter_gain(a.record(), period) for a in actuators])
         self.emcy: list[tuple[str, Any]] = []
         self.enabled = False
         self.tau = np.zeros(3)

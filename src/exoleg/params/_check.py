@@ -45,6 +45,20 @@ def vector(where: str, field: str, value: Any, n: int) -> NDArray[np.float64]:
     return np.array([finite(where, f"{field}[{i}]", v) for i, v in enumerate(value)])
 
 
+def reading(where: str, field: str, value: Any, n: int) -> NDArray[np.float64]:
+    """Return a measured or commanded vector of ``n`` numbers as floats. Non-finite values
+    pass (the safety layer latches a fault on them); anything but ``n`` real numbers --
+    another length, a table, text, booleans -- is refused, naming the field."""
+    try:
+        a = np.asarray(value)
+    except (TypeError, ValueError):
+        a = np.asarray(None)
+    if a.shape != (n,) or a.dtype.kind not in "fiu":
+        got = f"shape {a.shape} of {a.dtype}" if a.dtype != object else repr(value)[:60]
+        raise ParameterError(where, field, f"expected {n} numbers, got {got}")
+    return a if a.dtype == np.float64 else a.astype(np.float64)
+
+
 def keys(where: str, table: Mapping[str, Any], required: Iterable[str],
          optional: Iterable[str] = ()) -> None:
     """Check a table has every required key and no unknown one."""

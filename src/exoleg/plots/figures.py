@@ -156,7 +156,7 @@ def _torque_speed(ax: Axes, actuator: ActuatorModel, t: np.ndarray, dq: np.ndarr
     Table 2's maximum velocity marked."""
     from exoleg.device.actuator import envelope
 
-    par = np.array(actuator.params())
+    par = actuator.record()
     w = np.linspace(0, 1.15 * actuator.no_load_factor * actuator.max_velocity, 400)
     env = np.array([envelope(par, x) for x in w])
     wd = np.degrees(w)

@@ -9,7 +9,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from exoleg.control.contract import SENSORS
 from exoleg.dynamics.model import LegModel
+from exoleg.layout import new
 from exoleg.params.records import JOINTS
 from exoleg.sim.walk import SimulatedDevice, device_actuate, device_sense, prepare_walk
 
@@ -31,17 +33,17 @@ class SimBackend:
         self.period = period
         self.substeps = substeps
         self.S = self.dev.state()
-        self.w = self.dev.plant.params().copy()
+        self.w = self.dev.plant.record()
         self.p = self.dev.plant.leg.p
-        self.sens = self.dev.sensors.params()
+        self.sens = self.dev.sensors.record()
         self.rng = np.random.default_rng(seed)
         from exoleg.device.sensors import draw_noise
 
         self._draw = lambda: draw_noise(self.dev.sensors, _CHUNK, int(self.rng.integers(2**31)))
         self.fsr_noise, self.imu_noise, self.bias = self._draw()
         self.k = 0
-        self.counts, self.fn = np.zeros(4), np.zeros(4)
-        self.qm, self.vm, self.imu = np.zeros(3), np.zeros(3), np.zeros(3)
+        self.reading = new(SENSORS)
+        self.fn = np.zeros(4)
         self.u, self.env, self.tau = np.zeros(3), np.zeros(3), np.zeros(3)
         self.walk_start = -1.0
 
@@ -53,11 +55,10 @@ class SimBackend:
     def warm_up(self) -> None:
         """Compile (or load from numba's cache) the tick's functions on copies of the state,
         so that the first real tick is not late by the compile time."""
-        S, w = self.S.copy(), self.w.copy()
-        c, f, q, v, m = (np.zeros(4), np.zeros(4), np.zeros(3), np.zeros(3), np.zeros(3))
-        device_sense(self.p, w, self.dev.A, self.sens, self.dev.leg.g, self.dev.imu_x,
-                     -self.dev.depth, S, self.period, True, self.fsr_noise[0],
-                     self.imu_noise[0], self.bias, c, q, v, m, f)
+        S, w, f = self.S.copy(), self.w.copy(), np.zeros(4)
+        device_sense(self.p, w, self.dev.A, self.sens, self.dev.imu_x, -self.dev.depth, S,
+                     self.period, True, self.fsr_noise[0], self.imu_noise[0], self.bias,
+                     new(SENSORS), f)
         device_actuate(self.p, w, self.dev.A, S, self.period, self.substeps, np.zeros(3), f,
                        False, 0.0, 1e18, self.dev.stride_time, self.dev.support,
                        self.dev.plant.support_height, np.zeros(3), np.zeros(3))
@@ -66,11 +67,11 @@ class SimBackend:
         i = self.k % _CHUNK
         if i == 0 and self.k:
             self.fsr_noise, self.imu_noise, _ = self._draw()
-        device_sense(self.p, self.w, self.dev.A, self.sens, self.dev.leg.g, self.dev.imu_x,
-                     -self.dev.depth, self.S, self.period, self.k == 0, self.fsr_noise[i],
-                     self.imu_noise[i], self.bias, self.counts, self.qm, self.vm, self.imu,
-                     self.fn)
-        return {"q": self.qm, "dq": self.vm, "fsr": self.counts, "gyro": self.imu[0]}
+        device_sense(self.p, self.w, self.dev.A, self.sens, self.dev.imu_x, -self.dev.depth,
+                     self.S, self.period, self.k == 0, self.fsr_noise[i], self.imu_noise[i],
+                     self.bias, self.reading, self.fn)
+        r = self.reading[0]
+        return {"q": r["q"], "dq": r["dq"], "fsr": r["fsr"], "gyro": float(r["gyro"])}
 
     def write(self, tau: F64) -> None:
         self.u[:] = tau
@@ -89,5 +90,6 @@ class SimBackend:
         self.k += 1
 
     def record(self) -> F64:
-        return np.concatenate([self.qm, self.vm, self.counts, self.imu[:1], self.S[1:4],
-                               self.S[:1], self.tau])
+        r, x = self.reading[0], self.S[0]["x"]
+        return np.concatenate([r["q"], r["dq"], r["fsr"], [r["gyro"]], x[1:4], x[:1],
+                               self.tau])

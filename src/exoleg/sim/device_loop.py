@@ -33,9 +33,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from exoleg.control.controllers import Controller
 from exoleg.control.laws import law
-from exoleg.control.safety import STATE_SIZE, SafetyLayer, SafetyLimits, safety_step
+from exoleg.control.safety import SafetyLayer, SafetyLimits, safety_step
 from exoleg.device.actuator import (
-    P_RATIO,
     ActuatorModel,
     current_loop,
     encode,
@@ -61,8 +60,8 @@ def _accel(coef, A, q0, q1, q2, v0, v1, v2, t0, t1, t2):  # type: ignore[no-unty
     """Joint accelerations under motor torques t minus the actuators' friction at v."""
     return forward_dynamics_sc(math.sin(q0), math.cos(q0), math.sin(q1), math.cos(q1),
                                math.sin(q2), math.cos(q2), v0, v1, v2,
-                               t0 - friction(A[0], v0), t1 - friction(A[1], v1),
-                               t2 - friction(A[2], v2), coef)
+                               t0 - friction(A[0:1], v0), t1 - friction(A[1:2], v1),
+                               t2 - friction(A[2:3], v2), coef)
 
 
 @njit(inline="always")
@@ -105,13 +104,13 @@ def _run_device(p, g, kind, kp, kd, kc, scale, limit, A, lim, state, Qr, DQr, DD
     u_cmd = np.empty(3)
     u_safe = np.empty(3)
     for i in range(3):
-        b[i] = filter_gain(A[i], h)
-        qm_prev[i] = encode(A[i], Q[0, i])
+        b[i] = filter_gain(A[i:i + 1], h)
+        qm_prev[i] = encode(A[i:i + 1], Q[0, i])
         vm[i] = DQ[0, i]  # the filter starts settled on the initial velocity
     for k in range(n + 1):
         # 1. encoders and the filtered finite-difference velocity
         for i in range(3):
-            qm = encode(A[i], Q[k, i])
+            qm = encode(A[i:i + 1], Q[k, i])
             if k > 0:
                 vm[i] += b[i] * ((qm - qm_prev[i]) / h - vm[i])
             qm_prev[i] = qm
@@ -128,7 +127,7 @@ def _run_device(p, g, kind, kp, kd, kc, scale, limit, A, lim, state, Qr, DQr, DD
         STATUS[k] = safety_step(lim, state, QM[k], vm, u_cmd, False, u_safe)
         # 4. the drive: the torque-speed envelope at the measured speed
         for i in range(3):
-            e = envelope(A[i], vm[i])
+            e = envelope(A[i:i + 1], vm[i])
             ENV[k, i] = e
             tau_cmd[i] = min(max(u_safe[i], -e), e)
             UC[k, i] = u_cmd[i]
@@ -136,7 +135,7 @@ def _run_device(p, g, kind, kp, kd, kc, scale, limit, A, lim, state, Qr, DQr, DD
         if k == n:
             for i in range(3):
                 TAU[k, i] = tau_a[i]
-                FR[k, i] = friction(A[i], DQ[k, i])
+                FR[k, i] = friction(A[i:i + 1], DQ[k, i])
             break
         # 5. the plant, with the current loop's mean torque held over each substep
         x0, x1, x2 = Q[k, 0], Q[k, 1], Q[k, 2]
@@ -145,10 +144,10 @@ def _run_device(p, g, kind, kp, kd, kc, scale, limit, A, lim, state, Qr, DQr, DD
         fr0 = fr1 = fr2 = 0.0
         for _ in range(sub):
             for i in range(3):
-                tau_a[i], mean[i] = current_loop(A[i], tau_a[i], tau_cmd[i], hs)
-            fr0 += friction(A[0], v0)
-            fr1 += friction(A[1], v1)
-            fr2 += friction(A[2], v2)
+                tau_a[i], mean[i] = current_loop(A[i:i + 1], tau_a[i], tau_cmd[i], hs)
+            fr0 += friction(A[0:1], v0)
+            fr1 += friction(A[1:2], v1)
+            fr2 += friction(A[2:3], v2)
             acc0 += mean[0]
             acc1 += mean[1]
             acc2 += mean[2]
@@ -273,7 +272,7 @@ def simulate_device(leg: LegModel, controller: Controller, reference: Reference,
     layer = SafetyLayer(lim)
     layer.arm()
     bad = _run_device(plant.p, plant.g, controller.kind, *controller.law_args(), A,
-                      lim.as_tuple(), layer.state, Qr, DQr, DDQr, control_dt, substeps,
+                      lim.record(), layer.state, Qr, DQr, DDQr, control_dt, substeps,
                       Q, DQ, QM, DQM, UC, US, TAU, FR, STATUS, ENV)
     if bad >= 0:
         raise SimulationError(f"state became non-finite at t = {t[bad]:.6g} s")
@@ -285,4 +284,4 @@ def simulate_device(leg: LegModel, controller: Controller, reference: Reference,
                         stability_margin=margin)
 
 
-__all__ = ["DeviceResult", "P_RATIO", "simulate_device", "STATE_SIZE"]
+__all__ = ["DeviceResult", "simulate_device"]

@@ -31,9 +31,9 @@ from numba import njit
 from numpy.typing import NDArray
 
 from exoleg.control import gait_phase as gp
+from exoleg.control.contract import OUTPUT, SENSORS, Command, Mode
 from exoleg.control.hierarchy import (
     START_FRACTION,
-    Command,
     WalkController,
     WalkGains,
     walk_control_step,
@@ -50,8 +50,6 @@ from exoleg.device.actuator import (
 from exoleg.device.sensors import FootSensors, draw_noise, fsr_counts, imu
 from exoleg.device.walking import (
     SENSOR_POINTS,
-    W_BELT,
-    W_SY,
     Ground,
     WalkingPlant,
     contact_forces,
@@ -62,6 +60,7 @@ from exoleg.device.walking import (
 from exoleg.dynamics.kernels import OFFSETS
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError, SimulationError
+from exoleg.layout import F8, new
 from exoleg.params.records import JOINTS
 from exoleg.sim.series import TimeSeries
 
@@ -92,57 +91,63 @@ def _imu_point(p, x, px, py):  # type: ignore[no-untyped-def]
     return vx, vy, phi
 
 
-#: layout of a simulated device's state (:func:`device_sense`, :func:`device_actuate`):
-#: the plant state x (8), the drives' torques (3), the encoders' last readings (3), the
-#: filtered velocities (3), the IMU point's last velocity (2), the other leg's timing
-#: (loaded, t_off, t_strike) and the belt's speed
-P_X, P_TAU, P_QM, P_VM, P_VIMU, P_LOADED, P_TOFF, P_TSTRIKE, P_BELT = 0, 8, 11, 14, 17, 19, 20, \
-    21, 22
-P_SIZE = 23
+#: A simulated device's state (:func:`device_sense`, :func:`device_actuate`): the plant
+#: state x = (y, q0, q1, q2, dy, dq0, dq1, dq2), the drives' torques (N m), the encoders'
+#: last readings (rad), the filtered rates (rad/s), the IMU point's last velocity (m/s),
+#: the other leg's timing (this leg loaded, its last toe off and strike, s) and the
+#: belt's speed while walking (m/s).
+DEVICE = np.dtype([("x", F8, 8), ("tau", F8, 3), ("qm", F8, 3), ("vm", F8, 3),
+                   ("v_imu", F8, 2), ("loaded", np.bool_), ("t_off", F8), ("t_strike", F8),
+                   ("belt", F8)])
 
 
-def device_state(plant: WalkingPlant, A: F64, x0: F64, imu_x: float, imu_y: float) -> F64:
-    """A simulated device's state at rest in ``x0`` (8,) (see :data:`P_SIZE`)."""
-    S = np.zeros(P_SIZE)
-    S[P_X:P_X + 8] = x0
-    for i in range(3):
-        S[P_QM + i] = encode(A[i], x0[1 + i])
-        S[P_VM + i] = x0[5 + i]
+def device_state(plant: WalkingPlant, A: NDArray[np.void], x0: F64, imu_x: float,
+                 imu_y: float) -> NDArray[np.void]:
+    """A simulated device's state at rest in ``x0`` (8,) (:data:`DEVICE`)."""
+    S = new(DEVICE)
+    r = S[0]
+    r["x"] = x0
+    r["qm"] = [encode(A[i:i + 1], x0[1 + i]) for i in range(3)]
+    r["vm"] = x0[5:8]
     vx, vy, _ = _imu_point(plant.leg.p, x0, imu_x, imu_y)
-    S[P_VIMU], S[P_VIMU + 1] = vx, vy
-    S[P_LOADED] = 1.0
-    S[P_TOFF] = S[P_TSTRIKE] = -1e9
-    S[P_BELT] = plant.belt_speed
+    r["v_imu"] = vx, vy
+    r["loaded"] = True
+    r["t_off"] = r["t_strike"] = -1e9
+    r["belt"] = plant.belt_speed
     return S
 
 
 @njit(cache=True, error_model="numpy")
-def device_sense(p, w, A, sens, g, imu_x, imu_y, S, h, first,  # type: ignore[no-untyped-def]
-                 fsr_noise, imu_noise, imu_bias, counts, qm, vm, imu_out, fn):
-    """What the device's sensors read now: FSR counts (4,), encoder angles and filtered
-    rates (3,), IMU (gyro, accel x, y); and the true normal forces ``fn`` (4,)."""
-    x = S[P_X:P_X + 8]
+def device_sense(p, w, A, sens, imu_x, imu_y, S, h, first, fsr_noise, imu_noise,  # type: ignore[no-untyped-def]
+                 imu_bias, out, fn):
+    """What the device's sensors read now into ``out`` (:data:`SENSORS`, its ``command``
+    left alone): FSR counts, encoder angles and filtered rates, IMU (gyro, accel x, y);
+    and the true normal forces ``fn`` (4,). ``S``: :data:`DEVICE`."""
+    D = S[0]
+    o = out[0]
+    x = D.x
     pts = np.empty((4, 4))
     F = np.empty((4, 2))
     contact_points(p, w, x[0], x[1:4], x[5:8], x[4], pts)
     contact_forces(w, pts, F)
     for i in range(4):
         fn[i] = F[i, 1]
-        counts[i] = fsr_counts(sens, F[i, 1], fsr_noise[i])
+        o.fsr[i] = fsr_counts(sens, F[i, 1], fsr_noise[i])
     vx, vy, phi = _imu_point(p, x, imu_x, imu_y)
-    ax = 0.0 if first else (vx - S[P_VIMU]) / h
-    ay = 0.0 if first else (vy - S[P_VIMU + 1]) / h
-    S[P_VIMU], S[P_VIMU + 1] = vx, vy
-    imu_out[0], imu_out[1], imu_out[2] = imu(sens, x[5] + x[6] + x[7], ax, ay, phi, g,
-                                             imu_bias[0], imu_bias[1], imu_bias[2],
-                                             imu_noise[0], imu_noise[1], imu_noise[2])
+    ax = 0.0 if first else (vx - D.v_imu[0]) / h
+    ay = 0.0 if first else (vy - D.v_imu[1]) / h
+    D.v_imu[0], D.v_imu[1] = vx, vy
+    o.gyro, o.accel[0], o.accel[1] = imu(sens, x[5] + x[6] + x[7], ax, ay, phi, w[0].g,
+                                         imu_bias[0], imu_bias[1], imu_bias[2],
+                                         imu_noise[0], imu_noise[1], imu_noise[2])
     for i in range(3):
-        q = encode(A[i], x[1 + i])
+        a = A[i:i + 1]
+        q = encode(a, x[1 + i])
         if not first:
-            S[P_VM + i] += filter_gain(A[i], h) * ((q - S[P_QM + i]) / h - S[P_VM + i])
-        S[P_QM + i] = q
-        qm[i] = q
-        vm[i] = S[P_VM + i]
+            D.vm[i] += filter_gain(a, h) * ((q - D.qm[i]) / h - D.vm[i])
+        D.qm[i] = q
+        o.q[i] = q
+        o.dq[i] = D.vm[i]
 
 
 @njit(cache=True, error_model="numpy")
@@ -154,27 +159,30 @@ def device_actuate(p, w, A, S, h, sub, u, fn, walking, t, t_walk, stride, suppor
     other leg (an actor) keeps time with this leg's true foot strikes (from ``fn``) while
     ``walking``. Returns (the other leg's mean force on the pelvis, 1 if the state is
     still finite)."""
+    D = S[0]
+    W = w[0]
     total = fn[0] + fn[1] + fn[2] + fn[3]
-    if total > 5.0 and S[P_LOADED] < 0.5 and t - S[P_TOFF] > 0.3 * stride:
-        S[P_TSTRIKE] = t
+    if total > 5.0 and not D.loaded and t - D.t_off > 0.3 * stride:
+        D.t_strike = t
     if total > 5.0:
-        S[P_LOADED] = 1.0
-    elif S[P_LOADED] > 0.5:
-        S[P_LOADED] = 0.0
-        S[P_TOFF] = t
+        D.loaded = True
+    elif D.loaded:
+        D.loaded = False
+        D.t_off = t
     if walking and t >= t_walk:
-        w[W_BELT] = S[P_BELT]
-        if S[P_TSTRIKE] > t_walk:
-            xc = min((t - S[P_TSTRIKE]) / stride, 0.999)
+        W.belt_speed = D.belt
+        if D.t_strike > t_walk:
+            xc = min((t - D.t_strike) / stride, 0.999)
         else:
             xc = min(START_FRACTION + (t - t_walk) / stride, 0.999)
-        w[W_SY] = support[min(int(xc * (support.shape[0] - 1) + 0.5), support.shape[0] - 1)]
+        W.support_height = support[min(int(xc * (support.shape[0] - 1) + 0.5),
+                                       support.shape[0] - 1)]
     else:
-        w[W_BELT] = 0.0
-        w[W_SY] = stand_support
+        W.belt_speed = 0.0
+        W.support_height = stand_support
     for i in range(3):
-        env[i] = envelope(A[i], S[P_VM + i])
-    x = S[P_X:P_X + 8]
+        env[i] = envelope(A[i:i + 1], D.vm[i])
+    x = D.x
     pts = np.empty((4, 4))
     F = np.empty((4, 2))
     gen = np.empty(4)
@@ -185,7 +193,7 @@ def device_actuate(p, w, A, S, h, sub, u, fn, walking, t, t_walk, stride, suppor
     for _ in range(sub):
         for i in range(3):
             tc = min(max(u[i], -env[i]), env[i])
-            S[P_TAU + i], mean[i] = current_loop(A[i], S[P_TAU + i], tc, hs)
+            D.tau[i], mean[i] = current_loop(A[i:i + 1], D.tau[i], tc, hs)
             acc[i] += mean[i]
         supp += step_contacts(p, w, x, pts, F, gen)
         walking_step(p, w, A, x, mean, gen, hs)
@@ -199,35 +207,35 @@ def device_actuate(p, w, A, S, h, sub, u, fn, walking, t, t_walk, stride, suppor
 
 
 @njit(cache=True, error_model="numpy")
-def _run_walk(p, w, A, cp, gq, gdq, cp_p, g, fx, sole, d, st, lim, sst, sup, sens,  # type: ignore[no-untyped-def]
-              fsr_noise, imu_noise, imu_bias, imu_x, imu_y, commands, h, sub,
-              support, stand_support, t_walk, stride, S,
-              X, QM, VM, COUNTS, FN, IMU, INFO, UC, TAU, ENV, SUP):
+def _run_walk(p, w, A, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_y, commands,  # type: ignore[no-untyped-def]
+              h, sub, support, stand_support, t_walk, stride, S, X, SENS, FN, OUT, TAU, ENV,
+              SUP):
+    """The walking run: per tick k the device's readings into ``SENS[k]``, the
+    controller's tick (``ctl``: :meth:`WalkController.compiled`) into ``OUT[k]``, the
+    drives and the plant. Returns -1, or the tick whose state became non-finite."""
+    cp, gq, gdq, cp_p, d, st, lim, sst, sup = ctl
     n = X.shape[0] - 1
-    u = np.zeros(3)
-    info = np.zeros(8)
     for k in range(n + 1):
         t = k * h
+        sk = SENS[k:k + 1]
+        ok_ = OUT[k:k + 1]
         # 1. the foot board and the encoders
-        device_sense(p, w, A, sens, g, imu_x, imu_y, S, h, k == 0, fsr_noise[k],
-                     imu_noise[k], imu_bias, COUNTS[k], QM[k], VM[k], IMU[k], FN[k])
+        device_sense(p, w, A, sens, imu_x, imu_y, S, h, k == 0, fsr_noise[k], imu_noise[k],
+                     imu_bias, sk, FN[k])
+        sk[0].command = commands[k]
         # 2. the controller tick (supervisor, detection, reference, impedance, safety)
-        walk_control_step(cp, gq, gdq, cp_p, g, fx, sole, d, st, lim, sst, sup, QM[k], VM[k],
-                          COUNTS[k], t, commands[k], u, info)
-        for i in range(8):
-            INFO[k, i] = info[i]
-        for i in range(3):
-            UC[k, i] = u[i]
+        walk_control_step(cp, gq, gdq, cp_p, d, st, lim, sst, sup, sk, t, ok_)
         if k == n:
             for i in range(3):
-                ENV[k, i] = envelope(A[i], VM[k, i])
-                TAU[k, i] = S[P_TAU + i]
+                ENV[k, i] = envelope(A[i:i + 1], SENS[k].dq[i])
+                TAU[k, i] = S[0].tau[i]
             break
         # 3. the drives and 4. the plant
-        SUP[k], ok = device_actuate(p, w, A, S, h, sub, u, FN[k], info[0] == 2, t, t_walk,
-                                    stride, support, stand_support, ENV[k], TAU[k])
+        SUP[k], ok = device_actuate(p, w, A, S, h, sub, OUT[k].tau, FN[k],
+                                    OUT[k].mode == Mode.WALKING, t, t_walk, stride, support,
+                                    stand_support, ENV[k], TAU[k])
         for i in range(8):
-            X[k + 1, i] = S[P_X + i]
+            X[k + 1, i] = S[0].x[i]
         if not ok:
             return k + 1
     return -1
@@ -407,7 +415,7 @@ class SimulatedDevice:
     safety: SafetyLimits
 
     def state(self) -> F64:
-        """A fresh device state at the start posture (:data:`P_SIZE`)."""
+        """A fresh device state at the start posture (:data:`DEVICE`)."""
         return device_state(self.plant, self.A, self.x0, self.imu_x, -self.depth)
 
 
@@ -443,7 +451,7 @@ def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
     ctl = WalkController(plant_leg, share,
                          WalkGains.default(folder) if gains is None else gains,
                          DetectorSettings.default(folder), lim, speed, stride_time,
-                         float(fsr_counts(sens.params(), 20.0, 0.0)), depth)
+                         float(fsr_counts(sens.record(), 20.0, 0.0)), depth)
     q0 = ctl.gains.standing
     fk = leg.fk(q0)
     x0 = np.zeros(8)
@@ -486,26 +494,23 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     X = np.zeros((n + 1, 8))
     X[0] = dev.x0
     fsr_noise, imu_noise, bias = draw_noise(sens, n + 1, seed)
-    QM, VM, UC, TAU, ENV = (np.zeros((n + 1, 3)) for _ in range(5))
-    COUNTS, FN = np.zeros((n + 1, 4)), np.zeros((n + 1, 4))
-    IMU = np.zeros((n + 1, 3))
-    INFO = np.zeros((n + 1, 8))
+    TAU, ENV = np.zeros((n + 1, 3)), np.zeros((n + 1, 3))
+    SENS, OUT = np.zeros(n + 1, SENSORS), np.zeros(n + 1, OUTPUT)
+    FN = np.zeros((n + 1, 4))
     SUP = np.zeros(n + 1)
-    bad = _run_walk(plant.leg.p, plant.params().copy(), dev.A, ctl.cp, ctl.gq, ctl.gdq,
-                    ctl.leg.p, leg.g, ctl.fx, ctl.sole, ctl.d, ctl.st, ctl.lim, ctl.sst,
-                    ctl.sup, sens.params(), fsr_noise, imu_noise, bias, dev.imu_x, -dev.depth,
-                    commands, control_dt, substeps, dev.support, plant.support_height,
-                    standing, stride_time, dev.state(), X, QM, VM, COUNTS, FN, IMU, INFO, UC,
-                    TAU, ENV, SUP)
+    bad = _run_walk(plant.leg.p, plant.record(), dev.A, ctl.compiled(), sens.record(),
+                    fsr_noise, imu_noise, bias, dev.imu_x, -dev.depth, commands, control_dt,
+                    substeps, dev.support, plant.support_height, standing, stride_time,
+                    dev.state(), X, SENS, FN, OUT, TAU, ENV, SUP)
     if bad >= 0:
         raise SimulationError(f"walking state became non-finite at t = {bad * control_dt:.4g} s")
     t: F64 = np.arange(n + 1, dtype=np.float64) * control_dt
-    return WalkResult(t=t, pelvis=X[:, 0], q=X[:, 1:4], dq=X[:, 5:8], q_meas=QM, dq_meas=VM,
-                      q_ref=INFO[:, 5:8], fsr=COUNTS, contact_force=FN, gyro=IMU[:, 0],
-                      accel=IMU[:, 1:3], mode=INFO[:, 0].astype(np.int64),
-                      phase=INFO[:, 1].astype(np.int64), gait_fraction=INFO[:, 2],
-                      events=INFO[:, 3].astype(np.int64),
-                      safety_status=INFO[:, 4].astype(np.int64), u_safe=UC, tau=TAU,
+    return WalkResult(t=t, pelvis=X[:, 0], q=X[:, 1:4], dq=X[:, 5:8], q_meas=SENS["q"],
+                      dq_meas=SENS["dq"], q_ref=OUT["q_ref"], fsr=SENS["fsr"],
+                      contact_force=FN, gyro=SENS["gyro"], accel=SENS["accel"],
+                      mode=OUT["mode"], phase=OUT["phase"],
+                      gait_fraction=OUT["gait_fraction"], events=OUT["events"],
+                      safety_status=OUT["safety_status"], u_safe=OUT["tau"], tau=TAU,
                       envelope=ENV, support=SUP, plant=plant, actuators=dev.actuators,
                       walk_start=standing, stride_time=stride_time)
 
