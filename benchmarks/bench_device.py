@@ -35,6 +35,7 @@ from numba import njit
 
 import exoleg
 from exoleg.control import PDGravity
+from exoleg.control.contract import OUTPUT, SENSORS, Command
 from exoleg.control.hierarchy import walk_control_step
 from exoleg.control.laws import law
 from exoleg.control.safety import SafetyLayer, SafetyLimits, safety_step
@@ -64,20 +65,18 @@ def _ticks(kind, kp, kd, kc, scale, limit, lim, state, Q, V, R, out):  # type: i
 
 
 def _walk_ticks(ctl, n: int) -> None:  # type: ignore[no-untyped-def]
-    _walk_loop(ctl.cp, ctl.gq, ctl.gdq, ctl.leg.p, ctl.leg.g, ctl.fx, ctl.sole, ctl.d,
-               ctl.st, ctl.lim, ctl.sst, ctl.sup, n)
+    sens = np.zeros(1, SENSORS)
+    sens[0]["q"] = [0.03, -0.05, 0.02]
+    sens[0]["fsr"] = [1500.0, 800.0, 600.0, 300.0]
+    _walk_loop(ctl.compiled(), sens, np.zeros(1, OUTPUT), n)
 
 
 @njit(cache=True)
-def _walk_loop(cp, gq, gdq, p, g, fx, sole, d, st, lim, sst, sup, n):  # type: ignore[no-untyped-def]
-    u = np.empty(3)
-    info = np.empty(8)
-    qm = np.array([0.03, -0.05, 0.02])
-    vm = np.zeros(3)
-    counts = np.array([1500.0, 800.0, 600.0, 300.0])
+def _walk_loop(ctl, sens, out, n):  # type: ignore[no-untyped-def]
+    cp, gq, gdq, p, d, st, lim, sst, sup = ctl
     for k in range(n):
-        walk_control_step(cp, gq, gdq, p, g, fx, sole, d, st, lim, sst, sup, qm, vm, counts,
-                          k * 1e-3, 3 if k == 10 else 0, u, info)
+        sens[0].command = Command.WALK if k == 10 else Command.NONE
+        walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, sens, k * 1e-3, out)
 
 
 def best(fn, repeat: int) -> float:  # type: ignore[no-untyped-def]
@@ -101,7 +100,7 @@ def main() -> None:
     layer = SafetyLayer(lim)
     layer.arm()
     out = np.zeros(1)
-    tick = best(lambda: _ticks(ctrl.kind, *ctrl.law_args(), lim.as_tuple(), layer.state, Q, V,
+    tick = best(lambda: _ticks(ctrl.kind, *ctrl.law_args(), lim.record(), layer.state, Q, V,
                                R, out), 5) / TICKS
 
     base = paper_reference()
@@ -162,7 +161,7 @@ def main() -> None:
         m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_LIMIT
         d = mujoco.MjData(m)
         foot = m.body("foot").id
-        p, w = plant.leg.p, plant.params()
+        p, w = plant.leg.p, plant.record()
         pts, F, gen = np.empty((4, 4)), np.empty((4, 2)), np.empty(4)
         x = np.zeros(8)
         n_steps = int(walked / 5e-4)

@@ -20,7 +20,7 @@ import pytest
 pytest.importorskip("starlette", reason="starlette (exoleg[api])")
 httpx = pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
 
-from exoleg.control.hierarchy import Command  # noqa: E402
+from exoleg.control.contract import Command  # noqa: E402
 from exoleg.errors import ParameterError  # noqa: E402
 from exoleg.hmi.server import bind_check  # noqa: E402
 from exoleg.hmi.testing import free_port, wait_until  # noqa: E402

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import exoleg
-from exoleg.control.hierarchy import Command
+from exoleg.control.contract import Command
 from exoleg.runtime.log import MAX_LOSS_TICKS, SessionLog, read_log
 from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, run_session
 from exoleg.runtime.sim_backend import SimBackend
@@ -81,8 +81,8 @@ class _Failing:
     def __init__(self, inner, k: int, how: str) -> None:  # type: ignore[no-untyped-def]
         self.inner, self.k, self.how, self.n = inner, k, how, 0
 
-    def step(self, sensors, t):  # type: ignore[no-untyped-def]
-        out = self.inner.step(sensors, t)
+    def update(self, sensors, command, t):  # type: ignore[no-untyped-def]
+        out = self.inner.update(sensors, command, t)
         self.n += 1
         if self.n > self.k:
             if self.how == "raise":
@@ -168,11 +168,11 @@ def test_loop_overrun_takes_torque_off(tmp_path: Path, backend_factory) -> None:
         def __init__(self, inner) -> None:  # type: ignore[no-untyped-def]
             self.inner, self.n = inner, 0
 
-        def step(self, sensors, t):  # type: ignore[no-untyped-def]
+        def update(self, sensors, command, t):  # type: ignore[no-untyped-def]
             self.n += 1
             if self.n == 300:
                 _time.sleep(OVERRUN_S + 0.03)
-            return self.inner.step(sensors, t)
+            return self.inner.update(sensors, command, t)
 
     b = backend_factory()
     res, cols = _session(tmp_path, b, Stalling(b.controller), 1.0, {0: Command.ARM})

@@ -23,7 +23,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
-from exoleg.entry import BODY_MASS, CHILD_ENTRY, DEFAULT_BODY_MASS, MEASURED
+from exoleg.entry import BODY_MASS, CHILD_ENTRY, CONTROLLERS, DEFAULT_BODY_MASS, LAWS, MEASURED
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -274,7 +274,7 @@ def _build(args: argparse.Namespace) -> dict[str, Any]:
     import numpy as np
 
     import exoleg
-    from exoleg.control import PD, ComputedTorque, PDGravity
+    from exoleg.control.controllers import law_named
     from exoleg.reference import MinJerk, Reference, SchwartzGait2008, Steps
     from exoleg.sim import scenario
 
@@ -285,13 +285,8 @@ def _build(args: argparse.Namespace) -> dict[str, Any]:
         warnings += [warning] if warning else []
     else:
         leg = exoleg.paper_leg("simplified")
-    sat = True if args.saturate else None
-    if args.controller == "pd-gravity":
-        ctrl = PDGravity(leg, args.kp, args.kd, saturation=sat)
-    elif args.controller == "pd":
-        ctrl = PD(args.kp, args.kd, saturation=sat)
-    else:
-        ctrl = ComputedTorque(leg, args.kp or [400.0] * 3, args.kd or [40.0] * 3, saturation=sat)
+    ctrl = law_named(args.controller, leg, args.kp, args.kd,
+                     saturation=True if args.saturate else None)
     changes = None
     ref: Reference
     if args.reference in ("paper", "steps", "minjerk"):
@@ -826,7 +821,6 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 
 # --------------------------------------------------------------------------- run, log
-_MODES = {0: "disarmed", 1: "standing", 2: "walking", 3: "fault"}
 
 
 def _bus_options(command: str, backend: str, **given: Any) -> None:
@@ -846,7 +840,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     _bus_options("exoleg run", args.backend, interface=args.interface,
                  bus_timeout=args.bus_timeout)
     bus_timeout = None if args.bus_timeout is None else args.bus_timeout * 1e-3
-    check_options(args.backend, args.interface, args.arm, args.walk_after, bus_timeout)
+    check_options(args.backend, args.interface, args.arm, args.walk_after, bus_timeout,
+                  controller=args.controller, link=True if args.hmi else None)
     leg = None
     if args.leg:
         leg, warning = _read_leg(args.leg)
@@ -874,20 +869,24 @@ def cmd_run(args: argparse.Namespace) -> int:
                         arm=args.arm, walk_after=args.walk_after, leg=leg,
                         body_mass=args.body_mass, seed=args.seed,
                         realtime=not args.no_realtime, interface=args.interface,
-                        channel=args.channel, link=link, bus_timeout=bus_timeout)
+                        channel=args.channel, link=link, bus_timeout=bus_timeout,
+                        controller=args.controller)
     finally:
         if web is not None:
             web.terminate()
             web.join(timeout=5)
     s = summarize(path)
     t = res.timing
-    _say(f"exoleg run --backend {args.backend}: {res.ticks} ticks at {args.rate:g} Hz, ended "
+    _say(f"exoleg run --backend {args.backend} --controller {args.controller}: {res.ticks} "
+         f"ticks at {args.rate:g} Hz, ended "
          f"by {res.stopped_by}" + (f" ({', '.join(res.realtime)})" if res.realtime else ""))
     _table([[f"{t.get('p50_us', 0):.1f}", f"{t.get('p99_us', 0):.1f}",
              f"{t.get('p999_us', 0):.1f}", f"{t.get('max_us', 0):.1f}",
              str(t.get("missed", 0))]],
            ["late p50 us", "p99 us", "p99.9 us", "max us", "deadlines missed (> 1 period)"])
-    _say("ticks per mode: " + ", ".join(f"{_MODES.get(m, m)} {n}"
+    from exoleg.control.contract import Mode, name_of
+
+    _say("ticks per mode: " + ", ".join(f"{name_of(Mode, m)} {n}"
                                         for m, n in s["ticks_per_mode"].items())
          + f"; initial contacts {s['initial_contacts']}"
          + (f"; safety fault at {s['first_fault_s']:.3f} s" if s["first_fault_s"] else ""))
@@ -963,7 +962,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--stride-time", type=_within(*STRIDE_TIME_RANGE, " s"),
                    help="gait: s per cycle, 0.4-4 (default 1.2)")
     s.add_argument("--sd", type=_within(*SD_RANGE, " SD"), help="gait: mean + sd * SD, -3..3")
-    s.add_argument("--controller", choices=["pd-gravity", "pd", "computed-torque"],
+    s.add_argument("--controller", choices=LAWS,
                    default="pd-gravity")
     s.add_argument("--kp", type=_three, help="gains 'hip,knee,ankle' (default: paper's)")
     s.add_argument("--kd", type=_three, help="gains 'hip,knee,ankle' (default: paper's)")
@@ -1059,6 +1058,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="canopen/ethercat: how long the master waits for every node's answer "
                         "before it is a fault, ms (default 5; 20 on simulated nodes, threads "
                         "of this computer)")
+    r.add_argument("--controller", choices=CONTROLLERS, default="walk",
+                   help="walk: the walking hierarchy (default); pd-gravity, pd, "
+                        "computed-torque: the paper's law following its scenario (stance "
+                        "and swing postures every 3 s from the walk command; held at rest "
+                        "while standing)")
     r.add_argument("--duration", type=_within(0.01, 86400.0, " s"), required=True, help="s")
     r.add_argument("--rate", type=_within(10.0, 10000.0, " Hz"), default=1000.0,
                    help="control rate, Hz (default 1000)")

@@ -17,7 +17,7 @@ in compiled code too: numba takes their members as integer constants.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from enum import IntEnum
 
 import numpy as np
@@ -32,14 +32,14 @@ def new(dtype: np.dtype) -> NDArray[np.void]:
     return np.zeros(1, dtype)
 
 
-def column_names(dtype: np.dtype, labels: dict[int, Sequence[str]] | None = None,
+def column_names(dtype: np.dtype, labels: Mapping[int, Sequence[str]] | None = None,
                  prefix: str = "") -> list[str]:
     """Flat column names of a record: a scalar field is its name; a vector field of n
     values is ``name_label`` for the labels given for n (e.g. 3: the joints), or
     ``name_0`` ... otherwise."""
     out: list[str] = []
     for name in dtype.names or ():
-        sub = dtype.fields[name][0]
+        sub = dtype[name]
         n = int(np.prod(sub.shape)) if sub.shape else 0
         if n == 0:
             out.append(prefix + name)

@@ -30,7 +30,7 @@ from exoleg.params import paper
 
 ACTS = paper_actuators()
 HIP, KNEE, ANKLE = ACTS
-PAR = {a.joint: np.array(a.params()) for a in ACTS}
+PAR = {a.joint: a.record() for a in ACTS}
 DATA = Path(__file__).resolve().parents[2] / "src" / "exoleg" / "data" / "device" / "actuators"
 
 

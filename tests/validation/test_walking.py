@@ -7,11 +7,14 @@ detector; the supervisor's and safety layer's rules for the transitions and stop
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
 import exoleg
-from exoleg.control.hierarchy import Command, Mode, WalkController
+from exoleg.control.contract import Command, Mode
+from exoleg.control.hierarchy import WalkController
 from exoleg.device import with_actuators
 from exoleg.sim.walk import detection_table, simulate_walk
 
@@ -62,51 +65,99 @@ def test_deterministic_per_seed() -> None:
     assert not np.array_equal(a.fsr, c.fsr)
 
 
-def _sensors(q: np.ndarray, command: int = Command.NONE) -> dict:
-    return {"q": q, "dq": np.zeros(3), "fsr": np.array([1500.0, 800, 600, 300]),
-            "command": command}
+def _sensors(q: np.ndarray, command: int = Command.NONE) -> tuple[dict, int]:
+    return {"q": q, "dq": np.zeros(3), "fsr": np.array([1500.0, 800, 600, 300])}, command
 
 
 def test_controller_contract_and_supervisor() -> None:
     ctl = WalkController(with_actuators(LEG), 20.0)
     q = ctl.gains.standing.copy()
-    out = ctl.step(_sensors(q), 0.0)
+    out = ctl.update(*_sensors(q), 0.0)
     assert out["mode"] == Mode.DISARMED and np.array_equal(out["tau"], np.zeros(3))
-    out = ctl.step(_sensors(q, Command.WALK), 0.001)  # no walking before arming
+    out = ctl.update(*_sensors(q, Command.WALK), 0.001)  # no walking before arming
     assert out["mode"] == Mode.DISARMED
-    out = ctl.step(_sensors(q, Command.ARM), 0.002)
+    out = ctl.update(*_sensors(q, Command.ARM), 0.002)
     assert out["mode"] == Mode.STANDING
     for k in range(3, 60):
-        out = ctl.step(_sensors(q), k * 1e-3)
+        out = ctl.update(*_sensors(q), k * 1e-3)
     assert np.any(out["tau"] != 0.0)  # holding the standing posture with gravity
-    out = ctl.step(_sensors(q, Command.WALK), 0.06)
+    out = ctl.update(*_sensors(q, Command.WALK), 0.06)
     assert out["mode"] == Mode.WALKING
-    out = ctl.step(_sensors(q, Command.STAND), 0.061)
+    out = ctl.update(*_sensors(q, Command.STAND), 0.061)
     assert out["mode"] == Mode.STANDING
 
 
 def test_estop_while_walking_is_torque_off_the_same_tick_and_latched() -> None:
     ctl = WalkController(with_actuators(LEG), 20.0)
     q = ctl.gains.standing.copy()
-    ctl.step(_sensors(q, Command.ARM), 0.0)
+    ctl.update(*_sensors(q, Command.ARM), 0.0)
     for k in range(1, 100):
-        ctl.step(_sensors(q, Command.WALK if k == 50 else Command.NONE), k * 1e-3)
-    out = ctl.step(_sensors(q, Command.ESTOP), 0.1)
+        ctl.update(*_sensors(q, Command.WALK if k == 50 else Command.NONE), k * 1e-3)
+    out = ctl.update(*_sensors(q, Command.ESTOP), 0.1)
     assert out["mode"] == Mode.FAULT and np.array_equal(out["tau"], np.zeros(3))
-    out = ctl.step(_sensors(q, Command.ARM), 0.101)   # arming does not clear it
+    out = ctl.update(*_sensors(q, Command.ARM), 0.101)   # arming does not clear it
     assert out["mode"] == Mode.FAULT and np.array_equal(out["tau"], np.zeros(3))
-    out = ctl.step(_sensors(q, Command.RESET), 0.102)
+    out = ctl.update(*_sensors(q, Command.RESET), 0.102)
     assert out["mode"] == Mode.DISARMED
-    out = ctl.step(_sensors(q, Command.ARM), 0.103)
+    out = ctl.update(*_sensors(q, Command.ARM), 0.103)
     assert out["mode"] == Mode.STANDING
+
+
+def test_a_reset_while_the_fault_holds_is_refused_and_names_it() -> None:
+    # The supervisor calls the safety layer's reset, which checks the state as
+    # SafetyLayer.reset does: overspeed still measured -> refused, FAULT kept.
+    from exoleg.control.safety import Fault, still_holds
+
+    ctl = WalkController(with_actuators(LEG), 20.0)
+    q = ctl.gains.standing.copy()
+    ctl.update(*_sensors(q, Command.ARM), 0.0)
+    fast = {"q": q, "dq": np.array([0.0, 0.0, 50.0]), "fsr": np.full(4, 1000.0)}
+    out = ctl.update(fast, Command.NONE, 0.001)
+    assert out["mode"] == Mode.FAULT and out["fault"] == Fault.OVERSPEED
+    out = ctl.update(fast, Command.RESET, 0.002)
+    assert out["mode"] == Mode.FAULT and out["refused"] == Command.RESET
+    assert still_holds(out["fault"], out["fault_joint"]) == "OVERSPEED still holds (ankle)"
+    out = ctl.update(*_sensors(q, Command.RESET), 0.003)  # slow again: cleared
+    assert out["mode"] == Mode.DISARMED and out["refused"] == Command.NONE
+    assert out["fault"] == Fault.NONE
+
+
+def test_a_command_that_does_not_apply_is_reported_refused() -> None:
+    ctl = WalkController(with_actuators(LEG), 20.0)
+    q = ctl.gains.standing.copy()
+    for cmd in (Command.WALK, Command.STAND, Command.RESET):  # none applies disarmed
+        out = ctl.update(*_sensors(q, cmd), 0.0)
+        assert out["mode"] == Mode.DISARMED and out["refused"] == cmd
+    out = ctl.update(*_sensors(q, Command.ARM), 0.001)
+    assert out["refused"] == Command.NONE
+
+
+@pytest.mark.parametrize(("field", "value", "says"), [
+    ("q", [0.1, 0.2], "q: expected 3 numbers, got shape (2,)"),
+    ("dq", "fast", "dq: expected 3 numbers"),
+    ("fsr", [[1.0, 2.0], [3.0, 4.0]], "fsr: expected 4 numbers, got shape (2, 2)"),
+    ("q", [True, False, True], "q: expected 3 numbers, got shape (3,) of bool"),
+])
+def test_readings_of_the_wrong_shape_or_kind_are_refused(field: str, value: object,
+                                                          says: str) -> None:
+    # Before, a 2-value q was read past its end by the compiled tick.
+    from exoleg.errors import ParameterError
+
+    ctl = WalkController(with_actuators(LEG), 20.0)
+    sensors, _ = _sensors(ctl.gains.standing.copy())
+    sensors[field] = value
+    with pytest.raises(ParameterError, match=re.escape(says)):
+        ctl.update(sensors, Command.NONE, 0.0)
+    with pytest.raises(ParameterError, match="command: 9 is not a command"):
+        ctl.update(_sensors(ctl.gains.standing.copy())[0], 9, 0.0)
 
 
 def test_non_finite_sensor_is_a_fault() -> None:
     ctl = WalkController(with_actuators(LEG), 20.0)
     q = ctl.gains.standing.copy()
-    ctl.step(_sensors(q, Command.ARM), 0.0)
+    ctl.update(*_sensors(q, Command.ARM), 0.0)
     bad = q.copy()
     bad[1] = np.nan
-    out = ctl.step(_sensors(bad), 0.001)
+    out = ctl.update(*_sensors(bad), 0.001)
     assert out["mode"] == Mode.FAULT and np.all(np.isfinite(out["tau"]))
     assert np.array_equal(out["tau"], np.zeros(3))

@@ -13,7 +13,7 @@ import pytest
 
 import exoleg
 from exoleg.device import with_actuators
-from exoleg.device.actuator import N_P
+from exoleg.device.actuator import ACTUATOR
 from exoleg.device.walking import (
     WalkingPlant,
     step_contacts,
@@ -22,14 +22,14 @@ from exoleg.device.walking import (
 )
 
 LEG = with_actuators(exoleg.paper_leg())
-NO_FRICTION = np.zeros((0, N_P))
+NO_FRICTION = np.zeros(0, ACTUATOR)
 H = 2.5e-4
 
 
 def _run(plant: WalkingPlant, x0: np.ndarray, q_hold: np.ndarray, n: int,
          kp: float = 400.0, kd: float = 40.0) -> dict[str, np.ndarray]:
     """n plant steps with a joint PD + gravity compensation held over each step."""
-    p, w = plant.leg.p, plant.params()
+    p, w = plant.leg.p, plant.record()
     x = x0.copy()
     pts, F, gen = np.empty((4, 4)), np.empty((4, 2)), np.empty(4)
     X, FN, GEN, TAU, PTS, FF = [x.copy()], [], [], [], [], []
@@ -100,7 +100,7 @@ def test_energy_balance_with_contacts() -> None:
     x0[0] = plant.standing_height + 0.01
     x0[1:4] = [0.2, -0.3, 0.1]
     r = _run(plant, x0, np.array([0.1, -0.2, 0.05]), int(0.6 / H))
-    p, w = plant.leg.p, plant.params()
+    p, w = plant.leg.p, plant.record()
     E = np.array([walking_energy(p, w, x[0], x[4], x[1:4], x[5:8]) for x in r["x"]])
     dx = np.diff(r["x"][:, :4], axis=0)
     work = np.sum(r["gen"] * dx) + np.sum(r["tau"] * dx[:, 1:])

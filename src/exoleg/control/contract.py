@@ -12,13 +12,16 @@ Joint vectors are (hip, knee, ankle); the FSRs (heel, met1, met5, hallux).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from enum import IntEnum
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
+from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8, column_names, enum_table
+from exoleg.params import _check
 from exoleg.params.records import JOINTS
 
 #: The four FlexiForce A201 points under the footplate (see :mod:`exoleg.device.walking`).
@@ -64,6 +67,86 @@ OUTPUT = np.dtype([("tau", F8, 3), ("mode", I8), ("phase", I8), ("gait_fraction"
                    ("fault_joint", I8), ("refused", I8)])
 
 LABELS = {3: JOINTS, 4: SENSOR_POINTS}
+#: The modes in which the drives are enabled (torque may flow).
+ARMED_MODES = frozenset((Mode.STANDING, Mode.WALKING))
+_COMMANDS = frozenset(int(m) for m in Command)
+
+
+class Controller(Protocol):
+    """What every controller offers the loop, in simulation and on every device."""
+
+    def update(self, sensors: Mapping[str, Any], command: int, t: float) -> dict[str, Any]:
+        """One tick: the :data:`SENSORS` fields read this tick, the operator's command
+        (:class:`Command`) and the time (s) -> the :data:`OUTPUT` fields."""
+        ...
+
+    def warm_up(self) -> None:
+        """Compile (or load from the cache) before the clock starts."""
+        ...
+
+    def gains_now(self) -> dict[str, list[float]]:
+        """The gains an operator may change, in force now."""
+        ...
+
+    def set_gains(self, change: dict[str, list[float]]) -> None:
+        """Change gains between ticks, all or none."""
+        ...
+
+
+class TickRecords:
+    """One tick's :data:`SENSORS` and :data:`OUTPUT` records (one-element arrays, what the
+    compiled ticks take) with views of their fields, so that a controller fills the one
+    and reads the other from Python in a few microseconds."""
+
+    def __init__(self, where: str) -> None:
+        self.where = where
+        self.sens = np.zeros(1, SENSORS)
+        self.out = np.zeros(1, OUTPUT)
+        self._in = {n: self.sens[n][0] if SENSORS[n].shape else self.sens[n]
+                    for n in SENSORS.names or ()}
+        self._out = {n: self.out[n][0] if OUTPUT[n].shape else self.out[n]
+                     for n in OUTPUT.names or ()}
+        kinds = output_kinds()
+        self._conv: list[tuple[str, NDArray[Any], Any]] = []
+        for n, v in self._out.items():
+            conv = (None if OUTPUT[n].shape else kinds[n].__getitem__ if n in kinds
+                    else int if OUTPUT[n].kind == "i" else float)
+            self._conv.append((n, v, conv))
+
+    def read(self, sensors: Mapping[str, Any], command: Any) -> None:
+        """Check one tick's readings and command and put them into :attr:`sens`: ``q``,
+        ``dq`` (3) and ``fsr`` (4) required, ``gyro`` and ``accel`` optional (0); a wrong
+        shape or kind, or an unknown command, is a ParameterError naming the field."""
+        w, v = self.where, self._in
+        if not isinstance(sensors, Mapping):
+            raise ParameterError(w, "sensors", f"expected a mapping of readings, got "
+                                 f"{type(sensors).__name__}")
+        v["q"][:] = _check.reading(w, "q", sensors.get("q"), 3)
+        v["dq"][:] = _check.reading(w, "dq", sensors.get("dq"), 3)
+        v["fsr"][:] = _check.reading(w, "fsr", sensors.get("fsr"), 4)
+        if "accel" in sensors:
+            v["accel"][:] = _check.reading(w, "accel", sensors["accel"], 2)
+        g = sensors.get("gyro", 0.0)
+        v["gyro"][0] = g if type(g) is float else _check.reading(w, "gyro", [g], 1)[0]
+        if command not in _COMMANDS or isinstance(command, bool) \
+                or not isinstance(command, (int, np.integer)):
+            raise ParameterError(w, "command", f"{command!r} is not a command (allowed: "
+                                 + ", ".join(f"{m.value} {m.name}" for m in Command) + ")")
+        v["command"][:] = command
+
+    def result(self) -> dict[str, Any]:
+        """:attr:`out` as a mapping: vectors as arrays (copies), modes, phases, faults and
+        commands as their enumerations (:func:`output_kinds`), the rest as numbers."""
+        return {n: (v.copy() if conv is None else conv(v[0])) for n, v, conv in self._conv}
+
+
+def output_kinds() -> dict[str, dict[int, IntEnum]]:
+    """The output fields that hold an enumeration, each as value -> member."""
+    from exoleg.control.gait_phase import Phase
+    from exoleg.control.safety import Fault
+
+    return {name: {int(m): m for m in kind} for name, kind in
+            (("mode", Mode), ("phase", Phase), ("fault", Fault), ("refused", Command))}
 
 
 def output_columns() -> list[str]:
@@ -71,27 +154,13 @@ def output_columns() -> list[str]:
     return column_names(OUTPUT, LABELS)
 
 
-def output_dict(rec: NDArray[np.void]) -> dict[str, Any]:
-    """One :data:`OUTPUT` record (a one-element array) as a mapping: vectors as arrays
-    (copies), modes, phases, faults and commands as their enumerations."""
-    from exoleg.control.gait_phase import Phase
-    from exoleg.control.safety import Fault
-
-    r = rec[0]
-    kinds: dict[str, type[IntEnum]] = {"mode": Mode, "phase": Phase, "fault": Fault,
-                                       "refused": Command}
-    out: dict[str, Any] = {}
-    for name in OUTPUT.names or ():
-        v = r[name]
-        if name in kinds:
-            out[name] = kinds[name](int(v))
-        elif OUTPUT.fields[name][0].shape:
-            out[name] = np.array(v, dtype=float)
-        elif OUTPUT.fields[name][0].kind == "i":
-            out[name] = int(v)
-        else:
-            out[name] = float(v)
-    return out
+def name_of(kind: type[IntEnum], value: int) -> str:
+    """A logged value of an enumeration as people read it (``walking``), or the number
+    itself when it names no member."""
+    try:
+        return kind(int(value)).name.lower()
+    except ValueError:
+        return str(value)
 
 
 def enums() -> dict[str, dict[str, int]]:

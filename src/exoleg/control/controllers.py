@@ -10,6 +10,7 @@ from numpy.typing import ArrayLike, NDArray
 from exoleg.control import laws
 from exoleg.dynamics.kernels import N_COEFFICIENTS
 from exoleg.dynamics.model import LegModel
+from exoleg.entry import LAWS
 from exoleg.errors import ParameterError
 from exoleg.params import paper
 
@@ -45,7 +46,7 @@ class Controller:
     Kd: F64
     model: LegModel | None = None
     saturation: F64 = field(default_factory=lambda: np.full(3, np.inf))
-    kind: int = -1
+    kind: laws.Law = laws.Law.PD
     name: str = "controller"
     scale: float = 1.0
 
@@ -91,7 +92,7 @@ def PDGravity(model: LegModel, Kp: ArrayLike | None = None, Kd: ArrayLike | None
     Defaults: the paper's Kp = diag(80, 80, 50), Kd = diag(12, 12, 2)."""
     g = paper.controller_gains()
     return Controller(_gains("PDGravity", "Kp", Kp, g.kp), _gains("PDGravity", "Kd", Kd, g.kd),
-                      model, _limits("PDGravity", saturation), laws.PD_GRAVITY_KIND, "PDGravity")
+                      model, _limits("PDGravity", saturation), laws.Law.PD_GRAVITY, "PDGravity")
 
 
 def PD(Kp: ArrayLike | None = None, Kd: ArrayLike | None = None,  # noqa: N802
@@ -99,7 +100,7 @@ def PD(Kp: ArrayLike | None = None, Kd: ArrayLike | None = None,  # noqa: N802
     """Plain PD without gravity compensation: the baseline that shows what G buys."""
     g = paper.controller_gains()
     return Controller(_gains("PD", "Kp", Kp, g.kp), _gains("PD", "Kd", Kd, g.kd), None,
-                      _limits("PD", saturation), laws.PD_KIND, "PD")
+                      _limits("PD", saturation), laws.Law.PD, "PD")
 
 
 def ComputedTorque(model: LegModel, Kp: ArrayLike, Kd: ArrayLike,  # noqa: N802
@@ -108,5 +109,26 @@ def ComputedTorque(model: LegModel, Kp: ArrayLike, Kd: ArrayLike,  # noqa: N802
     Gains here are in 1/s^2 and 1/s (they shape the error dynamics directly)."""
     return Controller(_gains("ComputedTorque", "Kp", Kp, np.zeros(3)),
                       _gains("ComputedTorque", "Kd", Kd, np.zeros(3)), model,
-                      _limits("ComputedTorque", saturation), laws.COMPUTED_TORQUE_KIND,
+                      _limits("ComputedTorque", saturation), laws.Law.COMPUTED_TORQUE,
                       "ComputedTorque")
+
+
+#: Computed torque's default gains, 1/s^2 and 1/s: error dynamics of 20 rad/s, damped
+#: critically (Kd = 2 sqrt(Kp)).
+CT_GAINS = (400.0, 40.0)
+
+
+def law_named(name: str, model: LegModel, Kp: ArrayLike | None = None,  # noqa: N803
+              Kd: ArrayLike | None = None, saturation: ArrayLike | bool | None = None
+              ) -> Controller:
+    """The law called ``name`` (:data:`LAWS`) on ``model`` with its defaults where the
+    gains are not given."""
+    if name == "pd-gravity":
+        return PDGravity(model, Kp, Kd, saturation=saturation)
+    if name == "pd":
+        return PD(Kp, Kd, saturation=saturation)
+    if name == "computed-torque":
+        return ComputedTorque(model, [CT_GAINS[0]] * 3 if Kp is None else Kp,
+                              [CT_GAINS[1]] * 3 if Kd is None else Kd, saturation=saturation)
+    raise ParameterError("controller", "name", f"unknown {name!r} (allowed: "
+                         + ", ".join(LAWS) + ")")

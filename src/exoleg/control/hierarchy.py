@@ -18,8 +18,8 @@ the child's detected phase and cadence, and the safety layer -- one compiled tic
   ``G(q) - support J_cop(q)^T (0, m g)``.
 * **Safety layer** (:func:`exoleg.control.safety.safety_step`) last, always.
 
-:class:`WalkController` holds the explicit state (arrays) and offers the one contract
-``step(sensors, t) -> commands``; the simulator's compiled loop calls the same compiled
+:class:`WalkController` holds the explicit state (records) and offers the one contract
+``update(sensors, command, t) -> output``; the simulator's compiled loop calls the same compiled
 tick (:func:`walk_control_step`), so the code that runs in simulation is the code the
 runtime will run.
 """
@@ -27,9 +27,9 @@ runtime will run.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -38,12 +38,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from exoleg.control import gait_phase as gp
 from exoleg.control import safety as sf
-from exoleg.control.contract import OUTPUT, SENSORS, Command, Mode, output_dict
+from exoleg.control.contract import OUTPUT, SENSORS, Mode, TickRecords
 from exoleg.control.safety import SafetyLimits, safety_step
+from exoleg.control.supervisor import SUPERVISOR, report, settle, supervise
 from exoleg.dynamics.kernels import OFFSETS, gravity, mass_matrix
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
-from exoleg.layout import F8, I8, new
+from exoleg.layout import F8, new
 from exoleg.params import _check
 
 F64 = NDArray[np.float64]
@@ -117,8 +118,6 @@ PARAMS = np.dtype([("kp_stance", F8, 3), ("kd_stance", F8, 3), ("kp_swing", F8, 
                    ("kd_swing", F8, 3), ("standing", F8, 3), ("support", F8),
                    ("body_mass", F8), ("start_fraction", F8), ("g", F8), ("fsr_x", F8, 4),
                    ("sole", F8)])
-#: The supervisor's state: its mode (:class:`Mode`).
-SUPERVISOR = np.dtype([("mode", I8)])
 
 
 @njit(inline="always")
@@ -161,52 +160,6 @@ def stance_gravity(p, g, q, fx, sole, counts, weight, out):  # type: ignore[no-u
 
 
 @njit(cache=True)
-def _supervise(cp, d, st, lim, sst, sup, sens, t):  # type: ignore[no-untyped-def]
-    """The supervisor: the operator's command against the mode; the safety layer's own
-    arm, E-stop and reset. Returns the command refused (NONE if it applied or none
-    came) and the fault a refused reset found still holding."""
-    c = sens.command
-    mode = sup[0].mode
-    refused = Command.NONE
-    if c == Command.ARM:
-        if mode == Mode.DISARMED and sf.arm(sst):
-            mode = Mode.STANDING
-        else:
-            refused = c
-    elif c == Command.WALK:  # from mid-stance, where the gait is nearest to standing
-        if mode == Mode.STANDING:
-            mode = Mode.WALKING
-            st[0].t_ic = t - cp[0].start_fraction * gp.stride_time(d, st)
-        else:
-            refused = c
-    elif c == Command.STAND:
-        if mode == Mode.WALKING:
-            mode = Mode.STANDING
-        else:
-            refused = c
-    elif c == Command.DISARM:
-        sf.disarm(sst)
-        if mode != Mode.FAULT:
-            mode = Mode.DISARMED
-    elif c == Command.ESTOP:
-        sf.estop(sst)
-        mode = Mode.FAULT
-    elif c == Command.RESET:
-        if mode == Mode.FAULT and sst[0].fault != sf.Fault.NONE:
-            held, _ = sf.reset(lim, sst, sens.q, sens.dq)
-            if held == sf.Fault.NONE:
-                mode = Mode.DISARMED
-            else:
-                refused = c
-        else:
-            refused = c
-    elif c != Command.NONE:
-        refused = c
-    sup[0].mode = mode
-    return refused
-
-
-@njit(cache=True)
 def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, sens, t, out):  # type: ignore[no-untyped-def]
     """One control tick. ``cp``: the controller's parameters (:data:`PARAMS`); ``gq``,
     ``gdq``: the gait tables (K, 3), (K, 6) (rad, rad per cycle); ``p``: its leg model's
@@ -219,8 +172,12 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, sens, t, out):  # ty
     C = cp[0]
     s = sens[0]
     o = out[0]
-    refused = _supervise(cp, d, st, lim, sst, sup, s, t)
+    before = sup[0].mode
+    refused = supervise(sup, lim, sst, s.command, s.q, s.dq)
     mode = sup[0].mode
+    if mode == Mode.WALKING and before == Mode.STANDING:
+        # walking starts from mid-stance, where the gait is nearest to standing
+        st[0].t_ic = t - C.start_fraction * gp.stride_time(d, st)
     qm = s.q
     vm = s.dq
     ev = gp.detect(d, st, s.fsr, t)
@@ -254,19 +211,17 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, sens, t, out):  # ty
         cmd[j] = (kp * (qr[j] - qm[j]) + kd * (dqr[j] - vm[j]) + G[j]
                   + M[j, 0] * ddqr[0] + M[j, 1] * ddqr[1] + M[j, 2] * ddqr[2])
     status = safety_step(lim, sst, qm, vm, cmd, False, o.tau)
-    if sst[0].fault != sf.Fault.NONE:
-        mode = Mode.FAULT
-    sup[0].mode = mode
-    o.mode = mode
+    settle(sup, sst)
+    report(sup, sst, refused, status, out)
     o.phase = phase
     o.gait_fraction = x
     o.events = ev
-    o.safety_status = status
     for j in range(3):
         o.q_ref[j] = qr[j]
-    o.fault = sst[0].fault
-    o.fault_joint = sst[0].fault_joint
-    o.refused = refused
+
+
+#: The tick as Python calls it (numba's dispatcher has no signature for a type checker).
+_tick: Callable[..., None] = walk_control_step
 
 
 def gait_tables(speed: str = "Free", sd: float = 0.0, samples: int = 201) -> tuple[F64, F64]:
@@ -281,13 +236,14 @@ def gait_tables(speed: str = "Free", sd: float = 0.0, samples: int = 201) -> tup
 
 
 class WalkController:
-    """The hierarchy with its state, behind ``step(sensors, t) -> output``.
+    """The hierarchy with its state, behind ``update(sensors, command, t) -> output``.
 
     ``sensors``: a mapping of :data:`~exoleg.control.contract.SENSORS` fields -- ``q``
     and ``dq`` (measured, rad, rad/s, (3,)) and ``fsr`` (four ADC counts) required;
-    ``gyro``, ``accel`` and ``command`` (:class:`Command`) optional. ``sole``: the
+    ``gyro`` and ``accel`` optional; ``command``: the operator's
+    (:class:`~exoleg.control.contract.Command`). ``sole``: the
     sensors' depth below the ankle joint, m (ankle height + footplate). Returns the
-    :data:`~exoleg.control.contract.OUTPUT` fields as a dict (:func:`output_dict`):
+    :data:`~exoleg.control.contract.OUTPUT` fields as a dict (:meth:`TickRecords.result`):
     ``tau`` (3,) N m for the drives, ``mode``, ``phase``, ``gait_fraction``, ``events``,
     ``safety_status``, ``q_ref``, ``fault``, ``fault_joint``, ``refused``.
     """
@@ -320,8 +276,7 @@ class WalkController:
         self.sst = new(sf.STATE)
         self.sst[0]["fault_joint"] = -1
         self.sup = new(SUPERVISOR)
-        self.sens = new(SENSORS)
-        self.out = new(OUTPUT)
+        self.io = TickRecords("WalkController.update")
 
     def gains_now(self) -> dict[str, list[float]]:
         """The gains in force (N m/rad, N m s/rad per joint) and the support level."""
@@ -356,24 +311,14 @@ class WalkController:
 
     def warm_up(self) -> None:
         """Compile (or load from numba's cache) the tick on copies of the state."""
-        parts = [x.copy() for x in self.compiled()]
-        walk_control_step(*parts, new(SENSORS), 0.0, new(OUTPUT))
+        cp, gq, gdq, p, d, st, lim, sst, sup = self.compiled()  # the same types as a tick's
+        _tick(cp, gq, gdq, p, d, st.copy(), lim, sst.copy(), sup.copy(), new(SENSORS), 0.0,
+              new(OUTPUT))
 
-    def step(self, sensors: Mapping[str, Any], t: float) -> dict[str, Any]:
-        """One tick on ``sensors`` at ``t`` s (see the class)."""
-        w = "WalkController.step"
-        r = self.sens[0]
-        r["q"] = _check.reading(w, "q", sensors["q"] if "q" in sensors else None, 3)
-        r["dq"] = _check.reading(w, "dq", sensors["dq"] if "dq" in sensors else None, 3)
-        r["fsr"] = _check.reading(w, "fsr", sensors["fsr"] if "fsr" in sensors else None, 4)
-        r["gyro"] = sensors.get("gyro", 0.0)
-        c = sensors.get("command", Command.NONE)
-        if isinstance(c, bool) or not isinstance(c, (int, np.integer)) or c not in COMMANDS:
-            raise ParameterError(w, "command", f"{c!r} is not a command (allowed: "
-                                 f"{', '.join(f'{m.value} {m.name}' for m in Command)})")
-        r["command"] = int(c)
-        walk_control_step(*self.compiled(), self.sens, float(t), self.out)
-        return output_dict(self.out)
+    def update(self, sensors: Mapping[str, Any], command: int, t: float) -> dict[str, Any]:
+        """One tick on ``sensors`` with the operator's ``command`` at ``t`` s (the
+        :class:`~exoleg.control.contract.Controller` contract; see the class)."""
+        self.io.read(sensors, command)
+        _tick(*self.compiled(), self.io.sens, float(t), self.io.out)
+        return self.io.result()
 
-
-COMMANDS = frozenset(int(m) for m in Command)

@@ -1,6 +1,7 @@
 """The control laws, compiled: one implementation for the simulator's loop and for Python callers.
 
-``kind``: 0 plain PD, 1 PD + gravity compensation (paper eq 23), 2 computed torque.
+``kind`` (:class:`Law`): plain PD, PD + gravity compensation (paper eq 23), computed
+torque.
 ``kc`` holds the coefficients of the controller's own model
 (:func:`exoleg.dynamics.kernels.coefficients` of its parameters and g; it may
 differ from the plant's, to study model error). ``scale`` multiplies the torque
@@ -12,14 +13,19 @@ bit mask (bit i set when joint i was clipped).
 from __future__ import annotations
 
 import math
+from enum import IntEnum
 
 from numba import njit
 
 from exoleg.dynamics.kernels import gravity_sc, inverse_dynamics_sc
 
-PD_KIND = 0
-PD_GRAVITY_KIND = 1
-COMPUTED_TORQUE_KIND = 2
+
+class Law(IntEnum):
+    """Which law a :class:`~exoleg.control.controllers.Controller` record runs."""
+
+    PD = 0
+    PD_GRAVITY = 1
+    COMPUTED_TORQUE = 2
 
 
 @njit(inline="always", cache=True)
@@ -43,12 +49,12 @@ def law(kind, kp, kd, kc, scale, limit, s0, c0, s1, c1, s2, c2,  # type: ignore[
     u0 = kp[0] * (r0 - q0) + kd[0] * (w0 - v0)
     u1 = kp[1] * (r1 - q1) + kd[1] * (w1 - v1)
     u2 = kp[2] * (r2 - q2) + kd[2] * (w2 - v2)
-    if kind == PD_GRAVITY_KIND:
+    if kind == Law.PD_GRAVITY:
         g0, g1, g2 = gravity_sc(s0, c0, s1, c1, s2, c2, kc)
         u0 += g0
         u1 += g1
         u2 += g2
-    elif kind == COMPUTED_TORQUE_KIND:
+    elif kind == Law.COMPUTED_TORQUE:
         u0, u1, u2 = inverse_dynamics_sc(s0, c0, s1, c1, s2, c2, v0, v1, v2,
                                          a0 + u0, a1 + u1, a2 + u2, kc)
     u0, m0 = _clip(scale * u0, limit[0])

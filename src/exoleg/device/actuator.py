@@ -36,8 +36,8 @@ from numpy.typing import NDArray
 
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
-from exoleg.layout import F8, new
 from exoleg.io import read_text
+from exoleg.layout import F8, new
 from exoleg.params import _check
 from exoleg.params.records import JOINTS
 

@@ -13,7 +13,8 @@ Model (one set of equations; stance and swing differ only in which contacts act)
   leg swings; ``y_c`` sits a little below this leg's stance height, so in stance this
   leg carries the body weight;
 * the foot touches the belt at the four force-sensor points of the footplate
-  (:data:`SENSOR_POINTS`, in the foot frame, below the ankle by the sole height):
+  (``SENSOR_POINTS`` of :mod:`exoleg.control.contract`, in the foot frame, below the
+  ankle by the sole height):
   normal force ``max(0, k d - c dy_p)`` for a penetration d > 0, and friction
   ``-mu F_n tanh((dx_p - v_belt) / v_s)`` against the belt's speed.
 
@@ -42,7 +43,6 @@ from numpy.typing import NDArray
 from exoleg.device.actuator import friction
 from exoleg.dynamics.kernels import OFFSETS, coriolis_dq, gravity, mass_matrix
 from exoleg.dynamics.model import LegModel
-from exoleg.control.contract import SENSOR_POINTS
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, new
 from exoleg.params import _check

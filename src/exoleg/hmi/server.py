@@ -72,8 +72,9 @@ def device_info(leg: Any) -> dict[str, Any]:
     """What the live page draws with: link lengths and D-H offsets (the same kinematics
     as :func:`exoleg.kinematics.forward_kinematics`), the range of motion, the FSR
     positions, each actuator's torque limits and torque-speed envelope (SI units)."""
+    from exoleg.control.contract import SENSOR_POINTS
     from exoleg.device.actuator import envelope, paper_actuators
-    from exoleg.device.walking import SENSOR_POINTS, SENSOR_X
+    from exoleg.device.walking import SENSOR_X
     from exoleg.dynamics._generated import OFFSETS
     from exoleg.params import paper
 

@@ -131,7 +131,7 @@ HEARTBEAT_LOST = 3
 class CanopenBackend(DriveMaster):
     """The master side: ``read`` sends the pending commands and SYNC and waits for every
     node's answer (``timeout`` s: a missing PDO is a fault); ``write`` stages the torques
-    and ``set_enabled`` the CiA 402 walk towards Operation Enabled or away from it."""
+    and its enable flag the CiA 402 walk towards Operation Enabled or away from it."""
 
     def __init__(self, actuators: tuple[Any, ...], period: float = 1e-3,
                  interface: str = "virtual", channel: str = "exoleg", timeout: float = 5e-3,

@@ -99,7 +99,7 @@ def _open_master(interface: str) -> Any:
 class EthercatBackend(DriveMaster):
     """The master side, the same interface as the canopen backend: ``start_up`` brings
     the segment to OP after checking every slave, ``read`` exchanges one cycle of
-    process data, ``write`` stages the torques, ``set_enabled`` the CiA 402 walk.
+    process data, ``write`` stages the torques and the CiA 402 walk.
     ``master``: a ``pysoem.Master``-like object to use (a :class:`SimulatedSegment`);
     without one, pysoem opens ``interface``."""
 

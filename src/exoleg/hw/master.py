@@ -77,11 +77,26 @@ class DriveMaster:
             self.emcy.append((joint, msg))
         return on
 
-    def set_enabled(self, enable: bool) -> None:
+    def configure(self, limits: Any) -> list[str]:
+        """Bring the bus up and check every drive against the safety limits' range of
+        motion (:meth:`start_up`)."""
+        return self.start_up(limits.lower, limits.upper, limits.hard_margin)
+
+    def start_up(self, lower: F64, upper: F64, margin: float) -> list[str]:
+        raise NotImplementedError  # each bus's own
+
+    def write(self, tau: F64, enable: bool) -> None:
+        """Stage the torques (N m) and the CiA 402 walk towards Operation Enabled
+        (``enable``) or away from it, sent at the next bus cycle."""
+        self.tau[:] = tau
         self.enabled = bool(enable)
 
-    def write(self, tau: F64) -> None:
-        self.tau[:] = tau
+    def deactivate(self) -> None:
+        """Release the bus (:meth:`close`)."""
+        self.close()
+
+    def close(self) -> None:
+        raise NotImplementedError  # each bus's own
 
     def command(self, i: int) -> tuple[int, int]:
         """Drive ``i``'s controlword (one CiA 402 transition towards the arming) and
@@ -103,9 +118,6 @@ class DriveMaster:
         if fault:
             out["fault"] = fault
         return out
-
-    def advance(self, t: float, walking: bool = False) -> None:
-        """Nothing to step here: the drives act at the next bus cycle."""
 
     def record(self) -> F64:
         return np.concatenate([self.q_prev, self.vm, self.fsr, [self.gyro],

@@ -37,7 +37,6 @@ class DriveRig:
                         for i, j in enumerate(JOINT_ORDER)}
         self.jump = np.zeros(3)
         self.frozen = False
-        self.walking = False
         self.sensors = device.read(0.0)  # the device as it starts
         self._foot: tuple[bytes, bytes] | None = None
 
@@ -49,9 +48,8 @@ class DriveRig:
             if d.torque_allowed:
                 tau[i] = self.scaling[j].to_nm(int(targets[i]))
         dev = self.dev
-        dev.write(tau)
-        dev.advance(dev.k * dev.period, self.walking)
-        self.sensors = dev.read(dev.k * dev.period)
+        dev.write(tau, True)  # the drives' own state machines gate the torque
+        self.sensors = dev.read((dev.k + 1) * dev.period)
 
     def position(self, i: int) -> int:
         """Drive ``i``'s position actual value (0x6064), encoder counts."""

@@ -49,6 +49,8 @@ def reading(where: str, field: str, value: Any, n: int) -> NDArray[np.float64]:
     """Return a measured or commanded vector of ``n`` numbers as floats. Non-finite values
     pass (the safety layer latches a fault on them); anything but ``n`` real numbers --
     another length, a table, text, booleans -- is refused, naming the field."""
+    if type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (n,):
+        return value  # the loop's own readings: as they are
     try:
         a = np.asarray(value)
     except (TypeError, ValueError):

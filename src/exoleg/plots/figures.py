@@ -204,7 +204,7 @@ def walk_figure(result: WalkResult, path: str | Path) -> Path:
     +- 1 SD); middle, the last three strides' FSR readings, the detected phase against
     the true contacts, the foot gyroscope; bottom, each joint's delivered torque against
     its speed over the actuator's envelope."""
-    from exoleg.device.walking import SENSOR_POINTS
+    from exoleg.control.contract import SENSOR_POINTS
     from exoleg.reference.gait import gait_angles
 
     r = result

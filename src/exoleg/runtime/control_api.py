@@ -39,7 +39,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from exoleg.control.hierarchy import Command
+from exoleg.control.contract import Command
 from exoleg.runtime.link import GAIN_NAMES, LoopLink
 
 COMMANDS = {"arm": Command.ARM, "stand": Command.STAND, "walk": Command.WALK,

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from exoleg.control.hierarchy import Command
+from exoleg.control.contract import Command
 from exoleg.runtime.loop import END_SESSION, LINK_LOST
 
 #: gains the operator may change, in the order they sit in the shared block

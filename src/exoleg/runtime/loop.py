@@ -11,10 +11,12 @@ threads too, and for an isolated CPU where the kernel keeps one (:func:`realtime
 hard real time needs the loop on a real-time kernel, or the tick in C on an isolated
 core, with this process above it as the operator's side.
 
-:func:`run_session` runs one session on a backend (``read``/``write``/``advance``) and a
-controller (``step(sensors, t) -> {"tau": ...}``): the same controller objects
-``exoleg simulate`` runs. A controller exception, a non-finite command or SIGINT/SIGTERM
-takes the torque off at once, the reason goes to the log's summary, and the log closes;
+:func:`run_session` runs one session on a device (:class:`Device`: ``read``, ``write``)
+and a controller (:class:`~exoleg.control.contract.Controller`: ``update(sensors,
+command, t)`` -> the output record's fields): read -> update -> write, the same
+controller objects ``exoleg simulate`` runs, on every device. A controller exception, a
+non-finite command or SIGINT/SIGTERM takes the torque off at once, the reason goes to
+the log's summary, and the log closes;
 so does any other failure in the tick (the bus, the log's disk, the operator's link).
 """
 
@@ -30,12 +32,17 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
+from exoleg.control.contract import ARMED_MODES, OUTPUT, output_columns
+from exoleg.layout import flat
 from exoleg.runtime.log import SessionLog
+
+if TYPE_CHECKING:
+    from exoleg.control.contract import Controller
 
 F64 = NDArray[np.float64]
 
@@ -160,13 +167,24 @@ def _saved_scheduling() -> Callable[[], None]:
     return restore
 
 
-class Backend(Protocol):
-    def read(self, t: float) -> dict[str, Any]: ...
-    def write(self, tau: F64) -> None: ...
-    def advance(self, t: float, walking: bool = False) -> None: ...
-    def safe(self) -> None: ...
-    def record(self) -> F64: ...
+class Device(Protocol):
+    """A device the loop drives, simulated or on a bus: a lifecycle component in the
+    manner of ros2_control's system interface. ``configure`` brings it up and checks it
+    (the drives' identity, mode and position against the range of motion); each tick
+    ``read`` gives its state interfaces (the :data:`~exoleg.control.contract.SENSORS`
+    fields, plus ``fault`` when the device itself failed) and ``write`` takes its command
+    interfaces (joint torques, N m, and whether the drives are enabled); ``safe`` is the
+    quick stop (torque off now); ``deactivate`` releases it. ``columns`` name what
+    ``record`` gives the session log each tick."""
+
     columns: list[str]
+
+    def configure(self, limits: Any) -> list[str]: ...
+    def read(self, t: float) -> dict[str, Any]: ...
+    def write(self, tau: F64, enable: bool) -> None: ...
+    def safe(self) -> None: ...
+    def deactivate(self) -> None: ...
+    def record(self) -> F64: ...
 
 
 @dataclass
@@ -222,9 +240,25 @@ class SensorWatch:
         return ""
 
 
-#: the log's columns around the backend's own (:attr:`Backend.columns`)
+#: the log's columns around the device's own (:attr:`Device.columns`): the time and
+#: lateness, then the controller's output record (its ``tau`` as ``u``: the command)
 LOG_HEAD = ["t", "late"]
-LOG_TAIL = ["u_hip", "u_knee", "u_ankle", "mode", "phase", "events", "safety_status"]
+LOG_TAIL = ["u" + c[3:] if c.startswith("tau_") else c for c in output_columns()]
+
+
+def output_row(out: dict[str, Any]) -> F64:
+    """A controller's output (the :data:`~exoleg.control.contract.OUTPUT` fields) as the
+    log's :data:`LOG_TAIL` values; a missing or misshapen field is a ValueError naming
+    it."""
+    rec = np.zeros(1, OUTPUT)
+    for name in OUTPUT.names or ():
+        if name not in out:
+            raise ValueError(f"the controller's output has no {name!r}")
+        try:
+            rec[0][name] = out[name]
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"the controller's {name!r} is {out[name]!r}: {e}") from None
+    return flat(rec)[0]
 
 
 #: what ``on_tick`` returns to end the session (torque off, log closed), and why
@@ -234,19 +268,22 @@ ENDS = {END_SESSION: "the operator ended the session",
         LINK_LOST: "the operator interface's process is gone (nobody could stop it)"}
 
 
-def run_session(backend: Backend, controller: Any, duration: float, period: float,
+def run_session(backend: Device, controller: Controller, duration: float, period: float,
                 log: SessionLog, commands: dict[int, int] | None = None,
                 realtime: bool = True,
                 on_tick: Callable[[int, dict[str, Any], dict[str, Any], float], int | None]
                 | None = None, overrun: float = OVERRUN_S,
-                io_threads: Sequence[threading.Thread] = ()) -> SessionResult:
+                io_threads: Sequence[threading.Thread] = (),
+                scenery: Callable[[dict[str, Any]], None] | None = None) -> SessionResult:
     """Run ``duration`` s of ticks; ``commands``: tick -> operator command (arm, walk...).
     ``on_tick(k, out, sensors, late)`` may return a command for the next tick (the
     operator's way in), or :data:`END_SESSION` / :data:`LINK_LOST` (:data:`ENDS`). Every
-    tick: read, step, write, advance, log. A tick later than ``overrun`` s takes the
-    torque off and stops. With ``realtime``, the loop runs at SCHED_FIFO and the
-    ``io_threads`` above it (:func:`realtime_settings`); this thread's scheduling is
-    restored afterwards. Returns how it ended."""
+    tick: read, update, log, write (the drives enabled in the armed modes). A tick later
+    than ``overrun`` s takes the torque off and stops. With ``realtime``, the loop runs at
+    SCHED_FIFO and the ``io_threads`` above it (:func:`realtime_settings`); this thread's scheduling is
+    restored afterwards. ``scenery(out)``: a simulated world told each tick's output
+    before the drives' command acts on it (the treadmill follows the supervisor's
+    walking). Returns how it ended."""
     stop: list[str] = []
 
     def on_signal(signum: int, frame: object) -> None:
@@ -282,24 +319,24 @@ def run_session(backend: Backend, controller: Any, duration: float, period: floa
                 backend.safe()
                 reason = f"device fault: {fault}"
                 break
-            sensors["command"] = pending.pop(k, 0)
+            command = pending.pop(k, 0)
+            sensors["command"] = command
             try:
-                out = controller.step(sensors, t)
+                out = controller.update(sensors, command, t)
                 tau = np.asarray(out["tau"], dtype=float)
                 if tau.shape != (3,) or not np.all(np.isfinite(tau)):
                     raise ValueError(f"controller gave {tau!r}")
+                row = output_row(out)
             except Exception as e:  # the controller failed: torque off, stop
-                backend.write(zero)
+                backend.write(zero, False)
                 backend.safe()
                 reason = f"controller error: {type(e).__name__}: {e}"
                 break
-            backend.write(tau)
-            set_enabled = getattr(backend, "set_enabled", None)
-            if set_enabled is not None:  # the drives follow the supervisor's arming
-                set_enabled(out["mode"] in (1, 2))
-            log.append(np.concatenate([[t, late], backend.record(),
-                                       tau, [out["mode"], out["phase"], out["events"],
-                                             out["safety_status"]]]))
+            log.append(np.concatenate([[t, late], backend.record(), row]))
+            if scenery is not None:
+                scenery(out)
+            # the drives follow the supervisor's arming
+            backend.write(tau, out["mode"] in ARMED_MODES)
             if on_tick is not None:
                 cmd = on_tick(k, out, sensors, late)
                 if cmd in ENDS:
@@ -310,21 +347,20 @@ def run_session(backend: Backend, controller: Any, duration: float, period: floa
                         j += 1
                     pending[j] = cmd
             if stop:
-                backend.write(zero)
+                backend.write(zero, False)
                 backend.safe()
                 reason = f"{stop[0]}: torque off"
                 break
-            backend.advance(t, out["mode"] == 2)
             late = clock.wait()
             if late > overrun:  # the drives held a stale torque too long
-                backend.write(zero)
+                backend.write(zero, False)
                 backend.safe()
                 reason = (f"loop overrun: tick {k + 1} started {late * 1e3:.1f} ms late "
                           f"(limit {overrun * 1e3:g} ms): torque off")
                 break
     except BaseException as e:  # the bus, the log (disk full), the operator's link...
         with contextlib.suppress(Exception):  # the torque off first, whatever failed
-            backend.write(zero)
+            backend.write(zero, False)
         with contextlib.suppress(Exception):
             backend.safe()
         if not isinstance(e, Exception):

@@ -5,14 +5,24 @@ from __future__ import annotations
 import threading
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from exoleg.entry import DEFAULT_BODY_MASS
+from exoleg.entry import CONTROLLERS, DEFAULT_BODY_MASS
 from exoleg.errors import ParameterError
 from exoleg.runtime.log import MAX_LOSS_TICKS, SessionLog, read_log
-from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, OVERRUN_S, SessionResult, run_session
+from exoleg.runtime.loop import (
+    LOG_HEAD,
+    LOG_TAIL,
+    OVERRUN_S,
+    Device,
+    SessionResult,
+    run_session,
+)
+
+if TYPE_CHECKING:
+    from exoleg.control.contract import Controller
 
 BACKENDS = ("sim", "canopen", "ethercat")
 #: the --interface that puts simulated nodes on the bus (hardware in the loop)
@@ -28,14 +38,19 @@ SIMULATED_BUS_TIMEOUT_S = 20e-3
 
 def check_options(backend: str, interface: str | None = None, arm: bool = False,
                   walk_after: float | None = None, bus_timeout: float | None = None,
-                  overrun: float = OVERRUN_S) -> None:
+                  overrun: float = OVERRUN_S, controller: str = "walk",
+                  link: Any = None) -> None:
     """Refuses (ParameterError) what :func:`run` refuses before it touches a bus: an
-    unknown backend, arming at the start on a real device (there the operator arms, not
-    a command line), walking without arming, a bus timeout outside 0.1 ms to the
-    overrun limit."""
+    unknown backend or controller, arming at the start on a real device (there the
+    operator arms, not a command line), walking without arming, a bus timeout outside
+    0.1 ms to the overrun limit, an operator interface for a controller other than the
+    walking one (its gains and pages are the walking controller's)."""
     if backend not in BACKENDS:
         raise ParameterError("exoleg run", "--backend", f"unknown {backend!r} (allowed: "
                              + ", ".join(BACKENDS) + ")")
+    if controller not in CONTROLLERS:
+        raise ParameterError("exoleg run", "--controller", f"unknown {controller!r} "
+                             "(allowed: " + ", ".join(CONTROLLERS) + ")")
     if arm and backend != "sim" and interface not in (None, SIMULATED_BUS[backend]):
         raise ParameterError("exoleg run", "--arm", "only on the sim backend or simulated "
                              "nodes (canopen --interface virtual, ethercat --interface "
@@ -47,6 +62,70 @@ def check_options(backend: str, interface: str | None = None, arm: bool = False,
     if walk_after is not None and not arm:
         raise ParameterError("exoleg run", "--walk-after", "needs --arm (no motion without "
                              "arming)")
+    if link is not None and controller != "walk":
+        raise ParameterError("exoleg run", "--hmi", f"the operator interface runs the "
+                             f"walking controller, not {controller!r}")
+
+
+def make_controller(name: str, sim: Any) -> Controller:
+    """The controller called ``name`` (:data:`~exoleg.entry.CONTROLLERS`) for the
+    simulated device ``sim``'s leg and safety limits: the walking hierarchy made with the
+    device, or one of the paper's laws following the paper's scenario (stance and swing
+    postures every 3 s, section 6) on the leg with the actuators' reflected inertia."""
+    if name == "walk":
+        return cast("Controller", sim.controller)
+    from exoleg.control.controllers import law_named
+    from exoleg.control.tracking import TrackingController
+    from exoleg.sim.scenario import paper_reference
+
+    leg = sim.dev.plant.leg  # the device's leg model: with the actuators' armature
+    return TrackingController(law_named(name, leg), paper_reference(), sim.dev.safety)
+
+
+def open_device(backend: str, sim: Any, period: float, interface: str | None,
+                channel: str, bus_timeout: float | None, inject: Any
+                ) -> tuple[Device, Any, float | None]:
+    """The device a session drives, configured (:meth:`Device.configure`): ``sim``
+    itself, or the drive master of the bus with, on its simulated interface, the
+    simulated nodes answering from ``sim`` (returned as the rig). Returns (device, rig or
+    None, the bus timeout in force)."""
+    if backend == "sim":
+        sim.configure(sim.dev.safety)
+        return sim, None, None
+    interface = interface or SIMULATED_BUS[backend]
+    simulated = interface == SIMULATED_BUS[backend]
+    if bus_timeout is None:
+        bus_timeout = SIMULATED_BUS_TIMEOUT_S if simulated else BUS_TIMEOUT_S
+    if simulated:  # hardware in the loop: the simulated nodes answer
+        sim.warm_up()
+    acts = sim.dev.actuators
+    rig: Any = None
+    master: Any  # makes the bus's master (after the rig is on the bus)
+    if backend == "canopen":
+        from exoleg.hw.canopen_backend import CanopenBackend, SimulatedRig
+
+        rig = SimulatedRig(sim, interface, channel) if simulated else None
+        master = lambda: CanopenBackend(acts, period, interface, channel,  # noqa: E731
+                                        bus_timeout)
+    else:
+        from exoleg.hw.ethercat_backend import EthercatBackend, SimulatedSegment
+
+        rig = SimulatedSegment(sim) if simulated else None
+        master = lambda: EthercatBackend(acts, period, interface,  # noqa: E731
+                                         master=rig, timeout=bus_timeout)
+    if inject is not None and rig is not None:
+        inject(-1, rig)  # a fault before the start (misconfiguration, offsets)
+    b: Any = None
+    try:
+        b = master()
+        b.configure(sim.dev.safety)
+    except BaseException:
+        if b is not None:
+            b.deactivate()
+        if rig is not None:
+            rig.close()
+        raise
+    return b, rig, bus_timeout
 
 
 def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
@@ -54,8 +133,9 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         body_mass: float = DEFAULT_BODY_MASS, seed: int = 0, realtime: bool = True,
         interface: str | None = None, channel: str = "exoleg",
         inject: Any = None, link: Any = None, bus_timeout: float | None = None,
-        overrun: float = OVERRUN_S) -> tuple[SessionResult, Path]:
-    """One session: the device (``backend``) under the walking controller for
+        overrun: float = OVERRUN_S, controller: str = "walk") -> tuple[SessionResult, Path]:
+    """One session: the device (``backend``) under ``controller`` (the walking hierarchy,
+    or one of the paper's laws on the paper's scenario: :func:`make_controller`) for
     ``duration`` s, logged to ``out``/session.log. On ``sim`` the operator's arming may
     be given here (``arm``), and walking from ``walk_after`` s. ``link``: a
     :class:`~exoleg.runtime.link.LoopLink` to the operator's side (the HMI and its
@@ -66,68 +146,44 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     :data:`SIMULATED_BUS_TIMEOUT_S` on simulated nodes); ``overrun``: how late a tick may
     start before it is a fault (s)."""
     import exoleg
-    from exoleg.control.hierarchy import Command
+    from exoleg.control.contract import Command, Mode
     from exoleg.io import _writable_folder, write_json
 
-    check_options(backend, interface, arm, walk_after, bus_timeout, overrun)
+    check_options(backend, interface, arm, walk_after, bus_timeout, overrun, controller,
+                  link)
     from exoleg.runtime.sim_backend import SimBackend
 
     sim = SimBackend(leg if leg is not None else exoleg.paper_leg(), body_mass, period,
                      seed=seed)
-    controller = sim.controller
-    rig: Any = None
-    b: Any = sim
-    io_threads: list[threading.Thread] = []  # the bus's: receivers, simulated nodes
-    if backend != "sim":
-        interface = interface or SIMULATED_BUS[backend]
-        simulated = interface == SIMULATED_BUS[backend]
-        if bus_timeout is None:
-            bus_timeout = SIMULATED_BUS_TIMEOUT_S if simulated else BUS_TIMEOUT_S
-        if simulated:  # hardware in the loop: the simulated nodes answer
-            sim.warm_up()
-        acts = sim.dev.actuators
-        before = set(threading.enumerate())
-        master: Any  # makes the bus's master (after the rig is on the bus)
-        if backend == "canopen":
-            from exoleg.hw.canopen_backend import CanopenBackend, SimulatedRig
+    ctl = make_controller(controller, sim)
+    before = set(threading.enumerate())
+    b, rig, bus_timeout = open_device(backend, sim, period, interface, channel, bus_timeout,
+                                      inject)
+    # the bus's threads: receivers, simulated nodes
+    io_threads = [t for t in threading.enumerate() if t not in before]
+    try:
+        folder = _writable_folder(Path(out))
+        path = folder / "session.log"
+        import shutil
 
-            rig = SimulatedRig(sim, interface, channel) if simulated else None
-            master = lambda: CanopenBackend(acts, period, interface, channel,  # noqa: E731
-                                            bus_timeout)
-        else:
-            from exoleg.hw.ethercat_backend import EthercatBackend, SimulatedSegment
-
-            rig = SimulatedSegment(sim) if simulated else None
-            master = lambda: EthercatBackend(acts, period, interface,  # noqa: E731
-                                             master=rig, timeout=bus_timeout)
-        if inject is not None and rig is not None:
-            inject(-1, rig)  # a fault before the start (misconfiguration, offsets)
-        try:
-            b = master()
-            b.start_up(sim.dev.safety.lower, sim.dev.safety.upper, sim.dev.safety.hard_margin)
-        except BaseException:
-            if b is not sim:
-                b.close()
-            if rig is not None:
-                rig.close()
-            raise
-        io_threads = [t for t in threading.enumerate() if t not in before]
-    folder = _writable_folder(Path(out))
-    path = folder / "session.log"
-    import shutil
-
-    need = (duration / period) * 8 * (len(LOG_HEAD) + len(b.columns) + len(LOG_TAIL))
-    free = shutil.disk_usage(folder).free
-    if need > 0.9 * free:
-        raise ParameterError("exoleg run", "--duration",
-                             f"{duration:g} s of log needs {need / 2**30:.3g} GiB; "
-                             f"{free / 2**30:.3g} GiB is free in {folder}")
+        need = (duration / period) * 8 * (len(LOG_HEAD) + len(b.columns) + len(LOG_TAIL))
+        free = shutil.disk_usage(folder).free
+        if need > 0.9 * free:
+            raise ParameterError("exoleg run", "--duration",
+                                 f"{duration:g} s of log needs {need / 2**30:.3g} GiB; "
+                                 f"{free / 2**30:.3g} GiB is free in {folder}")
+    except BaseException:
+        b.deactivate()
+        if rig is not None:
+            rig.close()
+        raise
     started = time.time()
     log = SessionLog(path, LOG_HEAD + b.columns + LOG_TAIL,
                      {"period": period, "backend": backend, "max_loss_ticks": MAX_LOSS_TICKS,
                       "leg": sim.dev.leg.name, "body_mass": body_mass,
-                      "started": started,
-                      "interface": interface if backend != "sim" else None})
+                      "started": started, "controller": controller,
+                      "interface": None if rig is None and backend == "sim" else
+                      (interface or SIMULATED_BUS[backend])})
     commands: dict[int, int] = {}
     if arm:
         commands[0] = int(Command.ARM)
@@ -136,8 +192,6 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
 
     def on_tick(k: int, out: dict[str, Any], sensors: dict[str, Any], late: float
                 ) -> int | None:
-        if rig is not None:
-            rig.walking = out["mode"] == 2  # the treadmill: scenery of the simulation
         if inject is not None:
             inject(k, rig)
         if link is None:
@@ -146,24 +200,29 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         link.loop_tick(k, k * period, out, sensors, late, period, publish=k % 10 == 0)
         cmd, change = link.loop_poll()
         if change is not None:
-            controller.set_gains(change)
-            link.loop_gains(controller.gains_now())
+            ctl.set_gains(change)
+            link.loop_gains(ctl.gains_now())
         return cmd
 
+    def scenery(out: dict[str, Any]) -> None:
+        # the simulated world (the treadmill and the other leg) follows the child's
+        # walking: set before the drives' command acts on it
+        sim.walking = out["mode"] == Mode.WALKING
+
     if link is not None:
-        link.loop_gains(controller.gains_now())
+        link.loop_gains(ctl.gains_now())
     try:
-        res = run_session(b, controller, duration, period, log, commands, realtime=realtime,
-                          on_tick=on_tick, overrun=overrun, io_threads=io_threads)
+        res = run_session(b, ctl, duration, period, log, commands, realtime=realtime,
+                          on_tick=on_tick, overrun=overrun, io_threads=io_threads,
+                          scenery=scenery)
     finally:
         if link is not None:
             link.loop_ended()
-        if backend != "sim":
-            b.close()
-            if rig is not None:
-                rig.close()
-    summary = {"backend": backend, "started": started, "period": period,
-               "duration_s": res.ticks * period, "leg": sim.dev.leg.name,
+        b.deactivate()
+        if rig is not None:
+            rig.close()
+    summary = {"backend": backend, "controller": controller, "started": started,
+               "period": period, "duration_s": res.ticks * period, "leg": sim.dev.leg.name,
                "ticks": res.ticks, "stopped_by": res.stopped_by,
                "bus_timeout_ms": None if bus_timeout is None else bus_timeout * 1e3,
                "timing_us": res.timing, "realtime": res.realtime,
@@ -174,18 +233,21 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
 
 def summarize(path: str | Path) -> dict[str, Any]:
     """What a session log holds: length, modes, faults, events, timing, tail dropped."""
+    from exoleg.control.gait_phase import Event
+    from exoleg.control.safety import Limited
+
     header, cols, cut = read_log(path)
     n = len(cols["t"])
     period = float(header.get("period", 1e-3))
     late = cols["late"][1:] * 1e6 if n > 1 else np.zeros(0)
     modes = {int(m): int((cols["mode"] == m).sum()) for m in np.unique(cols["mode"])}
     status = cols["safety_status"].astype(np.int64)
-    faulted = np.nonzero(status & 2)[0]
+    faulted = np.nonzero(status & Limited.FAULT)[0]
     return {"ticks": n, "duration_s": n * period, "period_s": period,
             "backend": header.get("backend", "?"), "leg": header.get("leg", "?"),
             "ticks_per_mode": modes,
             "first_fault_s": float(cols["t"][faulted[0]]) if len(faulted) else None,
-            "initial_contacts": int(((cols["events"].astype(np.int64) & 1) > 0).sum()),
+            "initial_contacts": int(((cols["events"].astype(np.int64) & Event.IC) > 0).sum()),
             "late_p50_us": float(np.percentile(late, 50)) if len(late) else 0.0,
             "late_p99_us": float(np.percentile(late, 99)) if len(late) else 0.0,
             "late_max_us": float(late.max()) if len(late) else 0.0,

@@ -20,8 +20,12 @@ _CHUNK = 4096  # ticks of noise drawn at once
 
 
 class SimBackend:
-    """``read(t)`` the sensors, ``write(tau)`` the drives' commands, ``advance(t, walking)``
-    one tick of the plant; ``record()`` what the log keeps of the device per tick."""
+    """The simulated device (:class:`~exoleg.runtime.loop.Device`): ``read(t)`` its
+    sensors, ``write(tau, enable)`` its drives' command, which acts over the next tick:
+    the plant steps under it when the device is read again (as a bus's drives act at
+    the next cycle); ``record()`` what the log keeps of the device per tick. ``walking``
+    is the scenery's: while the child walks the treadmill runs and the other leg steps
+    (the session sets it from the supervisor's mode)."""
 
     columns = ([f"q_meas_{j}" for j in JOINTS] + [f"dq_meas_{j}" for j in JOINTS]
                + ["fsr_heel", "fsr_met1", "fsr_met5", "fsr_hallux", "gyro"]
@@ -46,11 +50,20 @@ class SimBackend:
         self.fn = np.zeros(4)
         self.u, self.env, self.tau = np.zeros(3), np.zeros(3), np.zeros(3)
         self.walk_start = -1.0
+        self.walking = False
+        self._written = False
 
     @property
     def controller(self) -> Any:
         """The walking controller made for this device (:class:`WalkController`)."""
         return self.dev.controller
+
+    def configure(self, limits: Any = None) -> list[str]:
+        """Nothing to bring up: the simulated drives are the plant's."""
+        return ["simulated device: the walking plant, its drives and foot board"]
+
+    def deactivate(self) -> None:
+        """Nothing to release."""
 
     def warm_up(self) -> None:
         """Compile (or load from numba's cache) the tick's functions on copies of the state,
@@ -64,6 +77,8 @@ class SimBackend:
                        self.dev.plant.support_height, np.zeros(3), np.zeros(3))
 
     def read(self, t: float) -> dict[str, Any]:
+        if self._written:  # the drives' last command acts over the tick that ended
+            self._step()
         i = self.k % _CHUNK
         if i == 0 and self.k:
             self.fsr_noise, self.imu_noise, _ = self._draw()
@@ -73,21 +88,25 @@ class SimBackend:
         r = self.reading[0]
         return {"q": r["q"], "dq": r["dq"], "fsr": r["fsr"], "gyro": float(r["gyro"])}
 
-    def write(self, tau: F64) -> None:
-        self.u[:] = tau
+    def write(self, tau: F64, enable: bool) -> None:
+        """The drives' torque command (N m), zero unless ``enable``."""
+        self.u[:] = tau if enable else 0.0
+        self._written = True
 
     def safe(self) -> None:
         """Torque off (the simulated drives' quick stop)."""
         self.u[:] = 0.0
 
-    def advance(self, t: float, walking: bool = False) -> None:
-        if walking and self.walk_start < 0:
+    def _step(self) -> None:
+        t = self.k * self.period
+        if self.walking and self.walk_start < 0:
             self.walk_start = t
         device_actuate(self.p, self.w, self.dev.A, self.S, self.period, self.substeps, self.u,
-                       self.fn, walking, t, self.walk_start if walking else 1e18,
-                       self.dev.stride_time, self.dev.support, self.dev.plant.support_height,
-                       self.env, self.tau)
+                       self.fn, self.walking, t,
+                       self.walk_start if self.walking else 1e18, self.dev.stride_time,
+                       self.dev.support, self.dev.plant.support_height, self.env, self.tau)
         self.k += 1
+        self._written = False
 
     def record(self) -> F64:
         r, x = self.reading[0], self.S[0]["x"]

@@ -11,7 +11,7 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from exoleg.control.laws import PD_GRAVITY_KIND, law
+from exoleg.control.laws import Law, law
 from exoleg.dynamics.kernels import coefficients
 from exoleg.errors import SimulationError
 from exoleg.sim.integrators import next_sincos, rk4_sc, sincos3
@@ -29,7 +29,7 @@ def _one(p, g, kp, kd, Qr, DQr, dt, q_init, dq_init, start, out, limit):  # type
     # peaks in locals (stores into ``out`` at every step would be kept in memory)
     t0 = t1 = t2 = w0 = w1 = w2 = e0 = e1 = e2 = 0.0
     for k in range(Qr.shape[0] - 1):
-        u0, u1, u2, _ = law(PD_GRAVITY_KIND, kp, kd, k_leg, 1.0, limit, s0, c0, s1, c1, s2, c2,
+        u0, u1, u2, _ = law(Law.PD_GRAVITY, kp, kd, k_leg, 1.0, limit, s0, c0, s1, c1, s2, c2,
                             q0, q1, q2, v0, v1, v2, Qr[k, 0], Qr[k, 1], Qr[k, 2],
                             DQr[k, 0], DQr[k, 1], DQr[k, 2], 0.0, 0.0, 0.0)
         if k >= start:

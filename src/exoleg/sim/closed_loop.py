@@ -13,7 +13,7 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from exoleg.control.controllers import Controller
-from exoleg.control.laws import COMPUTED_TORQUE_KIND, law
+from exoleg.control.laws import Law, law
 from exoleg.dynamics.kernels import coefficients, diagnostics, forward_dynamics_sc, mass_matrix
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError, SimulationError
@@ -157,7 +157,7 @@ def _margin(p, p_model, kind, kd, scale, h, postures):  # type: ignore[no-untype
     for k in range(postures.shape[0]):
         mass_matrix(postures[k], p, Mp)
         Minv = _inv3(Mp)
-        if kind == COMPUTED_TORQUE_KIND:
+        if kind == Law.COMPUTED_TORQUE:
             mass_matrix(postures[k], p_model, Mm)
         else:
             Mm[:] = np.eye(3)
@@ -415,8 +415,8 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
                      kp_effective=controller.scale * controller.Kp)
 
 
-_GAIN_NAME = {0: "lambda of M^-1 Kd", 1: "lambda of M^-1 Kd",
-              COMPUTED_TORQUE_KIND: "lambda of M^-1 M_model Kd, Kd in 1/s"}
+_GAIN_NAME = {Law.PD: "lambda of M^-1 Kd", Law.PD_GRAVITY: "lambda of M^-1 Kd",
+              Law.COMPUTED_TORQUE: "lambda of M^-1 M_model Kd, Kd in 1/s"}
 
 
 def outside_range(Q: F64, rom: RangeOfMotion, tol: float = 1e-9) -> str:

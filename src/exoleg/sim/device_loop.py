@@ -222,7 +222,8 @@ class DeviceResult(TimeSeries):
 
 def device_parts(device: str | Path | None, actuators: tuple[ActuatorModel, ...] | None,
                  safety: SafetyLimits | None, control_dt: float
-                 ) -> tuple[Path | None, tuple[ActuatorModel, ...], F64, SafetyLimits]:
+                 ) -> tuple[Path | None, tuple[ActuatorModel, ...], NDArray[np.void],
+                            SafetyLimits]:
     """The device folder checked (None: the shipped files), the actuators and their
     parameter array, and the safety limits at ``control_dt`` -- each given, or read from
     the folder."""

@@ -31,7 +31,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from exoleg.control import gait_phase as gp
-from exoleg.control.contract import OUTPUT, SENSORS, Command, Mode
+from exoleg.control.contract import OUTPUT, SENSOR_POINTS, SENSORS, Command, Mode
 from exoleg.control.hierarchy import (
     START_FRACTION,
     WalkController,
@@ -49,7 +49,6 @@ from exoleg.device.actuator import (
 )
 from exoleg.device.sensors import FootSensors, draw_noise, fsr_counts, imu
 from exoleg.device.walking import (
-    SENSOR_POINTS,
     Ground,
     WalkingPlant,
     contact_forces,
@@ -404,7 +403,7 @@ class SimulatedDevice:
     leg: LegModel
     plant: WalkingPlant
     actuators: tuple[ActuatorModel, ...]
-    A: F64
+    A: NDArray[np.void]
     sensors: FootSensors
     support: F64
     depth: float
@@ -414,7 +413,7 @@ class SimulatedDevice:
     stride_time: float
     safety: SafetyLimits
 
-    def state(self) -> F64:
+    def state(self) -> NDArray[np.void]:
         """A fresh device state at the start posture (:data:`DEVICE`)."""
         return device_state(self.plant, self.A, self.x0, self.imu_x, -self.depth)
 

@@ -1,0 +1,84 @@
+"""The supervisor every controller shares (compiled): the operator's commands against
+the mode, through the safety layer's own arm, E-stop and reset.
+
+DISARMED -> (arm) STANDING -> (walk) WALKING -> (stand) STANDING; disarm from anywhere;
+an E-stop or a latched safety fault -> FAULT, which only a reset leaves (to DISARMED),
+and only when the state is sane again (:func:`exoleg.control.safety.reset`). Transitions
+happen on explicit commands (:class:`~exoleg.control.contract.Command`) or detected
+faults, never on a timer. A command that does not apply in the mode is refused (and
+reported in the tick's output), never silently dropped.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from exoleg.control import safety as sf
+from exoleg.control.contract import Command, Mode
+from exoleg.layout import I8
+
+#: The supervisor's state: its mode (:class:`~exoleg.control.contract.Mode`).
+SUPERVISOR = np.dtype([("mode", I8)])
+
+
+@njit(cache=True)
+def supervise(sup, lim, sst, command, q, dq):  # type: ignore[no-untyped-def]
+    """Apply ``command`` to the supervisor ``sup`` (:data:`SUPERVISOR`) and the safety
+    layer (``lim``, ``sst``) at the measured ``q``, ``dq``. Returns the command refused
+    (NONE if it applied or none came)."""
+    mode = sup[0].mode
+    refused = Command.NONE
+    if command == Command.ARM:
+        if mode == Mode.DISARMED and sf.arm(sst):
+            mode = Mode.STANDING
+        else:
+            refused = command
+    elif command == Command.WALK:
+        if mode == Mode.STANDING:
+            mode = Mode.WALKING
+        else:
+            refused = command
+    elif command == Command.STAND:
+        if mode == Mode.WALKING:
+            mode = Mode.STANDING
+        else:
+            refused = command
+    elif command == Command.DISARM:
+        sf.disarm(sst)
+        if mode != Mode.FAULT:
+            mode = Mode.DISARMED
+    elif command == Command.ESTOP:
+        sf.estop(sst)
+        mode = Mode.FAULT
+    elif command == Command.RESET:
+        refused = command
+        if mode == Mode.FAULT and sst[0].fault != sf.Fault.NONE:
+            held, _ = sf.reset(lim, sst, q, dq)
+            if held == sf.Fault.NONE:
+                mode = Mode.DISARMED
+                refused = Command.NONE
+    elif command != Command.NONE:
+        refused = command
+    sup[0].mode = mode
+    return refused
+
+
+@njit(cache=True)
+def settle(sup, sst):  # type: ignore[no-untyped-def]
+    """After the safety layer's tick: a latched fault puts the supervisor in FAULT.
+    Returns the mode."""
+    if sst[0].fault != sf.Fault.NONE:
+        sup[0].mode = Mode.FAULT
+    return sup[0].mode
+
+
+@njit(cache=True)
+def report(sup, sst, refused, status, out):  # type: ignore[no-untyped-def]
+    """The supervisor's and the safety layer's part of the tick's output record."""
+    o = out[0]
+    o.mode = sup[0].mode
+    o.safety_status = status
+    o.fault = sst[0].fault
+    o.fault_joint = sst[0].fault_joint
+    o.refused = refused

@@ -1,0 +1,140 @@
+"""The paper's laws on the device: a reference followed by PD + gravity compensation (eq
+23), plain PD or computed torque (:mod:`exoleg.control.controllers`), behind the shared
+supervisor (:mod:`exoleg.control.supervisor`) and the safety layer -- the
+:class:`~exoleg.control.contract.Controller` contract, so ``exoleg run --controller
+pd-gravity`` drives the simulated device, the CANopen drives and the EtherCAT drives
+with the law ``exoleg simulate`` checks against the paper.
+
+The reference keeps its own clock, which runs only while WALKING: armed and standing,
+the device holds the reference where its clock stands (at the start, its first
+posture), at rest; WALK runs it on from there, STAND stops it where it is -- so neither
+command makes the reference jump.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from exoleg.control import safety as sf
+from exoleg.control.contract import OUTPUT, SENSORS, Mode, TickRecords
+from exoleg.control.controllers import Controller as LawRecord
+from exoleg.control.gait_phase import Phase
+from exoleg.control.laws import control_law
+from exoleg.control.safety import SafetyLimits, safety_step
+from exoleg.control.supervisor import SUPERVISOR, report, settle, supervise
+from exoleg.errors import ParameterError
+from exoleg.layout import new
+from exoleg.params import _check
+from exoleg.reference.steps import Reference
+
+
+@njit(cache=True)
+def track_step(kind, kp, kd, kc, scale, limit, lim, sst, sup, sens, refused, qr, dqr, ddqr,  # type: ignore[no-untyped-def]
+               out):
+    """The law at the reference ``qr``, ``dqr``, ``ddqr`` (3,) on the readings ``sens``
+    (:data:`~exoleg.control.contract.SENSORS`), then the safety layer; the supervisor
+    (already told this tick's command, ``refused`` what it refused) settles on a fault.
+    Writes ``out`` (:data:`~exoleg.control.contract.OUTPUT`)."""
+    s = sens[0]
+    u = np.empty(3)
+    control_law(kind, kp, kd, kc, scale, limit, s.q, s.dq, qr, dqr, ddqr, u)
+    o = out[0]
+    status = safety_step(lim, sst, s.q, s.dq, u, False, o.tau)
+    settle(sup, sst)
+    report(sup, sst, refused, status, out)
+    o.phase = Phase.UNKNOWN
+    o.gait_fraction = 0.0
+    o.events = 0
+    for j in range(3):
+        o.q_ref[j] = qr[j]
+
+
+#: The ticks as Python calls them (numba's dispatcher has no signature for a type checker).
+_supervise: Callable[..., int] = supervise
+_track: Callable[..., None] = track_step
+
+
+class TrackingController:
+    """``law`` (a :class:`~exoleg.control.controllers.Controller` record: PDGravity, PD,
+    ComputedTorque) following ``reference`` on the device, with the supervisor and the
+    safety layer (``safety``, default :meth:`SafetyLimits.paper`)."""
+
+    def __init__(self, law: LawRecord, reference: Reference,
+                 safety: SafetyLimits | None = None) -> None:
+        w = "TrackingController"
+        if not isinstance(law, LawRecord):
+            raise ParameterError(w, "law", "expected a controller record (PDGravity, PD, "
+                                 f"ComputedTorque), got {type(law).__name__}")
+        if not callable(getattr(reference, "sample", None)):
+            raise ParameterError(w, "reference", "expected a reference with sample(t) "
+                                 f"(Steps, MinJerk, SchwartzGait2008), got "
+                                 f"{type(reference).__name__}")
+        if safety is not None and not isinstance(safety, SafetyLimits):
+            raise ParameterError(w, "safety", f"expected SafetyLimits, got "
+                                 f"{type(safety).__name__}")
+        self.law = law
+        self.reference = reference
+        self.safety = SafetyLimits.paper() if safety is None else safety
+        self.lim = self.safety.record()
+        self.sst = new(sf.STATE)
+        self.sst[0]["fault_joint"] = -1
+        self.sup = new(SUPERVISOR)
+        self.io = TickRecords("TrackingController.update")
+        self.clock = 0.0       # the reference's own time, s: runs only while walking
+        self._since = 0.0      # the session time the reference's clock last started from
+        # the law's gains, model coefficients and limits as arrays: a tuple of floats
+        # costs numba microseconds to type at every call from Python
+        kp, kd, kc, scale, limit = law.law_args()
+        self._args = (int(law.kind), np.array(kp), np.array(kd), np.array(kc), float(scale),
+                      np.array(limit))
+
+    def warm_up(self) -> None:
+        """Compile (or load from numba's cache) on copies of the state."""
+        sst, sup, z = self.sst.copy(), self.sup.copy(), np.zeros(3)
+        refused = _supervise(sup, self.lim, sst, 0, z, z)
+        _track(*self._args, self.lim, sst, sup, new(SENSORS), refused, z, z, z, new(OUTPUT))
+        self.reference.sample(np.zeros(1))
+
+    def update(self, sensors: Mapping[str, Any], command: int, t: float) -> dict[str, Any]:
+        """One tick (the :class:`~exoleg.control.contract.Controller` contract)."""
+        self.io.read(sensors, command)
+        r = self.io.sens[0]
+        before = int(self.sup[0]["mode"])
+        refused = _supervise(self.sup, self.lim, self.sst, int(r["command"]), r["q"], r["dq"])
+        walking = int(self.sup[0]["mode"]) == Mode.WALKING
+        if walking and before != Mode.WALKING:
+            self._since = float(t) - self.clock
+        if walking:
+            self.clock = float(t) - self._since
+        q, dq, ddq = (np.ascontiguousarray(x[0], dtype=float)
+                      for x in self.reference.sample(np.array([self.clock])))
+        if not walking:  # held where the reference's clock stands, at rest
+            dq, ddq = np.zeros(3), np.zeros(3)
+        _track(*self._args, self.lim, self.sst, self.sup, self.io.sens, refused, q, dq, ddq,
+               self.io.out)
+        return self.io.result()
+
+    def gains_now(self) -> dict[str, list[float]]:
+        """Kp and Kd per joint (the law's units: N m/rad and N m s/rad; computed torque
+        1/s^2 and 1/s)."""
+        return {"Kp": [float(x) for x in self._args[1]], "Kd": [float(x) for x in self._args[2]]}
+
+    def set_gains(self, change: dict[str, list[float]]) -> None:
+        """Change Kp and/or Kd between ticks: all of ``change`` or, if any value is unknown,
+        not finite or outside 0-1e4, none (ParameterError)."""
+        where = "TrackingController.set_gains"
+        now = self.gains_now()
+        new_ = dict(now)
+        for k, v in change.items():
+            if k not in now:
+                raise ParameterError(where, k, f"unknown gain (allowed: {', '.join(now)})")
+            x = _check.vector(where, k, v, 3)
+            if np.any(x < 0) or np.any(x > 1e4):
+                raise ParameterError(where, k, f"gains are 0-1e4 per joint, got {x.tolist()}")
+            new_[k] = [float(a) for a in x]
+        self._args[1][:] = new_["Kp"]
+        self._args[2][:] = new_["Kd"]
