@@ -127,14 +127,20 @@ def test_link_estop_goes_first_and_applied_commands_are_timed() -> None:
     time.sleep(0.05)
     cmd, change = link.loop_poll()
     assert cmd == Command.ESTOP and change is None  # queued last, applied first
-    out = {"events": 0, "safety_status": 0, "mode": 3, "phase": 0, "tau": np.zeros(3)}
+    out = {"events": 0, "safety_status": 2, "mode": 3, "phase": 0, "tau": np.zeros(3),
+           "gait_fraction": 0.0, "q_ref": np.zeros(3), "fault": 1, "fault_joint": -1,
+           "refused": 0}  # every field of the output record (contract.OUTPUT)
     sensors = {"command": int(Command.ESTOP), "q": np.zeros(3), "dq": np.zeros(3),
                "fsr": np.zeros(4)}
     before = time.time()
     link.loop_tick(7, 0.007, out, sensors, 0.0, 1e-3, publish=True)
     n, done = LoopLink.applied(link.web_copy(), 0)
     assert n == 1 and done[0][:3] == (int(Command.ESTOP), 3, 7) and done[0][3] >= before
-    assert LoopLink.snapshot(link.web_copy())["running"] == "running"
+    snap = LoopLink.snapshot(link.web_copy())
+    assert snap["running"] == "running" and snap["tick"] == 7
+    # the snapshot carries the output record's fields by their names (link.PUBLISHED)
+    assert (snap["mode"], snap["fault"], snap["safety_status"], snap["tau"]) == (3, 1, 2,
+                                                                                [0.0] * 3)
     link.web_gains({"kp_swing": [1.0, 2.0, 3.0]})
     link.web_gains({"support": [0.5]})  # two changes within a tick: both act
     cmd, change = link.loop_poll()

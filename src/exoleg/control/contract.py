@@ -163,9 +163,19 @@ def name_of(kind: type[IntEnum], value: int) -> str:
         return str(value)
 
 
-def enums() -> dict[str, dict[str, int]]:
-    """Every enumeration a page or a log reader shows, by name (served to the page)."""
-    from exoleg.control.gait_phase import Event, Phase
-    from exoleg.control.safety import Fault, Limited
+def vocabulary() -> dict[str, Any]:
+    """What a page needs to show the tick's numbers, taken from the enumerations
+    themselves (served to the page, which keeps no table of its own): each enumeration's
+    names by value, the texts of the phases, events and safety bits, the joints and the
+    FSR points."""
+    from exoleg.control.gait_phase import EVENT_NAMES, PHASE_NAMES, Event, Phase
+    from exoleg.control.safety import LIMITED_TEXT, Fault, Limited
 
-    return enum_table(Mode, Command, Phase, Event, Fault, Limited)
+    out: dict[str, Any] = {k: {str(v): n for n, v in t.items()}
+                           for k, t in enum_table(Mode, Command, Phase, Event, Fault,
+                                                  Limited).items()}
+    out["text"] = {"Phase": {str(int(k)): v for k, v in PHASE_NAMES.items()},
+                   "Event": [[int(k), v] for k, v in EVENT_NAMES.items()],
+                   "Limited": [[int(k), v] for k, v in LIMITED_TEXT.items()]}
+    out["joints"], out["sensors"] = list(JOINTS), list(SENSOR_POINTS)
+    return out

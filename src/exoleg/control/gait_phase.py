@@ -56,6 +56,8 @@ class Event(IntEnum):
 
 EVENT_NAMES = {Event.IC: "initial contact", Event.FF: "foot flat", Event.HO: "heel off",
                Event.TO: "toe off"}
+PHASE_NAMES = {Phase.UNKNOWN: "unknown", Phase.SWING: "swing", Phase.LOADING: "loading",
+               Phase.FLAT: "foot flat", Phase.PUSH: "push-off"}
 
 
 @dataclass(frozen=True)

@@ -59,6 +59,13 @@ class Limited(IntEnum):
     RATE = 16           # limited by the torque rate
 
 
+#: What each status bit means, as the operator reads it.
+LIMITED_TEXT = {Limited.DISARMED: "disarmed: torque zero",
+                Limited.FAULT: "FAULT: torque off (latched)",
+                Limited.SOFT_LIMIT: "beyond the soft range-of-motion limit",
+                Limited.TORQUE: "torque clipped", Limited.RATE: "torque rate limited"}
+
+
 #: The safety layer's limits as the compiled tick reads them (:meth:`SafetyLimits.record`):
 #: per joint the range of motion (rad), Table 2's torque (N m), the largest torque change
 #: in one tick (N m) and the overspeed threshold (rad/s); the hard margin (rad).

@@ -28,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from exoleg.control.contract import vocabulary
+from exoleg.control.hierarchy import WalkGains
 from exoleg.entry import DEFAULT_BODY_MASS
 from exoleg.errors import ParameterError
 from exoleg.io import write_json
@@ -38,6 +40,9 @@ from exoleg.runtime.session import SIMULATED_BUS, check_options
 STATIC = Path(__file__).parent / "static"
 #: the longest session the HMI starts, s (a session may be ended at any time before)
 MAX_DURATION = 3600.0
+#: the names and texts of the modes, phases, events, faults and safety bits, from the
+#: enumerations the compiled tick uses (the page keeps no table of its own)
+VOCABULARY = vocabulary()
 
 
 def _slug(text: str) -> str:
@@ -365,7 +370,8 @@ class HMI:
                     "simulated": self.interface == SIMULATED_BUS.get(self.backend),
                     "child": self.child, "session": self.session.name if self.session
                     else None, "max_duration": MAX_DURATION,
-                    "children": self.children()})
+                    "children": self.children(), "vocabulary": VOCABULARY,
+                    "gains": [g for g in WalkGains.TUNABLE if g != "support"]})
 
         async def fit(request: Request) -> JSONResponse:
             refused = api.refusal(request, "fit")

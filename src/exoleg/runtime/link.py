@@ -27,28 +27,40 @@ from typing import Any
 
 import numpy as np
 
-from exoleg.control.contract import Command
+from exoleg.control.contract import OUTPUT, SENSORS, Command
+from exoleg.control.hierarchy import PARAMS, WalkGains
 from exoleg.runtime.loop import END_SESSION, LINK_LOST
 
 #: gains the operator may change, in the order they sit in the shared block
-GAIN_NAMES = ("kp_stance", "kd_stance", "kp_swing", "kd_swing", "support")
-_GAIN_SIZES = (3, 3, 3, 3, 1)
+GAIN_NAMES = WalkGains.TUNABLE
 RING = 32
 
-_FIELDS = [("seq", 1), ("t", 1), ("mode", 1), ("phase", 1), ("gait_fraction", 1),
-           ("events", 1), ("safety_status", 1), ("q", 3), ("dq", 3), ("q_ref", 3),
-           ("tau", 3), ("fsr", 4), ("late_us", 1), ("late_max_us", 1), ("missed", 1),
-           ("tick", 1), ("running", 1), ("gains_set", 1), ("gains", sum(_GAIN_SIZES)),
-           ("applied", 1),
-           ("ring", 4 * RING)]
-_AT: dict[str, slice] = {}
-_n = 0
-for _name, _size in _FIELDS:
-    _AT[_name] = slice(_n, _n + _size)
-    _n += _size
-SIZE = _n
-#: the fields a snapshot carries as lists (the rest are numbers)
-_VECTORS = {"q", "dq", "q_ref", "tau", "fsr"}
+
+def _shape(dtype: np.dtype, name: str) -> tuple[int, ...]:
+    return tuple(dtype[name].shape)
+
+
+#: the shared block, every field a float64 (one seqlock over the whole): the sequence
+#: number, the tick's time, the controller's output (:data:`OUTPUT`) and the device's
+#: joint and foot readings (:data:`SENSORS`), the loop's timing, whether it runs, the
+#: gains in force (:data:`GAIN_NAMES`, as :data:`~exoleg.control.hierarchy.PARAMS`
+#: holds them) and the ring of applied commands (command, request id, tick, wall time)
+PUBLISHED = ("mode", "phase", "gait_fraction", "events", "safety_status", "q_ref", "tau",
+             "fault", "fault_joint", "refused")
+READINGS = ("q", "dq", "fsr")
+BLOCK = np.dtype([("seq", "f8"), ("t", "f8")]
+                 + [(n, "f8", _shape(OUTPUT, n)) for n in PUBLISHED]
+                 + [(n, "f8", _shape(SENSORS, n)) for n in READINGS]
+                 + [("late_us", "f8"), ("late_max_us", "f8"), ("missed", "f8"),
+                    ("tick", "f8"), ("running", "f8"), ("gains_set", "f8")]
+                 + [("gain_" + n, "f8", _shape(PARAMS, n)) for n in GAIN_NAMES]
+                 + [("applied", "f8"), ("ring", "f8", (RING, 4))])
+SIZE = BLOCK.itemsize // 8
+#: the snapshot's fields, in the block's order
+_SNAPSHOT = ("t", *PUBLISHED, *READINGS, "late_us", "late_max_us", "missed", "tick",
+             "running")
+_INTS = {"mode", "phase", "events", "safety_status", "fault", "fault_joint", "refused",
+         "missed", "tick"}
 _RUNNING = ("starting", "running", "ended")
 
 
@@ -61,7 +73,7 @@ class LoopLink:
         self.block = block
         self.receiver = receiver
         self.sender = sender
-        self._view: np.ndarray | None = None
+        self._view: np.void | None = None
         self._queue: deque[tuple[int, int]] = deque()
         self._inflight: list[tuple[int, int]] = []
         self._events = 0
@@ -84,29 +96,31 @@ class LoopLink:
         self.__init__(state["block"], state["receiver"], state["sender"])  # type: ignore[misc]
 
     @property
-    def view(self) -> np.ndarray:
+    def view(self) -> np.void:
+        """The shared block as one :data:`BLOCK` record (fields by name)."""
         if self._view is None:
-            self._view = np.frombuffer(self.block, dtype=np.float64)
+            self._view = np.frombuffer(self.block, dtype=BLOCK)[0]
         return self._view
 
     # ------------------------------------------------------------ the loop's side
-    def _begin(self) -> np.ndarray:
+    def _begin(self) -> np.void:
         v = self.view
-        v[0] += 1.0  # odd: being written
+        v["seq"] += 1.0  # odd: being written
         return v
 
     def loop_gains(self, gains: dict[str, list[float]]) -> None:
         """The gains in force (at the start and after every change)."""
         v = self._begin()
-        v[_AT["gains"]] = np.concatenate([gains[k] for k in GAIN_NAMES])
-        v[_AT["gains_set"]] = 1.0
-        v[0] += 1.0
+        for k in GAIN_NAMES:
+            v["gain_" + k] = gains[k] if PARAMS[k].shape else gains[k][0]
+        v["gains_set"] = 1.0
+        v["seq"] += 1.0
 
     def loop_ended(self) -> None:
         """The session is over (``running``: 0 before the first tick, 1 from it on)."""
         v = self._begin()
-        v[_AT["running"]] = 2.0
-        v[0] += 1.0
+        v["running"] = 2.0
+        v["seq"] += 1.0
 
     def loop_poll(self) -> tuple[int, dict[str, list[float]] | None]:
         """What the web side sent: (command for the next tick or 0, a gain change or
@@ -147,30 +161,25 @@ class LoopLink:
         v = self._begin()
         if hit is not None:
             self._inflight.remove(hit)
-            n = int(v[_AT["applied"]][0])
-            i = _AT["ring"].start + 4 * (n % RING)
-            v[i:i + 4] = (hit[0], hit[1], k, time.time())
-            v[_AT["applied"]] = n + 1
+            n = int(v["applied"])
+            v["ring"][n % RING] = (hit[0], hit[1], k, time.time())
+            v["applied"] = n + 1
         if publish:
-            v[_AT["t"]] = t
-            v[_AT["mode"]] = int(out["mode"])
-            v[_AT["phase"]] = int(out["phase"])
-            v[_AT["gait_fraction"]] = float(out.get("gait_fraction", 0.0))
-            v[_AT["events"]] = self._events
-            v[_AT["safety_status"]] = self._status
-            v[_AT["q"]] = sensors["q"]
-            v[_AT["dq"]] = sensors["dq"]
-            v[_AT["q_ref"]] = out.get("q_ref", np.zeros(3))
-            v[_AT["tau"]] = out["tau"]
-            v[_AT["fsr"]] = sensors["fsr"]
-            v[_AT["late_us"]] = late * 1e6
-            v[_AT["late_max_us"]] = self._late_max * 1e6
-            v[_AT["missed"]] = self._missed
-            v[_AT["tick"]] = k
-            v[_AT["running"]] = 1.0
+            v["t"] = t
+            for name in PUBLISHED:
+                v[name] = out[name]
+            for name in READINGS:
+                v[name] = sensors[name]
+            v["events"] = self._events  # ORed since the last publication
+            v["safety_status"] = self._status
+            v["late_us"] = late * 1e6
+            v["late_max_us"] = self._late_max * 1e6
+            v["missed"] = self._missed
+            v["tick"] = k
+            v["running"] = 1.0
             self._events = self._status = 0
             self._late_max = 0.0
-        v[0] += 1.0
+        v["seq"] += 1.0
 
     # ------------------------------------------------------------ the web side
     def web_send(self, command: int, request_id: int = 0) -> None:
@@ -182,55 +191,47 @@ class LoopLink:
     def web_end(self) -> None:
         self.sender.send(("command", END_SESSION, 0))
 
-    def web_copy(self) -> np.ndarray:
+    def web_copy(self) -> np.void:
         """A consistent copy of the shared block (retries a copy torn by a write)."""
         v = self.view
         for _ in range(1000):
-            s = v[0]
+            s = float(v["seq"])
             c = v.copy()
-            if s % 2 == 0 and v[0] == s:
+            if s % 2 == 0 and v["seq"] == s:
                 return c
             time.sleep(1e-5)
         raise RuntimeError("the loop's shared block stayed mid-write for 10 ms")
 
     @staticmethod
-    def snapshot(c: np.ndarray) -> dict[str, Any]:
-        """The latest tick as JSON-ready values (angles rad, torques N m, FSR counts)."""
+    def snapshot(c: np.void) -> dict[str, Any]:
+        """The latest tick as JSON-ready values (angles rad, torques N m, FSR counts):
+        the fields of :data:`BLOCK` the page shows, by name."""
         out: dict[str, Any] = {}
-        for name in ("t", "mode", "phase", "gait_fraction", "events", "safety_status",
-                     "q", "dq", "q_ref", "tau", "fsr", "late_us", "late_max_us", "missed",
-                     "tick", "running"):
-            x = c[_AT[name]]
-            out[name] = [float(a) for a in x] if name in _VECTORS else float(x[0])
-        for name in ("mode", "phase", "events", "safety_status", "missed", "tick"):
-            out[name] = int(out[name])
+        for name in _SNAPSHOT:
+            x = c[name]
+            out[name] = ([float(a) for a in x] if BLOCK[name].shape
+                         else int(x) if name in _INTS else float(x))
         out["running"] = _RUNNING[int(out["running"])]
         return out
 
     @staticmethod
-    def running(c: np.ndarray) -> str:
+    def running(c: np.void) -> str:
         """'starting' (before the first tick), 'running' or 'ended'."""
-        return _RUNNING[int(c[_AT["running"]][0])]
+        return _RUNNING[int(c["running"])]
 
     @staticmethod
-    def gains(c: np.ndarray) -> dict[str, list[float]] | None:
+    def gains(c: np.void) -> dict[str, list[float]] | None:
         """The gains in force; None before the session has published them."""
-        if not c[_AT["gains_set"]][0]:
+        if not c["gains_set"]:
             return None
-        g = c[_AT["gains"]]
-        out, i = {}, 0
-        for name, n in zip(GAIN_NAMES, _GAIN_SIZES, strict=True):
-            out[name] = [float(x) for x in g[i:i + n]]
-            i += n
-        return out
+        return {n: [float(x) for x in np.atleast_1d(c["gain_" + n])] for n in GAIN_NAMES}
 
     @staticmethod
-    def applied(c: np.ndarray, since: int) -> tuple[int, list[tuple[int, int, int, float]]]:
+    def applied(c: np.void, since: int) -> tuple[int, list[tuple[int, int, int, float]]]:
         """Commands applied after the first ``since``: (count now, [(command, request
         id, tick, wall time)])."""
-        n = int(c[_AT["applied"]][0])
-        ring = c[_AT["ring"]].reshape(RING, 4)
+        n = int(c["applied"])
+        ring = c["ring"]
         first = max(since, n - RING)
         return n, [(int(ring[i % RING, 0]), int(ring[i % RING, 1]), int(ring[i % RING, 2]),
                     float(ring[i % RING, 3])) for i in range(first, n)]
-

@@ -3,14 +3,12 @@
 // slow it. The E-stop is sent without a token, from any page, by anyone.
 "use strict";
 
-const MODES = ["DISARMED", "STANDING", "WALKING", "FAULT"];
-const PHASES = {"-1": "unknown", 0: "swing", 1: "loading", 2: "foot flat", 3: "push-off"};
-const SAFETY = [[1, "disarmed: torque zero"], [2, "FAULT: torque off (latched)"],
-                [4, "beyond the soft range-of-motion limit"], [8, "torque clipped"],
-                [16, "torque rate limited"]];
-const EVENTS = [[1, "initial contact"], [2, "foot flat"], [4, "heel off"], [8, "toe off"]];
+// The names of modes, phases, events and safety bits come from the server (/api/info:
+// vocabulary, taken from the enumerations the compiled tick uses), as do the gains.
+const VOC = () => (S.info && S.info.vocabulary) || {Mode: {}, text: {Phase: {}, Event: [], Limited: []}};
+const MODE = (m) => VOC().Mode[m] || String(m);
 const JOINTS = ["hip", "knee", "ankle"];
-const GAINS = ["kp_stance", "kd_stance", "kp_swing", "kd_swing"];
+const GAINS = () => (S.info && S.info.gains) || [];
 const WINDOW = 5.0;  // s of history on the charts
 const DEG = 180 / Math.PI;
 
@@ -86,8 +84,8 @@ function connect() {
       if (last && s.t < last.t) S.hist = [];
       S.hist.push(s);
       while (S.hist.length && S.hist[0].t < s.t - WINDOW) S.hist.shift();
-      for (const [bit, name] of EVENTS) if (s.events & bit) S.events.unshift(`${s.t.toFixed(2)} s: ${name}`);
-      if (S.lastMode !== null && s.mode !== S.lastMode) S.events.unshift(`${s.t.toFixed(2)} s: ${MODES[S.lastMode]} -> ${MODES[s.mode]}`);
+      for (const [bit, name] of VOC().text.Event) if (s.events & bit) S.events.unshift(`${s.t.toFixed(2)} s: ${name}`);
+      if (S.lastMode !== null && s.mode !== S.lastMode) S.events.unshift(`${s.t.toFixed(2)} s: ${MODE(S.lastMode)} -> ${MODE(s.mode)}`);
       S.lastMode = s.mode;
       S.events.length = Math.min(S.events.length, 12);
     }
@@ -203,14 +201,14 @@ function frame() {
     const running = s.running === "running";  // ticking (not starting, not ended)
     const known = s.running && s.running !== "none";
     $("hdr-session").textContent = known ? `session ${S.info.session || ""}: ${s.running}` : "no session";
-    const mode = running || s.running === "ended" ? MODES[s.mode] : "-";
+    const mode = running || s.running === "ended" ? MODE(s.mode) : "-";
     for (const id of ["hdr-mode", "mode", "ctl-mode"]) $(id).textContent = mode;
     $("hdr-mode").className = "mode" + (running ? " m" + s.mode : "");
     $("rate").textContent = (S.updates.length / 2).toFixed(0) + " per s";
     if (running && $("page-live").classList.contains("shown")) {
       drawLeg(s); drawAngles(); drawTorques(s); drawFsr(s);
-      $("phase").textContent = PHASES[s.phase] || s.phase;
-      const bits = SAFETY.filter(([b]) => s.safety_status & b).map(([, n]) => n);
+      $("phase").textContent = VOC().text.Phase[s.phase] || s.phase;
+      const bits = VOC().text.Limited.filter(([b]) => s.safety_status & b).map(([, n]) => n);
       $("safety").textContent = bits.length ? bits.join("; ") : "nominal";
       $("events").innerHTML = S.events.map((e) => `<li>${esc(e)}</li>`).join("");
       $("t").textContent = s.t.toFixed(2) + " s";
@@ -304,14 +302,14 @@ async function loadGains() {
   if (!r.ok || !r.data.gains || !r.data.gains.support) { t.innerHTML = "<tr><td class='muted'>no session running</td></tr>"; return; }
   const {gains, bounds} = r.data;
   t.innerHTML = "<tr><th></th>" + JOINTS.map((j) => `<th>${j}</th>`).join("") + "</tr>" +
-    GAINS.map((k) => `<tr><td>${k} (${k.startsWith("kp") ? "N m/rad" : "N m s/rad"})</td>` + gains[k].map((v, i) =>
+    GAINS().map((k) => `<tr><td>${k} (${k.startsWith("kp") ? "N m/rad" : "N m s/rad"})</td>` + gains[k].map((v, i) =>
       `<td><input id="g-${k}-${i}" type="number" step="any" value="${+v.toFixed(3)}"><div class="bounds">${bounds[k][i][0]}-${+bounds[k][i][1].toFixed(3)}</div></td>`).join("") + "</tr>").join("") +
     `<tr><td>support (assistance)</td><td colspan="3"><input id="g-support-0" type="number" step="0.05" value="${gains.support[0]}"><span class="bounds"> 0-1</span></td></tr>`;
 }
 
 $("apply-gains").onclick = async () => {
   const body = {};
-  for (const k of GAINS) body[k] = [0, 1, 2].map((i) => +$(`g-${k}-${i}`).value);
+  for (const k of GAINS()) body[k] = [0, 1, 2].map((i) => +$(`g-${k}-${i}`).value);
   body.support = [+$("g-support-0").value];
   const r = await act("POST", "/api/gains", body, "gains changed");
   if (r.ok) setTimeout(loadGains, 300);
