@@ -21,9 +21,6 @@ from exoleg.runtime.log import read_log
 from exoleg.runtime.loop import LOG_TAIL
 from exoleg.runtime.session import run
 
-pytest.importorskip("canopen", reason="python-canopen (exoleg[hw])")
-pytest.importorskip("pysoem", reason="pysoem (exoleg[hw])")
-
 #: the masters' wait for every node, s: generous on a shared test machine (a slow answer
 #: is not what this test is about)
 T = 0.05
@@ -31,6 +28,8 @@ WALK_AT = 1000  # tick of the walk command (1 s at 1 kHz)
 
 
 def _three(tmp_path: Path, controller: str) -> dict[str, dict[str, np.ndarray]]:
+    pytest.importorskip("canopen", reason="python-canopen (exoleg[hw])")
+    pytest.importorskip("pysoem", reason="pysoem (exoleg[hw])")
     cols = {}
     for backend in ("sim", "canopen", "ethercat"):
         res, path = run(backend, 3.0, tmp_path / backend, arm=True, walk_after=1.0,
@@ -72,3 +71,31 @@ def test_the_log_columns_are_the_output_record() -> None:
     n = sum(int(np.prod(OUTPUT[f].shape)) if OUTPUT[f].shape else 1 for f in OUTPUT.names)
     assert len(LOG_TAIL) == n
     assert LOG_TAIL[:3] == ["u_hip", "u_knee", "u_ankle"] and "refused" in LOG_TAIL
+
+
+def test_the_runtime_tick_is_the_simulators_to_the_bit() -> None:
+    # The same code runs in simulation and on the device: the walking run's compiled loop
+    # (simulate_walk) and the runtime's path -- the simulated device read, the
+    # controller's update, the drives written, one tick at a time from Python -- give
+    # the same readings, commands and modes to the bit (noise off: the two draw their
+    # noise differently).
+    import exoleg
+    from exoleg.control.contract import Command
+    from exoleg.runtime.sim_backend import SimBackend
+    from exoleg.sim.walk import simulate_walk
+
+    leg = exoleg.paper_leg()
+    r = simulate_walk(leg, 30.0, strides=2, noise_scale=0.0)
+    b = SimBackend(leg, 30.0, noise_scale=0.0)
+    ctl = b.controller
+    n = len(r.t)
+    q, u, mode = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n, dtype=int)
+    for k in range(n):
+        s = b.read(k * 1e-3)
+        cmd = Command.ARM if k == 0 else Command.WALK if k == WALK_AT else Command.NONE
+        out = ctl.update(s, cmd, k * 1e-3)
+        q[k], u[k], mode[k] = s["q"], out["tau"], out["mode"]
+        b.walking = out["mode"] == Mode.WALKING
+        b.write(out["tau"], out["mode"] in (Mode.STANDING, Mode.WALKING))
+    assert np.array_equal(q, r.q_meas) and np.array_equal(u, r.u_safe)
+    assert np.array_equal(mode, r.mode) and np.any(mode == Mode.WALKING)
