@@ -99,3 +99,26 @@ def test_the_runtime_tick_is_the_simulators_to_the_bit() -> None:
         b.write(out["tau"], out["mode"] in (Mode.STANDING, Mode.WALKING))
     assert np.array_equal(q, r.q_meas) and np.array_equal(u, r.u_safe)
     assert np.array_equal(mode, r.mode) and np.any(mode == Mode.WALKING)
+
+
+@pytest.mark.parametrize(("backend", "interface"), [("canopen", "socketcan"),
+                                                    ("ethercat", "exoleg-none0")])
+def test_a_real_bus_is_configured_without_a_simulator(tmp_path: Path, backend: str,
+                                                      interface: str,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    # The device configuration (DeviceConfig) is loaded once and handed to the drive
+    # master and the controller; no simulated device is built for a real bus. Here no
+    # bus is wired, so opening it fails -- after the configuration, before any
+    # simulator, which would raise the patched error.
+    pytest.importorskip("canopen" if backend == "canopen" else "pysoem",
+                        reason="the bus's library (exoleg[hw])")
+    from exoleg.errors import ParameterError
+    from exoleg.runtime import sim_backend
+
+    def no_simulator(*a: object, **k: object) -> None:
+        raise AssertionError("a simulated device was built for a real bus")
+
+    monkeypatch.setattr(sim_backend.SimBackend, "__init__", no_simulator)
+    with pytest.raises(ParameterError, match=f"cannot open '{interface}'"):
+        run(backend, 1.0, tmp_path, interface=interface, channel="can-none",
+            realtime=False)

@@ -515,7 +515,8 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     import exoleg
     from exoleg.errors import ParameterError
     from exoleg.plots.figures import walk_figure
-    from exoleg.sim.walk import detection_table, simulate_walk
+    from exoleg.sim.metrics import detection_table
+    from exoleg.sim.walk import simulate_walk
 
     t0 = time.perf_counter()
     for opt in ("postures", "times", "kp", "kd", "q0", "sd"):

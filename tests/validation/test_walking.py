@@ -16,7 +16,8 @@ import exoleg
 from exoleg.control.contract import Command, Mode
 from exoleg.control.hierarchy import WalkController
 from exoleg.device import with_actuators
-from exoleg.sim.walk import detection_table, simulate_walk
+from exoleg.sim.metrics import detection_table
+from exoleg.sim.walk import simulate_walk
 
 LEG = exoleg.paper_leg()
 

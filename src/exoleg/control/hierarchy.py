@@ -253,7 +253,7 @@ class WalkController:
                  safety: SafetyLimits | None = None, speed: str = "Free",
                  expected_stride: float = 1.1, fsr_floor_counts: float = 200.0,
                  sole: float = 0.073) -> None:
-        from exoleg.device.walking import SENSOR_X
+        from exoleg.device.sensors import SENSOR_X
 
         w = "WalkController"
         for name, v, kind in (("leg", leg, LegModel), ("gains", gains, WalkGains),

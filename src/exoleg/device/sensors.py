@@ -31,6 +31,14 @@ from exoleg.params import _check
 
 F64 = NDArray[np.float64]
 
+#: The four FlexiForce A201 points under the footplate, as fractions of the foot link's
+#: length (the footplate's, Table 1: 23.5 cm) from the ankle: the heel behind it, the
+#: first and fifth metatarsal heads, the hallux -- the usual insole positions on a foot
+#: whose ankle sits a quarter of the way from the heel (paper section 2.3 names four
+#: sensors, not where). Sagittal plane: the two metatarsal heads differ only in x.
+#: (The names: :data:`exoleg.control.contract.SENSOR_POINTS`.)
+SENSOR_X = (-0.18, 0.45, 0.38, 0.62)
+
 
 @dataclass(frozen=True)
 class FootSensors:

@@ -41,6 +41,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from exoleg.device.actuator import friction
+from exoleg.device.sensors import SENSOR_X
 from exoleg.dynamics.kernels import OFFSETS, coriolis_dq, gravity, mass_matrix
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
@@ -49,12 +50,6 @@ from exoleg.params import _check
 
 F64 = NDArray[np.float64]
 
-#: The four FlexiForce A201 points under the footplate, as fractions of the foot link's
-#: length (the footplate's, Table 1: 23.5 cm) from the ankle: the heel behind it, the
-#: first and fifth metatarsal heads, the hallux -- the usual insole positions on a foot
-#: whose ankle sits a quarter of the way from the heel (paper section 2.3 names four
-#: sensors, not where). Sagittal plane: the two metatarsal heads differ only in x.
-SENSOR_X = (-0.18, 0.45, 0.38, 0.62)
 
 
 @dataclass(frozen=True)
@@ -104,6 +99,10 @@ class Ground:
                    source=str(d.get("source", where)))
 
 
+#: The child's ankle height the plant assumes unless told, m: Drillis & Contini's 0.039
+#: of a 1.3 m child's height.
+ANKLE_HEIGHT = 0.05
+
 #: A whole leg's share of body mass: thigh 0.100 + shank 0.0465 + foot 0.0145 (Dempster's
 #: fractions as tabulated by Winter, Biomechanics and Motor Control of Human Movement).
 LEG_FRACTION = 0.161
@@ -135,11 +134,11 @@ class WalkingPlant:
 
     @classmethod
     def of(cls, leg: LegModel, body_mass: float, belt_speed: float,
-           ground: Ground | None = None, ankle_height: float = 0.05,
+           ground: Ground | None = None, ankle_height: float = ANKLE_HEIGHT,
            support_height: float | None = None) -> WalkingPlant:
         """The plant for ``leg`` carrying ``body_mass`` kg at the pelvis. The sensor points
-        lie ``ankle_height`` + the footplate below the ankle joint (default 5 cm: Drillis
-        & Contini's 0.039 of a 1.3 m child's height). ``support_height``: where the other
+        lie ``ankle_height`` + the footplate below the ankle joint (default
+        :data:`ANKLE_HEIGHT`). ``support_height``: where the other
         leg holds the pelvis; default the standing height less the ground's drop."""
         gr = Ground.default() if ground is None else ground
         h = _check.finite("WalkingPlant", "ankle_height", ankle_height)

@@ -79,7 +79,7 @@ def device_info(leg: Any) -> dict[str, Any]:
     positions, each actuator's torque limits and torque-speed envelope (SI units)."""
     from exoleg.control.contract import SENSOR_POINTS
     from exoleg.device.actuator import envelope, paper_actuators
-    from exoleg.device.walking import SENSOR_X
+    from exoleg.device.sensors import SENSOR_X
     from exoleg.dynamics._generated import OFFSETS
     from exoleg.params import paper
 

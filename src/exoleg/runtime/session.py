@@ -23,6 +23,8 @@ from exoleg.runtime.loop import (
 
 if TYPE_CHECKING:
     from exoleg.control.contract import Controller
+    from exoleg.device.config import DeviceConfig
+    from exoleg.dynamics.model import LegModel
 
 BACKENDS = ("sim", "canopen", "ethercat")
 #: the --interface that puts simulated nodes on the bus (hardware in the loop)
@@ -67,50 +69,58 @@ def check_options(backend: str, interface: str | None = None, arm: bool = False,
                              f"walking controller, not {controller!r}")
 
 
-def make_controller(name: str, sim: Any) -> Controller:
-    """The controller called ``name`` (:data:`~exoleg.entry.CONTROLLERS`) for the
-    simulated device ``sim``'s leg and safety limits: the walking hierarchy made with the
-    device, or one of the paper's laws following the paper's scenario (stance and swing
-    postures every 3 s, section 6) on the leg with the actuators' reflected inertia."""
+def make_controller(name: str, config: DeviceConfig, leg: LegModel, body_mass: float,
+                    sim: Any = None) -> Controller:
+    """The controller called ``name`` (:data:`~exoleg.entry.CONTROLLERS`) for the device
+    ``config`` and the child's ``leg``: the walking hierarchy (the simulated device
+    ``sim``'s own when there is one), or one of the paper's laws following the paper's
+    scenario (stance and swing postures every 3 s, section 6) on the leg with the
+    actuators' reflected inertia."""
     if name == "walk":
-        return cast("Controller", sim.controller)
+        if sim is not None:
+            return cast("Controller", sim.controller)
+        from exoleg.device.config import walk_controller
+        from exoleg.device.walking import ANKLE_HEIGHT, Ground, body_weight_share
+
+        depth = ANKLE_HEIGHT + Ground.default(config.folder).sole
+        return walk_controller(config, leg, body_weight_share(body_mass), depth)
     from exoleg.control.controllers import law_named
     from exoleg.control.tracking import TrackingController
     from exoleg.sim.scenario import paper_reference
 
-    leg = sim.dev.plant.leg  # the device's leg model: with the actuators' armature
-    return TrackingController(law_named(name, leg), paper_reference(), sim.dev.safety)
+    return TrackingController(law_named(name, config.leg(leg)), paper_reference(),
+                              config.safety)
 
 
-def open_device(backend: str, sim: Any, period: float, interface: str | None,
-                channel: str, bus_timeout: float | None, inject: Any
-                ) -> tuple[Device, Any, float | None]:
-    """The device a session drives, configured (:meth:`Device.configure`): ``sim``
-    itself, or the drive master of the bus with, on its simulated interface, the
-    simulated nodes answering from ``sim`` (returned as the rig). Returns (device, rig or
-    None, the bus timeout in force)."""
+def open_device(backend: str, config: DeviceConfig, sim: Any, period: float,
+                interface: str | None, channel: str, bus_timeout: float | None,
+                inject: Any) -> tuple[Device, Any, float | None]:
+    """The device a session drives, configured (:meth:`Device.configure` against the
+    safety limits of ``config``): the simulated device ``sim`` itself, or the drive
+    master of the bus for ``config``'s actuators with, on the bus's simulated interface,
+    the simulated nodes answering from ``sim`` (returned as the rig). Returns (device,
+    rig or None, the bus timeout in force)."""
     if backend == "sim":
-        sim.configure(sim.dev.safety)
+        sim.configure(config.safety)
         return sim, None, None
     interface = interface or SIMULATED_BUS[backend]
-    simulated = interface == SIMULATED_BUS[backend]
     if bus_timeout is None:
-        bus_timeout = SIMULATED_BUS_TIMEOUT_S if simulated else BUS_TIMEOUT_S
-    if simulated:  # hardware in the loop: the simulated nodes answer
+        bus_timeout = SIMULATED_BUS_TIMEOUT_S if sim is not None else BUS_TIMEOUT_S
+    if sim is not None:  # hardware in the loop: the simulated nodes answer
         sim.warm_up()
-    acts = sim.dev.actuators
+    acts = config.actuators
     rig: Any = None
     master: Any  # makes the bus's master (after the rig is on the bus)
     if backend == "canopen":
         from exoleg.hw.canopen_backend import CanopenBackend, SimulatedRig
 
-        rig = SimulatedRig(sim, interface, channel) if simulated else None
+        rig = SimulatedRig(sim, interface, channel) if sim is not None else None
         master = lambda: CanopenBackend(acts, period, interface, channel,  # noqa: E731
                                         bus_timeout)
     else:
         from exoleg.hw.ethercat_backend import EthercatBackend, SimulatedSegment
 
-        rig = SimulatedSegment(sim) if simulated else None
+        rig = SimulatedSegment(sim) if sim is not None else None
         master = lambda: EthercatBackend(acts, period, interface,  # noqa: E731
                                          master=rig, timeout=bus_timeout)
     if inject is not None and rig is not None:
@@ -118,7 +128,7 @@ def open_device(backend: str, sim: Any, period: float, interface: str | None,
     b: Any = None
     try:
         b = master()
-        b.configure(sim.dev.safety)
+        b.configure(config.safety)
     except BaseException:
         if b is not None:
             b.deactivate()
@@ -153,12 +163,18 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
                   link)
     from exoleg.runtime.sim_backend import SimBackend
 
-    sim = SimBackend(leg if leg is not None else exoleg.paper_leg(), body_mass, period,
-                     seed=seed)
-    ctl = make_controller(controller, sim)
+    from exoleg.device.config import DeviceConfig
+
+    leg = leg if leg is not None else exoleg.paper_leg()
+    config = DeviceConfig.load(control_dt=period)
+    # a simulated device only where it is what answers: on sim, or behind simulated nodes
+    simulated = backend == "sim" or (interface or SIMULATED_BUS[backend]) == \
+        SIMULATED_BUS[backend]
+    sim = SimBackend(leg, body_mass, period, seed=seed, config=config) if simulated else None
+    ctl = make_controller(controller, config, leg, body_mass, sim)
     before = set(threading.enumerate())
-    b, rig, bus_timeout = open_device(backend, sim, period, interface, channel, bus_timeout,
-                                      inject)
+    b, rig, bus_timeout = open_device(backend, config, sim, period, interface, channel,
+                                      bus_timeout, inject)
     # the bus's threads: receivers, simulated nodes
     io_threads = [t for t in threading.enumerate() if t not in before]
     try:
@@ -180,7 +196,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     started = time.time()
     log = SessionLog(path, LOG_HEAD + b.columns + LOG_TAIL,
                      {"period": period, "backend": backend, "max_loss_ticks": MAX_LOSS_TICKS,
-                      "leg": sim.dev.leg.name, "body_mass": body_mass,
+                      "leg": leg.name, "body_mass": body_mass,
                       "started": started, "controller": controller,
                       "interface": None if rig is None and backend == "sim" else
                       (interface or SIMULATED_BUS[backend])})
@@ -207,7 +223,8 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     def scenery(out: dict[str, Any]) -> None:
         # the simulated world (the treadmill and the other leg) follows the child's
         # walking: set before the drives' command acts on it
-        sim.walking = out["mode"] == Mode.WALKING
+        if sim is not None:
+            sim.walking = out["mode"] == Mode.WALKING
 
     if link is not None:
         link.loop_gains(ctl.gains_now())
@@ -222,7 +239,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         if rig is not None:
             rig.close()
     summary = {"backend": backend, "controller": controller, "started": started,
-               "period": period, "duration_s": res.ticks * period, "leg": sim.dev.leg.name,
+               "period": period, "duration_s": res.ticks * period, "leg": leg.name,
                "ticks": res.ticks, "stopped_by": res.stopped_by,
                "bus_timeout_ms": None if bus_timeout is None else bus_timeout * 1e3,
                "timing_us": res.timing, "realtime": res.realtime,

@@ -13,7 +13,7 @@ from exoleg.control.contract import SENSORS
 from exoleg.dynamics.model import LegModel
 from exoleg.layout import new
 from exoleg.params.records import JOINTS
-from exoleg.sim.walk import SimulatedDevice, device_actuate, device_sense, prepare_walk
+from exoleg.sim.device import SimulatedDevice, device_actuate, device_sense, prepare_walk
 
 F64 = NDArray[np.float64]
 _CHUNK = 4096  # ticks of noise drawn at once
@@ -33,6 +33,8 @@ class SimBackend:
 
     def __init__(self, leg: LegModel, body_mass: float, period: float = 1e-3,
                  substeps: int = 2, seed: int = 0, **walk: Any) -> None:
+        """The walking device of :func:`~exoleg.sim.device.prepare_walk` (``walk``: its
+        options, ``config`` among them) at a tick of ``period`` s."""
         self.dev: SimulatedDevice = prepare_walk(leg, body_mass, control_dt=period, **walk)
         self.period = period
         self.substeps = substeps

@@ -41,7 +41,8 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
              ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[DetectionRun]]:
     """(the detection table over every run, over the runs the safety layer did not stop,
     the runs). Each child walks ``strides`` strides at each noise level."""
-    from exoleg.sim.walk import detection_table, simulate_walk
+    from exoleg.sim.metrics import detection_table
+    from exoleg.sim.walk import simulate_walk
     from exoleg.sizing import Child, estimate_dimensions, fit_device, growth, personalized_leg
 
     results, runs = [], []

@@ -1,0 +1,92 @@
+"""The device as configured, apart from any simulation of it: its actuators, safety
+limits, foot board, gait-phase detector and walking gains, read once from the package's
+``data/device`` files or a user's device folder (:mod:`exoleg.device.files`), each file
+checked by its own loader.
+
+One :class:`DeviceConfig` is handed to the simulated device
+(:func:`exoleg.sim.device.prepare_walk`), to the drive masters (their actuators'
+scaling and the start-up check against the range of motion) and to the controller
+(:func:`walk_controller`), so configuring real drives never builds a simulator.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from exoleg.control.gait_phase import DetectorSettings
+from exoleg.control.hierarchy import WalkController, WalkGains
+from exoleg.control.safety import SafetyLimits
+from exoleg.device.actuator import ActuatorModel, paper_actuators, params_array, with_actuators
+from exoleg.device.sensors import FootSensors, fsr_counts
+from exoleg.dynamics.model import LegModel
+from exoleg.errors import ParameterError
+
+#: The FSR load the detector's calibration floor starts from, N (each sensor's running
+#: maximum starts at its reading of this load: an unloaded start divides by nothing).
+FSR_FLOOR_N = 20.0
+
+
+@dataclass(frozen=True)
+class DeviceConfig:
+    """The device's parts as data (SI units inside each record)."""
+
+    actuators: tuple[ActuatorModel, ...]
+    safety: SafetyLimits
+    sensors: FootSensors
+    detector: DetectorSettings
+    gains: WalkGains
+    folder: Path | None = None
+
+    def __post_init__(self) -> None:
+        w = "DeviceConfig"
+        for name, kind in (("safety", SafetyLimits), ("sensors", FootSensors),
+                           ("detector", DetectorSettings), ("gains", WalkGains)):
+            if not isinstance(getattr(self, name), kind):
+                raise ParameterError(w, name, f"expected {kind.__name__}, got "
+                                     f"{type(getattr(self, name)).__name__}")
+        params_array(tuple(self.actuators))  # hip, knee, ankle, in that order
+
+    @classmethod
+    def load(cls, folder: str | Path | None = None, control_dt: float = 1e-3,
+             noise_scale: float = 1.0, actuators: tuple[ActuatorModel, ...] | None = None,
+             safety: SafetyLimits | None = None, sensors: FootSensors | None = None,
+             gains: WalkGains | None = None) -> DeviceConfig:
+        """The device of ``folder`` (None: the shipped files) at a control tick of
+        ``control_dt`` s; the records given replace the files'. ``noise_scale``
+        multiplies the foot board's noise figures (0: ideal; a simulation's choice)."""
+        from exoleg.device.files import check_folder
+
+        where = None if folder is None else check_folder(folder)
+        return cls(actuators=paper_actuators(where) if actuators is None else tuple(actuators),
+                   safety=SafetyLimits.paper(control_dt, where) if safety is None else safety,
+                   sensors=(FootSensors.default(noise_scale, where) if sensors is None
+                            else sensors),
+                   detector=DetectorSettings.default(where),
+                   gains=WalkGains.default(where) if gains is None else gains, folder=where)
+
+    @property
+    def fsr_floor_counts(self) -> float:
+        """The detector's calibration floor in ADC counts (:data:`FSR_FLOOR_N`)."""
+        return float(fsr_counts(self.sensors.record(), FSR_FLOOR_N, 0.0))
+
+    def leg(self, leg: LegModel) -> LegModel:
+        """``leg`` with the actuators' reflected inertia (the device's leg model)."""
+        return with_actuators(leg, self.actuators)
+
+
+def walk_controller(config: DeviceConfig, leg: LegModel, body_mass: float,
+                    depth: float, speed: str = "Free", stride_time: float = 1.1
+                    ) -> WalkController:
+    """The walking hierarchy for the child + device ``leg`` (without actuators: theirs
+    are added) carrying ``body_mass`` kg at the pelvis, its FSRs ``depth`` m below the
+    ankle joint, expecting strides of ``stride_time`` s of the ``speed`` gait."""
+    if not isinstance(config, DeviceConfig):
+        raise ParameterError("walk_controller", "config",
+                             f"expected DeviceConfig, got {type(config).__name__}")
+    if not (np.isfinite(depth) and 0.0 <= depth <= 0.3):
+        raise ParameterError("walk_controller", "depth", f"{depth!r} m is outside 0-0.3 m")
+    return WalkController(config.leg(leg), body_mass, config.gains, config.detector,
+                          config.safety, speed, stride_time, config.fsr_floor_counts, depth)

@@ -1,0 +1,261 @@
+"""The simulated walking device, one tick at a time: its sensors read from the plant
+(:func:`device_sense`: the foot board's FSRs and IMU from the contacts, the encoders and
+the velocity filter), its drives and the plant stepped under a command
+(:func:`device_actuate`: the envelope, the current loop, ``substeps`` RK4 steps with the
+contact and support forces of each step's start, the actuators' friction in every
+stage), and how it is made for a leg and a child (:func:`prepare_walk`) from a
+:class:`~exoleg.device.config.DeviceConfig` and the treadmill's scenery
+(:mod:`exoleg.sim.treadmill`). ``exoleg simulate --walk`` loops over these in one
+compiled run (:mod:`exoleg.sim.walk`); the runtime's ``sim`` backend calls them each
+tick (:mod:`exoleg.runtime.sim_backend`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from exoleg.control.hierarchy import START_FRACTION, WalkController, WalkGains
+from exoleg.control.safety import SafetyLimits
+from exoleg.device.actuator import (
+    ActuatorModel,
+    current_loop,
+    encode,
+    envelope,
+    filter_gain,
+    params_array,
+)
+from exoleg.device.config import DeviceConfig, walk_controller
+from exoleg.device.sensors import FootSensors, fsr_counts, imu
+from exoleg.device.walking import (
+    ANKLE_HEIGHT,
+    Ground,
+    WalkingPlant,
+    contact_forces,
+    contact_points,
+    step_contacts,
+    walking_step,
+)
+from exoleg.dynamics.kernels import OFFSETS
+from exoleg.dynamics.model import LegModel
+from exoleg.errors import ParameterError
+from exoleg.layout import F8, new
+from exoleg.sim.treadmill import belt_speed_for, other_leg_support
+
+F64 = NDArray[np.float64]
+
+
+@njit(inline="always")
+def _imu_point(p, x, px, py):  # type: ignore[no-untyped-def]
+    """Velocity (vx, vy) of the point (px, py) of the foot frame, world frame."""
+    phi = 0.0
+    jx = np.zeros(4)
+    jy = np.zeros(4)
+    for i in range(3):
+        phi += x[1 + i] + OFFSETS[i]
+        jx[i + 1] = jx[i] + p[5 * i + 1] * math.cos(phi)
+        jy[i + 1] = jy[i] + p[5 * i + 1] * math.sin(phi)
+    c, s = math.cos(phi), math.sin(phi)
+    X = jx[2] + c * px - s * py
+    Y = jy[2] + s * px + c * py
+    vx = 0.0
+    vy = x[4]
+    for j in range(3):
+        vx += -(Y - jy[j]) * x[5 + j]
+        vy += (X - jx[j]) * x[5 + j]
+    return vx, vy, phi
+
+
+#: A simulated device's state (:func:`device_sense`, :func:`device_actuate`): the plant
+#: state x = (y, q0, q1, q2, dy, dq0, dq1, dq2), the drives' torques (N m), the encoders'
+#: last readings (rad), the filtered rates (rad/s), the IMU point's last velocity (m/s),
+#: the other leg's timing (this leg loaded, its last toe off and strike, s) and the
+#: belt's speed while walking (m/s).
+DEVICE = np.dtype([("x", F8, 8), ("tau", F8, 3), ("qm", F8, 3), ("vm", F8, 3),
+                   ("v_imu", F8, 2), ("loaded", np.bool_), ("t_off", F8), ("t_strike", F8),
+                   ("belt", F8)])
+
+
+def device_state(plant: WalkingPlant, A: NDArray[np.void], x0: F64, imu_x: float,
+                 imu_y: float) -> NDArray[np.void]:
+    """A simulated device's state at rest in ``x0`` (8,) (:data:`DEVICE`)."""
+    S = new(DEVICE)
+    r = S[0]
+    r["x"] = x0
+    r["qm"] = [encode(A[i:i + 1], x0[1 + i]) for i in range(3)]
+    r["vm"] = x0[5:8]
+    vx, vy, _ = _imu_point(plant.leg.p, x0, imu_x, imu_y)
+    r["v_imu"] = vx, vy
+    r["loaded"] = True
+    r["t_off"] = r["t_strike"] = -1e9
+    r["belt"] = plant.belt_speed
+    return S
+
+
+@njit(cache=True, error_model="numpy")
+def device_sense(p, w, A, sens, imu_x, imu_y, S, h, first, fsr_noise, imu_noise,  # type: ignore[no-untyped-def]
+                 imu_bias, out, fn):
+    """What the device's sensors read now into ``out`` (:data:`SENSORS`, its ``command``
+    left alone): FSR counts, encoder angles and filtered rates, IMU (gyro, accel x, y);
+    and the true normal forces ``fn`` (4,). ``S``: :data:`DEVICE`."""
+    D = S[0]
+    o = out[0]
+    x = D.x
+    pts = np.empty((4, 4))
+    F = np.empty((4, 2))
+    contact_points(p, w, x[0], x[1:4], x[5:8], x[4], pts)
+    contact_forces(w, pts, F)
+    for i in range(4):
+        fn[i] = F[i, 1]
+        o.fsr[i] = fsr_counts(sens, F[i, 1], fsr_noise[i])
+    vx, vy, phi = _imu_point(p, x, imu_x, imu_y)
+    ax = 0.0 if first else (vx - D.v_imu[0]) / h
+    ay = 0.0 if first else (vy - D.v_imu[1]) / h
+    D.v_imu[0], D.v_imu[1] = vx, vy
+    o.gyro, o.accel[0], o.accel[1] = imu(sens, x[5] + x[6] + x[7], ax, ay, phi, w[0].g,
+                                         imu_bias[0], imu_bias[1], imu_bias[2],
+                                         imu_noise[0], imu_noise[1], imu_noise[2])
+    for i in range(3):
+        a = A[i:i + 1]
+        q = encode(a, x[1 + i])
+        if not first:
+            D.vm[i] += filter_gain(a, h) * ((q - D.qm[i]) / h - D.vm[i])
+        D.qm[i] = q
+        o.q[i] = q
+        o.dq[i] = D.vm[i]
+
+
+@njit(cache=True, error_model="numpy")
+def device_actuate(p, w, A, S, h, sub, u, fn, walking, t, t_walk, stride, support,  # type: ignore[no-untyped-def]
+                   stand_support, env, tau):
+    """The drives and ``sub`` plant steps over one tick of ``h`` s under the torque command
+    ``u`` (3,): the envelope at the measured speed (into ``env``), the current loop (the
+    mean torque delivered into ``tau``), contacts held per step. The treadmill runs and the
+    other leg (an actor) keeps time with this leg's true foot strikes (from ``fn``) while
+    ``walking``. Returns (the other leg's mean force on the pelvis, 1 if the state is
+    still finite)."""
+    D = S[0]
+    W = w[0]
+    total = fn[0] + fn[1] + fn[2] + fn[3]
+    if total > 5.0 and not D.loaded and t - D.t_off > 0.3 * stride:
+        D.t_strike = t
+    if total > 5.0:
+        D.loaded = True
+    elif D.loaded:
+        D.loaded = False
+        D.t_off = t
+    if walking and t >= t_walk:
+        W.belt_speed = D.belt
+        if D.t_strike > t_walk:
+            xc = min((t - D.t_strike) / stride, 0.999)
+        else:
+            xc = min(START_FRACTION + (t - t_walk) / stride, 0.999)
+        W.support_height = support[min(int(xc * (support.shape[0] - 1) + 0.5),
+                                       support.shape[0] - 1)]
+    else:
+        W.belt_speed = 0.0
+        W.support_height = stand_support
+    for i in range(3):
+        env[i] = envelope(A[i:i + 1], D.vm[i])
+    x = D.x
+    pts = np.empty((4, 4))
+    F = np.empty((4, 2))
+    gen = np.empty(4)
+    mean = np.empty(3)
+    acc = np.zeros(3)
+    supp = 0.0
+    hs = h / sub
+    for _ in range(sub):
+        for i in range(3):
+            tc = min(max(u[i], -env[i]), env[i])
+            D.tau[i], mean[i] = current_loop(A[i:i + 1], D.tau[i], tc, hs)
+            acc[i] += mean[i]
+        supp += step_contacts(p, w, x, pts, F, gen)
+        walking_step(p, w, A, x, mean, gen, hs)
+    for i in range(3):
+        tau[i] = acc[i] / sub
+    ok = 1
+    for i in range(8):
+        if not math.isfinite(x[i]):
+            ok = 0
+    return supp / sub, ok
+
+
+@dataclass(frozen=True)
+class SimulatedDevice:
+    """Everything a simulated walking device is made of, and the controller made for it
+    (:func:`prepare_walk`): its configuration, the plant, its actuators' compiled
+    parameters (``A``), the other leg's support table, the controller and the start
+    state."""
+
+    leg: LegModel
+    config: DeviceConfig
+    plant: WalkingPlant
+    A: NDArray[np.void]
+    support: F64
+    depth: float
+    imu_x: float
+    controller: WalkController
+    x0: F64
+    stride_time: float
+
+    @property
+    def actuators(self) -> tuple[ActuatorModel, ...]:
+        return self.config.actuators
+
+    @property
+    def sensors(self) -> FootSensors:
+        return self.config.sensors
+
+    @property
+    def safety(self) -> SafetyLimits:
+        return self.config.safety
+
+    def state(self) -> NDArray[np.void]:
+        """A fresh device state at the start posture (:data:`DEVICE`)."""
+        return device_state(self.plant, self.A, self.x0, self.imu_x, -self.depth)
+
+
+def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
+                 stride_time: float = 1.1, noise_scale: float = 1.0,
+                 ankle_height: float = ANKLE_HEIGHT, actuators: tuple[ActuatorModel, ...] | None = None,
+                 gains: WalkGains | None = None, safety: SafetyLimits | None = None,
+                 ground: Ground | None = None, sensors: FootSensors | None = None,
+                 control_dt: float = 1e-3, device: str | Path | None = None,
+                 config: DeviceConfig | None = None) -> SimulatedDevice:
+    """The simulated device and its controller for ``leg`` (without actuators; theirs are
+    added) and a child of ``body_mass`` kg (see :func:`exoleg.sim.walk.simulate_walk`):
+    the device ``config``, or the one :meth:`DeviceConfig.load` reads from ``device``
+    with the records given; the treadmill's ``ground``."""
+    from exoleg.device.walking import body_weight_share
+    from exoleg.entry import BODY_MASS
+    from exoleg.reference.gait import SchwartzGait2008
+
+    for name, v, lo, hi in (("body_mass", body_mass, *BODY_MASS[:2]),
+                            ("control_dt", control_dt, 1e-4, 1e-2),
+                            ("ankle_height", ankle_height, 0.0, 0.2)):
+        if not (np.isfinite(v) and lo <= v <= hi):
+            raise ParameterError("simulate_walk", name, f"{v!r} is outside {lo:g}-{hi:g}")
+    SchwartzGait2008(stride_time=stride_time, speed=speed)  # checks both
+    cfg = (DeviceConfig.load(device, control_dt, noise_scale, actuators, safety, sensors,
+                             gains) if config is None else config)
+    share = body_weight_share(body_mass)
+    gr = Ground.default(cfg.folder) if ground is None else ground
+    depth = ankle_height + gr.sole
+    plant = WalkingPlant.of(cfg.leg(leg), share, belt_speed_for(leg, speed, stride_time), gr,
+                            ankle_height)
+    ctl = walk_controller(cfg, leg, share, depth, speed, stride_time)
+    q0 = ctl.gains.standing
+    fk = leg.fk(q0)
+    x0 = np.zeros(8)
+    x0[0] = (-min(fk["ankle"][1], fk["toe"][1]) + depth
+             - 0.5 * share * leg.g / (4 * gr.stiffness))
+    x0[1:4] = q0
+    return SimulatedDevice(leg=leg, config=cfg, plant=plant, A=params_array(cfg.actuators),
+                           support=other_leg_support(leg, depth, speed, gr.support_drop),
+                           depth=depth, imu_x=cfg.sensors.imu_position * float(leg.lengths[2]),
+                           controller=ctl, x0=x0, stride_time=stride_time)
