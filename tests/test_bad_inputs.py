@@ -238,7 +238,7 @@ def test_piped_into_head_exits_cleanly(tmp_path: Path) -> None:
 
 def test_unexpected_error_is_one_line(monkeypatch: pytest.MonkeyPatch,
                                       capsys: pytest.CaptureFixture[str]) -> None:
-    import exoleg.cli as cli
+    import exoleg.cli.validate as cli
 
     def boom(args: object) -> int:
         raise ZeroDivisionError("a bug")
@@ -252,7 +252,7 @@ def test_unexpected_error_is_one_line(monkeypatch: pytest.MonkeyPatch,
 
 def test_cli_ranges_are_the_library_s() -> None:
     # the parser keeps its own copy (no numpy at start-up): it must not drift
-    from exoleg import cli
+    from exoleg.cli import _common as cli
     from exoleg.reference.gait import STRIDE_TIME_RANGE
 
     assert cli.STRIDE_TIME_RANGE == STRIDE_TIME_RANGE

@@ -120,7 +120,10 @@ def test_simulate_walk(tmp_path):
 
 def test_simulate_walk_bad_options(tmp_path):
     for args, text in ((["--walk", "--kp", "1,2,3"], "does not apply with --walk"),
-                       (["--walk", "--reference", "gait"], "do not apply with --walk"),
+                       (["--walk", "--reference", "gait"], "does not apply with --walk"),
+                       (["--walk", "--duration", "5"], "does not apply with --walk"),
+                       (["--walk", "--actuators"], "not allowed with argument"),
+                       (["--device", "."], "goes with --actuators or --walk"),
                        (["--walk", "--strides", "0"], "0 is outside 1-10000"),
                        (["--walk", "--strides", "many"], "expected a whole number"),
                        (["--walk", "--body-mass", "500"], "outside 10-150"),

@@ -1,0 +1,85 @@
+"""The ``exoleg`` command line: a thin layer over the library.
+
+Exit status: 0 done; 1 a validation that failed or a run that could not finish (the
+message says why); 2 a bad option or input (one line naming it and what is allowed);
+130 interrupted (Ctrl-C). Never a traceback: an unexpected error is one line too, with
+``EXOLEG_DEBUG=1`` to see the traceback. Outputs are written whole or not at all
+(:class:`exoleg.io.OutputFolder`): an error or Ctrl-C leaves the previous output.
+
+Tables and progress bars use rich, imported only when something is printed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import os
+import sys
+from collections.abc import Sequence
+
+from exoleg.cli import export, fit, hmi, log, population, run, simulate, validate
+from exoleg.cli._common import _negative_values, _Parser
+
+#: the commands, one module each, in the order of the help
+COMMANDS = (validate, simulate, fit, population, run, hmi, log, export)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = _Parser(prog="exoleg", description="Pediatric single-leg exoskeleton: model, control, "
+                 "simulation (Sarajchi & Sirlantzis, Sensors 2023).")
+    sub = ap.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    for command in COMMANDS:
+        command.add_parser(sub)
+    return ap
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = build_parser()
+    args = ap.parse_args(_negative_values(sys.argv[1:] if argv is None else argv))
+    from exoleg.errors import ExolegError
+
+    try:
+        return int(args.func(args))
+    except ExolegError as e:
+        kind = "error" if isinstance(e, ValueError) else "failed"
+        print(f"exoleg: {kind}: {e}", file=sys.stderr)
+        return 2 if isinstance(e, ValueError) else 1
+    except KeyboardInterrupt:
+        print("exoleg: interrupted; nothing was written (any previous output is unchanged)",
+              file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        # the reader (e.g. `| head`) stopped reading: not an error of ours
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
+    except ImportError as e:
+        print(f"exoleg: error: {e}", file=sys.stderr)
+        return 2
+    except MemoryError:
+        print("exoleg: failed: out of memory (shorten --duration or raise --dt)", file=sys.stderr)
+        return 1
+    except OSError as e:
+        where = f" ({e.filename})" if getattr(e, "filename", None) else ""
+        print(f"exoleg: failed: {e.strerror or e}{where}", file=sys.stderr)
+        return 1
+    except Exception as e:  # a bug: one line, the traceback on request
+        if os.environ.get("EXOLEG_DEBUG"):
+            raise
+        print(f"exoleg: internal error: {type(e).__name__}: {e} (EXOLEG_DEBUG=1 shows the "
+              "traceback; please report it)", file=sys.stderr)
+        return 1
+
+
+def console() -> int:
+    """The ``exoleg`` console command: :func:`main`, then a quick exit. Freezing the
+    heap first spares the interpreter's final collection (a few hundred ms with numba,
+    MuJoCo and matplotlib loaded); exit handlers still run."""
+    code = main()
+    gc.freeze()
+    try:
+        sys.stdout.flush()
+    except BrokenPipeError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    return code
+

@@ -1,0 +1,46 @@
+"""``exoleg hmi``: the operator interface."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    pass
+from exoleg.cli._common import _bus_options, _say, _url, _web_options
+
+
+def cmd_hmi(args: argparse.Namespace) -> int:
+    from exoleg.hmi.server import HMI, bind_check, listen, serve
+    from exoleg.io import _writable_folder
+    from exoleg.runtime.session import SIMULATED_BUS
+
+    _bus_options("exoleg hmi", args.backend, interface=args.interface)
+    warning = bind_check(args.host, args.tls_cert, args.tls_key)
+    sock = listen(args.host, args.port)  # a port in use is said now, in one line
+    hmi = HMI(_writable_folder(args.sessions), backend=args.backend,
+              interface=args.interface or SIMULATED_BUS.get(args.backend))
+    if warning:
+        _say(warning)
+    _say(f"operator interface: {_url(args.host, args.port, args.tls_cert)}/#token="
+         f"{hmi.api.token}\ntoken (for every control action): {hmi.api.token}\n"
+         f"sessions are recorded in {hmi.root}; Ctrl-C stops the interface (a running "
+         "session ends, torque off)", flush=True)
+    stopped = serve(hmi, args.host, args.port, args.tls_cert, args.tls_key, sock=sock)
+    _say(f"operator interface stopped ({stopped or 'server ended'})")
+    return 130 if stopped else 0  # stopped by a signal, as exoleg run
+
+
+def add_parser(sub: Any) -> None:
+    """Add ``exoleg hmi`` to the subcommands ``sub``."""
+    h = sub.add_parser("hmi", help="the operator interface: fit a child, run and watch "
+                       "sessions, review recorded ones (a web page on this machine)")
+    h.add_argument("--backend", choices=["sim", "canopen", "ethercat"], default="sim",
+                   help="what the sessions drive (default: the simulated device)")
+    h.add_argument("--interface", help="canopen/ethercat: as for exoleg run (default: the "
+                   "simulated nodes)")
+    _web_options(h, "--host", "--port")
+    h.add_argument("--sessions", type=Path, default=Path("exoleg-sessions"),
+                   help="folder of recorded sessions and fitted children")
+    h.set_defaults(func=cmd_hmi)

@@ -1,0 +1,41 @@
+"""``exoleg log summary``: what a session log holds."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    pass
+from exoleg.cli._common import _Parser, _say, _table
+
+
+def cmd_log_summary(args: argparse.Namespace) -> int:
+    from exoleg.io import OutputFolder
+    from exoleg.runtime.session import summarize, to_table
+
+    s = summarize(args.log)
+    _table([[k, str(v)] for k, v in s.items()], ["", "value"],
+           title=f"session log {args.log}")
+    if args.csv or args.parquet:
+        from exoleg.io import write_csv_table, write_parquet_table
+
+        target = Path(args.csv or args.parquet)
+        with OutputFolder(target.parent if str(target.parent) else ".") as out:
+            (write_csv_table if args.csv else write_parquet_table)(
+                to_table(args.log), out.stage(target.name))
+            out.commit()
+        _say(f"wrote {target}")
+    return 0
+
+
+def add_parser(sub: Any) -> None:
+    """Add ``exoleg log summary`` to the subcommands ``sub``."""
+    lg = sub.add_parser("log", help="read a session log")
+    lsub = lg.add_subparsers(dest="log_command", required=True, parser_class=_Parser)
+    ls = lsub.add_parser("summary", help="what a session log holds (also a cut one)")
+    ls.add_argument("log", type=Path, help="session.log, or the folder of exoleg run --out")
+    ls.add_argument("--csv", type=Path, help="also write the series as CSV")
+    ls.add_argument("--parquet", type=Path, help="also write the series as Parquet")
+    ls.set_defaults(func=cmd_log_summary)

@@ -1,0 +1,130 @@
+"""``exoleg run``: a session on the device or a simulated one at a fixed rate, logged;
+``--hmi`` serves the operator interface for it."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from exoleg.entry import CONTROLLERS, DEFAULT_BODY_MASS
+
+if TYPE_CHECKING:
+    pass
+from exoleg.cli._common import (
+    _body_mass,
+    _bus_options,
+    _count,
+    _read_leg,
+    _say,
+    _table,
+    _url,
+    _web_options,
+    _within,
+)
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from exoleg.runtime.session import check_options, run, summarize
+
+    _bus_options("exoleg run", args.backend, interface=args.interface,
+                 bus_timeout=args.bus_timeout)
+    bus_timeout = None if args.bus_timeout is None else args.bus_timeout * 1e-3
+    check_options(args.backend, args.interface, args.arm, args.walk_after, bus_timeout,
+                  controller=args.controller, link=True if args.hmi else None)
+    leg = None
+    if args.leg:
+        leg, warning = _read_leg(args.leg)
+        if warning:
+            _say(f"warning: {warning}")
+    link = web = None
+    if args.hmi:
+        import secrets
+
+        from exoleg.hmi.server import bind_check, start_process
+        from exoleg.io import _writable_folder
+        from exoleg.runtime.link import LoopLink
+
+        warning = bind_check(args.hmi_host, args.tls_cert, args.tls_key)
+        link, token = LoopLink.new(), secrets.token_urlsafe(16)
+        web = start_process(link, _writable_folder(args.out), token, args.hmi_host,
+                            args.hmi_port, args.tls_cert, args.tls_key, args.backend,
+                            str(args.leg) if args.leg else None)
+        if warning:
+            _say(warning)
+        _say(f"operator interface: {_url(args.hmi_host, args.hmi_port, args.tls_cert)}"
+             f"/#token={token}\ntoken (for every control action): {token}", flush=True)
+    try:
+        res, path = run(args.backend, args.duration, args.out, period=1.0 / args.rate,
+                        arm=args.arm, walk_after=args.walk_after, leg=leg,
+                        body_mass=args.body_mass, seed=args.seed,
+                        realtime=not args.no_realtime, interface=args.interface,
+                        channel=args.channel, link=link, bus_timeout=bus_timeout,
+                        controller=args.controller)
+    finally:
+        if web is not None:
+            web.terminate()
+            web.join(timeout=5)
+    s = summarize(path)
+    t = res.timing
+    _say(f"exoleg run --backend {args.backend} --controller {args.controller}: {res.ticks} "
+         f"ticks at {args.rate:g} Hz, ended "
+         f"by {res.stopped_by}" + (f" ({', '.join(res.realtime)})" if res.realtime else ""))
+    _table([[f"{t.get('p50_us', 0):.1f}", f"{t.get('p99_us', 0):.1f}",
+             f"{t.get('p999_us', 0):.1f}", f"{t.get('max_us', 0):.1f}",
+             str(t.get("missed", 0))]],
+           ["late p50 us", "p99 us", "p99.9 us", "max us", "deadlines missed (> 1 period)"])
+    from exoleg.control.contract import Mode, name_of
+
+    _say("ticks per mode: " + ", ".join(f"{name_of(Mode, m)} {n}"
+                                        for m, n in s["ticks_per_mode"].items())
+         + f"; initial contacts {s['initial_contacts']}"
+         + (f"; safety fault at {s['first_fault_s']:.3f} s" if s["first_fault_s"] else ""))
+    from exoleg.runtime.log import MAX_LOSS_TICKS
+
+    _say(f"\nwrote {path} (crash-safe: at most {MAX_LOSS_TICKS} ticks lost if killed) and "
+         f"{Path(args.out) / 'run.json'}")
+    stopped = res.stopped_by
+    return 0 if stopped == "duration" else (130 if stopped.startswith("signal") else 1)
+
+
+def add_parser(sub: Any) -> None:
+    """Add ``exoleg run`` to the subcommands ``sub``."""
+    r = sub.add_parser("run", help="drive the device (or a simulated one) at a fixed rate: "
+                       "sensors -> control hierarchy -> safety layer -> drives, logged")
+    r.add_argument("--backend", choices=["sim", "canopen", "ethercat"], default="sim",
+                   help="sim: the simulated device in real time; canopen: CiA 402 drives and "
+                        "the foot board over CAN; ethercat: the same over EtherCAT (pysoem)")
+    r.add_argument("--interface", help="canopen: python-can interface, 'virtual' (default: "
+                   "hardware in the loop with simulated nodes) or e.g. 'socketcan'; "
+                   "ethercat: network interface (e.g. eth0), or 'fake' (default: simulated "
+                   "slaves at the process-data level)")
+    r.add_argument("--channel", default="exoleg", help="canopen: the bus channel (e.g. can0)")
+    r.add_argument("--bus-timeout", type=_within(0.1, 50.0, " ms"),
+                   help="canopen/ethercat: how long the master waits for every node's answer "
+                        "before it is a fault, ms (default 5; 20 on simulated nodes, threads "
+                        "of this computer)")
+    r.add_argument("--controller", choices=CONTROLLERS, default="walk",
+                   help="walk: the walking hierarchy (default); pd-gravity, pd, "
+                        "computed-torque: the paper's law following its scenario (stance "
+                        "and swing postures every 3 s from the walk command; held at rest "
+                        "while standing)")
+    r.add_argument("--duration", type=_within(0.01, 86400.0, " s"), required=True, help="s")
+    r.add_argument("--rate", type=_within(10.0, 10000.0, " Hz"), default=1000.0,
+                   help="control rate, Hz (default 1000)")
+    r.add_argument("--arm", action="store_true",
+                   help="sim: the operator's arming, given at start (no motion without it)")
+    r.add_argument("--walk-after", type=_within(0.0, 86400.0, " s"),
+                   help="sim: the operator's walk command this many seconds in (needs --arm)")
+    r.add_argument("--leg", type=Path, help="leg file (from exoleg fit); default the paper's")
+    r.add_argument("--body-mass", type=_body_mass, default=DEFAULT_BODY_MASS,
+                   help="the simulated child's mass, kg")
+    r.add_argument("--seed", type=_count(0, 2**31 - 1), default=0, help="sim: sensor noise")
+    r.add_argument("--hmi", action="store_true",
+                   help="serve the operator interface (and its control API) for this session")
+    _web_options(r, "--hmi-host", "--hmi-port")
+    r.add_argument("--no-realtime", action="store_true",
+                   help="do not ask for SCHED_FIFO (nor an isolated CPU, nor the bus threads' "
+                        "priority)")
+    r.add_argument("--out", type=Path, default=Path("exoleg-session"))
+    r.set_defaults(func=cmd_run)

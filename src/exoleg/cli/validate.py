@@ -1,0 +1,56 @@
+"""``exoleg validate``: the model against the paper, Pinocchio and MuJoCo; ``--gait-
+phase``: the detector against the true contacts."""
+
+from __future__ import annotations
+
+import argparse
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    pass
+from exoleg.cli._common import _count, _say, _table
+from exoleg.cli.simulate_walk import _DETECTION_HEADER, _detection_rows
+
+
+# --------------------------------------------------------------------------- validate
+def cmd_validate(args: argparse.Namespace) -> int:
+    if args.gait_phase:
+        from exoleg.validate.gait_phase import evaluate
+
+        rows, rows_ok, runs = evaluate(strides=args.strides)
+        _table([[r.child, f"x{r.noise:g}", str(r.strides),
+                 "stopped by the safety layer" if r.fault else "ok"] for r in runs],
+               ["child", "sensor noise", "strides", "walk"])
+        _table(_detection_rows(rows), _DETECTION_HEADER,
+               title="gait-phase detection (FSR) against the true contacts, all runs")
+        if rows_ok and len(rows_ok) != len(rows) or any(r.fault for r in runs):
+            _table(_detection_rows(rows_ok), _DETECTION_HEADER,
+                   title="the same, runs the safety layer did not stop")
+        _say("published, shank gyroscope: initial contact -25 ms, foot off < 75 ms, > 98 % "
+             "detected (Catalfamo et al. 2010); children with CP: onset < 100 ms, > 99 % of "
+             "phases (Behboodi et al. 2019)")
+        return 1 if any(r.fault for r in runs) else 0
+    from exoleg.validate.checks import missing_engines, run_all
+
+    checks = run_all(quick=args.quick)
+    check_rows = [[c.name, c.reference, f"{c.figure:.2e}",
+             (f"[{c.lower:g}, {c.tolerance:g}]" if c.lower is not None
+              else f"<= {c.tolerance:.0e}"),
+             "pass" if c.passed else "FAIL", c.detail] for c in checks]
+    _table(check_rows, ["check", "reference", "figure", "tolerance", "", "detail"])
+    for m in missing_engines():
+        _say(f"skipped: {m} is not installed (pip install exoleg[validate])")
+    failed = [c for c in checks if not c.passed]
+    _say(f"\n{len(checks) - len(failed)} passed, {len(failed)} failed")
+    return 1 if failed else 0
+
+
+def add_parser(sub: Any) -> None:
+    """Add ``exoleg validate`` to the subcommands ``sub``."""
+    v = sub.add_parser("validate", help="check the model against the paper, Pinocchio, MuJoCo")
+    v.add_argument("--quick", action="store_true", help="fewer random legs and states")
+    v.add_argument("--gait-phase", action="store_true",
+                   help="the gait-phase detector against the true contacts: children x noise")
+    v.add_argument("--strides", type=_count(1, 1000), default=20, metavar="N",
+                   help="with --gait-phase: strides per walk, 1-1000 (default 20)")
+    v.set_defaults(func=cmd_validate)
