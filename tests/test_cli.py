@@ -123,7 +123,7 @@ def test_simulate_walk_bad_options(tmp_path):
                        (["--walk", "--reference", "gait"], "does not apply with --walk"),
                        (["--walk", "--duration", "5"], "does not apply with --walk"),
                        (["--walk", "--actuators"], "not allowed with argument"),
-                       (["--device", "."], "goes with --actuators or --walk"),
+                       (["--device", "."], "goes with --walk or --actuators"),
                        (["--walk", "--strides", "0"], "0 is outside 1-10000"),
                        (["--walk", "--strides", "many"], "expected a whole number"),
                        (["--walk", "--body-mass", "500"], "outside 10-150"),

@@ -6,13 +6,10 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from exoleg.entry import CHILD_ENTRY, MEASURED
-
-if TYPE_CHECKING:
-    pass
 from exoleg.cli._common import STRIDE_TIME_RANGE, _percentile, _say, _table, _within
+from exoleg.entry import CHILD_ENTRY, MEASURED
 
 
 # --------------------------------------------------------------------------- fit

@@ -6,10 +6,8 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-if TYPE_CHECKING:
-    pass
 from exoleg.cli._common import STRIDE_TIME_RANGE, _ages, _percentiles, _say, _table, _within
 
 

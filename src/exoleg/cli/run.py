@@ -5,12 +5,8 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from exoleg.entry import CONTROLLERS, DEFAULT_BODY_MASS
-
-if TYPE_CHECKING:
-    pass
 from exoleg.cli._common import (
     _body_mass,
     _bus_options,
@@ -22,6 +18,7 @@ from exoleg.cli._common import (
     _web_options,
     _within,
 )
+from exoleg.entry import CONTROLLERS, DEFAULT_BODY_MASS
 
 
 def cmd_run(args: argparse.Namespace) -> int:

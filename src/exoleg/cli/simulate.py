@@ -38,7 +38,7 @@ _WALK_DEFAULTS: dict[str, Any] = {"strides": 10, "body_mass": DEFAULT_BODY_MASS,
 #: the actuators (``--actuators``), walking on the treadmill (``--walk``); argparse keeps
 #: the last two apart.
 VARIANTS = ("scenario", "actuators", "walk")
-_PAPER, _DEVICE, _ALL = ("scenario", "actuators"), ("actuators", "walk"), VARIANTS
+_PAPER, _DEVICE = ("scenario", "actuators"), ("walk", "actuators")
 #: Which variants each option goes with (an option not listed goes with all of them),
 #: and why not, where that helps: one declaration, checked by :func:`check_variant`.
 APPLIES: dict[str, tuple[tuple[str, ...], str]] = {

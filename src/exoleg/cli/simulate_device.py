@@ -5,10 +5,8 @@ from __future__ import annotations
 
 import argparse
 import time
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-if TYPE_CHECKING:
-    pass
 from exoleg.cli._common import _say, _table
 from exoleg.cli.simulate import _write_run
 
@@ -18,6 +16,7 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
     safety layer (:func:`exoleg.sim.device_loop.simulate_device`), against Table 2."""
     import numpy as np
 
+    from exoleg.control.safety import Limited
     from exoleg.errors import ParameterError
     from exoleg.plots.figures import device_figure
     from exoleg.sim.device_loop import simulate_device
@@ -59,9 +58,9 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
             np.degrees(np.abs(ideal.error[-int(round(1.0 / control_dt)):]).max())),
         "max_encoder_error_deg": float(np.degrees(np.abs(r.q_meas - r.q).max())),
         "safety_fault": r.fault,
-        "safety_ticks_rate_limited": int(((r.status & 16) > 0).sum()),
-        "safety_ticks_torque_clipped": int(((r.status & 8) > 0).sum()),
-        "safety_ticks_soft_limit": int(((r.status & 4) > 0).sum()),
+        "safety_ticks_rate_limited": int(((r.status & Limited.RATE) > 0).sum()),
+        "safety_ticks_torque_clipped": int(((r.status & Limited.TORQUE) > 0).sum()),
+        "safety_ticks_soft_limit": int(((r.status & Limited.SOFT_LIMIT) > 0).sum()),
         "peaks": peaks,
     }
     wrote = _write_run(args, r, device_figure, "actuators", t0,
@@ -87,7 +86,7 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
                  f"{figs['safety_ticks_soft_limit']}", "-"],
                 ["safety fault", r.fault or "none", "-"]]
     _table(fig_rows, ["figure", "with the actuators", "ideal torques"])
-    if status & 2:
+    if status & Limited.FAULT:
         _say(f"note: the safety layer stopped the run: {r.fault}; torque was off from then on")
     _say("note: motor, gear and drive figures marked catalogue* in the actuator files are "
          "to be verified against the datasheets (see summary.json, actuator_sources)")

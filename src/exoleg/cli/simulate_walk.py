@@ -5,10 +5,8 @@ from __future__ import annotations
 
 import argparse
 import time
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-if TYPE_CHECKING:
-    pass
 from exoleg.cli._common import _read_leg, _say, _table
 from exoleg.cli.simulate import _write_run
 from exoleg.cli.simulate_device import _actuator_peaks
@@ -22,6 +20,7 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     import numpy as np
 
     import exoleg
+    from exoleg.control.safety import Limited
     from exoleg.plots.figures import walk_figure
     from exoleg.sim.metrics import detection_table
     from exoleg.sim.walk import simulate_walk
@@ -43,9 +42,9 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     peaks = _actuator_peaks(r.actuators, r.tau, r.dq, r.u_safe, r.envelope)
     for p, e in zip(peaks, err, strict=True):
         p["rms_tracking_error_deg"] = float(e)
-    fault = bool(np.any(r.safety_status & 2))
+    fault = bool(np.any(r.safety_status & Limited.FAULT))
     if fault:
-        k = int(np.argmax(r.safety_status & 2))
+        k = int(np.argmax(r.safety_status & Limited.FAULT))
         notes.append(f"the safety layer stopped the walk at t = {r.t[k]:.3f} s; torque was off "
                      "from then on")
     figs = {"strides_commanded": args.strides, "body_mass_kg": args.body_mass,

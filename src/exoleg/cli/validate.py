@@ -4,10 +4,8 @@ phase``: the detector against the true contacts."""
 from __future__ import annotations
 
 import argparse
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-if TYPE_CHECKING:
-    pass
 from exoleg.cli._common import _count, _say, _table
 from exoleg.cli.simulate_walk import _DETECTION_HEADER, _detection_rows
 

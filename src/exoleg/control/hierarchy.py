@@ -26,7 +26,6 @@ runtime will run.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,7 +40,7 @@ from exoleg.control import safety as sf
 from exoleg.control.contract import OUTPUT, SENSORS, Mode, TickRecords
 from exoleg.control.safety import SafetyLimits, safety_step
 from exoleg.control.supervisor import SUPERVISOR, report, settle, supervise
-from exoleg.dynamics.kernels import OFFSETS, gravity, mass_matrix
+from exoleg.dynamics.kernels import foot_point_jacobian, gravity, mass_matrix
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, new
@@ -148,15 +147,10 @@ def stance_gravity(p, g, q, fx, sole, counts, weight, out):  # type: ignore[no-u
               + counts[3] * fx[3]) / tot
     else:
         cx = 0.5 * (fx[0] + fx[3])
-    phi = 0.0
-    jx = np.zeros(3)
-    for i in range(3):
-        phi += q[i] + OFFSETS[i]
-        if i < 2:
-            jx[i + 1] = jx[i] + p[5 * i + 1] * math.cos(phi)
-    px = jx[2] + math.cos(phi) * cx - math.sin(phi) * sole
+    J = np.empty((2, 3))
+    foot_point_jacobian(q, p, cx, sole, J)  # the pressure's point (generated kinematics)
     for j in range(3):  # J^T (0, W): W times the x lever of the pressure about joint j
-        out[j] -= (px - jx[j]) * weight
+        out[j] -= J[1, j] * weight
 
 
 @njit(cache=True)

@@ -19,7 +19,8 @@ Model (one set of equations; stance and swing differ only in which contacts act)
   ``-mu F_n tanh((dx_p - v_belt) / v_s)`` against the belt's speed.
 
 Equations of motion, from the leg's own M, C, G (the generated kernels, with the
-armature) and the kinematics of its centre of mass: with Y(q) = sum m_i y_ci(q),
+armature) and the kinematics of its centre of mass (generated with them:
+:func:`~exoleg.dynamics.kernels.mass_height_terms`): with Y(q) = sum m_i y_ci(q),
 p = dY/dq and b = dq^T (d^2 Y / dq^2) dq,
 
     [ m_t  p^T ] [ddy]   [ F_c + sum F_n - m_t g - b              ]
@@ -42,7 +43,15 @@ from numpy.typing import NDArray
 
 from exoleg.device.actuator import friction
 from exoleg.device.sensors import SENSOR_X
-from exoleg.dynamics.kernels import OFFSETS, coriolis_dq, gravity, mass_matrix
+from exoleg.dynamics.kernels import (
+    coriolis_dq,
+    foot_point,
+    foot_point_jacobian,
+    gravity,
+    mass_height,
+    mass_height_terms,
+    mass_matrix,
+)
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, new
@@ -193,29 +202,12 @@ PLANT = np.dtype([("body_mass", F8), ("g", F8), ("stiffness", F8), ("damping", F
 @njit(cache=True)
 def contact_points(p, w, y, q, dq, dy, out):  # type: ignore[no-untyped-def]
     """Positions and velocities of the four points: out (4, 4) rows (x, y, dx, dy), world
-    frame (hip at (0, y))."""
-    phi = 0.0
-    jx = np.zeros(4)
-    jy = np.zeros(4)
-    ph = np.zeros(3)
-    for i in range(3):
-        phi += q[i] + OFFSETS[i]
-        ph[i] = phi
-        jx[i + 1] = jx[i] + p[5 * i + 1] * math.cos(phi)
-        jy[i + 1] = jy[i] + p[5 * i + 1] * math.sin(phi)
-    c, s = math.cos(ph[2]), math.sin(ph[2])
+    frame (hip at (0, y)); the leg's kinematics are the generated
+    :func:`~exoleg.dynamics.kernels.foot_point`."""
     P = w[0].points
     for k in range(4):
-        px = P[k, 0]
-        py = P[k, 1]
-        x = jx[2] + c * px - s * py
-        yy = jy[2] + s * px + c * py
-        vx = 0.0
-        vy = dy
-        for j in range(3):  # column j of the point's Jacobian: z x (point - joint j)
-            vx += -(yy - jy[j]) * dq[j]
-            vy += (x - jx[j]) * dq[j]
-        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = x, y + yy, vx, vy
+        x, yy, vx, vy, _ = foot_point(q, dq, p, P[k, 0], P[k, 1])
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = x, y + yy, vx, dy + vy
 
 
 @njit(cache=True)
@@ -244,39 +236,6 @@ def support_force(w, y, dy):  # type: ignore[no-untyped-def]
     """The other leg under the pelvis: one-sided spring-damper, N (>= 0)."""
     W = w[0]
     return max(0.0, W.support_stiffness * (W.support_height - y) - W.support_damping * dy)
-
-
-@njit(cache=True)
-def _com_terms(p, q, dq):  # type: ignore[no-untyped-def]
-    """(p_vec (3,), b, leg mass): gradient of Y = sum m_i y_ci and dq^T Hess(Y) dq."""
-    ph = np.zeros(3)
-    w = np.zeros(3)
-    phi = 0.0
-    om = 0.0
-    for i in range(3):
-        phi += q[i] + OFFSETS[i]
-        om += dq[i]
-        ph[i] = phi
-        w[i] = om
-    grad_phi = np.zeros(3)  # dY/dphi_k
-    b = 0.0
-    mass = 0.0
-    for i in range(3):
-        m = p[5 * i]
-        mass += m
-        cx, cy = p[5 * i + 2], p[5 * i + 3]
-        for k in range(i):
-            a = p[5 * k + 1]
-            grad_phi[k] += m * a * math.cos(ph[k])
-            b -= m * a * math.sin(ph[k]) * w[k] * w[k]
-        grad_phi[i] += m * (cx * math.cos(ph[i]) - cy * math.sin(ph[i]))
-        b -= m * (cx * math.sin(ph[i]) + cy * math.cos(ph[i])) * w[i] * w[i]
-    g = np.zeros(3)  # dY/dq_j = sum_{k >= j} dY/dphi_k
-    acc = 0.0
-    for j in range(2, -1, -1):
-        acc += grad_phi[j]
-        g[j] = acc
-    return g, b, mass
 
 
 @njit(cache=True)
@@ -309,23 +268,16 @@ def _solve4(A, r):  # type: ignore[no-untyped-def]
 @njit(cache=True)
 def generalized_contact(p, w, y, q, F, out):  # type: ignore[no-untyped-def]
     """Generalized forces (4,) of point forces F (4, 2) at the contact points: on y the
-    sum of the normal forces, on the joints sum J_i^T F_i."""
-    pts = np.empty((4, 4))
-    z = np.zeros(3)
-    contact_points(p, w, y, q, z, 0.0, pts)
-    phi = 0.0
-    jx = np.zeros(3)
-    jy = np.zeros(3)
-    for i in range(2):
-        phi += q[i] + OFFSETS[i]
-        jx[i + 1] = jx[i] + p[5 * i + 1] * math.cos(phi)
-        jy[i + 1] = jy[i] + p[5 * i + 1] * math.sin(phi)
+    sum of the normal forces, on the joints sum J_i^T F_i (the generated
+    :func:`~exoleg.dynamics.kernels.foot_point_jacobian`)."""
+    P = w[0].points
+    J = np.empty((2, 3))
     out[:] = 0.0
     for k in range(4):
         out[0] += F[k, 1]
-        px, py = pts[k, 0], pts[k, 1] - y
+        foot_point_jacobian(q, p, P[k, 0], P[k, 1], J)
         for j in range(3):
-            out[1 + j] += -(py - jy[j]) * F[k, 0] + (px - jx[j]) * F[k, 1]
+            out[1 + j] += J[0, j] * F[k, 0] + J[1, j] * F[k, 1]
 
 
 @njit(cache=True)
@@ -338,7 +290,8 @@ def walking_accel(p, w, y, dy, q, dq, tau, gen, out):  # type: ignore[no-untyped
     coriolis_dq(q, dq, p, Cq)
     G = np.empty(3)
     gravity(q, p, w[0].g, G)
-    pv, b, m_leg = _com_terms(p, q, dq)
+    y0, y1, y2, b, m_leg = mass_height_terms(q, dq, p)
+    pv = (y0, y1, y2)
     mt = w[0].body_mass + m_leg
     A = np.empty((4, 4))
     r = np.empty(4)
@@ -360,21 +313,15 @@ def walking_energy(p, w, y, dy, q, dq):  # type: ignore[no-untyped-def]
     """Kinetic + potential energy of leg and pelvis, J (potential zero at y = 0)."""
     M = np.empty((3, 3))
     mass_matrix(q, p, M)
-    pv, _, m_leg = _com_terms(p, q, dq)
+    y0, y1, y2, _, m_leg = mass_height_terms(q, dq, p)
+    pv = (y0, y1, y2)
     T = 0.5 * (w[0].body_mass + m_leg) * dy * dy
     for j in range(3):
         T += dy * pv[j] * dq[j]
         for k in range(3):
             T += 0.5 * dq[j] * M[j, k] * dq[k]
     # potential: Y(q) = sum m_i y_ci relative to the hip
-    phi = 0.0
-    yj = 0.0
-    Y = 0.0
-    for i in range(3):
-        phi += q[i] + OFFSETS[i]
-        Y += p[5 * i] * (yj + p[5 * i + 2] * math.sin(phi) + p[5 * i + 3] * math.cos(phi))
-        yj += p[5 * i + 1] * math.sin(phi)
-    return T + w[0].g * ((w[0].body_mass + m_leg) * y + Y)
+    return T + w[0].g * ((w[0].body_mass + m_leg) * y + mass_height(q, p))
 
 
 @njit(cache=True)

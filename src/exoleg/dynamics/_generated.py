@@ -852,3 +852,190 @@ def inverse_dynamics(q, dq, ddq, p, g, out):
     out[0] = ddq0*(I0 + arm0 + cx0*cx0*m0 + cy0*cy0*m0 + m1*x34 + m2*x34 - 2*x15 - 2*x16 + 2*x27 + 2*x28 - 2*x29 + x31) + ddq1*x32 - ddq2*x22 - dq0*x26 - dq1*(x26 + x33) + g*m0*(c_0*cy0 + cx0*s_0) - x13*x7 + x2*(x0 + x1) + x5*(x0 + x4)
     out[1] = ddq0*x32 + ddq1*(arm1 + x31) + ddq2*x39 + dq0*(x33 - x38) + x1*x2 - x36*x37 - x38*x7 + x4*x5
     out[2] = -ddq0*x22 + ddq1*x39 + ddq2*(arm2 + x30) + dq0*m2*(a1*x36 + dq0*x12) + x17*x36*x6 + x3*x5
+
+
+@njit(cache=True, error_model="numpy")
+def joint_points(q, p, out):
+    """The joints' points into out (4, 2), m: the base joint (the origin), ..., the
+    last link's tip, in the base frame (x forward, y up)."""
+    q0 = q[0]
+    q1 = q[1]
+    q2 = q[2]
+    a0 = p[1]
+    a1 = p[6]
+    a2 = p[11]
+    s_0 = sin(q0)
+    c_0 = cos(q0)
+    s_1 = sin(q1)
+    c_1 = cos(q1)
+    s_2 = sin(q2)
+    c_2 = cos(q2)
+    s_0_1 = s_0 * c_1 + c_0 * s_1
+    c_0_1 = c_0 * c_1 - s_0 * s_1
+    s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
+    c_0_1_2 = c_0_1 * c_2 - s_0_1 * s_2
+    x0 = a0*s_0
+    x1 = a0*c_0
+    x2 = a1*s_0_1 + x0
+    x3 = a1*c_0_1 + x1
+    out[0, 0] = 0
+    out[0, 1] = 0
+    out[1, 0] = x0
+    out[1, 1] = -x1
+    out[2, 0] = x2
+    out[2, 1] = -x3
+    out[3, 0] = a2*c_0_1_2 + x2
+    out[3, 1] = a2*s_0_1_2 - x3
+
+
+@njit(cache=True, error_model="numpy")
+def foot_point(q, dq, p, px, py):
+    """(x, y, vx, vy, phi): the point (px, py) of the last link's frame and its velocity
+    in the base frame, and the last link's absolute angle."""
+    q0 = q[0]
+    q1 = q[1]
+    q2 = q[2]
+    dq0 = dq[0]
+    dq1 = dq[1]
+    dq2 = dq[2]
+    a0 = p[1]
+    a1 = p[6]
+    s_0 = sin(q0)
+    c_0 = cos(q0)
+    s_1 = sin(q1)
+    c_1 = cos(q1)
+    s_2 = sin(q2)
+    c_2 = cos(q2)
+    s_0_1 = s_0 * c_1 + c_0 * s_1
+    c_0_1 = c_0 * c_1 - s_0 * s_1
+    s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
+    c_0_1_2 = c_0_1 * c_2 - s_0_1 * s_2
+    x0 = c_0_1_2*px - py*s_0_1_2
+    x1 = a1*s_0_1 + x0
+    x2 = a0*s_0 + x1
+    x3 = a1*c_0_1
+    x4 = a0*c_0 - c_0_1_2*py - px*s_0_1_2 + x3
+    x5 = c_0_1_2*py + px*s_0_1_2
+    x = x2
+    y = -x4
+    vx = dq0*x4 - dq1*(-x3 + x5) - dq2*x5
+    vy = dq0*x2 + dq1*x1 + dq2*x0
+    phi = q0 + q1 + q2
+    return (x, y, vx, vy, phi)
+
+
+@njit(cache=True, error_model="numpy")
+def foot_point_jacobian(q, p, px, py, out):
+    """The Jacobian (2, 3) of the point (px, py) of the last link's frame into out: a
+    force F on it acts on the joints as J^T F."""
+    q0 = q[0]
+    q1 = q[1]
+    q2 = q[2]
+    a0 = p[1]
+    a1 = p[6]
+    s_0 = sin(q0)
+    c_0 = cos(q0)
+    s_1 = sin(q1)
+    c_1 = cos(q1)
+    s_2 = sin(q2)
+    c_2 = cos(q2)
+    s_0_1 = s_0 * c_1 + c_0 * s_1
+    c_0_1 = c_0 * c_1 - s_0 * s_1
+    s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
+    c_0_1_2 = c_0_1 * c_2 - s_0_1 * s_2
+    x0 = c_0_1_2*py
+    x1 = px*s_0_1_2
+    x2 = x0 + x1
+    x3 = c_0_1_2*px - py*s_0_1_2
+    x4 = a1*s_0_1 + x3
+    out[0, 0] = a0*c_0 + a1*c_0_1 - x0 - x1
+    out[0, 1] = a1*c_0_1 - x2
+    out[0, 2] = -x2
+    out[1, 0] = a0*s_0 + x4
+    out[1, 1] = x4
+    out[1, 2] = x3
+
+
+@njit(cache=True, error_model="numpy")
+def mass_height_terms(q, dq, p):
+    """Of Y(q) = sum m_i y_ci (the links' mass times their COM height): the gradient
+    dY/dq (3), b = dq^T (d^2 Y / dq^2) dq, and the links' mass, as a tuple."""
+    q0 = q[0]
+    q1 = q[1]
+    q2 = q[2]
+    dq0 = dq[0]
+    dq1 = dq[1]
+    dq2 = dq[2]
+    m0 = p[0]
+    a0 = p[1]
+    cx0 = p[2]
+    cy0 = p[3]
+    m1 = p[5]
+    a1 = p[6]
+    cx1 = p[7]
+    cy1 = p[8]
+    m2 = p[10]
+    cx2 = p[12]
+    cy2 = p[13]
+    s_0 = sin(q0)
+    c_0 = cos(q0)
+    s_1 = sin(q1)
+    c_1 = cos(q1)
+    s_2 = sin(q2)
+    c_2 = cos(q2)
+    s_0_1 = s_0 * c_1 + c_0 * s_1
+    c_0_1 = c_0 * c_1 - s_0 * s_1
+    s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
+    c_0_1_2 = c_0_1 * c_2 - s_0_1 * s_2
+    x0 = a0*s_0
+    x1 = c_0_1*cy1 + cx1*s_0_1
+    x2 = c_0_1_2*cx2 - cy2*s_0_1_2
+    x3 = a1*s_0_1 + x2
+    x4 = 2*dq0
+    x5 = c_0_1_2*cy2
+    x6 = cx2*s_0_1_2
+    x7 = x5 + x6
+    x8 = m2*x7
+    x9 = dq2*x8
+    x10 = c_0_1*cx1 - cy1*s_0_1
+    x11 = a1*c_0_1
+    x12 = m1*x10 - m2*(-x11 + x7)
+    x13 = a0*c_0
+    dY0 = m0*(c_0*cy0 + cx0*s_0) + m1*(x0 + x1) + m2*(x0 + x3)
+    dY1 = m1*x1 + m2*x3
+    dY2 = m2*x2
+    b = dq0*dq0*(m0*(c_0*cx0 - cy0*s_0) + m1*(x10 + x13) + m2*(x11 + x13 - x5 - x6)) + dq1*dq1*x12 + dq1*x12*x4 - 2*dq1*x9 - dq2*dq2*x8 - x4*x9
+    mass = m0 + m1 + m2
+    return (dY0, dY1, dY2, b, mass)
+
+
+@njit(cache=True, error_model="numpy")
+def mass_height(q, p):
+    """Y(q) = sum m_i y_ci, kg m (zero at the base joint's height)."""
+    q0 = q[0]
+    q1 = q[1]
+    q2 = q[2]
+    m0 = p[0]
+    a0 = p[1]
+    cx0 = p[2]
+    cy0 = p[3]
+    m1 = p[5]
+    a1 = p[6]
+    cx1 = p[7]
+    cy1 = p[8]
+    m2 = p[10]
+    cx2 = p[12]
+    cy2 = p[13]
+    s_0 = sin(q0)
+    c_0 = cos(q0)
+    s_1 = sin(q1)
+    c_1 = cos(q1)
+    s_2 = sin(q2)
+    c_2 = cos(q2)
+    s_0_1 = s_0 * c_1 + c_0 * s_1
+    c_0_1 = c_0 * c_1 - s_0 * s_1
+    s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
+    c_0_1_2 = c_0_1 * c_2 - s_0_1 * s_2
+    x0 = a0*c_0
+    Y = -m0*(c_0*cx0 - cy0*s_0) - m1*(c_0_1*cx1 - cy1*s_0_1 + x0) - m2*(a1*c_0_1 - c_0_1_2*cy2 - cx2*s_0_1_2 + x0)
+    return Y

@@ -58,6 +58,14 @@ class Derivation:
     Mdot: sp.Matrix
     T: sp.Expr
     V: sp.Expr
+    #: the kinematics: absolute link angles; the joints' points (n + 1: the base joint at
+    #: the origin, ..., the last link's tip); a point (px, py) fixed in the last link's
+    #: frame; the height moment of the links' mass, Y = sum m_i y_ci
+    phi: tuple[sp.Expr, ...]
+    joints: tuple[sp.Matrix, ...]
+    point_local: tuple[sp.Symbol, sp.Symbol]
+    point: sp.Matrix
+    Y: sp.Expr
 
 
 def _offset(value: float) -> sp.Expr:
@@ -86,8 +94,10 @@ def derive(offsets: Sequence[float], simplify: bool = True) -> Derivation:
         phi.append(acc)
 
     joint = sp.Matrix([0, 0])
+    joints = [joint]
     T: sp.Expr = sp.Integer(0)
     V: sp.Expr = sp.Integer(0)
+    Y: sp.Expr = sp.Integer(0)
     dqv = sp.Matrix(dq)
     for i in range(n):
         c, s = sp.cos(phi[i]), sp.sin(phi[i])
@@ -96,7 +106,9 @@ def derive(offsets: Sequence[float], simplify: bool = True) -> Derivation:
         omega = sum(dq[: i + 1])
         T += sp.Rational(1, 2) * m[i] * (v.T * v)[0] + sp.Rational(1, 2) * inertia[i] * omega**2
         V += m[i] * g * com[1]
+        Y += m[i] * com[1]
         joint = joint + a[i] * sp.Matrix([c, s])
+        joints.append(joint)
     T += sum(sp.Rational(1, 2) * armature[i] * dq[i] ** 2 for i in range(n))
 
     M = sp.zeros(n, n)
@@ -118,5 +130,9 @@ def derive(offsets: Sequence[float], simplify: bool = True) -> Derivation:
             )
     G = sp.Matrix([sp.diff(V, qi) for qi in q])
     Mdot = M.applyfunc(lambda e: sum(sp.diff(e, q[i]) * dq[i] for i in range(n)))
+    px, py = sp.symbols("px py", real=True)
+    c, s = sp.cos(phi[-1]), sp.sin(phi[-1])
+    point = joints[n - 1] + sp.Matrix([c * px - s * py, s * px + c * py])
     return Derivation(n=n, offsets=tuple(float(o) for o in offsets), q=q, dq=dq, p=p, g=g,
-                      M=M, C=C, G=G, Mdot=Mdot, T=T, V=V)
+                      M=M, C=C, G=G, Mdot=Mdot, T=T, V=V, phi=tuple(phi),
+                      joints=tuple(joints), point_local=(px, py), point=point, Y=Y)

@@ -204,14 +204,14 @@ def walk_figure(result: WalkResult, path: str | Path) -> Path:
     +- 1 SD); middle, the last three strides' FSR readings, the detected phase against
     the true contacts, the foot gyroscope; bottom, each joint's delivered torque against
     its speed over the actuator's envelope."""
-    from exoleg.control.contract import SENSOR_POINTS
+    from exoleg.control.contract import SENSOR_POINTS, Mode
     from exoleg.reference.gait import gait_angles
 
     r = result
     fig = new_figure(12, 9.5, left=0.06, right=0.98, top=0.94, bottom=0.06, wspace=0.28,
                      hspace=0.45)
     axes = fig.subplots(3, 3)
-    walking = (r.mode == 2) & (r.t > r.walk_start + r.stride_time)
+    walking = (r.mode == Mode.WALKING) & (r.t > r.walk_start + r.stride_time)
     pct, mean = gait_angles("Free", 0.0)
     lo, hi = gait_angles("Free", -1.0)[1], gait_angles("Free", 1.0)[1]
     x = 100 * r.gait_fraction[walking]

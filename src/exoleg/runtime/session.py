@@ -161,9 +161,8 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
 
     check_options(backend, interface, arm, walk_after, bus_timeout, overrun, controller,
                   link)
-    from exoleg.runtime.sim_backend import SimBackend
-
     from exoleg.device.config import DeviceConfig
+    from exoleg.runtime.sim_backend import SimBackend
 
     leg = leg if leg is not None else exoleg.paper_leg()
     config = DeviceConfig.load(control_dt=period)

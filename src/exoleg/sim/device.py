@@ -40,7 +40,7 @@ from exoleg.device.walking import (
     step_contacts,
     walking_step,
 )
-from exoleg.dynamics.kernels import OFFSETS
+from exoleg.dynamics.kernels import foot_point
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, new
@@ -51,23 +51,10 @@ F64 = NDArray[np.float64]
 
 @njit(inline="always")
 def _imu_point(p, x, px, py):  # type: ignore[no-untyped-def]
-    """Velocity (vx, vy) of the point (px, py) of the foot frame, world frame."""
-    phi = 0.0
-    jx = np.zeros(4)
-    jy = np.zeros(4)
-    for i in range(3):
-        phi += x[1 + i] + OFFSETS[i]
-        jx[i + 1] = jx[i] + p[5 * i + 1] * math.cos(phi)
-        jy[i + 1] = jy[i] + p[5 * i + 1] * math.sin(phi)
-    c, s = math.cos(phi), math.sin(phi)
-    X = jx[2] + c * px - s * py
-    Y = jy[2] + s * px + c * py
-    vx = 0.0
-    vy = x[4]
-    for j in range(3):
-        vx += -(Y - jy[j]) * x[5 + j]
-        vy += (X - jx[j]) * x[5 + j]
-    return vx, vy, phi
+    """Velocity (vx, vy) of the point (px, py) of the foot frame, world frame, and the
+    foot's angle, for the plant state x (the generated kinematics)."""
+    _, _, vx, vy, phi = foot_point(x[1:4], x[5:8], p, px, py)
+    return vx, x[4] + vy, phi
 
 
 #: A simulated device's state (:func:`device_sense`, :func:`device_actuate`): the plant

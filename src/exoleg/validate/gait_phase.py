@@ -41,6 +41,7 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
              ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[DetectionRun]]:
     """(the detection table over every run, over the runs the safety layer did not stop,
     the runs). Each child walks ``strides`` strides at each noise level."""
+    from exoleg.control.safety import Limited
     from exoleg.sim.metrics import detection_table
     from exoleg.sim.walk import simulate_walk
     from exoleg.sizing import Child, estimate_dimensions, fit_device, growth, personalized_leg
@@ -58,6 +59,7 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
             r = simulate_walk(leg, m, strides=strides, noise_scale=n, seed=seed + k,
                               ankle_height=ankle)
             results.append(r)
-            runs.append(DetectionRun(label, n, strides, bool(np.any(r.safety_status & 2))))
+            runs.append(DetectionRun(label, n, strides,
+                                     bool(np.any(r.safety_status & Limited.FAULT))))
     ok = [r for r, run in zip(results, runs, strict=True) if not run.fault]
     return detection_table(results), detection_table(ok) if ok else [], runs
