@@ -94,7 +94,7 @@ def test_frozen_foot_board_is_a_fault(tmp_path: Path) -> None:
                     inject=inject)
     assert res.stopped_by.startswith("device fault: the foot board's readings froze")
     # frozen for FROZEN_S (250 ticks) after tick 300, give or take the bus's few ticks
-    from exoleg.runtime.loop import FROZEN_S
+    from exoleg.runtime.watch import FROZEN_S
 
     frozen = round(FROZEN_S / 1e-3)
     assert 300 + frozen <= len(read_log(path)[1]["t"]) <= 300 + frozen + 10
@@ -151,7 +151,7 @@ def test_the_bus_holds_with_the_cpus_busy(tmp_path: Path, sched_fifo: None) -> N
     import subprocess
     import sys
 
-    from exoleg.runtime.loop import IO_PRIORITY
+    from exoleg.runtime.realtime import IO_PRIORITY
 
     hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"])
             for _ in range(os.cpu_count() or 2)]

@@ -116,7 +116,8 @@ def test_start_up_refuses_a_misconfigured_segment(tmp_path: Path, fault: str,
 def test_a_wrong_pdo_mapping_stops_at_safe_op() -> None:
     """A drive that does not take the mapping stays in PRE-OP; the master says which."""
     import exoleg
-    from exoleg.hw.ethercat_backend import EthercatBackend, SimulatedSegment
+    from exoleg.hw.ethercat_backend import EthercatBackend
+    from exoleg.hw.ethercat_sim import SimulatedSegment
     from exoleg.runtime.sim_backend import SimBackend
 
     sim = SimBackend(exoleg.paper_leg(), 30.0)

@@ -232,7 +232,7 @@ def _server_keeps_off_the_loops_cpu(server: int) -> None:
     the session's process has the CPUs the server was started with (this test's)."""
     import os
 
-    from exoleg.runtime.loop import isolated_cpus
+    from exoleg.runtime.realtime import isolated_cpus
 
     cpus = os.sched_getaffinity(0)
     if len(cpus) < 2 or isolated_cpus():

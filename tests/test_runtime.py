@@ -186,7 +186,7 @@ def test_isolated_cpus_read_the_kernel_cpu_list(tmp_path: Path) -> None:
     """Reference: the kernel's cpu-list format of /sys/devices/system/cpu/isolated
     (Documentation/admin-guide/cputopology.rst): ranges and singles, comma-separated,
     an empty line when no CPU is isolated."""
-    from exoleg.runtime.loop import isolated_cpus
+    from exoleg.runtime.realtime import isolated_cpus
 
     f = tmp_path / "isolated"
     f.write_text("2-3,5\n")
@@ -206,7 +206,7 @@ def test_realtime_settings_raise_the_bus_threads_and_are_undone(tmp_path: Path,
     documents."""
     import threading
 
-    from exoleg.runtime.loop import IO_PRIORITY, LOOP_PRIORITY
+    from exoleg.runtime.realtime import IO_PRIORITY, LOOP_PRIORITY
 
     seen: dict[str, int] = {}
     release = threading.Event()

@@ -468,9 +468,9 @@ class HMI:
 
 def keep_off_loop_cpu() -> set[int] | None:
     """Run the web side off the loop's CPU: off the isolated CPUs, where the loop pins
-    itself if the kernel keeps any (:func:`~exoleg.runtime.loop.realtime_settings`),
+    itself if the kernel keeps any (:func:`~exoleg.runtime.realtime.realtime_settings`),
     else off the last CPU, left to the loop. Returns the CPUs it had (None if unknown)."""
-    from exoleg.runtime.loop import isolated_cpus
+    from exoleg.runtime.realtime import isolated_cpus
 
     try:
         before = os.sched_getaffinity(0)

@@ -1,9 +1,9 @@
 """The ``canopen`` backend: the three drives as CiA 402 nodes and the foot board as a CAN
 node, driven over python-canopen / python-can -- on a real machine a SocketCAN interface,
-in tests a virtual bus on which :class:`SimulatedRig` answers: simulated EPOS4 nodes
-(``data/device/canopen/epos4_sim.eds``, the CiA 402 state machine of
-:mod:`exoleg.hw.cia402`, cyclic synchronous torque by PDO on every SYNC) and a simulated
-foot board, around the simulated device of :mod:`exoleg.sim.walk`. The master code here
+in tests a virtual bus on which :class:`~exoleg.hw.canopen_sim.SimulatedRig` answers:
+simulated EPOS4 nodes (``data/device/canopen/epos4_sim.eds``, the CiA 402 state machine
+of :mod:`exoleg.hw.cia402`, cyclic synchronous torque by PDO on every SYNC) and a
+simulated foot board, around the simulated device of :mod:`exoleg.sim.device`. The master code here
 is what would drive the real nodes: hardware-in-the-loop of the whole protocol stack.
 
 Node ids: ankle 1, knee 2, hip 3 (the paper's chain, ankle -> knee -> hip), foot board
@@ -30,14 +30,17 @@ from numpy.typing import NDArray
 from exoleg.errors import ParameterError
 from exoleg.hw import cia402
 from exoleg.hw.master import DriveMaster
-from exoleg.hw.rig import FOOT_FSR, FOOT_IMU, JOINT_ORDER, DriveRig
-from exoleg.hw.units import rated_torque_mnm
+from exoleg.hw.rig import FOOT_FSR, FOOT_IMU, JOINT_ORDER
 
 F64 = NDArray[np.float64]
 DRIVE_IDS = {"ankle": 1, "knee": 2, "hip": 3}
 FOOT_ID = 16
 FOOT_FSR_COB = 0x180 + FOOT_ID
 FOOT_IMU_COB = 0x280 + FOOT_ID
+#: the drives' heartbeat period, ms; the master calls a node lost after HEARTBEAT_LOST
+#: of them without one
+HEARTBEAT_MS = 50
+HEARTBEAT_LOST = 3
 
 
 def eds_path() -> str:
@@ -58,74 +61,6 @@ def _network(interface: str, channel: str) -> Any:
         raise ParameterError("exoleg run", "--interface",
                              f"cannot open {interface!r} channel {channel!r}: {e}") from None
     return net
-
-
-class SimulatedRig(DriveRig):
-    """The simulated drives and foot board on the CAN bus (:class:`DriveRig`): on each
-    SYNC, one bus cycle, then every node sends its PDO -- the silent ones excepted (fault
-    injection: ``silent`` holds joints or ``"foot"``)."""
-
-    def __init__(self, device: Any, interface: str = "virtual", channel: str = "exoleg",
-                 offsets: dict[str, int] | None = None) -> None:
-        import canopen
-
-        super().__init__(device, offsets)
-        self.net = _network(interface, channel)
-        self.nodes: dict[str, Any] = {}
-        for j in JOINT_ORDER:
-            node = canopen.LocalNode(DRIVE_IDS[j], eds_path())
-            self.net.add_node(node)
-            node.rpdo.read(from_od=True)
-            node.tpdo.read(from_od=True)
-            node.rpdo[1].subscribe()
-            self.nodes[j] = node
-            # configured as the device file says (a real drive: by its commissioning)
-            rated: Any = node.sdo[0x6076]
-            rated.raw = rated_torque_mnm(self.scaling[j])
-            pos: Any = node.sdo[0x6064]
-            pos.raw = self.position(JOINT_ORDER.index(j))
-            node.nmt.start_heartbeat(HEARTBEAT_MS)
-        self.silent: set[str] = set()
-        self.lock = threading.Lock()
-        self.net.subscribe(0x80, self._on_sync)
-
-    def _on_sync(self, can_id: int, data: bytes, timestamp: float) -> None:
-        with self.lock:
-            rps = [self.nodes[j].rpdo[1] for j in JOINT_ORDER]
-            self.cycle([int(rp["Controlword"].raw) for rp in rps],
-                       [int(rp["Target torque"].raw) for rp in rps])
-            for i, j in enumerate(JOINT_ORDER):
-                status, counts, torque = self.drive(i)
-                self.nodes[j].sdo[0x6064].raw = counts  # for SDO reads (start-up)
-                if j in self.silent:
-                    continue
-                tp = self.nodes[j].tpdo[1]
-                tp["Statusword"].raw = status
-                tp["Position actual value"].raw = counts
-                tp["Torque actual value"].raw = torque
-                tp.transmit()
-            if "foot" not in self.silent:
-                fsr, imu = self.foot()
-                self.net.send_message(FOOT_FSR_COB, fsr)
-                self.net.send_message(FOOT_IMU_COB, imu)
-
-    def fault(self, joint: str, code: int = 0x2310) -> None:
-        """Inject a drive fault (default 0x2310, continuous overcurrent): the drive goes
-        to Fault and sends its EMCY message."""
-        with self.lock:
-            super().fault(joint)
-            self.nodes[joint].emcy.send(code)
-
-    def close(self) -> None:
-        for node in self.nodes.values():
-            node.nmt.stop_heartbeat()
-        self.net.disconnect()
-
-
-#: the drives' heartbeat period, ms; the master calls a node lost after HEARTBEAT_LOST
-#: of them without one
-HEARTBEAT_MS = 50
-HEARTBEAT_LOST = 3
 
 
 class CanopenBackend(DriveMaster):

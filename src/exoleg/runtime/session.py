@@ -112,13 +112,15 @@ def open_device(backend: str, config: DeviceConfig, sim: Any, period: float,
     rig: Any = None
     master: Any  # makes the bus's master (after the rig is on the bus)
     if backend == "canopen":
-        from exoleg.hw.canopen_backend import CanopenBackend, SimulatedRig
+        from exoleg.hw.canopen_backend import CanopenBackend
+        from exoleg.hw.canopen_sim import SimulatedRig
 
         rig = SimulatedRig(sim, interface, channel) if sim is not None else None
         master = lambda: CanopenBackend(acts, period, interface, channel,  # noqa: E731
                                         bus_timeout)
     else:
-        from exoleg.hw.ethercat_backend import EthercatBackend, SimulatedSegment
+        from exoleg.hw.ethercat_backend import EthercatBackend
+        from exoleg.hw.ethercat_sim import SimulatedSegment
 
         rig = SimulatedSegment(sim) if sim is not None else None
         master = lambda: EthercatBackend(acts, period, interface,  # noqa: E731

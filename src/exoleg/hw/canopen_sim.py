@@ -1,0 +1,82 @@
+"""The simulated side of the CAN bus, for hardware in the loop: EPOS4 nodes (python-canopen
+LocalNodes from the same EDS as the master's RemoteNodes) and the foot board, answering
+every SYNC from a simulated device (:class:`~exoleg.hw.rig.DriveRig`). The master
+(:mod:`exoleg.hw.canopen_backend`) talks to them exactly as to real nodes."""
+
+from __future__ import annotations
+
+import threading
+from typing import Any
+
+from exoleg.hw.canopen_backend import (
+    DRIVE_IDS,
+    FOOT_FSR_COB,
+    FOOT_IMU_COB,
+    HEARTBEAT_MS,
+    _network,
+    eds_path,
+)
+from exoleg.hw.rig import JOINT_ORDER, DriveRig
+from exoleg.hw.units import rated_torque_mnm
+
+
+class SimulatedRig(DriveRig):
+    """The simulated drives and foot board on the CAN bus (:class:`DriveRig`): on each
+    SYNC, one bus cycle, then every node sends its PDO -- the silent ones excepted (fault
+    injection: ``silent`` holds joints or ``"foot"``)."""
+
+    def __init__(self, device: Any, interface: str = "virtual", channel: str = "exoleg",
+                 offsets: dict[str, int] | None = None) -> None:
+        import canopen
+
+        super().__init__(device, offsets)
+        self.net = _network(interface, channel)
+        self.nodes: dict[str, Any] = {}
+        for j in JOINT_ORDER:
+            node = canopen.LocalNode(DRIVE_IDS[j], eds_path())
+            self.net.add_node(node)
+            node.rpdo.read(from_od=True)
+            node.tpdo.read(from_od=True)
+            node.rpdo[1].subscribe()
+            self.nodes[j] = node
+            # configured as the device file says (a real drive: by its commissioning)
+            rated: Any = node.sdo[0x6076]
+            rated.raw = rated_torque_mnm(self.scaling[j])
+            pos: Any = node.sdo[0x6064]
+            pos.raw = self.position(JOINT_ORDER.index(j))
+            node.nmt.start_heartbeat(HEARTBEAT_MS)
+        self.silent: set[str] = set()
+        self.lock = threading.Lock()
+        self.net.subscribe(0x80, self._on_sync)
+
+    def _on_sync(self, can_id: int, data: bytes, timestamp: float) -> None:
+        with self.lock:
+            rps = [self.nodes[j].rpdo[1] for j in JOINT_ORDER]
+            self.cycle([int(rp["Controlword"].raw) for rp in rps],
+                       [int(rp["Target torque"].raw) for rp in rps])
+            for i, j in enumerate(JOINT_ORDER):
+                status, counts, torque = self.drive(i)
+                self.nodes[j].sdo[0x6064].raw = counts  # for SDO reads (start-up)
+                if j in self.silent:
+                    continue
+                tp = self.nodes[j].tpdo[1]
+                tp["Statusword"].raw = status
+                tp["Position actual value"].raw = counts
+                tp["Torque actual value"].raw = torque
+                tp.transmit()
+            if "foot" not in self.silent:
+                fsr, imu = self.foot()
+                self.net.send_message(FOOT_FSR_COB, fsr)
+                self.net.send_message(FOOT_IMU_COB, imu)
+
+    def fault(self, joint: str, code: int = 0x2310) -> None:
+        """Inject a drive fault (default 0x2310, continuous overcurrent): the drive goes
+        to Fault and sends its EMCY message."""
+        with self.lock:
+            super().fault(joint)
+            self.nodes[joint].emcy.send(code)
+
+    def close(self) -> None:
+        for node in self.nodes.values():
+            node.nmt.stop_heartbeat()
+        self.net.disconnect()
