@@ -1,0 +1,200 @@
+"""The operator rules of a session, apart from any transport: one operator holds control
+at a time (a lease that lapses after :data:`LEASE_S` s of silence), every control action
+needs the session's token and that operator (an E-stop needs neither), gain changes are
+bounded (0 to twice their value at the start, the support level 0-1), and every action,
+accepted or refused, and the loop's application of each command go to ``control.log``
+with their wall times. :class:`~exoleg.runtime.control_api.ControlAPI` serves them over
+HTTP; a script or a test may call them directly."""
+
+from __future__ import annotations
+
+import json
+import secrets
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+from exoleg.control.contract import Command
+from exoleg.runtime.link import GAIN_NAMES, LoopLink
+
+#: the operator's commands by the names the API takes, from the enumeration
+COMMANDS = {m.name.lower(): m for m in Command if m != Command.NONE}
+NAMES = {int(v): k for k, v in COMMANDS.items()}
+#: commands anyone may send (no token, no operator): stopping the device
+UNGUARDED = {"estop"}
+#: an operator's hold on control lapses after this long without a request from them, s
+LEASE_S = 5.0
+NO_TOKEN = "no valid token (Authorization: Bearer <the token printed at start-up>)"
+
+
+class OperatorRules:
+    """The web side's state: the session attached, the operator holding control, the
+    actions logged. Thread-safe (the server's event loop and the HMI's threads)."""
+
+    def __init__(self, token: str | None = None, folder: str | Path = ".") -> None:
+        self.token = token or secrets.token_urlsafe(16)
+        self.lock = threading.RLock()
+        self.link: LoopLink | None = None
+        self.folder = Path(folder)  # where control.log goes
+        self.bounds: dict[str, list[list[float]]] = {}
+        self.actions: list[dict[str, Any]] = []
+        self.operator: dict[str, Any] | None = None
+        self.requests: dict[int, dict[str, Any]] = {}
+        self.next_id = 1
+        self.seen_applied = 0
+
+    @property
+    def log_path(self) -> Path:
+        return self.folder / "control.log"
+
+    def attach(self, link: LoopLink, folder: str | Path) -> None:
+        """A session starts: its link and its folder (control.log)."""
+        with self.lock:
+            self.link, self.folder = link, Path(folder)
+            self.bounds, self.actions, self.requests = {}, [], {}
+            self.seen_applied = 0
+
+    def detach(self) -> None:
+        with self.lock:
+            self.link = None
+
+    # ------------------------------------------------------------------ bookkeeping
+    def record(self, source: str, command: str, accepted: bool, why: str = "",
+               **extra: Any) -> dict[str, Any]:
+        entry = {"time": time.time(), "source": source, "command": command,
+                 "accepted": accepted, **({"why": why} if why else {}), **extra}
+        with self.lock:
+            self.actions.append(entry)
+            try:
+                with self.log_path.open("a") as f:
+                    f.write(json.dumps(entry) + "\n")
+            except OSError as e:  # the action stands; the failure is said where it is seen
+                entry["log_error"] = str(e)
+        return entry
+
+    def state(self) -> dict[str, Any]:
+        with self.lock:
+            link = self.link
+        if link is None:
+            return {"running": "none"}
+        return LoopLink.snapshot(link.web_copy())
+
+    def gains(self) -> tuple[dict[str, list[float]], dict[str, list[list[float]]]]:
+        """The gains in force and their bounds (set from the first gains the session
+        published); empty before the session has started."""
+        with self.lock:
+            link = self.link
+        if link is None:
+            return {}, {}
+        g = LoopLink.gains(link.web_copy())
+        if g is None:  # not yet published by the session
+            return {}, {}
+        with self.lock:
+            if not self.bounds:
+                self.bounds = {k: [[0.0, 1.0]] * len(v) if k == "support" else
+                               [[0.0, 2.0 * x] for x in v] for k, v in g.items()}
+            return g, dict(self.bounds)
+
+    def check_gains(self, change: dict[str, list[float]]) -> str:
+        """Why ``change`` is refused ('' when it is within bounds)."""
+        _, bounds = self.gains()
+        if not bounds:
+            return "no session is running"
+        for k, v in change.items():
+            if k not in bounds:
+                return f"unknown gain {k!r} (allowed: {', '.join(GAIN_NAMES)})"
+            if len(v) != len(bounds[k]):
+                return f"{k}: expected {len(bounds[k])} values, got {len(v)}"
+            for i, (x, (lo, hi)) in enumerate(zip(v, bounds[k], strict=True)):
+                if not lo <= x <= hi:
+                    return f"{k}[{i}] = {x:g} is outside {lo:g}-{hi:g}"
+        return ""
+
+    def poll_applied(self) -> None:
+        """Log the commands the loop has applied since the last call, with the time from
+        the request (and from the click) to the tick that wrote the drives' command."""
+        with self.lock:  # the server's task and the HMI's session watcher both call it
+            link = self.link
+            if link is None:
+                return
+            n, done = LoopLink.applied(link.web_copy(), self.seen_applied)
+            self.seen_applied = n
+            for code, rid, tick, wall in done:
+                req = self.requests.pop(rid, {})
+                extra: dict[str, Any] = {"tick": tick, "request": rid}
+                if "received" in req:
+                    extra["after_request_ms"] = round((wall - req["received"]) * 1e3, 3)
+                if "clicked_at" in req:
+                    extra["after_click_ms"] = round((wall - req["clicked_at"]) * 1e3, 3)
+                self.record("loop", NAMES.get(code, str(code)), True, applied=wall, **extra)
+
+    # ------------------------------------------------------------------ control
+    def holder(self) -> dict[str, Any] | None:
+        with self.lock:
+            op = self.operator
+            if op is not None and time.time() - op["seen"] > LEASE_S:
+                self.operator = op = None
+            return op
+
+    def has_token(self, headers: Any) -> bool:
+        return secrets.compare_digest(headers.get("authorization", ""), f"Bearer {self.token}")
+
+    def authorise(self, headers: Any, source: str, what: str) -> str:
+        """'' when the request carries the token and the operator holding control; else
+        why not (and the refusal is logged)."""
+        why = ""
+        if not self.has_token(headers):
+            why = NO_TOKEN
+        else:
+            op = self.holder()
+            oid = headers.get("x-operator", "")
+            if op is None:
+                why = "take control first (POST /operator): no operator holds it"
+            elif not secrets.compare_digest(oid, op["id"]):
+                why = (f"control is held by {op['name']} ({op['source']}); you can view "
+                       "only")
+            else:
+                with self.lock:
+                    op["seen"] = time.time()
+        if why:
+            self.record(source, what, False, why)
+        return why
+
+    def take(self, headers: Any, source: str, name: str) -> tuple[int, dict[str, Any]]:
+        if not self.has_token(headers):
+            self.record(source, f"take control ({name})", False, NO_TOKEN)
+            return 401, {"error": NO_TOKEN}
+        with self.lock:
+            op = self.holder()
+            if op is not None and op["id"] != headers.get("x-operator", ""):
+                why = (f"control is held by {op['name']} ({op['source']}) since "
+                       f"{time.strftime('%H:%M:%S', time.localtime(op['since']))}; you can "
+                       "view only")
+                self.record(source, f"take control ({name})", False, why)
+                return 409, {"error": why, "holder": self.public(op)}
+            now = time.time()
+            self.operator = op = {"id": secrets.token_urlsafe(12), "name": name,
+                                  "source": source, "since": now, "seen": now}
+        self.record(source, f"take control ({name})", True)
+        return 200, {"operator": op["id"], "holder": self.public(op)}
+
+    @staticmethod
+    def public(op: dict[str, Any] | None) -> dict[str, Any] | None:
+        return None if op is None else {k: op[k] for k in ("name", "source", "since")}
+
+    def send(self, name: str, source: str, clicked_at: float | None = None) -> str:
+        """Queue ``name`` for the loop; '' or why it cannot go."""
+        with self.lock:
+            link = self.link
+            if link is None:
+                return "no session is running"
+            running = LoopLink.running(link.web_copy())
+            if running != "running" and name not in UNGUARDED:
+                return f"the session is {running}: commands go once its loop runs"
+            rid = self.next_id
+            self.next_id += 1
+            self.requests[rid] = {"received": time.time(), **(
+                {"clicked_at": clicked_at} if clicked_at is not None else {})}
+        link.web_send(int(COMMANDS[name]), rid)
+        return ""
