@@ -22,7 +22,7 @@ httpx = pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
 
 from exoleg.control.contract import Command  # noqa: E402
 from exoleg.errors import ParameterError  # noqa: E402
-from exoleg.hmi.server import bind_check  # noqa: E402
+from exoleg.hmi.serving import bind_check  # noqa: E402
 from exoleg.hmi.testing import free_port, wait_until  # noqa: E402
 from exoleg.runtime.link import RING, LoopLink  # noqa: E402
 from exoleg.runtime.log import read_log  # noqa: E402
@@ -210,8 +210,8 @@ def test_hmi_refuses_what_it_must(tmp_path: Path) -> None:
     status, out = sim.fit({"name": "Eve", "age": 10, "sex": "female", "height": 138,
                            "mass": 32, "thigh": 90}, "test")
     assert status == 422 and "thigh" in out["error"]  # implausible for her height
-    assert sim.folder_of("../a") is None and sim.folder_of(".") is None
-    assert not sim.sessions() and sim.proc is None  # nothing started by any of it
+    assert sim.archive.folder_of("../a") is None and sim.archive.folder_of(".") is None
+    assert not sim.archive.sessions() and sim.proc is None  # nothing started by any of it
 
 
 def test_session_ends_torque_off_when_the_interface_dies(tmp_path: Path) -> None:

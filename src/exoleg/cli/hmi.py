@@ -10,7 +10,8 @@ from exoleg.cli._common import _bus_options, _say, _url, _web_options
 
 
 def cmd_hmi(args: argparse.Namespace) -> int:
-    from exoleg.hmi.server import HMI, bind_check, listen, serve
+    from exoleg.hmi.server import HMI
+    from exoleg.hmi.serving import bind_check, listen, serve
     from exoleg.io import _writable_folder
     from exoleg.runtime.session import SIMULATED_BUS
 

@@ -38,7 +38,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.hmi:
         import secrets
 
-        from exoleg.hmi.server import bind_check, start_process
+        from exoleg.hmi.serving import bind_check, start_process
         from exoleg.io import _writable_folder
         from exoleg.runtime.link import LoopLink
 

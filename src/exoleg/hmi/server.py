@@ -17,7 +17,6 @@ the operator holding control; an E-stop needs neither.
 from __future__ import annotations
 
 import contextlib
-import json
 import multiprocessing as mp
 import os
 import re
@@ -32,6 +31,7 @@ from exoleg.control.contract import vocabulary
 from exoleg.control.hierarchy import WalkGains
 from exoleg.entry import DEFAULT_BODY_MASS
 from exoleg.errors import ParameterError
+from exoleg.hmi.archive import Archive
 from exoleg.io import write_json
 from exoleg.runtime.control_api import ControlAPI, body_of, loopback, source_of
 from exoleg.runtime.link import LoopLink
@@ -112,6 +112,7 @@ class HMI:
 
         self.root = Path(root)
         self.root.mkdir(parents=True, exist_ok=True)
+        self.archive = Archive(self.root)
         self.api = ControlAPI(token, folder=self.root)
         self.backend, self.interface = backend, interface
         self.fixed = fixed is not None
@@ -188,7 +189,7 @@ class HMI:
             self.api.poll_applied()
             self.api.detach()
             self.api.record("hmi", "session ended", True,
-                            why=self.summary(folder)["stopped_by"])
+                            why=self.archive.summary(folder)["stopped_by"])
 
     def end(self, source: str) -> tuple[int, dict[str, Any]]:
         with self.lock:
@@ -264,90 +265,9 @@ class HMI:
         self.api.record(source, f"fit {child.name}: {rep.verdict}", True)
         return 200, record
 
-    def children(self) -> list[dict[str, Any]]:
-        """The children fitted here before (their fit records), by name."""
-        out = []
-        for f in sorted((self.root / "children").glob("*/fit.json")):
-            with contextlib.suppress(OSError, ValueError):
-                out.append(json.loads(f.read_text())["child"])
-        return out
-
-    # ------------------------------------------------------------------ recorded sessions
-    def folder_of(self, name: str) -> Path | None:
-        """A recorded session's folder, only by its own name (nothing outside the root)."""
-        p = self.root / name
-        if "/" in name or name.startswith(".") or not self._recorded(p):
-            return None
-        return p
-
-    @staticmethod
-    def _recorded(p: Path) -> bool:
-        return (p / "session.log").is_file() or (p / "failed.json").is_file()
-
-    def summary(self, folder: Path) -> dict[str, Any]:
-        """One recorded session's line: child, start, duration, how it ended."""
-        from exoleg.runtime.log import read_header
-
-        def read(name: str) -> dict[str, Any]:
-            try:
-                return dict(json.loads((folder / name).read_text()))
-            except (OSError, ValueError):
-                return {}
-
-        run, child, failed = read("run.json"), read("child.json"), read("failed.json")
-        live = folder == self.session and self.api.link is not None
-        try:
-            header, ticks = read_header(folder / "session.log")
-        except ParameterError as e:
-            header, ticks, failed = {}, 0, failed or {"error": str(e)}
-        return {"name": folder.name,
-                "child": child.get("child", {}).get("name", f"({header.get('leg', '?')})"),
-                "started": float(header.get("started", folder.stat().st_mtime)),
-                "backend": header.get("backend", "?"),
-                "duration_s": ticks * float(header.get("period", 1e-3)),
-                "stopped_by": failed.get("error") or run.get("stopped_by")
-                or ("running" if live else "ended without a summary (log kept)"),
-                "running": live}
-
-    def sessions(self) -> list[dict[str, Any]]:
-        rows = [self.summary(p) for p in self.root.iterdir() if self._recorded(p)]
-        return sorted(rows, key=lambda r: -float(r["started"]))
-
-    def detail(self, folder: Path) -> dict[str, Any]:
-        from exoleg.runtime.session import summarize
-
-        out = self.summary(folder)
-        try:
-            out["log"] = summarize(folder / "session.log")
-        except ParameterError as e:
-            out["log"] = {"error": str(e)}
-        try:
-            out["control"] = [json.loads(x) for x in
-                              (folder / "control.log").read_text().splitlines() if x.strip()]
-        except (OSError, ValueError):
-            out["control"] = []
-        return out
-
-    def plot(self, folder: Path) -> Path:
-        """The session's figure, made once per log state."""
-        from exoleg.plots.figures import session_figure
-
-        png = folder / "session.png"
-        log = folder / "session.log"
-        if not png.exists() or png.stat().st_mtime < log.stat().st_mtime:
-            session_figure(log, png)
-        return png
-
-    def export(self, folder: Path, fmt: str) -> Path:
-        """The session's log as CSV or Parquet (the same series as ``exoleg simulate``)."""
-        from exoleg.io import write_csv_table, write_parquet_table
-        from exoleg.runtime.session import to_table
-
-        out = folder / f"session.{fmt}"
-        log = folder / "session.log"
-        if not out.exists() or out.stat().st_mtime < log.stat().st_mtime:
-            (write_csv_table if fmt == "csv" else write_parquet_table)(to_table(log), out)
-        return out
+    def live(self) -> Path | None:
+        """The folder of the session running now (None when none runs)."""
+        return self.session if self.api.link is not None else None
 
     # ------------------------------------------------------------------ the web app
     def app(self) -> Any:
@@ -370,7 +290,7 @@ class HMI:
                     "simulated": self.interface == SIMULATED_BUS.get(self.backend),
                     "child": self.child, "session": self.session.name if self.session
                     else None, "max_duration": MAX_DURATION,
-                    "children": self.children(), "vocabulary": VOCABULARY,
+                    "children": self.archive.children(), "vocabulary": VOCABULARY,
                     "gains": [g for g in WalkGains.TUNABLE if g != "support"]})
 
         async def fit(request: Request) -> JSONResponse:
@@ -404,10 +324,10 @@ class HMI:
             return JSONResponse(out, status)
 
         async def sessions(request: Request) -> JSONResponse:
-            return JSONResponse(await run_in_threadpool(self.sessions))
+            return JSONResponse(await run_in_threadpool(self.archive.sessions, self.live()))
 
         def recorded(request: Request) -> Path:
-            folder = self.folder_of(request.path_params["name"])
+            folder = self.archive.folder_of(request.path_params["name"])
             if folder is None:
                 raise LookupError(request.path_params["name"])
             return folder
@@ -417,7 +337,8 @@ class HMI:
                 folder = recorded(request)
             except LookupError as e:
                 return JSONResponse({"error": f"no recorded session {e}"}, 404)
-            return JSONResponse(await run_in_threadpool(self.detail, folder))
+            return JSONResponse(await run_in_threadpool(self.archive.detail, folder,
+                                                        self.live()))
 
         async def session_file(request: Request) -> Response:
             try:
@@ -427,11 +348,11 @@ class HMI:
             kind = request.path_params["kind"]
             try:
                 if kind == "plot.png":
-                    path = await run_in_threadpool(self.plot, folder)
+                    path = await run_in_threadpool(self.archive.plot, folder)
                     return FileResponse(path, media_type="image/png")
                 if kind in ("session.csv", "session.parquet"):
                     fmt = kind.split(".")[1]
-                    path = await run_in_threadpool(self.export, folder, fmt)
+                    path = await run_in_threadpool(self.archive.export, folder, fmt)
                     return FileResponse(path, filename=f"{folder.name}.{fmt}")
             except (ParameterError, OSError) as e:
                 return JSONResponse({"error": f"session {folder.name}: {e}"}, 409)
@@ -464,133 +385,3 @@ class HMI:
                  else ["*"])
         return Starlette(routes=routes, lifespan=lifespan,
                          middleware=[Middleware(TrustedHostMiddleware, allowed_hosts=hosts)])
-
-
-def keep_off_loop_cpu() -> set[int] | None:
-    """Run the web side off the loop's CPU: off the isolated CPUs, where the loop pins
-    itself if the kernel keeps any (:func:`~exoleg.runtime.realtime.realtime_settings`),
-    else off the last CPU, left to the loop. Returns the CPUs it had (None if unknown)."""
-    from exoleg.runtime.realtime import isolated_cpus
-
-    try:
-        before = os.sched_getaffinity(0)
-    except (AttributeError, OSError):
-        return None
-    isolated = isolated_cpus()
-    cpus = sorted(before - isolated)
-    if not isolated:
-        cpus = cpus[:-1]
-    if cpus:
-        with contextlib.suppress(OSError):
-            os.sched_setaffinity(0, set(cpus))
-    return before
-
-
-def bind_check(host: str, certfile: str | None, keyfile: str | None) -> str:
-    """'' on loopback or with TLS; else the warning to print. Refuses half a TLS pair."""
-    if (certfile is None) != (keyfile is None):
-        raise ParameterError("exoleg hmi", "--tls-cert/--tls-key", "give both or neither")
-    for f in (certfile, keyfile):
-        if f is not None and not Path(f).is_file():
-            raise ParameterError("exoleg hmi", "--tls-cert/--tls-key", f"{f}: no such file")
-    if loopback(host) or certfile:
-        return ""
-    return (f"warning: the operator interface listens on {host} without TLS: anyone on "
-            "that network who sees the token in transit can control the device (give "
-            "--tls-cert and --tls-key)")
-
-
-def listen(host: str, port: int, what: str = "exoleg hmi") -> Any:
-    """A listening socket on ``host``:``port``, or a ParameterError saying why not."""
-    import socket
-
-    try:
-        family, kind, proto, _, addr = socket.getaddrinfo(host, port,
-                                                          type=socket.SOCK_STREAM)[0]
-        sock = socket.socket(family, kind, proto)
-        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        sock.bind(addr)
-        sock.listen(64)
-    except OSError as e:
-        raise ParameterError(what, "--port", f"cannot listen on {host}:{port}: "
-                             f"{e.strerror or e}") from None
-    return sock
-
-
-def serve(hmi: HMI, host: str = "127.0.0.1", port: int = 8780, certfile: str | None = None,
-          keyfile: str | None = None, ready: Any = None, sock: Any = None) -> str:
-    """Serve ``hmi`` in this process until SIGINT or SIGTERM (then a running session
-    ends, torque off); returns the signal's name. ``sock``: already listening
-    (:func:`listen`); ``ready``: a connection told 'ok' once listening, or why not."""
-    import signal
-
-    import uvicorn
-
-    class Server(uvicorn.Server):
-        @contextlib.contextmanager
-        def capture_signals(self) -> Any:  # the signals are ours (below), not re-raised
-            yield
-
-    hmi.cpus = keep_off_loop_cpu()
-    hmi.host = host
-    try:
-        sock = sock if sock is not None else listen(host, port)
-    except ParameterError as e:
-        if ready is None:
-            raise
-        ready.send(str(e))
-        return ""
-    config = uvicorn.Config(hmi.app(), log_level="warning", ssl_certfile=certfile,
-                            ssl_keyfile=keyfile, lifespan="on")
-    server = Server(config)
-    got: list[str] = []
-
-    def on_signal(signum: int, frame: object) -> None:
-        got.append(signal.Signals(signum).name)
-        server.force_exit = server.should_exit  # a second Ctrl-C: do not wait for clients
-        server.should_exit = True
-
-    old = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
-    if ready is not None:
-        def tell() -> None:
-            while not server.started and not server.should_exit:
-                time.sleep(0.01)
-            ready.send("ok" if server.started else "stopped before it listened")
-
-        threading.Thread(target=tell, daemon=True).start()
-    try:
-        server.run(sockets=[sock])
-    finally:
-        for sig, handler in old.items():
-            signal.signal(sig, handler)
-        hmi.close()
-    return got[0] if got else ""
-
-
-def _serve_process(link: LoopLink, folder: str, token: str, host: str, port: int,
-                   certfile: str | None, keyfile: str | None, backend: str,
-                   leg_path: str | None, ready: Any) -> None:
-    import exoleg
-
-    leg = exoleg.load_leg(leg_path) if leg_path else None
-    hmi = HMI(Path(folder).parent, backend=backend, token=token, fixed=(link, Path(folder)),
-              leg=leg)
-    serve(hmi, host, port, certfile, keyfile, ready)
-
-
-def start_process(link: LoopLink, folder: Path, token: str, host: str, port: int,
-                  certfile: str | None = None, keyfile: str | None = None,
-                  backend: str = "sim", leg_path: str | None = None) -> Any:
-    """``exoleg run --hmi``: the server in a child process for the session run here;
-    returns the process once it listens (raises with the reason if it cannot)."""
-    ctx = mp.get_context("spawn")
-    receiver, sender = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=_serve_process, name="exoleg-hmi", daemon=True,
-                       args=(link, str(folder), token, host, port, certfile, keyfile,
-                             backend, leg_path, sender))
-    proc.start()
-    said = receiver.recv() if receiver.poll(60) else "did not start within 60 s"
-    if said != "ok":
-        proc.terminate()
-        raise ParameterError("exoleg run --hmi", "--hmi-port", said)
-    return proc
