@@ -21,6 +21,31 @@ JOINTS = ("hip", "knee", "ankle")
 LINKS = ("thigh", "shank", "foot")
 
 
+#: What a link of a leg (a child's, an adult's, with or without the device) can be: its
+#: length and mass; its COM within reach of the segment (x from one length behind the
+#: proximal joint to two ahead, at most one length off its axis); its centroidal inertia
+#: at most that of its mass two lengths from the COM (a slender rod's is m L^2 / 12).
+LINK_LENGTH_M = (0.01, 2.0)
+LINK_MASS_KG = (1e-3, 100.0)
+
+
+def _plausible(where: str, m: float, a: float, com: tuple[float, float], izz: float) -> None:
+    lo, hi = LINK_LENGTH_M
+    if not lo <= a <= hi:
+        raise ParameterError(where, "length", f"{a:g} m is outside {lo:g}-{hi:g} m")
+    lo, hi = LINK_MASS_KG
+    if not lo <= m <= hi:
+        raise ParameterError(where, "mass", f"{m:g} kg is outside {lo:g}-{hi:g} kg")
+    x, y = com
+    if not (-a <= x <= 2 * a and abs(y) <= a):
+        raise ParameterError(where, "com", f"({x:g}, {y:g}) m is outside the link's reach "
+                             f"(x {-a:g} to {2 * a:g} m, |y| up to {a:g} m for a {a:g} m link)")
+    top = m * (2 * a) ** 2
+    if izz > top:
+        raise ParameterError(where, "izz", f"{izz:g} kg m^2 is more than a {m:g} kg body "
+                             f"within two lengths of its COM can have ({top:.3g} kg m^2)")
+
+
 @dataclass(frozen=True)
 class Link:
     """One link of the leg, lumped into a single rigid body.
@@ -49,8 +74,10 @@ class Link:
         object.__setattr__(self, "mass", body.mass)
         object.__setattr__(self, "com", body.com)
         object.__setattr__(self, "izz", body.izz)
-        object.__setattr__(self, "length", _check.positive(where, "length", self.length, "m"))
+        a = _check.positive(where, "length", self.length, "m")
+        object.__setattr__(self, "length", a)
         object.__setattr__(self, "parts", tuple(self.parts))
+        _plausible(where, body.mass, a, body.com, body.izz)
         if self.parts:
             c = compose(self.parts)
             tol = 1e-9

@@ -7,6 +7,7 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -282,6 +283,25 @@ def _rom(range_of_motion: RangeOfMotion | None) -> RangeOfMotion:
     return device_rom() if range_of_motion is None else range_of_motion
 
 
+def check_inputs(where: str, leg: Any, controller: Any = None, reference: Any = None
+                 ) -> None:
+    """The run's model, controller and reference are what they must be (ParameterError
+    naming the one that is not and what it must be): a :class:`LegModel`, a controller
+    record (:func:`exoleg.control.PDGravity`, ``PD``, ``ComputedTorque``), a reference
+    with ``sample(t)`` (``Steps``, ``MinJerk``, ``SchwartzGait2008``)."""
+    if not isinstance(leg, LegModel):
+        raise ParameterError(where, "leg", f"expected a LegModel (exoleg.paper_leg(), "
+                             f"exoleg.load_leg(...)), got {type(leg).__name__}")
+    if controller is not None and not isinstance(controller, Controller):
+        raise ParameterError(where, "controller", "expected a controller record "
+                             "(exoleg.control.PDGravity, PD or ComputedTorque), got "
+                             f"{type(controller).__name__}")
+    if reference is not None and not callable(getattr(reference, "sample", None)):
+        raise ParameterError(where, "reference", "expected a reference with sample(t) "
+                             "(exoleg.reference.Steps, MinJerk, SchwartzGait2008), got "
+                             f"{type(reference).__name__}")
+
+
 def check_run(reference: Reference, duration: float, dt: float, q0: ArrayLike | None,
               dq0: ArrayLike | None, bytes_per_step: int = BYTES_PER_STEP,
               range_of_motion: RangeOfMotion | None = None,
@@ -364,6 +384,7 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
     stops being finite. Diagnostics (energies, V, verification signal) are computed
     when first read.
     """
+    check_inputs("simulate", leg, controller, reference)
     t, Qr, DQr, DDQr, q_init, dq_init, notes = check_run(
         reference, duration, dt, q0, dq0, range_of_motion=range_of_motion,
         beyond_range_of_motion=beyond_range_of_motion)

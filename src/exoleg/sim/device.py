@@ -221,6 +221,9 @@ def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
     from exoleg.device.walking import body_weight_share
     from exoleg.entry import BODY_MASS
     from exoleg.reference.gait import SchwartzGait2008
+    from exoleg.sim.closed_loop import check_inputs
+
+    check_inputs("simulate_walk", leg)
 
     for name, v, lo, hi in (("body_mass", body_mass, *BODY_MASS[:2]),
                             ("control_dt", control_dt, 1e-4, 1e-2),

@@ -252,8 +252,9 @@ def simulate_device(leg: LegModel, controller: Controller, reference: Reference,
     memory, range of motion of the start and reference) with the same messages.
     ``device``: a device folder (:mod:`exoleg.device.files`) for the actuators and limits.
     """
-    from exoleg.sim.closed_loop import check_run, sampled_stability
+    from exoleg.sim.closed_loop import check_inputs, check_run, sampled_stability
 
+    check_inputs("simulate_device", leg, controller, reference)
     if not (isinstance(substeps, int) and 1 <= substeps <= 1000):
         raise ParameterError("simulate_device", "substeps",
                              f"expected a whole number 1-1000, got {substeps!r}")
