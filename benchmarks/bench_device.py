@@ -145,8 +145,8 @@ def main() -> None:
     walked = 1.0 + strides * 1.1
     rows.append((f"exoleg walking, {walked:g} s (full device)", walk, walked / walk))
     ctl = WalkController(with_actuators(leg), 20.0)
-    ctl.step({"q": ctl.gains.standing, "dq": np.zeros(3), "fsr": np.full(4, 1000.0),
-              "command": 1}, 0.0)
+    ctl.update({"q": ctl.gains.standing, "dq": np.zeros(3), "fsr": np.full(4, 1000.0)},
+               Command.ARM, 0.0)
     wtick = best(lambda: _walk_ticks(ctl, 200_000), 3) / 200_000
     rows.insert(1, ("walking controller tick (full hierarchy), compiled", wtick, None))
     try:

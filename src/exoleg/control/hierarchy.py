@@ -266,10 +266,7 @@ class WalkController:
         self.gq, self.gdq = gait_tables(speed)
         self.d = self.detector.record(fsr_floor_counts, expected_stride)
         self.st = gp.new_state(self.d)
-        self.lim = self.safety.record()
-        self.sst = new(sf.STATE)
-        self.sst[0]["fault_joint"] = -1
-        self.sup = new(SUPERVISOR)
+        self.lim, self.sst, self.sup = self.safety.record(), sf.new_state(), new(SUPERVISOR)
         self.io = TickRecords("WalkController.update")
 
     def gains_now(self) -> dict[str, list[float]]:

@@ -76,6 +76,13 @@ LIMITS = np.dtype([("lower", F8, 3), ("upper", F8, 3), ("max_torque", F8, 3),
 STATE = np.dtype([("armed", np.bool_), ("fault", I8), ("fault_joint", I8), ("prev", F8, 3)])
 
 
+def new_state() -> NDArray[np.void]:
+    """The safety layer's state at power-up: disarmed, no fault, no torque."""
+    s = new(STATE)
+    s[0]["fault_joint"] = -1
+    return s
+
+
 @dataclass(frozen=True)
 class SafetyLimits:
     """The safety layer's limits, per joint (hip, knee, ankle), SI units.
@@ -273,8 +280,7 @@ class SafetyLayer:
             raise ParameterError("SafetyLayer", "limits",
                                  f"expected SafetyLimits, got {type(self.limits).__name__}")
         self._lim = self.limits.record()
-        self.state = new(STATE)
-        self.state[0]["fault_joint"] = -1
+        self.state = new_state()
 
     # ------------------------------------------------------------------ commands
     @property

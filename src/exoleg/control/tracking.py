@@ -79,10 +79,7 @@ class TrackingController:
         self.law = law
         self.reference = reference
         self.safety = SafetyLimits.paper() if safety is None else safety
-        self.lim = self.safety.record()
-        self.sst = new(sf.STATE)
-        self.sst[0]["fault_joint"] = -1
-        self.sup = new(SUPERVISOR)
+        self.lim, self.sst, self.sup = self.safety.record(), sf.new_state(), new(SUPERVISOR)
         self.io = TickRecords("TrackingController.update")
         self.clock = 0.0       # the reference's own time, s: runs only while walking
         self._since = 0.0      # the session time the reference's clock last started from
