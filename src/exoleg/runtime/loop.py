@@ -33,7 +33,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from exoleg.control.contract import ARMED_MODES, OUTPUT, output_columns
-from exoleg.layout import flat
 from exoleg.runtime.clock import RateClock
 from exoleg.runtime.log import SessionLog
 from exoleg.runtime.realtime import realtime_settings, saved_scheduling
@@ -88,19 +87,32 @@ LOG_HEAD = ["t", "late"]
 LOG_TAIL = ["u" + c[3:] if c.startswith("tau_") else c for c in output_columns()]
 
 
+def _slots() -> list[tuple[str, int, int]]:
+    """Each :data:`OUTPUT` field's place in :data:`LOG_TAIL`: (name, start, stop)."""
+    out, k = [], 0
+    for name in OUTPUT.names or ():
+        n = int(np.prod(OUTPUT[name].shape)) if OUTPUT[name].shape else 1
+        out.append((name, k, k + n))
+        k += n
+    return out
+
+
+_SLOTS = _slots()
+
+
 def output_row(out: dict[str, Any]) -> F64:
     """A controller's output (the :data:`~exoleg.control.contract.OUTPUT` fields) as the
     log's :data:`LOG_TAIL` values; a missing or misshapen field is a ValueError naming
     it."""
-    rec = np.zeros(1, OUTPUT)
-    for name in OUTPUT.names or ():
-        if name not in out:
-            raise ValueError(f"the controller's output has no {name!r}")
+    row = np.empty(len(LOG_TAIL))
+    for name, a, b in _SLOTS:
         try:
-            rec[0][name] = out[name]
+            row[a:b] = out[name]
+        except KeyError:
+            raise ValueError(f"the controller's output has no {name!r}") from None
         except (TypeError, ValueError) as e:
             raise ValueError(f"the controller's {name!r} is {out[name]!r}: {e}") from None
-    return flat(rec)[0]
+    return row
 
 
 #: what ``on_tick`` returns to end the session (torque off, log closed), and why
