@@ -28,7 +28,7 @@ THIGH = {"mass": 2.3, "length": 0.30, "com": (0.12, 0.0), "izz": 0.02, "name": "
 
 @pytest.mark.parametrize(("change", "field", "says"), [
     ({"com": (5.0, 0.0)}, "com", "outside the link's reach"),
-    ({"com": (0.12, -0.5)}, "com", "outside the link's reach"),
+    ({"com": (0.12, -0.5)}, "com", "0.5 m from its 0.3 m segment"),
     ({"izz": 50.0}, "izz", "more than a 2.3 kg body within two lengths"),
     ({"mass": 1e6}, "mass", "1e+06 kg is outside 0.001-100 kg"),
     ({"length": 30.0}, "length", "30 m is outside 0.01-2 m"),
@@ -41,14 +41,15 @@ def test_an_implausible_link_is_refused_by_name(change: dict, field: str, says: 
 
 
 @settings(max_examples=200, deadline=None)
-@given(a=st.floats(0.05, 1.0), m=st.floats(0.01, 50.0), fx=st.floats(-1.0, 2.0),
-       fy=st.floats(-1.0, 1.0), k=st.floats(0.0, 2.0))
-def test_links_within_the_envelope_are_accepted(a: float, m: float, fx: float, fy: float,
-                                                k: float) -> None:
-    # Property: any COM in the segment's reach and any radius of gyration up to two
-    # lengths makes a valid link.
+@given(a=st.floats(0.05, 1.0), m=st.floats(0.01, 50.0), s=st.floats(0.0, 1.0),
+       r=st.floats(0.0, 0.999), th=st.floats(0.0, 6.283), k=st.floats(0.0, 2.0))
+def test_links_within_the_envelope_are_accepted(a: float, m: float, s: float, r: float,
+                                                th: float, k: float) -> None:
+    # Property: any COM within one length of the segment and any radius of gyration up
+    # to two lengths makes a valid link.
     izz = max(m * (k * a) ** 2, 1e-9)
-    link = Link(mass=m, length=a, com=(fx * a, fy * a), izz=izz)
+    com = (s * a + r * a * np.cos(th), r * a * np.sin(th))
+    link = Link(mass=m, length=a, com=com, izz=izz)
     assert link.length == a
 
 

@@ -40,7 +40,7 @@ from exoleg.control import safety as sf
 from exoleg.control.contract import OUTPUT, SENSORS, Mode, TickRecords
 from exoleg.control.safety import SafetyLimits, safety_step
 from exoleg.control.supervisor import SUPERVISOR, report, settle, supervise
-from exoleg.dynamics.kernels import foot_point_jacobian, gravity, mass_matrix
+from exoleg.dynamics.kernels import foot_point_jacobian, gravity, links_mass, mass_matrix
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, new
@@ -195,7 +195,7 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, sens, t, out):  # ty
     G = np.empty(3)
     if stance:
         stance_gravity(p, C.g, qm, C.fsr_x, C.sole, s.fsr,
-                       C.support * (C.body_mass + p[0] + p[5] + p[10]) * C.g, G)
+                       C.support * (C.body_mass + links_mass(p)) * C.g, G)
     else:
         gravity(qm, p, C.g, G)
     cmd = np.empty(3)

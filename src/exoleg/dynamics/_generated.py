@@ -9,7 +9,9 @@ from math import cos, sin
 from numba import njit
 
 N_JOINTS = 3
-N_PARAMS = 18  # 5 per link (m, a, cx, cy, I), then 1 per joint (armature)
+N_PARAMS = 18  # per link LINK_PARAMS, then per joint JOINT_PARAMS
+LINK_PARAMS = ('m', 'a', 'cx', 'cy', 'I')
+JOINT_PARAMS = ('arm',)
 N_COEFFICIENTS = 23
 OFFSETS = (-1.5707963267948966, 0.0, 1.5707963267948966)
 
@@ -889,6 +891,40 @@ def joint_points(q, p, out):
 
 
 @njit(cache=True, error_model="numpy")
+def com_points(q, p, out):
+    """The links' centres of mass into out (3, 2), m, in the base frame."""
+    q0 = q[0]
+    q1 = q[1]
+    q2 = q[2]
+    a0 = p[1]
+    cx0 = p[2]
+    cy0 = p[3]
+    a1 = p[6]
+    cx1 = p[7]
+    cy1 = p[8]
+    cx2 = p[12]
+    cy2 = p[13]
+    s_0 = sin(q0)
+    c_0 = cos(q0)
+    s_1 = sin(q1)
+    c_1 = cos(q1)
+    s_2 = sin(q2)
+    c_2 = cos(q2)
+    s_0_1 = s_0 * c_1 + c_0 * s_1
+    c_0_1 = c_0 * c_1 - s_0 * s_1
+    s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
+    c_0_1_2 = c_0_1 * c_2 - s_0_1 * s_2
+    x0 = a0*s_0
+    x1 = a0*c_0
+    out[0, 0] = c_0*cy0 + cx0*s_0
+    out[0, 1] = -c_0*cx0 + cy0*s_0
+    out[1, 0] = c_0_1*cy1 + cx1*s_0_1 + x0
+    out[1, 1] = -c_0_1*cx1 + cy1*s_0_1 - x1
+    out[2, 0] = a1*s_0_1 + c_0_1_2*cx2 - cy2*s_0_1_2 + x0
+    out[2, 1] = -a1*c_0_1 + c_0_1_2*cy2 + cx2*s_0_1_2 - x1
+
+
+@njit(cache=True, error_model="numpy")
 def foot_point(q, dq, p, px, py):
     """(x, y, vx, vy, phi): the point (px, py) of the last link's frame and its velocity
     in the base frame, and the last link's absolute angle."""
@@ -954,6 +990,16 @@ def foot_point_jacobian(q, p, px, py, out):
     out[1, 0] = a0*s_0 + x4
     out[1, 1] = x4
     out[1, 2] = x3
+
+
+@njit(cache=True, error_model="numpy")
+def links_mass(p):
+    """The links' mass, kg (armature aside)."""
+    m0 = p[0]
+    m1 = p[5]
+    m2 = p[10]
+    mass = m0 + m1 + m2
+    return mass
 
 
 @njit(cache=True, error_model="numpy")

@@ -26,7 +26,7 @@ from pathlib import Path
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
-from exoleg.dynamics.derive import LINK_PARAMS, Derivation, derive
+from exoleg.dynamics.derive import JOINT_PARAMS, LINK_PARAMS, Derivation, derive
 
 GENERATED = Path(__file__).with_name("_generated.py")
 
@@ -322,7 +322,9 @@ def generate(d: Derivation) -> str:
         "from numba import njit\n\n"
 
         f"N_JOINTS = {n}\n"
-        f"N_PARAMS = {len(d.p)}  # 5 per link (m, a, cx, cy, I), then 1 per joint (armature)\n"
+        f"N_PARAMS = {len(d.p)}  # per link LINK_PARAMS, then per joint JOINT_PARAMS\n"
+        f"LINK_PARAMS = {LINK_PARAMS!r}\n"
+        f"JOINT_PARAMS = {JOINT_PARAMS!r}\n"
         f"N_COEFFICIENTS = {len(kexprs)}\n"
         f"OFFSETS = {tuple(d.offsets)!r}\n\n\n"
     )
@@ -342,6 +344,11 @@ def _kinematics(d: Derivation) -> list[str]:
         "joint_points", "q, p, out",
         f"The joints' points into out ({n + 1}, 2), m: the base joint (the origin), ..., the\n"
         "    last link's tip, in the base frame (x forward, y up).", lines))
+    cs = [e for c in d.coms for e in c]
+    lines = _body(d, cs, [f"out[{i // 2}, {i % 2}]" for i in range(len(cs))], ["q"])
+    funcs.append(_function(
+        "com_points", "q, p, out",
+        f"The links' centres of mass into out ({n}, 2), m, in the base frame.", lines))
     P = d.point
     J = P.jacobian(qv)
     v = J * dqv
@@ -362,6 +369,8 @@ def _kinematics(d: Derivation) -> list[str]:
                for qi, dqi in zip(d.q, d.dq, strict=True)
                for qj, dqj in zip(d.q, d.dq, strict=True))
     mass = sum(d.p[len(LINK_PARAMS) * i + LINK_PARAMS.index("m")] for i in range(n))
+    lines = _body(d, [mass], ["mass"], []) + ["return mass"]
+    funcs.append(_function("links_mass", "p", "The links' mass, kg (armature aside).", lines))
     lines = _body(d, [*grad, hess, mass], [*(f"dY{i}" for i in range(n)), "b", "mass"],
                   ["q", "dq"])
     funcs.append(_function(

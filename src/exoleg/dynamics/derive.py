@@ -59,10 +59,11 @@ class Derivation:
     T: sp.Expr
     V: sp.Expr
     #: the kinematics: absolute link angles; the joints' points (n + 1: the base joint at
-    #: the origin, ..., the last link's tip); a point (px, py) fixed in the last link's
-    #: frame; the height moment of the links' mass, Y = sum m_i y_ci
+    #: the origin, ..., the last link's tip); the links' COMs; a point (px, py) fixed in
+    #: the last link's frame; the height moment of the links' mass, Y = sum m_i y_ci
     phi: tuple[sp.Expr, ...]
     joints: tuple[sp.Matrix, ...]
+    coms: tuple[sp.Matrix, ...]
     point_local: tuple[sp.Symbol, sp.Symbol]
     point: sp.Matrix
     Y: sp.Expr
@@ -95,6 +96,7 @@ def derive(offsets: Sequence[float], simplify: bool = True) -> Derivation:
 
     joint = sp.Matrix([0, 0])
     joints = [joint]
+    coms = []
     T: sp.Expr = sp.Integer(0)
     V: sp.Expr = sp.Integer(0)
     Y: sp.Expr = sp.Integer(0)
@@ -102,6 +104,7 @@ def derive(offsets: Sequence[float], simplify: bool = True) -> Derivation:
     for i in range(n):
         c, s = sp.cos(phi[i]), sp.sin(phi[i])
         com = joint + sp.Matrix([c * cx[i] - s * cy[i], s * cx[i] + c * cy[i]])
+        coms.append(com)
         v = com.jacobian(q) * dqv
         omega = sum(dq[: i + 1])
         T += sp.Rational(1, 2) * m[i] * (v.T * v)[0] + sp.Rational(1, 2) * inertia[i] * omega**2
@@ -135,4 +138,5 @@ def derive(offsets: Sequence[float], simplify: bool = True) -> Derivation:
     point = joints[n - 1] + sp.Matrix([c * px - s * py, s * px + c * py])
     return Derivation(n=n, offsets=tuple(float(o) for o in offsets), q=q, dq=dq, p=p, g=g,
                       M=M, C=C, G=G, Mdot=Mdot, T=T, V=V, phi=tuple(phi),
-                      joints=tuple(joints), point_local=(px, py), point=point, Y=Y)
+                      joints=tuple(joints), coms=tuple(coms), point_local=(px, py),
+                      point=point, Y=Y)

@@ -20,11 +20,14 @@ from typing import Any
 from numba import guvectorize
 
 from exoleg.dynamics._generated import (
+    JOINT_PARAMS,
+    LINK_PARAMS,
     N_COEFFICIENTS,
     N_JOINTS,
     N_PARAMS,
     OFFSETS,
     coefficients,
+    com_points,
     coriolis_dq,
     coriolis_matrix,
     diagnostics,
@@ -38,6 +41,7 @@ from exoleg.dynamics._generated import (
     inverse_dynamics_sc,
     joint_points,
     kinetic_energy,
+    links_mass,
     mass_height,
     mass_height_terms,
     mass_matrix,
@@ -46,11 +50,14 @@ from exoleg.dynamics._generated import (
 )
 
 __all__ = [
+    "JOINT_PARAMS",
+    "LINK_PARAMS",
     "N_COEFFICIENTS",
     "N_JOINTS",
     "N_PARAMS",
     "OFFSETS",
     "coefficients",
+    "com_points",
     "coriolis_dq",
     "coriolis_matrix",
     "diagnostics",
@@ -62,6 +69,7 @@ __all__ = [
     "inverse_dynamics", "inverse_dynamics_sc",
     "joint_points",
     "kinetic_energy",
+    "links_mass",
     "mass_height", "mass_height_terms",
     "mass_matrix",
     "mass_matrix_dot",

@@ -37,6 +37,19 @@ _SIGNATURES: dict[str, tuple[tuple[str, ...], bool, tuple[int, ...]]] = {
 }
 
 
+#: The parameter vector's layout, from the generated kernels' declaration
+#: (:data:`exoleg.dynamics.derive.LINK_PARAMS`: per link, then the joints' armatures).
+_PER_LINK = len(K.LINK_PARAMS)
+_LINKS = _PER_LINK * K.N_JOINTS
+_SLOT = {n: i for i, n in enumerate(K.LINK_PARAMS)}
+
+
+def _link_value(link: Link, name: str) -> float:
+    """A link's value for the parameter ``name`` of :data:`K.LINK_PARAMS`."""
+    return {"m": link.mass, "a": link.length, "cx": link.com[0], "cy": link.com[1],
+            "I": link.izz}[name]
+
+
 class LegModel:
     """The coupled child + exoskeleton leg: three links on the paper's D-H chain (Table 3).
 
@@ -81,7 +94,7 @@ class LegModel:
         if np.any(arm < 0):
             raise ParameterError(f"LegModel {name!r}", "armature",
                                  f"must be >= 0 kg m^2 per joint, got {arm.tolist()}")
-        p = np.concatenate([np.array([[lk.mass, lk.length, lk.com[0], lk.com[1], lk.izz]
+        p = np.concatenate([np.array([[_link_value(lk, n) for n in K.LINK_PARAMS]
                                       for lk in links]).ravel(), arm])
         p.setflags(write=False)
         self._p = p
@@ -105,17 +118,18 @@ class LegModel:
     @property
     def lengths(self) -> F64:
         """Link lengths a1, a2, a3 (m)."""
-        return self._p[1:15:5].copy()
+        return self._p[_SLOT["a"]:_LINKS:_PER_LINK].copy()
 
     @property
     def coms(self) -> F64:
         """COMs (3, 2) in each link frame, from the proximal joint (m)."""
-        return self._p[:15].reshape(3, 5)[:, 2:4].copy()
+        return self._p[:_LINKS].reshape(K.N_JOINTS, _PER_LINK)[:, _SLOT["cx"]:_SLOT["cy"] + 1
+                                                                ].copy()
 
     @property
     def armature(self) -> F64:
         """Reflected actuator inertia per joint, kg m^2 (added to M's diagonal)."""
-        return self._p[15:].copy()
+        return self._p[_LINKS:].copy()
 
     def with_armature(self, armature: ArrayLike) -> LegModel:
         """The same leg with this armature (kg m^2 per joint)."""

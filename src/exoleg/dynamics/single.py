@@ -120,24 +120,9 @@ def _forward_kinematics() -> Any:
         q = carray(a, 3)
         p = carray(p_, K.N_PARAMS)
         o = carray(out, (8, 2))
-        x = 0.0
-        y = 0.0
-        phi = 0.0
-        o[0, 0] = 0.0
-        o[0, 1] = 0.0
-        for i in range(3):
-            phi += q[i] + K.OFFSETS[i]
-            cs = math.cos(phi)
-            sn = math.sin(phi)
-            cx = p[5 * i + 2]
-            cy = p[5 * i + 3]
-            o[4 + i, 0] = x + cs * cx - sn * cy
-            o[4 + i, 1] = y + sn * cx + cs * cy
-            x += p[5 * i + 1] * cs
-            y += p[5 * i + 1] * sn
-            o[i + 1, 0] = x
-            o[i + 1, 1] = y
-        o[7, 0] = phi - (K.OFFSETS[0] + K.OFFSETS[1] + K.OFFSETS[2])
+        K.joint_points(q, p, o[0:4])  # the generated kinematics
+        K.com_points(q, p, o[4:7])
+        o[7, 0] = q[0] + q[1] + q[2]
         o[7, 1] = 0.0
         return _finite(o)
     return f

@@ -40,7 +40,7 @@ from pathlib import Path
 from typing import Any
 
 from exoleg.errors import ParameterError
-from exoleg.inertia import RigidBody
+from exoleg.inertia import RigidBody, compose
 from exoleg.io import read_text
 from exoleg.params import _check
 from exoleg.params.records import LINKS, Link
@@ -92,23 +92,26 @@ def parse_leg(data: dict[str, Any], where: str) -> tuple[list[Link], float, str]
         if "part" in t:
             _check.keys(w, t, ["length", "part"], ["name"])
             parts = []
+            length = _check.positive(w, "length", t["length"], "m")
             for j, pt in enumerate(t["part"]):
                 wp = f"{w} part[{j}]"
                 _check.keys(wp, pt, ["mass", "com", "izz"], ["name"])
-                parts.append(_body(wp, pt, str(pt.get("name", f"part{j}"))))
+                b = _body(wp, pt, str(pt.get("name", f"part{j}")))
+                _plausible(wp, b.mass, length, b.com, b.izz)
+                parts.append(b)
             if not parts:
                 raise ParameterError(w, "part", "needs at least one part")
-            links.append(Link.from_parts(_check.positive(w, "length", t["length"], "m"), parts,
-                                         name=lname))
-            for j, b in enumerate(parts):
-                _plausible(f"{w} part[{j}]", b.mass, links[-1].length, b.com, b.izz)
+            c = compose(parts)
+            _plausible(w, c.mass, length, c.com, c.izz)
+            links.append(Link.from_parts(length, parts, name=lname))
         else:
             _check.keys(w, t, ["length", "mass", "com", "izz"], ["name"])
             b = _body(w, t, lname)
-            links.append(Link(mass=b.mass, length=_check.positive(w, "length", t["length"], "m"),
-                              com=b.com, izz=b.izz, name=lname))
-        lk = links[-1]
-        _plausible(w, lk.mass, lk.length, lk.com, lk.izz)
+            length = _check.positive(w, "length", t["length"], "m")
+            # the file's bounds (a child's leg with the device) before the record's own
+            # (any leg), so that the error names the file
+            _plausible(w, b.mass, length, b.com, b.izz)
+            links.append(Link(mass=b.mass, length=length, com=b.com, izz=b.izz, name=lname))
     return links, g, name
 
 

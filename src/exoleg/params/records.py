@@ -6,6 +6,7 @@ Records validate themselves on construction and raise
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -21,10 +22,11 @@ JOINTS = ("hip", "knee", "ankle")
 LINKS = ("thigh", "shank", "foot")
 
 
-#: What a link of a leg (a child's, an adult's, with or without the device) can be: its
-#: length and mass; its COM within reach of the segment (x from one length behind the
-#: proximal joint to two ahead, at most one length off its axis); its centroidal inertia
-#: at most that of its mass two lengths from the COM (a slender rod's is m L^2 / 12).
+#: What a link of any leg (a child's, an adult's, with or without the device) can be: its
+#: length and mass; its COM within one link length of the joint-to-joint segment; its
+#: centroidal inertia at most that of its mass two lengths from the COM (a slender rod's
+#: is m L^2 / 12). A leg file holds a child's leg with the device and is held to tighter
+#: bounds (:data:`exoleg.params.leg_file.PLAUSIBLE`).
 LINK_LENGTH_M = (0.01, 2.0)
 LINK_MASS_KG = (1e-3, 100.0)
 
@@ -37,9 +39,10 @@ def _plausible(where: str, m: float, a: float, com: tuple[float, float], izz: fl
     if not lo <= m <= hi:
         raise ParameterError(where, "mass", f"{m:g} kg is outside {lo:g}-{hi:g} kg")
     x, y = com
-    if not (-a <= x <= 2 * a and abs(y) <= a):
-        raise ParameterError(where, "com", f"({x:g}, {y:g}) m is outside the link's reach "
-                             f"(x {-a:g} to {2 * a:g} m, |y| up to {a:g} m for a {a:g} m link)")
+    off = math.hypot(x - min(max(x, 0.0), a), y)  # distance from the joint-to-joint segment
+    if off > a:
+        raise ParameterError(where, "com", f"({x:g}, {y:g}) m is outside the link's reach: "
+                             f"{off:.3g} m from its {a:g} m segment (at most one length)")
     top = m * (2 * a) ** 2
     if izz > top:
         raise ParameterError(where, "izz", f"{izz:g} kg m^2 is more than a {m:g} kg body "

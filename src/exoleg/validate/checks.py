@@ -134,11 +134,13 @@ def welded_check(detailed: LegModel) -> list[Check]:
     lumped = detailed.lumped()
     totals = {"M": np.zeros((len(Q), 3, 3)), "C": np.zeros((len(Q), 3, 3)),
               "G": np.zeros((len(Q), 3))}
+    n = len(K.LINK_PARAMS)  # the parameter vector's layout, from the kernels'
     for i, lk in enumerate(detailed.links):
         for b in lk.parts:
             p = np.zeros(K.N_PARAMS)  # this part alone; no armature
-            p[1:15:5] = detailed.lengths
-            p[5 * i: 5 * i + 5] = [b.mass, lk.length, b.com[0], b.com[1], b.izz]
+            p[K.LINK_PARAMS.index("a"):n * K.N_JOINTS:n] = detailed.lengths
+            value = {"m": b.mass, "a": lk.length, "cx": b.com[0], "cy": b.com[1], "I": b.izz}
+            p[n * i: n * i + n] = [value[k] for k in K.LINK_PARAMS]
             totals["M"] += K.gufunc("mass_matrix")(Q, p)
             totals["C"] += K.gufunc("coriolis_matrix")(Q, DQ, p)
             totals["G"] += K.gufunc("gravity")(Q, p, detailed.g)
