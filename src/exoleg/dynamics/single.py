@@ -112,17 +112,39 @@ def _inverse_dynamics() -> Any:
     return f
 
 
+#: the parameter vector's layout (the generated kernels' declaration)
+_PER_LINK = len(K.LINK_PARAMS)
+_A, _CX, _CY = (K.LINK_PARAMS.index(n) for n in ("a", "cx", "cy"))
+
+
 def _forward_kinematics() -> Any:
     @cfunc(_SIG, cache=True)
     def f(a, b, c, p_, g, out):  # type: ignore[no-untyped-def]
         """Rows of out (8, 2): hip, knee, ankle, toe, com_thigh, com_shank, com_foot
-        (x, y, m) and (phi, 0): what kinematics.forward_kinematics gives for one state."""
+        (x, y, m) and (phi, 0): what kinematics.forward_kinematics gives for one state,
+        by its formula (sin and cos of the absolute angles, which the IK inverts to
+        5.5e-13 rad; the compiled plant and controller use the generated kinematics)."""
         q = carray(a, 3)
         p = carray(p_, K.N_PARAMS)
         o = carray(out, (8, 2))
-        K.joint_points(q, p, o[0:4])  # the generated kinematics
-        K.com_points(q, p, o[4:7])
-        o[7, 0] = q[0] + q[1] + q[2]
+        x = 0.0
+        y = 0.0
+        phi = 0.0
+        o[0, 0] = 0.0
+        o[0, 1] = 0.0
+        for i in range(3):
+            phi += q[i] + K.OFFSETS[i]
+            cs = math.cos(phi)
+            sn = math.sin(phi)
+            cx = p[_PER_LINK * i + _CX]
+            cy = p[_PER_LINK * i + _CY]
+            o[4 + i, 0] = x + cs * cx - sn * cy
+            o[4 + i, 1] = y + sn * cx + cs * cy
+            x += p[_PER_LINK * i + _A] * cs
+            y += p[_PER_LINK * i + _A] * sn
+            o[i + 1, 0] = x
+            o[i + 1, 1] = y
+        o[7, 0] = phi - (K.OFFSETS[0] + K.OFFSETS[1] + K.OFFSETS[2])
         o[7, 1] = 0.0
         return _finite(o)
     return f

@@ -1,4 +1,4 @@
-"""The ``sim`` backend: the simulated walking device (:mod:`exoleg.sim.walk`) stepped in
+"""The ``sim`` backend: the simulated walking device (:mod:`exoleg.sim.device`) stepped in
 real time in this process -- the same plant, drives and sensors ``exoleg simulate
 --walk`` runs, one tick at a time, so ``exoleg run`` works on any machine."""
 
