@@ -49,15 +49,6 @@ def column_names(dtype: np.dtype, labels: Mapping[int, Sequence[str]] | None = N
     return out
 
 
-def flat(records: NDArray[np.void]) -> NDArray[np.float64]:
-    """Records (N,) as floats (N, columns) in the order of :func:`column_names`."""
-    cols = []
-    for name in records.dtype.names or ():
-        v = np.asarray(records[name], dtype=float)
-        cols.append(v.reshape(len(records), -1))
-    return np.hstack(cols) if cols else np.zeros((len(records), 0))
-
-
 def enum_table(*enums: type[IntEnum]) -> dict[str, dict[str, int]]:
     """The names and values of enumerations, for a page or a log reader that must not
     keep its own copy."""

@@ -205,6 +205,7 @@ def walk_figure(result: WalkResult, path: str | Path) -> Path:
     the true contacts, the foot gyroscope; bottom, each joint's delivered torque against
     its speed over the actuator's envelope."""
     from exoleg.control.contract import SENSOR_POINTS, Mode
+    from exoleg.control.gait_phase import Phase
     from exoleg.reference.gait import gait_angles
 
     r = result
@@ -236,7 +237,8 @@ def walk_figure(result: WalkResult, path: str | Path) -> Path:
     true_contact = (r.contact_force[last].sum(axis=1) > 5.0).astype(float)
     ax.fill_between(t, -1.2, -1.2 + true_contact, step="post", color="C1", alpha=0.4,
                     label="true contact")
-    ax.set_yticks([-1, 0, 1, 2, 3], ["", "swing", "loading", "flat", "push"], fontsize=7)
+    ax.set_yticks([int(p) for p in Phase],
+                  ["" if p == Phase.UNKNOWN else p.name.lower() for p in Phase], fontsize=7)
     _title(ax, "gait phase: detected vs true contact")
     ax.legend(fontsize=6, loc="upper right")
     ax = axes[1, 2]
@@ -258,6 +260,8 @@ def session_figure(log_path: str | Path, path: str | Path) -> Path:
     measured angle (deg) with the supervisor's mode shaded; middle, each joint's commanded
     torque against its speed over the actuator's envelope; bottom, the FSR readings, the
     detected gait phase, and the loop's lateness per tick."""
+    from exoleg.control.contract import Mode
+    from exoleg.control.gait_phase import Phase
     from exoleg.device.actuator import paper_actuators
     from exoleg.io import atomic_path
     from exoleg.runtime.log import read_log
@@ -268,17 +272,17 @@ def session_figure(log_path: str | Path, path: str | Path) -> Path:
                      hspace=0.45)
     axes = fig.subplots(3, 3)
     mode = c["mode"]
-    shades = {1: ("C2", "standing"), 2: ("C0", "walking"), 3: ("C3", "fault")}
+    shades = {Mode.STANDING: "C2", Mode.WALKING: "C0", Mode.FAULT: "C3"}
     acts = paper_actuators()
     for i, j in enumerate(JOINTS):
         ax = axes[0, i]
         tt, q = _thin(t, np.degrees(c[f"q_meas_{j}"]))
         ax.plot(tt, q, lw=0.9, color="k")
-        for m, (color, label) in shades.items():
+        for m, color in shades.items():
             on = (mode == m).astype(float)
             if on.any():
                 ax.fill_between(t, 0, 1, where=on > 0, transform=ax.get_xaxis_transform(),
-                                color=color, alpha=0.12, lw=0, label=label)
+                                color=color, alpha=0.12, lw=0, label=m.name.lower())
         _title(ax, f"{j} angle (deg); shading: mode")
         ax.set_xlabel("t (s)", fontsize=8)
         ax.legend(fontsize=6, loc="best")
@@ -291,8 +295,7 @@ def session_figure(log_path: str | Path, path: str | Path) -> Path:
     ax.legend(fontsize=6, loc="upper right")
     ax = axes[2, 1]
     ax.step(*_thin(t, c["phase"]), where="post", lw=0.8)
-    ax.set_yticks([-1, 0, 1, 2, 3], ["unknown", "swing", "loading", "flat", "push"],
-                  fontsize=7)
+    ax.set_yticks([int(p) for p in Phase], [p.name.lower() for p in Phase], fontsize=7)
     _title(ax, "detected gait phase")
     ax = axes[2, 2]
     ax.plot(*_thin(t, c["late"] * 1e6), lw=0.6)
