@@ -73,10 +73,10 @@ def _walk_ticks(ctl, n: int) -> None:  # type: ignore[no-untyped-def]
 
 @njit(cache=True)
 def _walk_loop(ctl, sens, out, n):  # type: ignore[no-untyped-def]
-    cp, gq, gdq, p, d, st, lim, sst, sup = ctl
+    cp, gq, gdq, p, d, st, lim, sst, sup, ref = ctl
     for k in range(n):
         sens[0].command = Command.WALK if k == 10 else Command.NONE
-        walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, sens, k * 1e-3, out)
+        walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, sens, k * 1e-3, out)
 
 
 def best(fn, repeat: int) -> float:  # type: ignore[no-untyped-def]

@@ -29,12 +29,14 @@ SENSOR_POINTS = ("heel", "met1", "met5", "hallux")
 
 
 class Mode(IntEnum):
-    """The supervisor's mode."""
+    """The supervisor's mode. STOPPING: a stand asked while walking, the walk going on to
+    the controller's stopping point (the walking hierarchy: the next mid-stance)."""
 
     DISARMED = 0
     STANDING = 1
     WALKING = 2
     FAULT = 3
+    STOPPING = 4
 
 
 class Command(IntEnum):
@@ -67,8 +69,10 @@ OUTPUT = np.dtype([("tau", F8, 3), ("mode", I8), ("phase", I8), ("gait_fraction"
                    ("fault_joint", I8), ("refused", I8)])
 
 LABELS = {3: JOINTS, 4: SENSOR_POINTS}
-#: The modes in which the drives are enabled (torque may flow).
-ARMED_MODES = frozenset((Mode.STANDING, Mode.WALKING))
+#: The modes in which the drives are enabled (torque may flow), and those in which the
+#: child walks (the treadmill runs).
+ARMED_MODES = frozenset((Mode.STANDING, Mode.WALKING, Mode.STOPPING))
+WALKING_MODES = frozenset((Mode.WALKING, Mode.STOPPING))
 _COMMANDS = frozenset(int(m) for m in Command)
 
 

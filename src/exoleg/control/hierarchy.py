@@ -52,8 +52,9 @@ F64 = NDArray[np.float64]
 @dataclass(frozen=True)
 class WalkGains:
     """Impedance per phase (N m/rad, N m s/rad; hip, knee, ankle), the standing posture
-    (rad) and the stance support level (0: none -- transparency -- to 1: the body weight
-    carried through the leg's joints)."""
+    (rad), the stance support level (0: none -- transparency -- to 1: the body weight
+    carried through the leg's joints) and how long a stand from walking takes to bring
+    the reference to the standing posture (s)."""
 
     kp_stance: F64
     kd_stance: F64
@@ -61,6 +62,7 @@ class WalkGains:
     kd_swing: F64
     standing: F64
     support: float
+    stand_blend: float = 0.8
 
     def __post_init__(self) -> None:
         w = "WalkGains"
@@ -74,6 +76,11 @@ class WalkGains:
         if not 0.0 <= s <= 1.0:
             raise ParameterError(w, "support", f"{s:g} is outside 0-1")
         object.__setattr__(self, "support", s)
+        b = _check.finite(w, "stand_blend", self.stand_blend)
+        if not STAND_BLEND_S[0] <= b <= STAND_BLEND_S[1]:
+            raise ParameterError(w, "stand_blend", f"{b:g} s is outside "
+                                 f"{STAND_BLEND_S[0]:g}-{STAND_BLEND_S[1]:g} s")
+        object.__setattr__(self, "stand_blend", b)
 
     @classmethod
     def default(cls, folder: str | Path | None = None) -> WalkGains:
@@ -83,13 +90,14 @@ class WalkGains:
 
         where, d = load("walking_control.toml", folder)
         names = ("kp_stance", "kd_stance", "kp_swing", "kd_swing", "standing_deg")
-        _check.keys(where, d, [*names, "support"], ["source"])
+        _check.keys(where, d, [*names, "support", "stand_blend_s"], ["source"])
         vec = {n: _check.vector(where, n, d[n], 3) for n in names}
         try:
             return cls(kp_stance=vec["kp_stance"], kd_stance=vec["kd_stance"],
                        kp_swing=vec["kp_swing"], kd_swing=vec["kd_swing"],
                        standing=np.radians(vec["standing_deg"]),
-                       support=_check.finite(where, "support", d["support"]))
+                       support=_check.finite(where, "support", d["support"]),
+                       stand_blend=_check.finite(where, "stand_blend_s", d["stand_blend_s"]))
         except ParameterError as e:  # a range checked by the record: name the file
             raise ParameterError(where, e.field, e.problem) from None
 
@@ -100,7 +108,7 @@ class WalkGains:
                ) -> NDArray[np.void]:
         """The controller's parameters as the compiled tick reads them (:data:`PARAMS`)."""
         r = new(PARAMS)
-        for name in (*self.TUNABLE, "standing"):
+        for name in (*self.TUNABLE, "standing", "stand_blend"):
             r[name] = getattr(self, name)
         r["body_mass"], r["start_fraction"], r["g"] = body_mass, START_FRACTION, g
         r["fsr_x"], r["sole"] = fsr_x, sole
@@ -109,14 +117,47 @@ class WalkGains:
 
 #: Walking starts at this fraction of the cycle (mid-stance: the gait nearest to standing).
 START_FRACTION = 0.3
+#: The range a stand's blend may take, s: long enough for the knee to follow without
+#: overshoot, short enough to be a stop (a few strides at most).
+STAND_BLEND_S = (0.2, 3.0)
 #: The walking controller's parameters (:meth:`WalkGains.record`): impedance per phase
 #: (N m/rad, N m s/rad), the standing posture (rad), the stance support (0-1), the
 #: body mass the pelvis carries (kg), where walking starts in the cycle, g (m/s^2), the
-#: FSRs' x on the foot (m) and their y in the foot frame (m, negative: below the ankle).
+#: FSRs' x on the foot (m) and their y in the foot frame (m, negative: below the ankle),
+#: the stand's blend (s), where in the cycle a stop stands (:func:`stop_fraction`).
 PARAMS = np.dtype([("kp_stance", F8, 3), ("kd_stance", F8, 3), ("kp_swing", F8, 3),
                    ("kd_swing", F8, 3), ("standing", F8, 3), ("support", F8),
                    ("body_mass", F8), ("start_fraction", F8), ("g", F8), ("fsr_x", F8, 4),
-                   ("sole", F8)])
+                   ("sole", F8), ("stand_blend", F8), ("stop_fraction", F8)])
+#: The reference's state: the last tick's gait fraction; when the stop was asked (s);
+#: where the blend to the standing posture started -- its time (s; negative: none under
+#: way) and the reference's posture then (rad).
+REFERENCE = np.dtype([("x", F8), ("t_stop", F8), ("t_stand", F8), ("q_from", F8, 3)])
+#: A stop gives up waiting for mid-stance after this many strides, and stands from
+#: wherever the gait is (a child who stopped stepping never reaches it again).
+STOP_WAIT_STRIDES = 1.5
+
+
+def new_reference() -> NDArray[np.void]:
+    """The reference's state before the first tick: no stand under way."""
+    r = new(REFERENCE)
+    r[0]["t_stand"] = -1.0
+    return r
+
+
+@njit(inline="always")
+def _stand_blend(q0, q1, T, s, out_q, out_dq, out_ddq):  # type: ignore[no-untyped-def]
+    """The minimum-jerk move from posture q0 to q1 over T s, at rest at both ends, at s
+    in [0, 1] of it: q, dq, ddq into the outs. (Carrying the gait's rate into the
+    blend overshot the standing posture with the foot held on the stopped belt, and the
+    knee was pushed past its limit.)"""
+    s2 = s * s
+    s3 = s2 * s
+    for j in range(3):
+        d = q1[j] - q0[j]
+        out_q[j] = q0[j] + d * s3 * (10.0 - 15.0 * s + 6.0 * s2)
+        out_dq[j] = d * s2 * (30.0 - 60.0 * s + 30.0 * s2) / T
+        out_ddq[j] = d * s * (60.0 - 180.0 * s + 120.0 * s2) / (T * T)
 
 
 @njit(inline="always")
@@ -154,37 +195,66 @@ def stance_gravity(p, g, q, fx, sole, counts, weight, out):  # type: ignore[no-u
 
 
 @njit(cache=True)
-def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, sens, t, out):  # type: ignore[no-untyped-def]
+def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, sens, t, out):  # type: ignore[no-untyped-def]
     """One control tick. ``cp``: the controller's parameters (:data:`PARAMS`); ``gq``,
     ``gdq``: the gait tables (K, 3), (K, 6) (rad, rad per cycle); ``p``: its leg model's
     parameter vector; ``d``, ``st``: the detector's settings and state
     (:data:`~exoleg.control.gait_phase.SETTINGS`, ``STATE``); ``lim``, ``sst``: the
     safety layer's (:data:`~exoleg.control.safety.LIMITS`, ``STATE``); ``sup``: the
-    supervisor's (:data:`SUPERVISOR`); ``sens``: this tick's readings and command
-    (:data:`~exoleg.control.contract.SENSORS`); ``t`` s. Writes ``out``
-    (:data:`~exoleg.control.contract.OUTPUT`). Every record is a one-element array."""
+    supervisor's (:data:`SUPERVISOR`); ``ref``: the reference's (:data:`REFERENCE`);
+    ``sens``: this tick's readings and command (:data:`~exoleg.control.contract.SENSORS`);
+    ``t`` s. Writes ``out`` (:data:`~exoleg.control.contract.OUTPUT`). Every record is a
+    one-element array.
+
+    A stand from walking is a controlled stop (the supervisor's STOPPING): the walk goes on
+    until the stance foot is next under the hip (``stop_fraction``, :func:`stop_fraction`;
+    the treadmill keeps running, as the hip is held in x; at most
+    :data:`STOP_WAIT_STRIDES` strides), then the reference moves from the gait's
+    posture there to the standing posture over ``stand_blend`` s (:func:`_stand_blend`);
+    while it moves the detected phase chooses the stance or swing model and gains. An
+    E-stop or a fault stays immediate."""
     C = cp[0]
     s = sens[0]
     o = out[0]
     before = sup[0].mode
     refused = supervise(sup, lim, sst, s.command, s.q, s.dq)
     mode = sup[0].mode
+    R = ref[0]
     if mode == Mode.WALKING and before == Mode.STANDING:
         # walking starts from mid-stance, where the gait is nearest to standing
         st[0].t_ic = t - C.start_fraction * gp.stride_time(d, st)
+        R.t_stand = -1.0
+    elif mode == Mode.STOPPING and before == Mode.WALKING:
+        R.t_stop = t
+    elif mode != Mode.STANDING and mode != Mode.STOPPING:
+        R.t_stand = -1.0
     qm = s.q
     vm = s.dq
     ev = gp.detect(d, st, s.fsr, t)
     phase = st[0].phase
-    stance = phase >= gp.Phase.LOADING or mode == Mode.STANDING
     qr = np.empty(3)
     dqr = np.empty(3)
     ddqr = np.zeros(3)
     x = 0.0
-    if mode == Mode.WALKING:
+    if mode == Mode.WALKING or mode == Mode.STOPPING:
         x = gp.gait_fraction(d, st, t)
-        _gait(gq, gdq, x, gp.stride_time(d, st), qr, dqr, ddqr)
-    else:
+        T = gp.stride_time(d, st)
+        _gait(gq, gdq, x, T, qr, dqr, ddqr)
+        if mode == Mode.STOPPING and (
+                (R.x < C.stop_fraction <= x and phase >= gp.Phase.LOADING)
+                or t - R.t_stop > STOP_WAIT_STRIDES * T):
+            mode = Mode.STANDING  # foot under the hip (or tired of waiting): stand here
+            sup[0].mode = mode
+            R.t_stand = t
+            for j in range(3):
+                R.q_from[j] = qr[j]
+    R.x = x
+    blending = mode == Mode.STANDING and R.t_stand >= 0.0 and t - R.t_stand < C.stand_blend
+    stance = phase >= gp.Phase.LOADING or (mode == Mode.STANDING and not blending)
+    if blending:
+        _stand_blend(R.q_from, C.standing, C.stand_blend, (t - R.t_stand) / C.stand_blend,
+                     qr, dqr, ddqr)
+    elif not (mode == Mode.WALKING or mode == Mode.STOPPING):
         for j in range(3):
             qr[j] = C.standing[j]
             dqr[j] = 0.0
@@ -216,6 +286,19 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, sens, t, out):  # ty
 
 #: The tick as Python calls it (numba's dispatcher has no signature for a type checker).
 _tick: Callable[..., None] = walk_control_step
+
+
+def stop_fraction(leg: LegModel, gq: F64) -> float:
+    """Where in the gait cycle the stance ankle passes under the hip, for ``leg`` (the
+    first crossing in 10-60 % of the cycle, on the normative gait ``gq`` (K, 3)): where a
+    stop can stand without the foot having to move on the ground."""
+    x = np.linspace(0.0, 1.0, len(gq))
+    ankle = leg.fk(gq)["ankle"][:, 0]
+    stance = np.nonzero((x >= 0.1) & (x <= 0.6) & (ankle <= 0.0))[0]
+    if not len(stance):
+        raise ParameterError("WalkController", "leg", "its ankle never passes under the hip "
+                             "in the normative stance (10-60 % of the cycle)")
+    return float(x[stance[0]])
 
 
 def gait_tables(speed: str = "Free", sd: float = 0.0, samples: int = 201) -> tuple[F64, F64]:
@@ -264,9 +347,11 @@ class WalkController:
         self.cp = self.gains.record(body_mass, leg.g, np.array(SENSOR_X) * float(leg.lengths[2]),
                                     -float(sole))  # the sensors' y in the foot frame
         self.gq, self.gdq = gait_tables(speed)
+        self.cp[0]["stop_fraction"] = stop_fraction(leg, self.gq)
         self.d = self.detector.record(fsr_floor_counts, expected_stride)
         self.st = gp.new_state(self.d)
         self.lim, self.sst, self.sup = self.safety.record(), sf.new_state(), new(SUPERVISOR)
+        self.ref = new_reference()
         self.io = TickRecords("WalkController.update")
 
     def gains_now(self) -> dict[str, list[float]]:
@@ -287,7 +372,8 @@ class WalkController:
         try:  # WalkGains checks each vector (3 finite values) and its range
             g = WalkGains(**{k: new_[k] for k in WalkGains.TUNABLE if k != "support"},
                           standing=self.gains.standing,
-                          support=_check.vector(where, "support", new_["support"], 1)[0])
+                          support=_check.vector(where, "support", new_["support"], 1)[0],
+                          stand_blend=self.gains.stand_blend)
         except ParameterError as e:
             raise ParameterError(where, e.field, e.problem) from None
         for k in WalkGains.TUNABLE:
@@ -296,15 +382,16 @@ class WalkController:
     def compiled(self) -> tuple[Any, ...]:
         """What :func:`walk_control_step` takes before the tick's readings, in its order:
         parameters, gait tables, leg model, detector settings and state, safety limits and
-        state, supervisor state (the state records are this controller's own)."""
+        state, supervisor state, reference state (the state records are this controller's
+        own)."""
         return (self.cp, self.gq, self.gdq, self.leg.p, self.d, self.st, self.lim, self.sst,
-                self.sup)
+                self.sup, self.ref)
 
     def warm_up(self) -> None:
         """Compile (or load from numba's cache) the tick on copies of the state."""
-        cp, gq, gdq, p, d, st, lim, sst, sup = self.compiled()  # the same types as a tick's
-        _tick(cp, gq, gdq, p, d, st.copy(), lim, sst.copy(), sup.copy(), new(SENSORS), 0.0,
-              new(OUTPUT))
+        cp, gq, gdq, p, d, st, lim, sst, sup, ref = self.compiled()  # a tick's types
+        _tick(cp, gq, gdq, p, d, st.copy(), lim, sst.copy(), sup.copy(), ref.copy(),
+              new(SENSORS), 0.0, new(OUTPUT))
 
     def update(self, sensors: Mapping[str, Any], command: int, t: float) -> dict[str, Any]:
         """One tick on ``sensors`` with the operator's ``command`` at ``t`` s (the

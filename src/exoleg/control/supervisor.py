@@ -1,7 +1,9 @@
 """The supervisor every controller shares (compiled): the operator's commands against
 the mode, through the safety layer's own arm, E-stop and reset.
 
-DISARMED -> (arm) STANDING -> (walk) WALKING -> (stand) STANDING; disarm from anywhere;
+DISARMED -> (arm) STANDING -> (walk) WALKING -> (stand) STOPPING -> STANDING, the last
+step the controller's once it has reached where it can stop (walk again while stopping
+goes back to WALKING); disarm from anywhere;
 an E-stop or a latched safety fault -> FAULT, which only a reset leaves (to DISARMED),
 and only when the state is sane again (:func:`exoleg.control.safety.reset`). Transitions
 happen on explicit commands (:class:`~exoleg.control.contract.Command`) or detected
@@ -35,14 +37,14 @@ def supervise(sup, lim, sst, command, q, dq):  # type: ignore[no-untyped-def]
         else:
             refused = command
     elif command == Command.WALK:
-        if mode == Mode.STANDING:
+        if mode == Mode.STANDING or mode == Mode.STOPPING:
             mode = Mode.WALKING
         else:
             refused = command
     elif command == Command.STAND:
         if mode == Mode.WALKING:
-            mode = Mode.STANDING
-        else:
+            mode = Mode.STOPPING  # a controlled stop: the controller ends it
+        elif mode != Mode.STOPPING:
             refused = command
     elif command == Command.DISARM:
         sf.disarm(sst)

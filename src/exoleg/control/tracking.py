@@ -102,6 +102,8 @@ class TrackingController:
         r = self.io.sens[0]
         before = int(self.sup[0]["mode"])
         refused = _supervise(self.sup, self.lim, self.sst, int(r["command"]), r["q"], r["dq"])
+        if int(self.sup[0]["mode"]) == Mode.STOPPING:  # no stride to finish: stop here
+            self.sup[0]["mode"] = Mode.STANDING
         walking = int(self.sup[0]["mode"]) == Mode.WALKING
         if walking and before != Mode.WALKING:
             self._since = float(t) - self.clock

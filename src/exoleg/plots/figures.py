@@ -272,7 +272,7 @@ def session_figure(log_path: str | Path, path: str | Path) -> Path:
                      hspace=0.45)
     axes = fig.subplots(3, 3)
     mode = c["mode"]
-    shades = {Mode.STANDING: "C2", Mode.WALKING: "C0", Mode.FAULT: "C3"}
+    shades = {Mode.STANDING: "C2", Mode.WALKING: "C0", Mode.STOPPING: "C1", Mode.FAULT: "C3"}
     acts = paper_actuators()
     for i, j in enumerate(JOINTS):
         ax = axes[0, i]

@@ -158,7 +158,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     :data:`SIMULATED_BUS_TIMEOUT_S` on simulated nodes); ``overrun``: how late a tick may
     start before it is a fault (s)."""
     import exoleg
-    from exoleg.control.contract import Command, Mode
+    from exoleg.control.contract import WALKING_MODES, Command
     from exoleg.io import _writable_folder, write_json
 
     check_options(backend, interface, arm, walk_after, bus_timeout, overrun, controller,
@@ -225,7 +225,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         # the simulated world (the treadmill and the other leg) follows the child's
         # walking: set before the drives' command acts on it
         if sim is not None:
-            sim.walking = out["mode"] == Mode.WALKING
+            sim.walking = out["mode"] in WALKING_MODES
 
     if link is not None:
         link.loop_gains(ctl.gains_now())

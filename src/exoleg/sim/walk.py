@@ -50,7 +50,7 @@ def _run_walk(p, w, A, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_y, 
     """The walking run: per tick k the device's readings into ``SENS[k]``, the
     controller's tick (``ctl``: :meth:`WalkController.compiled`) into ``OUT[k]``, the
     drives and the plant. Returns -1, or the tick whose state became non-finite."""
-    cp, gq, gdq, cp_p, d, st, lim, sst, sup = ctl
+    cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref = ctl
     n = X.shape[0] - 1
     for k in range(n + 1):
         t = k * h
@@ -61,7 +61,7 @@ def _run_walk(p, w, A, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_y, 
                      imu_bias, sk, FN[k])
         sk[0].command = commands[k]
         # 2. the controller tick (supervisor, detection, reference, impedance, safety)
-        walk_control_step(cp, gq, gdq, cp_p, d, st, lim, sst, sup, sk, t, ok_)
+        walk_control_step(cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref, sk, t, ok_)
         if k == n:
             for i in range(3):
                 ENV[k, i] = envelope(A[i:i + 1], SENS[k].dq[i])
@@ -69,7 +69,8 @@ def _run_walk(p, w, A, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_y, 
             break
         # 3. the drives and 4. the plant
         SUP[k], ok = device_actuate(p, w, A, S, h, sub, OUT[k].tau, FN[k],
-                                    OUT[k].mode == Mode.WALKING, t, t_walk, stride, support,
+                                    OUT[k].mode == Mode.WALKING or OUT[k].mode == Mode.STOPPING,
+                                    t, t_walk, stride, support,
                                     stand_support, ENV[k], TAU[k])
         for i in range(8):
             X[k + 1, i] = S[0].x[i]
