@@ -2,10 +2,11 @@
 impedance with the gravity model of the current pendulum, a gait reference that follows
 the child's detected phase and cadence, and the safety layer -- one compiled tick.
 
-* **Supervisor** (:class:`Mode`): DISARMED -> (arm) STANDING -> (walk) WALKING ->
-  (stand) STANDING; disarm from anywhere; an E-stop or a safety fault -> FAULT, which
+* **Supervisor** (:class:`Mode`, :mod:`exoleg.control.supervisor`): DISARMED -> (arm)
+  STANDING -> (walk) WALKING -> (stand) STOPPING -> STANDING at the next stance with the
+  foot under the hip; disarm from anywhere; an E-stop or a safety fault -> FAULT, which
   only reset leaves (to DISARMED). Transitions happen on explicit commands
-  (:class:`Command`) or detected faults, never on a timer.
+  (:class:`Command`), detected faults or the stop reaching its point.
 * **Reference**: standing, a standing posture; walking, normative gait (Schwartz 2008)
   at the gait fraction the detector measures since the child's last initial contact,
   over the child's own stride time (mean of the last strides) -- not a clock.
