@@ -29,7 +29,8 @@ def hil(duration: float, folder: Path, **kw):  # type: ignore[no-untyped-def]
 
 def test_arming_walking_and_torque_over_the_bus(tmp_path: Path) -> None:
     res, path = hil(2.0, tmp_path, arm=True, walk_after=1.0, channel="hil-walk")
-    assert res.stopped_by == "duration"
+    # walking at the end: a controlled stop first (runtime.loop.STOP_GRACE_S)
+    assert res.stopped_by.startswith("duration, after a controlled stop to STANDING")
     _, c, _ = read_log(path)
     for j in ("hip", "knee", "ankle"):
         states = c[f"state_{j}"]
@@ -161,6 +162,6 @@ def test_the_bus_holds_with_the_cpus_busy(tmp_path: Path, sched_fifo: None) -> N
         for h in hogs:
             h.kill()
             h.wait()
-    assert res.stopped_by == "duration", res.stopped_by
+    assert res.stopped_by.startswith("duration, after a controlled stop"), res.stopped_by
     # the master's and the nodes' receivers, and the three drives' heartbeat producers
     assert f"5 bus threads SCHED_FIFO priority {IO_PRIORITY}" in res.realtime, res.realtime

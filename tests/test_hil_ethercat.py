@@ -35,7 +35,7 @@ def test_mapping_arming_walking_and_torque_over_process_data(tmp_path: Path) -> 
             seen["al"] = [s.state for s in rig.slaves]
 
     res, path = hil(2.0, tmp_path, arm=True, walk_after=1.0, inject=inject)
-    assert res.stopped_by == "duration"
+    assert res.stopped_by.startswith("duration, after a controlled stop to STANDING")
     rig = seen["rig"]
     # the PDO mapping each drive received, against the CiA 402 objects written out here
     rx = [0x6040_00_10, 0x6071_00_10, 0x6060_00_08]

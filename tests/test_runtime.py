@@ -49,13 +49,16 @@ def test_cli_run_and_log_summary(tmp_path: Path) -> None:
              "--no-realtime", "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr
     run = json.loads((tmp_path / "run.json").read_text())
-    assert run["ticks"] == 2000 and run["stopped_by"] == "duration"
+    # walking at the end of the duration: a controlled stop, then the torque off
+    assert run["stopped_by"].startswith("duration, after a controlled stop to STANDING")
+    assert 2000 < run["ticks"] <= 2000 + 5000
     s = _cli("log", "summary", str(tmp_path), "--csv", str(tmp_path / "series.csv"))
     assert s.returncode == 0, s.stderr
     header = (tmp_path / "series.csv").read_text().splitlines()[0].split(",")
     assert {"t", "q_meas_knee", "fsr_heel", "u_ankle", "mode", "safety_status"} <= set(header)
     _, cols, cut = read_log(tmp_path / "session.log")
-    assert cut == 0 and set(np.unique(cols["mode"])) == {1.0, 2.0}  # standing, walking
+    assert cut == 0 and set(np.unique(cols["mode"])) == {1.0, 2.0, 4.0}  # + stopping
+    assert cols["mode"][-1] == 1.0  # it ended standing
 
 
 def test_no_motion_without_arming(tmp_path: Path, backend_factory) -> None:  # type: ignore[no-untyped-def]
@@ -292,3 +295,34 @@ def test_gain_change_is_all_or_nothing_within_walk_gains(backend_factory) -> Non
         assert c.gains_now() == before, bad
     c.set_gains({"kp_swing": [10.0, 20.0, 30.0], "support": [0.25]})
     assert c.gains_now() == {**before, "kp_swing": [10.0, 20.0, 30.0], "support": [0.25]}
+
+
+@pytest.mark.parametrize("when", ["walking", "standing"])
+def test_the_operators_end_is_a_controlled_stop_while_walking(tmp_path: Path, backend_factory,  # type: ignore[no-untyped-def]
+                                                              when: str) -> None:
+    # Issue 20, point 1: ending a session mid-walk used to cut the torque mid-stride.
+    # Now the loop stands first (runtime.loop.STOP_GRACE_S), then takes the torque off;
+    # standing, the end is immediate.
+    from exoleg.runtime.loop import END_SESSION, STOP_GRACE_S
+
+    b = backend_factory()
+    end_at = 2500 if when == "walking" else 800
+
+    def on_tick(k, out, sensors, late):  # type: ignore[no-untyped-def]
+        return END_SESSION if k == end_at else None
+
+    log = SessionLog(tmp_path / "s.log", LOG_HEAD + b.columns + LOG_TAIL, {"period": 1e-3})
+    res = run_session(b, b.controller, 10.0, 1e-3, log, {0: Command.ARM, 1000: Command.WALK},
+                      realtime=False, on_tick=on_tick)
+    cols = read_log(tmp_path / "s.log")[1]
+    assert np.array_equal(b.u, np.zeros(3))  # the drives were told zero at the end
+    if when == "standing":
+        assert res.stopped_by == "the operator ended the session: torque off"
+        assert res.ticks == end_at + 1
+    else:
+        assert res.stopped_by.startswith("the operator ended the session, after a "
+                                         "controlled stop to STANDING"), res.stopped_by
+        assert end_at + 1 < res.ticks <= end_at + 1 + STOP_GRACE_S * 1000
+        assert cols["mode"][end_at + 1] == 4 and cols["mode"][-1] == 1  # stopping, standing
+        assert np.any(cols["u_knee"][end_at:] != 0.0)  # torque held through the stop
+        assert np.all(cols["safety_status"].astype(int) & 2 == 0)  # no fault

@@ -82,7 +82,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     _say(f"\nwrote {path} (crash-safe: at most {MAX_LOSS_TICKS} ticks lost if killed) and "
          f"{Path(args.out) / 'run.json'}")
     stopped = res.stopped_by
-    return 0 if stopped == "duration" else (130 if stopped.startswith("signal") else 1)
+    return 0 if stopped.startswith("duration") else (130 if stopped.startswith("signal") else 1)
 
 
 def add_parser(sub: Any) -> None:

@@ -5,7 +5,9 @@ DISARMED -> (arm) STANDING -> (walk) WALKING -> (stand) STOPPING -> STANDING, th
 step the controller's once it has reached where it can stop (walk again while stopping
 goes back to WALKING); disarm from anywhere;
 an E-stop or a latched safety fault -> FAULT, which only a reset leaves (to DISARMED),
-and only when the state is sane again (:func:`exoleg.control.safety.reset`). Transitions
+and only when the state is sane again (:func:`exoleg.control.safety.reset`). Disarm is
+refused while the child walks (WALKING, STOPPING): stand first -- a controlled stop --
+or E-stop, which is always immediate. Transitions
 happen on explicit commands (:class:`~exoleg.control.contract.Command`) or detected
 faults, never on a timer. A command that does not apply in the mode is refused (and
 reported in the tick's output), never silently dropped.
@@ -47,9 +49,12 @@ def supervise(sup, lim, sst, command, q, dq):  # type: ignore[no-untyped-def]
         elif mode != Mode.STOPPING:
             refused = command
     elif command == Command.DISARM:
-        sf.disarm(sst)
-        if mode != Mode.FAULT:
-            mode = Mode.DISARMED
+        if mode == Mode.WALKING or mode == Mode.STOPPING:
+            refused = command  # no torque off mid-stride: stand first, or E-stop
+        else:
+            sf.disarm(sst)
+            if mode != Mode.FAULT:
+                mode = Mode.DISARMED
     elif command == Command.ESTOP:
         sf.estop(sst)
         mode = Mode.FAULT
@@ -84,3 +89,16 @@ def report(sup, sst, refused, status, out):  # type: ignore[no-untyped-def]
     o.fault = sst[0].fault
     o.fault_joint = sst[0].fault_joint
     o.refused = refused
+
+
+def refusal(command: int, mode: int) -> str:
+    """Why the supervisor refused ``command`` in ``mode``, as the operator reads it."""
+    c, m = Command(int(command)), Mode(int(mode))
+    why = {Command.ARM: "arming needs DISARMED (after a fault: reset first)",
+           Command.WALK: "walking starts from STANDING",
+           Command.STAND: "stand applies while walking",
+           Command.DISARM: "disarm is refused while walking: stand first (a controlled "
+                           "stop), or E-stop",
+           Command.RESET: "reset applies in FAULT, once the fault no longer holds"}
+    return f"{c.name.lower()} refused in {m.name}: {why.get(c, 'not a command here')}"
+

@@ -44,7 +44,8 @@ def _shape(dtype: np.dtype, name: str) -> tuple[int, ...]:
 #: number, the tick's time, the controller's output (:data:`OUTPUT`) and the device's
 #: joint and foot readings (:data:`SENSORS`), the loop's timing, whether it runs, the
 #: gains in force (:data:`GAIN_NAMES`, as :data:`~exoleg.control.hierarchy.PARAMS`
-#: holds them) and the ring of applied commands (command, request id, tick, wall time)
+#: holds them) and the ring of applied commands (command, request id, tick, wall time,
+#: refused by the supervisor (1) or not (0), the mode then)
 PUBLISHED = ("mode", "phase", "gait_fraction", "events", "safety_status", "q_ref", "tau",
              "fault", "fault_joint", "refused")
 READINGS = ("q", "dq", "fsr")
@@ -54,7 +55,7 @@ BLOCK = np.dtype([("seq", "f8"), ("t", "f8")]
                  + [("late_us", "f8"), ("late_max_us", "f8"), ("missed", "f8"),
                     ("tick", "f8"), ("running", "f8"), ("gains_set", "f8")]
                  + [("gain_" + n, "f8", _shape(PARAMS, n)) for n in GAIN_NAMES]
-                 + [("applied", "f8"), ("ring", "f8", (RING, 4))])
+                 + [("applied", "f8"), ("ring", "f8", (RING, 6))])
 SIZE = BLOCK.itemsize // 8
 #: the snapshot's fields, in the block's order
 _SNAPSHOT = ("t", *PUBLISHED, *READINGS, "late_us", "late_max_us", "missed", "tick",
@@ -162,7 +163,8 @@ class LoopLink:
         if hit is not None:
             self._inflight.remove(hit)
             n = int(v["applied"])
-            v["ring"][n % RING] = (hit[0], hit[1], k, time.time())
+            refused = float(int(out["refused"]) == hit[0])
+            v["ring"][n % RING] = (hit[0], hit[1], k, time.time(), refused, int(out["mode"]))
             v["applied"] = n + 1
         if publish:
             v["t"] = t
@@ -227,11 +229,12 @@ class LoopLink:
         return {n: [float(x) for x in np.atleast_1d(c["gain_" + n])] for n in GAIN_NAMES}
 
     @staticmethod
-    def applied(c: np.void, since: int) -> tuple[int, list[tuple[int, int, int, float]]]:
-        """Commands applied after the first ``since``: (count now, [(command, request
-        id, tick, wall time)])."""
+    def applied(c: np.void, since: int
+                ) -> tuple[int, list[tuple[int, int, int, float, bool, int]]]:
+        """Commands the loop handed the controller after the first ``since``: (count now,
+        [(command, request id, tick, wall time, refused by the supervisor, mode)])."""
         n = int(c["applied"])
         ring = c["ring"]
         first = max(since, n - RING)
-        return n, [(int(ring[i % RING, 0]), int(ring[i % RING, 1]), int(ring[i % RING, 2]),
-                    float(ring[i % RING, 3])) for i in range(first, n)]
+        return n, [(int(r[0]), int(r[1]), int(r[2]), float(r[3]), bool(r[4]), int(r[5]))
+                   for r in (ring[i % RING] for i in range(first, n))]

@@ -32,7 +32,14 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from exoleg.control.contract import ARMED_MODES, OUTPUT, output_columns
+from exoleg.control.contract import (
+    ARMED_MODES,
+    OUTPUT,
+    WALKING_MODES,
+    Command,
+    Mode,
+    output_columns,
+)
 from exoleg.runtime.clock import RateClock
 from exoleg.runtime.log import SessionLog
 from exoleg.runtime.realtime import realtime_settings, saved_scheduling
@@ -115,6 +122,12 @@ def output_row(out: dict[str, Any]) -> F64:
     return row
 
 
+#: The longest a controlled stop at a session's end may take, s: the walking stop's wait
+#: for the foot under the hip (1.5 strides, of up to the 1.75 x 1.1 s strides the detector
+#: accepts) and its move to standing (0.8 s), with a second to spare.
+STOP_GRACE_S = 5.0
+
+
 #: what ``on_tick`` returns to end the session (torque off, log closed), and why
 END_SESSION = -1
 LINK_LOST = -2
@@ -132,7 +145,11 @@ def run_session(backend: Device, controller: Controller, duration: float, period
     """Run ``duration`` s of ticks; ``commands``: tick -> operator command (arm, walk...).
     ``on_tick(k, out, sensors, late)`` may return a command for the next tick (the
     operator's way in), or :data:`END_SESSION` / :data:`LINK_LOST` (:data:`ENDS`). Every
-    tick: read, update, log, write (the drives enabled in the armed modes). A tick later
+    tick: read, update, log, write (the drives enabled in the armed modes). The end of
+    the duration, the operator's end and a lost link are controlled stops while the child
+    walks: the loop commands a stand, goes on until the supervisor stands (at most
+    :data:`STOP_GRACE_S`), then takes the torque off; a signal, a fault or an E-stop is
+    immediate. A tick later
     than ``overrun`` s takes the torque off and stops. With ``realtime``, the loop runs at
     SCHED_FIFO and the ``io_threads`` above it (:func:`realtime_settings`); this thread's
     scheduling is restored afterwards. ``scenery(out)``: a simulated world told each tick's output
@@ -155,6 +172,9 @@ def run_session(backend: Device, controller: Controller, duration: float, period
     clock = RateClock(period)
     watch = SensorWatch(period)
     n = int(round(duration / period))
+    limit = n  # ticks: a controlled stop at the end extends it by STOP_GRACE_S at most
+    ending = ""  # why the session ends, while its controlled stop is under way
+    k_ending = 0
     pending = dict(commands or {})
     zero = np.zeros(3)
     reason = "duration"
@@ -162,10 +182,11 @@ def run_session(backend: Device, controller: Controller, duration: float, period
     gc.freeze()
     gc.disable()  # no collection pauses in the loop
     clock.start()
-    k = 0
+    k = -1
     late = 0.0
     try:
-        for k in range(n):
+        while k + 1 < limit:
+            k += 1
             t = k * period
             sensors = backend.read(t)
             fault = sensors.get("fault") or watch.check(sensors)
@@ -191,15 +212,26 @@ def run_session(backend: Device, controller: Controller, duration: float, period
                 scenery(out)
             # the drives follow the supervisor's arming
             backend.write(tau, out["mode"] in ARMED_MODES)
+            end = "duration" if k == n - 1 else ""
             if on_tick is not None:
                 cmd = on_tick(k, out, sensors, late)
                 if cmd in ENDS:
-                    stop.append(ENDS[cmd])
+                    end = ENDS[cmd]
                 elif cmd:
                     j = k + 1
                     while j in pending:  # after the commands already set for a tick
                         j += 1
                     pending[j] = cmd
+            walking = out["mode"] in WALKING_MODES
+            if end and not ending and walking:  # a controlled stop first: stand, then off
+                ending, k_ending = end, k
+                pending[k + 1] = Command.STAND  # before anything else set for that tick
+                limit = k + 1 + int(round(STOP_GRACE_S / period))
+            elif ending and not walking:
+                stop.append(f"{ending}, after a controlled stop to {Mode(out['mode']).name} "
+                            f"in {(k - k_ending) * period:.2f} s")
+            elif end and not ending and end != "duration":
+                stop.append(end)
             if stop:
                 backend.write(zero, False)
                 backend.safe()
@@ -212,6 +244,12 @@ def run_session(backend: Device, controller: Controller, duration: float, period
                 reason = (f"loop overrun: tick {k + 1} started {late * 1e3:.1f} ms late "
                           f"(limit {overrun * 1e3:g} ms): torque off")
                 break
+        else:
+            if ending:  # the stop did not stand in time: the torque goes off all the same
+                backend.write(zero, False)
+                backend.safe()
+                reason = (f"{ending}: the controlled stop did not stand within "
+                          f"{STOP_GRACE_S:g} s: torque off")
     except BaseException as e:  # the bus, the log (disk full), the operator's link...
         with contextlib.suppress(Exception):  # the torque off first, whatever failed
             backend.write(zero, False)

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from exoleg.control.contract import Command
+from exoleg.control.supervisor import refusal
 from exoleg.runtime.link import GAIN_NAMES, LoopLink
 
 #: the operator's commands by the names the API takes, from the enumeration
@@ -120,14 +121,15 @@ class OperatorRules:
                 return
             n, done = LoopLink.applied(link.web_copy(), self.seen_applied)
             self.seen_applied = n
-            for code, rid, tick, wall in done:
+            for code, rid, tick, wall, refused, mode in done:
                 req = self.requests.pop(rid, {})
                 extra: dict[str, Any] = {"tick": tick, "request": rid}
                 if "received" in req:
                     extra["after_request_ms"] = round((wall - req["received"]) * 1e3, 3)
                 if "clicked_at" in req:
                     extra["after_click_ms"] = round((wall - req["clicked_at"]) * 1e3, 3)
-                self.record("loop", NAMES.get(code, str(code)), True, applied=wall, **extra)
+                self.record("loop", NAMES.get(code, str(code)), not refused,
+                            why=refusal(code, mode) if refused else "", applied=wall, **extra)
 
     # ------------------------------------------------------------------ control
     def holder(self) -> dict[str, Any] | None:
