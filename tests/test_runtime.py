@@ -84,6 +84,9 @@ class _Failing:
     def __init__(self, inner, k: int, how: str) -> None:  # type: ignore[no-untyped-def]
         self.inner, self.k, self.how, self.n = inner, k, how, 0
 
+    def warm_up(self) -> None:
+        self.inner.warm_up()
+
     def update(self, sensors, command, t):  # type: ignore[no-untyped-def]
         out = self.inner.update(sensors, command, t)
         self.n += 1
@@ -170,6 +173,9 @@ def test_loop_overrun_takes_torque_off(tmp_path: Path, backend_factory) -> None:
     class Stalling:
         def __init__(self, inner) -> None:  # type: ignore[no-untyped-def]
             self.inner, self.n = inner, 0
+
+        def warm_up(self) -> None:
+            self.inner.warm_up()
 
         def update(self, sensors, command, t):  # type: ignore[no-untyped-def]
             self.n += 1

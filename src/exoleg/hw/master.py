@@ -91,6 +91,9 @@ class DriveMaster:
         self.tau[:] = tau
         self.enabled = bool(enable)
 
+    def warm_up(self) -> None:
+        """Nothing to compile: the master's tick is Python and the bus's."""
+
     def deactivate(self) -> None:
         """Release the bus (:meth:`close`)."""
         self.close()

@@ -67,12 +67,14 @@ class Device(Protocol):
     ``read`` gives its state interfaces (the :data:`~exoleg.control.contract.SENSORS`
     fields, plus ``fault`` when the device itself failed) and ``write`` takes its command
     interfaces (joint torques, N m, and whether the drives are enabled); ``safe`` is the
-    quick stop (torque off now); ``deactivate`` releases it. ``columns`` name what
-    ``record`` gives the session log each tick."""
+    quick stop (torque off now); ``deactivate`` releases it; ``warm_up`` compiles what
+    its ticks run before the clock starts. ``columns`` name what ``record`` gives the
+    session log each tick."""
 
     columns: list[str]
 
     def configure(self, limits: Any) -> list[str]: ...
+    def warm_up(self) -> None: ...
     def read(self, t: float) -> dict[str, Any]: ...
     def write(self, tau: F64, enable: bool) -> None: ...
     def safe(self) -> None: ...
@@ -160,10 +162,8 @@ def run_session(backend: Device, controller: Controller, duration: float, period
     def on_signal(signum: int, frame: object) -> None:
         stop.append(f"signal {signal.Signals(signum).name}")
 
-    for part in (backend, controller):  # compile before the clock starts
-        warm = getattr(part, "warm_up", None)
-        if warm is not None:
-            warm()
+    backend.warm_up()  # compile before the clock starts
+    controller.warm_up()
     main = threading.current_thread() is threading.main_thread()  # only it gets signals
     old = ({s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
            if main else {})
