@@ -242,3 +242,41 @@ def test_session_ends_torque_off_when_the_interface_dies(tmp_path: Path) -> None
     assert (folder / "run.json").stat().st_mtime - killed < 1.0
     _, cols, _ = read_log(folder / "session.log")
     assert np.all(cols["mode"][1:] == 1)  # it had stood, armed, until then
+
+
+def test_the_estop_cannot_fail(tmp_path: Path) -> None:
+    # Issue 20, point 3: an oversized click stamp gave a server error before the E-stop
+    # was queued (the device walked on); a stamp of Infinity broke the control log for
+    # good. Now the E-stop is queued first, whatever the request holds, and the log
+    # stays readable.
+    port = free_port()
+    out = tmp_path / "s"
+    proc, token = _start(["run", "--backend", "sim", "--duration", "20", "--arm",
+                          "--walk-after", "1", "--hmi", "--hmi-port", str(port), "--out",
+                          str(out)], tmp_path / "run")
+    base = f"http://127.0.0.1:{port}/api"
+    try:
+        _wait(f"{base}/state", "mode", 2, timeout=60)  # walking
+        for body in (b'{"command": "estop", "clicked_at": ' + b"9" * 500 + b"}",
+                     b'{"command": "estop", "clicked_at": 1e400}',
+                     b'{"command": "estop", "clicked_at": "soon"}'):
+            r = httpx.post(f"{base}/command", content=body,
+                           headers={"Content-Type": "application/json"})
+            assert r.status_code == 200 and r.json() == {"queued": "estop"}, r.text
+        for body in (b"x" * 1_000_000, b"\xff\xfe not json", b"[1, 2]"):
+            r = httpx.post(f"{base}/estop", content=body)
+            assert r.status_code == 200, r.text
+        state = _wait(f"{base}/state", "mode", 3)  # FAULT, latched
+        assert state["tau"] == [0.0, 0.0, 0.0]
+        log = httpx.get(f"{base}/log")
+        assert log.status_code == 200  # the control record still reads
+        notes = [a.get("why", "") for a in log.json()
+                 if a["command"] == "estop" and a["source"] != "loop"]
+        assert any("too large" in n for n in notes) and any("inf" in n for n in notes)
+        assert any("not a number" in n for n in notes)
+        assert any("over 16384 bytes" in n for n in notes) and any("not JSON" in n
+                                                                    for n in notes)
+        httpx.post(f"{base}/command", json={"command": "estop"})
+    finally:
+        proc.terminate()
+        proc.wait(timeout=60)

@@ -16,6 +16,9 @@ block and sends into its pipe (:class:`~exoleg.runtime.link.LoopLink`). Endpoint
 * ``POST /command`` ``{"command": "arm" | "stand" | "walk" | "disarm" | "estop" |
   "reset"}``: needs ``Authorization: Bearer <token>`` (printed at start-up) and the
   operator id -- except ``estop``, which anyone who can see the device may send;
+* ``POST /estop``: the E-stop, queued before anything of the request is read (any body,
+  any size; an optional ``{"clicked_at": ms}`` is read after, at most
+  :data:`BODY_LIMIT` bytes, and a wrong one is logged as ignored);
 * ``GET /gains``: the gains in force and the bounds a change must keep (each gain 0 to
   twice its value at the session's start, the support level 0-1); ``POST /gains``
   ``{"kp_stance": [hip, knee, ankle], ...}`` (any of ``kp_stance``, ``kd_stance``,
@@ -33,6 +36,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import math
 import time
 from typing import Any
 
@@ -49,13 +53,45 @@ def source_of(request: Any) -> str:
     return f"{c.host}:{c.port}" if c else "?"
 
 
-async def body_of(request: Any) -> dict[str, Any]:
-    """The request's JSON object ({} when it is not one)."""
+#: The most of a request's body the API reads, bytes (a command or a gain change is well
+#: under 1 KiB).
+BODY_LIMIT = 16 * 1024
+
+
+async def read_body(request: Any) -> tuple[dict[str, Any], str]:
+    """The request's JSON object, reading at most :data:`BODY_LIMIT` bytes, and what was
+    wrong with it ('' when nothing): over the limit, not JSON, not an object."""
+    data = bytearray()
+    async for chunk in request.stream():
+        data += chunk
+        if len(data) > BODY_LIMIT:
+            return {}, f"body over {BODY_LIMIT} bytes, not read"
     try:
-        body = await request.json()
-    except ValueError:
-        return {}
-    return body if isinstance(body, dict) else {}
+        body = json.loads(bytes(data) or b"{}")
+    except (ValueError, RecursionError):
+        return {}, "body is not JSON"
+    return (body, "") if isinstance(body, dict) else ({}, "body is not a JSON object")
+
+
+async def body_of(request: Any) -> dict[str, Any]:
+    """The request's JSON object ({} when it is not one, or too large to read)."""
+    return (await read_body(request))[0]
+
+
+def click_stamp(value: Any) -> tuple[float | None, str]:
+    """A page's optional click time (ms since the epoch) as s, or None and why it was
+    ignored: not a finite number between 0 and 1e13 ms (the year 2286)."""
+    if value is None:
+        return None, ""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None, f"clicked_at ignored: not a number ({str(value)[:40]!r})"
+    try:
+        ms = float(value)
+    except OverflowError:
+        return None, "clicked_at ignored: too large"
+    if not (math.isfinite(ms) and 0.0 < ms < 1e13):
+        return None, f"clicked_at ignored: {ms!r} is not a time (0 to 1e13 ms)"
+    return ms / 1e3, ""
 
 
 def loopback(host: str) -> bool:
@@ -113,10 +149,31 @@ class ControlAPI(OperatorRules):
             status, out = self.take(request.headers, source, name)
             return JSONResponse(out, status)
 
+        def estopped(source: str, why: str, rid: int, body: dict[str, Any],
+                     problem: str) -> JSONResponse:
+            """The answer to an E-stop already queued (or refused: no session)."""
+            if why:
+                self.record(source, "estop", False, why)
+                return JSONResponse({"error": why}, 409)
+            clicked_at, note = click_stamp(body.get("clicked_at"))
+            if clicked_at is not None:
+                self.stamp(rid, clicked_at)
+            self.record(source, "estop", True, "; ".join(x for x in (problem, note) if x))
+            return JSONResponse({"queued": "estop"})
+
+        async def estop(request: Request) -> JSONResponse:
+            # the E-stop goes before anything of the request is read: any body, any size
+            why, rid = self.estop()
+            body, problem = ({}, "") if why else await read_body(request)
+            return estopped(source_of(request), why, rid, body, problem)
+
         async def command(request: Request) -> JSONResponse:
             source = source_of(request)
             body = await body_of(request)
             name = str(body.get("command", ""))
+            if name == "estop":
+                why, rid = self.estop()
+                return estopped(source, why, rid, body, "")
             if name not in COMMANDS:
                 why = f"unknown command {name!r} (allowed: {', '.join(COMMANDS)})"
                 self.record(source, name or "?", False, why)
@@ -174,6 +231,7 @@ class ControlAPI(OperatorRules):
                 Route("/operator", operator, methods=["GET", "POST", "DELETE"]),
                 Route("/gains", gains, methods=["GET", "POST"]),
                 Route("/command", command, methods=["POST"]),
+                Route("/estop", estop, methods=["POST"]),
                 WebSocketRoute("/stream", stream)]
 
     async def watch_applied(self) -> None:

@@ -9,6 +9,7 @@ HTTP; a script or a test may call them directly."""
 from __future__ import annotations
 
 import json
+import math
 import secrets
 import threading
 import time
@@ -27,6 +28,14 @@ UNGUARDED = {"estop"}
 #: an operator's hold on control lapses after this long without a request from them, s
 LEASE_S = 5.0
 NO_TOKEN = "no valid token (Authorization: Bearer <the token printed at start-up>)"
+
+
+def _json_safe(v: Any) -> Any:
+    """A value the control log and its JSON reader can hold: a non-finite float as its
+    text (JSON has no Infinity or NaN)."""
+    if isinstance(v, float) and not math.isfinite(v):
+        return repr(v)
+    return v
 
 
 class OperatorRules:
@@ -64,7 +73,8 @@ class OperatorRules:
     def record(self, source: str, command: str, accepted: bool, why: str = "",
                **extra: Any) -> dict[str, Any]:
         entry = {"time": time.time(), "source": source, "command": command,
-                 "accepted": accepted, **({"why": why} if why else {}), **extra}
+                 "accepted": accepted, **({"why": why} if why else {}),
+                 **{k: _json_safe(v) for k, v in extra.items()}}
         with self.lock:
             self.actions.append(entry)
             try:
@@ -187,16 +197,33 @@ class OperatorRules:
 
     def send(self, name: str, source: str, clicked_at: float | None = None) -> str:
         """Queue ``name`` for the loop; '' or why it cannot go."""
+        why, rid = self._queue(name)
+        if not why and clicked_at is not None:
+            self.stamp(rid, clicked_at)
+        return why
+
+    def _queue(self, name: str) -> tuple[str, int]:
+        """Queue ``name``: ('' or why it cannot go, its request id)."""
         with self.lock:
             link = self.link
             if link is None:
-                return "no session is running"
+                return "no session is running", -1
             running = LoopLink.running(link.web_copy())
             if running != "running" and name not in UNGUARDED:
-                return f"the session is {running}: commands go once its loop runs"
+                return f"the session is {running}: commands go once its loop runs", -1
             rid = self.next_id
             self.next_id += 1
-            self.requests[rid] = {"received": time.time(), **(
-                {"clicked_at": clicked_at} if clicked_at is not None else {})}
+            self.requests[rid] = {"received": time.time()}
         link.web_send(int(COMMANDS[name]), rid)
-        return ""
+        return "", rid
+
+    def estop(self) -> tuple[str, int]:
+        """Queue an E-stop before anything else (nothing about the request is needed):
+        ('' or why it could not go -- no session --, its request id)."""
+        return self._queue("estop")
+
+    def stamp(self, rid: int, clicked_at: float) -> None:
+        """The click's time (s, wall clock) of request ``rid``, for the applied record."""
+        with self.lock:
+            if rid in self.requests:
+                self.requests[rid]["clicked_at"] = clicked_at
