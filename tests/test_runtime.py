@@ -332,3 +332,26 @@ def test_the_operators_end_is_a_controlled_stop_while_walking(tmp_path: Path, ba
         assert cols["mode"][end_at + 1] == 4 and cols["mode"][-1] == 1  # stopping, standing
         assert np.any(cols["u_knee"][end_at:] != 0.0)  # torque held through the stop
         assert np.all(cols["safety_status"].astype(int) & 2 == 0)  # no fault
+
+
+def test_a_slow_disk_does_not_stall_the_loop(tmp_path: Path, backend_factory,  # type: ignore[no-untyped-def]
+                                             monkeypatch: pytest.MonkeyPatch) -> None:
+    # The log's periodic fsync ran in the loop's thread: an fsync of 78.7 ms under a
+    # browser test's writes once overran the loop (torque off mid-session). Injected here:
+    # every fsync takes 120 ms; the session must run to its end, and the log still holds
+    # every tick.
+    import os as _os
+
+    real = _os.fsync
+
+    def slow_fsync(fd: int) -> None:
+        time.sleep(0.12)
+        real(fd)
+
+    monkeypatch.setattr("exoleg.runtime.log.os.fsync", slow_fsync)
+    b = backend_factory()
+    log = SessionLog(tmp_path / "s.log", LOG_HEAD + b.columns + LOG_TAIL, {"period": 1e-3},
+                     fsync_every=5)  # an fsync every 100 ticks
+    res = run_session(b, b.controller, 1.0, 1e-3, log, {0: Command.ARM}, realtime=False)
+    assert res.stopped_by == "duration", res.stopped_by
+    assert len(read_log(tmp_path / "s.log")[1]["t"]) == 1000

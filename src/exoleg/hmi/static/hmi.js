@@ -52,7 +52,7 @@ async function act(method, url, body, done) {
 async function estop(ev) {
   const clicked = performance.timeOrigin + (ev && ev.timeStamp ? ev.timeStamp : performance.now());
   window.lastEstopClick = clicked;
-  const r = await call("POST", "/api/estop", {clicked_at: clicked});
+  const r = await call("POST", "/api/command", {command: "estop", clicked_at: clicked});
   if (r.ok) say("E-STOP sent: torque off", true); else say("E-STOP: " + (r.data.error || r.status), false);
 }
 $("estop").addEventListener("click", estop);
