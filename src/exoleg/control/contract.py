@@ -132,8 +132,8 @@ class TickRecords:
             v["accel"][:] = _check.reading(w, "accel", sensors["accel"], 2)
         g = sensors.get("gyro", 0.0)
         v["gyro"][0] = g if type(g) is float else _check.reading(w, "gyro", [g], 1)[0]
-        if command not in _COMMANDS or isinstance(command, bool) \
-                or not isinstance(command, (int, np.integer)):
+        if isinstance(command, bool) or not isinstance(command, (int, np.integer)) \
+                or int(command) not in _COMMANDS:
             raise ParameterError(w, "command", f"{command!r} is not a command (allowed: "
                                  + ", ".join(f"{m.value} {m.name}" for m in Command) + ")")
         v["command"][:] = command
