@@ -34,7 +34,6 @@ a file with a 1e300 kg thigh or a centre of mass metres off its link is refused.
 from __future__ import annotations
 
 import json
-import math
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -43,7 +42,7 @@ from exoleg.errors import ParameterError
 from exoleg.inertia import RigidBody, compose
 from exoleg.io import read_text
 from exoleg.params import _check
-from exoleg.params.records import LINKS, Link
+from exoleg.params.records import LINKS, Link, com_offset
 
 #: What a leg file may hold, SI units. A link of a child's leg with the device on it:
 #: the heaviest is the thigh of a 97th-percentile 12-year-old (about 60 kg body mass,
@@ -127,7 +126,7 @@ def _plausible(where: str, mass: float, length: float, com: tuple[float, float],
         raise ParameterError(where, "length", f"{length:g} m is not plausible for a link "
                                               f"(allowed {lo:g}-{hi:g} m)")
     x, y = com
-    off = math.hypot(x - min(max(x, 0.0), length), y)  # distance from the joint-to-joint segment
+    off = com_offset(com, length)
     if off > length:
         raise ParameterError(where, "com", f"({x:g}, {y:g}) m is {off:.3g} m from its "
                                            f"{length:g} m link; allowed at most one link length")

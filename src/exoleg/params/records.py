@@ -31,6 +31,12 @@ LINK_LENGTH_M = (0.01, 2.0)
 LINK_MASS_KG = (1e-3, 100.0)
 
 
+def com_offset(com: tuple[float, float], length: float) -> float:
+    """How far a COM lies from its link's joint-to-joint segment, m."""
+    x, y = com
+    return math.hypot(x - min(max(x, 0.0), length), y)
+
+
 def _plausible(where: str, m: float, a: float, com: tuple[float, float], izz: float) -> None:
     lo, hi = LINK_LENGTH_M
     if not lo <= a <= hi:
@@ -39,7 +45,7 @@ def _plausible(where: str, m: float, a: float, com: tuple[float, float], izz: fl
     if not lo <= m <= hi:
         raise ParameterError(where, "mass", f"{m:g} kg is outside {lo:g}-{hi:g} kg")
     x, y = com
-    off = math.hypot(x - min(max(x, 0.0), a), y)  # distance from the joint-to-joint segment
+    off = com_offset(com, a)
     if off > a:
         raise ParameterError(where, "com", f"({x:g}, {y:g}) m is outside the link's reach: "
                              f"{off:.3g} m from its {a:g} m segment (at most one length)")
