@@ -63,7 +63,7 @@ class WalkGains:
     kd_swing: F64
     standing: F64
     support: float
-    stand_blend: float = 0.8
+    stand_blend: float
 
     def __post_init__(self) -> None:
         w = "WalkGains"
