@@ -54,12 +54,21 @@ def test_links_within_the_envelope_are_accepted(a: float, m: float, s: float, r:
 
 
 def test_the_shipped_and_random_legs_are_within_the_envelope() -> None:
+    # Reference: the envelope as documented (exoleg.params.records), recomputed here: each
+    # link of the paper's legs and of the validation's random legs lies inside it, so the
+    # new checks refuse none of them.
+    from exoleg.params.records import LINK_LENGTH_M, LINK_MASS_KG
     from exoleg.validate.checks import random_leg
 
     rng = np.random.default_rng(0)
     for leg in (exoleg.paper_leg("simplified"), exoleg.paper_leg("detailed"),
                 *(random_leg(rng) for _ in range(50))):
-        assert len(leg.links) == 3
+        for lk in leg.links:
+            a, (x, y) = lk.length, lk.com
+            assert LINK_LENGTH_M[0] <= a <= LINK_LENGTH_M[1]
+            assert LINK_MASS_KG[0] <= lk.mass <= LINK_MASS_KG[1]
+            assert np.hypot(x - np.clip(x, 0.0, a), y) <= a
+            assert lk.izz <= lk.mass * (2 * a) ** 2
 
 
 LEG = exoleg.paper_leg()
