@@ -83,6 +83,7 @@ class TrackingController:
         self.io = TickRecords("TrackingController.update")
         self.clock = 0.0       # the reference's own time, s: runs only while walking
         self._since = 0.0      # the session time the reference's clock last started from
+        self._held: tuple[float, Any, Any, Any] | None = None  # the reference at rest
         # the law's gains, model coefficients and limits as arrays: a tuple of floats
         # costs numba microseconds to type at every call from Python
         kp, kd, kc, scale, limit = law.law_args()
@@ -109,10 +110,14 @@ class TrackingController:
             self._since = float(t) - self.clock
         if walking:
             self.clock = float(t) - self._since
-        q, dq, ddq = (np.ascontiguousarray(x[0], dtype=float)
-                      for x in self.reference.sample(np.array([self.clock])))
-        if not walking:  # held where the reference's clock stands, at rest
-            dq, ddq = np.zeros(3), np.zeros(3)
+        if walking or self._held is None or self._held[0] != self.clock:
+            q, dq, ddq = (np.ascontiguousarray(x[0], dtype=float)
+                          for x in self.reference.sample(np.array([self.clock])))
+            if not walking:  # held where the reference's clock stands, at rest
+                dq, ddq = np.zeros(3), np.zeros(3)
+                self._held = (self.clock, q, dq, ddq)  # sampled once while it stands
+        else:
+            _, q, dq, ddq = self._held
         _track(*self._args, self.lim, self.sst, self.sup, self.io.sens, refused, q, dq, ddq,
                self.io.out)
         return self.io.result()
