@@ -61,12 +61,14 @@ SENSORS = np.dtype([("q", F8, 3), ("dq", F8, 3), ("fsr", F8, 4), ("gyro", F8),
 #: mode (:class:`Mode`), the gait phase (:class:`~exoleg.control.gait_phase.Phase`), the
 #: gait fraction, the tick's events (bits of :class:`~exoleg.control.gait_phase.Event`),
 #: the safety layer's status bits (:class:`~exoleg.control.safety.Limited`), the
-#: reference (rad), the fault latched (:class:`~exoleg.control.safety.Fault`) and its
-#: joint (-1: none), and the command refused this tick (:class:`Command`; NONE if none
-#: was, e.g. a reset while a fault still holds).
+#: reference (rad), the fault latched (:class:`~exoleg.control.safety.Fault`), its
+#: joint (-1: none), the value that latched it and the limit it crossed (rad, rad/s: the
+#: safety layer's STATE), and the command refused this tick (:class:`Command`; NONE if
+#: none was, e.g. a reset while a fault still holds).
 OUTPUT = np.dtype([("tau", F8, 3), ("mode", I8), ("phase", I8), ("gait_fraction", F8),
                    ("events", I8), ("safety_status", I8), ("q_ref", F8, 3), ("fault", I8),
-                   ("fault_joint", I8), ("refused", I8)])
+                   ("fault_joint", I8), ("fault_value", F8), ("fault_limit", F8),
+                   ("refused", I8)])
 
 LABELS = {3: JOINTS, 4: SENSOR_POINTS}
 #: The modes in which the drives are enabled (torque may flow), and those in which the

@@ -323,7 +323,8 @@ class WalkController:
     sensors' depth below the ankle joint, m (ankle height + footplate). Returns the
     :data:`~exoleg.control.contract.OUTPUT` fields as a dict (:meth:`TickRecords.result`):
     ``tau`` (3,) N m for the drives, ``mode``, ``phase``, ``gait_fraction``, ``events``,
-    ``safety_status``, ``q_ref``, ``fault``, ``fault_joint``, ``refused``.
+    ``safety_status``, ``q_ref``, ``fault``, ``fault_joint``, ``fault_value``,
+    ``fault_limit``, ``refused``.
     """
 
     def __init__(self, leg: LegModel, body_mass: float, gains: WalkGains | None = None,

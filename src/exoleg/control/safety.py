@@ -71,9 +71,11 @@ LIMITED_TEXT = {Limited.DISARMED: "disarmed: torque zero",
 #: in one tick (N m) and the overspeed threshold (rad/s); the hard margin (rad).
 LIMITS = np.dtype([("lower", F8, 3), ("upper", F8, 3), ("max_torque", F8, 3),
                    ("max_step", F8, 3), ("max_speed", F8, 3), ("hard_margin", F8)])
-#: The safety layer's state: armed, the latched fault (:class:`Fault`) and its joint (-1
-#: for none or an E-stop), the torque allowed last tick (N m).
-STATE = np.dtype([("armed", np.bool_), ("fault", I8), ("fault_joint", I8), ("prev", F8, 3)])
+#: The safety layer's state: armed, the latched fault (:class:`Fault`), its joint (-1
+#: for none or an E-stop), the value that latched it and the limit it crossed (rad for
+#: HARD_LIMIT, rad/s for OVERSPEED; 0 for the others), the torque allowed last tick (N m).
+STATE = np.dtype([("armed", np.bool_), ("fault", I8), ("fault_joint", I8),
+                  ("fault_value", F8), ("fault_limit", F8), ("prev", F8, 3)])
 
 
 def new_state() -> NDArray[np.void]:
@@ -165,17 +167,20 @@ class SafetyLimits:
 @njit(cache=True)
 def check_state(lim, q, dq, u_cmd):  # type: ignore[no-untyped-def]
     """The fault the measured state ``q``, ``dq`` and the command ``u_cmd`` (3,) latch
-    (:class:`Fault`; NONE when sane) and its joint, joint by joint: a non-finite value,
-    overspeed, beyond the hard margin."""
+    (:class:`Fault`; NONE when sane), its joint, the value and the limit it crossed
+    (signed; 0 for a non-finite value), joint by joint: a non-finite value, overspeed,
+    beyond the hard margin."""
     L = lim[0]
     for i in range(3):
         if not (math.isfinite(q[i]) and math.isfinite(dq[i]) and math.isfinite(u_cmd[i])):
-            return Fault.NONFINITE, i
+            return Fault.NONFINITE, i, 0.0, 0.0
         if abs(dq[i]) > L.max_speed[i]:
-            return Fault.OVERSPEED, i
-        if q[i] < L.lower[i] - L.hard_margin or q[i] > L.upper[i] + L.hard_margin:
-            return Fault.HARD_LIMIT, i
-    return Fault.NONE, -1
+            return Fault.OVERSPEED, i, dq[i], math.copysign(L.max_speed[i], dq[i])
+        if q[i] < L.lower[i] - L.hard_margin:
+            return Fault.HARD_LIMIT, i, q[i], L.lower[i] - L.hard_margin
+        if q[i] > L.upper[i] + L.hard_margin:
+            return Fault.HARD_LIMIT, i, q[i], L.upper[i] + L.hard_margin
+    return Fault.NONE, -1, 0.0, 0.0
 
 
 @njit(cache=True)
@@ -210,13 +215,15 @@ def reset(lim, state, q, dq):  # type: ignore[no-untyped-def]
     """Clear a latched fault, disarmed, if the state ``q``, ``dq`` is sane
     (:func:`check_state`). Returns the fault that still holds and its joint (NONE, -1
     when cleared); the state is unchanged then."""
-    f, j = check_state(lim, q, dq, np.zeros(3))
+    f, j, _, _ = check_state(lim, q, dq, np.zeros(3))
     if f != Fault.NONE:
         return f, j
     s = state[0]
     s.armed = False
     s.fault = Fault.NONE
     s.fault_joint = -1
+    s.fault_value = 0.0
+    s.fault_limit = 0.0
     for i in range(3):
         s.prev[i] = 0.0
     return Fault.NONE, -1
@@ -235,10 +242,12 @@ def safety_step(lim, state, q, dq, u_cmd, estop_input, u):  # type: ignore[no-un
         s.fault = Fault.ESTOP
         s.fault_joint = -1
     if s.fault == Fault.NONE:
-        f, j = check_state(lim, q, dq, u_cmd)
+        f, j, value, limit = check_state(lim, q, dq, u_cmd)
         if f != Fault.NONE:
             s.fault = f
             s.fault_joint = j
+            s.fault_value = value
+            s.fault_limit = limit
     if s.fault != Fault.NONE or not s.armed:
         status |= Limited.FAULT if s.fault != Fault.NONE else Limited.DISARMED
         for i in range(3):
@@ -342,6 +351,28 @@ def joint_name(fault: Fault, joint: int) -> str:
 def fault_text(fault: Fault, joint: str = "") -> str:
     """A fault as people read it: ``OVERSPEED (ankle)``."""
     return f"{fault.name}{f' ({joint})' if joint else ''}"
+
+
+def fault_detail(fault: int, joint: int, value: float, limit: float) -> str:
+    """A latched fault as the operator reads it: its kind, joint, the value against its
+    limit, and what going on needs -- ``OVERSPEED at the knee: 5.21 rad/s (299 deg/s)
+    against its limit of 4.00 rad/s (229 deg/s). To go on: ...`` ('' for none)."""
+    f = Fault(int(fault))
+    if f == Fault.NONE:
+        return ""
+    jn = joint_name(f, int(joint))
+    at = f" at the {jn}" if jn else ""
+    unit, deg = {Fault.OVERSPEED: ("rad/s", "deg/s"), Fault.HARD_LIMIT: ("rad", "deg")
+                 }.get(f, ("", ""))
+    if f == Fault.ESTOP:
+        return "E-stop. To go on: Reset (with the E-stop released), then Arm."
+    if not unit:
+        return (f"a reading or command that is not a number (NaN or infinite){at}. To go "
+                "on: Reset once every reading is a number again, then Arm.")
+    word = "beyond" if f == Fault.HARD_LIMIT else "against"
+    return (f"{f.name}{at}: {value:.2f} {unit} ({math.degrees(value):.0f} {deg}) {word} "
+            f"its limit of {limit:.2f} {unit} ({math.degrees(limit):.0f} {deg}). To go on: "
+            "Reset once the joint is back within its limit and still, then Arm.")
 
 
 def still_holds(fault: int, joint: int) -> str:

@@ -88,6 +88,8 @@ def report(sup, sst, refused, status, out):  # type: ignore[no-untyped-def]
     o.safety_status = status
     o.fault = sst[0].fault
     o.fault_joint = sst[0].fault_joint
+    o.fault_value = sst[0].fault_value
+    o.fault_limit = sst[0].fault_limit
     o.refused = refused
 
 

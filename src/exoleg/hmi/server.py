@@ -51,15 +51,15 @@ def _slug(text: str) -> str:
 
 def _session_process(link: LoopLink, backend: str, interface: str | None, duration: float,
                      folder: str, leg_path: str | None, body_mass: float, arm: bool,
-                     server: int, cpus: set[int] | None) -> None:
+                     cpus: set[int] | None) -> None:
     """A session's own process (``exoleg hmi``): runs the loop until its duration, an
-    E-stop fault, the operator's end, a signal, or the end of the server's process
-    (``server``: its pid) -- then nobody could stop it from the page. ``cpus``: the CPUs
-    the server had before it kept off the loop's (:func:`keep_off_loop_cpu`)."""
+    E-stop fault, the operator's end, a signal, or a lost link (the server's heartbeat:
+    :class:`~exoleg.runtime.link.LoopLink`) -- then nobody could stop it from the page.
+    ``cpus``: the CPUs the server had before it kept off the loop's
+    (:func:`keep_off_loop_cpu`)."""
     import exoleg
     from exoleg.runtime.session import run
 
-    link.server_pid = server
     if cpus:
         with contextlib.suppress(AttributeError, OSError):
             os.sched_setaffinity(0, cpus)
@@ -169,7 +169,7 @@ class HMI:
                 target=_session_process, name="exoleg-session", daemon=True,
                 args=(link, self.backend, self.interface, duration, str(folder),
                       str(folder / "leg.toml") if self.child else None, mass, arm,
-                      os.getpid(), self.cpus))
+                      self.cpus))
             self.proc.start()
             self.session = folder
             self.api.attach(link, folder)
@@ -363,7 +363,7 @@ class HMI:
         async def lifespan(app: Any) -> Any:
             import asyncio
 
-            task = asyncio.create_task(api.watch_applied())
+            task = asyncio.create_task(api.watch())
             yield
             task.cancel()
 

@@ -15,7 +15,9 @@ block and sends into its pipe (:class:`~exoleg.runtime.link.LoopLink`). Endpoint
   :data:`LEASE_S` s without a request from it; ``DELETE /operator`` gives it back;
 * ``POST /command`` ``{"command": "arm" | "stand" | "walk" | "disarm" | "estop" |
   "reset"}``: needs ``Authorization: Bearer <token>`` (printed at start-up) and the
-  operator id -- except ``estop``, which anyone who can see the device may send;
+  operator id -- except ``estop``, which anyone who can see the device may send; answers
+  once the loop has applied it (``"applied": true``), or 409 with the supervisor's
+  reason when it refused it (``"applied": false``: arm in FAULT, walk while disarmed...);
 * ``POST /estop``: the E-stop, queued before anything of the request is read (any body,
   any size; an optional ``{"clicked_at": ms}`` is read after, at most
   :data:`BODY_LIMIT` bytes, and a wrong one is logged as ignored);
@@ -45,6 +47,9 @@ from exoleg.runtime.operator import COMMANDS, LEASE_S, UNGUARDED, OperatorRules
 
 #: the WebSocket stream's rate, Hz
 STREAM_HZ = 50.0
+#: how long ``POST /command`` waits for the supervisor's answer, s (the loop applies a
+#: command at its next tick, 1 ms at 1 kHz; its answer is logged within 5 ms)
+APPLIED_WAIT_S = 0.5
 
 
 def source_of(request: Any) -> str:
@@ -182,14 +187,22 @@ class ControlAPI(OperatorRules):
                 refused = self.refusal(request, name)
                 if refused:
                     return refused
-            clicked = body.get("clicked_at")
-            clicked_at = float(clicked) / 1e3 if isinstance(clicked, (int, float)) else None
-            why = self.send(name, source, clicked_at)
+            clicked_at, note = click_stamp(body.get("clicked_at"))
+            why, rid = self.send(name, source, clicked_at)
             if why:
                 self.record(source, name, False, why)
                 return JSONResponse({"error": why}, 409)
-            self.record(source, name, True)
-            return JSONResponse({"queued": name})
+            self.record(source, name, True, note)
+            # the supervisor's answer, once the loop has applied it (a few ticks)
+            deadline = time.monotonic() + APPLIED_WAIT_S
+            while (done := self.outcome(rid)) is None and time.monotonic() < deadline:
+                await asyncio.sleep(0.002)
+            if done is None:
+                return JSONResponse({"queued": name, "applied": None})
+            if not done[0]:
+                return JSONResponse({"error": done[1], "queued": name, "applied": False},
+                                    409)
+            return JSONResponse({"queued": name, "applied": True})
 
         async def gains(request: Request) -> JSONResponse:
             if request.method == "GET":
@@ -234,8 +247,9 @@ class ControlAPI(OperatorRules):
                 Route("/estop", estop, methods=["POST"]),
                 WebSocketRoute("/stream", stream)]
 
-    async def watch_applied(self) -> None:
-        """Runs beside the server: logs the loop's application of each command."""
+    async def watch(self) -> None:
+        """Runs beside the server on its event loop (:meth:`watch_once`): the heartbeat
+        stops if the event loop stalls or the process dies."""
         while True:
-            self.poll_applied()
+            self.watch_once()
             await asyncio.sleep(0.005)

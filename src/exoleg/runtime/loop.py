@@ -134,7 +134,8 @@ STOP_GRACE_S = 5.0
 END_SESSION = -1
 LINK_LOST = -2
 ENDS = {END_SESSION: "the operator ended the session",
-        LINK_LOST: "the operator interface's process is gone (nobody could stop it)"}
+        LINK_LOST: "link lost: the operator interface's heartbeat stopped (nobody could "
+                   "stop the device from a page)"}
 
 
 def run_session(backend: Device, controller: Controller, duration: float, period: float,

@@ -3,7 +3,9 @@ at a time (a lease that lapses after :data:`LEASE_S` s of silence), every contro
 needs the session's token and that operator (an E-stop needs neither), gain changes are
 bounded (0 to twice their value at the start, the support level 0-1), and every action,
 accepted or refused, and the loop's application of each command go to ``control.log``
-with their wall times. :class:`~exoleg.runtime.control_api.ControlAPI` serves them over
+with their wall times. An operator's hold that lapses while the child walks is a lost
+link: the device comes to a controlled stop (stand) and an alarm goes to the log and to
+every page (:meth:`OperatorRules.watch_once`). :class:`~exoleg.runtime.control_api.ControlAPI` serves them over
 HTTP; a script or a test may call them directly."""
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from exoleg.control.contract import Command
+from exoleg.control.contract import WALKING_MODES, Command, Mode
 from exoleg.control.supervisor import refusal
 from exoleg.runtime.link import GAIN_NAMES, LoopLink
 
@@ -53,6 +55,9 @@ class OperatorRules:
         self.requests: dict[int, dict[str, Any]] = {}
         self.next_id = 1
         self.seen_applied = 0
+        self.alarm: dict[str, Any] | None = None  # the latest alarm, on every page
+        self.outcomes: dict[int, tuple[bool, str]] = {}  # request id -> applied, why not
+        self._seq, self._seq_seen = -1.0, time.monotonic()  # the loop's last publication
 
     @property
     def log_path(self) -> Path:
@@ -62,8 +67,10 @@ class OperatorRules:
         """A session starts: its link and its folder (control.log)."""
         with self.lock:
             self.link, self.folder = link, Path(folder)
-            self.bounds, self.actions, self.requests = {}, [], {}
+            self.bounds, self.actions, self.requests, self.outcomes = {}, [], {}, {}
             self.seen_applied = 0
+            self.alarm = None
+            self._seq, self._seq_seen = -1.0, time.monotonic()
 
     def detach(self) -> None:
         with self.lock:
@@ -85,11 +92,17 @@ class OperatorRules:
         return entry
 
     def state(self) -> dict[str, Any]:
+        """The latest tick (:meth:`LoopLink.snapshot`), how long ago the loop last
+        published (``loop_age_s``), the operator holding control and the latest alarm."""
         with self.lock:
-            link = self.link
+            link, alarm = self.link, self.alarm
+            age = time.monotonic() - self._seq_seen
+        holder = self.public(self.holder())
         if link is None:
-            return {"running": "none"}
-        return LoopLink.snapshot(link.web_copy())
+            return {"running": "none", "alarm": alarm, "holder": holder}
+        out = LoopLink.snapshot(link.web_copy())
+        out.update(loop_age_s=round(age, 3), alarm=alarm, holder=holder)
+        return out
 
     def gains(self) -> tuple[dict[str, list[float]], dict[str, list[list[float]]]]:
         """The gains in force and their bounds (set from the first gains the session
@@ -138,16 +151,60 @@ class OperatorRules:
                     extra["after_request_ms"] = round((wall - req["received"]) * 1e3, 3)
                 if "clicked_at" in req:
                     extra["after_click_ms"] = round((wall - req["clicked_at"]) * 1e3, 3)
-                self.record("loop", NAMES.get(code, str(code)), not refused,
-                            why=refusal(code, mode) if refused else "", applied=wall, **extra)
+                why = refusal(code, mode) if refused else ""
+                self.outcomes[rid] = (not refused, why)
+                self.record("loop", NAMES.get(code, str(code)), not refused, why=why,
+                            applied=wall, **extra)
+            while len(self.outcomes) > 256:  # the pages read theirs within a second
+                self.outcomes.pop(next(iter(self.outcomes)))
+
+    def watch_once(self) -> None:
+        """The web side's watch, every few ms: the heartbeat the loop checks, the
+        commands applied, the loop's last publication, a lapsed hold."""
+        with self.lock:
+            link = self.link
+        if link is None:
+            self.holder()
+            return
+        link.web_beat()
+        self.poll_applied()
+        seq = float(link.view["seq"])
+        with self.lock:
+            if seq != self._seq:
+                self._seq, self._seq_seen = seq, time.monotonic()
+        self.holder()
+
+    def _lapsed(self, op: dict[str, Any]) -> None:
+        """``op``'s hold lapsed (no request from their page for :data:`LEASE_S` s): while
+        the child walks, a controlled stop and an alarm; else a note in the log."""
+        with self.lock:
+            link = self.link
+        snap = LoopLink.snapshot(link.web_copy()) if link is not None else {}
+        walking = snap.get("running") == "running" and snap["mode"] in WALKING_MODES
+        what = (f"{op['name']}'s hold on control lapsed: no word from their page for "
+                f"{LEASE_S:g} s")
+        if not walking:
+            self.record("hmi", "control lapsed", True, why=what)
+            return
+        text = (f"link lost: {what} while {Mode(snap['mode']).name}: controlled stop to "
+                "standing; take control again to go on")
+        if snap["mode"] == Mode.WALKING:
+            self.send("stand", "hmi")
+        with self.lock:
+            self.alarm = {"time": time.time(), "text": text}
+        self.record("hmi", "alarm", True, why=text)
 
     # ------------------------------------------------------------------ control
     def holder(self) -> dict[str, Any] | None:
+        """The operator holding control (None when nobody does; a hold that lapsed
+        goes, :meth:`_lapsed`)."""
         with self.lock:
             op = self.operator
-            if op is not None and time.time() - op["seen"] > LEASE_S:
-                self.operator = op = None
-            return op
+            if op is None or time.time() - op["seen"] <= LEASE_S:
+                return op
+            self.operator = None
+        self._lapsed(op)
+        return None
 
     def has_token(self, headers: Any) -> bool:
         return secrets.compare_digest(headers.get("authorization", ""), f"Bearer {self.token}")
@@ -195,12 +252,19 @@ class OperatorRules:
     def public(op: dict[str, Any] | None) -> dict[str, Any] | None:
         return None if op is None else {k: op[k] for k in ("name", "source", "since")}
 
-    def send(self, name: str, source: str, clicked_at: float | None = None) -> str:
-        """Queue ``name`` for the loop; '' or why it cannot go."""
+    def send(self, name: str, source: str, clicked_at: float | None = None
+             ) -> tuple[str, int]:
+        """Queue ``name`` for the loop: ('' or why it cannot go, its request id, whose
+        outcome :meth:`outcome` gives once the loop has applied it)."""
         why, rid = self._queue(name)
         if not why and clicked_at is not None:
             self.stamp(rid, clicked_at)
-        return why
+        return why, rid
+
+    def outcome(self, rid: int) -> tuple[bool, str] | None:
+        """Whether the supervisor applied request ``rid`` and why not (None: not yet)."""
+        with self.lock:
+            return self.outcomes.get(rid)
 
     def _queue(self, name: str) -> tuple[str, int]:
         """Queue ``name``: ('' or why it cannot go, its request id)."""
