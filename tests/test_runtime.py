@@ -355,3 +355,64 @@ def test_a_slow_disk_does_not_stall_the_loop(tmp_path: Path, backend_factory,  #
     res = run_session(b, b.controller, 1.0, 1e-3, log, {0: Command.ARM}, realtime=False)
     assert res.stopped_by == "duration", res.stopped_by
     assert len(read_log(tmp_path / "s.log")[1]["t"]) == 1000
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if p.is_file()}
+
+
+def test_a_recorded_session_is_never_written_over(tmp_path: Path) -> None:
+    # Issue 20, point 5: `exoleg run --out DIR` silently overwrote an earlier session;
+    # two runs into one folder interleaved; a SIGTERM in the first ~40 ms wiped the
+    # earlier session; `log summary --csv DIR/session.log` overwrote its own input.
+    from exoleg.runtime.session import LOCK_FILE, claim_folder
+
+    earlier = tmp_path / "earlier"
+    assert _cli("run", "--duration", "0.3", "--no-realtime", "--out",
+                str(earlier)).returncode == 0
+    before = _files(earlier)
+    r = _cli("run", "--duration", "0.3", "--no-realtime", "--out", str(earlier))
+    assert r.returncode == 2 and "holds a recorded session (session.log, run.json)" in \
+        r.stderr and len(r.stderr.splitlines()) == 1, r.stderr
+    # signals at start-up, as early as a person's Ctrl-C or a supervisor's SIGTERM
+    for delay in (0.02, 0.04, 0.08, 0.3):
+        p = subprocess.Popen([sys.executable, "-m", "exoleg.cli", "run", "--duration", "5",
+                              "--no-realtime", "--out", str(earlier)],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        time.sleep(delay)
+        p.send_signal(signal.SIGTERM)
+        _, err = p.communicate(timeout=60)
+        assert "Traceback" not in err, err
+    assert _files(earlier) == before  # the earlier session whole, byte for byte
+    # a second run into a folder a run holds is refused (the lock, not a race)
+    busy = tmp_path / "busy"
+    folder, lock = claim_folder(busy)
+    try:
+        r = _cli("run", "--duration", "0.3", "--no-realtime", "--out", str(busy))
+        assert r.returncode == 2 and "is in use by another run (process " \
+            f"{os.getpid()})" in r.stderr, r.stderr
+    finally:
+        os.close(lock)
+    assert _files(busy) == {LOCK_FILE: str(os.getpid()).encode()}  # nothing else written
+    # an export never writes over its own input nor a session's records
+    for target in ("session.log", "run.json", "control.log"):
+        r = _cli("log", "summary", str(earlier), "--csv", str(earlier / target))
+        assert r.returncode == 2 and "name another file" in r.stderr, r.stderr
+    assert _files(earlier) == before
+
+
+def test_how_a_session_ended_is_said_truly(tmp_path: Path, backend_factory) -> None:  # type: ignore[no-untyped-def]
+    # Issue 20, point 5: an E-stopped session that the operator then ended was listed as
+    # "the operator ended the session". Reference: the tick the E-stop was applied at.
+    from exoleg.runtime.loop import END_SESSION
+
+    b = backend_factory()
+    res, cols = _session(tmp_path, b, b.controller, 3.0, {0: Command.ARM,
+                                                           700: Command.ESTOP})
+    assert res.stopped_by == "duration (after an E-stop at 0.700 s)"
+    log = SessionLog(tmp_path / "t.log", LOG_HEAD + b.columns + LOG_TAIL, {"period": 1e-3})
+    b = backend_factory()
+    res = run_session(b, b.controller, 3.0, 1e-3, log, {0: Command.ARM, 500: Command.ESTOP},
+                      realtime=False, on_tick=lambda k, *a: END_SESSION if k == 900 else None)
+    assert res.stopped_by == ("the operator ended the session: torque off (after an E-stop "
+                              "at 0.500 s)")

@@ -18,3 +18,30 @@ MEASURED = ("thigh", "shank", "leg_length", "foot_length", "ankle_height")
 #: operator interface's sessions): body mass bounds and the mass without a fitted child
 BODY_MASS = (10.0, 150.0, "kg")
 DEFAULT_BODY_MASS = 30.0
+
+
+def typed_number(label: str, value: object) -> float:
+    """What a person typed in the field ``label`` as a number: a number, or text with a
+    decimal point or a decimal comma ("26,5" is 26.5). Raises ValueError in the form's
+    words when it is empty, not a number, ambiguous ("1,234.5", "1.234,5": which is the
+    decimal mark?) or not finite."""
+    import math
+
+    if isinstance(value, bool):
+        raise ValueError(f"{label}: expected a number, got {value!r}")
+    if isinstance(value, (int, float)):
+        x = float(value)
+    else:
+        text = str(value if value is not None else "").strip()
+        if not text:
+            raise ValueError(f"{label}: empty; enter a number")
+        if "," in text and "." in text or text.count(",") > 1:
+            raise ValueError(f"{label}: {text[:20]!r} mixes ',' and '.'; write one decimal "
+                             "mark (26.5 or 26,5)")
+        try:
+            x = float(text.replace(",", "."))
+        except ValueError:
+            raise ValueError(f"{label}: {text[:20]!r} is not a number") from None
+    if not math.isfinite(x):
+        raise ValueError(f"{label}: {x!r} is not a finite number")
+    return x

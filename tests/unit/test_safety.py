@@ -185,3 +185,53 @@ def test_property_commands_finite_and_within_limits(ticks: list, arm: bool) -> N
         prev = out
     if not arm:
         assert np.array_equal(prev, Z)
+
+
+def test_the_pages_table_of_commands_is_the_supervisors() -> None:
+    # The pages enable their buttons by supervisor.APPLIES; the reference is the compiled
+    # supervisor itself: every command in every mode, applied or refused.
+    from exoleg.control.contract import Command, Mode
+    from exoleg.control.safety import Fault, SafetyLimits, new_state
+    from exoleg.control.supervisor import APPLIES, SUPERVISOR, supervise
+    from exoleg.layout import new
+
+    lim = LIM.record()
+    q, dq = np.zeros(3), np.zeros(3)  # a sane state: a reset may clear the fault
+    for mode in Mode:
+        for cmd in Command:
+            if cmd == Command.NONE:
+                continue
+            sup, sst = new(SUPERVISOR), new_state()
+            sup[0]["mode"] = mode
+            sst[0]["armed"] = mode in (Mode.STANDING, Mode.WALKING, Mode.STOPPING)
+            if mode == Mode.FAULT:
+                sst[0]["fault"] = Fault.OVERSPEED
+            refused = supervise(sup, lim, sst, int(cmd), q, dq)
+            assert (refused == Command.NONE) == (cmd in APPLIES[mode]), (mode, cmd)
+
+
+def test_a_fault_names_its_value_against_its_limit() -> None:
+    # Reference: the limits the layer was given (Table 2 x overspeed factor; the range of
+    # motion + hard margin); the value is the one the tick saw.
+    from exoleg.control.safety import Fault, fault_detail
+
+    layer = SafetyLayer(LIM)
+    layer.arm()
+    lim = LIM
+    dq = np.array([0.0, 1.2 * lim.max_speed[1], 0.0])
+    layer.step(np.zeros(3), dq, np.zeros(3))
+    s = layer.state[0]
+    assert layer.fault == Fault.OVERSPEED and int(s["fault_joint"]) == 1
+    assert s["fault_value"] == dq[1] and s["fault_limit"] == lim.max_speed[1]
+    text = fault_detail(s["fault"], s["fault_joint"], s["fault_value"], s["fault_limit"])
+    assert text.startswith(f"OVERSPEED at the knee: {dq[1]:.2f} rad/s") and \
+        f"its limit of {lim.max_speed[1]:.2f} rad/s" in text and "Reset" in text
+    below = SafetyLayer(lim)
+    below.arm()
+    q = np.array([0.0, 0.0, lim.lower[2] - 2 * lim.hard_margin])
+    below.step(q, np.zeros(3), np.zeros(3))
+    s = below.state[0]
+    assert below.fault == Fault.HARD_LIMIT and s["fault_limit"] == \
+        lim.lower[2] - lim.hard_margin
+    layer.reset(np.zeros(3), np.zeros(3))  # cleared with the fault
+    assert layer.state[0]["fault_value"] == 0.0 and layer.state[0]["fault_limit"] == 0.0

@@ -17,9 +17,20 @@ def cmd_log_summary(args: argparse.Namespace) -> int:
     _table([[k, str(v)] for k, v in s.items()], ["", "value"],
            title=f"session log {args.log}")
     if args.csv or args.parquet:
+        from exoleg.errors import ParameterError
         from exoleg.io import write_csv_table, write_parquet_table
+        from exoleg.runtime.session import SESSION_FILES
 
+        option = "--csv" if args.csv else "--parquet"
         target = Path(args.csv or args.parquet)
+        log = args.log / "session.log" if args.log.is_dir() else args.log
+        if target.exists() and target.resolve() == log.resolve():
+            raise ParameterError("exoleg log summary", option, f"{target} is the log "
+                                 "being read: name another file (nothing was written)")
+        if target.name in SESSION_FILES:
+            raise ParameterError("exoleg log summary", option, f"{target.name} is the name "
+                                 "of a session's own record: name another file (nothing "
+                                 "was written)")
         with OutputFolder(target.parent if str(target.parent) else ".") as out:
             (write_csv_table if args.csv else write_parquet_table)(
                 to_table(args.log), out.stage(target.name))

@@ -39,12 +39,12 @@ def cmd_run(args: argparse.Namespace) -> int:
         import secrets
 
         from exoleg.hmi.serving import bind_check, start_process
-        from exoleg.io import _writable_folder
         from exoleg.runtime.link import LoopLink
+        from exoleg.runtime.session import check_folder
 
         warning = bind_check(args.hmi_host, args.tls_cert, args.tls_key)
         link, token = LoopLink.new(), secrets.token_urlsafe(16)
-        web = start_process(link, _writable_folder(args.out), token, args.hmi_host,
+        web = start_process(link, check_folder(args.out), token, args.hmi_host,
                             args.hmi_port, args.tls_cert, args.tls_key, args.backend,
                             str(args.leg) if args.leg else None)
         if warning:

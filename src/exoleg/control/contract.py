@@ -173,7 +173,7 @@ def vocabulary() -> dict[str, Any]:
     """What a page needs to show the tick's numbers, taken from the enumerations
     themselves (served to the page, which keeps no table of its own): each enumeration's
     names by value, the texts of the phases, events and safety bits, the joints and the
-    FSR points."""
+    FSR points, and the commands that apply in each mode (``applies``)."""
     from exoleg.control.gait_phase import EVENT_NAMES, PHASE_NAMES, Event, Phase
     from exoleg.control.safety import LIMITED_TEXT, Fault, Limited
 
@@ -184,4 +184,7 @@ def vocabulary() -> dict[str, Any]:
                    "Event": [[int(k), v] for k, v in EVENT_NAMES.items()],
                    "Limited": [[int(k), v] for k, v in LIMITED_TEXT.items()]}
     out["joints"], out["sensors"] = list(JOINTS), list(SENSOR_POINTS)
+    from exoleg.control.supervisor import APPLIES
+
+    out["applies"] = {str(int(m)): [c.name.lower() for c in cs] for m, cs in APPLIES.items()}
     return out

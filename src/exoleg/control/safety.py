@@ -353,6 +353,14 @@ def fault_text(fault: Fault, joint: str = "") -> str:
     return f"{fault.name}{f' ({joint})' if joint else ''}"
 
 
+def fault_event(fault: int, joint: int) -> str:
+    """A latched fault as an event of a session: ``an E-stop``, ``a fault: OVERSPEED
+    (knee)``."""
+    f = Fault(int(fault))
+    return "an E-stop" if f == Fault.ESTOP else \
+        f"a fault: {fault_text(f, joint_name(f, int(joint)))}"
+
+
 def fault_detail(fault: int, joint: int, value: float, limit: float) -> str:
     """A latched fault as the operator reads it: its kind, joint, the value against its
     limit, and what going on needs -- ``OVERSPEED at the knee: 5.21 rad/s (299 deg/s)

@@ -93,6 +93,18 @@ def report(sup, sst, refused, status, out):  # type: ignore[no-untyped-def]
     o.refused = refused
 
 
+#: The commands that apply in each mode (:func:`supervise` refuses the others; a reset
+#: also needs the fault to no longer hold, the E-stop applies everywhere). The pages
+#: enable their buttons by it.
+APPLIES: dict[Mode, tuple[Command, ...]] = {
+    Mode.DISARMED: (Command.ARM, Command.DISARM, Command.ESTOP),
+    Mode.STANDING: (Command.WALK, Command.DISARM, Command.ESTOP),
+    Mode.WALKING: (Command.STAND, Command.ESTOP),
+    Mode.STOPPING: (Command.WALK, Command.STAND, Command.ESTOP),
+    Mode.FAULT: (Command.RESET, Command.DISARM, Command.ESTOP),
+}
+
+
 def refusal(command: int, mode: int) -> str:
     """Why the supervisor refused ``command`` in ``mode``, as the operator reads it."""
     c, m = Command(int(command)), Mode(int(mode))

@@ -4,7 +4,6 @@ its own name inside the folder."""
 
 from __future__ import annotations
 
-import contextlib
 import json
 from pathlib import Path
 from typing import Any
@@ -18,14 +17,6 @@ class Archive:
 
     def __init__(self, root: Path) -> None:
         self.root = root
-
-    def children(self) -> list[dict[str, Any]]:
-        """The children fitted here before (their fit records), by name."""
-        out = []
-        for f in sorted((self.root / "children").glob("*/fit.json")):
-            with contextlib.suppress(OSError, ValueError):
-                out.append(json.loads(f.read_text())["child"])
-        return out
 
     def folder_of(self, name: str) -> Path | None:
         """A recorded session's folder, only by its own name (nothing outside the root)."""
@@ -43,10 +34,21 @@ class Archive:
         the folder of the session running now)."""
         from exoleg.runtime.log import read_header
 
+        damaged: list[str] = []
+
         def read(name: str) -> dict[str, Any]:
+            """A record of the session's (JSON object); {} when absent, and a damaged
+            one said in ``damaged``."""
+            path = folder / name
+            if not path.exists():
+                return {}
             try:
-                return dict(json.loads((folder / name).read_text()))
-            except (OSError, ValueError):
+                data = json.loads(path.read_text(encoding="utf-8"))
+                if not isinstance(data, dict):
+                    raise ValueError("not a JSON object")
+                return data
+            except (OSError, ValueError, UnicodeDecodeError, RecursionError) as e:
+                damaged.append(f"{name} is damaged ({type(e).__name__}: {str(e)[:80]})")
                 return {}
 
         run, child, failed = read("run.json"), read("child.json"), read("failed.json")
@@ -54,19 +56,34 @@ class Archive:
         try:
             header, ticks = read_header(folder / "session.log")
         except ParameterError as e:
-            header, ticks, failed = {}, 0, failed or {"error": str(e)}
+            header, ticks = {}, 0
+            if (folder / "session.log").exists() or not failed:
+                damaged.append(f"session.log {e.problem}")
+        who = child.get("child", {}) if isinstance(child.get("child"), dict) else {}
+        stopped = failed.get("error") or run.get("stopped_by")
         return {"name": folder.name,
-                "child": child.get("child", {}).get("name", f"({header.get('leg', '?')})"),
+                "child": str(who.get("name", f"({header.get('leg', '?')})")),
+                "child_id": child.get("child_id"),
                 "started": float(header.get("started", folder.stat().st_mtime)),
-                "backend": header.get("backend", "?"),
+                "backend": str(header.get("backend", "?")),
                 "duration_s": ticks * float(header.get("period", 1e-3)),
-                "stopped_by": failed.get("error") or run.get("stopped_by")
-                or ("running" if running else "ended without a summary (log kept)"),
-                "running": running}
+                "stopped_by": str(stopped) if stopped else
+                ("running" if running else "ended without a summary (log kept)"),
+                "damaged": damaged, "running": running}
 
     def sessions(self, live: Path | None = None) -> list[dict[str, Any]]:
         """Every recorded session's line, the newest first."""
-        rows = [self.summary(p, live) for p in self.root.iterdir() if self._recorded(p)]
+        rows = []
+        for p in self.root.iterdir():
+            if not self._recorded(p):
+                continue
+            try:
+                rows.append(self.summary(p, live))
+            except (OSError, ValueError, TypeError) as e:  # listed, with why
+                rows.append({"name": p.name, "child": "?", "child_id": None,
+                             "started": 0.0, "backend": "?", "duration_s": 0.0,
+                             "stopped_by": "?", "running": False,
+                             "damaged": [f"cannot be read: {type(e).__name__}: {e}"]})
         return sorted(rows, key=lambda r: -float(r["started"]))
 
     def detail(self, folder: Path, live: Path | None = None) -> dict[str, Any]:
@@ -78,11 +95,26 @@ class Archive:
             out["log"] = summarize(folder / "session.log")
         except ParameterError as e:
             out["log"] = {"error": str(e)}
+        out["control"] = []
         try:
-            out["control"] = [json.loads(x) for x in
-                              (folder / "control.log").read_text().splitlines() if x.strip()]
-        except (OSError, ValueError):
-            out["control"] = []
+            lines = (folder / "control.log").read_text(encoding="utf-8").splitlines()
+        except FileNotFoundError:
+            lines = []
+        except (OSError, UnicodeDecodeError) as e:
+            out["damaged"].append(f"control.log cannot be read ({e})")
+            lines = []
+        bad = 0
+        for x in lines:
+            try:
+                a = json.loads(x) if x.strip() else None
+            except (ValueError, RecursionError):
+                a = None
+            if isinstance(a, dict) and {"time", "source", "command"} <= a.keys():
+                out["control"].append(a)
+            elif x.strip():
+                bad += 1
+        if bad:
+            out["damaged"].append(f"control.log: {bad} damaged line(s) left out")
         return out
 
     def plot(self, folder: Path) -> Path:

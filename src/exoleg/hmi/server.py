@@ -19,7 +19,6 @@ from __future__ import annotations
 import contextlib
 import multiprocessing as mp
 import os
-import re
 import threading
 import time
 from pathlib import Path
@@ -29,24 +28,35 @@ import numpy as np
 
 from exoleg.control.contract import vocabulary
 from exoleg.control.hierarchy import WalkGains
-from exoleg.entry import DEFAULT_BODY_MASS
+from exoleg.entry import DEFAULT_BODY_MASS, typed_number
 from exoleg.errors import ParameterError
 from exoleg.hmi.archive import Archive
+from exoleg.hmi.registry import FILE as RECORDS
+from exoleg.hmi.registry import Registry
 from exoleg.io import write_json
-from exoleg.runtime.control_api import ControlAPI, body_of, loopback, source_of
+from exoleg.runtime.control_api import (
+    BadBody,
+    ControlAPI,
+    SameOrigin,
+    bad_body,
+    body_of,
+    loopback,
+    source_of,
+)
 from exoleg.runtime.link import LoopLink
 from exoleg.runtime.session import SIMULATED_BUS, check_options
 
 STATIC = Path(__file__).parent / "static"
+#: the child form's fields as the page labels them (errors are said in the form's words)
+FORM_LABELS = {"age": "Age (years)", "height": "Height (cm)", "mass": "Mass (kg)",
+               "thigh": "Thigh (hip-knee, cm)", "shank": "Shank (knee-ankle, cm)",
+               "leg_length": "Leg length (cm)", "foot_length": "Foot length (cm)",
+               "ankle_height": "Ankle height (cm)"}
 #: the longest session the HMI starts, s (a session may be ended at any time before)
 MAX_DURATION = 3600.0
 #: the names and texts of the modes, phases, events, faults and safety bits, from the
 #: enumerations the compiled tick uses (the page keeps no table of its own)
 VOCABULARY = vocabulary()
-
-
-def _slug(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_-]+", "-", text).strip("-")[:40] or "child"
 
 
 def _session_process(link: LoopLink, backend: str, interface: str | None, duration: float,
@@ -117,11 +127,15 @@ class HMI:
         self.backend, self.interface = backend, interface
         self.fixed = fixed is not None
         self.lock = threading.RLock()
-        self.child: dict[str, Any] | None = None  # the fit kept for the next session
-        self.child_leg: Path | None = None
+        # the children's records (not under `exoleg run --hmi`, which fits no child)
+        self.registry = None if self.fixed else Registry(self.root / RECORDS,
+                                                         legacy=self.root / "children")
+        self.kept: dict[str, Any] | None = None  # the fit the next session runs on
         self.proc: Any = None
         self.session: Path | None = None
         self.leg = leg if leg is not None else exoleg.paper_leg()
+        if self.registry is not None and leg is None:
+            self._keep(self.registry.kept())
         self.info = device_info(self.leg)
         self.host = "127.0.0.1"  # where it listens (set by serve)
         self.cpus: set[int] | None = None  # the server's CPUs before keep_off_loop_cpu
@@ -147,37 +161,70 @@ class HMI:
                 return 409, {"error": f"session {self.session.name if self.session else ''}"
                                       " is running; end it first"}
             if not (np.isfinite(duration) and 1.0 <= duration <= MAX_DURATION):
-                return 422, {"error": f"duration {duration:g} s is outside 1-"
+                return 422, {"error": f"Duration (s): {duration:g} is outside 1-"
                                       f"{MAX_DURATION:g} s"}
-            if self.child is not None and not self.child["fits"]:
-                return 409, {"error": f"the device does not fit {self.child['child']['name']}"
-                                      f": {'; '.join(self.child['notes'])}"}
-            stem = time.strftime("%Y%m%d-%H%M%S") + "-" + _slug(
-                self.child["child"]["name"] if self.child else "paper-leg")
+            kept = self.kept
+            if kept is not None and not kept["record"]["fits"]:
+                return 409, {"error": f"the device does not fit {kept['name']}: "
+                                      f"{'; '.join(kept['record']['notes'])}"}
+            stem = time.strftime("%Y%m%d-%H%M%S") + "-" + (kept["child_id"] if kept
+                                                            else "paper-leg")
             name, n = stem, 1
             while (self.root / name).exists():  # never into a recorded session's folder
                 n += 1
                 name = f"{stem}-{n}"
             folder = self.root / name
             folder.mkdir()
-            if self.child is not None:
-                write_json(folder / "child.json", self.child)
-                (folder / "leg.toml").write_bytes(Path(str(self.child_leg)).read_bytes())
+            runs_on = self.runs_on()
+            if kept is not None:
+                write_json(folder / "child.json", {**kept["record"],
+                                                   "child_id": kept["child_id"],
+                                                   "fit_id": kept["id"]})
+                (folder / "leg.toml").write_text(kept["leg"], encoding="utf-8")
+            if self.registry is not None:
+                self.registry.add_session(name, kept and kept["child_id"],
+                                          kept and kept["id"], time.time())
             link = LoopLink.new()
-            mass = float(self.child["child"]["mass"]) if self.child else DEFAULT_BODY_MASS
             self.proc = mp.get_context("spawn").Process(
                 target=_session_process, name="exoleg-session", daemon=True,
                 args=(link, self.backend, self.interface, duration, str(folder),
-                      str(folder / "leg.toml") if self.child else None, mass, arm,
-                      self.cpus))
+                      str(folder / "leg.toml") if kept else None, runs_on["body_mass"],
+                      arm, self.cpus))
             self.proc.start()
             self.session = folder
             self.api.attach(link, folder)
-            self.api.record(source, f"start session {name} ({duration:g} s, "
-                            f"{self.backend}{', armed at start' if arm else ''})", True)
+            self.api.record(source, f"start session {name} for {runs_on['text']} "
+                            f"({duration:g} s, {self.backend}"
+                            f"{', armed at start' if arm else ''})", True)
             threading.Thread(target=self._watch, args=(self.proc, link, folder),
                              daemon=True).start()
-            return 200, {"session": name}
+            return 200, {"session": name, **runs_on}
+
+    def runs_on(self) -> dict[str, Any]:
+        """The child, leg and body mass the next session runs on, and that as text."""
+        kept = self.kept
+        if kept is None:
+            return {"child": None, "child_id": None, "leg": self.leg.name,
+                    "body_mass": DEFAULT_BODY_MASS,
+                    "text": f"no child fitted: the paper's leg ({self.leg.name}), "
+                            f"{DEFAULT_BODY_MASS:g} kg"}
+        mass = float(kept["record"]["child"]["mass"])
+        return {"child": kept["name"], "child_id": kept["child_id"], "leg": self.leg.name,
+                "body_mass": mass, "text": f"{kept['name']} ({kept['child_id']}, fit "
+                f"{kept['id']}): leg {self.leg.name}, {mass:g} kg"}
+
+    def _keep(self, kept: dict[str, Any] | None) -> None:
+        """The fit the next session runs on (its leg drawn by the pages)."""
+        from exoleg import LegModel
+        from exoleg.params.leg_file import parse_leg_text
+
+        if kept is None:
+            return
+        links, g, name, meta = parse_leg_text(kept["leg"], f"fit {kept['id']}'s leg")
+        with self.lock:
+            self.kept = kept
+            self.leg = LegModel(links, g=g, name=name, armature=meta.get("armature"))
+            self.info = device_info(self.leg)
 
     def _watch(self, proc: Any, link: LoopLink, folder: Path) -> None:
         """When the session's process ends: its last applied commands and how it ended
@@ -187,9 +234,9 @@ class HMI:
             if self.api.link is not link:  # a new session started in between
                 return
             self.api.poll_applied()
-            self.api.detach()
-            self.api.record("hmi", "session ended", True,
+            self.api.record("session", "session ended", True,
                             why=self.archive.summary(folder)["stopped_by"])
+            self.api.detach()
 
     def end(self, source: str) -> tuple[int, dict[str, Any]]:
         with self.lock:
@@ -224,21 +271,29 @@ class HMI:
 
         def typed(k: str, v: Any, kind: str) -> float:
             lo, hi, unit = CHILD_ENTRY[kind]
-            x = float(v)
+            label = FORM_LABELS.get(k, k)
+            x = typed_number(label, v)
             if not lo <= x <= hi:
-                raise ParameterError("child", k, f"{v!r} is outside {lo:g}-{hi:g} {unit}")
+                raise ValueError(f"{label}: {x:g} is outside {lo:g}-{hi:g} {unit}")
             return x
 
+        if self.registry is None:
+            return 409, {"error": "this interface serves the one session run by `exoleg "
+                                  "run`: fit a child with `exoleg hmi` or `exoleg fit`"}
+        cid = str(body.get("child_id") or "")
+        if cid and not self.registry.exists(cid):
+            return 422, {"error": f"no child {cid[:12]!r} in the records (choose one from "
+                                  "the list, or leave it empty for a new child)"}
         try:
-            values: dict[str, Any] = {k: typed(k, body.get(k, "nan"), k)
+            values: dict[str, Any] = {k: typed(k, body.get(k), k)
                                       for k in ("age", "height", "mass")}
             for k in MEASURED:
                 if body.get(k) not in (None, ""):
                     values[k] = typed(k, body[k], "measured") / 100
             gmfcs = str(body.get("gmfcs") or "0")
             if gmfcs not in ("0", "1", "2", "3", "4", "5"):
-                raise ParameterError("child", "gmfcs", f"{gmfcs!r} is not a GMFCS level "
-                                     "(allowed: 1-5, or 0 for typically developing)")
+                raise ValueError(f"GMFCS level: {gmfcs[:10]!r} is not a level (allowed: "
+                                 "1-5, or typically developing)")
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 child = Child(age=values.pop("age"), sex=str(body.get("sex", "")),  # type: ignore[arg-type]
@@ -253,17 +308,18 @@ class HMI:
             return 422, {"error": str(e)}
         record = rep.record(leg_file_written=True)
         record["warnings"] = [str(w.message) for w in caught]
-        folder = self.root / "children" / _slug(child.name)
-        folder.mkdir(parents=True, exist_ok=True)
-        write_json(folder / "fit.json", record)
-        rep.save_leg(folder / "leg.toml")
-        with self.lock:
-            self.child, self.child_leg = record, folder / "leg.toml"
-            if not self.fixed:  # the next session's leg
-                self.leg = rep.leg
-                self.info = device_info(rep.leg)
-        self.api.record(source, f"fit {child.name}: {rep.verdict}", True)
-        return 200, record
+        reg = self.registry
+        assert reg is not None  # refused above without one
+        if cid:
+            reg.rename(cid, child.name)
+        else:
+            cid = reg.add_child(child.name)
+        fit_id = reg.add_fit(cid, record, rep.leg_text())
+        reg.keep(fit_id)
+        self._keep(reg.fit(fit_id))
+        self.api.record(source, f"fit {child.name} ({cid}, fit {fit_id}): {rep.verdict}",
+                        True)
+        return 200, {**record, "child_id": cid, "fit_id": fit_id}
 
     def live(self) -> Path | None:
         """The folder of the session running now (None when none runs)."""
@@ -283,15 +339,31 @@ class HMI:
         async def index(request: Request) -> Response:
             return FileResponse(STATIC / "index.html")
 
+        def private(request: Request) -> JSONResponse | None:
+            """None with the token; else the refusal (children's and sessions' data)."""
+            if api.has_token(request.headers):
+                return None
+            return JSONResponse({"error": "the children's and the sessions' records need "
+                                 "the token (Control page: Token)"}, 401)
+
         async def info(request: Request) -> JSONResponse:
+            records = private(request) is None
             with self.lock:
-                return JSONResponse({
-                    "device": self.info, "backend": self.backend, "fixed": self.fixed,
-                    "simulated": self.interface == SIMULATED_BUS.get(self.backend),
-                    "child": self.child, "session": self.session.name if self.session
-                    else None, "max_duration": MAX_DURATION,
-                    "children": self.archive.children(), "vocabulary": VOCABULARY,
-                    "gains": [g for g in WalkGains.TUNABLE if g != "support"]})
+                kept, runs_on = self.kept, self.runs_on()
+                out = {"device": self.info, "backend": self.backend, "fixed": self.fixed,
+                       "simulated": self.interface == SIMULATED_BUS.get(self.backend),
+                       "session": self.session.name if self.session else None,
+                       "max_duration": MAX_DURATION, "vocabulary": VOCABULARY,
+                       "gains": [g for g in WalkGains.TUNABLE if g != "support"],
+                       "records": records}
+            if records:
+                reg = self.registry
+                out.update(child=kept and {**kept["record"], "child_id": kept["child_id"],
+                                           "fit_id": kept["id"]},
+                           runs_on=runs_on["text"],
+                           children=[] if reg is None else reg.children(),
+                           damaged=[] if reg is None else reg.damaged)
+            return JSONResponse(out)
 
         async def fit(request: Request) -> JSONResponse:
             refused = api.refusal(request, "fit")
@@ -307,9 +379,10 @@ class HMI:
                 return refused
             body = await body_of(request)
             try:
-                duration = float(body.get("duration", 60.0))
-            except (TypeError, ValueError):
-                duration = float("nan")
+                duration = typed_number("Duration (s)", body.get("duration", 60.0))
+            except ValueError as e:
+                api.record(source_of(request), "start session", False, str(e))
+                return JSONResponse({"error": str(e)}, 422)
             status, out = self.start(duration, source_of(request),
                                      arm=body.get("arm") is True)
             if status != 200:
@@ -324,6 +397,9 @@ class HMI:
             return JSONResponse(out, status)
 
         async def sessions(request: Request) -> JSONResponse:
+            refused = private(request)
+            if refused:
+                return refused
             return JSONResponse(await run_in_threadpool(self.archive.sessions, self.live()))
 
         def recorded(request: Request) -> Path:
@@ -333,6 +409,9 @@ class HMI:
             return folder
 
         async def session_detail(request: Request) -> Response:
+            refused = private(request)
+            if refused:
+                return refused
             try:
                 folder = recorded(request)
             except LookupError as e:
@@ -341,6 +420,9 @@ class HMI:
                                                         self.live()))
 
         async def session_file(request: Request) -> Response:
+            refused = private(request)
+            if refused:
+                return refused
             try:
                 folder = recorded(request)
             except LookupError as e:
@@ -384,4 +466,6 @@ class HMI:
         hosts = (["127.0.0.1", "localhost", "[::1]", self.host] if loopback(self.host)
                  else ["*"])
         return Starlette(routes=routes, lifespan=lifespan,
-                         middleware=[Middleware(TrustedHostMiddleware, allowed_hosts=hosts)])
+                         exception_handlers={BadBody: bad_body},
+                         middleware=[Middleware(TrustedHostMiddleware, allowed_hosts=hosts),
+                                     Middleware(SameOrigin)])

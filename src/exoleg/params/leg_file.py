@@ -167,8 +167,11 @@ def read_leg_file(path: str | Path) -> tuple[list[Link], float, str, dict[str, A
     field (a missing, binary or oversized file, a folder, bad TOML, implausible values).
     ``meta`` holds the ``[fit]`` record (``fits``, ``note``) when there is one and
     ``armature`` when it is not zero."""
-    where = str(path)
-    text = read_text(path, "leg parameter file (TOML)")
+    return parse_leg_text(read_text(path, "leg parameter file (TOML)"), str(path))
+
+
+def parse_leg_text(text: str, where: str) -> tuple[list[Link], float, str, dict[str, Any]]:
+    """:func:`read_leg_file` of a leg file's text (``where``: what errors name)."""
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:

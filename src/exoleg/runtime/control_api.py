@@ -42,6 +42,8 @@ import math
 import time
 from typing import Any
 
+from exoleg.entry import typed_number
+from exoleg.params.records import JOINTS
 from exoleg.runtime.link import GAIN_NAMES
 from exoleg.runtime.operator import COMMANDS, LEASE_S, UNGUARDED, OperatorRules
 
@@ -78,9 +80,79 @@ async def read_body(request: Any) -> tuple[dict[str, Any], str]:
     return (body, "") if isinstance(body, dict) else ({}, "body is not a JSON object")
 
 
+class BadBody(Exception):
+    """A request's body the API cannot take: ``status`` (413 too large, 400 not a JSON
+    object) and what was wrong."""
+
+    def __init__(self, status: int, problem: str) -> None:
+        super().__init__(problem)
+        self.status, self.problem = status, problem
+
+
 async def body_of(request: Any) -> dict[str, Any]:
-    """The request's JSON object ({} when it is not one, or too large to read)."""
-    return (await read_body(request))[0]
+    """The request's JSON object; :class:`BadBody` when it is too large or not one
+    (answered as JSON by :func:`bad_body`)."""
+    body, problem = await read_body(request)
+    if problem:
+        raise BadBody(413 if "over" in problem else 400, problem)
+    return body
+
+
+async def bad_body(request: Any, exc: Exception) -> Any:
+    from starlette.responses import JSONResponse
+
+    assert isinstance(exc, BadBody)
+    return JSONResponse({"error": f"{exc.problem} (expected a JSON object of at most "
+                                  f"{BODY_LIMIT} bytes)"}, exc.status)
+
+
+class SameOrigin:
+    """ASGI middleware: a POST, PUT or DELETE, or a WebSocket, that a browser sends from
+    another page (its ``Origin`` is not this server's, or ``Sec-Fetch-Site`` says
+    cross-site) is refused (403) before it reaches a route -- the E-stop included: a page
+    elsewhere in the same browser must not move or stop the device, nor read its
+    stream. A declared body over :data:`BODY_LIMIT` is refused (413) before it is read,
+    except the E-stop's (``/api/estop`` takes any body). Programs (no ``Origin``) pass;
+    they need the token for everything but the E-stop."""
+
+    CHANGES = frozenset({"POST", "PUT", "DELETE", "PATCH"})
+
+    def __init__(self, app: Any) -> None:
+        self.app = app
+
+    @staticmethod
+    def _refusal(scope: dict[str, Any]) -> tuple[int, str]:
+        headers = {k.decode("latin-1").lower(): v.decode("latin-1")
+                   for k, v in scope.get("headers", [])}
+        ws = scope["type"] == "websocket"
+        if ws or scope.get("method") in SameOrigin.CHANGES:
+            origin = headers.get("origin")
+            scheme = {"ws": "http", "wss": "https"}.get(scope.get("scheme", "http"),
+                                                        scope.get("scheme", "http"))
+            mine = f"{scheme}://{headers.get('host', '')}"
+            site = headers.get("sec-fetch-site", "same-origin")
+            if (origin is not None and origin != mine) or site not in ("same-origin",
+                                                                       "none"):
+                return 403, (f"cross-origin request refused: from {origin or site!r}, "
+                             f"this interface is {mine} (only its own pages may act)")
+        length = headers.get("content-length", "0")
+        if scope.get("path") != "/api/estop" and (not length.isdigit()
+                                                  or int(length) > BODY_LIMIT):
+            return 413, f"body of {length[:20]} bytes refused (at most {BODY_LIMIT})"
+        return 0, ""
+
+    async def __call__(self, scope: dict[str, Any], receive: Any, send: Any) -> None:
+        if scope["type"] not in ("http", "websocket"):
+            return await self.app(scope, receive, send)
+        status, why = self._refusal(scope)
+        if not status:
+            return await self.app(scope, receive, send)
+        if scope["type"] == "websocket":
+            await send({"type": "websocket.close", "code": 1008, "reason": why[:120]})
+            return None
+        from starlette.responses import JSONResponse
+
+        return await JSONResponse({"error": why}, status)(scope, receive, send)
 
 
 def click_stamp(value: Any) -> tuple[float | None, str]:
@@ -213,14 +285,19 @@ class ControlAPI(OperatorRules):
             if refused:
                 return refused
             body = await body_of(request)
+            change: dict[str, list[float]] = {}
+            why = ""
             try:
-                change = {str(k): [float(x) for x in (v if isinstance(v, list) else [v])]
-                          for k, v in body.items()}
-            except (ValueError, TypeError):
-                change = {}
-            why = (self.check_gains(change) if change else
-                   "expected JSON {name: [hip, knee, ankle]} (names: "
-                   + ", ".join(GAIN_NAMES) + ")")
+                for k, v in body.items():
+                    vals = v if isinstance(v, list) else [v]
+                    change[str(k)[:40]] = [
+                        typed_number(f"{k} ({JOINTS[i]})" if len(vals) == 3 else str(k), x)
+                        for i, x in enumerate(vals)]
+            except ValueError as e:  # empty, not a number: said in the form's words
+                why = str(e)
+            why = why or (self.check_gains(change) if change else
+                          "expected JSON {name: [hip, knee, ankle]} (names: "
+                          + ", ".join(GAIN_NAMES) + ")")
             if why:
                 self.record(source, "gains " + ", ".join(change), False, why)
                 return JSONResponse({"error": why, "bounds": self.gains()[1]}, 422)

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from exoleg.control.contract import OUTPUT, SENSORS, Command
+from exoleg.control.gait_phase import Event
 from exoleg.control.hierarchy import PARAMS, WalkGains
 from exoleg.runtime.loop import END_SESSION, LINK_LOST
 
@@ -55,8 +56,9 @@ def _shape(dtype: np.dtype, name: str) -> tuple[int, ...]:
 #: number, the tick's time, the controller's output (:data:`OUTPUT`) and the device's
 #: joint and foot readings (:data:`SENSORS`), the loop's timing, whether it runs, the
 #: gains in force (:data:`GAIN_NAMES`, as :data:`~exoleg.control.hierarchy.PARAMS`
-#: holds them) and the ring of applied commands (command, request id, tick, wall time,
-#: refused by the supervisor (1) or not (0), the mode then)
+#: holds them), the ring of applied commands (command, request id, tick, wall time,
+#: refused by the supervisor (1) or not (0), the mode then), the steps (initial
+#: contacts) so far and the ring of every tick's gait events (time, event bits)
 PUBLISHED = ("mode", "phase", "gait_fraction", "events", "safety_status", "q_ref", "tau",
              "fault", "fault_joint", "fault_value", "fault_limit", "refused")
 READINGS = ("q", "dq", "fsr")
@@ -66,7 +68,8 @@ BLOCK = np.dtype([("seq", "f8"), ("t", "f8")]
                  + [("late_us", "f8"), ("late_max_us", "f8"), ("missed", "f8"),
                     ("tick", "f8"), ("running", "f8"), ("gains_set", "f8")]
                  + [("gain_" + n, "f8", _shape(PARAMS, n)) for n in GAIN_NAMES]
-                 + [("applied", "f8"), ("ring", "f8", (RING, 6))])
+                 + [("applied", "f8"), ("ring", "f8", (RING, 6)),
+                    ("steps", "f8"), ("n_events", "f8"), ("event_ring", "f8", (RING, 2))])
 SIZE = BLOCK.itemsize // 8
 #: the snapshot's fields, in the block's order
 _SNAPSHOT = ("t", *PUBLISHED, *READINGS, "late_us", "late_max_us", "missed", "tick",
@@ -164,16 +167,23 @@ class LoopLink:
         """After tick ``k``: note a command the controller applied this tick (with the
         wall time, after the drives' command was written) and, when ``publish``, the
         tick's state."""
-        self._events |= int(out["events"])
+        events = int(out["events"])
+        self._events |= events
         self._status |= int(out["safety_status"])
         self._late_max = max(self._late_max, late)
         if late > period:
             self._missed += 1
         applied = int(sensors.get("command", 0))
         hit = next((x for x in self._inflight if x[0] == applied), None) if applied else None
-        if not publish and hit is None:
+        if not publish and hit is None and not events:
             return
         v = self._begin()
+        if events:  # every event, for the pages (the publication ORs them)
+            n = int(v["n_events"])
+            v["event_ring"][n % RING] = (t, events)
+            v["n_events"] = n + 1
+            if events & Event.IC:
+                v["steps"] += 1
         if hit is not None:
             self._inflight.remove(hit)
             n = int(v["applied"])
@@ -237,6 +247,12 @@ class LoopLink:
             out[name] = ([float(a) for a in x] if BLOCK[name].shape
                          else int(x) if name in _INTS else float(x))
         out["running"] = _RUNNING[int(out["running"])]
+        out["steps"] = int(c["steps"])
+        out["support"] = float(c["gain_support"]) if c["gains_set"] else None
+        n = int(c["n_events"])
+        out["event_log"] = [[i, float(c["event_ring"][i % RING][0]),
+                             int(c["event_ring"][i % RING][1])]
+                            for i in range(max(0, n - RING), n)]
         return out
 
     @staticmethod

@@ -123,10 +123,31 @@ def _header(p: Path, f: Any) -> tuple[dict[str, Any], list[str], int]:
         raise ParameterError(str(p), "(log)", "is not an exoleg session log")
     try:
         header = json.loads(line[len(MAGIC):-1])
-        cols = list(header["columns"])
-    except (ValueError, KeyError, TypeError):
-        raise ParameterError(str(p), "(log)", "has a damaged header") from None
-    return header, cols, len(line)
+    except (ValueError, RecursionError):
+        raise ParameterError(str(p), "(log)", "has a damaged header (not JSON)") from None
+    why = header_problem(header)
+    if why:
+        raise ParameterError(str(p), "(log)", f"has a damaged header: {why}")
+    return header, list(header["columns"]), len(line)
+
+
+def header_problem(header: Any) -> str:
+    """What is wrong with a log's header ('' when nothing): not an object; no columns, or
+    columns that are not distinct names; a period, start or body mass that is not a
+    plausible number."""
+    if not isinstance(header, dict):
+        return "not a JSON object"
+    cols = header.get("columns")
+    if not isinstance(cols, list) or not cols:
+        return "lists no columns"
+    if not all(isinstance(c, str) and c for c in cols) or len(set(cols)) != len(cols):
+        return "its columns are not distinct names"
+    for key, lo, hi in (("period", 1e-5, 1.0), ("started", 0.0, 1e11),
+                        ("body_mass", 1.0, 200.0)):
+        v = header.get(key, lo)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not lo <= v <= hi:
+            return f"its {key} {str(v)[:30]!r} is not a number within {lo:g}-{hi:g}"
+    return ""
 
 
 def read_header(path: str | Path) -> tuple[dict[str, Any], int]:

@@ -40,6 +40,7 @@ from exoleg.control.contract import (
     Mode,
     output_columns,
 )
+from exoleg.control.safety import fault_event
 from exoleg.runtime.clock import RateClock
 from exoleg.runtime.log import SessionLog
 from exoleg.runtime.realtime import realtime_settings, saved_scheduling
@@ -185,6 +186,7 @@ def run_session(backend: Device, controller: Controller, duration: float, period
     clock.start()
     k = -1
     late = 0.0
+    latched = ""  # the first fault or E-stop the controller latched, and when
     try:
         while k + 1 < limit:
             k += 1
@@ -208,6 +210,8 @@ def run_session(backend: Device, controller: Controller, duration: float, period
                 backend.safe()
                 reason = f"controller error: {type(e).__name__}: {e}"
                 break
+            if out["fault"] and not latched:  # how the session ends says it
+                latched = f"after {fault_event(out['fault'], out['fault_joint'])} at {t:.3f} s"
             log.append(np.concatenate([[t, late], backend.record(), row]))
             if scenery is not None:
                 scenery(out)
@@ -260,6 +264,8 @@ def run_session(backend: Device, controller: Controller, duration: float, period
             raise
         reason = f"loop error: {type(e).__name__}: {e}: torque off"
     finally:
+        if latched:
+            reason = f"{reason} ({latched})"
         gc.enable()
         gc.unfreeze()
         for s, h in old.items():

@@ -5,8 +5,9 @@ bounded (0 to twice their value at the start, the support level 0-1), and every 
 accepted or refused, and the loop's application of each command go to ``control.log``
 with their wall times. An operator's hold that lapses while the child walks is a lost
 link: the device comes to a controlled stop (stand) and an alarm goes to the log and to
-every page (:meth:`OperatorRules.watch_once`). :class:`~exoleg.runtime.control_api.ControlAPI` serves them over
-HTTP; a script or a test may call them directly."""
+every page (:meth:`OperatorRules.watch_once`).
+:class:`~exoleg.runtime.control_api.ControlAPI` serves them over HTTP; a script or a test
+may call them directly."""
 
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from exoleg.control.contract import WALKING_MODES, Command, Mode
+from exoleg.control.safety import fault_detail
 from exoleg.control.supervisor import refusal
 from exoleg.runtime.link import GAIN_NAMES, LoopLink
 
@@ -29,7 +31,8 @@ NAMES = {int(v): k for k, v in COMMANDS.items()}
 UNGUARDED = {"estop"}
 #: an operator's hold on control lapses after this long without a request from them, s
 LEASE_S = 5.0
-NO_TOKEN = "no valid token (Authorization: Bearer <the token printed at start-up>)"
+NO_TOKEN = ("no valid token: enter the token printed when exoleg started (Control page, "
+            "Token; programs send Authorization: Bearer <token>)")
 
 
 def _json_safe(v: Any) -> Any:
@@ -48,7 +51,8 @@ class OperatorRules:
         self.token = token or secrets.token_urlsafe(16)
         self.lock = threading.RLock()
         self.link: LoopLink | None = None
-        self.folder = Path(folder)  # where control.log goes
+        self.home = Path(folder)  # interface.log: what is done with no session running
+        self.folder = self.home  # the session's, while one is attached
         self.bounds: dict[str, list[list[float]]] = {}
         self.actions: list[dict[str, Any]] = []
         self.operator: dict[str, Any] | None = None
@@ -59,9 +63,17 @@ class OperatorRules:
         self.outcomes: dict[int, tuple[bool, str]] = {}  # request id -> applied, why not
         self._seq, self._seq_seen = -1.0, time.monotonic()  # the loop's last publication
 
-    @property
-    def log_path(self) -> Path:
-        return self.folder / "control.log"
+    def log_path(self, source: str) -> Path:
+        """Where an action from ``source`` is logged: the session's ``control.log`` while
+        it runs (the loop's applications and the session's end, sources ``loop`` and
+        ``session``, always), else the interface's own
+        ``interface.log`` -- never in a session that has ended."""
+        with self.lock:
+            link, folder = self.link, self.folder
+        if link is not None and (source in ("loop", "session")
+                                 or LoopLink.running(link.web_copy()) != "ended"):
+            return folder / "control.log"
+        return self.home / "interface.log"
 
     def attach(self, link: LoopLink, folder: str | Path) -> None:
         """A session starts: its link and its folder (control.log)."""
@@ -74,7 +86,7 @@ class OperatorRules:
 
     def detach(self) -> None:
         with self.lock:
-            self.link = None
+            self.link, self.folder = None, self.home
 
     # ------------------------------------------------------------------ bookkeeping
     def record(self, source: str, command: str, accepted: bool, why: str = "",
@@ -85,7 +97,7 @@ class OperatorRules:
         with self.lock:
             self.actions.append(entry)
             try:
-                with self.log_path.open("a") as f:
+                with self.log_path(source).open("a") as f:
                     f.write(json.dumps(entry) + "\n")
             except OSError as e:  # the action stands; the failure is said where it is seen
                 entry["log_error"] = str(e)
@@ -101,7 +113,9 @@ class OperatorRules:
         if link is None:
             return {"running": "none", "alarm": alarm, "holder": holder}
         out = LoopLink.snapshot(link.web_copy())
-        out.update(loop_age_s=round(age, 3), alarm=alarm, holder=holder)
+        out.update(loop_age_s=round(age, 3), alarm=alarm, holder=holder,
+                   fault_text=fault_detail(out["fault"], out["fault_joint"],
+                                           out["fault_value"], out["fault_limit"]))
         return out
 
     def gains(self) -> tuple[dict[str, list[float]], dict[str, list[list[float]]]]:
@@ -219,7 +233,8 @@ class OperatorRules:
             op = self.holder()
             oid = headers.get("x-operator", "")
             if op is None:
-                why = "take control first (POST /operator): no operator holds it"
+                why = ("take control first (Control page, Take control): nobody holds "
+                       "it")
             elif not secrets.compare_digest(oid, op["id"]):
                 why = (f"control is held by {op['name']} ({op['source']}); you can view "
                        "only")

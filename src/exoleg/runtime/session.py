@@ -69,6 +69,54 @@ def check_options(backend: str, interface: str | None = None, arm: bool = False,
                              f"walking controller, not {controller!r}")
 
 
+#: the files that make a recorded session (a folder holding any of them holds one)
+RECORD_FILES = ("session.log", "run.json", "failed.json")
+#: the files of a session's folder an export must never write over
+SESSION_FILES = (*RECORD_FILES, "control.log", "child.json", "leg.toml")
+LOCK_FILE = ".exoleg-run.lock"
+
+
+def check_folder(out: str | Path) -> Path:
+    """The session folder ``out``, made if missing; a ParameterError when it holds a
+    recorded session (never written over: :data:`RECORD_FILES`) or cannot be written."""
+    from exoleg.io import _writable_folder
+
+    folder = _writable_folder(Path(out))
+    held = [n for n in RECORD_FILES if (folder / n).exists()]
+    if held:
+        raise ParameterError("exoleg run", "--out", f"{folder} holds a recorded session "
+                             f"({', '.join(held)}): never written over; name a new folder "
+                             "(nothing was changed)")
+    return folder
+
+
+def claim_folder(out: str | Path) -> tuple[Path, int]:
+    """:func:`check_folder`, then hold the folder for this run: an exclusive lock on its
+    :data:`LOCK_FILE` (released when the process ends, however it ends), which a second
+    run into the same folder is refused. Returns (folder, the lock's descriptor: close
+    it to release)."""
+    import fcntl
+    import os
+
+    folder = check_folder(out)
+    fd = os.open(folder / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        holder = os.read(fd, 64).decode(errors="replace").strip() or "?"
+        os.close(fd)
+        raise ParameterError("exoleg run", "--out", f"{folder} is in use by another run "
+                             f"(process {holder}); name a new folder") from None
+    os.ftruncate(fd, 0)
+    os.write(fd, str(os.getpid()).encode())
+    try:
+        check_folder(folder)  # a run that ended between the check and the lock
+    except BaseException:
+        os.close(fd)
+        raise
+    return folder, fd
+
+
 def make_controller(name: str, config: DeviceConfig, leg: LegModel, body_mass: float,
                     sim: Any = None) -> Controller:
     """The controller called ``name`` (:data:`~exoleg.entry.CONTROLLERS`) for the device
@@ -156,14 +204,31 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     :data:`SIMULATED_BUS`: simulated nodes). ``bus_timeout``: how long the master waits
     for every node's answer before it is a fault (s; default :data:`BUS_TIMEOUT_S`, or
     :data:`SIMULATED_BUS_TIMEOUT_S` on simulated nodes); ``overrun``: how late a tick may
-    start before it is a fault (s)."""
-    import exoleg
-    from exoleg.control.contract import WALKING_MODES, Command
-    from exoleg.io import _writable_folder, write_json
+    start before it is a fault (s). ``out`` must hold no recorded session and no other
+    run (:func:`claim_folder`): a session is never written over."""
+    import os
 
     check_options(backend, interface, arm, walk_after, bus_timeout, overrun, controller,
                   link)
+    folder, lock = claim_folder(out)
+    try:
+        return _run(backend, duration, folder, period, arm, walk_after, leg, body_mass,
+                    seed, realtime, interface, channel, inject, link, bus_timeout, overrun,
+                    controller)
+    finally:
+        os.close(lock)
+
+
+def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
+         walk_after: float | None, leg: Any, body_mass: float, seed: int, realtime: bool,
+         interface: str | None, channel: str, inject: Any, link: Any,
+         bus_timeout: float | None, overrun: float, controller: str
+         ) -> tuple[SessionResult, Path]:
+    """:func:`run` in the folder it holds."""
+    import exoleg
+    from exoleg.control.contract import WALKING_MODES, Command
     from exoleg.device.config import DeviceConfig
+    from exoleg.io import write_json
     from exoleg.runtime.sim_backend import SimBackend
 
     leg = leg if leg is not None else exoleg.paper_leg()
@@ -179,7 +244,6 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     # the bus's threads: receivers, simulated nodes
     io_threads = [t for t in threading.enumerate() if t not in before]
     try:
-        folder = _writable_folder(Path(out))
         path = folder / "session.log"
         import shutil
 
@@ -255,6 +319,11 @@ def summarize(path: str | Path) -> dict[str, Any]:
     from exoleg.control.safety import Limited
 
     header, cols, cut = read_log(path)
+    need = ("t", "late", "mode", "safety_status", "events")
+    missing = [c for c in need if c not in cols]
+    if missing:
+        raise ParameterError(str(path), "(log)", f"has a damaged header: no column "
+                             f"{missing[0]!r} (a session log has {', '.join(need)})")
     n = len(cols["t"])
     period = float(header.get("period", 1e-3))
     late = cols["late"][1:] * 1e6 if n > 1 else np.zeros(0)

@@ -62,9 +62,10 @@ class FitReport:
             "smallest_margin": {"margin": mg, "source": src, "quantity": qn, "joint": joint},
             "notes": self.notes, "leg_file_written": leg_file_written}, default=jsonable)))
 
-    def save_leg(self, path: str | Path) -> Path:
-        """The personalized leg file, marked when the device does not fit the child."""
-        import exoleg
+    def leg_text(self) -> str:
+        """The personalized leg file's text, marked when the device does not fit the
+        child."""
+        from exoleg.params.leg_file import format_leg
 
         c = self.child
         header = (f"personalized leg of {c.name} ({c.age:g} y {c.sex}, {c.height:.3f} m, "
@@ -72,8 +73,17 @@ class FitReport:
         if not self.fit.fits:
             header += ("\nTHE DEVICE DOES NOT FIT THIS CHILD: written on request "
                        "(--write-leg); telescope settings clamped to the device's range")
-        return exoleg.save_leg(self.leg, path, header=header,
-                               fit={"fits": self.fit.fits, "note": "; ".join(self.notes)})
+        return format_leg(self.leg.links, self.leg.g, self.leg.name, header=header,
+                          fit={"fits": self.fit.fits, "note": "; ".join(self.notes)},
+                          armature=self.leg.armature)
+
+    def save_leg(self, path: str | Path) -> Path:
+        """The personalized leg file (:meth:`leg_text`), written whole or not at all."""
+        from exoleg.io import atomic_path
+
+        with atomic_path(path) as tmp:
+            tmp.write_text(self.leg_text(), encoding="utf-8")
+        return Path(path)
 
 
 def fit_report(child: Child, leg_length_method: LegLengthMethod = "linear",

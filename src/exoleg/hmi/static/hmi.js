@@ -15,7 +15,9 @@ const DEG = 180 / Math.PI;
 const S = {
   token: "", operator: sessionStorage.getItem("exoleg-operator") || "",
   info: null, state: null, hist: [], events: [], updates: [], lastMode: null,
+  lastMsg: 0, lastEvent: -1, estopFailed: false,
 };
+const STALE_MS = 1000;  // no update for this long: the page says the link is lost
 
 // ---------------------------------------------------------------- plumbing
 const $ = (id) => document.getElementById(id);
@@ -44,16 +46,37 @@ async function call(method, url, body) {
 
 async function act(method, url, body, done) {
   const r = await call(method, url, body);
-  if (r.ok) { say(done || "done", true); } else { say("refused: " + (r.data.error || r.status), false); }
+  if (r.ok && r.data.applied === null) say((done || "done") + "; the loop has not answered yet", true);
+  else if (r.ok) say(done || "done", true);
+  else if (r.data.applied === false) say("refused by the supervisor: " + r.data.error, false);
+  else if (r.status === 0) say("not sent: " + r.data.error, false);
+  else say("refused: " + (r.data.error || r.status), false);
   return r;
+}
+
+// a question before an action that takes the torque off or ends a session while moving
+function confirmFirst(text) {
+  const d = $("confirm");
+  $("confirm-text").textContent = text;
+  return new Promise((done) => {
+    const end = (yes) => { d.close(); $("confirm-yes").onclick = $("confirm-no").onclick = null; done(yes); };
+    $("confirm-yes").onclick = () => end(true);
+    $("confirm-no").onclick = () => end(false);
+    d.onclose = () => done(false);
+    d.showModal();
+  });
 }
 
 // ---------------------------------------------------------------- E-stop: always there
 async function estop(ev) {
   const clicked = performance.timeOrigin + (ev && ev.timeStamp ? ev.timeStamp : performance.now());
   window.lastEstopClick = clicked;
-  const r = await call("POST", "/api/command", {command: "estop", clicked_at: clicked});
-  if (r.ok) say("E-STOP sent: torque off", true); else say("E-STOP: " + (r.data.error || r.status), false);
+  const r = await call("POST", "/api/estop", {clicked_at: clicked});
+  S.estopFailed = r.status === 0;
+  $("estop").classList.toggle("unreachable", S.estopFailed);
+  if (r.ok) say("E-STOP sent: torque off", true);
+  else if (r.status === 0) say("E-STOP COULD NOT REACH THE DEVICE: the server does not answer. Use the hardware E-stop now.", false);
+  else say("E-STOP: " + (r.data.error || r.status), false);
 }
 $("estop").addEventListener("click", estop);
 document.addEventListener("keydown", (e) => { if (e.key === "Escape") { e.preventDefault(); estop(e); } });
@@ -76,18 +99,24 @@ function connect() {
   ws.onmessage = (m) => {
     const s = JSON.parse(m.data);
     const now = performance.now();
+    S.lastMsg = now;
     S.updates.push(now);
     while (S.updates.length && S.updates[0] < now - 2000) S.updates.shift();
     if (s.running === undefined || s.running === "none" || s.tick === undefined) { S.state = s; return; }
     const last = S.hist.length ? S.hist[S.hist.length - 1] : null;
     if (!last || s.t !== last.t) {
-      if (last && s.t < last.t) S.hist = [];
+      if (last && s.t < last.t) { S.hist = []; S.lastEvent = -1; }
       S.hist.push(s);
       while (S.hist.length && S.hist[0].t < s.t - WINDOW) S.hist.shift();
-      for (const [bit, name] of VOC().text.Event) if (s.events & bit) S.events.unshift(`${s.t.toFixed(2)} s: ${name}`);
+      // every gait event the loop saw (its ring, numbered), not only those of this update
+      for (const [i, t, bits] of s.event_log || []) {
+        if (i <= S.lastEvent) continue;
+        S.lastEvent = i;
+        for (const [bit, name] of VOC().text.Event) if (bits & bit) S.events.unshift(`${t.toFixed(2)} s: ${name}`);
+      }
       if (S.lastMode !== null && s.mode !== S.lastMode) S.events.unshift(`${s.t.toFixed(2)} s: ${MODE(S.lastMode)} -> ${MODE(s.mode)}`);
       S.lastMode = s.mode;
-      S.events.length = Math.min(S.events.length, 12);
+      S.events.length = Math.min(S.events.length, 16);
     }
     S.state = s;
   };
@@ -195,17 +224,60 @@ function drawFsr(s) {
   });
 }
 
+function banner(id, text) {
+  const b = $(id);
+  if (b.textContent !== text) b.textContent = text;
+  b.hidden = !text;
+}
+
+function linkState(s) {
+  // the stream's age on this page, then the loop's behind the server
+  const age = S.lastMsg ? (performance.now() - S.lastMsg) / 1000 : Infinity;
+  if (age * 1000 > STALE_MS) {
+    $("hdr-link").textContent = S.lastMsg ? `link: LOST (${age.toFixed(1)} s)` : "link: connecting";
+    $("hdr-link").className = "link lost";
+    banner("link-lost", S.lastMsg ? `No update from the server for ${age.toFixed(1)} s: this page cannot see the device, ` +
+      "and its E-stop may not reach it. Use the hardware E-stop if the child needs it; check that exoleg still runs, then reload this page." : "");
+    return false;
+  }
+  const silent = s && s.running === "running" && s.loop_age_s > STALE_MS / 1000;
+  $("hdr-link").textContent = silent ? `link: loop silent ${s.loop_age_s.toFixed(1)} s` : "link: live";
+  $("hdr-link").className = "link" + (silent ? " lost" : "");
+  banner("link-lost", silent ? `The server answers but the device's loop has not published for ${s.loop_age_s.toFixed(1)} s. ` +
+    "Use the hardware E-stop if the child needs it." : "");
+  return !silent;
+}
+
+// the buttons a mode allows (the supervisor's own table, from the server)
+function enableButtons(s) {
+  const running = s && s.running === "running";
+  const applies = running ? (VOC().applies || {})[String(s.mode)] || [] : [];
+  for (const b of document.querySelectorAll("[data-command]")) b.disabled = !applies.includes(b.dataset.command);
+  const live = s && (s.running === "running" || s.running === "starting");
+  $("start").disabled = !!live || (S.info && S.info.fixed);
+  $("end").disabled = !live;
+}
+
 function frame() {
   const s = S.state;
+  const fresh = linkState(s);
   if (s && S.info) {
     const running = s.running === "running";  // ticking (not starting, not ended)
     const known = s.running && s.running !== "none";
     $("hdr-session").textContent = known ? `session ${S.info.session || ""}: ${s.running}` : "no session";
-    const mode = running || s.running === "ended" ? MODE(s.mode) : "-";
+    const mode = fresh && (running || s.running === "ended") ? MODE(s.mode) : "-";
     for (const id of ["hdr-mode", "mode", "ctl-mode"]) $(id).textContent = mode;
-    $("hdr-mode").className = "mode" + (running ? " m" + s.mode : "");
+    $("hdr-mode").className = "mode" + (running && fresh ? " m" + s.mode : "");
     $("rate").textContent = (S.updates.length / 2).toFixed(0) + " per s";
+    banner("alarm", s.alarm ? `ALARM ${new Date(s.alarm.time * 1000).toLocaleTimeString()}: ${s.alarm.text}` : "");
+    banner("fault-banner", known && s.fault ? "FAULT, torque off: " + s.fault_text : "");
+    $("guide").hidden = running;
+    enableButtons(fresh ? s : null);
     if (running && $("page-live").classList.contains("shown")) {
+      $("t-session").textContent = s.t.toFixed(1) + " s";
+      $("steps").textContent = s.steps;
+      $("support").textContent = s.support === null ? "-" : (100 * s.support).toFixed(0) + " %";
+      $("fault-live").textContent = s.fault ? s.fault_text : "";
       drawLeg(s); drawAngles(); drawTorques(s); drawFsr(s);
       $("phase").textContent = VOC().text.Phase[s.phase] || s.phase;
       const bits = VOC().text.Limited.filter(([b]) => s.safety_status & b).map(([, n]) => n);
@@ -235,18 +307,28 @@ async function refreshInfo() {
   if (!r.ok) return;
   S.info = r.data;
   const st = S.state || {};
-  $("session-line").textContent = (r.data.fixed ? "This interface serves the session run by `exoleg run`. " : "") +
-    (r.data.session ? `Last session: ${r.data.session}. ` : "") + (r.data.child ? `Child: ${r.data.child.child.name} (${r.data.child.verdict}).` : "Child: none fitted (paper leg).") +
-    ` Backend: ${r.data.backend}.`;
-  for (const id of ["arm-start-line", "arm-start-note"]) $(id).style.display = r.data.simulated ? "" : "none";
-  $("children").innerHTML = r.data.children.map((c, i) => `<li><a href="#child" data-i="${i}">${esc(c.name)}: ${c.age} y, ${(c.height * 100).toFixed(1)} cm, ${c.mass} kg</a></li>`).join("");
-  for (const a of $("children").querySelectorAll("a")) a.onclick = () => pickChild(r.data.children[+a.dataset.i]);
-  if (r.data.child && !$("fit-result").dataset.shown) showFit(r.data.child);
+  const d = r.data;
+  $("session-line").textContent = (d.fixed ? "This interface serves the session run by `exoleg run`. " : "") +
+    (d.session ? `Last session: ${d.session}. ` : "") + ` Backend: ${d.backend}.`;
+  $("runs-on").textContent = d.records ? d.runs_on : "(enter the token to see the child's records)";
+  for (const id of ["arm-start-line", "arm-start-note"]) $(id).style.display = d.simulated ? "" : "none";
+  const kids = d.children || [];
+  $("children").innerHTML = d.records ? (kids.map((c, i) => `<li><a href="#child" data-i="${i}">${esc(c.name)} (${esc(c.id)})` +
+    (c.child.age ? `: ${c.child.age} y, ${(c.child.height * 100).toFixed(1)} cm, ${c.child.mass} kg` : "") +
+    `, ${c.fits} fit(s), ${c.sessions} session(s)</a></li>`).join("") || "<li class='muted'>none yet</li>") :
+    "<li class='muted'>The children's records need the token (Control page: Token).</li>";
+  for (const a of $("children").querySelectorAll("a")) a.onclick = () => pickChild(kids[+a.dataset.i]);
+  $("damaged-records").innerHTML = (d.damaged || []).map((x) => `<li>damaged, not listed: ${esc(x)}</li>`).join("");
+  if (d.child && !$("fit-result").dataset.shown) showFit(d.child);
 }
 
-function pickChild(c) {
-  const f = $("child-form");
-  for (const k of ["name", "age", "sex", "mass"]) f.elements[k].value = c[k];
+function pickChild(rec) {
+  const f = $("child-form"), c = rec.child;
+  f.elements.child_id.value = rec.id;
+  $("child-record").textContent = `${rec.name} (${rec.id}): a new fit of this child's record.`;
+  f.elements.name.value = rec.name;
+  if (!c.age) return;
+  for (const k of ["age", "sex", "mass"]) f.elements[k].value = c[k];
   f.elements.height.value = (c.height * 100).toFixed(1);
   f.elements.gmfcs.value = c.gmfcs || 0;
   f.elements.side.value = c.affected_side;
@@ -258,7 +340,7 @@ function showFit(f) {
   const margin = (x) => x === null ? "-" : x.toFixed(2);
   const rows = f.demand.map((r) => `<tr><td>${esc(r.source)}</td><td>${esc(r.quantity)}</td>` +
     JOINTS.map((j) => `<td class="${r[j + "_margin"] !== null && r[j + "_margin"] < 1 ? "over" : ""}">${margin(r[j + "_margin"])}</td>`).join("") + "</tr>").join("");
-  $("fit-result").innerHTML = `<h3>${esc(f.child.name)}</h3><p id="verdict" class="verdict ${cls}">${f.verdict}</p>
+  $("fit-result").innerHTML = `<h3>${esc(f.child.name)} <span class="muted">(${esc(f.child_id || "")})</span></h3><p id="verdict" class="verdict ${cls}">${f.verdict}</p>
     <p>Telescopes: upper (hip-knee) <b>${(f.settings_m.upper * 100).toFixed(1)} cm</b> (27-40),
     lower (knee-sole) <b>${(f.settings_m.lower * 100).toFixed(1)} cm</b> (33-46); footplate 23.5 cm.</p>
     ${f.notes.length ? "<ul>" + f.notes.map((n) => `<li class="over">${esc(n)}</li>`).join("") + "</ul>" : ""}
@@ -274,8 +356,16 @@ $("child-form").addEventListener("submit", async (e) => {
   const body = Object.fromEntries(new FormData($("child-form")).entries());
   say("fitting...", true);
   const r = await act("POST", "/api/fit", body, "fitted and kept for the next session");
-  if (r.ok) { showFit(r.data); refreshInfo(); }
+  if (r.ok) {
+    showFit(r.data); refreshInfo();
+    $("child-form").elements.child_id.value = r.data.child_id;
+    $("child-record").textContent = `${r.data.child.name} (${r.data.child_id}): a new fit of this child's record.`;
+  }
 });
+$("new-child").onclick = () => {
+  $("child-form").elements.child_id.value = "";
+  $("child-record").textContent = "A new child (or choose one fitted here, below).";
+};
 
 $("take").onclick = async () => {
   S.token = $("token").value.trim() || S.token;
@@ -289,12 +379,27 @@ $("release").onclick = async () => {
   S.operator = ""; sessionStorage.removeItem("exoleg-operator"); refreshOperator();
 };
 $("start").onclick = async () => {
-  const r = await act("POST", "/api/session/start", {duration: +$("duration").value, arm: $("arm-start").checked}, "session started");
-  if (r.ok) { S.hist = []; S.events = []; S.lastMode = null; refreshInfo(); }
+  const r = await act("POST", "/api/session/start", {duration: $("duration").value, arm: $("arm-start").checked}, "session started");
+  if (r.ok) {
+    say(`session ${r.data.session} started for ${r.data.text}`, true);
+    S.hist = []; S.events = []; S.lastMode = null; S.lastEvent = -1; refreshInfo();
+  }
 };
-$("end").onclick = () => act("POST", "/api/session/end", {}, "session ending: torque off");
+const ARMED = ["STANDING", "WALKING", "STOPPING"];
+$("end").onclick = async () => {
+  const s = S.state || {};
+  if (s.running === "running" && ARMED.includes(MODE(s.mode)) && !await confirmFirst(
+    `End the session while ${MODE(s.mode)}? ` + (MODE(s.mode) === "STANDING" ? "The torque goes off: the device no longer holds the child's leg." :
+      "The child is brought to a stand first (a controlled stop), then the torque goes off."))) { say("not ended", true); return; }
+  act("POST", "/api/session/end", {}, "session ending: torque off once standing");
+};
 for (const b of document.querySelectorAll("[data-command]"))
-  b.onclick = () => act("POST", "/api/command", {command: b.dataset.command}, b.dataset.command + " sent");
+  b.onclick = async () => {
+    const s = S.state || {};
+    if (b.dataset.command === "disarm" && ARMED.includes(MODE(s.mode)) && !await confirmFirst(
+      "Disarm? The torque goes off and the device no longer holds the child's leg.")) { say("not disarmed", true); return; }
+    act("POST", "/api/command", {command: b.dataset.command}, b.dataset.command + " applied");
+  };
 
 async function loadGains() {
   const r = await call("GET", "/api/gains");
@@ -303,14 +408,15 @@ async function loadGains() {
   const {gains, bounds} = r.data;
   t.innerHTML = "<tr><th></th>" + JOINTS.map((j) => `<th>${j}</th>`).join("") + "</tr>" +
     GAINS().map((k) => `<tr><td>${k} (${k.startsWith("kp") ? "N m/rad" : "N m s/rad"})</td>` + gains[k].map((v, i) =>
-      `<td><input id="g-${k}-${i}" type="number" step="any" value="${+v.toFixed(3)}"><div class="bounds">${bounds[k][i][0]}-${+bounds[k][i][1].toFixed(3)}</div></td>`).join("") + "</tr>").join("") +
-    `<tr><td>support (assistance)</td><td colspan="3"><input id="g-support-0" type="number" step="0.05" value="${gains.support[0]}"><span class="bounds"> 0-1</span></td></tr>`;
+      `<td><input id="g-${k}-${i}" inputmode="decimal" value="${+v.toFixed(3)}"><div class="bounds">${bounds[k][i][0]}-${+bounds[k][i][1].toFixed(3)}</div></td>`).join("") + "</tr>").join("") +
+    `<tr><td>support (assistance)</td><td colspan="3"><input id="g-support-0" inputmode="decimal" value="${gains.support[0]}"><span class="bounds"> 0-1</span></td></tr>`;
 }
 
 $("apply-gains").onclick = async () => {
   const body = {};
-  for (const k of GAINS()) body[k] = [0, 1, 2].map((i) => +$(`g-${k}-${i}`).value);
-  body.support = [+$("g-support-0").value];
+  // as typed: the server reads decimal commas and refuses empty fields, in these words
+  for (const k of GAINS()) body[k] = [0, 1, 2].map((i) => $(`g-${k}-${i}`).value);
+  body.support = [$("g-support-0").value];
   const r = await act("POST", "/api/gains", body, "gains changed");
   if (r.ok) setTimeout(loadGains, 300);
 };
@@ -318,20 +424,22 @@ $("apply-gains").onclick = async () => {
 // ---------------------------------------------------------------- sessions
 async function loadSessions() {
   const r = await call("GET", "/api/sessions");
+  $("sessions-note").textContent = r.ok ? (r.data.length ? "" : "No session recorded yet.") : (r.data.error || "the server does not answer");
   if (!r.ok) return;
-  $("sessions").tBodies[0].innerHTML = r.data.map((s) => `<tr data-name="${esc(s.name)}"><td>${esc(s.name)}</td><td>${esc(s.child)}</td>
+  $("sessions").tBodies[0].innerHTML = r.data.map((s) => `<tr data-name="${esc(s.name)}"><td>${esc(s.name)}</td><td>${esc(s.child)}${s.child_id ? " (" + esc(s.child_id) + ")" : ""}</td>
     <td>${new Date(s.started * 1000).toLocaleString()}</td><td>${s.duration_s === null ? "-" : s.duration_s.toFixed(1) + " s"}</td>
-    <td>${esc(s.stopped_by)}</td></tr>`).join("");
+    <td>${esc(s.stopped_by)}</td><td class="${s.damaged.length ? "over" : ""}">${s.damaged.length ? "damaged: " + esc(s.damaged.join("; ")) : "whole"}</td></tr>`).join("");
   for (const tr of $("sessions").tBodies[0].rows) tr.onclick = () => openSession(tr.dataset.name);
 }
 
 async function openSession(name) {
   const r = await call("GET", "/api/sessions/" + encodeURIComponent(name));
-  if (!r.ok) { say(r.data.error, false); return; }
+  if (!r.ok) { say("refused: " + r.data.error, false); return; }
   const d = r.data, L = d.log, base = "/api/sessions/" + encodeURIComponent(name);
-  if (L.error) { $("session-detail").innerHTML = `<h3>${esc(name)}</h3><p class="over">${esc(d.stopped_by)}</p><p>${esc(L.error)}</p>`; return; }
-  $("session-detail").innerHTML = `<h3>${esc(name)}</h3>
-    <p><a id="export-csv" href="${base}/session.csv">Export CSV</a> · <a id="export-parquet" href="${base}/session.parquet">Export Parquet</a></p>
+  const damaged = d.damaged.length ? `<ul class="over">${d.damaged.map((x) => `<li>damaged: ${esc(x)}</li>`).join("")}</ul>` : "";
+  if (L.error) { $("session-detail").innerHTML = `<h3>${esc(name)}</h3><p class="over">${esc(d.stopped_by)}</p>${damaged}<p>${esc(L.error)}</p>`; return; }
+  $("session-detail").innerHTML = `<h3>${esc(name)}</h3>${damaged}
+    <p><a id="export-csv" href="#sessions" data-file="${base}/session.csv" data-name="${esc(name)}.csv">Export CSV</a> · <a id="export-parquet" href="#sessions" data-file="${base}/session.parquet" data-name="${esc(name)}.parquet">Export Parquet</a></p>
     <table><tr><td>child</td><td>${esc(d.child)}</td></tr><tr><td>backend</td><td>${L.backend}</td></tr>
     <tr><td>duration</td><td>${L.duration_s.toFixed(2)} s (${L.ticks} ticks)</td></tr>
     <tr><td>ended by</td><td>${esc(d.stopped_by)}</td></tr>
@@ -339,10 +447,31 @@ async function openSession(name) {
     <tr><td>initial contacts</td><td>${L.initial_contacts}</td></tr>
     <tr><td>lateness p50 / p99 / max</td><td>${L.late_p50_us.toFixed(1)} / ${L.late_p99_us.toFixed(1)} / ${L.late_max_us.toFixed(0)} us</td></tr>
     <tr><td>deadlines missed</td><td>${L.missed_deadlines}</td></tr></table>
-    <p><img id="session-plot" alt="session plot" src="${base}/plot.png?t=${Date.now()}"></p>
+    <p><img id="session-plot" alt="session plot"></p>
     <h3>Control actions</h3><table><tr><th>time</th><th>source</th><th>action</th><th>accepted</th><th>note</th></tr>
     ${d.control.map((a) => `<tr><td>${new Date(a.time * 1000).toLocaleTimeString()}</td><td>${esc(a.source)}</td><td>${esc(a.command)}</td>
       <td>${a.accepted ? "yes" : "no"}</td><td>${esc(a.why || (a.after_click_ms !== undefined ? a.after_click_ms + " ms after the click" : (a.after_request_ms !== undefined ? a.after_request_ms + " ms after the request" : "")))}</td></tr>`).join("")}</table>`;
+  wireSessionFiles(base);
+}
+
+// the records need the token: files are fetched with it, never by an address that holds it
+async function fetched(url) {
+  const headers = S.token ? {"Authorization": "Bearer " + S.token} : {};
+  const r = await fetch(url, {headers});
+  if (!r.ok) throw new Error((await r.json().catch(() => ({}))).error || r.status);
+  return URL.createObjectURL(await r.blob());
+}
+
+function wireSessionFiles(base) {
+  fetched(base + "/plot.png").then((u) => { $("session-plot").src = u; }).catch((e) => say("plot: " + e.message, false));
+  for (const a of document.querySelectorAll("[data-file]"))
+    a.onclick = async (e) => {
+      e.preventDefault();
+      try {
+        const link = document.createElement("a");
+        link.href = await fetched(a.dataset.file); link.download = a.dataset.name; link.click();
+      } catch (err) { say("export: " + err.message, false); }
+    };
 }
 
 // ---------------------------------------------------------------- start
