@@ -354,3 +354,170 @@ def test_a_lapsed_hold_while_walking_is_a_controlled_stop_with_an_alarm(tmp_path
     assert len(alarm) == 1 and "controlled stop to standing" in alarm[0]["why"]
     assert any(a["source"] == "loop" and a["command"] == "stand" and a["accepted"]
                for a in actions)
+
+
+def test_children_are_records_not_folders(tmp_path: Path) -> None:
+    # Issue 20, point 5: children whose names differed only in punctuation or script
+    # shared one folder and overwrote each other's fit; a restarted server forgot the
+    # fitted child and the next session ran on the paper's leg at 30 kg.
+    import sqlite3
+
+    from exoleg.hmi.registry import FILE, SCHEMA_VERSION, Registry
+    from exoleg.hmi.server import HMI
+
+    # a child fitted before the records (the old folder layout), and a damaged one
+    old = tmp_path / "children"
+    (old / "Zoe").mkdir(parents=True)
+    first = HMI(tmp_path / "x")
+    status, rec = first.fit({"name": "Zoe", "age": 9, "sex": "female", "height": 132,
+                             "mass": 28}, "test")
+    assert status == 200
+    (old / "Zoe" / "fit.json").write_bytes((tmp_path / "x" / FILE).read_bytes()[:0] +
+                                           json.dumps(first.registry.fit(1)["record"])
+                                           .encode())
+    (old / "Zoe" / "leg.toml").write_text(first.registry.fit(1)["leg"])
+    (old / "Bad").mkdir()
+    (old / "Bad" / "fit.json").write_text("{not json")
+    hmi = HMI(tmp_path)
+    assert [c["name"] for c in hmi.registry.children()] == ["Zoe"]  # imported
+    assert len(hmi.registry.damaged) == 1 and "Bad/fit.json: not imported" in \
+        hmi.registry.damaged[0]
+    ids = set()
+    for name, mass in (("Ana-Maria", "32,5"), ("Ana Maria", "31"), ("Анна", "30")):
+        status, rec = hmi.fit({"name": name, "age": "10", "sex": "female",
+                               "height": "138", "mass": mass}, "test")
+        assert status == 200, rec
+        ids.add(rec["child_id"])
+        assert rec["child"]["name"] == name
+    assert len(ids) == 3  # three children, three records
+    assert hmi.registry.fit(rec["fit_id"])["record"]["child"]["mass"] == 30.0
+    assert hmi.registry.fit(2)["record"]["child"]["mass"] == 32.5  # "32,5": a decimal comma
+    # a new fit of a chosen child is that child's, not a new one
+    status, again = hmi.fit({"child_id": rec["child_id"], "name": "Анна", "age": "10.5",
+                             "sex": "female", "height": "139", "mass": "30"}, "test")
+    assert status == 200 and again["child_id"] == rec["child_id"]
+    assert [c["fits"] for c in hmi.registry.children() if c["id"] == rec["child_id"]] == [2]
+    status, out = hmi.fit({"child_id": "Cffffffff", "name": "x", "age": 10, "sex": "female",
+                           "height": 138, "mass": 30}, "test")
+    assert status == 422 and "no child 'Cffffffff'" in out["error"]
+    # the form's words, not Python's
+    for field, value, said in (("mass", "", "Mass (kg): empty; enter a number"),
+                               ("age", "ten", "Age (years): 'ten' is not a number"),
+                               ("height", "1,38.0", "Height (cm): '1,38.0' mixes")):
+        body = {"name": "x", "age": "10", "sex": "female", "height": "138", "mass": "30",
+                field: value}
+        status, out = hmi.fit(body, "test")
+        assert status == 422 and out["error"].startswith(said), out
+    # a restarted server keeps the fitted child for the next session
+    hmi.registry.close()
+    again_hmi = HMI(tmp_path)
+    on = again_hmi.runs_on()
+    assert on["child_id"] == rec["child_id"] and on["body_mass"] == 30.0
+    assert on["text"].startswith(f"Анна ({rec['child_id']}, fit {again['fit_id']})")
+    assert again_hmi.leg.name == "Анна" and again_hmi.registry.children()[0]["name"]
+    again_hmi.registry.close()
+    # a file that is not the records, or records from a newer exoleg: refused, untouched
+    junk = tmp_path / "junk" / FILE
+    junk.parent.mkdir()
+    junk.write_bytes(b"\x00garbage" * 100)
+    with pytest.raises(ParameterError, match="not an exoleg records database"):
+        Registry(junk)
+    assert junk.read_bytes() == b"\x00garbage" * 100
+    newer = tmp_path / "newer.sqlite"
+    with sqlite3.connect(newer) as db:
+        db.execute(f"PRAGMA user_version = {SCHEMA_VERSION + 1}")
+    with pytest.raises(ParameterError, match="written by a newer exoleg"):
+        Registry(newer)
+
+
+def test_the_page_is_same_origin_and_the_records_need_the_token(tmp_path: Path) -> None:
+    # Issue 20, point 4: any page open in the same browser could E-stop the device, read
+    # the live stream and the children's records. Reference: the Fetch standard's Origin
+    # and Sec-Fetch-Site headers, which a browser sets and a page cannot.
+    from starlette.testclient import TestClient
+    from starlette.websockets import WebSocketDisconnect
+
+    from exoleg.hmi.server import HMI
+
+    hmi = HMI(tmp_path)
+    hmi.fit({"name": "Ada", "age": 10, "sex": "female", "height": 138, "mass": 32}, "t")
+    auth = {"Authorization": f"Bearer {hmi.api.token}"}
+    with TestClient(hmi.app(), base_url="http://127.0.0.1:8780") as c:
+        me = "http://127.0.0.1:8780"
+        for url, body in (("/api/estop", {}), ("/api/command", {"command": "estop"}),
+                          ("/api/operator", {"name": "x"}), ("/api/fit", {})):
+            r = c.post(url, json=body, headers={"Origin": "http://evil.example"})
+            assert r.status_code == 403 and "cross-origin request refused" in \
+                r.json()["error"], (url, r.text)
+            r = c.post(url, json=body, headers={"Sec-Fetch-Site": "cross-site"})
+            assert r.status_code == 403, url
+        with pytest.raises(WebSocketDisconnect) as denied:  # closed before accepting
+            with c.websocket_connect("ws://127.0.0.1:8780/api/stream", headers={"Origin": "http://evil.example"}
+                                     ) as ws:
+                ws.receive_json()
+        assert denied.value.code == 1008  # policy violation (uvicorn answers HTTP 403)
+        with c.websocket_connect("ws://127.0.0.1:8780/api/stream", headers={"Origin": me}) as ws:
+            assert ws.receive_json()["running"] == "none"  # its own page: served
+        # the E-stop from its own page (no session: refused with why, not a 5xx)
+        r = c.post("/api/estop", json={}, headers={"Origin": me})
+        assert r.status_code == 409 and r.json()["error"] == "no session is running"
+        # children's and sessions' records: only with the token
+        info = c.get("/api/info").json()
+        assert "children" not in info and "child" not in info and info["records"] is False
+        assert c.get("/api/sessions").status_code == 401
+        assert c.get("/api/sessions/x/plot.png").status_code == 401
+        info = c.get("/api/info", headers=auth).json()
+        assert [k["name"] for k in info["children"]] == ["Ada"] and info["child"]
+        # a body size limit on every route, the E-stop's excepted
+        big = b"{" + b" " * 20_000 + b"}"
+        for url in ("/api/fit", "/api/operator", "/api/gains", "/api/session/start"):
+            r = c.post(url, content=big, headers={**auth, "Content-Type": "application/json"})
+            assert r.status_code == 413 and "at most 16384" in r.json()["error"], url
+        r = c.post("/api/fit", content=b"[1]", headers={**auth, "X-Operator": "?"})
+        assert r.status_code in (400, 409)
+        r = c.post("/api/estop", content=big)
+        assert r.status_code == 409  # read, no session: said, never a 413 or 5xx
+
+
+def test_damaged_records_are_listed_as_damaged(tmp_path: Path) -> None:
+    # Issue 20, point 6: one damaged fit.json gave a server error on /api/info; one log
+    # whose header lists no columns broke the whole Sessions list; damaged headers gave
+    # "internal error" in `exoleg log summary`.
+    from exoleg.hmi.archive import Archive
+    from exoleg.runtime.log import MAGIC
+
+    good = tmp_path / "good"
+    r = subprocess.run([EXE, "run", "--duration", "0.3", "--no-realtime", "--out",
+                        str(good)], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    damaged = {
+        "no-columns": MAGIC + b'{"columns": [], "period": 0.001}\n',
+        "no-json": MAGIC + b"{oops\n",
+        "list-header": MAGIC + b"[1, 2]\n",
+        "bad-period": MAGIC + b'{"columns": ["t"], "period": "fast"}\n',
+        "no-mode": MAGIC + b'{"columns": ["t", "late"], "period": 0.001}\n' + b"\0" * 32,
+        "binary": b"\x89PNG\r\n\x1a\n" + bytes(range(256)),
+    }
+    for name, data in damaged.items():
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "session.log").write_bytes(data)
+    (tmp_path / "bad-run").mkdir()
+    (tmp_path / "bad-run" / "session.log").write_bytes((good / "session.log").read_bytes())
+    (tmp_path / "bad-run" / "run.json").write_text("[")
+    (tmp_path / "bad-run" / "control.log").write_bytes(b'{"time": 1}\n\xff\xfe\n')
+    rows = {s["name"]: s for s in Archive(tmp_path).sessions()}
+    assert set(rows) == {"good", "bad-run", *damaged}  # every record still lists
+    assert rows["good"]["damaged"] == []
+    for name in damaged:
+        assert rows[name]["damaged"], name
+    assert "lists no columns" in rows["no-columns"]["damaged"][0]
+    assert rows["bad-run"]["damaged"][0].startswith("run.json is damaged")
+    detail = Archive(tmp_path).detail(tmp_path / "bad-run")
+    assert any("control.log" in d for d in detail["damaged"])
+    for name in (*damaged, "bad-run"):
+        if name == "bad-run":
+            continue
+        s = subprocess.run([EXE, "log", "summary", str(tmp_path / name)],
+                           capture_output=True, text=True, timeout=60)
+        assert s.returncode == 2 and len(s.stderr.splitlines()) == 1 and \
+            "Traceback" not in s.stderr, (name, s.stderr)

@@ -32,7 +32,7 @@ class Archive:
     def summary(self, folder: Path, live: Path | None = None) -> dict[str, Any]:
         """One recorded session's line: child, start, duration, how it ended (``live``:
         the folder of the session running now)."""
-        from exoleg.runtime.log import read_header
+        from exoleg.runtime.log import missing_column, read_header
 
         damaged: list[str] = []
 
@@ -55,6 +55,9 @@ class Archive:
         running = folder == live
         try:
             header, ticks = read_header(folder / "session.log")
+            if missing_column(header):
+                raise ParameterError(str(folder / "session.log"), "(log)",
+                                     missing_column(header))
         except ParameterError as e:
             header, ticks = {}, 0
             if (folder / "session.log").exists() or not failed:

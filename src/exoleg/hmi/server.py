@@ -206,12 +206,12 @@ class HMI:
         if kept is None:
             return {"child": None, "child_id": None, "leg": self.leg.name,
                     "body_mass": DEFAULT_BODY_MASS,
-                    "text": f"no child fitted: the paper's leg ({self.leg.name}), "
+                    "text": f"no child fitted: the paper's leg {self.leg.name!r}, "
                             f"{DEFAULT_BODY_MASS:g} kg"}
         mass = float(kept["record"]["child"]["mass"])
         return {"child": kept["name"], "child_id": kept["child_id"], "leg": self.leg.name,
                 "body_mass": mass, "text": f"{kept['name']} ({kept['child_id']}, fit "
-                f"{kept['id']}): leg {self.leg.name}, {mass:g} kg"}
+                f"{kept['id']}): leg {self.leg.name!r}, {mass:g} kg"}
 
     def _keep(self, kept: dict[str, Any] | None) -> None:
         """The fit the next session runs on (its leg drawn by the pages)."""

@@ -131,6 +131,18 @@ def _header(p: Path, f: Any) -> tuple[dict[str, Any], list[str], int]:
     return header, list(header["columns"]), len(line)
 
 
+#: the columns every session's log has (what its summary reads)
+SESSION_COLUMNS = ("t", "late", "mode", "safety_status", "events")
+
+
+def missing_column(header: dict[str, Any]) -> str:
+    """Why a log's header is not a session's ('' when it is): a column of
+    :data:`SESSION_COLUMNS` it lacks."""
+    missing = [c for c in SESSION_COLUMNS if c not in header["columns"]]
+    return (f"has a damaged header: no column {missing[0]!r} (a session log has "
+            f"{', '.join(SESSION_COLUMNS)})") if missing else ""
+
+
 def header_problem(header: Any) -> str:
     """What is wrong with a log's header ('' when nothing): not an object; no columns, or
     columns that are not distinct names; a period, start or body mass that is not a

@@ -11,7 +11,7 @@ import numpy as np
 
 from exoleg.entry import CONTROLLERS, DEFAULT_BODY_MASS
 from exoleg.errors import ParameterError
-from exoleg.runtime.log import MAX_LOSS_TICKS, SessionLog, read_log
+from exoleg.runtime.log import MAX_LOSS_TICKS, SessionLog, missing_column, read_log
 from exoleg.runtime.loop import (
     LOG_HEAD,
     LOG_TAIL,
@@ -319,11 +319,9 @@ def summarize(path: str | Path) -> dict[str, Any]:
     from exoleg.control.safety import Limited
 
     header, cols, cut = read_log(path)
-    need = ("t", "late", "mode", "safety_status", "events")
-    missing = [c for c in need if c not in cols]
-    if missing:
-        raise ParameterError(str(path), "(log)", f"has a damaged header: no column "
-                             f"{missing[0]!r} (a session log has {', '.join(need)})")
+    why = missing_column(header)
+    if why:
+        raise ParameterError(str(path), "(log)", why)
     n = len(cols["t"])
     period = float(header.get("period", 1e-3))
     late = cols["late"][1:] * 1e6 if n > 1 else np.zeros(0)
