@@ -165,3 +165,34 @@ def test_the_bus_holds_with_the_cpus_busy(tmp_path: Path, sched_fifo: None) -> N
     assert res.stopped_by.startswith("duration, after a controlled stop"), res.stopped_by
     # the master's and the nodes' receivers, and the three drives' heartbeat producers
     assert f"5 bus threads SCHED_FIFO priority {IO_PRIORITY}" in res.realtime, res.realtime
+
+
+def test_the_hardware_estop_is_honoured_within_a_tick(tmp_path: Path) -> None:
+    # Issue 20, point 2: a hardware E-stop input. The chain opens every drive's STO (no
+    # torque in hardware, whatever the master sends) and its monitoring contact reads
+    # in the interlock input (0x60FD bit 3, CiA 402), sent by an event-driven TPDO2.
+    from exoleg.errors import ParameterError
+
+    seen: dict[str, object] = {}
+
+    def inject(k: int, rig) -> None:  # type: ignore[no-untyped-def]
+        seen["rig"] = rig
+        if k == 600:
+            rig.hardware_estop()
+
+    res, path = hil(2.0, tmp_path, arm=True, walk_after=0.3, channel="hil-sto",
+                    inject=inject)
+    assert res.stopped_by == ("device fault: hardware E-stop: the E-stop chain is open "
+                              "(interlock input 0x60FD bit 3 of the hip drive (node 3)); "
+                              "the drives' STO has taken the torque off"), res.stopped_by
+    _, c, _ = read_log(path)
+    assert len(c["t"]) == 601  # pressed after tick 600, seen at the read of tick 601
+    rig = seen["rig"]
+    assert not any(d.torque_allowed for d in rig.drives.values())  # STO, in hardware
+    # pressed before the start: the session is refused before any motion
+    def pressed(k: int, rig) -> None:  # type: ignore[no-untyped-def]
+        if k == -1:
+            rig.hardware_estop()
+
+    with pytest.raises(ParameterError, match=r"0x60FD: the hardware E-stop is pressed"):
+        hil(1.0, tmp_path / "again", arm=True, channel="hil-sto-start", inject=pressed)

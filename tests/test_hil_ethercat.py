@@ -39,16 +39,17 @@ def test_mapping_arming_walking_and_torque_over_process_data(tmp_path: Path) -> 
     rig = seen["rig"]
     # the PDO mapping each drive received, against the CiA 402 objects written out here
     rx = [0x6040_00_10, 0x6071_00_10, 0x6060_00_08]
-    tx = [0x6041_00_10, 0x6064_00_20, 0x6077_00_10, 0x6061_00_08]
+    # + digital inputs (0x60FD u32: the E-stop chain's interlock, bit 3)
+    tx = [0x6041_00_10, 0x6064_00_20, 0x6077_00_10, 0x6061_00_08, 0x60FD_00_20]
     for s in rig.slaves[:3]:  # type: ignore[attr-defined]
         writes = {(i, sub): d for i, sub, d in s.sdo_log}
         assert [struct.unpack("<I", writes[0x1600, k + 1])[0] for k in range(3)] == rx
-        assert [struct.unpack("<I", writes[0x1A00, k + 1])[0] for k in range(4)] == tx
-        assert writes[0x1600, 0] == bytes([3]) and writes[0x1A00, 0] == bytes([4])
+        assert [struct.unpack("<I", writes[0x1A00, k + 1])[0] for k in range(5)] == tx
+        assert writes[0x1600, 0] == bytes([3]) and writes[0x1A00, 0] == bytes([5])
         assert struct.unpack("<H", writes[0x1C12, 1])[0] == 0x1600
         assert struct.unpack("<H", writes[0x1C13, 1])[0] == 0x1A00
-        # process data sized by those entries: 16+16+8 bits out, 16+32+16+8 bits in
-        assert len(s.output) == 5 and len(s.input) == 9
+        # process data sized by those entries: 16+16+8 bits out, 16+32+16+8+32 bits in
+        assert len(s.output) == 5 and len(s.input) == 13
         assert s.state == 1  # INIT: the master closed the segment at the end
     assert seen["al"] == [8, 8, 8, 8]  # every slave in OP while the session ran
     _, c, _ = read_log(path)
@@ -140,3 +141,26 @@ def test_a_missing_interface_is_a_clear_error(tmp_path: Path) -> None:
     with pytest.raises(ParameterError, match="--interface: cannot open 'exoleg-nonexistent0' "
                                              "for EtherCAT"):
         run("ethercat", 1.0, tmp_path, interface="exoleg-nonexistent0", realtime=False)
+
+
+def test_the_hardware_estop_is_honoured_within_a_tick(tmp_path: Path) -> None:
+    # Issue 20, point 2: the E-stop chain (the drives' STO) read in each drive's
+    # interlock input (0x60FD bit 3), mapped in the cyclic process data.
+    from exoleg.errors import ParameterError
+
+    def inject(k: int, rig) -> None:  # type: ignore[no-untyped-def]
+        if k == 600:
+            rig.hardware_estop()
+
+    res, path = hil(2.0, tmp_path, arm=True, walk_after=0.3, inject=inject)
+    assert res.stopped_by.startswith("device fault: hardware E-stop: the E-stop chain is "
+                                     "open (interlock input 0x60FD bit 3 of the hip drive "
+                                     "(slave 3))"), res.stopped_by
+    assert len(read_log(path)[1]["t"]) == 601  # seen at the next exchange
+
+    def pressed(k: int, rig) -> None:  # type: ignore[no-untyped-def]
+        if k == -1:
+            rig.hardware_estop()
+
+    with pytest.raises(ParameterError, match=r"0x60FD: the hardware E-stop is pressed"):
+        hil(1.0, tmp_path / "again", arm=True, inject=pressed)

@@ -82,12 +82,19 @@ class CanopenBackend(DriveMaster):
             node.rpdo.read(from_od=True)
             node.tpdo.read(from_od=True)
             node.tpdo[1].subscribe()
+            node.tpdo[2].add_callback(self._on_inputs(j))  # event-driven: on a change
             node.emcy.add_callback(self.on_emcy(j))
             self.nodes[j] = node
+        self.inputs = dict.fromkeys(JOINT_ORDER, 0)  # each drive's 0x60FD, last sent
         self.foot = threading.Event()
         self.net.subscribe(FOOT_FSR_COB, self._on_fsr)
         self.net.subscribe(FOOT_IMU_COB, self._on_imu)
         self.started = time.time()
+
+    def _on_inputs(self, joint: str) -> Any:
+        def on(pdo: Any) -> None:
+            self.inputs[joint] = int(pdo["Digital inputs"].raw)
+        return on
 
     def _on_fsr(self, can_id: int, data: bytes, timestamp: float) -> None:
         self.fsr[:] = FOOT_FSR.unpack(bytes(data))
@@ -102,11 +109,12 @@ class CanopenBackend(DriveMaster):
         synchronous torque (0x6060 = 10); the leg, read from the absolute encoders (the
         homing), is within its range of motion (``lower``/``upper`` rad, plus ``margin``).
         Raises ParameterError naming the node and what is wrong; returns what it checked."""
-        def configure(j: str) -> tuple[int, int, int, int]:
+        def configure(j: str) -> tuple[int, int, int, int, int]:
             sdo = self.nodes[j].sdo
             sdo[0x6060].raw = cia402.CST
+            self.inputs[j] = int(sdo[0x60FD].raw)
             return (int(sdo[0x1000].raw), int(sdo[0x6076].raw), int(sdo[0x6060].raw),
-                    int(sdo[0x6064].raw))
+                    int(sdo[0x6064].raw), self.inputs[j])
 
         where = {j: f"{j} drive (node {DRIVE_IDS[j]})" for j in JOINT_ORDER}
         return self.check_drives(JOINT_ORDER, where, configure, lower, upper, margin)
@@ -144,8 +152,13 @@ class CanopenBackend(DriveMaster):
                 break
             state = cia402.decode(int(tp["Statusword"].raw))
             self.states[i] = state
-            if state in (cia402.State.FAULT, cia402.State.FAULT_REACTION_ACTIVE):
+            fault = cia402.interlock_fault(f"{j} drive (node {DRIVE_IDS[j]})",
+                                           self.inputs[j])
+            if not fault and state in (cia402.State.FAULT,
+                                       cia402.State.FAULT_REACTION_ACTIVE):
                 fault = f"the {j} drive (node {DRIVE_IDS[j]}) is in {state.name}"
+            if fault:
+                break
             q[i] = self.scaling[j].to_rad(int(tp["Position actual value"].raw))
         if not fault:
             now = time.time()

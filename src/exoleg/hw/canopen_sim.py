@@ -39,6 +39,8 @@ class SimulatedRig(DriveRig):
             node.tpdo.read(from_od=True)
             node.rpdo[1].subscribe()
             self.nodes[j] = node
+            inputs: Any = node.sdo[0x60FD]
+            inputs.raw = 0
             # configured as the device file says (a real drive: by its commissioning)
             rated: Any = node.sdo[0x6076]
             rated.raw = rated_torque_mnm(self.scaling[j])
@@ -46,6 +48,7 @@ class SimulatedRig(DriveRig):
             pos.raw = self.position(JOINT_ORDER.index(j))
             node.nmt.start_heartbeat(HEARTBEAT_MS)
         self.silent: set[str] = set()
+        self.sent_inputs = [0, 0, 0]  # TPDO2 (0x60FD) is sent when the inputs change
         self.lock = threading.Lock()
         self.net.subscribe(0x80, self._on_sync)
 
@@ -59,6 +62,12 @@ class SimulatedRig(DriveRig):
                 self.nodes[j].sdo[0x6064].raw = counts  # for SDO reads (start-up)
                 if j in self.silent:
                     continue
+                inputs = self.inputs(i)
+                self.nodes[j].sdo[0x60FD].raw = inputs  # for SDO reads (start-up)
+                if inputs != self.sent_inputs[i]:  # event-driven TPDO2, before TPDO1
+                    self.sent_inputs[i] = inputs
+                    self.nodes[j].tpdo[2]["Digital inputs"].raw = inputs
+                    self.nodes[j].tpdo[2].transmit()
                 tp = self.nodes[j].tpdo[1]
                 tp["Statusword"].raw = status
                 tp["Position actual value"].raw = counts
@@ -75,6 +84,14 @@ class SimulatedRig(DriveRig):
         with self.lock:
             super().fault(joint)
             self.nodes[joint].emcy.send(code)
+
+    def hardware_estop(self, pressed: bool = True) -> None:
+        """:meth:`DriveRig.hardware_estop`, seen by SDO at once (a start-up check) and by
+        the event-driven TPDO2 at the next SYNC."""
+        with self.lock:
+            super().hardware_estop(pressed)
+            for i, j in enumerate(JOINT_ORDER):
+                self.nodes[j].sdo[0x60FD].raw = self.inputs(i)
 
     def close(self) -> None:
         for node in self.nodes.values():

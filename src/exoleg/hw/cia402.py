@@ -75,13 +75,22 @@ def _command(cw: int) -> str:
     return "switch_on"  # also "disable operation" from Operation Enabled
 
 
+#: Digital inputs (0x60FD), bit 3: the interlock (CiA 402), wired to the monitoring
+#: contact of the hardware E-stop chain -- the chain that opens the drives' STO inputs.
+INTERLOCK = 1 << 3
+
+
 class Drive:
     """A drive's CiA 402 state machine. Starts in Switch On Disabled (after its own
-    Not Ready To Switch On self-test). ``torque_allowed`` only in Operation Enabled."""
+    Not Ready To Switch On self-test). ``torque_allowed`` only in Operation Enabled and
+    with its STO input closed: ``sto`` True is the hardware E-stop pressed -- the power
+    stage is off whatever the master commands (Safe Torque Off), and the digital inputs
+    (:attr:`digital_inputs`, 0x60FD) show the :data:`INTERLOCK` bit."""
 
     def __init__(self) -> None:
         self.state = State.SWITCH_ON_DISABLED
         self._last_cw = 0
+        self.sto = False
 
     @property
     def statusword(self) -> int:
@@ -89,7 +98,12 @@ class Drive:
 
     @property
     def torque_allowed(self) -> bool:
-        return self.state is State.OPERATION_ENABLED
+        return self.state is State.OPERATION_ENABLED and not self.sto
+
+    @property
+    def digital_inputs(self) -> int:
+        """The digital inputs object (0x60FD) as the drive reports it."""
+        return INTERLOCK if self.sto else 0
 
     def fault(self) -> None:
         """A drive fault (overcurrent, a lost SYNC, ...): the torque goes off and the drive
@@ -162,13 +176,24 @@ SERVO_DEVICE_TYPE = 0x00020192
 CST = 10
 
 
+def interlock_fault(where: str, inputs: int) -> str:
+    """The fault a drive's digital inputs (0x60FD) report: the hardware E-stop pressed
+    ('' when not)."""
+    if not int(inputs) & INTERLOCK:
+        return ""
+    return (f"hardware E-stop: the E-stop chain is open (interlock input 0x60FD bit 3 of "
+            f"the {where}); the drives' STO has taken the torque off")
+
+
 def check_drive(where: str, device_type: int, rated_mnm: int, want_rated_mnm: int,
-                mode: int, q: float, lower: float, upper: float, margin: float) -> str:
+                mode: int, q: float, lower: float, upper: float, margin: float,
+                inputs: int = 0) -> str:
     """The start-up check of one drive, the same over every transport: a CiA 402 servo
     drive (0x1000), the device file's rated torque (0x6076, mN m), cyclic synchronous
     torque (0x6060), and a joint -- read from its absolute encoder, the homing -- within
     its range of motion (``lower``/``upper`` rad, plus ``margin``). Raises ParameterError
-    naming the drive (``where``) and the object; returns what it checked."""
+    naming the drive (``where``) and the object; returns what it checked. ``inputs``:
+    its digital inputs (0x60FD): a pressed hardware E-stop refuses the start."""
     from math import degrees
 
     from exoleg.errors import ParameterError
@@ -183,6 +208,9 @@ def check_drive(where: str, device_type: int, rated_mnm: int, want_rated_mnm: in
     if mode != CST:
         raise ParameterError(where, "0x6060", f"mode {mode} after setting cyclic "
                              f"synchronous torque ({CST})")
+    if interlock_fault(where, inputs):
+        raise ParameterError(where, "0x60FD", "the hardware E-stop is pressed (interlock "
+                             "input open): release it before the session")
     if not lower - margin <= q <= upper + margin:
         raise ParameterError(where, "(homing)", f"the joint reads {degrees(q):.1f} deg, "
                              f"outside its range of motion {degrees(lower):.0f} to "

@@ -10,8 +10,10 @@ assumption about the drive's defaults:
 
 * drive outputs (RxPDO 0x1600, 5 bytes): controlword 0x6040 u16, target torque 0x6071
   i16 (per mille of rated torque), modes of operation 0x6060 i8;
-* drive inputs (TxPDO 0x1A00, 9 bytes): statusword 0x6041 u16, position actual 0x6064
-  i32 (counts), torque actual 0x6077 i16, modes of operation display 0x6061 i8;
+* drive inputs (TxPDO 0x1A00, 13 bytes): statusword 0x6041 u16, position actual 0x6064
+  i32 (counts), torque actual 0x6077 i16, modes of operation display 0x6061 i8, digital
+  inputs 0x60FD u32 (bit 3, the interlock: the hardware E-stop chain, whose STO takes
+  the drives' torque off in hardware -- the master stops within the tick it reads it);
 * foot board inputs (14 bytes): four uint16 FSR counts and three int16 IMU values, the
   layout of the CAN frames (:mod:`exoleg.hw.rig`).
 
@@ -56,11 +58,11 @@ MAXON_VENDOR_ID = 0x000000FB
 DRIVE_NAME = "EPOS4"
 FOOT_NAME = "exoleg foot board"
 RX = struct.Struct("<Hhb")
-TX = struct.Struct("<Hihb")
+TX = struct.Struct("<HihbI")
 FOOT_IN = struct.Struct("<4H3h")
 #: PDO mapping entries (index << 16 | subindex << 8 | bits)
 RX_MAP = (0x60400010, 0x60710010, 0x60600008)
-TX_MAP = (0x60410010, 0x60640020, 0x60770010, 0x60610008)
+TX_MAP = (0x60410010, 0x60640020, 0x60770010, 0x60610008, 0x60FD0020)
 
 
 def pdo_mapping_writes() -> list[tuple[int, int, bytes]]:
@@ -124,7 +126,7 @@ class EthercatBackend(DriveMaster):
                                  "board): check the cabling")
         where = {j: f"{j} drive (slave {SLAVE_POS[j]})" for j in JOINT_ORDER}
 
-        def configure(j: str) -> tuple[int, int, int, int]:
+        def configure(j: str) -> tuple[int, int, int, int, int]:
             s = m.slaves[SLAVE_POS[j] - 1]
             if s.man != MAXON_VENDOR_ID or DRIVE_NAME not in s.name:
                 raise ParameterError(where[j], "(identity)", f"is {s.name!r} of vendor "
@@ -133,7 +135,7 @@ class EthercatBackend(DriveMaster):
             s.sdo_write(0x6060, 0, struct.pack("<b", cia402.CST))
             values = tuple(struct.unpack(f, s.sdo_read(index, 0, struct.calcsize(f)))[0]
                            for index, f in ((0x1000, "<I"), (0x6076, "<I"), (0x6060, "<b"),
-                                            (0x6064, "<i")))
+                                            (0x6064, "<i"), (0x60FD, "<I")))
             s.config_func = self._mapper(s)
             s.add_emergency_callback(self.on_emcy(j))
             self.slaves[j] = s
@@ -195,9 +197,11 @@ class EthercatBackend(DriveMaster):
                      "a slave did not answer the process data")
         else:
             for i, j in enumerate(JOINT_ORDER):
-                status, counts, _, _ = TX.unpack(bytes(self.slaves[j].input))
+                status, counts, _, _, inputs = TX.unpack(bytes(self.slaves[j].input))
                 state = cia402.decode(status)
                 self.states[i] = state
+                fault = fault or cia402.interlock_fault(
+                    f"{j} drive (slave {SLAVE_POS[j]})", inputs)
                 if state in (cia402.State.FAULT, cia402.State.FAULT_REACTION_ACTIVE):
                     fault = fault or (f"the {j} drive (slave {SLAVE_POS[j]}) is in "
                                       f"{state.name}")

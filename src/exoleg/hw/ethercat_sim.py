@@ -76,7 +76,8 @@ class SimulatedSegment(DriveRig):
             objects = {0x1000: struct.pack("<I", cia402.SERVO_DEVICE_TYPE),
                        0x6076: struct.pack("<I", rated_torque_mnm(self.scaling[j])),
                        0x6060: struct.pack("<b", 0),
-                       0x6064: struct.pack("<i", self.position(i))}
+                       0x6064: struct.pack("<i", self.position(i)),
+                       0x60FD: struct.pack("<I", 0)}
             self.slaves[SLAVE_POS[j] - 1] = _Slave(DRIVE_NAME, MAXON_VENDOR_ID, TX.size,
                                                    objects)
         self.slaves[FOOT_POS - 1] = _Slave(FOOT_NAME, 0, FOOT_IN.size, {})
@@ -135,8 +136,9 @@ class SimulatedSegment(DriveRig):
             s = self.slaves[SLAVE_POS[j] - 1]
             status, counts, torque = self.drive(i)
             s.objects[0x6064] = struct.pack("<i", counts)  # for SDO reads (start-up)
+            s.objects[0x60FD] = struct.pack("<I", self.inputs(i))
             if j not in self.silent:
-                s.input = TX.pack(status, counts, torque, cia402.CST)
+                s.input = TX.pack(status, counts, torque, cia402.CST, self.inputs(i))
         if "foot" not in self.silent:
             fsr, imu = self.foot()
             self.slaves[FOOT_POS - 1].input = fsr + imu
@@ -153,6 +155,12 @@ class SimulatedSegment(DriveRig):
             super().fault(joint)
             for cb in self.slaves[SLAVE_POS[joint] - 1].callbacks:
                 cb(Emergency(SLAVE_POS[joint], code))
+
+    def hardware_estop(self, pressed: bool = True) -> None:
+        """:meth:`DriveRig.hardware_estop`, in the next exchange's inputs and by SDO."""
+        with self.lock:
+            super().hardware_estop(pressed)
+            self._answer()
 
     def close(self) -> None:
         self.state = INIT

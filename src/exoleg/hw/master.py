@@ -51,14 +51,14 @@ class DriveMaster:
                      lower: F64, upper: F64, margin: float) -> list[str]:
         """The start-up check of every drive, in ``order`` (the bus's): ``configure(j)``
         sets drive ``j`` to cyclic synchronous torque and returns its device type
-        (0x1000), rated torque (0x6076, mN m), mode (0x6060) and position (0x6064,
-        counts) as the bus reads them; :func:`cia402.check_drive` judges them. The
+        (0x1000), rated torque (0x6076, mN m), mode (0x6060), position (0x6064,
+        counts) and digital inputs (0x60FD) as the bus reads them; :func:`cia402.check_drive` judges them. The
         positions read become the velocity filter's start. Raises ParameterError naming
         the drive (``where[j]``); returns what it checked."""
         done = []
         for j in order:
             try:
-                kind, rated, mode, counts = configure(j)
+                kind, rated, mode, counts, inputs = configure(j)
             except ParameterError:
                 raise
             except Exception as e:  # SDO abort or timeout
@@ -67,7 +67,7 @@ class DriveMaster:
             q = self.scaling[j].to_rad(counts)
             done.append(cia402.check_drive(where[j], kind, rated,
                                            rated_torque_mnm(self.scaling[j]), mode, q,
-                                           lower[i], upper[i], margin))
+                                           lower[i], upper[i], margin, inputs))
             self.q_prev[i] = q
         return done
 

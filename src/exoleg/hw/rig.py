@@ -28,7 +28,9 @@ class DriveRig:
     """``cycle(controlwords, targets)``, then ``drive(i)`` and ``foot()`` for the answers.
 
     Fault injection: ``fault(joint)`` puts a drive in Fault; ``jump`` (rad) adds to the
-    encoders' readings; ``frozen`` makes the foot board repeat its last data."""
+    encoders' readings; ``frozen`` makes the foot board repeat its last data;
+    ``hardware_estop(pressed)`` opens the E-stop chain (every drive's STO and interlock
+    input)."""
 
     def __init__(self, device: Any, offsets: dict[str, int] | None = None) -> None:
         self.dev = device  # a SimBackend: the plant, its sensors and its drives' model
@@ -74,4 +76,15 @@ class DriveRig:
 
     def fault(self, joint: str) -> None:
         self.drives[joint].fault()
+
+    def hardware_estop(self, pressed: bool = True) -> None:
+        """The hardware E-stop pressed (or released): the chain opens every drive's STO
+        input -- no torque from the next cycle, whatever the master commands -- and its
+        monitoring contact reads in each drive's interlock input (0x60FD)."""
+        for d in self.drives.values():
+            d.sto = bool(pressed)
+
+    def inputs(self, i: int) -> int:
+        """Drive ``i``'s digital inputs (0x60FD)."""
+        return self.drives[JOINT_ORDER[i]].digital_inputs
 
