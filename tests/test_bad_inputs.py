@@ -54,6 +54,31 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     out["com_off"].write_text(re.sub(r"com = \[[0-9.e-]+", "com = [5.1", good, count=1))
     out["two_links"].write_text(good[: good.rindex("[[link]]")])
     out["quote_name"].write_text(good.replace('name = "ok"', 'name = 42'))
+    # a leg for a child the device does not fit (exoleg fit --write-leg)
+    out["unfit"] = d / "unfit.toml"
+    out["unfit"].write_text(format_leg(exoleg.paper_leg().links, 9.81, "tall", fit={
+        "fits": False, "note": "thigh 45 cm is beyond the upper telescope (27-40 cm)"}))
+    # device folders whose values make the plant or the controller meaningless
+    import shutil
+    from importlib import resources
+
+    shipped = Path(str(resources.files("exoleg").joinpath("data", "device")))
+    for name, file, old, new in (
+            ("inertia", "actuators/hip.toml", "ratio = 100.0", "ratio = 1000.0"),
+            ("rate", "safety.toml", "max_torque_rate = [3000.0, 1400.0, 3400.0]",
+             "max_torque_rate = [1e30, 1400.0, 3400.0]"),
+            ("contact", "walking.toml", "damping = 600.0 ", "damping = 900000.0 ")):
+        folder = d / f"device-{name}"
+        shutil.copytree(shipped, folder,
+                        ignore=shutil.ignore_patterns("canopen", "__pycache__"))
+        text = (folder / file).read_text()
+        assert old in text, (file, old)
+        (folder / file).write_text(text.replace(old, new))
+        if name == "inertia":  # and a rotor that makes 1e4 kg m^2 at the joint
+            t = (folder / file).read_text()
+            (folder / file).write_text(re.sub(r"rotor_inertia = [0-9.e-]+",
+                                              "rotor_inertia = 1e-2", t))
+        out[f"device_{name}"] = folder
     return out
 
 
@@ -140,6 +165,31 @@ CASES: list[tuple[str, list[str], str]] = [
                            "0"], "outside 0.1-50 ms"),
     ("run hmi half a TLS pair", ["run", "--duration", "1", "--hmi", "--tls-key", "{afile}"],
      "give both or neither"),
+    # options that do not apply to the backend or the mode (issue 20, point 8)
+    ("run channel on sim", ["run", "--duration", "1", "--channel", "can0"],
+     "--channel: goes with --backend"),
+    ("run channel on ethercat", ["run", "--backend", "ethercat", "--duration", "1",
+                                 "--channel", "can0"], "goes with --backend canopen"),
+    ("run seed on a real bus", ["run", "--backend", "canopen", "--interface", "socketcan",
+                                "--duration", "1", "--seed", "3"], "not on a real bus"),
+    ("run hmi port without hmi", ["run", "--duration", "1", "--hmi-port", "9000"],
+     "--hmi-port: goes with --hmi"),
+    ("run tls without hmi", ["run", "--duration", "1", "--tls-cert", "{afile}"],
+     "--tls-cert: goes with --hmi"),
+    ("export variant with a leg", ["export", "--leg", "{heavy}", "--variant", "simplified",
+                                   "--out", "{folder}/x.urdf"], "not with --leg"),
+    # a leg for a child the device does not fit: the device is not set to it
+    ("run an unfit leg", ["run", "--duration", "1", "--leg", "{unfit}"],
+     "does not fit (thigh 45 cm"),
+    ("export an unfit leg", ["export", "--leg", "{unfit}", "--out", "{folder}/x.urdf"],
+     "does not fit"),
+    # device files whose values make the plant or the controller meaningless
+    ("device reflected inertia 1e4", ["simulate", "--walk", "--strides", "1", "--device",
+                                      "{device_inertia}"], "reflected inertia 1.001e+04 kg m^2"),
+    ("device torque rate 1e30", ["simulate", "--walk", "--strides", "1", "--device",
+                                 "{device_rate}"], "max_torque_rate"),
+    ("device contact diverges", ["simulate", "--walk", "--strides", "1", "--device",
+                                 "{device_contact}"], "[contact] stiffness/damping"),
     # any command
     ("unknown option", ["validate", "--bogus"], "unrecognized arguments"),
     ("no command", [], "required"),
@@ -152,7 +202,7 @@ def test_bad_input_is_one_line_exit_2(files: dict[str, Path], tmp_path: Path, ca
     argv = [a.format(**{k: str(v) for k, v in files.items()}) for a in args]
     if argv and argv[0] in ("simulate", "fit", "population") and "--out" not in argv:
         argv += ["--out", str(tmp_path / "out")]
-    if argv and argv[0] == "simulate":
+    if argv and argv[0] == "simulate" and "--walk" not in argv:
         argv.append("--no-engine")
     r = _run(argv)
     assert r.returncode == 2, (case, r.returncode, r.stdout, r.stderr)
@@ -256,3 +306,35 @@ def test_cli_ranges_are_the_library_s() -> None:
     from exoleg.reference.gait import STRIDE_TIME_RANGE
 
     assert cli.STRIDE_TIME_RANGE == STRIDE_TIME_RANGE
+
+
+def test_a_killed_simulate_leaves_no_worker_nor_staging(tmp_path: Path) -> None:
+    # Issue 20, point 8: `exoleg simulate` killed left its worker process running and
+    # its staging folder behind. SIGTERM unwinds it now (as Ctrl-C), and the worker ends
+    # with its parent however the parent ends (SIGKILL too).
+    import signal
+    import time
+
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        out = tmp_path / f"out-{sig.name}"
+        p = subprocess.Popen([sys.executable, "-m", "exoleg.cli", "simulate", "--duration",
+                              "60", "--no-engine", "--out", str(out)],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        kids: list[int] = []
+        deadline = time.time() + 60
+        while time.time() < deadline and not kids:  # the worker is up
+            kids = [int(x) for x in Path(f"/proc/{p.pid}/task/{p.pid}/children")
+                    .read_text().split()] if p.poll() is None else []
+            time.sleep(0.1)
+        assert kids, "the worker never started"
+        time.sleep(1.0)
+        p.send_signal(sig)
+        _, err = p.communicate(timeout=60)
+        assert "Traceback" not in err, err
+        gone = time.time() + 5
+        while time.time() < gone and any(Path(f"/proc/{k}").exists() for k in kids):
+            time.sleep(0.1)
+        assert not any(Path(f"/proc/{k}").exists() for k in kids), (sig, kids)
+        if sig == signal.SIGTERM:  # unwound: nothing staged is left, the exit says so
+            assert p.returncode == 130 and "interrupted" in err
+            assert not list(out.glob(".exoleg-staging-*")), list(out.iterdir())

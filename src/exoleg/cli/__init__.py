@@ -15,6 +15,7 @@ import argparse
 import gc
 import os
 import sys
+import threading
 from collections.abc import Sequence
 
 from exoleg.cli import export, fit, hmi, log, population, run, simulate, validate
@@ -33,7 +34,17 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
+def _terminated(signum: int, frame: object) -> None:
+    """SIGTERM as Ctrl-C: the command unwinds (staging folders removed, workers and
+    drives stopped) instead of dying where it stands."""
+    raise KeyboardInterrupt
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    import signal
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _terminated)
     ap = build_parser()
     args = ap.parse_args(_negative_values(sys.argv[1:] if argv is None else argv))
     from exoleg.errors import ExolegError

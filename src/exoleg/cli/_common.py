@@ -175,25 +175,40 @@ class _Progress:
             self.bar.stop()
 
 
-def _read_leg(path: Path) -> tuple[Any, str]:
+def _read_leg(path: Path, refuse_unfit: str = "") -> tuple[Any, str]:
     """A leg file as a :class:`~exoleg.LegModel`, and a warning ('' if none) when it is a
-    leg for a child the device does not fit (its ``[fit]`` record)."""
+    leg for a child the device does not fit (its ``[fit]`` record) -- refused instead
+    (ParameterError) by the command ``refuse_unfit`` names: a device session or an
+    export, where the device would be set to a child it does not fit."""
     import exoleg
+    from exoleg.errors import ParameterError
     from exoleg.params.leg_file import read_leg_file
 
     links, g, name, meta = read_leg_file(path)
     leg = exoleg.LegModel(links, g=g, name=name, armature=meta.get("armature"))
     if meta.get("fits", True):
         return leg, ""
-    return leg, (f"{path} is a leg for a child the device does not fit "
-                 f"({meta.get('note') or 'see its [fit] record'}): the model's telescope "
-                 "settings are clamped to the device's range")
+    why = (f"{path} is a leg for a child the device does not fit "
+           f"({meta.get('note') or 'see its [fit] record'})")
+    if refuse_unfit:
+        raise ParameterError(refuse_unfit, "--leg", f"{why}: refused (exoleg simulate may "
+                             "study it)")
+    return leg, f"{why}: the model's telescope settings are clamped to the device's range"
 
 
-def _web_options(p: argparse.ArgumentParser, host: str, port: str) -> None:
-    p.add_argument(host, default="127.0.0.1", help="address to listen on (default: this "
-                   "machine only; another address needs TLS or prints a warning)")
-    p.add_argument(port, type=_count(1024, 65535), default=8780)
+#: the operator interface's address and port when none is given
+WEB_HOST, WEB_PORT = "127.0.0.1", 8780
+
+
+def _web_options(p: argparse.ArgumentParser, host: str, port: str, given: bool = False
+                 ) -> None:
+    """The web server's options; ``given``: defaults None (:data:`WEB_HOST`,
+    :data:`WEB_PORT` filled in later), to tell an option given from one left out."""
+    p.add_argument(host, default=None if given else WEB_HOST, help="address to listen on "
+                   f"(default {WEB_HOST}: this machine only; another address needs TLS or "
+                   "prints a warning)")
+    p.add_argument(port, type=_count(1024, 65535), default=None if given else WEB_PORT,
+                   help=f"default {WEB_PORT}")
     p.add_argument("--tls-cert", help="TLS certificate (PEM) to serve https")
     p.add_argument("--tls-key", help="the certificate's private key (PEM)")
 

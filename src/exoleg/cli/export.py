@@ -14,7 +14,14 @@ def cmd_export(args: argparse.Namespace) -> int:
     import exoleg
     from exoleg.export import writers
 
-    leg = exoleg.load_leg(args.leg) if args.leg else exoleg.paper_leg(args.variant)
+    from exoleg.cli._common import _read_leg
+    from exoleg.errors import ParameterError
+
+    if args.leg and args.variant is not None:
+        raise ParameterError("exoleg export", "--variant", "chooses the paper's leg: not "
+                             "with --leg (the file is the leg)")
+    leg = (_read_leg(args.leg, refuse_unfit="exoleg export")[0] if args.leg
+           else exoleg.paper_leg(args.variant or "detailed"))
     fmt = args.format or ("mjcf" if args.out.suffix == ".xml" else "urdf")
     write = writers.write_mjcf if fmt == "mjcf" else writers.write_urdf
     path = write(leg, args.out, mode=args.mode, frame=args.frame)
@@ -27,7 +34,7 @@ def add_parser(sub: Any) -> None:
     e = sub.add_parser("export", help="write the leg as URDF or MJCF (limits, actuators, "
                        "geometry)")
     e.add_argument("--leg", type=Path, help="leg parameter file (default: the paper's leg)")
-    e.add_argument("--variant", choices=["simplified", "detailed"], default="detailed",
+    e.add_argument("--variant", choices=["simplified", "detailed"],
                    help="the paper's leg when no --leg (default detailed)")
     e.add_argument("--format", choices=["urdf", "mjcf"],
                    help="default: from the suffix (.xml -> mjcf, else urdf)")

@@ -8,6 +8,8 @@ from pathlib import Path
 from typing import Any
 
 from exoleg.cli._common import (
+    WEB_HOST,
+    WEB_PORT,
     _body_mass,
     _bus_options,
     _count,
@@ -25,15 +27,18 @@ def cmd_run(args: argparse.Namespace) -> int:
     from exoleg.runtime.session import check_options, run, summarize
 
     _bus_options("exoleg run", args.backend, interface=args.interface,
-                 bus_timeout=args.bus_timeout)
+                 bus_timeout=args.bus_timeout, channel=args.channel)
+    _refuse_unapplied(args)
+    args.channel = args.channel or "exoleg"
+    args.seed = args.seed or 0
+    args.hmi_host = args.hmi_host or WEB_HOST
+    args.hmi_port = args.hmi_port or WEB_PORT
     bus_timeout = None if args.bus_timeout is None else args.bus_timeout * 1e-3
     check_options(args.backend, args.interface, args.arm, args.walk_after, bus_timeout,
                   controller=args.controller, link=True if args.hmi else None)
     leg = None
     if args.leg:
-        leg, warning = _read_leg(args.leg)
-        if warning:
-            _say(f"warning: {warning}")
+        leg, _ = _read_leg(args.leg, refuse_unfit="exoleg run")
     link = web = None
     if args.hmi:
         import secrets
@@ -85,6 +90,26 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0 if stopped.startswith("duration") else (130 if stopped.startswith("signal") else 1)
 
 
+def _refuse_unapplied(args: argparse.Namespace) -> None:
+    """Refuses an option that would not apply (ParameterError naming it): the bus's on
+    the other bus, the simulated child's where no simulated device answers, the
+    interface's without --hmi."""
+    from exoleg.errors import ParameterError
+    from exoleg.runtime.session import SIMULATED_BUS
+
+    if args.channel is not None and args.backend != "canopen":
+        raise ParameterError("exoleg run", "--channel", "goes with --backend canopen")
+    simulated = args.backend == "sim" or (args.interface or SIMULATED_BUS[args.backend]) \
+        == SIMULATED_BUS[args.backend]
+    if args.seed is not None and not simulated:
+        raise ParameterError("exoleg run", "--seed", "the simulated sensors' noise: not on "
+                             f"a real bus ({args.backend} --interface {args.interface})")
+    for name in ("hmi_host", "hmi_port", "tls_cert", "tls_key"):
+        if getattr(args, name) is not None and not args.hmi:
+            raise ParameterError("exoleg run", "--" + name.replace("_", "-"),
+                                 "goes with --hmi")
+
+
 def add_parser(sub: Any) -> None:
     """Add ``exoleg run`` to the subcommands ``sub``."""
     r = sub.add_parser("run", help="drive the device (or a simulated one) at a fixed rate: "
@@ -96,7 +121,8 @@ def add_parser(sub: Any) -> None:
                    "hardware in the loop with simulated nodes) or e.g. 'socketcan'; "
                    "ethercat: network interface (e.g. eth0), or 'fake' (default: simulated "
                    "slaves at the process-data level)")
-    r.add_argument("--channel", default="exoleg", help="canopen: the bus channel (e.g. can0)")
+    r.add_argument("--channel", help="canopen: the bus channel (e.g. can0; default exoleg, "
+                   "the virtual bus's)")
     r.add_argument("--bus-timeout", type=_within(0.1, 50.0, " ms"),
                    help="canopen/ethercat: how long the master waits for every node's answer "
                         "before it is a fault, ms (default 5; 20 on simulated nodes, threads "
@@ -116,10 +142,11 @@ def add_parser(sub: Any) -> None:
     r.add_argument("--leg", type=Path, help="leg file (from exoleg fit); default the paper's")
     r.add_argument("--body-mass", type=_body_mass, default=DEFAULT_BODY_MASS,
                    help="the simulated child's mass, kg")
-    r.add_argument("--seed", type=_count(0, 2**31 - 1), default=0, help="sim: sensor noise")
+    r.add_argument("--seed", type=_count(0, 2**31 - 1), help="simulated device: its "
+                   "sensors' noise (default 0)")
     r.add_argument("--hmi", action="store_true",
                    help="serve the operator interface (and its control API) for this session")
-    _web_options(r, "--hmi-host", "--hmi-port")
+    _web_options(r, "--hmi-host", "--hmi-port", given=True)
     r.add_argument("--no-realtime", action="store_true",
                    help="do not ask for SCHED_FIFO (nor an isolated CPU, nor the bus threads' "
                         "priority)")

@@ -270,8 +270,20 @@ def _summary_rows(figs: dict[str, Any], paper: bool) -> list[list[str]]:
 
 
 def _ignore_sigint() -> None:
-    """Worker processes leave Ctrl-C to the parent, which stops them and reports once."""
+    """Worker processes leave Ctrl-C to the parent, which stops them and reports once;
+    and end with it, however it ends (a SIGKILL included): no orphan works on."""
+    import os
+    import threading
+
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    parent = os.getppid()
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.2)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="exoleg-parent-watch", daemon=True).start()
 
 
 def _prepare_worker() -> None:

@@ -68,6 +68,10 @@ FIELDS: tuple[tuple[str, str, float, float], ...] = (
     ("velocity_filter_hz", "Hz", 1.0, 1e5),
 )
 _NAMES = ("joint", "motor", "gear", "drive")
+#: The largest reflected inertia at a joint a file may give, kg m^2: six times the
+#: paper's hip (3.1 kg m^2: its motor and harmonic drive through 1:100); more would be
+#: a unit slip (g cm^2 as kg m^2) or a ratio typed wrong, and the plant meaningless.
+MAX_REFLECTED = 20.0
 
 
 @dataclass(frozen=True)
@@ -168,6 +172,12 @@ def parse_actuator(data: dict[str, Any], where: str) -> ActuatorModel:
                              f"rate ({vals['current_loop_rate'] / 2:g} Hz)")
     if vals["continuous_current"] > vals["peak_current"]:
         raise ParameterError(where, "continuous_current", "must not exceed peak_current")
+    reflected = (vals["rotor_inertia"] + vals["gear_input_inertia"]) * vals["ratio"] ** 2
+    if reflected > MAX_REFLECTED:
+        raise ParameterError(where, "rotor_inertia/gear_input_inertia/ratio",
+                             f"reflected inertia {reflected:.4g} kg m^2 at the joint is not "
+                             f"a child's exoskeleton joint (allowed up to {MAX_REFLECTED:g}; "
+                             "the paper's hip: 3.1)")
     bits = vals.pop("encoder_bits")
     if bits != int(bits):
         raise ParameterError(where, "encoder_bits", f"expected a whole number, got {bits}")

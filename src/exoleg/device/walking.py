@@ -123,6 +123,11 @@ def body_weight_share(body_mass: float) -> float:
     return body_mass * (1.0 - 2.0 * LEG_FRACTION)
 
 
+#: the largest |lambda| h the plant's RK4 step is let to meet (its stability region
+#: reaches 2.78 on the real axis, 2.83 on the imaginary one)
+STEP_LIMIT = 2.5
+
+
 @dataclass(frozen=True)
 class WalkingPlant:
     """The leg (with its armature), the pelvis mass, the ground and belt, and where the
@@ -160,6 +165,24 @@ class WalkingPlant:
         return cls(leg=leg, body_mass=float(body_mass), ground=gr, belt_speed=float(belt_speed),
                    points=pts, support_height=(standing - gr.support_drop
                                                if support_height is None else support_height))
+
+    def step_problem(self, h: float) -> str:
+        """Why the plant's RK4 step of ``h`` s would diverge ('' when it would not): the
+        stiffest mode it meets, the pelvis on all four contact points and the other leg's
+        support (mass: the pelvis's share and the leg; stiffness and damping: the
+        ground's), has eigenvalues lambda; RK4 is stable for |lambda| h below 2.78 on the
+        real axis and 2.83 on the imaginary one (its stability region), taken as 2.5."""
+        g = self.ground
+        m = self.body_mass + float(sum(link.mass for link in self.leg.links))
+        k = 4 * g.stiffness + g.support_stiffness
+        c = 4 * g.damping + g.support_damping
+        lam = float(np.max(np.abs(np.roots([m, c, k]))))
+        if lam * h <= STEP_LIMIT:
+            return ""
+        return (f"the contact (stiffness {g.stiffness:g} N/m, damping {g.damping:g} N s/m "
+                f"per point, on {m:.1f} kg) has a mode of {lam:.3g} /s: the plant's step of "
+                f"{h * 1e3:g} ms diverges above {STEP_LIMIT / h:.3g} /s (RK4: |lambda| h "
+                f"<= {STEP_LIMIT:g}); soften the contact or take more substeps")
 
     @property
     def depth(self) -> float:

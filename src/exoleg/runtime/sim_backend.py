@@ -35,7 +35,10 @@ class SimBackend:
                  substeps: int = 2, seed: int = 0, **walk: Any) -> None:
         """The walking device of :func:`~exoleg.sim.device.prepare_walk` (``walk``: its
         options, ``config`` among them) at a tick of ``period`` s."""
+        from exoleg.sim.walk import check_step
+
         self.dev: SimulatedDevice = prepare_walk(leg, body_mass, control_dt=period, **walk)
+        check_step(self.dev.plant, period / substeps, self.dev.config.folder)
         self.period = period
         self.substeps = substeps
         self.S = self.dev.state()

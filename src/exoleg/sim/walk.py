@@ -146,6 +146,16 @@ class WalkResult(TimeSeries):
         return cols
 
 
+def check_step(plant: WalkingPlant, h: float, folder: Path | None) -> None:
+    """Refuses (ParameterError naming the ground's file and field) a contact the plant's
+    RK4 step of ``h`` s would integrate into divergence
+    (:meth:`~exoleg.device.walking.WalkingPlant.step_problem`)."""
+    why = plant.step_problem(h)
+    if why:
+        where = "walking.toml" if folder is None else f"{folder}/walking.toml"
+        raise ParameterError(where, "[contact] stiffness/damping", why)
+
+
 def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str = "Free",
                   stride_time: float = 1.1, standing: float = 1.0, noise_scale: float = 1.0,
                   seed: int = 0, ankle_height: float = ANKLE_HEIGHT,
@@ -169,6 +179,7 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     dev = prepare_walk(leg, body_mass, speed, stride_time, noise_scale, ankle_height,
                        actuators, gains, safety, ground, sensors, control_dt, device)
     ctl, plant, sens = dev.controller, dev.plant, dev.sensors
+    check_step(plant, control_dt / substeps, dev.config.folder)
     n = int(round((standing + strides * stride_time) / control_dt))
     commands = np.zeros(n + 1, dtype=np.int64)
     commands[0] = Command.ARM
