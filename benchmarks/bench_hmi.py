@@ -35,7 +35,7 @@ SESSIONS = int(sys.argv[1]) if len(sys.argv) > 1 else 8
 SECONDS = float(sys.argv[2]) if len(sys.argv) > 2 else 20.0
 
 
-def one_session(d, url: str, walk_for: float) -> dict:  # type: ignore[no-untyped-def]
+def one_session(d, url: str, walk_for: float, auth: dict) -> dict:  # type: ignore[no-untyped-def]
     """Start (armed), walk for ``walk_for`` s on the Live page, E-stop by the button;
     the applied E-stop's log entry and the session's folder."""
     mode = lambda: d.find_element("id", "ctl-mode").get_attribute("textContent")  # noqa: E731
@@ -50,7 +50,7 @@ def one_session(d, url: str, walk_for: float) -> dict:  # type: ignore[no-untype
     time.sleep(walk_for)
     d.find_element("id", "estop").click()
     entry = wait_until("the E-stop applied", lambda: [
-        a for a in httpx.get(f"{url}/api/log").json()
+        a for a in httpx.get(f"{url}/api/log", headers=auth).json()
         if a["source"] == "loop" and a["command"] == "estop"])[0]
     d.find_element("id", "nav-control").click()
     d.find_element("id", "end").click()
@@ -72,7 +72,8 @@ def main() -> None:
             d.find_element("id", "take").click()
             wait_until("control", lambda: "hold control" in
                        d.find_element("id", "hdr-operator").text)
-            entries = [one_session(d, hmi.url, SECONDS if k == 0 else 1.0)
+            auth = {"Authorization": f"Bearer {hmi.token}"}
+            entries = [one_session(d, hmi.url, SECONDS if k == 0 else 1.0, auth)
                        for k in range(SESSIONS)]
         finally:
             d.quit()

@@ -54,6 +54,10 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     out["com_off"].write_text(re.sub(r"com = \[[0-9.e-]+", "com = [5.1", good, count=1))
     out["two_links"].write_text(good[: good.rindex("[[link]]")])
     out["quote_name"].write_text(good.replace('name = "ok"', 'name = 42'))
+    # a sessions folder whose children's records are not a database (issue 20, point 6)
+    out["bad_records"] = d / "bad-records"
+    out["bad_records"].mkdir()
+    (out["bad_records"] / "records.sqlite").write_bytes(b"not sqlite\0" * 50)
     # a leg for a child the device does not fit (exoleg fit --write-leg)
     out["unfit"] = d / "unfit.toml"
     out["unfit"].write_text(format_leg(exoleg.paper_leg().links, 9.81, "tall", fit={
@@ -159,6 +163,8 @@ CASES: list[tuple[str, list[str], str]] = [
     ("hmi TLS files missing", ["hmi", "--tls-cert", "{folder}/c", "--tls-key",
                                "{folder}/k"], "no such file"),
     ("hmi interface on sim", ["hmi", "--interface", "virtual"], "goes with --backend"),
+    ("hmi records damaged", ["hmi", "--sessions", "{bad_records}", "--port", "18781"],
+     "not an exoleg records database"),
     ("run bus timeout on sim", ["run", "--duration", "1", "--bus-timeout", "5"],
      "goes with --backend"),
     ("run bus timeout 0", ["run", "--backend", "canopen", "--duration", "1", "--bus-timeout",
@@ -318,7 +324,7 @@ def test_a_killed_simulate_leaves_no_worker_nor_staging(tmp_path: Path) -> None:
     for sig in (signal.SIGTERM, signal.SIGKILL):
         out = tmp_path / f"out-{sig.name}"
         p = subprocess.Popen([sys.executable, "-m", "exoleg.cli", "simulate", "--duration",
-                              "60", "--no-engine", "--out", str(out)],
+                              "600", "--no-engine", "--out", str(out)],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         kids: list[int] = []
         deadline = time.time() + 60
@@ -327,7 +333,7 @@ def test_a_killed_simulate_leaves_no_worker_nor_staging(tmp_path: Path) -> None:
                     .read_text().split()] if p.poll() is None else []
             time.sleep(0.1)
         assert kids, "the worker never started"
-        time.sleep(1.0)
+        time.sleep(0.3)
         p.send_signal(sig)
         _, err = p.communicate(timeout=60)
         assert "Traceback" not in err, err

@@ -191,7 +191,7 @@ def test_the_pages_table_of_commands_is_the_supervisors() -> None:
     # The pages enable their buttons by supervisor.APPLIES; the reference is the compiled
     # supervisor itself: every command in every mode, applied or refused.
     from exoleg.control.contract import Command, Mode
-    from exoleg.control.safety import Fault, SafetyLimits, new_state
+    from exoleg.control.safety import Fault, new_state
     from exoleg.control.supervisor import APPLIES, SUPERVISOR, supervise
     from exoleg.layout import new
 

@@ -12,10 +12,9 @@ from exoleg.cli._common import _say
 # --------------------------------------------------------------------------- export
 def cmd_export(args: argparse.Namespace) -> int:
     import exoleg
-    from exoleg.export import writers
-
     from exoleg.cli._common import _read_leg
     from exoleg.errors import ParameterError
+    from exoleg.export import writers
 
     if args.leg and args.variant is not None:
         raise ParameterError("exoleg export", "--variant", "chooses the paper's leg: not "

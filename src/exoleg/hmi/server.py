@@ -182,8 +182,8 @@ class HMI:
                                                    "fit_id": kept["id"]})
                 (folder / "leg.toml").write_text(kept["leg"], encoding="utf-8")
             if self.registry is not None:
-                self.registry.add_session(name, kept and kept["child_id"],
-                                          kept and kept["id"], time.time())
+                self.registry.add_session(name, kept["child_id"] if kept else None,
+                                          kept["id"] if kept else None, time.time())
             link = LoopLink.new()
             self.proc = mp.get_context("spawn").Process(
                 target=_session_process, name="exoleg-session", daemon=True,

@@ -26,8 +26,8 @@ block and sends into its pipe (:class:`~exoleg.runtime.link.LoopLink`). Endpoint
   ``{"kp_stance": [hip, knee, ankle], ...}`` (any of ``kp_stance``, ``kd_stance``,
   ``kp_swing``, ``kd_swing``, ``support``): token and operator; a value outside its
   bounds is refused with the reason (422);
-* ``GET /log``: every control action of this session (time, source, command, accepted
-  or why not), and when the loop applied each command.
+* ``GET /log`` (token): every control action of this session (time, source, command,
+  accepted or why not), and when the loop applied each command.
 
 Every control action is appended to ``control.log`` (JSON lines) in the session's folder
 with its wall time and source; the loop's application of each command is logged with the
@@ -45,7 +45,7 @@ from typing import Any
 from exoleg.entry import typed_number
 from exoleg.params.records import JOINTS
 from exoleg.runtime.link import GAIN_NAMES
-from exoleg.runtime.operator import COMMANDS, LEASE_S, UNGUARDED, OperatorRules
+from exoleg.runtime.operator import COMMANDS, LEASE_S, NO_TOKEN, UNGUARDED, OperatorRules
 
 #: the WebSocket stream's rate, Hz
 STREAM_HZ = 50.0
@@ -200,6 +200,8 @@ class ControlAPI(OperatorRules):
             return JSONResponse(self.state())
 
         async def log(request: Request) -> JSONResponse:
+            if not self.has_token(request.headers):  # who did what: the session's record
+                return JSONResponse({"error": NO_TOKEN}, 401)
             with self.lock:
                 return JSONResponse(list(self.actions))
 

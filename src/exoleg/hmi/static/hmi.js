@@ -15,7 +15,7 @@ const DEG = 180 / Math.PI;
 const S = {
   token: "", operator: sessionStorage.getItem("exoleg-operator") || "",
   info: null, state: null, hist: [], events: [], updates: [], lastMode: null,
-  lastMsg: 0, lastEvent: -1, estopFailed: false,
+  lastMsg: 0, lastEvent: -1, eventCount: 0, estopFailed: false,
 };
 const STALE_MS = 1000;  // no update for this long: the page says the link is lost
 
@@ -112,7 +112,7 @@ function connect() {
       for (const [i, t, bits] of s.event_log || []) {
         if (i <= S.lastEvent) continue;
         S.lastEvent = i;
-        for (const [bit, name] of VOC().text.Event) if (bits & bit) S.events.unshift(`${t.toFixed(2)} s: ${name}`);
+        for (const [bit, name] of VOC().text.Event) if (bits & bit) { S.events.unshift(`${t.toFixed(2)} s: ${name}`); S.eventCount += 1; }
       }
       if (S.lastMode !== null && s.mode !== S.lastMode) S.events.unshift(`${s.t.toFixed(2)} s: ${MODE(S.lastMode)} -> ${MODE(s.mode)}`);
       S.lastMode = s.mode;
@@ -382,7 +382,7 @@ $("start").onclick = async () => {
   const r = await act("POST", "/api/session/start", {duration: $("duration").value, arm: $("arm-start").checked}, "session started");
   if (r.ok) {
     say(`session ${r.data.session} started for ${r.data.text}`, true);
-    S.hist = []; S.events = []; S.lastMode = null; S.lastEvent = -1; refreshInfo();
+    S.hist = []; S.events = []; S.lastMode = null; S.lastEvent = -1; S.eventCount = 0; refreshInfo();
   }
 };
 const ARMED = ["STANDING", "WALKING", "STOPPING"];
