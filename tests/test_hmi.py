@@ -59,6 +59,14 @@ def goto(driver: Any, page: str) -> None:
     wait_until(f"page {page}", lambda: driver.find_element("id", f"page-{page}").is_displayed())
 
 
+def press(driver: Any, id_: str) -> None:
+    """Click ``id_`` as a person does on a small screen: scrolled to the middle first
+    (not under the sticky header)."""
+    e = driver.find_element("id", id_)
+    driver.execute_script("arguments[0].scrollIntoView({block: 'center'})", e)
+    e.click()
+
+
 def fill(driver: Any, id_: str, value: object) -> None:
     e = driver.find_element("id", id_)
     e.clear()
@@ -327,12 +335,12 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
 
         # a session, armed at the start: the buttons the mode allows
         goto(phone, "control")
-        phone.find_element("id", "take").click()
+        press(phone, "take")
         wait_until("control", lambda: "hold control" in text(phone, "hdr-operator"))
         assert "no child fitted: the paper's leg" in text(phone, "runs-on")
         fill(phone, "duration", 120)
-        phone.find_element("id", "arm-start").click()
-        phone.find_element("id", "start").click()
+        press(phone, "arm-start")
+        press(phone, "start")
         wait_until("standing", lambda: text(phone, "ctl-mode") == "STANDING", timeout=60)
         assert "for no child fitted: the paper's leg" in text(phone, "message")
         enabled = {b.get_attribute("data-command"): b.is_enabled()
@@ -347,27 +355,27 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
             "refused by the supervisor: arm refused in STANDING: arming needs DISARMED "
             "(after a fault: reset first)")
         # Disarm while standing asks first; "No" leaves it standing
-        phone.find_element("id", "cmd-disarm").click()
+        press(phone, "cmd-disarm")
         wait_until("the question", lambda: phone.find_element("id", "confirm").is_displayed())
         assert "torque goes off" in text(phone, "confirm-text")
         shot(phone, "phone-confirm")
-        phone.find_element("id", "confirm-no").click()
+        press(phone, "confirm-no")
         wait_until("not disarmed", lambda: text(phone, "message") == "not disarmed")
         assert text(phone, "ctl-mode") == "STANDING"
         # an empty field is refused in the form's words; a decimal comma is read
         wait_until("gains shown", lambda: phone.find_element("id", "g-support-0"))
         fill(phone, "g-support-0", "")
         phone.find_element("id", "g-support-0").clear()
-        phone.find_element("id", "apply-gains").click()
+        press(phone, "apply-gains")
         assert wait_until("refused", lambda: "refused" in text(phone, "message") and
                           text(phone, "message")) == "refused: support: empty; enter a number"
         fill(phone, "g-support-0", "0,6")
-        phone.find_element("id", "apply-gains").click()
+        press(phone, "apply-gains")
         wait_until("0,6 in force", lambda: httpx.get(f"{hmi.url}/api/gains").json()
                    ["gains"]["support"] == [0.6])
 
         # walking: Live shows the time, the steps, the assistance, every gait event
-        phone.find_element("id", "cmd-walk").click()
+        press(phone, "cmd-walk")
         wait_until("walking", lambda: text(phone, "ctl-mode") == "WALKING")
         goto(phone, "live")
         time.sleep(4.0)
@@ -387,11 +395,13 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
         shot(desk, "desk-alarm")
         phone.get(hmi.page)  # back: take control again
         goto(phone, "control")
-        phone.find_element("id", "take").click()
+        press(phone, "take")
         wait_until("control", lambda: "hold control" in text(phone, "hdr-operator"))
+        wait_until("the alarm acknowledged", lambda: not desk.find_element(
+            "id", "alarm").is_displayed())
 
         # the E-stop: the fault named, with what going on needs; only Reset and Disarm
-        phone.find_element("id", "estop").click()
+        press(phone, "estop")
         banner = wait_until("the fault", lambda: phone.find_element(
             "id", "fault-banner").is_displayed() and text(phone, "fault-banner"))
         assert banner == ("FAULT, torque off: E-stop. To go on: Reset (with the E-stop "
@@ -401,7 +411,7 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
         assert enabled == {"arm": False, "stand": False, "walk": False, "disarm": True,
                            "reset": True}
         shot(phone, "phone-fault")
-        phone.find_element("id", "end").click()
+        press(phone, "end")
         folder = next(p for p in hmi.sessions.iterdir() if (p / "control.log").exists()
                       and p.name.endswith("paper-leg"))
         wait_until("ended", lambda: (folder / "run.json").exists(), timeout=30)
@@ -411,9 +421,11 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
 
         _, cols, _ = read_log(folder / "session.log")
         ev = cols["events"].astype(int)
-        # reference: the session's own log, tick by tick
-        assert phone.execute_script("return S.state.steps") == int(((ev & Event.IC) > 0).sum())
-        assert phone.execute_script("return S.eventCount") == sum(
+        # reference: the session's own log, tick by tick; seen by the page that watched
+        # the whole session (the operator's page reloaded in between)
+        assert desk.execute_script("return S.hist[S.hist.length - 1].steps") == \
+            int(((ev & Event.IC) > 0).sum())
+        assert desk.execute_script("return S.eventCount") == sum(
             int(((ev & e) > 0).sum()) for e in Event)
         run = json.loads((folder / "run.json").read_text())
         assert run["stopped_by"].startswith("the operator ended the session: torque off "
@@ -427,7 +439,7 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
         wait_until("link lost", lambda: "LOST" in text(phone, "hdr-link"), timeout=5)
         assert time.time() - gone < 2.0  # STALE_MS (1 s) after the last update, and a frame
         assert "cannot see the device" in text(phone, "link-lost")
-        phone.find_element("id", "estop").click()
+        press(phone, "estop")
         assert "COULD NOT REACH THE DEVICE" in wait_until(
             "the E-stop's failure", lambda: "REACH" in text(phone, "message") and
             text(phone, "message"))

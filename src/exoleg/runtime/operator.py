@@ -260,7 +260,9 @@ class OperatorRules:
             now = time.time()
             self.operator = op = {"id": secrets.token_urlsafe(12), "name": name,
                                   "source": source, "since": now, "seen": now}
-        self.record(source, f"take control ({name})", True)
+            alarm, self.alarm = self.alarm, None  # taking control again acknowledges it
+        self.record(source, f"take control ({name})", True,
+                    why=f"acknowledges the alarm: {alarm['text']}" if alarm else "")
         return 200, {"operator": op["id"], "holder": self.public(op)}
 
     @staticmethod
