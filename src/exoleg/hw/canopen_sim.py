@@ -63,7 +63,6 @@ class SimulatedRig(DriveRig):
                 if j in self.silent:
                     continue
                 inputs = self.inputs(i)
-                self.nodes[j].sdo[0x60FD].raw = inputs  # for SDO reads (start-up)
                 if inputs != self.sent_inputs[i]:  # event-driven TPDO2, before TPDO1
                     self.sent_inputs[i] = inputs
                     self.nodes[j].tpdo[2]["Digital inputs"].raw = inputs
