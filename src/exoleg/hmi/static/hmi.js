@@ -294,8 +294,9 @@ function frame() {
 
 // ---------------------------------------------------------------- control
 async function refreshOperator() {
+  const sent = S.operator;  // an answer to a request sent before control was taken says nothing of it
   const r = await call("GET", "/api/operator");
-  if (!r.ok) return;
+  if (!r.ok || sent !== S.operator) return;
   const h = r.data.holder;
   if (!r.data.you && S.operator && h) { S.operator = ""; sessionStorage.removeItem("exoleg-operator"); }
   $("hdr-operator").textContent = r.data.you ? `you (${h.name}) hold control` : (h ? `view only: ${h.name} holds control` : "view only");
