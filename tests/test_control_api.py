@@ -44,6 +44,16 @@ def _start(args: list[str], out: Path) -> tuple[subprocess.Popen, str]:  # type:
     raise AssertionError(said.read_text())
 
 
+def _walking_with_hmi(tmp_path: Path, duration: int) -> tuple[subprocess.Popen, str, int, Path]:  # type: ignore[type-arg]
+    """`exoleg run --hmi` on sim, armed, walking from 1 s: (process, token, port, --out)."""
+    port = free_port()
+    out = tmp_path / "s"
+    proc, token = _start(["run", "--backend", "sim", "--duration", str(duration), "--arm",
+                          "--walk-after", "1", "--hmi", "--hmi-port", str(port), "--out",
+                          str(out)], tmp_path / "run")
+    return proc, token, port, out
+
+
 def _wait(url: str, key: str, want: object, timeout: float = 30.0) -> dict:
     return dict(wait_until(f"{key} = {want!r} at {url}", lambda: (
         s := httpx.get(url, timeout=1.0).json()).get(key) == want and s, timeout))
@@ -252,11 +262,7 @@ def test_the_estop_cannot_fail(tmp_path: Path) -> None:
     # was queued (the device walked on); a stamp of Infinity broke the control log for
     # good. Now the E-stop is queued first, whatever the request holds, and the log
     # stays readable.
-    port = free_port()
-    out = tmp_path / "s"
-    proc, token = _start(["run", "--backend", "sim", "--duration", "20", "--arm",
-                          "--walk-after", "1", "--hmi", "--hmi-port", str(port), "--out",
-                          str(out)], tmp_path / "run")
+    proc, token, port, out = _walking_with_hmi(tmp_path, 20)
     base = f"http://127.0.0.1:{port}/api"
     try:
         _wait(f"{base}/state", "mode", 2, timeout=60)  # walking
@@ -298,11 +304,7 @@ def test_run_hmi_comes_to_a_controlled_stop_when_its_interface_dies(tmp_path: Pa
     # interface died. Fault injection: the interface's process killed mid-walk. Now the
     # heartbeat stops, the loop stands the child (a controlled stop), then the torque
     # goes off.
-    port = free_port()
-    out = tmp_path / "s"
-    proc, token = _start(["run", "--backend", "sim", "--duration", "60", "--arm",
-                          "--walk-after", "1", "--hmi", "--hmi-port", str(port), "--out",
-                          str(out)], tmp_path / "run")
+    proc, token, port, out = _walking_with_hmi(tmp_path, 60)
     try:
         _wait(f"http://127.0.0.1:{port}/api/state", "mode", 2, timeout=60)  # walking
         (web,) = _spawned(proc.pid)
@@ -329,11 +331,7 @@ def test_a_lapsed_hold_while_walking_is_a_controlled_stop_with_an_alarm(tmp_path
     # stands the child and raises an alarm for every page and the control log.
     from exoleg.runtime.operator import LEASE_S
 
-    port = free_port()
-    out = tmp_path / "s"
-    proc, token = _start(["run", "--backend", "sim", "--duration", "40", "--arm",
-                          "--walk-after", "1", "--hmi", "--hmi-port", str(port), "--out",
-                          str(out)], tmp_path / "run")
+    proc, token, port, out = _walking_with_hmi(tmp_path, 40)
     base = f"http://127.0.0.1:{port}/api"
     try:
         auth = {"Authorization": f"Bearer {token}"}
