@@ -123,7 +123,12 @@ def test_lost_heartbeat_is_a_fault(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("fault,text", [
-    ("rated", "hip drive (node 3): 0x6076: motor rated torque 1 mN m"),
+    # the units exoleg wrote before issue 21 (mN m from the drive's 15 A); an EPOS4 holds
+    # uN m from the motor's nominal current (device-datasheets.md, S3)
+    ("old units", "hip drive (node 3): 0x6076: motor rated torque 1068 uN m; the device "
+                  "file's motor gives 458528 uN m (I_N x k_t) (mN m from the drive's"),
+    ("nominal", "knee drive (node 2): 0x3001 sub 1 (nominal current): 15000 mA; the device "
+                "file says 7250 mA"),
     ("offset", "knee drive (node 2): (homing): the joint reads"),
 ])
 def test_start_up_refuses_a_misconfigured_device(tmp_path: Path, fault: str,
@@ -131,8 +136,10 @@ def test_start_up_refuses_a_misconfigured_device(tmp_path: Path, fault: str,
     from exoleg.errors import ParameterError
 
     def inject(k: int, rig) -> None:  # type: ignore[no-untyped-def]
-        if k == -1 and fault == "rated":
-            rig.nodes["hip"].sdo[0x6076].raw = 1
+        if k == -1 and fault == "old units":
+            rig.nodes["hip"].sdo[0x6076].raw = round(0.0712 * 15 * 1000)
+        if k == -1 and fault == "nominal":
+            rig.nodes["knee"].sdo[0x3001][1].raw = 15000
         if k == -1 and fault == "offset":
             rig.jump[1] = 2.0  # the knee's encoder reads 115 deg off
             rig.nodes["knee"].sdo[0x6064].raw = rig.scaling["knee"].to_counts(2.0)

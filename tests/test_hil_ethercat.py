@@ -91,7 +91,14 @@ def test_faults_take_torque_off(tmp_path: Path, what: str, text: str) -> None:
 
 
 @pytest.mark.parametrize("fault,text", [
-    ("rated", r"hip drive \(slave 3\): 0x6076: motor rated torque 1 mN m"),
+    # the units exoleg wrote before issue 21: mN m from the drive's 15 A (an EPOS4 holds
+    # uN m from the motor's nominal current, device-datasheets.md S3)
+    ("old units", r"hip drive \(slave 3\): 0x6076: motor rated torque 1068 uN m; the "
+                  r"device file's motor gives 458528 uN m \(I_N x k_t\) \(mN m from the "
+                  r"drive's current\?"),
+    ("current limit", r"knee drive \(slave 2\): 0x3001 sub 2 \(output current limit\): "
+                      r"30000 mA; the device file says 14500 mA"),
+    ("product", r"ankle drive \(slave 1\): 0x1018 sub 2: product code 0x65510000"),
     ("offset", r"knee drive \(slave 2\): \(homing\): the joint reads"),
     ("order", r"ankle drive \(slave 1\): \(identity\): is 'exoleg foot board'"),
     ("missing", r"EtherCAT segment: \(start-up\): 3 slaves found"),
@@ -101,10 +108,15 @@ def test_start_up_refuses_a_misconfigured_segment(tmp_path: Path, fault: str,
     def inject(k: int, rig) -> None:  # type: ignore[no-untyped-def]
         if k != -1:
             return
-        if fault == "rated":
-            rig.slaves[2].objects[0x6076] = struct.pack("<I", 1)
+        if fault == "old units":  # k_t x 15 A in mN m, as exoleg wrote it before
+            rig.slaves[2].objects[0x6076, 0] = struct.pack("<I", round(0.0712 * 15 * 1000))
+        elif fault == "current limit":
+            rig.slaves[1].objects[0x3001, 2] = struct.pack("<I", 30000)
+        elif fault == "product":
+            rig.slaves[0].id = 0x65510000
         elif fault == "offset":
-            rig.slaves[1].objects[0x6064] = struct.pack("<i", rig.scaling["knee"].to_counts(2.0))
+            rig.slaves[1].objects[0x6064, 0] = struct.pack(
+                "<i", rig.scaling["knee"].to_counts(2.0))
         elif fault == "order":
             rig.slaves.insert(0, rig.slaves.pop())
         else:

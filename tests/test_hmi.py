@@ -102,7 +102,9 @@ def test_child_page_fits_and_keeps_the_child(hmi: Any, operator: Any) -> None:
     wait_until("control taken", lambda: "you (operator) hold control" in text(d, "hdr-operator"))
     goto(d, "child")
     form = d.find_element("id", "child-form")
-    for name, value in (("name", "Ada"), ("age", "10"), ("height", "138"), ("mass", "32")):
+    # a child the datasheets' device carries walking (issue 21: at 24 V, with its gears'
+    # ratings, a 9-year-old of 27 kg already faults at the knee; 8 y, 25 kg walks)
+    for name, value in (("name", "Ada"), ("age", "8"), ("height", "126"), ("mass", "25")):
         field = form.find_element("name", name)
         field.clear()
         field.send_keys(value)
@@ -112,7 +114,7 @@ def test_child_page_fits_and_keeps_the_child(hmi: Any, operator: Any) -> None:
     from exoleg.sizing import Child
     from exoleg.sizing.report import fit_report
 
-    rep = fit_report(Child(age=10, sex="female", height=1.38, mass=32, name="Ada"))
+    rep = fit_report(Child(age=8, sex="female", height=1.26, mass=25, name="Ada"))
     assert verdict == rep.verdict
     page = text(d, "fit-result")
     assert f"upper (hip-knee) {rep.fit.upper * 100:.1f} cm" in page

@@ -317,9 +317,14 @@ def test_the_operators_end_is_a_controlled_stop_while_walking(tmp_path: Path, ba
     def on_tick(k, out, sensors, late):  # type: ignore[no-untyped-def]
         return END_SESSION if k == end_at else None
 
+    from exoleg.control.contract import WALKING_MODES
+
+    def treadmill(out):  # type: ignore[no-untyped-def]
+        b.walking = out["mode"] in WALKING_MODES  # the belt runs while the child walks
+
     log = SessionLog(tmp_path / "s.log", LOG_HEAD + b.columns + LOG_TAIL, {"period": 1e-3})
     res = run_session(b, b.controller, 10.0, 1e-3, log, {0: Command.ARM, 1000: Command.WALK},
-                      realtime=False, on_tick=on_tick)
+                      realtime=False, on_tick=on_tick, scenery=treadmill)
     cols = read_log(tmp_path / "s.log")[1]
     assert np.array_equal(b.u, np.zeros(3))  # the drives were told zero at the end
     if when == "standing":

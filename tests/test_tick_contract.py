@@ -62,12 +62,13 @@ def test_one_controller_on_every_device_gets_the_same_ticks(tmp_path: Path,
             assert np.array_equal(can[name], cat[name]), name
     # a bus's only difference from the simulated device is its scaling: the first
     # tick's command, before any quantized torque acted, is the same to the bit; after
-    # that the per-mille torque targets move the joints apart by at most 2.1 mrad
-    # (measured: pd-gravity 2.07 mrad, walk 1.01 mrad, over 3 s)
+    # that the per-mille torque targets move the joints apart by a few mrad (measured
+    # with the datasheets' device, issue 21: pd-gravity 1.74 mrad, walk 3.33 mrad -- the
+    # knee working at its 30 N m limit part of the stride -- over 3 s)
     for name in ("u_hip", "u_knee", "u_ankle"):
         assert sim[name][0] == can[name][0], name
     for j in ("hip", "knee", "ankle"):
-        assert np.max(np.abs(sim[f"q_meas_{j}"] - can[f"q_meas_{j}"])) < 3e-3, j
+        assert np.max(np.abs(sim[f"q_meas_{j}"] - can[f"q_meas_{j}"])) < 5e-3, j
 
 
 def test_the_log_columns_are_the_output_record() -> None:

@@ -94,7 +94,7 @@ def test_counts_offset_direction_and_wrap() -> None:
     assert SC.to_rad((123456 + 2**20 - 5) % 2**20) == pytest.approx(5 * 2 * math.pi / 2**20)
 
 
-@given(st.floats(-150.0, 150.0))
+@given(st.floats(-70.0, 70.0))  # within the ankle's 2 x rated (73 N m at the joint)
 def test_torque_round_trip_within_half_a_per_mille(tau: float) -> None:
     step = SC.rated_motor_torque * SC.ratio * SC.efficiency / 1000
     assert abs(SC.to_nm(SC.to_per_mille(tau)) - tau) <= step / 2 * (1 + 1e-9)
@@ -102,9 +102,10 @@ def test_torque_round_trip_within_half_a_per_mille(tau: float) -> None:
 
 def test_torque_scale_and_saturation() -> None:
     a = paper_actuators()[2]
-    rated = a.torque_constant * a.continuous_current  # 0.0534 x 15 = 0.801 N m
+    rated = a.torque_constant * a.nominal_current  # 0.0525 x 7.25 = 0.381 N m (0x6076)
     assert SC.to_per_mille(-(a.ratio * a.efficiency * rated)) == 1000  # direction -1
-    assert SC.to_per_mille(1e9) == -32768 and SC.to_per_mille(-1e9) == 32767
+    # the drive accepts +-(limit / nominal) x 1000 = +-2000 per mille (S3)
+    assert SC.to_per_mille(1e9) == -2000 and SC.to_per_mille(-1e9) == 2000
 
 
 def test_bad_scaling() -> None:
@@ -112,3 +113,45 @@ def test_bad_scaling() -> None:
         JointScaling(20, 0, 2, 100.0, 0.8, 0.5)
     with pytest.raises(ParameterError, match="offset_counts"):
         JointScaling(20, 2**20, 1, 100.0, 0.8, 0.5)
+
+
+def test_a_drive_configured_as_maxon_configures_it_is_accepted() -> None:
+    # Reference: maxon's own configuration file for an EPOS4 50/15 with an EC 90 flat
+    # (device-datasheets.md, S3): 0x6076 = 512 871 uN m = 4.760 A x 107.746 mN m/A;
+    # 0x3001 sub 1 = 4760 mA, sub 2 = 9520 mA (2 x I_N); product code 0x65520000.
+    import dataclasses
+
+    from exoleg.device.actuator import paper_actuators
+    from exoleg.errors import ParameterError
+    from exoleg.hw.cia402 import DriveObjects, check_drive
+    from exoleg.hw.units import MotorData
+
+    hip = dataclasses.replace(paper_actuators()[0], torque_constant=0.107746,
+                              nominal_current=4.76, peak_current=9.52)
+    want = MotorData.of(hip)
+    assert (want.rated_unm, want.nominal_current_ma, want.current_limit_ma) == (
+        512871, 4760, 9520)
+    dcf = DriveObjects(device_type=0x00020192, product_code=0x65520000, rated_unm=512871,
+                       nominal_ma=4760, limit_ma=9520, mode=10, counts=0, inputs=0)
+    assert "rated torque 512871 uN m" in check_drive("hip drive", dcf, want, 0.0, -1.0,
+                                                     1.0, 0.1)
+    # the units exoleg held before (mN m of k_t x the drive's 15 A): refused, named
+    old = dataclasses.replace(dcf, rated_unm=round(0.107746 * 15 * 1000))
+    with pytest.raises(ParameterError, match=r"0x6076: motor rated torque 1616 uN m; the "
+                                             r"device file's motor gives 512871 uN m"):
+        check_drive("hip drive", old, want, 0.0, -1.0, 1.0, 0.1)
+
+
+def test_target_torque_stays_within_what_the_drive_accepts() -> None:
+    # 0x6071 is limited to +-(output current limit / nominal current) x 1000 per mille
+    # (S3: +-2000 for a limit of 2 x I_N); the scaling saturates there
+    from exoleg.device.actuator import paper_actuators
+    from exoleg.hw.units import JointScaling
+
+    for a in paper_actuators():
+        s = JointScaling.of(a)
+        assert s.per_mille_limit == 2000
+        assert s.to_per_mille(1e4) == 2000 and s.to_per_mille(-1e4) == -2000
+        # 1000 per mille is the motor's rated torque k_t I_N, through the gear
+        assert s.to_nm(1000) == pytest.approx(a.ratio * a.efficiency * a.torque_constant
+                                              * a.nominal_current, rel=1e-12)

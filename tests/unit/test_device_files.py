@@ -97,7 +97,7 @@ def test_unknown_file_in_a_device_folder_is_refused(tmp_path: Path) -> None:
 
 def test_cli_device_folder(tmp_path: Path) -> None:
     folder = _folder(tmp_path, "actuators/knee.toml",
-                     _shipped("actuators/knee.toml").replace("efficiency = 0.80",
+                     _shipped("actuators/knee.toml").replace("efficiency = 0.8",
                                                              "efficiency = 2.0"))
     r = subprocess.run([sys.executable, "-m", "exoleg.cli", "simulate", "--walk", "--strides",
                         "1", "--device", str(folder), "--out", str(tmp_path / "o")],

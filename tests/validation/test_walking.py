@@ -34,8 +34,10 @@ def test_walks_ten_strides_without_a_fault(walk) -> None:  # type: ignore[no-unt
     assert not np.any(walk.safety_status & 2)
     last = walk.t >= walk.t[-1] - 5 * walk.stride_time
     err = np.degrees(np.abs(walk.q - walk.q_ref)[last]).max(axis=0)
-    # measured 1.5, 6.0, 10.2 deg (the ankle lags at push-off, where its torque is clipped)
-    assert np.all(err < [3.0, 9.0, 13.0]), err
+    # measured with the datasheets' device (issue 21): 6.1, 5.8, 8.7 deg -- the hip at its
+    # gear's 54 N m (its 3.2 kg m^2 reflected inertia) a third of the stride, the ankle
+    # lagging at push-off; Table 2's device gave 1.5, 6.0, 10.2
+    assert np.all(err < [8.0, 8.0, 12.0]), err
     # stance carries the body: the contact forces' mean over the walk is near the weight
     # share times the stance fraction (about 0.6; measured 0.55)
     weight = (walk.plant.body_mass + walk.plant.leg_mass) * LEG.g
@@ -212,9 +214,11 @@ def _stand_from_walking(leg: exoleg.LegModel, body_mass: float, t_stand: float,
 def _children() -> list[tuple[exoleg.LegModel, float]]:
     from exoleg.sizing import Child, personalized_leg
 
-    # the design range's ends (8 y small, 12 y large) and the paper's leg
+    # the design range's small end (8 y) and the paper's leg: the children the
+    # datasheets' device carries walking (issue 21; a 12 y, 50 kg child's walk itself
+    # leaves the range of motion: test_the_datasheets_device_does_not_carry_a_heavy_child)
     out = [(exoleg.paper_leg(), 30.0)]
-    for age, sex, height, mass in ((8, "female", 1.20, 21.0), (12, "male", 1.60, 50.0)):
+    for age, sex, height, mass in ((8, "female", 1.20, 21.0),):
         out.append((personalized_leg(Child(age=age, sex=sex, height=height, mass=mass)),
                     mass))
     return out
@@ -231,10 +235,27 @@ def test_stand_from_any_phase_ends_standing_inside_the_range_of_motion(
     # Property (issue 20: a stand while walking used to jump the reference to the
     # standing pose; the knee overshot and the hard margin tripped in 8 of 13 phases
     # tried): the stop walks on to where the stance foot is under the hip, then moves
-    # to the standing posture. Measured over 12 phases x these 3 children: always
-    # STANDING, at least 2.4 deg inside the soft limits, standing within 1.14 s.
+    # to the standing posture. Measured with the datasheets' device over phases 0, 0.5
+    # x these 2 children: always STANDING, at least 2.3 deg inside the soft limits,
+    # standing within 0.97 s.
     leg, mass = CHILDREN[child]
     mode, worst, stood = _stand_from_walking(leg, mass, 2.0 + phase * 1.1, seed)
     assert mode == "STANDING"
     assert worst < 0.0, f"{np.degrees(worst):.2f} deg beyond the soft range of motion"
     assert stood <= 1.5 * 1.1 + 0.05  # at most STOP_WAIT_STRIDES strides (1.1 s each)
+
+
+def test_the_datasheets_device_does_not_carry_a_heavy_child() -> None:
+    # What the device can do (issue 21), as a regression: at 24 V, its gears' repeated
+    # peak torque and 2 x I_N, a 12-year-old of 40 kg walking at the free speed faults
+    # (the knee past its hard limit) where Table 2's device carried him; a 21 kg
+    # 8-year-old walks. Measured: 40 kg faults, the knee 19 deg past its soft limit;
+    # 21 kg: no fault, every joint at least 2.8 deg inside.
+    from exoleg.sizing import Child, personalized_leg
+
+    heavy = personalized_leg(Child(age=12, sex="male", height=1.50, mass=40.0))
+    r = simulate_walk(heavy, 40.0, strides=6)
+    assert np.any(r.mode == Mode.FAULT)
+    light = personalized_leg(Child(age=8, sex="female", height=1.20, mass=21.0))
+    r = simulate_walk(light, 21.0, strides=6)
+    assert not np.any(r.mode == Mode.FAULT)

@@ -153,12 +153,19 @@ class SafetyLimits:
                                  f"rate must be 1-{MAX_TORQUE_RATE:g} N m/s (above, the "
                                  "limit limits nothing: the drives' current loops are "
                                  "slower)")
+        from exoleg.device.actuator import paper_actuators
+
         rom = paper.range_of_motion()
         acts = paper.actuators()
+        # Table 2's torque, within what each actuation unit may work at: its gear's
+        # repeated peak torque, or its drive's current limit (the momentary peak is for
+        # collisions, never commanded)
+        working = np.array([a.torque_limit for a in paper_actuators(folder)])
         try:
             return cls(lower=rom.lower, upper=rom.upper,
                        hard_margin=math.radians(v["hard_margin_deg"]),
-                       max_torque=v["torque_fraction"] * np.array([a.max_torque for a in acts]),
+                       max_torque=np.minimum(v["torque_fraction"] * np.array(
+                           [a.max_torque for a in acts]), working),
                        max_torque_rate=rate,
                        max_speed=v["overspeed_factor"] * np.array([a.max_velocity for a in acts]),
                        dt=dt, source=str(d.get("source", where)))

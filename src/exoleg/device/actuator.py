@@ -1,22 +1,28 @@
 """Actuators: motor + strain-wave gear + drive per joint, as data, and their compiled behaviour.
 
-An :class:`ActuatorModel` is one file (``data/device/actuators/{hip,knee,ankle}.toml``,
-each figure with its source: Table 2, the paper's text, the manufacturer's catalogue,
-or exoleg's documented choice). What it does, at the joint (SI units):
+An :class:`ActuatorModel` is one file (``data/device/actuators/{hip,knee,ankle}.toml``),
+each figure with its source id from ``shared/design/device-datasheets.md`` (the
+motors' and gears' sheets, maxon's EPOS4 configuration), Table 2, or a labelled choice.
+What it does, at the joint (SI units):
 
 * **reflected inertia** ``N^2 (J_rotor + J_gear_input)``: the leg's armature
   (:func:`with_actuators` puts it into the model, the exports and the engines);
-* **torque from current** ``tau = N eta k_t i``, the drive's current limited to its peak;
-* **torque-speed envelope** (:func:`envelope`): the peak torque (Table 2, or what the
-  drive's peak current gives, whichever is lower) up to the speed where the peak power
-  (``peak_power_factor`` times Table 2's rated power) runs out, ``P / |w|`` beyond,
-  falling linearly to zero between Table 2's maximum velocity and ``no_load_factor``
-  times it;
-* **friction** (:func:`friction`): viscous ``b w`` plus Coulomb ``tau_c tanh(w / w_s)``
-  (smooth near zero speed, so the dynamics stay integrable);
+* **torque from current** ``tau = N eta k_t i``;
+* **torque-speed envelope** (:func:`envelope`), voltage-limited at the bus voltage: the
+  current the winding can still draw at motor speed ``w_m = N |w|``,
+  ``min(I_limit, (V_bus - k_t w_m) / R)`` (the back-EMF constant is k_t in SI units),
+  times ``N eta k_t``; capped by the gear's **repeated peak torque** (its working
+  limit; the momentary peak is for collisions and E-stops, never commanded); zero
+  beyond the motor's maximum permissible speed;
+* **friction** (:func:`friction`): Coulomb from the motor's no-load current
+  (``N k_t I_0``) and the gear's backdriving torque, smoothed near zero speed
+  (``tanh(w / w_s)``, so the dynamics stay integrable), plus a viscous term;
 * **the drive's current loop** (:func:`current_loop`): first order with the loop's
   closed-loop bandwidth, discretised exactly over each plant step (zero-order hold of
   the command), returning the mean torque over the step;
+* **the winding's temperature** (:func:`thermal_step`, :func:`winding_temperature`):
+  maxon's two-node model (winding and housing, their thermal resistances and time
+  constants) heated by the copper loss ``R i^2``;
 * **encoder** (:func:`encode`): the absolute joint encoder's quantisation (2^bits per
   turn); the velocity is the finite difference of encoder readings over the control
   period through a first-order low-pass of ``velocity_filter_hz`` (:func:`filter_gain`).
@@ -43,65 +49,103 @@ from exoleg.params.records import JOINTS
 
 F64 = NDArray[np.float64]
 
-#: (field, unit, lower, upper) of every number of an actuator file; the bounds are what
-#: a pediatric exoskeleton's actuation unit can mean (a bad file is refused naming the
-#: field and this range).
+#: (field, unit, lower, upper) of every number of an actuator file, grouped as the file
+#: groups them (motor, gear, drive, encoder, friction); the bounds are what a pediatric
+#: exoskeleton's actuation unit can mean (a bad file is refused naming the field and
+#: this range).
 FIELDS: tuple[tuple[str, str, float, float], ...] = (
+    # motor (24 V windings in the sheets)
+    ("torque_constant", "N m/A", 1e-4, 10.0),
+    ("rotor_inertia", "kg m^2", 0.0, 1e-2),
+    ("nominal_current", "A", 0.01, 100.0),
+    ("terminal_resistance", "ohm", 1e-3, 100.0),
+    ("terminal_inductance", "H", 1e-7, 1.0),
+    ("no_load_current", "A", 0.0, 20.0),
+    ("max_speed_rpm", "rpm", 100.0, 100000.0),
+    ("thermal_resistance_winding", "K/W", 0.01, 100.0),
+    ("thermal_resistance_housing", "K/W", 0.01, 100.0),
+    ("thermal_time_constant_winding", "s", 0.1, 1e4),
+    ("thermal_time_constant_motor", "s", 1.0, 1e5),
+    ("max_winding_temperature", "degC", 40.0, 250.0),
+    ("pole_pairs", "", 1.0, 64.0),
+    ("power", "W", 1.0, 10000.0),
+    # gear
     ("ratio", "", 1.0, 1000.0),
     ("efficiency", "", 0.05, 1.0),
-    ("rotor_inertia", "kg m^2", 0.0, 1e-2),
     ("gear_input_inertia", "kg m^2", 0.0, 1e-2),
-    ("torque_constant", "N m/A", 1e-4, 10.0),
-    ("peak_current", "A", 0.01, 500.0),
+    ("gear_rated_torque", "N m", 0.01, 1000.0),
+    ("repeated_peak_torque", "N m", 0.01, 1000.0),
+    ("momentary_peak_torque", "N m", 0.01, 2000.0),
+    ("max_input_speed_rpm", "rpm", 100.0, 20000.0),
+    ("backdriving_torque", "N m", 0.0, 50.0),
+    ("gear_stiffness", "N m/rad", 100.0, 1e7),
+    # drive
     ("continuous_current", "A", 0.01, 500.0),
+    ("peak_current", "A", 0.01, 500.0),
+    ("bus_voltage", "V", 5.0, 100.0),
     ("current_loop_rate", "Hz", 100.0, 1e6),
     ("current_loop_bandwidth", "Hz", 1.0, 1e5),
-    ("peak_torque", "N m", 0.01, 1000.0),
-    ("max_velocity_deg_s", "deg/s", 1.0, 5000.0),
-    ("power", "W", 1.0, 10000.0),
-    ("peak_power_factor", "", 1.0, 10.0),
-    ("no_load_factor", "", 1.0, 3.0),
-    ("coulomb_friction", "N m", 0.0, 50.0),
-    ("viscous_friction", "N m s/rad", 0.0, 50.0),
-    ("friction_smoothing", "rad/s", 1e-5, 10.0),
+    ("product_code", "", 0.0, 2.0**32 - 1),
+    # encoder
     ("encoder_bits", "bit", 8.0, 32.0),
     ("velocity_filter_hz", "Hz", 1.0, 1e5),
+    # friction beyond the motor's no-load current and the gear's backdriving torque
+    ("viscous_friction", "N m s/rad", 0.0, 50.0),
+    ("friction_smoothing", "rad/s", 1e-5, 10.0),
 )
+#: the fields that are whole numbers
+WHOLE = ("pole_pairs", "product_code", "encoder_bits")
 _NAMES = ("joint", "motor", "gear", "drive")
 #: The largest reflected inertia at a joint a file may give, kg m^2: six times the
-#: paper's hip (3.1 kg m^2: its motor and harmonic drive through 1:100); more would be
+#: paper's hip (3.2 kg m^2: its motor and harmonic drive through 1:100); more would be
 #: a unit slip (g cm^2 as kg m^2) or a ratio typed wrong, and the plant meaningless.
 MAX_REFLECTED = 20.0
+RPM = 2.0 * math.pi / 60.0
 
 
 @dataclass(frozen=True)
 class ActuatorModel:
     """One joint's actuation unit (see the module docstring; units as in :data:`FIELDS`,
-    ``max_velocity`` in rad/s). ``sources`` names where each figure comes from."""
+    speeds in rpm at the motor as the sheets give them). ``sources`` names where each
+    figure comes from."""
 
     joint: str
     motor: str
     gear: str
     drive: str
+    torque_constant: float
+    rotor_inertia: float
+    nominal_current: float
+    terminal_resistance: float
+    terminal_inductance: float
+    no_load_current: float
+    max_speed_rpm: float
+    thermal_resistance_winding: float
+    thermal_resistance_housing: float
+    thermal_time_constant_winding: float
+    thermal_time_constant_motor: float
+    max_winding_temperature: float
+    pole_pairs: int
+    power: float
     ratio: float
     efficiency: float
-    rotor_inertia: float
     gear_input_inertia: float
-    torque_constant: float
-    peak_current: float
+    gear_rated_torque: float
+    repeated_peak_torque: float
+    momentary_peak_torque: float
+    max_input_speed_rpm: float
+    backdriving_torque: float
+    gear_stiffness: float
     continuous_current: float
+    peak_current: float
+    bus_voltage: float
     current_loop_rate: float
     current_loop_bandwidth: float
-    peak_torque: float
-    max_velocity: float
-    power: float
-    peak_power_factor: float
-    no_load_factor: float
-    coulomb_friction: float
-    viscous_friction: float
-    friction_smoothing: float
+    product_code: int
     encoder_bits: int
     velocity_filter_hz: float
+    viscous_friction: float
+    friction_smoothing: float
     sources: dict[str, str] = field(default_factory=dict, compare=False)
 
     @property
@@ -110,19 +154,50 @@ class ActuatorModel:
         return self.ratio**2 * (self.rotor_inertia + self.gear_input_inertia)
 
     @property
+    def joint_torque_constant(self) -> float:
+        """N eta k_t: joint torque per ampere of motor current, N m/A."""
+        return self.ratio * self.efficiency * self.torque_constant
+
+    @property
     def current_limited_torque(self) -> float:
-        """N eta k_t I_peak: the most the drive's peak current gives at the joint, N m."""
-        return self.ratio * self.efficiency * self.torque_constant * self.peak_current
+        """N eta k_t I_limit: the most the drive's configured current limit gives, N m."""
+        return self.joint_torque_constant * self.peak_current
 
     @property
     def torque_limit(self) -> float:
-        """The peak joint torque: Table 2's or the current-limited one, the lower, N m."""
-        return min(self.peak_torque, self.current_limited_torque)
+        """The working peak joint torque: the current-limited one or the gear's repeated
+        peak, the lower, N m."""
+        return min(self.repeated_peak_torque, self.current_limited_torque)
 
     @property
     def continuous_torque(self) -> float:
-        """N eta k_t I_continuous, N m: what the drive gives continuously."""
-        return self.ratio * self.efficiency * self.torque_constant * self.continuous_current
+        """N eta k_t I_N, N m: what the motor gives continuously (its nominal current,
+        the thermal limit; the drive's continuous current is higher)."""
+        return self.joint_torque_constant * self.nominal_current
+
+    @property
+    def no_load_speed(self) -> float:
+        """The joint speed at which the bus voltage is all back-EMF (no torque left),
+        rad/s: V_bus / (k_t N)."""
+        return self.bus_voltage / self.torque_constant / self.ratio
+
+    @property
+    def max_velocity(self) -> float:
+        """The fastest the joint turns, rad/s: the no-load speed at the bus voltage or the
+        motor's maximum permissible speed through the gear, the lower."""
+        return min(self.no_load_speed, self.max_speed_rpm * RPM / self.ratio)
+
+    @property
+    def coulomb_friction(self) -> float:
+        """Coulomb friction at the joint, N m: the motor's drag at its no-load current
+        through the gear (N k_t I_0) plus the gear's backdriving torque."""
+        return self.ratio * self.torque_constant * self.no_load_current + \
+            self.backdriving_torque
+
+    @property
+    def rated_motor_torque(self) -> float:
+        """The motor's rated torque as an EPOS4 takes it (0x6076): k_t I_N, N m."""
+        return self.torque_constant * self.nominal_current
 
     @property
     def encoder_resolution(self) -> float:
@@ -132,21 +207,40 @@ class ActuatorModel:
     def record(self) -> NDArray[np.void]:
         """The figures the compiled functions take (:data:`ACTUATOR`)."""
         r = new(ACTUATOR)
-        r[0] = (self.torque_limit, self.max_velocity, self.peak_power_factor * self.power,
-                self.no_load_factor, self.coulomb_friction, self.viscous_friction,
-                self.friction_smoothing, self.current_loop_bandwidth, self.encoder_resolution,
-                self.velocity_filter_hz, self.ratio)
+        r[0] = (self.torque_limit, self.joint_torque_constant, self.peak_current,
+                self.bus_voltage, self.torque_constant * self.ratio, self.terminal_resistance,
+                self.max_speed_rpm * RPM / self.ratio, self.coulomb_friction,
+                self.viscous_friction, self.friction_smoothing, self.current_loop_bandwidth,
+                self.encoder_resolution, self.velocity_filter_hz, self.ratio)
+        return r
+
+    def thermal(self) -> NDArray[np.void]:
+        """The two-node thermal model's figures (:data:`THERMAL`)."""
+        r = new(THERMAL)
+        rw, rh = self.thermal_resistance_winding, self.thermal_resistance_housing
+        r[0] = (rw, rh, self.thermal_time_constant_winding / rw,
+                self.thermal_time_constant_motor / rh, self.terminal_resistance,
+                self.joint_torque_constant)
         return r
 
 
 #: An actuator as the compiled functions read it (:meth:`ActuatorModel.record`), joint
-#: side: torque limit (N m), speed limit (rad/s), peak power (W), the no-load speed as a
-#: multiple of the speed limit, Coulomb (N m) and viscous (N m s/rad) friction and the
-#: Coulomb term's smoothing speed (rad/s), the current loop's bandwidth (Hz), the
-#: encoder's resolution (rad), the velocity filter's cut-off (Hz), the gear ratio.
-ACTUATOR = np.dtype([("torque", F8), ("speed", F8), ("power", F8), ("no_load", F8),
+#: side: the working torque limit (N m), N eta k_t (N m/A), the current limit (A), the
+#: bus voltage (V), the back-EMF constant at the joint N k_t (V s/rad), the winding's
+#: resistance (ohm), the motor's maximum permissible speed at the joint (rad/s), Coulomb
+#: (N m) and viscous (N m s/rad) friction and the Coulomb term's smoothing speed
+#: (rad/s), the current loop's bandwidth (Hz), the encoder's resolution (rad), the
+#: velocity filter's cut-off (Hz), the gear ratio.
+ACTUATOR = np.dtype([("torque", F8), ("kt_joint", F8), ("current", F8), ("voltage", F8),
+                     ("ke_joint", F8), ("resistance", F8), ("speed", F8),
                      ("coulomb", F8), ("viscous", F8), ("smoothing", F8), ("bandwidth", F8),
                      ("resolution", F8), ("filter_hz", F8), ("ratio", F8)])
+#: The motor's two thermal nodes (:meth:`ActuatorModel.thermal`): winding-housing and
+#: housing-ambient resistances (K/W), the winding's and the housing's heat capacities
+#: (J/K: each time constant over its resistance), the winding's resistance (ohm), and
+#: N eta k_t (N m/A: a joint torque's current).
+THERMAL = np.dtype([("r_wh", F8), ("r_ha", F8), ("c_w", F8), ("c_h", F8),
+                    ("resistance", F8), ("kt_joint", F8)])
 
 
 def parse_actuator(data: dict[str, Any], where: str) -> ActuatorModel:
@@ -165,28 +259,40 @@ def parse_actuator(data: dict[str, Any], where: str) -> ActuatorModel:
         if not lo <= v <= hi:
             raise ParameterError(where, name, f"{v:g} {unit} is outside {lo:g}-{hi:g} {unit}"
                                  .replace("  ", " "))
+        if name in WHOLE:
+            if v != int(v):
+                raise ParameterError(where, name, f"expected a whole number, got {v}")
+            v = int(v)
         vals[name] = v
     if vals["current_loop_bandwidth"] > vals["current_loop_rate"] / 2:
         raise ParameterError(where, "current_loop_bandwidth",
                              f"{vals['current_loop_bandwidth']:g} Hz is above half the loop "
                              f"rate ({vals['current_loop_rate'] / 2:g} Hz)")
-    if vals["continuous_current"] > vals["peak_current"]:
-        raise ParameterError(where, "continuous_current", "must not exceed peak_current")
+    if vals["peak_current"] > 2 * vals["continuous_current"]:
+        raise ParameterError(where, "peak_current", f"{vals['peak_current']:g} A is above "
+                             "the drive's peak, twice its continuous current "
+                             f"({2 * vals['continuous_current']:g} A)")
+    if vals["nominal_current"] > vals["peak_current"]:
+        raise ParameterError(where, "nominal_current", "the motor's nominal current must "
+                             "not exceed the drive's current limit (peak_current)")
+    if not vals["gear_rated_torque"] <= vals["repeated_peak_torque"] <= \
+            vals["momentary_peak_torque"]:
+        raise ParameterError(where, "repeated_peak_torque", "a gear's ratings go rated <= "
+                             "repeated peak <= momentary peak")
     reflected = (vals["rotor_inertia"] + vals["gear_input_inertia"]) * vals["ratio"] ** 2
     if reflected > MAX_REFLECTED:
         raise ParameterError(where, "rotor_inertia/gear_input_inertia/ratio",
                              f"reflected inertia {reflected:.4g} kg m^2 at the joint is not "
                              f"a child's exoskeleton joint (allowed up to {MAX_REFLECTED:g}; "
-                             "the paper's hip: 3.1)")
-    bits = vals.pop("encoder_bits")
-    if bits != int(bits):
-        raise ParameterError(where, "encoder_bits", f"expected a whole number, got {bits}")
+                             "the paper's hip: 3.2)")
     sources = data.get("sources", {})
     if not isinstance(sources, dict):
         raise ParameterError(where, "sources", "must be a table of field = \"source\"")
-    return ActuatorModel(max_velocity=math.radians(vals.pop("max_velocity_deg_s")),
-                         encoder_bits=int(bits), sources={k: str(v) for k, v in sources.items()},
-                         **vals)
+    missing = [f[0] for f in FIELDS if f[0] not in sources]
+    if missing:
+        raise ParameterError(where, f"sources.{missing[0]}", "every figure names its source "
+                             "(a sheet's id, Table 2, the paper, or \"choice: why\")")
+    return ActuatorModel(sources={k: str(v) for k, v in sources.items()}, **vals)
 
 
 def load_actuator(path: str | Path) -> ActuatorModel:
@@ -215,6 +321,22 @@ def paper_actuators(folder: str | Path | None = None
     return tuple(out)  # type: ignore[return-value]
 
 
+#: the hip motor's variants (``data/device/hip-variants``): the paper's 220 W EC 90 flat
+#: is rated on no maxon page; the shipped hip is the 160 W (the paper's assumption)
+HIP_VARIANTS = ("ec90flat-90w", "ec90flat-160w", "ec90flat-260w")
+
+
+def hip_variant(name: str) -> ActuatorModel:
+    """The hip actuation unit with the motor variant ``name`` (:data:`HIP_VARIANTS`)."""
+    from importlib import resources
+
+    if name not in HIP_VARIANTS:
+        raise ParameterError("hip variant", name, "unknown (allowed: "
+                             + ", ".join(sorted(HIP_VARIANTS)) + ")")
+    return load_actuator(str(resources.files("exoleg").joinpath(
+        "data", "device", "hip-variants", f"{name}.toml")))
+
+
 def with_actuators(leg: LegModel, actuators: tuple[ActuatorModel, ...] | None = None) -> LegModel:
     """``leg`` with each actuator's reflected inertia as its joint's armature."""
     acts = paper_actuators() if actuators is None else actuators
@@ -234,26 +356,103 @@ def params_array(actuators: tuple[ActuatorModel, ...]) -> NDArray[np.void]:
 @njit(cache=True)
 def envelope(par, w):  # type: ignore[no-untyped-def]
     """Largest joint torque (N m, >= 0) the actuator ``par`` (:data:`ACTUATOR`)
-    delivers at joint speed ``w`` (rad/s)."""
+    delivers at joint speed ``w`` (rad/s): the current the bus voltage can still drive
+    against the back-EMF, ``(V - N k_t |w|) / R``, within the current limit, times
+    N eta k_t; within the working limit (the gear's repeated peak); zero beyond the
+    motor's maximum permissible speed. The same both ways (the braking quadrant, which
+    the back-EMF helps, is taken as the motoring one: conservative)."""
     P = par[0]
     s = abs(w)
-    t = P.torque
-    if s > 0.0:
-        t = min(t, P.power / s)
-    wmax = P.speed
-    if s > wmax:
-        w0 = P.no_load * wmax
-        corner = min(P.torque, P.power / wmax)
-        t = corner * max(0.0, (w0 - s) / (w0 - wmax))
-    return t
+    if s > P.speed:
+        return 0.0
+    i = min(P.current, max(0.0, (P.voltage - P.ke_joint * s) / P.resistance))
+    return min(P.torque, P.kt_joint * i)
 
 
 @njit(cache=True)
 def friction(par, w):  # type: ignore[no-untyped-def]
     """Friction torque at the joint, N m, opposing the speed w: viscous plus smooth
-    Coulomb (tanh over ``friction_smoothing``)."""
+    Coulomb (the motor's no-load drag and the gear's backdriving torque, tanh over
+    ``friction_smoothing``)."""
     P = par[0]
     return P.viscous * w + P.coulomb * math.tanh(w / P.smoothing)
+
+
+@njit(cache=True)
+def thermal_step(th, T, current, ambient, h):  # type: ignore[no-untyped-def]
+    """Advance the motor's two thermal nodes ``T`` (2,: winding, housing, degC) over h s
+    at a constant motor current (A) and ambient temperature (degC): C_w T_w' = R i^2 -
+    (T_w - T_h) / R_wh, C_h T_h' = (T_w - T_h) / R_wh - (T_h - T_a) / R_ha. Exact for the
+    step (the linear system's matrix exponential, by its two eigenvalues)."""
+    P = th[0]
+    a11 = -1.0 / (P.c_w * P.r_wh)
+    a12 = 1.0 / (P.c_w * P.r_wh)
+    a21 = 1.0 / (P.c_h * P.r_wh)
+    a22 = -1.0 / (P.c_h * P.r_wh) - 1.0 / (P.c_h * P.r_ha)
+    q = P.resistance * current * current
+    # the steady state for this current: T* = T_a + q (R_wh + R_ha), q R_ha
+    sw = ambient + q * (P.r_wh + P.r_ha)
+    sh = ambient + q * P.r_ha
+    x1, x2 = T[0] - sw, T[1] - sh
+    tr, det = a11 + a22, a11 * a22 - a12 * a21
+    disc = math.sqrt(max(tr * tr / 4.0 - det, 0.0))
+    l1, l2 = tr / 2.0 + disc, tr / 2.0 - disc
+    e1, e2 = math.exp(l1 * h), math.exp(l2 * h)
+    # e^{Ah} = (e1 (A - l2 I) - e2 (A - l1 I)) / (l1 - l2)
+    d = l1 - l2
+    m11 = (e1 * (a11 - l2) - e2 * (a11 - l1)) / d
+    m12 = (e1 - e2) * a12 / d
+    m21 = (e1 - e2) * a21 / d
+    m22 = (e1 * (a22 - l2) - e2 * (a22 - l1)) / d
+    T[0] = sw + m11 * x1 + m12 * x2
+    T[1] = sh + m21 * x1 + m22 * x2
+
+
+@njit(cache=True)
+def _temperatures(th, currents, dt, ambient, out):  # type: ignore[no-untyped-def]
+    T = np.array([ambient, ambient])
+    for k in range(len(currents)):
+        thermal_step(th, T, currents[k], ambient, dt)
+        out[k, 0] = T[0]
+        out[k, 1] = T[1]
+
+
+def winding_temperature(actuator: ActuatorModel, joint_torque: F64, dt: float,
+                        ambient: float = 25.0) -> F64:
+    """The winding's and housing's temperatures (N, 2; degC) through a series of joint
+    torques (N m, every ``dt`` s) from ``ambient``: the current each needs,
+    ``|tau| / (N eta k_t)``, heating the two nodes (:func:`thermal_step`)."""
+    tau = np.abs(np.asarray(joint_torque, dtype=float))
+    out = np.empty((len(tau), 2))
+    _temperatures(actuator.thermal(), tau / actuator.joint_torque_constant, float(dt),
+                  float(ambient), out)
+    return out
+
+
+def time_to_winding_limit(actuator: ActuatorModel, current: float,
+                          ambient: float = 25.0) -> float:
+    """How long a constant motor ``current`` (A) may flow from ``ambient`` before the
+    winding reaches its maximum temperature, s (inf when its steady state stays below):
+    the two-node solution's crossing, found by bisection on the exact step."""
+    th = actuator.thermal()
+    P = th[0]
+    limit = actuator.max_winding_temperature
+    steady = ambient + P["resistance"] * current**2 * (P["r_wh"] + P["r_ha"])
+    if steady <= limit:
+        return math.inf
+
+    def winding_at(t: float) -> float:
+        T = np.array([ambient, ambient])
+        thermal_step(th, T, current, ambient, t)
+        return float(T[0])
+
+    lo, hi = 0.0, 1.0
+    while winding_at(hi) < limit:
+        hi *= 2.0
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if winding_at(mid) < limit else (lo, mid)
+    return hi
 
 
 @njit(cache=True)

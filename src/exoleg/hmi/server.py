@@ -102,7 +102,7 @@ def device_info(leg: Any) -> dict[str, Any]:
         "sensor_x": [float(x) * float(leg.lengths[2]) for x in SENSOR_X], "actuators": []}
     for a in acts:
         par = a.record()
-        w = np.linspace(0.0, 1.1 * a.no_load_factor * a.max_velocity, 60)
+        w = np.linspace(0.0, 1.05 * a.max_velocity, 60)
         out["actuators"].append({
             "joint": a.joint, "torque_limit": a.torque_limit,
             "continuous_torque": a.continuous_torque, "max_velocity": a.max_velocity,

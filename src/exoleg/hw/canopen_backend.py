@@ -104,17 +104,21 @@ class CanopenBackend(DriveMaster):
         self.foot.set()
 
     def start_up(self, lower: F64, upper: F64, margin: float) -> list[str]:
-        """Before any motion: every drive answers (SDO), is a CiA 402 servo drive, is
-        configured as the device file says (rated torque 0x6076) and set to cyclic
+        """Before any motion: every drive answers (SDO), is a CiA 402 servo drive of the
+        product the device file names (0x1018), is configured for the file's motor as
+        maxon configures it (0x6076 in uN m, 0x3001) and set to cyclic
         synchronous torque (0x6060 = 10); the leg, read from the absolute encoders (the
         homing), is within its range of motion (``lower``/``upper`` rad, plus ``margin``).
         Raises ParameterError naming the node and what is wrong; returns what it checked."""
-        def configure(j: str) -> tuple[int, int, int, int, int]:
+        def configure(j: str) -> cia402.DriveObjects:
             sdo = self.nodes[j].sdo
             sdo[0x6060].raw = cia402.CST
             self.inputs[j] = int(sdo[0x60FD].raw)
-            return (int(sdo[0x1000].raw), int(sdo[0x6076].raw), int(sdo[0x6060].raw),
-                    int(sdo[0x6064].raw), self.inputs[j])
+            return cia402.DriveObjects(
+                device_type=int(sdo[0x1000].raw), product_code=int(sdo[0x1018][2].raw),
+                rated_unm=int(sdo[0x6076].raw), nominal_ma=int(sdo[0x3001][1].raw),
+                limit_ma=int(sdo[0x3001][2].raw), mode=int(sdo[0x6060].raw),
+                counts=int(sdo[0x6064].raw), inputs=self.inputs[j])
 
         where = {j: f"{j} drive (node {DRIVE_IDS[j]})" for j in JOINT_ORDER}
         return self.check_drives(JOINT_ORDER, where, configure, lower, upper, margin)

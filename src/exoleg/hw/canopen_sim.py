@@ -17,7 +17,7 @@ from exoleg.hw.canopen_backend import (
     eds_path,
 )
 from exoleg.hw.rig import JOINT_ORDER, DriveRig
-from exoleg.hw.units import rated_torque_mnm
+from exoleg.hw.units import MotorData
 
 
 class SimulatedRig(DriveRig):
@@ -41,9 +41,14 @@ class SimulatedRig(DriveRig):
             self.nodes[j] = node
             inputs: Any = node.sdo[0x60FD]
             inputs.raw = 0
-            # configured as the device file says (a real drive: by its commissioning)
+            # configured as maxon configures a drive for the device file's motor (a real
+            # drive: by its commissioning)
+            m = MotorData.of(device.dev.actuators[JOINT_ORDER.index(j)])
             rated: Any = node.sdo[0x6076]
-            rated.raw = rated_torque_mnm(self.scaling[j])
+            rated.raw = m.rated_unm
+            motor: Any = node.sdo[0x3001]
+            for sub, value in m.subs().items():
+                motor[sub].raw = value
             pos: Any = node.sdo[0x6064]
             pos.raw = self.position(JOINT_ORDER.index(j))
             node.nmt.start_heartbeat(HEARTBEAT_MS)

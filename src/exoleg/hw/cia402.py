@@ -15,6 +15,9 @@ fault reset acts on the rising edge of bit 7.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 from enum import Enum
 
 # controlword bits (0x6040)
@@ -185,30 +188,66 @@ def interlock_fault(where: str, inputs: int) -> str:
             f"the {where}); the drives' STO has taken the torque off")
 
 
-def check_drive(where: str, device_type: int, rated_mnm: int, want_rated_mnm: int,
-                mode: int, q: float, lower: float, upper: float, margin: float,
-                inputs: int = 0) -> str:
+#: the EPOS4 50/15's product code (0x1018 sub 2; device-datasheets.md, S3)
+EPOS4_50_15 = 0x65520000
+
+
+@dataclass(frozen=True)
+class DriveObjects:
+    """What the master reads of a drive at start-up, over any bus: device type
+    (0x1000), product code (0x1018 sub 2), motor rated torque (0x6076, uN m), the motor
+    data's nominal current and output current limit (0x3001 sub 1, 2; mA), the mode of
+    operation after setting CST (0x6060), the position (0x6064, counts) and the digital
+    inputs (0x60FD)."""
+
+    device_type: int
+    product_code: int
+    rated_unm: int
+    nominal_ma: int
+    limit_ma: int
+    mode: int
+    counts: int
+    inputs: int = 0
+
+
+def check_drive(where: str, read: DriveObjects, want: Any, q: float, lower: float,
+                upper: float, margin: float) -> str:
     """The start-up check of one drive, the same over every transport: a CiA 402 servo
-    drive (0x1000), the device file's rated torque (0x6076, mN m), cyclic synchronous
-    torque (0x6060), and a joint -- read from its absolute encoder, the homing -- within
-    its range of motion (``lower``/``upper`` rad, plus ``margin``). Raises ParameterError
-    naming the drive (``where``) and the object; returns what it checked. ``inputs``:
-    its digital inputs (0x60FD): a pressed hardware E-stop refuses the start."""
+    drive (0x1000) of the product the device file names (0x1018 sub 2), configured for
+    the device file's motor as maxon configures it (``want``: the file's
+    :class:`~exoleg.hw.units.MotorData` and rated torque -- 0x6076 in uN m = I_N x k_t,
+    0x3001's nominal current and current limit in mA), in cyclic synchronous torque
+    (0x6060), its hardware E-stop released (0x60FD), and the joint -- read from its
+    absolute encoder, the homing -- within its range of motion (``lower``/``upper`` rad,
+    plus ``margin``). Raises ParameterError naming the drive (``where``) and the object;
+    returns what it checked."""
     from math import degrees
 
     from exoleg.errors import ParameterError
 
-    if device_type != SERVO_DEVICE_TYPE:
-        raise ParameterError(where, "0x1000", f"device type 0x{device_type:08X}, not a CiA "
-                             f"402 servo drive (0x{SERVO_DEVICE_TYPE:08X})")
-    if rated_mnm != want_rated_mnm:
-        raise ParameterError(where, "0x6076", f"motor rated torque {rated_mnm} mN m; the "
-                             f"device file says {want_rated_mnm} mN m (torques would be "
-                             "scaled wrongly)")
-    if mode != CST:
-        raise ParameterError(where, "0x6060", f"mode {mode} after setting cyclic "
+    if read.device_type != SERVO_DEVICE_TYPE:
+        raise ParameterError(where, "0x1000", f"device type 0x{read.device_type:08X}, not a "
+                             f"CiA 402 servo drive (0x{SERVO_DEVICE_TYPE:08X})")
+    if read.product_code != want.product_code:
+        raise ParameterError(where, "0x1018 sub 2", f"product code 0x{read.product_code:08X}"
+                             f"; the device file names 0x{want.product_code:08X}")
+    if read.rated_unm != want.rated_unm:
+        old = " (mN m from the drive's current? EPOS4 holds uN m from the motor's nominal " \
+              "current)" if read.rated_unm < want.rated_unm / 10 else ""
+        raise ParameterError(where, "0x6076", f"motor rated torque {read.rated_unm} uN m; "
+                             f"the device file's motor gives {want.rated_unm} uN m (I_N x "
+                             f"k_t){old}: torques would be scaled wrongly")
+    for name, got, expected in (("sub 1 (nominal current)", read.nominal_ma,
+                                 want.nominal_current_ma),
+                                ("sub 2 (output current limit)", read.limit_ma,
+                                 want.current_limit_ma)):
+        if got != expected:
+            raise ParameterError(where, f"0x3001 {name}", f"{got} mA; the device file says "
+                                 f"{expected} mA")
+    if read.mode != CST:
+        raise ParameterError(where, "0x6060", f"mode {read.mode} after setting cyclic "
                              f"synchronous torque ({CST})")
-    if interlock_fault(where, inputs):
+    if interlock_fault(where, read.inputs):
         raise ParameterError(where, "0x60FD", "the hardware E-stop is pressed (interlock "
                              "input open): release it before the session")
     if not lower - margin <= q <= upper + margin:
@@ -216,4 +255,5 @@ def check_drive(where: str, device_type: int, rated_mnm: int, want_rated_mnm: in
                              f"outside its range of motion {degrees(lower):.0f} to "
                              f"{degrees(upper):.0f} deg: check the encoder offset before "
                              "any motion")
-    return f"{where}: CiA 402 servo, rated torque {rated_mnm} mN m, CST, at {degrees(q):.1f} deg"
+    return (f"{where}: CiA 402 servo 0x{read.product_code:08X}, rated torque "
+            f"{read.rated_unm} uN m, I_N {read.nominal_ma} mA, CST, at {degrees(q):.1f} deg")

@@ -126,20 +126,26 @@ class EthercatBackend(DriveMaster):
                                  "board): check the cabling")
         where = {j: f"{j} drive (slave {SLAVE_POS[j]})" for j in JOINT_ORDER}
 
-        def configure(j: str) -> tuple[int, int, int, int, int]:
+        def configure(j: str) -> cia402.DriveObjects:
             s = m.slaves[SLAVE_POS[j] - 1]
             if s.man != MAXON_VENDOR_ID or DRIVE_NAME not in s.name:
                 raise ParameterError(where[j], "(identity)", f"is {s.name!r} of vendor "
                                      f"0x{s.man:08X}, not a maxon {DRIVE_NAME}: check the "
                                      "chain's order")
             s.sdo_write(0x6060, 0, struct.pack("<b", cia402.CST))
-            values = tuple(struct.unpack(f, s.sdo_read(index, 0, struct.calcsize(f)))[0]
-                           for index, f in ((0x1000, "<I"), (0x6076, "<I"), (0x6060, "<b"),
-                                            (0x6064, "<i"), (0x60FD, "<I")))
+
+            def sdo(index: int, sub: int, f: str) -> int:
+                return int(struct.unpack(f, s.sdo_read(index, sub, struct.calcsize(f)))[0])
+
+            read = cia402.DriveObjects(
+                device_type=sdo(0x1000, 0, "<I"), product_code=int(s.id),
+                rated_unm=sdo(0x6076, 0, "<I"), nominal_ma=sdo(0x3001, 1, "<I"),
+                limit_ma=sdo(0x3001, 2, "<I"), mode=sdo(0x6060, 0, "<b"),
+                counts=sdo(0x6064, 0, "<i"), inputs=sdo(0x60FD, 0, "<I"))
             s.config_func = self._mapper(s)
             s.add_emergency_callback(self.on_emcy(j))
             self.slaves[j] = s
-            return values
+            return read
 
         along = tuple(sorted(JOINT_ORDER, key=SLAVE_POS.__getitem__))  # the segment's order
         done = self.check_drives(along, where, configure, lower, upper, margin)

@@ -28,17 +28,18 @@ from exoleg.hw.ethercat_backend import (
     pdo_mapping_writes,
 )
 from exoleg.hw.rig import JOINT_ORDER, DriveRig
-from exoleg.hw.units import rated_torque_mnm
+from exoleg.hw.units import MotorData
 
 
 class _Slave:
     """One simulated slave at the process-data level, with pysoem's slave attributes."""
 
-    def __init__(self, name: str, man: int, n_in: int, objects: dict[int, bytes]) -> None:
-        self.name, self.man, self.id, self.rev = name, man, 0, 0
+    def __init__(self, name: str, man: int, n_in: int, objects: dict[tuple[int, int], bytes],
+                 product: int = 0) -> None:
+        self.name, self.man, self.id, self.rev = name, man, product, 0
         self.input = bytes(n_in)
         self.output = b""
-        self.objects = dict(objects)        # (index) -> value of subindex 0
+        self.objects = dict(objects)        # (index, subindex) -> value
         self.sdo_log: list[tuple[int, int, bytes]] = []
         self.config_func: Any = None
         self.callbacks: list[Any] = []
@@ -47,15 +48,15 @@ class _Slave:
         self.answers = True                 # False: it drops out of the exchange
 
     def sdo_read(self, index: int, subindex: int, size: int = 0) -> bytes:
-        if index not in self.objects or subindex:
+        if (index, subindex) not in self.objects:
             raise RuntimeError(f"SDO abort 0x06020000 (object 0x{index:04X}:{subindex} "
                                "does not exist)")
-        return self.objects[index]
+        return self.objects[index, subindex]
 
     def sdo_write(self, index: int, subindex: int, data: bytes) -> None:
         self.sdo_log.append((index, subindex, bytes(data)))
-        if subindex == 0 and index in self.objects:
-            self.objects[index] = bytes(data)
+        if (index, subindex) in self.objects:
+            self.objects[index, subindex] = bytes(data)
 
     def add_emergency_callback(self, callback: Any) -> None:
         self.callbacks.append(callback)
@@ -73,13 +74,16 @@ class SimulatedSegment(DriveRig):
         super().__init__(device, offsets)
         self.slaves: list[Any] = [None] * FOOT_POS
         for i, j in enumerate(JOINT_ORDER):
-            objects = {0x1000: struct.pack("<I", cia402.SERVO_DEVICE_TYPE),
-                       0x6076: struct.pack("<I", rated_torque_mnm(self.scaling[j])),
-                       0x6060: struct.pack("<b", 0),
-                       0x6064: struct.pack("<i", self.position(i)),
-                       0x60FD: struct.pack("<I", 0)}
+            # configured as maxon configures a drive for the device file's motor
+            m = MotorData.of(device.dev.actuators[i])
+            objects = {(0x1000, 0): struct.pack("<I", cia402.SERVO_DEVICE_TYPE),
+                       (0x6076, 0): struct.pack("<I", m.rated_unm),
+                       (0x6060, 0): struct.pack("<b", 0),
+                       (0x6064, 0): struct.pack("<i", self.position(i)),
+                       (0x60FD, 0): struct.pack("<I", 0),
+                       **{(0x3001, k): struct.pack("<I", v) for k, v in m.subs().items()}}
             self.slaves[SLAVE_POS[j] - 1] = _Slave(DRIVE_NAME, MAXON_VENDOR_ID, TX.size,
-                                                   objects)
+                                                   objects, m.product_code)
         self.slaves[FOOT_POS - 1] = _Slave(FOOT_NAME, 0, FOOT_IN.size, {})
         self.state = INIT
         self.expected_wkc = 0
@@ -135,8 +139,8 @@ class SimulatedSegment(DriveRig):
         for i, j in enumerate(JOINT_ORDER):
             s = self.slaves[SLAVE_POS[j] - 1]
             status, counts, torque = self.drive(i)
-            s.objects[0x6064] = struct.pack("<i", counts)  # for SDO reads (start-up)
-            s.objects[0x60FD] = struct.pack("<I", self.inputs(i))
+            s.objects[0x6064, 0] = struct.pack("<i", counts)  # for SDO reads (start-up)
+            s.objects[0x60FD, 0] = struct.pack("<I", self.inputs(i))
             if j not in self.silent:
                 s.input = TX.pack(status, counts, torque, cia402.CST, self.inputs(i))
         if "foot" not in self.silent:

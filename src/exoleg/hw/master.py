@@ -17,7 +17,7 @@ from exoleg.device.actuator import filter_gain
 from exoleg.errors import ParameterError
 from exoleg.hw import cia402
 from exoleg.hw.rig import JOINT_ORDER
-from exoleg.hw.units import JointScaling, rated_torque_mnm
+from exoleg.hw.units import JointScaling, MotorData
 
 F64 = NDArray[np.float64]
 
@@ -35,6 +35,8 @@ class DriveMaster:
         self.timeout = timeout
         self.scaling = {j: JointScaling.of(actuators[i], (offsets or {}).get(j, 0))
                         for i, j in enumerate(JOINT_ORDER)}
+        # what each drive must hold, configured for the device file's motor
+        self.motor = {j: MotorData.of(actuators[i]) for i, j in enumerate(JOINT_ORDER)}
         self.b = np.array([filter_gain(a.record(), period) for a in actuators])
         self.emcy: list[tuple[str, Any]] = []
         self.enabled = False
@@ -50,24 +52,22 @@ class DriveMaster:
     def check_drives(self, order: tuple[str, ...], where: dict[str, str], configure: Any,
                      lower: F64, upper: F64, margin: float) -> list[str]:
         """The start-up check of every drive, in ``order`` (the bus's): ``configure(j)``
-        sets drive ``j`` to cyclic synchronous torque and returns its device type
-        (0x1000), rated torque (0x6076, mN m), mode (0x6060), position (0x6064,
-        counts) and digital inputs (0x60FD) as the bus reads them; :func:`cia402.check_drive` judges them. The
+        sets drive ``j`` to cyclic synchronous torque and returns what the bus reads of
+        it (:class:`~exoleg.hw.cia402.DriveObjects`); :func:`cia402.check_drive` judges them. The
         positions read become the velocity filter's start. Raises ParameterError naming
         the drive (``where[j]``); returns what it checked."""
         done = []
         for j in order:
             try:
-                kind, rated, mode, counts, inputs = configure(j)
+                read = configure(j)
             except ParameterError:
                 raise
             except Exception as e:  # SDO abort or timeout
                 raise ParameterError(where[j], "(start-up)", f"does not answer: {e}") from None
             i = JOINT_ORDER.index(j)
-            q = self.scaling[j].to_rad(counts)
-            done.append(cia402.check_drive(where[j], kind, rated,
-                                           rated_torque_mnm(self.scaling[j]), mode, q,
-                                           lower[i], upper[i], margin, inputs))
+            q = self.scaling[j].to_rad(read.counts)
+            done.append(cia402.check_drive(where[j], read, self.motor[j], q, lower[i],
+                                           upper[i], margin))
             self.q_prev[i] = q
         return done
 

@@ -153,11 +153,11 @@ def save_figures(report: ScenarioReport, folder: str | Path,
 def _torque_speed(ax: Axes, actuator: ActuatorModel, t: np.ndarray, dq: np.ndarray,
                   tau: np.ndarray) -> None:
     """One joint's delivered torque against its speed over the actuator's envelope, with
-    Table 2's maximum velocity marked."""
+    the fastest the actuator turns at its bus voltage marked."""
     from exoleg.device.actuator import envelope
 
     par = actuator.record()
-    w = np.linspace(0, 1.15 * actuator.no_load_factor * actuator.max_velocity, 400)
+    w = np.linspace(0, 1.15 * actuator.max_velocity, 400)
     env = np.array([envelope(par, x) for x in w])
     wd = np.degrees(w)
     ax.fill_between(wd, -env, env, color="0.9", label="envelope")
@@ -166,7 +166,7 @@ def _torque_speed(ax: Axes, actuator: ActuatorModel, t: np.ndarray, dq: np.ndarr
     ax.plot(v, tq, ".", ms=1.2, label="delivered")
     vmax = np.degrees(actuator.max_velocity)
     ax.axvline(vmax, color="r", lw=0.6, ls=":")
-    ax.axvline(-vmax, color="r", lw=0.6, ls=":", label="Table 2 max velocity")
+    ax.axvline(-vmax, color="r", lw=0.6, ls=":", label="max velocity (bus voltage)")
     _title(ax, f"{actuator.joint}: torque (N m) vs speed (deg/s)")
     ax.legend(fontsize=6, loc="lower left")
 
