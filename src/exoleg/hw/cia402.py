@@ -16,9 +16,8 @@ fault reset acts on the rising edge of bit 7.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
-
 from enum import Enum
+from typing import Any
 
 # controlword bits (0x6040)
 SWITCH_ON, ENABLE_VOLTAGE, QUICK_STOP, ENABLE_OPERATION, FAULT_RESET = 1, 2, 4, 8, 128
