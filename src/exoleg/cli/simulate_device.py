@@ -37,7 +37,7 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
         ideal = simulate(cfg["leg"], cfg["controller"], cfg["reference"], args.duration,
                          dt=control_dt, q0=cfg["q0"])
     acts = r.actuators
-    peaks = _actuator_peaks(acts, r.tau, r.dq, r.u_safe, r.envelope)
+    peaks = _actuator_peaks(acts, r.tau, r.dq, r.u_safe, r.envelope, control_dt)
     rows = []
     for i, (a, peak) in enumerate(zip(acts, peaks, strict=True)):
         peak["peak_command_Nm"] = float(np.abs(r.u_command[:, i]).max())
@@ -46,7 +46,7 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
                      f"{a.torque_limit:.0f}",
                      f"{peak['rms_torque_Nm']:.1f} / {a.continuous_torque:.0f}",
                      f"{peak['peak_speed_deg_s']:.0f} / {peak['max_velocity_deg_s']:.0f}",
-                     f"{peak['peak_power_W']:.1f} / {a.power:.0f}",
+                     f"{peak['rms_current_A']:.2f} / {a.nominal_current:g}",
                      str(peak["ticks_at_envelope"])])
     status = np.bitwise_or.reduce(r.status)
     figs = {
@@ -72,8 +72,8 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
          "actuators (reflected inertia, friction, envelope, current loop), 20-bit encoders "
          "and the safety layer")
     _table(rows, ["joint", "armature kg m^2", "torque command / delivered / limit N m",
-                  "RMS / continuous N m", "speed / Table 2 deg/s", "power / rated W",
-                  "ticks at envelope"])
+                  "RMS / continuous N m", "speed / at the bus deg/s",
+                  "RMS current / motor's I_N A", "ticks at envelope"])
     fig_rows = [["sampled-loop margin h*lambda", f"{r.stability_margin:.3f}",
                  "-" if ideal is None else f"{ideal.stability_margin:.3f}"],
                 ["max tracking error, last second, deg",
@@ -88,15 +88,22 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
     _table(fig_rows, ["figure", "with the actuators", "ideal torques"])
     if status & Limited.FAULT:
         _say(f"note: the safety layer stopped the run: {r.fault}; torque was off from then on")
-    _say("note: motor, gear and drive figures marked catalogue* in the actuator files are "
-         "to be verified against the datasheets (see summary.json, actuator_sources)")
+    _say("note: the actuators' figures are the motors', gears' and EPOS4's sheets "
+         "(device-datasheets.md; every figure's source in summary.json, actuator_sources); "
+         "the limit is the gear's repeated peak or the drive's current limit, the speed the "
+         "bus voltage's")
     _say(wrote)
     return 0
 
 
-def _actuator_peaks(acts: Any, tau: Any, dq: Any, u_safe: Any, env: Any) -> list[dict[str, Any]]:
-    """Per actuator, what a run asked of it against its limits (SI; speeds in deg/s)."""
+def _actuator_peaks(acts: Any, tau: Any, dq: Any, u_safe: Any, env: Any,
+                    dt: float) -> list[dict[str, Any]]:
+    """Per actuator, what a run asked of it against its limits (SI; speeds in deg/s;
+    the winding's temperature from 25 degC over the run, and the RMS motor current
+    against the motor's nominal current: its continuous rating)."""
     import numpy as np
+
+    from exoleg.device.actuator import winding_temperature
 
     out = []
     for i, a in enumerate(acts):
@@ -109,5 +116,9 @@ def _actuator_peaks(acts: Any, tau: Any, dq: Any, u_safe: Any, env: Any) -> list
             "max_velocity_deg_s": float(np.degrees(a.max_velocity)),
             "peak_motor_speed_rpm": float(np.abs(dq[:, i]).max() * a.ratio * 30 / np.pi),
             "peak_power_W": float(np.abs(tau[:, i] * dq[:, i]).max()), "power_W": a.power,
-            "ticks_at_envelope": int((np.abs(u_safe[:, i]) > env[:, i] + 1e-12).sum())})
+            "ticks_at_envelope": int((np.abs(u_safe[:, i]) > env[:, i] + 1e-12).sum()),
+            "rms_current_A": float(np.sqrt(np.mean((tau[:, i] / a.joint_torque_constant)
+                                                   ** 2))),
+            "nominal_current_A": a.nominal_current,
+            "winding_max_C": float(winding_temperature(a, tau[:, i], dt)[:, 0].max())})
     return out

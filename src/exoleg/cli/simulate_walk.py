@@ -39,7 +39,8 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     rows = detection_table([r])
     walking = r.t >= r.walk_start + stride
     err = np.degrees(np.sqrt(np.mean((r.q - r.q_ref)[walking] ** 2, axis=0)))
-    peaks = _actuator_peaks(r.actuators, r.tau, r.dq, r.u_safe, r.envelope)
+    peaks = _actuator_peaks(r.actuators, r.tau, r.dq, r.u_safe, r.envelope,
+                            float(r.t[1] - r.t[0]))
     for p, e in zip(peaks, err, strict=True):
         p["rms_tracking_error_deg"] = float(e)
     fault = bool(np.any(r.safety_status & Limited.FAULT))
@@ -61,9 +62,11 @@ def _simulate_walk(args: argparse.Namespace) -> int:
              f"{p['peak_torque_Nm']:.1f} / {p['torque_limit_Nm']:.0f}",
              f"{p['rms_torque_Nm']:.1f} / {p['continuous_torque_Nm']:.0f}",
              f"{p['peak_speed_deg_s']:.0f} / {p['max_velocity_deg_s']:.0f}",
-             f"{p['peak_power_W']:.1f}", str(p["ticks_at_envelope"])] for p in peaks],
+             f"{p['rms_current_A']:.2f} / {p['nominal_current_A']:g}",
+             f"{p['winding_max_C']:.1f}", str(p["ticks_at_envelope"])] for p in peaks],
            ["joint", "RMS tracking deg", "peak torque / limit N m", "RMS / continuous N m",
-            "speed / Table 2 deg/s", "peak power W", "ticks at envelope"])
+            "speed / at the bus deg/s", "RMS current / I_N A", "winding max degC",
+            "ticks at envelope"])
     _table(_detection_rows(rows), _DETECTION_HEADER,
            title="gait-phase detection against the simulator's true contacts")
     for n in notes:
