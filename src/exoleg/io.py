@@ -151,6 +151,18 @@ def _signals_held() -> Iterator[None]:
             signal.raise_signal(n)
 
 
+#: the staging folders of the OutputFolders open in this process (a SIGTERM removes them:
+#: :func:`remove_staging`)
+_STAGING: set[Path] = set()
+
+
+def remove_staging() -> None:
+    """Remove every open OutputFolder's staging folder (a process ending on a signal)."""
+    for p in list(_STAGING):
+        shutil.rmtree(p, ignore_errors=True)
+        _STAGING.discard(p)
+
+
 class OutputFolder:
     """A run's output folder, written whole or not at all.
 
@@ -163,6 +175,7 @@ class OutputFolder:
     def __init__(self, folder: str | Path) -> None:
         self.folder = _writable_folder(Path(folder))
         self._staging = Path(tempfile.mkdtemp(prefix=".exoleg-staging-", dir=self.folder))
+        _STAGING.add(self._staging)
         self._names: list[str] = []
 
     @property
@@ -189,11 +202,12 @@ class OutputFolder:
                 if src.exists():
                     os.replace(src, self.folder / n)
                     done.append(self.folder / n)
-            shutil.rmtree(self._staging, ignore_errors=True)
+            self.discard()
         return done
 
     def discard(self) -> None:
         shutil.rmtree(self._staging, ignore_errors=True)
+        _STAGING.discard(self._staging)
 
     def __enter__(self) -> OutputFolder:
         return self

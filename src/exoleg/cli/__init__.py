@@ -35,9 +35,16 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _terminated(signum: int, frame: object) -> None:
-    """SIGTERM as Ctrl-C: the command unwinds (staging folders removed, workers and
-    drives stopped) instead of dying where it stands."""
-    raise KeyboardInterrupt
+    """SIGTERM: what was staged goes and the process ends at once (exit 130, as Ctrl-C
+    ends a command) -- without raising through code a signal may land in anywhere (a
+    compiler's callback swallows an exception and leaves its state broken). A worker
+    ends with its parent; a session's loop has its own handler (a controlled stop)."""
+    from exoleg.io import remove_staging
+
+    remove_staging()
+    os.write(2, b"exoleg: interrupted (SIGTERM): what was staged is removed; earlier "
+                b"outputs are unchanged\n")
+    os._exit(130)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -45,9 +52,13 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, _terminated)
-    ap = build_parser()
-    args = ap.parse_args(_negative_values(sys.argv[1:] if argv is None else argv))
-    from exoleg.errors import ExolegError
+    try:  # a signal while the parser is built: the same one line as later
+        ap = build_parser()
+        args = ap.parse_args(_negative_values(sys.argv[1:] if argv is None else argv))
+        from exoleg.errors import ExolegError
+    except KeyboardInterrupt:
+        print("exoleg: interrupted; nothing was written", file=sys.stderr)
+        return 130
 
     try:
         return int(args.func(args))

@@ -1,7 +1,11 @@
 """The foot board's sensors as the board would send them (paper section 2.3).
 
 * **FSRs** (four FlexiForce A201 at :data:`exoleg.device.walking.SENSOR_POINTS`): the
-  normal force at each point -> the amplifier's voltage, linear in force (the sensor's
+  normal force at each point -> the sheet's **hysteresis** (:func:`fsr_response`: the
+  unloading curve above the loading one by up to ``hysteresis`` of full scale, at half
+  scale, meeting it at no load and at full scale) and **drift** (creep: under a
+  constant load the reading rises by ``drift`` per decade of time, three first-order
+  states of 1, 10 and 100 s) -> the amplifier's voltage, linear in force (the sensor's
   conductance is) with the datasheet's linearity error as a bow of at most
   ``linearity`` of full scale -> noise -> saturation at the ADC's reference -> 12-bit
   counts.
@@ -47,6 +51,8 @@ class FootSensors:
     fsr_full_scale: float
     fsr_linearity: float
     fsr_noise: float
+    fsr_hysteresis: float    # fraction of full scale (largest loading/unloading gap)
+    fsr_drift: float         # fraction of the reading per decade of time under load
     adc_bits: int
     adc_reference: float
     fsr_full_scale_voltage: float
@@ -69,6 +75,7 @@ class FootSensors:
         _check.keys(where, d, ["fsr", "imu"], ["source"])
         f = _check.ranged(f"{where} [fsr]", d["fsr"], {
             "full_scale_N": (1.0, 1e4, "N"), "linearity": (0.0, 0.2, ""),
+            "hysteresis": (0.0, 0.2, ""), "drift": (0.0, 0.2, ""),
             "noise": (0.0, 0.5, ""), "adc_bits": (8.0, 24.0, "bit"),
             "adc_reference_V": (0.5, 10.0, "V"), "full_scale_V": (0.1, 10.0, "V")})
         if f["adc_bits"] != int(f["adc_bits"]) or f["full_scale_V"] > f["adc_reference_V"]:
@@ -86,7 +93,8 @@ class FootSensors:
         g = 9.81
         rt = math.sqrt(i["bandwidth_hz"])
         return cls(fsr_full_scale=f["full_scale_N"], fsr_linearity=f["linearity"],
-                   fsr_noise=k * f["noise"], adc_bits=int(f["adc_bits"]),
+                   fsr_noise=k * f["noise"], fsr_hysteresis=f["hysteresis"],
+                   fsr_drift=f["drift"], adc_bits=int(f["adc_bits"]),
                    adc_reference=f["adc_reference_V"], fsr_full_scale_voltage=f["full_scale_V"],
                    gyro_noise=k * math.radians(i["gyro_noise_dps_rthz"]) * rt,
                    gyro_bias=k * math.radians(i["gyro_bias_dps"]),
@@ -100,7 +108,7 @@ class FootSensors:
         r = new(BOARD)
         r[0] = (self.fsr_full_scale, self.fsr_linearity, self.fsr_noise,
                 float(2**self.adc_bits - 1), self.adc_reference, self.fsr_full_scale_voltage,
-                self.gyro_range, self.accel_range)
+                self.gyro_range, self.accel_range, self.fsr_hysteresis, self.fsr_drift)
         return r
 
 
@@ -110,12 +118,42 @@ class FootSensors:
 #: (rad/s, m/s^2).
 BOARD = np.dtype([("full_scale", F8), ("linearity", F8), ("noise", F8), ("counts", F8),
                   ("reference", F8), ("full_scale_v", F8), ("gyro_range", F8),
-                  ("accel_range", F8)])
+                  ("accel_range", F8), ("hysteresis", F8), ("drift", F8)])
+#: the creep states' time constants, s: three decades, so that a constant load's
+#: reading rises by about ``drift`` per decade of time between 1 and 100 s
+CREEP_TAU = (1.0, 10.0, 100.0)
+
+
+@njit(cache=True)
+def fsr_response(s, last, memory, creep, i, force, h):  # type: ignore[no-untyped-def]
+    """FSR ``i``'s normalised reading (fraction of full scale) under ``force`` N, after
+    its hysteresis and drift, ``h`` s after the last call; updates its memory: per
+    sensor the last normalised force ``last`` (4,), the hysteresis's direction memory
+    ``memory`` (4,: -1 loading .. +1 unloading) and the creep states ``creep`` (4, 3)
+    (a device's :data:`~exoleg.sim.device.DEVICE` holds them). Hysteresis: reading = f + 2 H f (1 - f) m, the direction memory
+    m moving towards -1 while loading and +1 while unloading, all the way over a change
+    of H in f -- so the two curves are 2 x H/2 = H apart at half scale (the sheet's
+    figure) and meet at no load and full scale. Drift: creep states c_k relaxing to
+    drift x the reading with time constants :data:`CREEP_TAU`; reading x (1 + sum c_k)."""
+    b = s[0]
+    f = min(max(force, 0.0) / b.full_scale, 1.0)
+    H = b.hysteresis
+    if H > 0.0:
+        memory[i] = min(max(memory[i] - (f - last[i]) / H, -1.0), 1.0)
+    last[i] = f
+    y = f + 2.0 * H * f * (1.0 - f) * memory[i]
+    c = 0.0
+    target = b.drift if f > 0.0 else 0.0
+    for k in range(3):
+        creep[i, k] += (target - creep[i, k]) * (1.0 - math.exp(-h / CREEP_TAU[k]))
+        c += creep[i, k]
+    return y * (1.0 + c)
 
 
 @njit(cache=True)
 def fsr_counts(s, force, noise):  # type: ignore[no-untyped-def]
-    """ADC counts of one FSR under ``force`` N, with the unit normal draw ``noise``."""
+    """ADC counts of one FSR under ``force`` N (as the sensor reads it: after
+    :func:`fsr_response`), with the unit normal draw ``noise``."""
     b = s[0]
     f = max(force, 0.0) / b.full_scale
     v = b.full_scale_v * (f + 4.0 * b.linearity * f * (1.0 - f) if f < 1.0 else f)

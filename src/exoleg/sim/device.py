@@ -30,7 +30,7 @@ from exoleg.device.actuator import (
     params_array,
 )
 from exoleg.device.config import DeviceConfig, walk_controller
-from exoleg.device.sensors import FootSensors, fsr_counts, imu
+from exoleg.device.sensors import FootSensors, fsr_counts, fsr_response, imu
 from exoleg.device.walking import (
     ANKLE_HEIGHT,
     Ground,
@@ -60,11 +60,13 @@ def _imu_point(p, x, px, py):  # type: ignore[no-untyped-def]
 #: A simulated device's state (:func:`device_sense`, :func:`device_actuate`): the plant
 #: state x = (y, q0, q1, q2, dy, dq0, dq1, dq2), the drives' torques (N m), the encoders'
 #: last readings (rad), the filtered rates (rad/s), the IMU point's last velocity (m/s),
-#: the other leg's timing (this leg loaded, its last toe off and strike, s) and the
-#: belt's speed while walking (m/s).
+#: the other leg's timing (this leg loaded, its last toe off and strike, s), the
+#: belt's speed while walking (m/s), and the FSRs' memory (their last normalised force,
+#: hysteresis direction and creep states: :func:`~exoleg.device.sensors.fsr_response`).
 DEVICE = np.dtype([("x", F8, 8), ("tau", F8, 3), ("qm", F8, 3), ("vm", F8, 3),
                    ("v_imu", F8, 2), ("loaded", np.bool_), ("t_off", F8), ("t_strike", F8),
-                   ("belt", F8)])
+                   ("belt", F8), ("fsr_last", F8, 4), ("fsr_memory", F8, 4),
+                   ("fsr_creep", F8, (4, 3))])
 
 
 def device_state(plant: WalkingPlant, A: NDArray[np.void], x0: F64, imu_x: float,
@@ -98,7 +100,8 @@ def device_sense(p, w, A, sens, imu_x, imu_y, S, h, first, fsr_noise, imu_noise,
     contact_forces(w, pts, F)
     for i in range(4):
         fn[i] = F[i, 1]
-        o.fsr[i] = fsr_counts(sens, F[i, 1], fsr_noise[i])
+        read = fsr_response(sens, D.fsr_last, D.fsr_memory, D.fsr_creep, i, F[i, 1], h)
+        o.fsr[i] = fsr_counts(sens, read * sens[0].full_scale, fsr_noise[i])
     vx, vy, phi = _imu_point(p, x, imu_x, imu_y)
     ax = 0.0 if first else (vx - D.v_imu[0]) / h
     ay = 0.0 if first else (vy - D.v_imu[1]) / h
