@@ -48,7 +48,7 @@ DURATION = 60.0
 TICKS = 1_000_000
 
 
-@njit(cache=True)
+@njit  # not cached: numba would keep stale code when only exoleg's kernels change
 def _ticks(kind, kp, kd, kc, scale, limit, lim, state, Q, V, R, out):  # type: ignore[no-untyped-def]
     u = np.empty(3)
     us = np.empty(3)
@@ -71,7 +71,7 @@ def _walk_ticks(ctl, n: int) -> None:  # type: ignore[no-untyped-def]
     _walk_loop(ctl.compiled(), sens, np.zeros(1, OUTPUT), n)
 
 
-@njit(cache=True)
+@njit  # not cached: numba would keep stale code when only exoleg's kernels change
 def _walk_loop(ctl, sens, out, n):  # type: ignore[no-untyped-def]
     cp, gq, gdq, p, d, st, lim, sst, sup, ref = ctl
     for k in range(n):

@@ -40,13 +40,13 @@ N_PY = 20_000
 REPEAT = 7
 
 
-@njit(cache=True)
+@njit  # not cached: numba would keep stale code when only exoleg's kernels change
 def _loop_fd(Q, DQ, T, p, g, out):  # type: ignore[no-untyped-def]
     for i in range(Q.shape[0]):
         K.forward_dynamics(Q[i], DQ[i], T[i], p, g, out[i])
 
 
-@njit(cache=True)
+@njit  # not cached: numba would keep stale code when only exoleg's kernels change
 def _loop_g(Q, p, g, out):  # type: ignore[no-untyped-def]
     for i in range(Q.shape[0]):
         K.gravity(Q[i], p, g, out[i])
