@@ -338,6 +338,8 @@ def test_a_lapsed_hold_while_walking_is_a_controlled_stop_with_an_alarm(tmp_path
         assert httpx.post(f"{base}/operator", json={"name": "ann"},
                           headers=auth).status_code == 200
         _wait(f"{base}/state", "mode", 2, timeout=60)  # walking; then ann's page is gone
+        # ann's last request was her take-control, before the walk: the hold lapses
+        # LEASE_S after it (the web side looks every 5 ms), so within LEASE_S of now
         lapsed = time.time()
         state = wait_until("the alarm", lambda: (s := httpx.get(f"{base}/state").json())
                            ["alarm"] and s, timeout=LEASE_S + 5)
@@ -372,9 +374,7 @@ def test_children_are_records_not_folders(tmp_path: Path) -> None:
     status, rec = first.fit({"name": "Zoe", "age": 9, "sex": "female", "height": 132,
                              "mass": 28}, "test")
     assert status == 200
-    (old / "Zoe" / "fit.json").write_bytes((tmp_path / "x" / FILE).read_bytes()[:0] +
-                                           json.dumps(first.registry.fit(1)["record"])
-                                           .encode())
+    (old / "Zoe" / "fit.json").write_text(json.dumps(first.registry.fit(1)["record"]))
     (old / "Zoe" / "leg.toml").write_text(first.registry.fit(1)["leg"])
     (old / "Bad").mkdir()
     (old / "Bad" / "fit.json").write_text("{not json")

@@ -367,7 +367,6 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
         # an empty field is refused in the form's words; a decimal comma is read
         wait_until("gains shown", lambda: phone.find_element("id", "g-support-0"))
         fill(phone, "g-support-0", "")
-        phone.find_element("id", "g-support-0").clear()
         press(phone, "apply-gains")
         assert wait_until("refused", lambda: "refused" in text(phone, "message") and
                           text(phone, "message")) == "refused: support: empty; enter a number"

@@ -273,21 +273,15 @@ def _ignore_sigint() -> None:
     """Worker processes leave Ctrl-C to the parent, which stops them and reports once;
     and end with it, however it ends (a SIGKILL included): no orphan works on."""
     import os
-    import threading
+
+    from exoleg._parent import when_parent_ends
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    parent = os.getppid()
-
-    def watch() -> None:
-        while os.getppid() == parent:
-            time.sleep(0.2)
-        os._exit(1)
-
-    threading.Thread(target=watch, name="exoleg-parent-watch", daemon=True).start()
+    when_parent_ends(lambda: os._exit(1))
 
 
 def _prepare_worker() -> None:
-    _ignore_sigint()
+    # (the worker's initializer, _ignore_sigint, has set its signals and parent watch)
     from exoleg.sim.closed_loop import warm_up
 
     warm_up()

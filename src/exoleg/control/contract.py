@@ -173,7 +173,8 @@ def vocabulary() -> dict[str, Any]:
     """What a page needs to show the tick's numbers, taken from the enumerations
     themselves (served to the page, which keeps no table of its own): each enumeration's
     names by value, the texts of the phases, events and safety bits, the joints and the
-    FSR points, and the commands that apply in each mode (``applies``)."""
+    FSR points, the commands that apply in each mode (``applies``) and the modes in
+    which the drives are enabled (``armed``)."""
     from exoleg.control.gait_phase import EVENT_NAMES, PHASE_NAMES, Event, Phase
     from exoleg.control.safety import LIMITED_TEXT, Fault, Limited
 
@@ -187,4 +188,5 @@ def vocabulary() -> dict[str, Any]:
     from exoleg.control.supervisor import APPLIES
 
     out["applies"] = {str(int(m)): [c.name.lower() for c in cs] for m, cs in APPLIES.items()}
+    out["armed"] = sorted(m.name for m in ARMED_MODES)
     return out

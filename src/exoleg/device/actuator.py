@@ -211,7 +211,7 @@ class ActuatorModel:
                 self.bus_voltage, self.torque_constant * self.ratio, self.terminal_resistance,
                 self.max_speed_rpm * RPM / self.ratio, self.coulomb_friction,
                 self.viscous_friction, self.friction_smoothing, self.current_loop_bandwidth,
-                self.encoder_resolution, self.velocity_filter_hz, self.ratio)
+                self.encoder_resolution, self.velocity_filter_hz)
         return r
 
     def thermal(self) -> NDArray[np.void]:
@@ -219,8 +219,7 @@ class ActuatorModel:
         r = new(THERMAL)
         rw, rh = self.thermal_resistance_winding, self.thermal_resistance_housing
         r[0] = (rw, rh, self.thermal_time_constant_winding / rw,
-                self.thermal_time_constant_motor / rh, self.terminal_resistance,
-                self.joint_torque_constant)
+                self.thermal_time_constant_motor / rh, self.terminal_resistance)
         return r
 
 
@@ -230,17 +229,16 @@ class ActuatorModel:
 #: resistance (ohm), the motor's maximum permissible speed at the joint (rad/s), Coulomb
 #: (N m) and viscous (N m s/rad) friction and the Coulomb term's smoothing speed
 #: (rad/s), the current loop's bandwidth (Hz), the encoder's resolution (rad), the
-#: velocity filter's cut-off (Hz), the gear ratio.
+#: velocity filter's cut-off (Hz).
 ACTUATOR = np.dtype([("torque", F8), ("kt_joint", F8), ("current", F8), ("voltage", F8),
                      ("ke_joint", F8), ("resistance", F8), ("speed", F8),
                      ("coulomb", F8), ("viscous", F8), ("smoothing", F8), ("bandwidth", F8),
-                     ("resolution", F8), ("filter_hz", F8), ("ratio", F8)])
+                     ("resolution", F8), ("filter_hz", F8)])
 #: The motor's two thermal nodes (:meth:`ActuatorModel.thermal`): winding-housing and
 #: housing-ambient resistances (K/W), the winding's and the housing's heat capacities
-#: (J/K: each time constant over its resistance), the winding's resistance (ohm), and
-#: N eta k_t (N m/A: a joint torque's current).
+#: (J/K: each time constant over its resistance) and the winding's resistance (ohm).
 THERMAL = np.dtype([("r_wh", F8), ("r_ha", F8), ("c_w", F8), ("c_h", F8),
-                    ("resistance", F8), ("kt_joint", F8)])
+                    ("resistance", F8)])
 
 
 def parse_actuator(data: dict[str, Any], where: str) -> ActuatorModel:

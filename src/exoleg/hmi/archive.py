@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from exoleg.errors import ParameterError
+from exoleg.runtime.session import RECORD_FILES
 
 
 class Archive:
@@ -27,12 +28,12 @@ class Archive:
 
     @staticmethod
     def _recorded(p: Path) -> bool:
-        return (p / "session.log").is_file() or (p / "failed.json").is_file()
+        return any((p / n).is_file() for n in RECORD_FILES)
 
     def summary(self, folder: Path, live: Path | None = None) -> dict[str, Any]:
         """One recorded session's line: child, start, duration, how it ended (``live``:
         the folder of the session running now)."""
-        from exoleg.runtime.log import missing_column, read_header
+        from exoleg.runtime.log import check_session, read_header
 
         damaged: list[str] = []
 
@@ -55,9 +56,7 @@ class Archive:
         running = folder == live
         try:
             header, ticks = read_header(folder / "session.log")
-            if missing_column(header):
-                raise ParameterError(str(folder / "session.log"), "(log)",
-                                     missing_column(header))
+            check_session(folder / "session.log", header)
         except ParameterError as e:
             header, ticks = {}, 0
             if (folder / "session.log").exists() or not failed:

@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from exoleg._parent import when_parent_ends
 from exoleg.errors import ParameterError
 from exoleg.hmi.server import HMI
 from exoleg.runtime.control_api import loopback
@@ -127,17 +128,10 @@ def _serve_process(link: LoopLink, folder: str, token: str, host: str, port: int
     leg = exoleg.load_leg(leg_path) if leg_path else None
     hmi = HMI(Path(folder).parent, backend=backend, token=token, fixed=(link, Path(folder)),
               leg=leg)
-    threading.Thread(target=_end_with_parent, args=(os.getppid(),), daemon=True).start()
+    # it ends when its run does, however the run ended: no page goes on showing a
+    # device that nothing drives, no port stays held
+    when_parent_ends(lambda: os.kill(os.getpid(), signal.SIGTERM))
     serve(hmi, host, port, certfile, keyfile, ready)
-
-
-def _end_with_parent(parent: int) -> None:
-    """The interface of ``exoleg run --hmi`` ends when its run does, however the run
-    ended (a SIGKILL leaves no one to stop it): no page goes on showing a device that
-    nothing drives, no port stays held."""
-    while os.getppid() == parent:
-        time.sleep(0.2)
-    os.kill(os.getpid(), signal.SIGTERM)
 
 
 def start_process(link: LoopLink, folder: Path, token: str, host: str, port: int,

@@ -135,12 +135,14 @@ def _header(p: Path, f: Any) -> tuple[dict[str, Any], list[str], int]:
 SESSION_COLUMNS = ("t", "late", "mode", "safety_status", "events")
 
 
-def missing_column(header: dict[str, Any]) -> str:
-    """Why a log's header is not a session's ('' when it is): a column of
-    :data:`SESSION_COLUMNS` it lacks."""
+def check_session(path: str | Path, header: dict[str, Any]) -> None:
+    """Refuses (ParameterError naming ``path``) a log whose header is not a session's:
+    it lacks a column of :data:`SESSION_COLUMNS`."""
     missing = [c for c in SESSION_COLUMNS if c not in header["columns"]]
-    return (f"has a damaged header: no column {missing[0]!r} (a session log has "
-            f"{', '.join(SESSION_COLUMNS)})") if missing else ""
+    if missing:
+        raise ParameterError(str(path), "(log)", f"has a damaged header: no column "
+                             f"{missing[0]!r} (a session log has "
+                             f"{', '.join(SESSION_COLUMNS)})")
 
 
 def header_problem(header: Any) -> str:

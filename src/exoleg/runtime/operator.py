@@ -177,15 +177,13 @@ class OperatorRules:
         commands applied, the loop's last publication, a lapsed hold."""
         with self.lock:
             link = self.link
-        if link is None:
-            self.holder()
-            return
-        link.web_beat()
-        self.poll_applied()
-        seq = float(link.view["seq"])
-        with self.lock:
-            if seq != self._seq:
-                self._seq, self._seq_seen = seq, time.monotonic()
+        if link is not None:
+            link.web_beat()
+            self.poll_applied()
+            seq = float(link.view["seq"])
+            with self.lock:
+                if seq != self._seq:
+                    self._seq, self._seq_seen = seq, time.monotonic()
         self.holder()
 
     def _lapsed(self, op: dict[str, Any]) -> None:

@@ -11,7 +11,7 @@ import numpy as np
 
 from exoleg.entry import CONTROLLERS, DEFAULT_BODY_MASS
 from exoleg.errors import ParameterError
-from exoleg.runtime.log import MAX_LOSS_TICKS, SessionLog, missing_column, read_log
+from exoleg.runtime.log import MAX_LOSS_TICKS, SessionLog, check_session, read_log
 from exoleg.runtime.loop import (
     LOG_HEAD,
     LOG_TAIL,
@@ -319,9 +319,7 @@ def summarize(path: str | Path) -> dict[str, Any]:
     from exoleg.control.safety import Limited
 
     header, cols, cut = read_log(path)
-    why = missing_column(header)
-    if why:
-        raise ParameterError(str(path), "(log)", why)
+    check_session(path, header)
     n = len(cols["t"])
     period = float(header.get("period", 1e-3))
     late = cols["late"][1:] * 1e6 if n > 1 else np.zeros(0)

@@ -386,10 +386,10 @@ $("start").onclick = async () => {
     S.hist = []; S.events = []; S.lastMode = null; S.lastEvent = -1; S.eventCount = 0; refreshInfo();
   }
 };
-const ARMED = ["STANDING", "WALKING", "STOPPING"];
+const ARMED = () => VOC().armed || [];  // the modes in which the drives are enabled
 $("end").onclick = async () => {
   const s = S.state || {};
-  if (s.running === "running" && ARMED.includes(MODE(s.mode)) && !await confirmFirst(
+  if (s.running === "running" && ARMED().includes(MODE(s.mode)) && !await confirmFirst(
     `End the session while ${MODE(s.mode)}? ` + (MODE(s.mode) === "STANDING" ? "The torque goes off: the device no longer holds the child's leg." :
       "The child is brought to a stand first (a controlled stop), then the torque goes off."))) { say("not ended", true); return; }
   act("POST", "/api/session/end", {}, "session ending: torque off once standing");
@@ -397,7 +397,7 @@ $("end").onclick = async () => {
 for (const b of document.querySelectorAll("[data-command]"))
   b.onclick = async () => {
     const s = S.state || {};
-    if (b.dataset.command === "disarm" && ARMED.includes(MODE(s.mode)) && !await confirmFirst(
+    if (b.dataset.command === "disarm" && ARMED().includes(MODE(s.mode)) && !await confirmFirst(
       "Disarm? The torque goes off and the device no longer holds the child's leg.")) { say("not disarmed", true); return; }
     act("POST", "/api/command", {command: b.dataset.command}, b.dataset.command + " applied");
   };
