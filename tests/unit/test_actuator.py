@@ -177,12 +177,66 @@ def test_winding_temperature_against_the_two_node_solution() -> None:
         assert T[0] == pytest.approx(steady, rel=1e-9)
         # I^2 t: the time to the winding's limit at the current limit, against the
         # reference's crossing on a 0.01 s grid
-        limit_t = time_to_winding_limit(a, a.peak_current)
+        limit_t = time_to_winding_limit(a, a.peak_current, alpha=0.0)
         ts = np.arange(0.0, 2 * limit_t, 0.01)
         temps = np.array([_two_node(a, a.peak_current, x)[0] for x in ts])
         crossing = ts[np.argmax(temps >= a.max_winding_temperature)]
         assert limit_t == pytest.approx(crossing, abs=0.011)
         assert time_to_winding_limit(a, 0.5 * a.nominal_current) == math.inf
+
+
+def copper_rk4(a, current: float, t_end: float, h: float = 1e-3,  # type: ignore[no-untyped-def]
+               ambient: float = 25.0, alpha: float = 0.00393) -> tuple[np.ndarray, np.ndarray]:
+    """The two-node model with the winding's resistance R_25 (1 + alpha (T_w - 25)),
+    integrated by classical RK4 in numpy (the reference for the nonlinear case): times
+    and winding temperatures."""
+    rw, rh = a.thermal_resistance_winding, a.thermal_resistance_housing
+    cw, ch = a.thermal_time_constant_winding / rw, a.thermal_time_constant_motor / rh
+
+    def f(x: np.ndarray) -> np.ndarray:
+        loss = a.terminal_resistance * (1 + alpha * (x[0] - 25.0)) * current**2
+        return np.array([(loss - (x[0] - x[1]) / rw) / cw,
+                         ((x[0] - x[1]) / rw - (x[1] - ambient) / rh) / ch])
+
+    n = int(round(t_end / h))
+    x = np.array([ambient, ambient])
+    out = np.empty(n + 1)
+    out[0] = x[0]
+    for k in range(n):
+        k1 = f(x)
+        k2 = f(x + h / 2 * k1)
+        k3 = f(x + h / 2 * k2)
+        k4 = f(x + h * k3)
+        x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        out[k + 1] = x[0]
+    return np.arange(n + 1) * h, out
+
+
+def test_the_winding_s_resistance_rises_with_its_temperature() -> None:
+    from exoleg.device.actuator import time_to_winding_limit, winding_temperature
+
+    for a in (HIP, KNEE):
+        # at the current limit: the time to the winding's limit against RK4's crossing
+        ts, ref = copper_rk4(a, a.peak_current, 1.2 * time_to_winding_limit(a, a.peak_current))
+        crossing = ts[np.argmax(ref >= a.max_winding_temperature)]
+        limit_t = time_to_winding_limit(a, a.peak_current)
+        assert limit_t == pytest.approx(crossing, abs=0.02)  # measured: < 0.01 s
+        # hotter copper dissipates more: sooner than at 25 degC's resistance
+        assert limit_t < time_to_winding_limit(a, a.peak_current, alpha=0.0)
+        # a series of torques: within 0.05 K of RK4 (measured 0.01 K: the loss held over
+        # each 1 ms step)
+        tau = np.full(20000, a.joint_torque_constant * a.peak_current)
+        T = winding_temperature(a, tau, 1e-3)[:, 0]
+        np.testing.assert_allclose(T, copper_rk4(a, a.peak_current, 20.0)[1][1:], atol=0.05)
+    # the steady state at I_N, T = (T_a + g (1 - 25 alpha)) / (1 - alpha g) with
+    # g = R_25 I_N^2 R_th, below the winding's limit: the motor may run at I_N for ever
+    g = HIP.terminal_resistance * HIP.nominal_current**2 * (
+        HIP.thermal_resistance_winding + HIP.thermal_resistance_housing)
+    steady = (25 + g * (1 - 25 * 0.00393)) / (1 - 0.00393 * g)
+    assert steady == pytest.approx(93.08, abs=0.01) and steady < HIP.max_winding_temperature
+    long = winding_temperature(HIP, np.full(20000, HIP.continuous_torque), 1.0)[-1, 0]
+    assert long == pytest.approx(steady, abs=0.01)  # 20000 s: the slow mode long settled
+    assert time_to_winding_limit(HIP, HIP.nominal_current) == math.inf
 
 
 def test_current_loop_matches_the_analytic_step_response() -> None:

@@ -239,3 +239,125 @@ def test_a_fault_names_its_value_against_its_limit() -> None:
         lim.lower[2] - lim.hard_margin
     layer.reset(np.zeros(3), np.zeros(3))  # cleared with the fault
     assert layer.state[0]["fault_value"] == 0.0 and layer.state[0]["fault_limit"] == 0.0
+
+
+# ---------------------------------------------------------------- motors and gears
+# References: maxon's two-node thermal model with copper's resistance (the actuator
+# files' figures, device-datasheets.md S2/S4), integrated by RK4 in numpy
+# (tests/unit/test_actuator.py's copper_rk4); the derating rule of safety.toml
+# (linear from winding limit - derate_band to the continuous torque N eta k_t I_N at the
+# limit); the gears' momentary peaks (S10) and the reflected inertias N^2 (J_r + J_g).
+HIP_A, KNEE_A, _ = LIM.actuators  # type: ignore[misc]
+
+
+def _hold(s: SafetyLayer, u: np.ndarray, ticks: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """Hold the command u for ticks; the knee's allowed torque and winding estimate per
+    tick and the OR of the status bits."""
+    tau, temp, bits = np.empty(ticks), np.empty(ticks), 0
+    for k in range(ticks):
+        out, status = s.step(Q, Z, u)
+        tau[k], temp[k] = out[1], s.temperatures[1, 0]
+        bits |= status
+    return tau, temp, bits
+
+
+def test_the_winding_estimate_is_the_two_node_model_with_copper() -> None:
+    from tests.unit.test_actuator import copper_rk4
+
+    s = armed()
+    torque = 1.5 * KNEE_A.continuous_torque  # 22.8 N m: 1.5 I_N, below the 30.45 clip
+    tau, temp, bits = _hold(s, np.array([0.0, torque, 0.0]), 20000)
+    assert not bits & (Limited.DERATED | Limited.FAULT)
+    # the ramp's first 8 ms at 1400 N m/s heat less: start the reference after them
+    ramp = int(np.argmax(tau >= torque))
+    current = torque / KNEE_A.joint_torque_constant
+    _, ref = copper_rk4(KNEE_A, current, 20.0)
+    # measured: 0.008 K from the reference at 20 s (the ramp, and the loss
+    # held over each tick at its start temperature)
+    assert temp[-1] == pytest.approx(ref[20000 - ramp], abs=0.05)
+    assert temp[-1] > 60.0  # it did heat: 1.5 I_N for 20 s, a 16 s winding
+
+
+def test_a_hot_motor_is_derated_and_never_passes_its_limit() -> None:
+    s = armed()
+    tau, temp, bits = _hold(s, np.array([0.0, 1e3, 0.0]), 240000)  # all it may, 4 min
+    limit, start = KNEE_A.max_winding_temperature, KNEE_A.max_winding_temperature - 15.0
+    assert bits & Limited.DERATED and not bits & Limited.FAULT
+    assert temp.max() < limit  # derating holds it below: no fault
+    hot = temp[:-1] > start
+    # the rule: TMAX - (T - start) / band (TMAX - continuous), from the tick's temperature
+    expect = TMAX[1] - (temp[:-1] - start) / 15.0 * (TMAX[1] - KNEE_A.continuous_torque)
+    np.testing.assert_allclose(tau[1:][hot], expect[hot], atol=1.4 + 1e-9)  # rate 1.4/tick
+    cold = ~hot
+    cold[:30] = False  # the ramp up at the start
+    assert np.all(tau[1:][cold] == TMAX[1])
+    # settled where the allowed torque's heat balances: between the continuous torque and
+    # the clip, within the band
+    assert KNEE_A.continuous_torque < tau[-1] < TMAX[1] and start < temp[-1] < limit
+
+
+def test_overtemperature_is_torque_off_and_reset_waits_for_cooling() -> None:
+    from exoleg.control.safety import fault_detail
+
+    s = armed()
+    s.step(Q, Z, Z)
+    s.state[0]["winding"][2] = 126.0  # fault injection: the ankle's winding beyond 125
+    u, status = s.step(Q, Z, [0.0, 0.0, 5.0])
+    st_ = s.state[0]
+    assert np.array_equal(u, Z) and status & Limited.FAULT
+    assert s.fault == Fault.OVERTEMPERATURE and s.fault_joint == "ankle"
+    assert st_["fault_value"] == pytest.approx(126.0, abs=0.01) and st_["fault_limit"] == 125
+    text = fault_detail(st_["fault"], st_["fault_joint"], st_["fault_value"],
+                        st_["fault_limit"])
+    assert text.startswith("OVERTEMPERATURE at the ankle: the motor's winding at 126 degC")
+    with pytest.raises(ParameterError, match="OVERTEMPERATURE still holds .ankle."):
+        s.reset(Q, Z)  # 126 degC
+    ticks = 0
+    while s.temperatures[2, 0] > 110.0:  # torque off: it cools
+        s.step(Q, Z, Z)
+        ticks += 1
+    assert 1000 < ticks < 60000  # the ankle's 16 s winding: seconds, not minutes
+    s.reset(Q, Z)
+    s.arm()
+
+
+def test_a_gear_beyond_its_momentary_peak_is_counted_or_a_fault() -> None:
+    import dataclasses
+
+    j_hip = HIP_A.reflected_inertia  # 3.25 kg m^2
+    peak = HIP_A.momentary_peak_torque  # 108 N m
+    for jump, beyond in ((0.9 * peak / j_hip * 1e-3, False), (1.5 * peak / j_hip * 1e-3, True)):
+        s = armed()
+        s.step(Q, Z, Z)
+        # fault injection: the hip's measured rate jumps within a tick (an impact), with
+        # no torque allowed: the gear carries the rotor's inertia torque -J dq/dt
+        u, status = s.step(Q, np.array([jump, 0.0, 0.0]), Z)
+        g = s.gear_torque[0]
+        assert g == pytest.approx(-j_hip * jump / 1e-3, rel=1e-12)
+        assert bool(status & Limited.GEAR_PEAK) == beyond and not status & Limited.FAULT
+        assert s.state[0]["gear_events"][0] == int(beyond)
+        assert s.state[0]["gear_peak"][0] == pytest.approx(abs(g), rel=1e-12)
+        for _ in range(3):  # a held rate: no acceleration, no load, no new event
+            s.step(Q, np.array([jump, 0.0, 0.0]), Z)
+        assert s.gear_torque[0] == 0.0 and s.state[0]["gear_events"][0] == int(beyond)
+    # configured as a fault: torque off, latched, naming the gear's torque and its peak
+    f = SafetyLayer(dataclasses.replace(LIM, gear_fault=True))
+    f.arm()
+    f.step(Q, Z, Z)
+    u, status = f.step(Q, np.array([1.5 * peak / j_hip * 1e-3, 0.0, 0.0]), [10.0, 0, 0])
+    assert np.array_equal(u, Z) and f.fault == Fault.GEAR_OVERLOAD and f.fault_joint == "hip"
+    assert f.state[0]["fault_value"] == pytest.approx(-1.5 * peak)
+    assert f.state[0]["fault_limit"] == -peak
+    f.reset(Q, Z)  # the impact is over: a reset clears it (after the gear's inspection)
+
+
+def test_bad_motor_settings_are_named() -> None:
+    import dataclasses
+
+    with pytest.raises(ParameterError, match="derate_band"):
+        dataclasses.replace(LIM, derate_band=0.0)
+    with pytest.raises(ParameterError, match="ambient/derate_band"):
+        cool = dataclasses.replace(KNEE_A, max_winding_temperature=80.0)
+        dataclasses.replace(LIM, actuators=(HIP_A, cool, LIM.actuators[2]), derate_band=60.0)
+    with pytest.raises(ParameterError, match="gear_fault"):
+        dataclasses.replace(LIM, gear_fault="yes")

@@ -82,6 +82,13 @@ def cmd_run(args: argparse.Namespace) -> int:
                                         for m, n in s["ticks_per_mode"].items())
          + f"; initial contacts {s['initial_contacts']}"
          + (f"; safety fault at {s['first_fault_s']:.3f} s" if s["first_fault_s"] else ""))
+    if s["winding_max_C"]:
+        _say("motors (the safety layer's estimates): winding max "
+             + ", ".join(f"{j} {v:.1f}" for j, v in s["winding_max_C"].items())
+             + " degC; gear torque max " + ", ".join(f"{j} {v:.0f}" for j, v in
+                                                   s["gear_peak_Nm"].items())
+             + f" N m; ticks with a gear beyond its momentary peak "
+               f"{s['ticks_gear_beyond_momentary_peak']}")
     from exoleg.runtime.log import MAX_LOSS_TICKS
 
     _say(f"\nwrote {path} (crash-safe: at most {MAX_LOSS_TICKS} ticks lost if killed) and "

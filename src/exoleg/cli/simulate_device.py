@@ -100,13 +100,17 @@ def _actuator_peaks(acts: Any, tau: Any, dq: Any, u_safe: Any, env: Any,
                     dt: float) -> list[dict[str, Any]]:
     """Per actuator, what a run asked of it against its limits (SI; speeds in deg/s;
     the winding's temperature from 25 degC over the run, and the RMS motor current
-    against the motor's nominal current: its continuous rating)."""
+    against the motor's nominal current: its continuous rating; the gear's transmitted
+    torque, the delivered torque less the rotor's inertia torque N^2 J q'' (friction
+    aside), against its momentary peak)."""
     import numpy as np
 
     from exoleg.device.actuator import winding_temperature
 
     out = []
+    ddq = np.gradient(dq, dt, axis=0)
     for i, a in enumerate(acts):
+        gear = np.abs(tau[:, i] - a.reflected_inertia * ddq[:, i])
         out.append({
             "joint": a.joint, "reflected_inertia_kg_m2": a.reflected_inertia,
             "peak_torque_Nm": float(np.abs(tau[:, i]).max()), "torque_limit_Nm": a.torque_limit,
@@ -120,5 +124,8 @@ def _actuator_peaks(acts: Any, tau: Any, dq: Any, u_safe: Any, env: Any,
             "rms_current_A": float(np.sqrt(np.mean((tau[:, i] / a.joint_torque_constant)
                                                    ** 2))),
             "nominal_current_A": a.nominal_current,
-            "winding_max_C": float(winding_temperature(a, tau[:, i], dt)[:, 0].max())})
+            "winding_max_C": float(winding_temperature(a, tau[:, i], dt)[:, 0].max()),
+            "winding_limit_C": a.max_winding_temperature,
+            "gear_peak_Nm": float(gear.max()), "momentary_peak_Nm": a.momentary_peak_torque,
+            "ticks_over_momentary": int((gear > a.momentary_peak_torque).sum())})
     return out

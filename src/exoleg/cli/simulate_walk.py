@@ -41,8 +41,14 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     err = np.degrees(np.sqrt(np.mean((r.q - r.q_ref)[walking] ** 2, axis=0)))
     peaks = _actuator_peaks(r.actuators, r.tau, r.dq, r.u_safe, r.envelope,
                             float(r.t[1] - r.t[0]))
-    for p, e in zip(peaks, err, strict=True):
+    over = (r.safety_status & Limited.GEAR_PEAK) > 0
+    for i, (p, e) in enumerate(zip(peaks, err, strict=True)):
         p["rms_tracking_error_deg"] = float(e)
+        # what the safety layer saw: its estimates, the device's own view
+        p["safety_winding_max_C"] = float(r.winding_temp[:, i].max())
+        p["safety_gear_peak_Nm"] = float(np.abs(r.gear_torque[:, i]).max())
+        p["safety_gear_overload_ticks"] = int(
+            (over & (np.abs(r.gear_torque[:, i]) > p["momentary_peak_Nm"])).sum())
     fault = bool(np.any(r.safety_status & Limited.FAULT))
     if fault:
         k = int(np.argmax(r.safety_status & Limited.FAULT))
@@ -63,10 +69,15 @@ def _simulate_walk(args: argparse.Namespace) -> int:
              f"{p['rms_torque_Nm']:.1f} / {p['continuous_torque_Nm']:.0f}",
              f"{p['peak_speed_deg_s']:.0f} / {p['max_velocity_deg_s']:.0f}",
              f"{p['rms_current_A']:.2f} / {p['nominal_current_A']:g}",
-             f"{p['winding_max_C']:.1f}", str(p["ticks_at_envelope"])] for p in peaks],
+             f"{p['winding_max_C']:.1f}", str(p["ticks_at_envelope"]),
+             f"{p['gear_peak_Nm']:.0f} ({p['safety_gear_peak_Nm']:.0f}) / "
+             f"{p['momentary_peak_Nm']:.0f}"] for p in peaks],
            ["joint", "RMS tracking deg", "peak torque / limit N m", "RMS / continuous N m",
             "speed / at the bus deg/s", "RMS current / I_N A", "winding max degC",
-            "ticks at envelope"])
+            "ticks at envelope", "gear peak (safety's estimate) / momentary N m"])
+    if over.any():
+        notes.append(f"a gear went beyond its momentary peak in {int(over.sum())} ticks (the "
+                     "safety layer's estimate; safety.toml's gear_overload says what it does)")
     _table(_detection_rows(rows), _DETECTION_HEADER,
            title="gait-phase detection against the simulator's true contacts")
     for n in notes:

@@ -11,8 +11,22 @@ command (N m) and the E-stop input, and gives the torque the drives may apply:
   torque zero, latched fault;
 * **range of motion**: beyond the device's range of motion (soft limit) no torque that
   pushes further out; beyond it by ``hard_margin``: torque zero, latched fault;
-* **torque** clipped to Table 2's maximum per joint and **torque rate** to
-  ``max_torque_rate`` (so a step in the command reaches the drives as a ramp).
+* **torque** clipped to Table 2's maximum per joint, within each actuation unit's
+  working limit (its gear's repeated peak or its drive's current limit), and **torque
+  rate** to ``max_torque_rate`` (so a step in the command reaches the drives as a ramp);
+* **motor temperature**: each motor's winding and housing temperatures estimated from
+  the torque the layer allows (the current it draws, copper losses with the winding's
+  resistance at its temperature, maxon's two-node model, exact per tick); above
+  ``winding limit - derate_band`` the torque limit falls linearly to the motor's
+  continuous torque (N eta k_t I_N) at the winding limit; beyond the limit: torque off,
+  latched (OVERTEMPERATURE), and a reset only once the winding has cooled by the band;
+* **gear overload**: each gear's transmitted torque estimated from the torque allowed
+  last tick less the rotor's inertia torque (reflected inertia x the measured
+  acceleration); above the gear's momentary peak torque (its hard limit, for impacts)
+  the tick is marked, counted and its peak kept, and -- when ``gear_overload = "fault"``
+  -- torque off, latched (GEAR_OVERLOAD). The shipped device marks and counts: torque
+  off cannot unload a gear overloaded by its own rotor's inertia at an impact, and would
+  drop a child in stance (``docs/device.md``).
 
 The limits are data (:class:`SafetyLimits`, defaults from ``data/device/safety.toml``,
 the paper's range of motion and Table 2); the state is explicit (:class:`SafetyLayer`
@@ -26,11 +40,13 @@ import math
 from dataclasses import dataclass, field
 from enum import IntEnum
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
+from exoleg.device.actuator import COPPER_ALPHA, R_REFERENCE_C, thermal_step
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8, new
 from exoleg.params import _check
@@ -47,6 +63,8 @@ class Fault(IntEnum):
     NONFINITE = 2
     OVERSPEED = 3
     HARD_LIMIT = 4
+    OVERTEMPERATURE = 5     # a motor's estimated winding temperature beyond its limit
+    GEAR_OVERLOAD = 6       # a gear's estimated torque beyond its momentary peak ("fault")
 
 
 class Limited(IntEnum):
@@ -57,13 +75,17 @@ class Limited(IntEnum):
     SOFT_LIMIT = 4      # a joint beyond its range of motion had its outward torque removed
     TORQUE = 8          # clipped to the maximum torque
     RATE = 16           # limited by the torque rate
+    DERATED = 32        # a motor's winding is hot: its torque limit derated
+    GEAR_PEAK = 64      # a gear's estimated torque beyond its momentary peak
 
 
 #: What each status bit means, as the operator reads it.
 LIMITED_TEXT = {Limited.DISARMED: "disarmed: torque zero",
                 Limited.FAULT: "FAULT: torque off (latched)",
                 Limited.SOFT_LIMIT: "beyond the soft range-of-motion limit",
-                Limited.TORQUE: "torque clipped", Limited.RATE: "torque rate limited"}
+                Limited.TORQUE: "torque clipped", Limited.RATE: "torque rate limited",
+                Limited.DERATED: "motor hot: torque derated",
+                Limited.GEAR_PEAK: "gear beyond its momentary peak torque"}
 
 
 #: The largest torque-rate limit a device file may set, N m/s: Table 2's largest torque
@@ -72,22 +94,46 @@ LIMITED_TEXT = {Limited.DISARMED: "disarmed: torque zero",
 MAX_TORQUE_RATE = 5e5
 
 #: The safety layer's limits as the compiled tick reads them (:meth:`SafetyLimits.record`):
-#: per joint the range of motion (rad), Table 2's torque (N m), the largest torque change
-#: in one tick (N m) and the overspeed threshold (rad/s); the hard margin (rad).
+#: per joint the range of motion (rad), the torque clip (N m), the largest torque change
+#: in one tick (N m) and the overspeed threshold (rad/s); the hard margin (rad); per
+#: motor its thermal model -- joint torque per ampere (N m/A), the winding's resistance
+#: at 25 degC (ohm), winding-housing and housing-ambient resistances (K/W), the two nodes'
+#: step matrix over one tick (``phi``: [[a, b], [c, d]] row by row), the temperature at
+#: which derating starts and the winding's limit (degC), the continuous torque it derates
+#: to (N m) -- and the ambient temperature (degC); per gear its momentary peak (N m) and
+#: the reflected inertia behind it (kg m^2); the tick (s); whether a gear overload is a
+#: fault.
 LIMITS = np.dtype([("lower", F8, 3), ("upper", F8, 3), ("max_torque", F8, 3),
-                   ("max_step", F8, 3), ("max_speed", F8, 3), ("hard_margin", F8)])
+                   ("max_step", F8, 3), ("max_speed", F8, 3), ("hard_margin", F8),
+                   ("kt_joint", F8, 3), ("r25", F8, 3), ("r_wh", F8, 3), ("r_ha", F8, 3),
+                   ("phi", F8, (3, 4)), ("derate_from", F8, 3), ("winding_limit", F8, 3),
+                   ("continuous", F8, 3), ("ambient", F8), ("momentary", F8, 3),
+                   ("inertia", F8, 3), ("dt", F8), ("gear_fault", np.bool_)])
 #: The safety layer's state: armed, the latched fault (:class:`Fault`), its joint (-1
 #: for none or an E-stop), the value that latched it and the limit it crossed (rad for
-#: HARD_LIMIT, rad/s for OVERSPEED; 0 for the others), the torque allowed last tick (N m).
+#: HARD_LIMIT, rad/s for OVERSPEED, degC for OVERTEMPERATURE, N m for GEAR_OVERLOAD; 0
+#: for the others), the torque allowed last tick (N m); per motor the estimated winding
+#: and housing temperatures (degC); per gear the estimated transmitted torque this tick,
+#: the largest |value| so far (N m) and how many times it went beyond the momentary peak;
+#: the measured rates of the last tick (rad/s); whether the layer has ticked (the
+#: estimates start then: temperatures at ambient).
 STATE = np.dtype([("armed", np.bool_), ("fault", I8), ("fault_joint", I8),
-                  ("fault_value", F8), ("fault_limit", F8), ("prev", F8, 3)])
+                  ("fault_value", F8), ("fault_limit", F8), ("prev", F8, 3),
+                  ("winding", F8, 3), ("housing", F8, 3), ("gear", F8, 3),
+                  ("gear_peak", F8, 3), ("gear_events", I8, 3), ("dq_prev", F8, 3),
+                  ("started", np.bool_)])
 
 
 def new_state() -> NDArray[np.void]:
-    """The safety layer's state at power-up: disarmed, no fault, no torque."""
+    """The safety layer's state at power-up: disarmed, no fault, no torque (the motors'
+    temperatures start at the ambient on the first tick)."""
     s = new(STATE)
     s[0]["fault_joint"] = -1
     return s
+
+
+#: What a gear overload does (``gear_overload`` in ``safety.toml``).
+GEAR_RESPONSES = ("warn", "fault")
 
 
 @dataclass(frozen=True)
@@ -96,7 +142,11 @@ class SafetyLimits:
 
     lower, upper: soft limits, rad (the range of motion); hard_margin: rad beyond them;
     max_torque N m; max_torque_rate N m/s; max_speed rad/s (the overspeed threshold);
-    dt: the tick, s (for the torque rate).
+    dt: the tick, s (for the torque rate). ``actuators``: the three actuation units
+    whose motors' temperatures and gears' loads the layer watches (None: the shipped
+    ones); ``ambient`` degC, the air around the motors; ``derate_band`` K, how far below
+    the winding limit derating starts; ``gear_fault``: a gear beyond its momentary peak
+    is a fault (True) or marked and counted (False).
     """
 
     lower: F64
@@ -107,6 +157,10 @@ class SafetyLimits:
     max_speed: F64
     dt: float = 1e-3
     source: str = field(default="", compare=False)
+    actuators: tuple[Any, ...] | None = None
+    ambient: float = 25.0
+    derate_band: float = 15.0
+    gear_fault: bool = False
 
     def __post_init__(self) -> None:
         w = "SafetyLimits"
@@ -131,20 +185,44 @@ class SafetyLimits:
         if dt > 0.1:
             raise ParameterError(w, "dt", f"{dt} s is not a control tick (allowed up to 0.1 s)")
         object.__setattr__(self, "dt", dt)
+        from exoleg.device.actuator import params_array, paper_actuators
+
+        acts = paper_actuators() if self.actuators is None else tuple(self.actuators)
+        params_array(acts)  # hip, knee, ankle actuators, in that order
+        object.__setattr__(self, "actuators", acts)
+        for name, lo_, hi_, unit in (("ambient", -20.0, 60.0, "degC"),
+                                     ("derate_band", 1.0, 60.0, "K")):
+            x = _check.finite(w, name, getattr(self, name))
+            if not lo_ <= x <= hi_:
+                raise ParameterError(w, name, f"{x:g} {unit} is outside {lo_:g}-{hi_:g} {unit}")
+            object.__setattr__(self, name, x)
+        hot = [a.joint for a in acts if a.max_winding_temperature - self.derate_band
+               <= self.ambient]
+        if hot:
+            raise ParameterError(w, "ambient/derate_band", f"the {hot[0]} motor would derate "
+                                 f"at the ambient {self.ambient:g} degC: its winding limit "
+                                 "less the band must lie above it")
+        if not isinstance(self.gear_fault, bool | np.bool_):
+            raise ParameterError(w, "gear_fault", f"expected True or False, got "
+                                 f"{self.gear_fault!r}")
 
     @classmethod
-    def paper(cls, dt: float = 1e-3, folder: str | Path | None = None) -> SafetyLimits:
+    def paper(cls, dt: float = 1e-3, folder: str | Path | None = None,
+              actuators: tuple[Any, ...] | None = None) -> SafetyLimits:
         """The defaults: the paper's range of motion and Table 2, with ``safety.toml``'s
-        margins and rates (a device folder's, :mod:`exoleg.device.files`, or the
-        package's)."""
+        margins, rates and thermal settings (a device folder's,
+        :mod:`exoleg.device.files`, or the package's), watching ``actuators`` (None: the
+        folder's)."""
         from exoleg.device.files import load
         from exoleg.params import paper
 
         where, d = load("safety.toml", folder)
-        v = _check.ranged(where, {k: x for k, x in d.items() if k != "max_torque_rate"},
-                          {"hard_margin_deg": (0.0, 45.0, "deg"),
-                           "torque_fraction": (0.01, 1.0, ""),
-                           "overspeed_factor": (0.1, 3.0, "")})
+        numbers = {"hard_margin_deg": (0.0, 45.0, "deg"), "torque_fraction": (0.01, 1.0, ""),
+                   "overspeed_factor": (0.1, 3.0, ""),
+                   "ambient_temperature": (-20.0, 60.0, "degC"),
+                   "derate_band": (1.0, 60.0, "K")}
+        v = _check.ranged(where, {k: x for k, x in d.items()
+                                  if k not in ("max_torque_rate", "gear_overload")}, numbers)
         if "max_torque_rate" not in d:
             raise ParameterError(where, "max_torque_rate", "missing (3 rates, N m/s)")
         rate = _check.vector(where, "max_torque_rate", d["max_torque_rate"], 3)
@@ -153,22 +231,30 @@ class SafetyLimits:
                                  f"rate must be 1-{MAX_TORQUE_RATE:g} N m/s (above, the "
                                  "limit limits nothing: the drives' current loops are "
                                  "slower)")
+        response = d.get("gear_overload")
+        if response not in GEAR_RESPONSES:
+            raise ParameterError(where, "gear_overload", f"{response!r}: allowed "
+                                 + ", ".join(f'"{r}"' for r in GEAR_RESPONSES))
         from exoleg.device.actuator import paper_actuators
 
         rom = paper.range_of_motion()
-        acts = paper.actuators()
+        table2 = paper.actuators()
+        acts = paper_actuators(folder) if actuators is None else tuple(actuators)
         # Table 2's torque, within what each actuation unit may work at: its gear's
         # repeated peak torque, or its drive's current limit (the momentary peak is for
         # collisions, never commanded)
-        working = np.array([a.torque_limit for a in paper_actuators(folder)])
+        working = np.array([a.torque_limit for a in acts])
         try:
             return cls(lower=rom.lower, upper=rom.upper,
                        hard_margin=math.radians(v["hard_margin_deg"]),
                        max_torque=np.minimum(v["torque_fraction"] * np.array(
-                           [a.max_torque for a in acts]), working),
+                           [a.max_torque for a in table2]), working),
                        max_torque_rate=rate,
-                       max_speed=v["overspeed_factor"] * np.array([a.max_velocity for a in acts]),
-                       dt=dt, source=str(d.get("source", where)))
+                       max_speed=v["overspeed_factor"] * np.array(
+                           [a.max_velocity for a in table2]),
+                       dt=dt, source=str(d.get("source", where)), actuators=acts,
+                       ambient=v["ambient_temperature"], derate_band=v["derate_band"],
+                       gear_fault=response == "fault")
         except ParameterError as e:  # a range checked by the record: name the file
             raise ParameterError(where, e.field, e.problem) from None
 
@@ -178,15 +264,37 @@ class SafetyLimits:
         r["lower"], r["upper"], r["max_torque"] = self.lower, self.upper, self.max_torque
         r["max_step"] = self.max_torque_rate * self.dt
         r["max_speed"], r["hard_margin"] = self.max_speed, self.hard_margin
+        acts = self.actuators or ()
+        for i, a in enumerate(acts):
+            th = a.thermal()
+            # the two nodes' step over one tick with no loss and a 0 degC ambient: the
+            # columns of e^{A dt}, from the same exact step the device's model takes
+            cols = []
+            for unit in ((1.0, 0.0), (0.0, 1.0)):
+                T = np.array(unit)
+                thermal_step(th, T, 0.0, 0.0, self.dt)
+                cols.append(T)
+            r["phi"][0, i] = (cols[0][0], cols[1][0], cols[0][1], cols[1][1])
+            r["kt_joint"][0, i] = a.joint_torque_constant
+            r["r25"][0, i] = a.terminal_resistance
+            r["r_wh"][0, i] = a.thermal_resistance_winding
+            r["r_ha"][0, i] = a.thermal_resistance_housing
+            r["winding_limit"][0, i] = a.max_winding_temperature
+            r["derate_from"][0, i] = a.max_winding_temperature - self.derate_band
+            r["continuous"][0, i] = min(a.continuous_torque, self.max_torque[i])
+            r["momentary"][0, i] = a.momentary_peak_torque
+            r["inertia"][0, i] = a.reflected_inertia
+        r["ambient"], r["dt"], r["gear_fault"] = self.ambient, self.dt, self.gear_fault
         return r
 
 
 @njit(cache=True)
-def check_state(lim, q, dq, u_cmd):  # type: ignore[no-untyped-def]
-    """The fault the measured state ``q``, ``dq`` and the command ``u_cmd`` (3,) latch
-    (:class:`Fault`; NONE when sane) and its joint, joint by joint: a non-finite value,
-    overspeed, beyond the hard margin (:func:`safety_step` keeps the value and the limit
-    it crossed once a fault latches: worked out there, the check stays lean)."""
+def check_state(lim, state, q, dq, u_cmd):  # type: ignore[no-untyped-def]
+    """The fault the measured state ``q``, ``dq``, the command ``u_cmd`` (3,) and the
+    motors' estimated temperatures (``state``) latch (:class:`Fault`; NONE when sane) and
+    its joint, joint by joint: a non-finite value, overspeed, beyond the hard margin, a
+    winding beyond its limit (:func:`safety_step` keeps the value and the limit it
+    crossed once a fault latches: worked out there, the check stays lean)."""
     L = lim[0]
     for i in range(3):
         if not (math.isfinite(q[i]) and math.isfinite(dq[i]) and math.isfinite(u_cmd[i])):
@@ -195,7 +303,65 @@ def check_state(lim, q, dq, u_cmd):  # type: ignore[no-untyped-def]
             return Fault.OVERSPEED, i
         if q[i] < L.lower[i] - L.hard_margin or q[i] > L.upper[i] + L.hard_margin:
             return Fault.HARD_LIMIT, i
+        if state[0].winding[i] > L.winding_limit[i]:
+            return Fault.OVERTEMPERATURE, i
     return Fault.NONE, -1
+
+
+@njit(cache=True)
+def motors_tick(lim, state, dq, u):  # type: ignore[no-untyped-def]
+    """The motors' and gears' estimates after a tick that allowed ``u`` (3,) at the
+    measured rates ``dq``: each winding and housing heated over the tick by the copper
+    loss of the current ``|u| / (N eta k_t)``, the resistance at the winding's
+    temperature (exact step of the two-node model, the loss held); each gear's torque
+    for the next tick's check is worked out there. Temperatures start at the ambient."""
+    L = lim[0]
+    s = state[0]
+    if not s.started:
+        s.started = True
+        for i in range(3):
+            s.winding[i] = L.ambient
+            s.housing[i] = L.ambient
+            s.dq_prev[i] = dq[i] if math.isfinite(dq[i]) else 0.0
+        return
+    for i in range(3):
+        current = u[i] / L.kt_joint[i]
+        loss = L.r25[i] * (1.0 + COPPER_ALPHA * (s.winding[i] - R_REFERENCE_C)) * \
+            current * current
+        sw = L.ambient + loss * (L.r_wh[i] + L.r_ha[i])
+        sh = L.ambient + loss * L.r_ha[i]
+        xw, xh = s.winding[i] - sw, s.housing[i] - sh
+        s.winding[i] = sw + L.phi[i, 0] * xw + L.phi[i, 1] * xh
+        s.housing[i] = sh + L.phi[i, 2] * xw + L.phi[i, 3] * xh
+        s.dq_prev[i] = dq[i] if math.isfinite(dq[i]) else s.dq_prev[i]
+
+
+@njit(cache=True)
+def gear_check(lim, state, dq):  # type: ignore[no-untyped-def]
+    """Each gear's transmitted torque this tick, estimated as the torque allowed last
+    tick less the rotor's inertia torque (reflected inertia x the measured acceleration,
+    the rates' difference over the tick): kept in ``state``, its peak and the times it
+    went beyond the gear's momentary peak counted. Returns the first joint beyond it (-1
+    for none)."""
+    L = lim[0]
+    s = state[0]
+    over = -1
+    if not s.started:
+        return over
+    for i in range(3):
+        g = s.prev[i] - L.inertia[i] * (dq[i] - s.dq_prev[i]) / L.dt
+        if not math.isfinite(g):
+            g = 0.0  # a non-finite rate is the NONFINITE check's
+        beyond = abs(g) > L.momentary[i]
+        if beyond:
+            if abs(s.gear[i]) <= L.momentary[i]:
+                s.gear_events[i] += 1
+            if over < 0:
+                over = i
+        s.gear[i] = g
+        if abs(g) > s.gear_peak[i]:
+            s.gear_peak[i] = abs(g)
+    return over
 
 
 @njit(cache=True)
@@ -229,11 +395,15 @@ def estop(state):  # type: ignore[no-untyped-def]
 def reset(lim, state, q, dq):  # type: ignore[no-untyped-def]
     """Clear a latched fault, disarmed, if the state ``q``, ``dq`` is sane
     (:func:`check_state`). Returns the fault that still holds and its joint (NONE, -1
-    when cleared); the state is unchanged then."""
-    f, j = check_state(lim, q, dq, np.zeros(3))
+    when cleared); the state is unchanged then. After an overtemperature the winding must
+    have cooled below where derating starts."""
+    f, j = check_state(lim, state, q, dq, np.zeros(3))
     if f != Fault.NONE:
         return f, j
     s = state[0]
+    for i in range(3):
+        if s.fault == Fault.OVERTEMPERATURE and s.winding[i] > lim[0].derate_from[i]:
+            return Fault.OVERTEMPERATURE, i
     s.armed = False
     s.fault = Fault.NONE
     s.fault_joint = -1
@@ -256,24 +426,41 @@ def safety_step(lim, state, q, dq, u_cmd, estop_input, u):  # type: ignore[no-un
     if estop_input and s.fault == Fault.NONE:
         s.fault = Fault.ESTOP
         s.fault_joint = -1
+    over = gear_check(lim, state, dq)
+    if over >= 0:
+        status |= Limited.GEAR_PEAK
     if s.fault == Fault.NONE:
-        f, j = check_state(lim, q, dq, u_cmd)
+        f, j = check_state(lim, state, q, dq, u_cmd)
+        if f == Fault.NONE and over >= 0 and L.gear_fault:
+            f, j = Fault.GEAR_OVERLOAD, over
         if f != Fault.NONE:
             s.fault = f
             s.fault_joint = j
             # the value that latched it and the limit it crossed (signed; 0, 0 for a
             # non-finite value), for the operator: worked out here, inline (a returned
             # 4-tuple or a call cost the 1 kHz tick 30 %: benchmarks/bench_device.py)
-            s.fault_value = dq[j] if f == Fault.OVERSPEED else q[j] if \
-                f == Fault.HARD_LIMIT else 0.0
-            s.fault_limit = math.copysign(L.max_speed[j], dq[j]) if f == Fault.OVERSPEED \
-                else (L.lower[j] - L.hard_margin if q[j] < L.lower[j] else
-                      L.upper[j] + L.hard_margin) if f == Fault.HARD_LIMIT else 0.0
+            if f == Fault.OVERSPEED:
+                s.fault_value = dq[j]
+                s.fault_limit = math.copysign(L.max_speed[j], dq[j])
+            elif f == Fault.HARD_LIMIT:
+                s.fault_value = q[j]
+                s.fault_limit = L.lower[j] - L.hard_margin if q[j] < L.lower[j] else \
+                    L.upper[j] + L.hard_margin
+            elif f == Fault.OVERTEMPERATURE:
+                s.fault_value = s.winding[j]
+                s.fault_limit = L.winding_limit[j]
+            elif f == Fault.GEAR_OVERLOAD:
+                s.fault_value = s.gear[j]
+                s.fault_limit = math.copysign(L.momentary[j], s.gear[j])
+            else:
+                s.fault_value = 0.0
+                s.fault_limit = 0.0
     if s.fault != Fault.NONE or not s.armed:
         status |= Limited.FAULT if s.fault != Fault.NONE else Limited.DISARMED
         for i in range(3):
             u[i] = 0.0
             s.prev[i] = 0.0
+        motors_tick(lim, state, dq, u)
         return status
     for i in range(3):
         v = u_cmd[i]
@@ -281,6 +468,11 @@ def safety_step(lim, state, q, dq, u_cmd, estop_input, u):  # type: ignore[no-un
             v = 0.0  # no torque that pushes further out of the range of motion
             status |= Limited.SOFT_LIMIT
         tmax = L.max_torque[i]
+        hot = s.winding[i] - L.derate_from[i]
+        if hot > 0.0:  # derate linearly to the continuous torque at the winding limit
+            status |= Limited.DERATED
+            tmax -= min(hot / (L.winding_limit[i] - L.derate_from[i]), 1.0) * \
+                (tmax - L.continuous[i])
         if v > tmax:
             v = tmax
             status |= Limited.TORQUE
@@ -297,6 +489,7 @@ def safety_step(lim, state, q, dq, u_cmd, estop_input, u):  # type: ignore[no-un
             status |= Limited.RATE
         u[i] = v
         s.prev[i] = v
+    motors_tick(lim, state, dq, u)
     return status
 
 
@@ -325,6 +518,17 @@ class SafetyLayer:
     def fault_joint(self) -> str:
         """The joint of the latched fault ('' for none or for an E-stop)."""
         return joint_name(self.fault, int(self.state[0]["fault_joint"]))
+
+    @property
+    def temperatures(self) -> F64:
+        """The motors' estimated (winding, housing) temperatures (3, 2), degC."""
+        st = self.state[0]
+        return np.stack([st["winding"], st["housing"]], axis=1)
+
+    @property
+    def gear_torque(self) -> F64:
+        """Each gear's estimated transmitted torque this tick (3,), N m."""
+        return np.array(self.state[0]["gear"])
 
     def arm(self) -> None:
         """Allow torque. Refused while a fault is latched (:meth:`reset` first)."""
@@ -391,13 +595,20 @@ def fault_detail(fault: int, joint: int, value: float, limit: float) -> str:
         return ""
     jn = joint_name(f, int(joint))
     at = f" at the {jn}" if jn else ""
-    unit, deg = {Fault.OVERSPEED: ("rad/s", "deg/s"), Fault.HARD_LIMIT: ("rad", "deg")
-                 }.get(f, ("", ""))
     if f == Fault.ESTOP:
         return "E-stop. To go on: Reset (with the E-stop released), then Arm."
-    if not unit:
+    if f == Fault.NONFINITE:
         return (f"a reading or command that is not a number (NaN or infinite){at}. To go "
                 "on: Reset once every reading is a number again, then Arm.")
+    if f == Fault.OVERTEMPERATURE:
+        return (f"OVERTEMPERATURE{at}: the motor's winding at {value:.0f} degC (estimated) "
+                f"beyond its limit of {limit:.0f} degC. To go on: let it cool (Reset is "
+                "refused until it is below where derating starts), then Arm.")
+    if f == Fault.GEAR_OVERLOAD:
+        return (f"GEAR_OVERLOAD{at}: {abs(value):.0f} N m through the gear (estimated) "
+                f"beyond its momentary peak of {abs(limit):.0f} N m. To go on: have the gear "
+                "inspected, then Reset and Arm.")
+    unit, deg = ("rad/s", "deg/s") if f == Fault.OVERSPEED else ("rad", "deg")
     word = "beyond" if f == Fault.HARD_LIMIT else "against"
     return (f"{f.name}{at}: {value:.2f} {unit} ({math.degrees(value):.0f} {deg}) {word} "
             f"its limit of {limit:.2f} {unit} ({math.degrees(limit):.0f} {deg}). To go on: "

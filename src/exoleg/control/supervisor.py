@@ -91,6 +91,9 @@ def report(sup, sst, refused, status, out):  # type: ignore[no-untyped-def]
     o.fault_value = sst[0].fault_value
     o.fault_limit = sst[0].fault_limit
     o.refused = refused
+    for j in range(3):
+        o.winding_temp[j] = sst[0].winding[j]
+        o.gear_torque[j] = sst[0].gear[j]
 
 
 #: The commands that apply in each mode (:func:`supervise` refuses the others; a reset

@@ -22,7 +22,9 @@ What it does, at the joint (SI units):
   the command), returning the mean torque over the step;
 * **the winding's temperature** (:func:`thermal_step`, :func:`winding_temperature`):
   maxon's two-node model (winding and housing, their thermal resistances and time
-  constants) heated by the copper loss ``R i^2``;
+  constants) heated by the copper loss ``R(T_w) i^2``, the winding's resistance rising
+  with its temperature as copper's does (:data:`COPPER_ALPHA`); the safety layer runs
+  the same model every tick to derate a hot motor;
 * **encoder** (:func:`encode`): the absolute joint encoder's quantisation (2^bits per
   turn); the velocity is the finite difference of encoder readings over the control
   period through a first-order low-pass of ``velocity_filter_hz`` (:func:`filter_gain`).
@@ -101,6 +103,11 @@ _NAMES = ("joint", "motor", "gear", "drive")
 #: a unit slip (g cm^2 as kg m^2) or a ratio typed wrong, and the plant meaningless.
 MAX_REFLECTED = 20.0
 RPM = 2.0 * math.pi / 60.0
+#: Copper's temperature coefficient of resistance, 1/K (annealed copper, IEC 60028:
+#: 0.00393 at 20 degC); maxon's catalogues give the terminal resistance at 25 degC.
+COPPER_ALPHA = 0.00393
+#: The temperature at which the actuator files' terminal resistances hold, degC.
+R_REFERENCE_C = 25.0
 
 
 @dataclass(frozen=True)
@@ -407,50 +414,81 @@ def thermal_step(th, T, current, ambient, h):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def _temperatures(th, currents, dt, ambient, out):  # type: ignore[no-untyped-def]
+def hot_current(current, winding, alpha):  # type: ignore[no-untyped-def]
+    """The current that, through the winding's resistance at 25 degC, dissipates what
+    ``current`` (A) does through the resistance at the winding's temperature ``winding``
+    (degC): ``i sqrt(1 + alpha (T_w - 25))``, for :func:`thermal_step` (whose loss is
+    R_25 i^2)."""
+    return current * math.sqrt(max(0.0, 1.0 + alpha * (winding - R_REFERENCE_C)))
+
+
+@njit(cache=True)
+def _temperatures(th, currents, dt, ambient, alpha, out):  # type: ignore[no-untyped-def]
     T = np.array([ambient, ambient])
     for k in range(len(currents)):
-        thermal_step(th, T, currents[k], ambient, dt)
+        thermal_step(th, T, hot_current(currents[k], T[0], alpha), ambient, dt)
         out[k, 0] = T[0]
         out[k, 1] = T[1]
 
 
 def winding_temperature(actuator: ActuatorModel, joint_torque: F64, dt: float,
-                        ambient: float = 25.0) -> F64:
+                        ambient: float = 25.0, alpha: float = COPPER_ALPHA) -> F64:
     """The winding's and housing's temperatures (N, 2; degC) through a series of joint
     torques (N m, every ``dt`` s) from ``ambient``: the current each needs,
-    ``|tau| / (N eta k_t)``, heating the two nodes (:func:`thermal_step`)."""
+    ``|tau| / (N eta k_t)``, heating the two nodes (:func:`thermal_step`) with the
+    winding's resistance at its temperature at the start of each step (``alpha``: 1/K;
+    0 keeps it at 25 degC's)."""
     tau = np.abs(np.asarray(joint_torque, dtype=float))
     out = np.empty((len(tau), 2))
     _temperatures(actuator.thermal(), tau / actuator.joint_torque_constant, float(dt),
-                  float(ambient), out)
+                  float(ambient), float(alpha), out)
     return out
 
 
-def time_to_winding_limit(actuator: ActuatorModel, current: float,
-                          ambient: float = 25.0) -> float:
+def time_to_winding_limit(actuator: ActuatorModel, current: float, ambient: float = 25.0,
+                          alpha: float = COPPER_ALPHA, dt: float = 0.01) -> float:
     """How long a constant motor ``current`` (A) may flow from ``ambient`` before the
-    winding reaches its maximum temperature, s (inf when its steady state stays below):
-    the two-node solution's crossing, found by bisection on the exact step."""
+    winding reaches its maximum temperature, s (inf when its steady state stays below).
+    ``alpha`` 0: the two-node solution's crossing, by bisection on the exact step; else
+    the resistance follows the winding's temperature, held over steps of ``dt`` s, the
+    crossing found within its step by bisection."""
     th = actuator.thermal()
     P = th[0]
     limit = actuator.max_winding_temperature
-    steady = ambient + P["resistance"] * current**2 * (P["r_wh"] + P["r_ha"])
+    rth = P["r_wh"] + P["r_ha"]
+    # the steady state: T - T_a = R_25 (1 + alpha (T - 25)) i^2 R_th, solved for T
+    gain = P["resistance"] * current**2 * rth
+    if alpha * gain >= 1.0:
+        steady = math.inf  # thermal runaway: the loss outgrows the cooling
+    else:
+        steady = (ambient + gain * (1.0 - alpha * R_REFERENCE_C)) / (1.0 - alpha * gain)
     if steady <= limit:
         return math.inf
 
-    def winding_at(t: float) -> float:
-        T = np.array([ambient, ambient])
-        thermal_step(th, T, current, ambient, t)
+    def after(T0: NDArray[np.float64], h: float, i: float) -> float:
+        T = T0.copy()
+        thermal_step(th, T, i, ambient, h)
         return float(T[0])
 
-    lo, hi = 0.0, 1.0
-    while winding_at(hi) < limit:
-        hi *= 2.0
+    T = np.array([ambient, ambient])
+    start = 0.0
+    if alpha:
+        while True:
+            i = hot_current(current, T[0], alpha)
+            if after(T, dt, i) >= limit:
+                break
+            thermal_step(th, T, i, ambient, dt)
+            start += dt
+        lo, hi = 0.0, dt
+    else:
+        i = current
+        lo, hi = 0.0, 1.0
+        while after(T, hi, i) < limit:
+            hi *= 2.0
     for _ in range(80):
         mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if winding_at(mid) < limit else (lo, mid)
-    return hi
+        lo, hi = (mid, hi) if after(T, mid, i) < limit else (lo, mid)
+    return start + hi
 
 
 @njit(cache=True)

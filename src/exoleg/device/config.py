@@ -60,8 +60,10 @@ class DeviceConfig:
         from exoleg.device.files import check_folder
 
         where = None if folder is None else check_folder(folder)
-        return cls(actuators=paper_actuators(where) if actuators is None else tuple(actuators),
-                   safety=SafetyLimits.paper(control_dt, where) if safety is None else safety,
+        acts = paper_actuators(where) if actuators is None else tuple(actuators)
+        return cls(actuators=acts,
+                   safety=(SafetyLimits.paper(control_dt, where, acts) if safety is None
+                           else safety),
                    sensors=(FootSensors.default(noise_scale, where) if sensors is None
                             else sensors),
                    detector=DetectorSettings.default(where),

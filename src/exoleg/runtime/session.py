@@ -314,7 +314,10 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
 
 
 def summarize(path: str | Path) -> dict[str, Any]:
-    """What a session log holds: length, modes, faults, events, timing, tail dropped."""
+    """What a session log holds: length, modes, faults, events, timing, tail dropped, and
+    per joint the safety layer's hottest winding estimate (degC), its largest gear torque
+    estimate (N m) and the ticks a gear was beyond its momentary peak (a log from before
+    these columns: None)."""
     from exoleg.control.gait_phase import Event
     from exoleg.control.safety import Limited
 
@@ -335,7 +338,25 @@ def summarize(path: str | Path) -> dict[str, Any]:
             "late_p99_us": float(np.percentile(late, 99)) if len(late) else 0.0,
             "late_max_us": float(late.max()) if len(late) else 0.0,
             "missed_deadlines": int((late > period * 1e6).sum()),
-            "cut_record_bytes": cut}
+            "cut_record_bytes": cut, **_motor_figures(cols, status)}
+
+
+def _motor_figures(cols: dict[str, Any], status: Any) -> dict[str, Any]:
+    """The safety layer's motor and gear estimates over a session, per joint."""
+    from exoleg.control.safety import Limited
+    from exoleg.params.records import JOINTS
+
+    def per_joint(prefix: str, f: Any) -> dict[str, Any] | None:
+        names = [f"{prefix}_{j}" for j in JOINTS]
+        if not all(n in cols for n in names) or not len(status):
+            return None
+        return {j: f(cols[n]) for j, n in zip(JOINTS, names, strict=True)}
+
+    over = (status & Limited.GEAR_PEAK) > 0
+    return {"winding_max_C": per_joint("winding_temp", lambda c: float(c.max())),
+            "gear_peak_Nm": per_joint("gear_torque", lambda c: float(np.abs(c).max())),
+            "ticks_gear_beyond_momentary_peak": int(over.sum())
+            if "gear_torque_hip" in cols else None}
 
 
 def to_table(path: str | Path) -> Any:

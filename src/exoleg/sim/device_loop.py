@@ -231,7 +231,7 @@ def device_parts(device: str | Path | None, actuators: tuple[ActuatorModel, ...]
 
     folder = None if device is None else check_folder(device)
     acts = paper_actuators(folder) if actuators is None else tuple(actuators)
-    lim = SafetyLimits.paper(control_dt, folder) if safety is None else safety
+    lim = SafetyLimits.paper(control_dt, folder, acts) if safety is None else safety
     return folder, acts, params_array(acts), lim
 
 

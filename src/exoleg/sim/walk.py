@@ -86,7 +86,8 @@ class WalkResult(TimeSeries):
     fsr (counts) and contact_force (true normal force, N) per sensor; gyro rad/s,
     accel (2) m/s^2 (foot frame); mode, phase, gait_fraction, events (bits), safety
     status per tick; u_safe (to the drives), tau (delivered), envelope; support (the
-    other leg's force on the pelvis, N)."""
+    other leg's force on the pelvis, N); the safety layer's estimates per joint:
+    winding_temp (degC) and gear_torque (N m)."""
 
     t: F64
     pelvis: F64
@@ -108,6 +109,8 @@ class WalkResult(TimeSeries):
     tau: F64
     envelope: F64
     support: F64
+    winding_temp: F64
+    gear_torque: F64
     plant: WalkingPlant = field(repr=False)
     actuators: tuple[ActuatorModel, ...] = field(repr=False)
     walk_start: float = 0.0
@@ -129,7 +132,7 @@ class WalkResult(TimeSeries):
     def columns(self) -> dict[str, F64]:
         cols: dict[str, F64] = {"t": self.t, "pelvis": self.pelvis}
         for name in ("q", "dq", "q_meas", "dq_meas", "q_ref", "u_safe", "tau", "envelope",
-                     "motor_speed", "power"):
+                     "motor_speed", "power", "winding_temp", "gear_torque"):
             arr = getattr(self, name)
             for i, j in enumerate(JOINTS):
                 cols[f"{name}_{j}"] = arr[:, i].astype(float)
@@ -204,7 +207,8 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                       mode=OUT["mode"], phase=OUT["phase"],
                       gait_fraction=OUT["gait_fraction"], events=OUT["events"],
                       safety_status=OUT["safety_status"], u_safe=OUT["tau"], tau=TAU,
-                      envelope=ENV, support=SUP, plant=plant, actuators=dev.actuators,
+                      envelope=ENV, support=SUP, winding_temp=OUT["winding_temp"],
+                      gear_torque=OUT["gear_torque"], plant=plant, actuators=dev.actuators,
                       walk_start=standing, stride_time=stride_time)
 
 
