@@ -52,3 +52,47 @@ def test_coverage_confirms_or_corrects_the_papers_claim():
     # length ((0.246 + 0.039) x 109.8 cm = 31.3 cm) is below the 33 cm telescope minimum.
     assert girl.paper_rule_fits and not girl.fits and girl.binding.startswith("lower")
     assert boy.fits
+
+
+def test_device_limits_are_the_actuators_envelope():
+    # Reference: the motor's equations on the sheets' figures (device-datasheets.md): the
+    # working torque min(repeated peak, N eta k_t I_lim), the no-load joint speed
+    # V / (k_t N), and the envelope's largest power found analytically: along the
+    # voltage line tau(w) = N eta k_t (V - k_t N w) / R the power peaks at w = V / (2 k_t N);
+    # where the torque cap binds there, at the cap's corner instead.
+    import math
+
+    from exoleg.device.actuator import paper_actuators
+    from exoleg.sizing.demand import device_limits
+
+    lim = device_limits()
+    for j, a in enumerate(paper_actuators()):
+        kt, ke = a.joint_torque_constant, a.torque_constant * a.ratio
+        cap = min(a.repeated_peak_torque, kt * a.peak_current)
+        w_peak = a.bus_voltage / (2 * ke)
+        tau_peak = kt * (a.bus_voltage - ke * w_peak) / a.terminal_resistance
+        if tau_peak <= cap:
+            power = tau_peak * w_peak
+        else:  # the corner: the cap meets the voltage line
+            power = cap * (a.bus_voltage - cap / kt * a.terminal_resistance) / ke
+        assert lim[0, j] == pytest.approx(cap, rel=1e-12)
+        assert lim[1, j] == pytest.approx(a.bus_voltage / ke, rel=1e-12)
+        assert lim[2, j] == pytest.approx(power, rel=2e-3)  # a 2001-point speed grid
+    assert np.allclose(np.degrees(lim[1]), [193, 524, 218], atol=1)  # device-datasheets D
+    assert np.allclose(lim[0], [54.0, 30.45, 54.0])
+    assert not math.isclose(lim[2, 0], 220.0)  # not Table 2's rated power
+
+
+def test_the_simulated_gait_demand_is_the_device_s():
+    # Reference: exoleg.simulate (the single-leg closed loop, another code path than the
+    # batch) on the leg with the actuators' reflected inertia.
+    from exoleg.device.actuator import with_actuators
+
+    d = actuator_demand(CHILD, LEG)
+    dev = with_actuators(LEG)
+    q, dq = gait_reference("Free", 0.0, 1.1)
+    res = simulate(dev, PDGravity(dev), SchwartzGait2008(stride_time=1.1), duration=2.2,
+                   q0=q[0], dq0=dq[0])
+    second = res.t[:-1] >= 1.1 - 1e-12
+    assert np.allclose(d.rows["simulated gait"][0], np.abs(res.u[:-1][second]).max(axis=0),
+                       rtol=1e-9)

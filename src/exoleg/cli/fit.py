@@ -68,18 +68,22 @@ def cmd_fit(args: argparse.Namespace) -> int:
             rows.append([r["source"], f"{r['quantity']} ({u})"] + [
                 f"{r[j] * k:.1f} ({r[j + '_margin']:.2f})" + ("" if r[j + "_margin"] >= 1 else " !")
                 for j in ("hip", "knee", "ankle")])
-        lim = demand.limits
-        rows.append(["Table 2 limits", "torque / speed / power"] + [
-            f"{lim[0, j]:.0f} / {np.degrees(lim[1, j]):.0f} / {lim[2, j]:.0f}" for j in range(3)])
+        from exoleg.sizing.demand import table2_limits
+
+        for name, lim in (("device limits (datasheets)", demand.limits),
+                          ("Table 2 (paper, for reference)", table2_limits())):
+            rows.append([name, "torque / speed / power"] + [
+                f"{lim[0, j]:.0f} / {np.degrees(lim[1, j]):.0f} / {lim[2, j]:.0f}"
+                for j in range(3)])
         _table(rows, ["source", "quantity", "hip", "knee", "ankle"],
                title="actuator demand (margin = limit / demand; ! = over the limit)")
         mg, src, qn, joint = demand.smallest_margin()
         if over:
-            _say(f"actuator demand: EXCEEDS Table 2 in {len(over)} case(s):")
+            _say(f"actuator demand: EXCEEDS the device's limits in {len(over)} case(s):")
             for e in over:
                 _say(f"  {e}")
         else:
-            _say(f"actuator demand: within Table 2 (smallest margin {mg:.2f}: {qn} at the "
+            _say(f"actuator demand: within the device's limits (smallest margin {mg:.2f}: {qn} at the "
                  f"{joint}, {src})")
         _say(f"\nverdict: {rep.verdict}")
         write_leg = fit.fits or args.write_leg

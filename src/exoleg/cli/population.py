@@ -34,15 +34,15 @@ def cmd_population(args: argparse.Namespace) -> int:
             miss = collections.Counter(r.binding for r in sel if not r.fits)
             worst = min(sel, key=lambda r: r.margin)
             table.append([g, sex, f"{sum(r.fits for r in sel)}/{len(sel)}",
-                          f"{sum(r.fits and r.within_table2 for r in sel)}/{len(sel)}",
+                          f"{sum(r.fits and r.within_limits for r in sel)}/{len(sel)}",
                           f"{sum(r.paper_rule_fits for r in sel)}/{len(sel)}",
                           "; ".join(f"{k} x{v}" for k, v in miss.items()) or "-",
                           f"{worst.margin:.2f} ({worst.margin_where})"])
-    _table(table, ["group", "sex", "fits (geometry)", "fits, demand within Table 2",
+    _table(table, ["group", "sex", "fits (geometry)", "fits, demand within the device's limits",
                    "paper rule fits", "misses (binding limit)", "smallest actuator margin"])
     over = collections.Counter(w for r in rows for w in r.exceeds_where.split(", ") if w)
     if over:
-        _say("demands over Table 2 (children, by joint and quantity): "
+        _say("demands over the device's limits (children, by joint and quantity): "
              + ", ".join(f"{k} x{v}" for k, v in over.most_common()))
     _say("\nthe paper's design range (50th percentile):")
     for grp, sex, age in (("GMFCS IV", "female", 8.0), ("GMFCS I", "male", 12.0)):

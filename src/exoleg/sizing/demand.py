@@ -1,4 +1,6 @@
-"""Actuator demand and margins per joint: what the child needs against Table 2.
+"""Actuator demand and margins per joint: what the child needs against what the device's
+actuation units give (:func:`device_limits`, from their datasheets; the paper's Table 2
+is reported beside them, :func:`table2_limits`).
 
 Sources of demand (each a row of torque N m, speed rad/s, power W per joint; NaN where a
 source says nothing):
@@ -10,8 +12,9 @@ source says nothing):
   speed| of the same percentile's joint angles played at the chosen stride time;
 * ``gravity compensation``: the largest |G_i(q)| of the personalized model over the
   device's range of motion (a 13^3 grid);
-* ``simulated gait``: peaks of the personalized leg tracking the normative gait under
-  the paper's controller (PD + gravity compensation, 1 kHz, RK4 1 ms), second stride.
+* ``simulated gait``: peaks of the personalized leg, with the actuators' reflected
+  inertia, tracking the normative gait under the paper's controller (PD + gravity
+  compensation, 1 kHz, RK4 1 ms), second stride.
 
 A margin is limit / demand: >= 1 means the actuator covers the demand.
 """
@@ -25,6 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from exoleg.device.actuator import ActuatorModel, envelope, paper_actuators, with_actuators
 from exoleg.dynamics.model import LegModel
 from exoleg.params import paper
 from exoleg.params.records import JOINTS
@@ -42,7 +46,7 @@ DISPLAY = {"torque": ("N m", 1.0), "speed": ("deg/s", 180.0 / np.pi), "power": (
 
 @dataclass(frozen=True)
 class Exceedance:
-    """A demand over a Table 2 limit (SI units: N m, rad/s, W)."""
+    """A demand over one of the device's limits (SI units: N m, rad/s, W)."""
 
     source: str
     quantity: str
@@ -64,7 +68,8 @@ class Exceedance:
 
 @dataclass(frozen=True)
 class Demand:
-    """Per-source demand (source -> (3 quantities, 3 joints)) and Table 2's limits (3, 3)."""
+    """Per-source demand (source -> (3 quantities, 3 joints)) and the device's limits (3,
+    3): :func:`device_limits`."""
 
     rows: dict[str, F64]
     limits: F64
@@ -75,7 +80,7 @@ class Demand:
             return {k: np.where(v > 0, self.limits / v, np.inf) for k, v in self.rows.items()}
 
     def exceedances(self) -> list[Exceedance]:
-        """Every demand over its Table 2 limit (margin < 1), largest ratio first."""
+        """Every demand over its limit (margin < 1), largest ratio first."""
         out = []
         for src, v in self.rows.items():
             for i, qn in enumerate(QUANTITIES):
@@ -112,9 +117,25 @@ class Demand:
 
 
 def table2_limits() -> F64:
-    """(torque N m, speed rad/s, power W) x (hip, knee, ankle) from Table 2."""
+    """(torque N m, speed rad/s, power W) x (hip, knee, ankle) as the paper's Table 2
+    prints them (above what its parts give: :func:`device_limits`)."""
     a = paper.actuators()
     return np.array([[x.max_torque for x in a], [x.max_velocity for x in a], [x.power for x in a]])
+
+
+def device_limits(actuators: tuple[ActuatorModel, ...] | None = None) -> F64:
+    """(torque N m, speed rad/s, power W) x (hip, knee, ankle) of the actuation units
+    (None: the shipped ones, their datasheets): the working torque (the gear's repeated
+    peak or the drive's current limit), the fastest joint speed at the bus voltage, and
+    the largest mechanical power along the voltage-limited envelope (torque x speed)."""
+    acts = paper_actuators() if actuators is None else actuators
+    out = np.empty((3, 3))
+    for j, a in enumerate(acts):
+        par = a.record()
+        w = np.linspace(0.0, a.max_velocity, 2001)
+        out[:, j] = (a.torque_limit, a.max_velocity,
+                     max(envelope(par, float(x)) * float(x) for x in w))
+    return out
 
 
 def schwartz_demand(mass: float, speed: str, z: float, stride_time: float) -> F64:
@@ -159,9 +180,10 @@ def simulated_gait_peaks(P: F64, g: float, speed: str = "Free", z: float = 0.0,
 
 def build_demand(mass: float, leg: LegModel, percentile: float = 50.0, speed: str = "Free",
                  stride_time: float = 1.1, simulated: F64 | None = None,
-                 grid: int = 13) -> Demand:
+                 grid: int = 13, limits: F64 | None = None) -> Demand:
     """Demand per source for a child of ``mass`` kg wearing the device (``leg``: the
-    personalized model); ``simulated``: its simulated-gait peaks (3, 3), if run."""
+    personalized model); ``simulated``: its simulated-gait peaks (3, 3), if run;
+    ``limits``: the device's (None: :func:`device_limits` of the shipped actuators)."""
     z = NormalDist().inv_cdf(percentile / 100.0)
     t = paper.sizing()["demand_per_kg"]
     nan3 = np.full(3, np.nan)
@@ -173,15 +195,20 @@ def build_demand(mass: float, leg: LegModel, percentile: float = 50.0, speed: st
     }
     if simulated is not None:
         rows["simulated gait"] = simulated
-    return Demand(rows=rows, limits=table2_limits())
+    return Demand(rows=rows, limits=device_limits() if limits is None else limits)
 
 
 def actuator_demand(child: Child, leg: LegModel, percentile: float = 50.0, speed: str = "Free",
-                    stride_time: float = 1.1, simulate: bool = True) -> Demand:
-    """Demand per source for ``child`` wearing the device (``leg``: its personalized model);
-    the simulated gait is this percentile's gait."""
+                    stride_time: float = 1.1, simulate: bool = True,
+                    actuators: tuple[ActuatorModel, ...] | None = None) -> Demand:
+    """Demand per source for ``child`` wearing the device (``leg``: its personalized model,
+    to which the ``actuators``' reflected inertia is added for the simulated gait, this
+    percentile's gait; None: the shipped actuators) against those actuators' limits."""
+    acts = paper_actuators() if actuators is None else actuators
     sim = None
     if simulate:
         z = NormalDist().inv_cdf(percentile / 100.0)
-        sim = simulated_gait_peaks(leg.p[None, :], leg.g, speed, z, stride_time)[0]
-    return build_demand(child.mass, leg, percentile, speed, stride_time, sim)
+        sim = simulated_gait_peaks(with_actuators(leg, acts).p[None, :], leg.g, speed, z,
+                                   stride_time)[0]
+    return build_demand(child.mass, leg, percentile, speed, stride_time, sim,
+                        limits=device_limits(acts))

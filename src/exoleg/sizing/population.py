@@ -22,7 +22,8 @@ import numpy as np
 
 from exoleg.sizing import growth
 from exoleg.sizing.child import Child, DesignRangeWarning
-from exoleg.sizing.demand import build_demand, simulated_gait_peaks
+from exoleg.device.actuator import paper_actuators, with_actuators
+from exoleg.sizing.demand import build_demand, device_limits, simulated_gait_peaks
 from exoleg.sizing.fit import device, fit_device
 from exoleg.sizing.personal import personalized_leg
 
@@ -54,8 +55,8 @@ class Row:
     paper_rule_fits: bool
     margin: float         # smallest actuator margin (limit / demand)
     margin_where: str     # source, quantity, joint of that margin
-    within_table2: bool   # every demand within Table 2's limits (margin >= 1)
-    exceeds: str          # the demands over Table 2, "; "-separated ("" when none)
+    within_limits: bool   # every demand within the device's limits (margin >= 1)
+    exceeds: str          # the demands over them, "; "-separated ("" when none)
     exceeds_where: str    # their joint and quantity, ", "-separated ("ankle speed, ...")
     notes: str = ""
 
@@ -106,14 +107,17 @@ def coverage(ages: Sequence[float] = AGES, sexes: Sequence[str] = ("female", "ma
                     fits.append(f)
                     legs.append(personalized_leg(c, f))
                     notes.append(note)
+    acts = paper_actuators()
+    limits = device_limits(acts)
     peaks = None
-    if simulate:  # one batch: every child follows the mean gait of the speed group
-        peaks = simulated_gait_peaks(np.stack([leg.p for leg in legs]), legs[0].g, speed, 0.0,
-                                     stride_time)
+    if simulate:  # one batch: every child, with the actuators' reflected inertia, follows
+        # the mean gait of the speed group
+        peaks = simulated_gait_peaks(np.stack([with_actuators(leg, acts).p for leg in legs]),
+                                     legs[0].g, speed, 0.0, stride_time)
     rows = []
     for n, ((c, pct, group), f, leg) in enumerate(zip(children, fits, legs, strict=True)):
         dem = build_demand(c.mass, leg, pct, speed, stride_time,
-                           None if peaks is None else peaks[n], grid=7)
+                           None if peaks is None else peaks[n], grid=7, limits=limits)
         margin, src, qty, joint = dem.smallest_margin()
         over = dem.exceedances()
         what, by = _binding(f)
@@ -123,7 +127,7 @@ def coverage(ages: Sequence[float] = AGES, sexes: Sequence[str] = ("female", "ma
                         fits=f.fits, binding=what, by_m=by,
                         paper_rule_fits=bool(f.paper_rule["fits"]), margin=margin,
                         margin_where=f"{src}: {qty} at the {joint}",
-                        within_table2=not over, exceeds="; ".join(map(str, over)),
+                        within_limits=not over, exceeds="; ".join(map(str, over)),
                         exceeds_where=", ".join(dict.fromkeys(f"{e.joint} {e.quantity}"
                                                               for e in over)),
                         notes=notes[n]))
@@ -168,7 +172,7 @@ def heatmap(rows: list[Row], path: str | Path) -> Path:
             for r in rows:
                 if r.sex == sex and r.group == grp:
                     i, j = pcts.index(r.percentile), ages.index(r.age)
-                    img[i, j] = ((1 if r.within_table2 else 2) if r.fits
+                    img[i, j] = ((1 if r.within_limits else 2) if r.fits
                                  else (0 if r.by_m < 0 else 3))
                     ax.text(j, i, f"{r.margin:.2f}" + ("" if r.margin >= 1 else "!"),
                             ha="center", va="center", fontsize=6)
@@ -179,7 +183,8 @@ def heatmap(rows: list[Row], path: str | Path) -> Path:
             if si == len(sexes) - 1:
                 ax.set_xlabel("age (years)", fontsize=7)
     fig.suptitle("orange: child too small for the device; green: fits, every demand within "
-                 "Table 2; yellow: fits, but a demand exceeds Table 2; purple: child too large\n"
+                 "the actuators' limits (datasheets); yellow: fits, but a demand exceeds them; "
+                 "purple: child too large\n"
                  "numbers: smallest actuator margin (limit / demand; ! = below 1, over the limit)",
                  fontsize=8)
     from exoleg.io import atomic_path

@@ -1,5 +1,5 @@
 """One child's fitting, whole: the geometric fit, the personalized leg, the actuator
-demand against Table 2, the verdict and the record kept with the child (``fit.json``).
+demand against the device's actuation units (their datasheets), the verdict and the record kept with the child (``fit.json``).
 ``exoleg fit`` prints and writes it; the operator interface shows it and keeps it with a
 session."""
 
@@ -16,7 +16,7 @@ import numpy as np
 from exoleg.dynamics.model import LegModel
 from exoleg.sizing.anthropometry import LegLengthMethod
 from exoleg.sizing.child import Child
-from exoleg.sizing.demand import Demand, Exceedance, actuator_demand
+from exoleg.sizing.demand import Demand, Exceedance, actuator_demand, table2_limits
 from exoleg.sizing.fit import DeviceFit, fit_device
 from exoleg.sizing.personal import personalized_leg
 
@@ -39,10 +39,10 @@ class FitReport:
 
     @property
     def notes(self) -> list[str]:
-        """What does not fit and every demand over Table 2, one line each."""
+        """What does not fit and every demand over the device's limits, one line each."""
         return ([f"{m.what}: child {m.child * 100:.2f} cm, allowed {m.allowed[0] * 100:.1f}-"
                  f"{m.allowed[1] * 100:.1f} cm" for m in self.fit.misses]
-                + [f"demand over Table 2: {e}" for e in self.over])
+                + [f"demand over the device's limit: {e}" for e in self.over])
 
     def record(self, leg_file_written: bool) -> dict[str, Any]:
         """The JSON record (SI units) of ``fit.json``."""
@@ -50,7 +50,7 @@ class FitReport:
         return _finite(json.loads(json.dumps({
             "child": dataclasses.asdict(self.child), "charts": self.child.charts,
             "dimensions_m": dataclasses.asdict(self.fit.dimensions),
-            "fits": self.fit.fits, "within_table2": not self.over, "verdict": self.verdict,
+            "fits": self.fit.fits, "within_limits": not self.over, "verdict": self.verdict,
             "exceedances": [dataclasses.asdict(e) | {"ratio": e.ratio, "text": str(e)}
                             for e in self.over],
             "settings_m": {"upper": self.fit.upper, "lower": self.fit.lower},
@@ -59,6 +59,7 @@ class FitReport:
             "paper_rule": self.fit.paper_rule,
             "range_of_motion_rad": self.fit.range_of_motion,
             "demand": self.demand.table(), "limits": self.demand.limits,
+            "table2_limits": table2_limits(),
             "smallest_margin": {"margin": mg, "source": src, "quantity": qn, "joint": joint},
             "notes": self.notes, "leg_file_written": leg_file_written}, default=jsonable)))
 

@@ -346,7 +346,7 @@ function showFit(f) {
     lower (knee-sole) <b>${(f.settings_m.lower * 100).toFixed(1)} cm</b> (33-46); footplate 23.5 cm.</p>
     ${f.notes.length ? "<ul>" + f.notes.map((n) => `<li class="over">${esc(n)}</li>`).join("") + "</ul>" : ""}
     ${f.warnings.length ? "<ul>" + f.warnings.map((n) => `<li>${esc(n)}</li>`).join("") + "</ul>" : ""}
-    <h3>Actuator margins (Table 2 limit / demand; below 1 is over the limit)</h3>
+    <h3>Actuator margins (the actuators' limit from their datasheets / demand; below 1 is over the limit)</h3>
     <table><tr><th>source</th><th>quantity</th><th>hip</th><th>knee</th><th>ankle</th></tr>${rows}</table>
     <p class="muted">Kept for the next session started from the Control page.</p>`;
   $("fit-result").dataset.shown = "1";
