@@ -3,6 +3,8 @@
 import subprocess
 import sys
 
+import pytest
+
 
 def run(*args):
     return subprocess.run([sys.executable, "-m", "exoleg.cli", *args], capture_output=True, check=False,
@@ -92,6 +94,26 @@ def test_simulate_with_actuators(tmp_path):
     assert {"tau_ankle", "u_safe_knee", "envelope_hip", "motor_speed_hip",
             "safety_status"} <= set(header)
     assert "armature kg m^2" in r.stdout
+    # the motors' and gears' figures: the winding from 25 degC, the gear's load against
+    # its momentary peak (S10: 108 / 70 / 108 N m)
+    assert [p["momentary_peak_Nm"] for p in figs["peaks"]] == [108.0, 70.0, 108.0]
+    assert all(25.0 <= p["winding_max_C"] < p["winding_limit_C"] for p in figs["peaks"])
+
+
+def test_simulate_with_a_hip_variant(tmp_path):
+    import json
+
+    # Reference: data/device/hip-variants/ec90flat-90w.toml (S1: the 90 W frame's 3060
+    # g cm^2 rotor, reflected through 1:100 with the gear's 79 g cm^2: 3.139 kg m^2)
+    r = run("simulate", "--actuators", "--duration", "1", "--no-engine",
+            "--hip-motor", "ec90flat-90w", "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert "90 W" in summary["actuators"][0]["motor"]
+    hip = summary["figures"]["peaks"][0]
+    assert hip["reflected_inertia_kg_m2"] == pytest.approx(100**2 * (3060e-7 + 0.079e-4))
+    r = run("simulate", "--hip-motor", "ec90flat-90w", "--out", str(tmp_path / "x"))
+    assert r.returncode == 2 and "goes with --walk or --actuators" in r.stderr
 
 
 def test_simulate_with_actuators_bad_options(tmp_path):

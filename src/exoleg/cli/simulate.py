@@ -53,9 +53,21 @@ APPLIES: dict[str, tuple[tuple[str, ...], str]] = {
     "animate": (("scenario",), ""),
     **{o: (("walk",), "") for o in _WALK_DEFAULTS},
     "device": (_DEVICE, ""),
+    "hip_motor": (_DEVICE, ""),
 }
 _FLAG = {"scenario": "the paper's scenario (neither --actuators nor --walk)",
          "actuators": "--actuators", "walk": "--walk"}
+
+
+def device_actuators(args: argparse.Namespace) -> Any:
+    """The actuators ``--hip-motor`` asks for (the device folder's, or the shipped, knee and
+    ankle), or None: the device folder's or the shipped ones."""
+    if args.hip_motor is None:
+        return None
+    from exoleg.device.actuator import hip_variant, paper_actuators
+
+    _, knee, ankle = paper_actuators(args.device)
+    return hip_variant(args.hip_motor), knee, ankle
 
 
 def check_variant(args: argparse.Namespace) -> str:
@@ -381,5 +393,10 @@ def add_parser(sub: Any) -> None:
     s.add_argument("--device", type=Path, help="with --walk or --actuators: a folder of device "
                    "files (actuators/*.toml, sensors.toml, gait_phase.toml, "
                    "walking_control.toml, safety.toml, walking.toml) replacing the shipped ones")
+    from exoleg.device.actuator import HIP_VARIANTS
+
+    s.add_argument("--hip-motor", choices=HIP_VARIANTS, help="with --walk or --actuators: the "
+                   "hip's motor variant (data/device/hip-variants; the shipped hip is "
+                   "ec90flat-160w, the paper's '220 W' assumed)")
     s.set_defaults(func=cmd_simulate,
                    variant_defaults={a.dest: a.default for a in s._actions if a.dest in APPLIES})

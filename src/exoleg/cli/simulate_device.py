@@ -4,11 +4,12 @@ safety layer, against Table 2."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 from typing import Any
 
 from exoleg.cli._common import _say, _table
-from exoleg.cli.simulate import _write_run
+from exoleg.cli.simulate import _write_run, device_actuators
 
 
 def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
@@ -29,7 +30,7 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
                              f"control period {control_dt:g} s with --actuators")
     r = simulate_device(cfg["leg"], cfg["controller"], cfg["reference"], args.duration,
                         control_dt=control_dt, substeps=substeps, q0=cfg["q0"],
-                        device=args.device)
+                        device=args.device, actuators=device_actuators(args))
     ideal = None
     if not args.no_engine:  # the same run with ideal torques, for the comparison
         from exoleg import simulate
@@ -47,6 +48,8 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
                      f"{peak['rms_torque_Nm']:.1f} / {a.continuous_torque:.0f}",
                      f"{peak['peak_speed_deg_s']:.0f} / {peak['max_velocity_deg_s']:.0f}",
                      f"{peak['rms_current_A']:.2f} / {a.nominal_current:g}",
+                     f"{peak['winding_max_C']:.1f} / {a.max_winding_temperature:g}",
+                     f"{peak['gear_peak_Nm']:.0f} / {a.momentary_peak_torque:g}",
                      str(peak["ticks_at_envelope"])])
     status = np.bitwise_or.reduce(r.status)
     figs = {
@@ -61,19 +64,23 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
         "safety_ticks_rate_limited": int(((r.status & Limited.RATE) > 0).sum()),
         "safety_ticks_torque_clipped": int(((r.status & Limited.TORQUE) > 0).sum()),
         "safety_ticks_soft_limit": int(((r.status & Limited.SOFT_LIMIT) > 0).sum()),
+        "safety_ticks_derated": int(((r.status & Limited.DERATED) > 0).sum()),
+        "safety_ticks_gear_beyond_momentary_peak": int(((r.status & Limited.GEAR_PEAK) > 0)
+                                                       .sum()),
         "peaks": peaks,
     }
     wrote = _write_run(args, r, device_figure, "actuators", t0,
                        {"leg": cfg["leg"].name, "figures": figs, "notes": cfg["warnings"],
-                        "actuator_sources": {a.joint: a.sources for a in acts}})
+                        "actuators": [dataclasses.asdict(a) for a in acts]})
     _say(f"exoleg simulate --actuators: {args.reference} reference, {args.controller} "
          f"controller, {args.duration:g} s, control {args.control_rate:g} Hz, "
-         f"{substeps} plant step(s) per tick, leg '{cfg['leg'].name}' with the paper's "
-         "actuators (reflected inertia, friction, envelope, current loop), 20-bit encoders "
-         "and the safety layer")
+         f"{substeps} plant step(s) per tick, leg '{cfg['leg'].name}' with the device's "
+         f"actuators (hip: {acts[0].motor}; reflected inertia, friction, envelope, current "
+         "loop), 20-bit encoders and the safety layer")
     _table(rows, ["joint", "armature kg m^2", "torque command / delivered / limit N m",
                   "RMS / continuous N m", "speed / at the bus deg/s",
-                  "RMS current / motor's I_N A", "ticks at envelope"])
+                  "RMS current / motor's I_N A", "winding max / limit degC",
+                  "gear peak / momentary N m", "ticks at envelope"])
     fig_rows = [["sampled-loop margin h*lambda", f"{r.stability_margin:.3f}",
                  "-" if ideal is None else f"{ideal.stability_margin:.3f}"],
                 ["max tracking error, last second, deg",
@@ -84,12 +91,15 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
                 ["ticks torque-rate limited / clipped / at soft limit",
                  f"{figs['safety_ticks_rate_limited']} / {figs['safety_ticks_torque_clipped']} / "
                  f"{figs['safety_ticks_soft_limit']}", "-"],
+                ["ticks derated (hot motor) / gear beyond its momentary peak",
+                 f"{figs['safety_ticks_derated']} / "
+                 f"{figs['safety_ticks_gear_beyond_momentary_peak']}", "-"],
                 ["safety fault", r.fault or "none", "-"]]
     _table(fig_rows, ["figure", "with the actuators", "ideal torques"])
     if status & Limited.FAULT:
         _say(f"note: the safety layer stopped the run: {r.fault}; torque was off from then on")
     _say("note: the actuators' figures are the motors', gears' and EPOS4's sheets "
-         "(device-datasheets.md; every figure's source in summary.json, actuator_sources); "
+         "(device-datasheets.md; every figure and its source in summary.json, actuators); "
          "the limit is the gear's repeated peak or the drive's current limit, the speed the "
          "bus voltage's")
     _say(wrote)

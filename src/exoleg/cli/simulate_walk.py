@@ -8,7 +8,7 @@ import time
 from typing import Any
 
 from exoleg.cli._common import _read_leg, _say, _table
-from exoleg.cli.simulate import _write_run
+from exoleg.cli.simulate import _write_run, device_actuators
 from exoleg.cli.simulate_device import _actuator_peaks
 
 
@@ -35,7 +35,8 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     stride = args.stride_time or 1.1
     r = simulate_walk(leg, args.body_mass, strides=args.strides, speed=args.speed or "Free",
                       stride_time=stride, noise_scale=args.noise, seed=args.seed,
-                      ankle_height=args.ankle_height / 100, device=args.device)
+                      ankle_height=args.ankle_height / 100, device=args.device,
+                      actuators=device_actuators(args))
     rows = detection_table([r])
     walking = r.t >= r.walk_start + stride
     err = np.degrees(np.sqrt(np.mean((r.q - r.q_ref)[walking] ** 2, axis=0)))
