@@ -139,8 +139,9 @@ def test_link_estop_goes_first_and_applied_commands_are_timed() -> None:
     assert cmd == Command.ESTOP and change is None  # queued last, applied first
     out = {"events": 0, "safety_status": 2, "mode": 3, "phase": 0, "tau": np.zeros(3),
            "gait_fraction": 0.0, "q_ref": np.zeros(3), "fault": 1, "fault_joint": -1,
-           "fault_value": 0.0, "fault_limit": 0.0,
-           "refused": 0}  # every field of the output record (contract.OUTPUT)
+           "fault_value": 0.0, "fault_limit": 0.0, "refused": 0,
+           "winding_temp": np.array([40.0, 35.0, 30.0]),
+           "gear_torque": np.zeros(3)}  # every field of the output record (contract.OUTPUT)
     sensors = {"command": int(Command.ESTOP), "q": np.zeros(3), "dq": np.zeros(3),
                "fsr": np.zeros(4)}
     before = time.time()
@@ -152,6 +153,7 @@ def test_link_estop_goes_first_and_applied_commands_are_timed() -> None:
     # the snapshot carries the output record's fields by their names (link.PUBLISHED)
     assert (snap["mode"], snap["fault"], snap["safety_status"], snap["tau"]) == (3, 1, 2,
                                                                                 [0.0] * 3)
+    assert snap["winding_temp"] == [40.0, 35.0, 30.0]  # the motors' estimates, for the page
     link.web_gains({"kp_swing": [1.0, 2.0, 3.0]})
     link.web_gains({"support": [0.5]})  # two changes within a tick: both act
     cmd, change = link.loop_poll()

@@ -60,7 +60,8 @@ def _shape(dtype: np.dtype, name: str) -> tuple[int, ...]:
 #: refused by the supervisor (1) or not (0), the mode then), the steps (initial
 #: contacts) so far and the ring of every tick's gait events (time, event bits)
 PUBLISHED = ("mode", "phase", "gait_fraction", "events", "safety_status", "q_ref", "tau",
-             "fault", "fault_joint", "fault_value", "fault_limit", "refused")
+             "fault", "fault_joint", "fault_value", "fault_limit", "refused", "winding_temp",
+             "gear_torque")
 READINGS = ("q", "dq", "fsr")
 BLOCK = np.dtype([("seq", "f8"), ("t", "f8")]
                  + [(n, "f8", _shape(OUTPUT, n)) for n in PUBLISHED]
