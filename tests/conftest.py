@@ -10,10 +10,11 @@ import pytest
 def pytest_sessionstart(session):
     """In CI the independent engines must be present: their tests must run, not skip."""
     if os.environ.get("CI", "").lower() in ("1", "true", "yes"):
-        missing = [m for m in ("pinocchio", "mujoco") if importlib.util.find_spec(m) is None]
+        missing = [m for m in ("pinocchio", "mujoco", "distributed")
+                   if importlib.util.find_spec(m) is None]
         if missing:
             raise pytest.UsageError(
-                f"CI is set but {', '.join(missing)} is missing: install exoleg[validate]")
+                f"CI is set but {', '.join(missing)} is missing: install exoleg[all]")
 
 
 @pytest.fixture

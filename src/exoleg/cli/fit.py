@@ -83,7 +83,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
             for e in over:
                 _say(f"  {e}")
         else:
-            _say(f"actuator demand: within the device's limits (smallest margin {mg:.2f}: {qn} at the "
+            _say("actuator demand: within the device's limits (smallest margin "
+                 f"{mg:.2f}: {qn} at the "
                  f"{joint}, {src})")
         _say(f"\nverdict: {rep.verdict}")
         write_leg = fit.fits or args.write_leg

@@ -21,6 +21,7 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
     from exoleg.errors import ParameterError
     from exoleg.plots.figures import device_figure
     from exoleg.sim.device_loop import simulate_device
+    from exoleg.sim.metrics import actuator_peaks
 
     t0 = time.perf_counter()
     control_dt = 1.0 / args.control_rate
@@ -38,7 +39,7 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
         ideal = simulate(cfg["leg"], cfg["controller"], cfg["reference"], args.duration,
                          dt=control_dt, q0=cfg["q0"])
     acts = r.actuators
-    peaks = _actuator_peaks(acts, r.tau, r.dq, r.u_safe, r.envelope, control_dt)
+    peaks = actuator_peaks(acts, r.tau, r.dq, r.u_safe, r.envelope, control_dt)
     rows = []
     for i, (a, peak) in enumerate(zip(acts, peaks, strict=True)):
         peak["peak_command_Nm"] = float(np.abs(r.u_command[:, i]).max())
@@ -104,38 +105,3 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
          "bus voltage's")
     _say(wrote)
     return 0
-
-
-def _actuator_peaks(acts: Any, tau: Any, dq: Any, u_safe: Any, env: Any,
-                    dt: float) -> list[dict[str, Any]]:
-    """Per actuator, what a run asked of it against its limits (SI; speeds in deg/s;
-    the winding's temperature from 25 degC over the run, and the RMS motor current
-    against the motor's nominal current: its continuous rating; the gear's transmitted
-    torque, the delivered torque less the rotor's inertia torque N^2 J q'' (friction
-    aside), against its momentary peak)."""
-    import numpy as np
-
-    from exoleg.device.actuator import winding_temperature
-
-    out = []
-    ddq = np.gradient(dq, dt, axis=0)
-    for i, a in enumerate(acts):
-        gear = np.abs(tau[:, i] - a.reflected_inertia * ddq[:, i])
-        out.append({
-            "joint": a.joint, "reflected_inertia_kg_m2": a.reflected_inertia,
-            "peak_torque_Nm": float(np.abs(tau[:, i]).max()), "torque_limit_Nm": a.torque_limit,
-            "rms_torque_Nm": float(np.sqrt(np.mean(tau[:, i] ** 2))),
-            "continuous_torque_Nm": a.continuous_torque,
-            "peak_speed_deg_s": float(np.degrees(np.abs(dq[:, i]).max())),
-            "max_velocity_deg_s": float(np.degrees(a.max_velocity)),
-            "peak_motor_speed_rpm": float(np.abs(dq[:, i]).max() * a.ratio * 30 / np.pi),
-            "peak_power_W": float(np.abs(tau[:, i] * dq[:, i]).max()), "power_W": a.power,
-            "ticks_at_envelope": int((np.abs(u_safe[:, i]) > env[:, i] + 1e-12).sum()),
-            "rms_current_A": float(np.sqrt(np.mean((tau[:, i] / a.joint_torque_constant)
-                                                   ** 2))),
-            "nominal_current_A": a.nominal_current,
-            "winding_max_C": float(winding_temperature(a, tau[:, i], dt)[:, 0].max()),
-            "winding_limit_C": a.max_winding_temperature,
-            "gear_peak_Nm": float(gear.max()), "momentary_peak_Nm": a.momentary_peak_torque,
-            "ticks_over_momentary": int((gear > a.momentary_peak_torque).sum())})
-    return out

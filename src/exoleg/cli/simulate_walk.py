@@ -9,7 +9,6 @@ from typing import Any
 
 from exoleg.cli._common import _read_leg, _say, _table
 from exoleg.cli.simulate import _write_run, device_actuators
-from exoleg.cli.simulate_device import _actuator_peaks
 
 
 def _simulate_walk(args: argparse.Namespace) -> int:
@@ -22,7 +21,7 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     import exoleg
     from exoleg.control.safety import Limited
     from exoleg.plots.figures import walk_figure
-    from exoleg.sim.metrics import detection_table
+    from exoleg.sim.metrics import actuator_peaks, detection_table
     from exoleg.sim.walk import simulate_walk
 
     t0 = time.perf_counter()
@@ -40,7 +39,7 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     rows = detection_table([r])
     walking = r.t >= r.walk_start + stride
     err = np.degrees(np.sqrt(np.mean((r.q - r.q_ref)[walking] ** 2, axis=0)))
-    peaks = _actuator_peaks(r.actuators, r.tau, r.dq, r.u_safe, r.envelope,
+    peaks = actuator_peaks(r.actuators, r.tau, r.dq, r.u_safe, r.envelope,
                             float(r.t[1] - r.t[0]))
     over = (r.safety_status & Limited.GEAR_PEAK) > 0
     for i, (p, e) in enumerate(zip(peaks, err, strict=True)):

@@ -46,7 +46,13 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from exoleg.device.actuator import COPPER_ALPHA, R_REFERENCE_C, thermal_step
+from exoleg.device.actuator import (
+    COPPER_ALPHA,
+    R_REFERENCE_C,
+    paper_actuators,
+    params_array,
+    thermal_step,
+)
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8, new
 from exoleg.params import _check
@@ -185,8 +191,6 @@ class SafetyLimits:
         if dt > 0.1:
             raise ParameterError(w, "dt", f"{dt} s is not a control tick (allowed up to 0.1 s)")
         object.__setattr__(self, "dt", dt)
-        from exoleg.device.actuator import params_array, paper_actuators
-
         acts = paper_actuators() if self.actuators is None else tuple(self.actuators)
         params_array(acts)  # hip, knee, ankle actuators, in that order
         object.__setattr__(self, "actuators", acts)
@@ -235,8 +239,6 @@ class SafetyLimits:
         if response not in GEAR_RESPONSES:
             raise ParameterError(where, "gear_overload", f"{response!r}: allowed "
                                  + ", ".join(f'"{r}"' for r in GEAR_RESPONSES))
-        from exoleg.device.actuator import paper_actuators
-
         rom = paper.range_of_motion()
         table2 = paper.actuators()
         acts = paper_actuators(folder) if actuators is None else tuple(actuators)

@@ -1,6 +1,7 @@
-"""What a walking run is judged by: the true contact events (from the noise-free contact
-forces, the detector's definitions without its thresholds on counts or its debounce)
-and the table of detected against true events (:func:`detection_table`)."""
+"""What a run is judged by: the true contact events (from the noise-free contact forces,
+the detector's definitions without its thresholds on counts or its debounce), the table
+of detected against true events (:func:`detection_table`), and what a run asked of each
+actuator against its limits (:func:`actuator_peaks`)."""
 
 from __future__ import annotations
 
@@ -90,3 +91,36 @@ def detection_table(results: list[WalkResult], window: float = 0.2) -> list[dict
                      "missed_rate": missed / n_true if n_true else float("nan"),
                      "false_rate": false / n_det if n_det else float("nan")})
     return rows
+
+
+def actuator_peaks(acts: Any, tau: Any, dq: Any, u_safe: Any, env: Any,
+                    dt: float) -> list[dict[str, Any]]:
+    """Per actuator, what a run asked of it against its limits (SI; speeds in deg/s;
+    the winding's temperature from 25 degC over the run, and the RMS motor current
+    against the motor's nominal current: its continuous rating; the gear's transmitted
+    torque, the delivered torque less the rotor's inertia torque N^2 J q'' (friction
+    aside), against its momentary peak)."""
+    from exoleg.device.actuator import winding_temperature
+
+    out = []
+    ddq = np.gradient(dq, dt, axis=0)
+    for i, a in enumerate(acts):
+        gear = np.abs(tau[:, i] - a.reflected_inertia * ddq[:, i])
+        out.append({
+            "joint": a.joint, "reflected_inertia_kg_m2": a.reflected_inertia,
+            "peak_torque_Nm": float(np.abs(tau[:, i]).max()), "torque_limit_Nm": a.torque_limit,
+            "rms_torque_Nm": float(np.sqrt(np.mean(tau[:, i] ** 2))),
+            "continuous_torque_Nm": a.continuous_torque,
+            "peak_speed_deg_s": float(np.degrees(np.abs(dq[:, i]).max())),
+            "max_velocity_deg_s": float(np.degrees(a.max_velocity)),
+            "peak_motor_speed_rpm": float(np.abs(dq[:, i]).max() * a.ratio * 30 / np.pi),
+            "peak_power_W": float(np.abs(tau[:, i] * dq[:, i]).max()), "power_W": a.power,
+            "ticks_at_envelope": int((np.abs(u_safe[:, i]) > env[:, i] + 1e-12).sum()),
+            "rms_current_A": float(np.sqrt(np.mean((tau[:, i] / a.joint_torque_constant)
+                                                   ** 2))),
+            "nominal_current_A": a.nominal_current,
+            "winding_max_C": float(winding_temperature(a, tau[:, i], dt)[:, 0].max()),
+            "winding_limit_C": a.max_winding_temperature,
+            "gear_peak_Nm": float(gear.max()), "momentary_peak_Nm": a.momentary_peak_torque,
+            "ticks_over_momentary": int((gear > a.momentary_peak_torque).sum())})
+    return out

@@ -87,7 +87,8 @@ class WalkResult(TimeSeries):
     accel (2) m/s^2 (foot frame); mode, phase, gait_fraction, events (bits), safety
     status per tick; u_safe (to the drives), tau (delivered), envelope; support (the
     other leg's force on the pelvis, N); the safety layer's estimates per joint:
-    winding_temp (degC) and gear_torque (N m)."""
+    winding_temp (degC) and gear_torque (N m); the fault latched and its joint per tick
+    (:class:`~exoleg.control.safety.Fault`, -1 for none)."""
 
     t: F64
     pelvis: F64
@@ -111,6 +112,8 @@ class WalkResult(TimeSeries):
     support: F64
     winding_temp: F64
     gear_torque: F64
+    fault: NDArray[np.int64]
+    fault_joint: NDArray[np.int64]
     plant: WalkingPlant = field(repr=False)
     actuators: tuple[ActuatorModel, ...] = field(repr=False)
     walk_start: float = 0.0
@@ -141,7 +144,7 @@ class WalkResult(TimeSeries):
             cols[f"contact_force_{s}"] = self.contact_force[:, i]
         cols["gyro"] = self.gyro
         cols["accel_x"], cols["accel_y"] = self.accel[:, 0], self.accel[:, 1]
-        for name in ("mode", "phase", "events", "safety_status"):
+        for name in ("mode", "phase", "events", "safety_status", "fault", "fault_joint"):
             cols[name] = getattr(self, name).astype(float)
         cols["gait_fraction"] = self.gait_fraction
         cols["true_events"] = self.true_events().astype(float)
@@ -208,7 +211,8 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                       gait_fraction=OUT["gait_fraction"], events=OUT["events"],
                       safety_status=OUT["safety_status"], u_safe=OUT["tau"], tau=TAU,
                       envelope=ENV, support=SUP, winding_temp=OUT["winding_temp"],
-                      gear_torque=OUT["gear_torque"], plant=plant, actuators=dev.actuators,
+                      gear_torque=OUT["gear_torque"], fault=OUT["fault"],
+                      fault_joint=OUT["fault_joint"], plant=plant, actuators=dev.actuators,
                       walk_start=standing, stride_time=stride_time)
 
 

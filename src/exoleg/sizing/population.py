@@ -20,9 +20,9 @@ from typing import Any
 
 import numpy as np
 
+from exoleg.device.actuator import paper_actuators, with_actuators
 from exoleg.sizing import growth
 from exoleg.sizing.child import Child, DesignRangeWarning
-from exoleg.device.actuator import paper_actuators, with_actuators
 from exoleg.sizing.demand import build_demand, device_limits, simulated_gait_peaks
 from exoleg.sizing.fit import device, fit_device
 from exoleg.sizing.personal import personalized_leg
@@ -68,6 +68,19 @@ def _mass(group: int | None, sex: str, age: float, pct: float) -> tuple[float, s
     return growth.value_at(chart, sex, "weight", age, pct), note
 
 
+def population_child(group: int | None, sex: str, age: float, pct: float) -> tuple[Child, str]:
+    """The child of a growth chart: height and mass at the same percentile ``pct`` of its
+    group's chart (GMFCS 1-4: Brooks 2011; None: WHO 2007, CDC 2000 where WHO has no row)
+    at ``age``, and a note when the mass came from another chart."""
+    h = growth.value_at(growth.chart_for(group), sex, "height", age, pct)
+    m, note = _mass(group, sex, age, pct)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DesignRangeWarning)
+        c = Child(age=age, sex=sex, height=h, mass=m, gmfcs=group,  # type: ignore[arg-type]
+                  name=f"{group_name(group)} {sex} {age:g} y P{pct:g}")
+    return c, note
+
+
 def _binding(fit: Any) -> tuple[str, float]:
     if fit.misses:
         worst = max(fit.misses, key=lambda m: abs(m.by))
@@ -92,16 +105,10 @@ def coverage(ages: Sequence[float] = AGES, sexes: Sequence[str] = ("female", "ma
     (all children in one parallel batch) and counts among the demands."""
     children, fits, legs, notes = [], [], [], []
     for group in groups:
-        chart = growth.chart_for(group)
         for sex in sexes:
             for age in ages:
                 for pct in percentiles:
-                    h = growth.value_at(chart, sex, "height", age, pct)
-                    m, note = _mass(group, sex, age, pct)
-                    with warnings.catch_warnings():
-                        warnings.simplefilter("ignore", DesignRangeWarning)
-                        c = Child(age=age, sex=sex, height=h, mass=m, gmfcs=group,  # type: ignore[arg-type]
-                                  name=f"{group_name(group)} {sex} {age:g} y P{pct:g}")
+                    c, note = population_child(group, sex, age, pct)
                     f = fit_device(c)
                     children.append((c, pct, group))
                     fits.append(f)

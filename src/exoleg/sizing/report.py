@@ -1,5 +1,6 @@
 """One child's fitting, whole: the geometric fit, the personalized leg, the actuator
-demand against the device's actuation units (their datasheets), the verdict and the record kept with the child (``fit.json``).
+demand against the device's actuation units (their datasheets), the verdict and the
+record kept with the child (``fit.json``).
 ``exoleg fit`` prints and writes it; the operator interface shows it and keeps it with a
 session."""
 

@@ -1,0 +1,281 @@
+"""Running a study on Dask: its runs grouped into tasks, computed wherever the scheduler
+puts them, each task's rows written as soon as it finishes -- one Parquet dataset, a row
+per run, Hive-partitioned by one axis.
+
+The folder a study writes (``exoleg sweep FILE --out DIR``)::
+
+    DIR/study.toml          the study file as given (a resumed run must give the same)
+    DIR/study.json          its name, runs, tasks, partition axis, exoleg's version
+    DIR/data/AXIS=VALUE/task-000042.parquet   the rows (the study file and exoleg's
+                            version in each file's metadata)
+    DIR/.tasks/task-000042  a task is done once this exists (written after its rows)
+    DIR/tasks.log           one line per task computed, in the order they finished
+
+Resumable: a task whose marker exists is never computed again (an interrupted study
+picks up where it stopped); the rows of a task that did not finish are written over.
+Deterministic: the same study gives the same rows on any scheduler (a row holds no wall
+time). A run that fails is a row with its error; a task whose worker died twice is a
+row per run with the reason.
+
+The scheduler: a Dask ``LocalCluster`` on this machine's cores (one single-threaded
+worker process per core: the walks are compiled loops holding the interpreter), or an
+existing cluster by its address (``tcp://host:port``) or scheduler file.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import logging
+import os
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+from urllib.parse import quote
+
+from exoleg.errors import ParameterError
+from exoleg.study.runs import empty_row, run_task
+from exoleg.study.spec import Study, check_room
+
+#: Tasks kept in flight per worker (the rest wait on this side: a study of a million
+#: runs does not put a million futures on the scheduler).
+IN_FLIGHT_PER_WORKER = 4
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What :func:`execute` did: tasks in the study, done before it started, computed
+    now; runs; the rows with an error; the dashboard's address (or '')."""
+
+    tasks: int
+    already_done: int
+    computed: int
+    runs: int
+    failed_runs: int
+    dashboard: str
+
+
+def tasks_of(study: Study) -> list[list[tuple[int, dict[str, Any]]]]:
+    """The study's runs (run id, values) in tasks of ``runs_per_task``, in order."""
+    runs = list(enumerate(study.runs()))
+    k = study.runs_per_task
+    return [runs[i:i + k] for i in range(0, len(runs), k)]
+
+
+def _marker(out: Path, task: int) -> Path:
+    return out / ".tasks" / f"task-{task:06d}"
+
+
+def done_tasks(out: str | Path) -> set[int]:
+    """The tasks of the study in ``out`` whose rows are all written."""
+    folder = Path(out) / ".tasks"
+    if not folder.is_dir():
+        return set()
+    return {int(p.name.split("-")[1]) for p in folder.glob("task-*")
+            if p.name.split("-")[1].isdigit()}
+
+
+def prepare(study: Study, out: str | Path) -> Path:
+    """The study's folder: made and described, or -- when it holds the same study --
+    kept to resume; a folder holding anything else is refused (nothing written)."""
+    folder = Path(out)
+    if folder.exists() and not folder.is_dir():
+        raise ParameterError(str(folder), "--out", "is a file; name a folder")
+    held = folder / "study.toml"
+    if held.exists():
+        if held.read_text(encoding="utf-8") != study.text:
+            raise ParameterError(str(folder), "--out", "holds another study (its "
+                                 "study.toml differs): name another folder (nothing was "
+                                 "written)")
+        return folder
+    if folder.exists() and any(folder.iterdir()):
+        raise ParameterError(str(folder), "--out", "is not empty and holds no study: name "
+                             "an empty or new folder (nothing was written)")
+    check_room(study, folder)
+    try:
+        (folder / ".tasks").mkdir(parents=True, exist_ok=True)
+        (folder / "data").mkdir(exist_ok=True)
+    except OSError as e:
+        raise ParameterError(str(folder), "--out", f"cannot be written: {e.strerror}") from None
+    from exoleg import __version__
+    from exoleg.io import atomic_path
+
+    tasks = tasks_of(study)
+    with atomic_path(folder / "study.json") as tmp:
+        tmp.write_text(json.dumps({
+            "name": study.name, "description": study.description,
+            "runs": sum(len(t) for t in tasks), "tasks": len(tasks),
+            "sampling": study.sampling, "strides": study.strides,
+            "partition_by": study.partition_by, "swept": study.swept,
+            "exoleg_version": __version__}, indent=2))
+    with atomic_path(held) as tmp:  # last: a folder with study.toml is a study's
+        tmp.write_text(study.text, encoding="utf-8")
+    return folder
+
+
+def _partition_value(row: dict[str, Any], axis: str) -> str:
+    return quote(f"{row[axis]}", safe="")
+
+
+def write_task(study: Study, out: Path, task: int, rows: list[dict[str, Any]]) -> None:
+    """A task's rows into the dataset (one file per partition value it touches), then
+    its marker."""
+    import pyarrow as pa
+
+    from exoleg import __version__
+    from exoleg.io import write_parquet_table
+
+    axis = study.partition_by
+    groups: dict[str, list[dict[str, Any]]] = {}
+    for row in rows:
+        key = f"{axis}={_partition_value(row, axis)}" if axis else ""
+        groups.setdefault(key, []).append(row)
+    meta = {b"exoleg.study": study.text.encode(), b"exoleg.version": __version__.encode()}
+    for key, part in groups.items():
+        cols = [{k: v for k, v in r.items() if k != axis} for r in part] if axis else part
+        table = pa.Table.from_pylist(cols).replace_schema_metadata(meta)
+        folder = out / "data" / key if key else out / "data"
+        folder.mkdir(parents=True, exist_ok=True)
+        write_parquet_table(table, folder / f"task-{task:06d}.parquet")
+    _marker(out, task).write_text(f"{len(rows)} runs\n")
+    with (out / "tasks.log").open("a", encoding="utf-8") as fh:
+        fh.write(f"task {task} computed ({len(rows)} runs)\n")
+
+
+def _key(study: Study, task: int) -> str:
+    digest = hashlib.sha1(study.text.encode()).hexdigest()[:12]
+    return f"exoleg-study-{digest}-task-{task:06d}"
+
+
+@contextlib.contextmanager
+def dask_client(scheduler: str | None = None, workers: int | None = None,
+                processes: bool = True) -> Iterator[Any]:
+    """A Dask client: on ``scheduler`` (an address ``tcp://host:port``, or a scheduler
+    file), or on a ``LocalCluster`` of ``workers`` single-threaded processes (default:
+    this machine's cores; ``processes=False``: threads in this process)."""
+    from distributed import Client, LocalCluster
+
+    logging.getLogger("distributed").setLevel(logging.ERROR)
+    if scheduler:
+        try:
+            if Path(scheduler).is_file():
+                client = Client(scheduler_file=scheduler, timeout="20s")
+            else:
+                client = Client(scheduler, timeout="20s")
+        except (OSError, TimeoutError, ValueError) as e:
+            raise ParameterError("exoleg sweep", "--scheduler", f"{scheduler!r}: no Dask "
+                                 f"scheduler answers there ({e})") from None
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    n = workers or os.cpu_count() or 1
+    try:
+        import bokeh  # noqa: F401  (the dashboard needs it)
+
+        dashboard: str | None = "127.0.0.1:0"
+    except ImportError:
+        dashboard = None
+    # worker processes talk over loopback TCP; threads in this process over inproc://
+    where = {"host": "127.0.0.1"} if processes else {}
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=processes,
+                           dashboard_address=dashboard, silence_logs=logging.ERROR, **where)
+    client = Client(cluster)
+    try:
+        yield client
+    finally:
+        client.close()
+        cluster.close()
+
+
+def execute(study: Study, out: str | Path, scheduler: str | None = None, *,
+            client: Any = None, workers: int | None = None, processes: bool = True,
+            on_progress: Callable[[int, int], None] | None = None,
+            stop_after: int | None = None) -> Outcome:
+    """Run ``study`` into the folder ``out`` (resuming it when it holds the same study)
+    on ``client``, or a client of :func:`dask_client`. ``on_progress(done, total)`` after
+    each task; ``stop_after``: stop (as an interruption would) once that many tasks were
+    computed in this call."""
+    folder = prepare(study, out)
+    tasks = tasks_of(study)
+    done = done_tasks(folder)
+    todo = [t for t in range(len(tasks)) if t not in done]
+    with (contextlib.nullcontext(client) if client is not None
+          else dask_client(scheduler, workers, processes)) as c:
+        link = ""
+        with contextlib.suppress(Exception):
+            link = str(c.dashboard_link or "")
+        computed = _compute(c, study, folder, tasks, todo, len(done), on_progress,
+                            stop_after)
+    failed = _failed_runs(folder)
+    return Outcome(tasks=len(tasks), already_done=len(done), computed=computed,
+                   runs=sum(len(t) for t in tasks), failed_runs=failed, dashboard=link)
+
+
+def _compute(client: Any, study: Study, folder: Path, tasks: list[Any], todo: list[int],
+             done: int, on_progress: Callable[[int, int], None] | None,
+             stop_after: int | None) -> int:
+    from distributed import as_completed
+
+    workers = max(1, len(client.scheduler_info().get("workers", {})))
+    window = IN_FLIGHT_PER_WORKER * workers
+    queue = iter(todo)
+    which: dict[Any, int] = {}
+
+    def submit() -> Any:
+        t = next(queue, None)
+        if t is None:
+            return None
+        f = client.submit(run_task, t, tasks[t], study.strides, key=_key(study, t),
+                          pure=False, retries=1)
+        which[f] = t
+        return f
+
+    first = [f for f in (submit() for _ in range(window)) if f is not None]
+    computed = 0
+    pending = as_completed(first)
+    try:
+        for fut in pending:
+            t = which.pop(fut)
+            try:
+                rows = fut.result()
+            except Exception as e:  # the worker died, twice: a row per run, with why
+                rows = [{**empty_row(i, t, run), "error": f"task failed: {e!r}"}
+                        for i, run in tasks[t]]
+            write_task(study, folder, t, rows)
+            computed += 1
+            if on_progress is not None:
+                on_progress(done + computed, len(tasks))
+            if stop_after is not None and computed >= stop_after:
+                raise KeyboardInterrupt
+            nxt = submit()
+            if nxt is not None:
+                pending.add(nxt)
+    except BaseException:
+        client.cancel(list(which))
+        raise
+    return computed
+
+
+def _failed_runs(folder: Path) -> int:
+    table = read_results(folder, columns=["error"])
+    return sum(1 for e in table.column("error").to_pylist() if e)
+
+
+def read_results(out: str | Path, columns: list[str] | None = None) -> Any:
+    """The study's rows as one Arrow table, sorted by run (the partition axis a column
+    again); what is written so far of an unfinished study."""
+    import pyarrow.dataset as ds
+
+    folder = Path(out) / "data"
+    if not folder.is_dir():
+        raise ParameterError(str(out), "(study)", "holds no study results (no data/ folder)")
+    dataset = ds.dataset(folder, format="parquet", partitioning="hive")
+    table = dataset.to_table(columns=None if columns is None else
+                             [*columns, *(["run"] if "run" not in columns else [])])
+    if table.num_rows:
+        table = table.sort_by("run")
+    return table if columns is None else table.select(columns)

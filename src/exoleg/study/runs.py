@@ -1,0 +1,164 @@
+"""One run of a study, and one task (a batch of runs): the child, the device variant, the
+walking controller and the walk a run's axis values name, walked with the whole device
+(:func:`exoleg.sim.walk.simulate_walk`), and the row of figures it is judged by.
+
+A run that fails (a child the charts refuse, a non-finite state) is a row with its
+error, never a lost task. Rows hold no wall times: the same run gives the same row on
+every machine and scheduler.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import warnings
+from typing import Any
+
+import numpy as np
+
+from exoleg.errors import ExolegError
+from exoleg.params.records import JOINTS
+
+#: Per joint, the figures a row keeps (:func:`exoleg.sim.metrics.actuator_peaks`'s keys
+#: and the tracking error), each as ``{name}_{joint}``.
+JOINT_METRICS = ("rms_tracking_error_deg", "peak_torque_Nm", "torque_limit_Nm",
+                 "rms_torque_Nm", "continuous_torque_Nm", "peak_speed_deg_s",
+                 "max_velocity_deg_s", "rms_current_A", "nominal_current_A",
+                 "winding_max_C", "gear_peak_Nm", "momentary_peak_Nm", "ticks_at_envelope",
+                 "safety_winding_max_C", "safety_gear_peak_Nm")
+#: Whole-run figures: the device fits the child (geometry), walked (no safety fault), the
+#: fault (its kind and joint, '' for none) and when, the ticks the safety layer clipped
+#: torque, derated a motor or saw a gear beyond its momentary peak, the steps detected.
+RUN_METRICS = ("fits", "walked", "fault", "fault_time_s", "ticks_torque_clipped",
+               "ticks_derated", "ticks_gear_beyond_momentary", "steps", "error")
+
+
+def _child(run: dict[str, Any]) -> Any:
+    from exoleg.sizing import Child
+    from exoleg.sizing.child import DesignRangeWarning
+    from exoleg.sizing.population import population_child
+
+    prof = run.get("profile")
+    if prof is not None:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DesignRangeWarning)
+            return Child(age=prof["age"], sex=prof["sex"], height=prof["height"],
+                         mass=prof["mass"], gmfcs=prof["gmfcs"], name=prof["name"])
+    from exoleg.study.spec import GROUPS
+
+    level = GROUPS.index(run["group"])
+    return population_child(level or None, run["sex"], run["age"], run["percentile"])[0]
+
+
+@functools.lru_cache(maxsize=8)
+def _units(hip_motor: str) -> tuple[Any, ...]:
+    """The shipped units with the hip's motor variant (read once per process)."""
+    from exoleg.device.actuator import hip_variant, paper_actuators
+
+    return (hip_variant(hip_motor), *paper_actuators())
+
+
+def device_variant(run: dict[str, Any]) -> tuple[Any, ...]:
+    """The three actuation units a run names: the hip's motor variant, each joint's gear
+    ratio (the ratings of the shipped gear of that ratio: 50 the knee's CSF-17-50, 100
+    the hip's CSF-17-100, 120 the ankle's), the bus voltage."""
+    hip, *shipped = _units(run["hip_motor"])
+    by_ratio = {a.ratio: a for a in shipped}
+    gear = ("gear", "ratio", "efficiency", "gear_input_inertia", "gear_rated_torque",
+            "repeated_peak_torque", "momentary_peak_torque", "max_input_speed_rpm",
+            "backdriving_torque", "gear_stiffness")
+    out = []
+    for a, joint in zip((hip, *shipped[1:]), JOINTS, strict=True):
+        g = by_ratio[run[f"{joint}_ratio"]]
+        sources = {**a.sources, **{k: g.sources[k] for k in gear if k in g.sources},
+                   "bus_voltage": "the study's axis"}
+        out.append(dataclasses.replace(a, **{k: getattr(g, k) for k in gear},
+                                       bus_voltage=run["bus_voltage"], sources=sources))
+    return tuple(out)
+
+
+def _gains(run: dict[str, Any]) -> Any:
+    from exoleg.control.hierarchy import WalkGains
+
+    g = WalkGains.default()
+    return dataclasses.replace(g, kp_stance=g.kp_stance * run["kp_scale"],
+                               kp_swing=g.kp_swing * run["kp_scale"],
+                               kd_stance=g.kd_stance * run["kd_scale"],
+                               kd_swing=g.kd_swing * run["kd_scale"], support=run["support"])
+
+
+def _flat(run: dict[str, Any]) -> dict[str, Any]:
+    """A run's axis values as columns (a profile as its name, height and mass)."""
+    out = {k: v for k, v in run.items() if k != "profile"}
+    if "profile" in run:
+        p = run["profile"]
+        out["profile"] = p["name"]
+    return out
+
+
+def empty_row(run_id: int, task: int, run: dict[str, Any]) -> dict[str, Any]:
+    """A run's row before its figures: its id, task, axis values; NaN figures."""
+    row: dict[str, Any] = {"run": run_id, "task": task, **_flat(run),
+                           "height_m": np.nan, "mass_kg": np.nan}
+    for m in JOINT_METRICS:
+        for j in JOINTS:
+            row[f"{m}_{j}"] = np.nan
+    row.update(fits=False, walked=False, fault="", fault_time_s=np.nan,
+               ticks_torque_clipped=-1, ticks_derated=-1, ticks_gear_beyond_momentary=-1,
+               steps=-1, error="")
+    return row
+
+
+def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[str, Any]:
+    """Walk one run (``strides`` strides after 1 s of standing) and judge it; a failure is
+    the row's ``error``."""
+    from exoleg.control.gait_phase import Event
+    from exoleg.control.safety import Fault, Limited, joint_name
+    from exoleg.sim.metrics import actuator_peaks
+    from exoleg.sim.walk import simulate_walk
+    from exoleg.sizing.fit import fit_device
+    from exoleg.sizing.personal import personalized_leg
+
+    row = empty_row(run_id, task, run)
+    try:
+        child = _child(run)
+        row.update(height_m=child.height, mass_kg=child.mass)
+        fit = fit_device(child)
+        leg = personalized_leg(child, fit)
+        r = simulate_walk(leg, child.mass, strides=strides, speed=run["speed"],
+                          stride_time=run["stride_time"], noise_scale=run["noise"],
+                          seed=run["seed"], actuators=device_variant(run),
+                          gains=_gains(run))
+    except (ExolegError, ValueError, ArithmeticError) as e:
+        row["error"] = f"{type(e).__name__}: {e}"
+        return row
+    dt = float(r.t[1] - r.t[0])
+    walking = r.t >= r.walk_start + r.stride_time
+    err = np.degrees(np.sqrt(np.mean((r.q - r.q_ref)[walking] ** 2, axis=0)))
+    peaks = actuator_peaks(r.actuators, r.tau, r.dq, r.u_safe, r.envelope, dt)
+    status = r.safety_status
+    for i, (p, j) in enumerate(zip(peaks, JOINTS, strict=True)):
+        p["rms_tracking_error_deg"] = float(err[i])
+        p["safety_winding_max_C"] = float(r.winding_temp[:, i].max())
+        p["safety_gear_peak_Nm"] = float(np.abs(r.gear_torque[:, i]).max())
+        for m in JOINT_METRICS:
+            row[f"{m}_{j}"] = float(p[m])
+    faulted = np.nonzero(r.fault != Fault.NONE)[0]
+    if len(faulted):
+        k = int(faulted[0])
+        f = Fault(int(r.fault[k]))
+        jn = joint_name(f, int(r.fault_joint[k]))
+        row.update(fault=f.name + (f" ({jn})" if jn else ""), fault_time_s=float(r.t[k]))
+    row.update(fits=bool(fit.fits), walked=not len(faulted),
+               ticks_torque_clipped=int(((status & Limited.TORQUE) > 0).sum()),
+               ticks_derated=int(((status & Limited.DERATED) > 0).sum()),
+               ticks_gear_beyond_momentary=int(((status & Limited.GEAR_PEAK) > 0).sum()),
+               steps=int(((r.events & Event.IC) > 0).sum()))
+    return row
+
+
+def run_task(task: int, runs: list[tuple[int, dict[str, Any]]], strides: int
+             ) -> list[dict[str, Any]]:
+    """A task: its runs, each (run id, axis values), one after the other in this process
+    (each walk one compiled loop); one row per run, failures included."""
+    return [run_one(i, task, run, strides) for i, run in runs]

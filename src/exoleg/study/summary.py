@@ -1,0 +1,135 @@
+"""A study's results over two of its axes: for each pair of values, how many runs, how
+many walked (no safety fault) and the tightest figures -- a coverage table and a heat map,
+the population heat map generalised to any two axes."""
+
+from __future__ import annotations
+
+from collections import Counter, defaultdict
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from exoleg.errors import ParameterError
+from exoleg.params.records import JOINTS
+
+#: A cell's figures (:func:`summarise`).
+CELL = ("runs", "walked", "walked_fraction", "failed", "torque_use", "tracking_error_deg",
+        "winding_max_C", "gear_beyond_momentary_runs", "commonest_fault")
+
+
+@dataclass(frozen=True)
+class Summary:
+    """Cells over axes ``x`` and ``y`` (values in the order found): ``cells[(xv, yv)]``
+    is a dict of :data:`CELL`."""
+
+    x: str
+    y: str
+    xs: list[Any]
+    ys: list[Any]
+    cells: dict[tuple[Any, Any], dict[str, Any]]
+
+    def rows(self) -> list[dict[str, Any]]:
+        """One dict per cell, axis values first (for CSV or a table)."""
+        return [{self.x: xv, self.y: yv, **self.cells[(xv, yv)]}
+                for yv in self.ys for xv in self.xs if (xv, yv) in self.cells]
+
+
+def default_axes(out: str | Path) -> tuple[str, str]:
+    """The study's first two swept axes (one swept: it and the group; none: group)."""
+    import json
+
+    swept = json.loads((Path(out) / "study.json").read_text())["swept"]
+    axes = [*swept, "group", "sex"]
+    x = axes[0]
+    y = next(a for a in axes[1:] if a != x)
+    return x, y
+
+
+def summarise(out: str | Path, x: str | None = None, y: str | None = None) -> Summary:
+    """The coverage of the study in ``out`` over axes ``x`` and ``y`` (default: the first
+    two it sweeps). ``torque_use``: the largest of each joint's peak torque over its
+    limit, the cell's mean; ``tracking_error_deg``: the largest joint's RMS tracking
+    error, the cell's mean over the runs that walked; ``winding_max_C``: the hottest
+    winding the safety layer estimated."""
+    from exoleg.study.engine import read_results
+
+    table = read_results(out)
+    if x is None or y is None:
+        dx, dy = default_axes(out)
+        x, y = x or dx, y or dy
+    for name, axis in (("--x", x), ("--y", y)):
+        if axis not in table.column_names:
+            raise ParameterError("exoleg sweep --summary", name, f"{axis!r} is not a column "
+                                 "of the study (axes: " + ", ".join(_axes(table)) + ")")
+    cols = table.to_pydict()
+    n = table.num_rows
+    groups: dict[tuple[Any, Any], list[int]] = defaultdict(list)
+    for i in range(n):
+        groups[(cols[x][i], cols[y][i])].append(i)
+
+    def worst(prefix: str, i: int) -> float:
+        return max(cols[f"{prefix}_{j}"][i] for j in JOINTS)
+
+    cells = {}
+    for key, idx in groups.items():
+        ok = [i for i in idx if not cols["error"][i]]
+        walked = [i for i in ok if cols["walked"][i]]
+        use = [max(cols[f"peak_torque_Nm_{j}"][i] / cols[f"torque_limit_Nm_{j}"][i]
+                   for j in JOINTS) for i in ok]
+        faults = Counter(cols["fault"][i] for i in ok if cols["fault"][i])
+        cells[key] = {
+            "runs": len(idx), "walked": len(walked),
+            "walked_fraction": len(walked) / len(idx),
+            "failed": len(idx) - len(ok),
+            "torque_use": float(np.mean(use)) if use else float("nan"),
+            "tracking_error_deg": float(np.mean([worst("rms_tracking_error_deg", i)
+                                                 for i in walked])) if walked else
+            float("nan"),
+            "winding_max_C": max((worst("safety_winding_max_C", i) for i in ok),
+                                 default=float("nan")),
+            "gear_beyond_momentary_runs": sum(1 for i in ok
+                                              if cols["ticks_gear_beyond_momentary"][i] > 0),
+            "commonest_fault": faults.most_common(1)[0][0] if faults else ""}
+    xs = sorted({k[0] for k in cells}, key=_order)
+    ys = sorted({k[1] for k in cells}, key=_order)
+    return Summary(x=x, y=y, xs=xs, ys=ys, cells=cells)
+
+
+def _order(v: Any) -> tuple[int, Any]:
+    return (0, v) if isinstance(v, int | float) else (1, str(v))
+
+
+def _axes(table: Any) -> list[str]:
+    from exoleg.study.spec import AXES
+
+    return [c for c in table.column_names if c in AXES or c == "profile"]
+
+
+def heatmap(s: Summary, path: str | Path) -> Path:
+    """The fraction of runs that walked per cell, coloured, with the runs and the torque
+    use written in."""
+    from exoleg.io import atomic_path
+    from exoleg.plots.figures import new_figure
+
+    img = np.full((len(s.ys), len(s.xs)), np.nan)
+    fig = new_figure(max(4.0, 0.9 * len(s.xs) + 2), max(3.0, 0.5 * len(s.ys) + 1.6),
+                     left=0.2, right=0.95, top=0.85, bottom=0.2)
+    ax = fig.subplots()
+    for (xv, yv), c in s.cells.items():
+        i, j = s.ys.index(yv), s.xs.index(xv)
+        img[i, j] = c["walked_fraction"]
+        ax.text(j, i, f"{c['walked']}/{c['runs']}\n{c['torque_use']:.2f}", ha="center",
+                va="center", fontsize=7)
+    im = ax.imshow(img, origin="lower", cmap="RdYlGn", vmin=0, vmax=1, aspect="auto")
+    ax.set_xticks(range(len(s.xs)), [str(v) for v in s.xs], fontsize=7, rotation=30)
+    ax.set_yticks(range(len(s.ys)), [str(v) for v in s.ys], fontsize=7)
+    ax.set_xlabel(s.x, fontsize=8)
+    ax.set_ylabel(s.y, fontsize=8)
+    fig.colorbar(im, ax=ax, label="walked (no safety fault)")
+    ax.set_title("runs walked / runs, and the mean torque use (peak / limit, worst joint)",
+                 fontsize=8)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    return Path(path)

@@ -1,0 +1,232 @@
+"""Studies at scale (``exoleg sweep``): the study file, its sampling, the runs' rows, and
+the engine on three Dask schedulers -- a LocalCluster of processes, threads in this
+process, and a scheduler with workers started as separate processes on loopback --
+which must give the same dataset; an interrupted study resumed with no task computed
+twice (by counting the tasks computed).
+
+References: the device files (data/device: a gear's ratings by ratio, S10); the motor's
+no-load speed V / (k_t N) (device-datasheets.md D); simulate_walk for a run's figures;
+the definition of a Latin hypercube (one draw per stratum and axis).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from exoleg.errors import ParameterError
+from exoleg.study.spec import parse_study
+
+ROOT = Path(__file__).resolve().parents[1]
+#: Six runs of one stride in three tasks: small enough to run on three schedulers.
+TINY = """
+[study]
+name = "tiny"
+strides = 1
+runs_per_task = 2
+partition_by = "hip_motor"
+
+[axes]
+hip_motor = ["ec90flat-90w", "ec90flat-160w"]
+age = [8, 10, 12]
+"""
+
+
+def cli(*args: str, **kw: object) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "exoleg.cli", *args], capture_output=True,
+                          text=True, check=False, timeout=600, **kw)  # type: ignore[call-overload]
+
+
+# ------------------------------------------------------------------- the study file
+@pytest.mark.parametrize("text, key", [
+    ("[axes]\nheight_cm = [120]\n", "axes.height_cm"),                  # unknown axis
+    ("[axes]\nage = []\n", "axes.age"),                                 # empty grid
+    ("[axes]\nage = [30]\n", "axes.age"),                               # out of range
+    ("[axes]\nhip_motor = [\"ec90flat-220w\"]\n", "axes.hip_motor"),    # not a variant
+    ("[axes]\nhip_ratio = [80]\n", "axes.hip_ratio"),                   # no ratings for 80
+    ("[study]\nsampling = \"sobol\"\n", "study.sampling"),
+    ("[study]\nsampling = \"lhs\"\n[axes]\nage = {min = 8, max = 12}\n", "study.samples"),
+    ("[study]\nstrides = 0\n", "study.strides"),
+    ("[study]\nwho = 1\n", "study.who"),
+    ("[axes]\nage = {min = 8, max = 12}\n", "axes.age.steps"),           # a grid's range
+    ("[axes]\nseed = {min = 0, max = 2000000, steps = 2000000}\n"
+     "age = {min = 8, max = 12, steps = 5}\n", "axes"),                 # 10 M runs
+    ("[[profiles]]\nage = 9\nsex = \"female\"\nheight = 1.3\nmass = 300\n", "profiles[0]"),
+    ("[study]\npartition_by = \"colour\"\n", "study.partition_by"),
+    ("[study]\nsampling = \"list\"\n", "runs"),
+])
+def test_a_bad_study_is_refused_naming_the_key(text: str, key: str) -> None:
+    with pytest.raises(ParameterError) as e:
+        parse_study(text, "s.toml")
+    assert e.value.field.startswith(key), (e.value.field, str(e.value))
+
+
+def test_a_bad_study_file_is_one_line_exit_2(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[axes]\nage = [30]\n")
+    r = cli("sweep", str(bad), "--out", str(tmp_path / "o"))
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert "axes.age: 30 is outside 2-20" in r.stderr
+    assert not (tmp_path / "o").exists()  # nothing written
+    binary = tmp_path / "bin.toml"
+    binary.write_bytes(b"\x00\x01\xff" * 10)
+    r = cli("sweep", str(binary), "--out", str(tmp_path / "o"))
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+
+
+def test_grids_samples_and_lists() -> None:
+    grid = parse_study("[axes]\nage = [8, 10]\nspeed = [\"Slow\", \"Free\", \"Fast\"]\n")
+    runs = grid.runs()
+    assert len(runs) == 6 and [(r["age"], r["speed"]) for r in runs[:3]] == [
+        (8.0, "Slow"), (8.0, "Free"), (8.0, "Fast")]  # the last axis fastest
+    assert all(r["hip_motor"] == "ec90flat-160w" and r["bus_voltage"] == 24.0 for r in runs)
+    # a Latin hypercube of n draws puts exactly one draw in each of n equal strata
+    lhs = parse_study("[study]\nsampling = \"lhs\"\nsamples = 40\nseed = 3\n[axes]\n"
+                      "age = {min = 8, max = 12}\nbus_voltage = {min = 20, max = 48}\n")
+    for name, lo, hi in (("age", 8, 12), ("bus_voltage", 20, 48)):
+        x = np.array([r[name] for r in lhs.runs()])
+        assert sorted(np.floor((x - lo) / (hi - lo) * 40).astype(int)) == list(range(40))
+    assert lhs.runs() == lhs.runs()  # the same seed, the same sample
+    listed = parse_study("[study]\nsampling = \"list\"\n[[runs]]\nage = 9\n[[runs]]\n"
+                         "age = 11\nhip_motor = \"ec90flat-90w\"\n")
+    assert [(r["age"], r["hip_motor"]) for r in listed.runs()] == [
+        (9.0, "ec90flat-160w"), (11.0, "ec90flat-90w")]
+
+
+def test_a_run_names_its_device_variant_and_its_row_holds_the_walk() -> None:
+    from exoleg.device.actuator import paper_actuators
+    from exoleg.study.runs import device_variant, run_one
+
+    run = parse_study("[axes]\nhip_ratio = [50]\nbus_voltage = [36]\n").runs()[0]
+    hip, knee, ankle = device_variant(run)
+    shipped_knee = paper_actuators()[1]  # the CSF-17-50 (S10)
+    assert hip.ratio == 50 and hip.repeated_peak_torque == shipped_knee.repeated_peak_torque
+    assert hip.momentary_peak_torque == 70.0 and "EC 90 flat 160 W" in hip.motor
+    assert hip.bus_voltage == knee.bus_voltage == ankle.bus_voltage == 36.0
+    # no-load joint speed V / (k_t N) at 36 V, the 160 W hip's k_t through 1:50
+    assert np.degrees(hip.max_velocity) == pytest.approx(
+        min(np.degrees(36.0 / (0.0712 * 50)), 5000 * 6 / 50), rel=1e-12)
+    row = run_one(7, 3, run, strides=1)
+    assert row["run"] == 7 and row["task"] == 3 and row["error"] == ""
+    assert row["hip_ratio"] == 50.0 and row["torque_limit_Nm_hip"] == pytest.approx(
+        min(34.0, 50 * 0.8 * 0.0712 * 12.88))  # the 50:1 gear's repeated peak binds
+    assert row["peak_torque_Nm_hip"] <= row["torque_limit_Nm_hip"] + 1e-9
+    assert row["steps"] >= 1 and np.isfinite(row["winding_max_C_knee"])
+    # a child the charts refuse is a row with its error, not a lost run
+    bad = {**run, "age": 3.0, "percentile": 99.0, "group": "GMFCS IV"}
+    row = run_one(8, 3, bad, strides=1)
+    assert row["error"] or row["steps"] >= 0
+
+
+# ------------------------------------------------------------------ the engine
+needs_dask = pytest.mark.skipif(
+    importlib.util.find_spec("distributed") is None,
+    reason="Dask's distributed is not installed (pip install exoleg[study])")
+
+
+def _table(out: Path) -> dict[str, list[object]]:
+    from exoleg.study.engine import read_results
+
+    t = read_results(out)
+    cols = t.to_pydict()
+    return {k: [None if isinstance(v, float) and v != v else v for v in vals]
+            for k, vals in cols.items()}
+
+
+@needs_dask
+def test_three_schedulers_give_the_same_dataset(tmp_path: Path) -> None:
+    from exoleg.study.engine import dask_client, execute
+
+    study = parse_study(TINY, "tiny.toml")
+    # 1. a LocalCluster of two single-threaded worker processes (the default)
+    execute(study, tmp_path / "local", workers=2)
+    # 2. threads in this process
+    with dask_client(workers=2, processes=False) as c:
+        execute(study, tmp_path / "inprocess", client=c)
+    # 3. a scheduler and two workers, each a process of its own, on loopback
+    sched_file = tmp_path / "scheduler.json"
+    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+    sched = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler",
+                              "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                              "--scheduler-file", str(sched_file)], env=env,
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    work = None
+    try:
+        for _ in range(600):
+            if sched_file.exists() and sched_file.stat().st_size:
+                break
+            time.sleep(0.05)
+        work = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker",
+                                 "--scheduler-file", str(sched_file), "--nworkers", "2",
+                                 "--nthreads", "1", "--no-dashboard"], env=env,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        r = cli("sweep", str(_write(tmp_path / "tiny.toml", TINY)), "--out",
+                str(tmp_path / "remote"), "--scheduler", str(sched_file))
+        assert r.returncode == 0, r.stderr
+    finally:
+        for p in (work, sched):
+            if p is not None:
+                p.terminate()
+                p.wait(timeout=30)
+    tables = [_table(tmp_path / d) for d in ("local", "inprocess", "remote")]
+    assert len(tables[0]["run"]) == 6 and not any(tables[0]["error"])
+    assert tables[0] == tables[1] == tables[2]
+    # the study and exoleg's version travel with the data
+    import pyarrow.parquet as pq
+
+    part = next((tmp_path / "remote" / "data").rglob("*.parquet"))
+    meta = pq.read_schema(part).metadata
+    assert meta[b"exoleg.study"].decode() == TINY and meta[b"exoleg.version"]
+
+
+def _write(path: Path, text: str) -> Path:
+    path.write_text(text)
+    return path
+
+
+@needs_dask
+def test_an_interrupted_study_resumes_without_computing_a_task_twice(tmp_path: Path) -> None:
+    # The shipped small example (64 runs in 16 tasks), interrupted by a real SIGINT
+    # once some tasks are done, then run again: every task computed exactly once.
+    out = tmp_path / "small"
+    example = ROOT / "examples" / "sweep-small.toml"
+    p = subprocess.Popen([sys.executable, "-m", "exoleg.cli", "sweep", str(example), "--out",
+                          str(out), "--workers", "2"], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline and p.poll() is None:
+        if len(list((out / ".tasks").glob("task-*"))) >= 3:
+            break
+        time.sleep(0.05)
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == 130, err
+    assert "run the same command to go on" in err
+    first = len(list((out / ".tasks").glob("task-*")))
+    assert 3 <= first < 16
+    r = cli("sweep", str(example), "--out", str(out), "--workers", "2")
+    assert r.returncode == 0, r.stderr
+    assert f"({first} done: resuming)" in r.stdout
+    log = (out / "tasks.log").read_text().splitlines()
+    computed = [int(line.split()[1]) for line in log]
+    assert sorted(computed) == list(range(16))  # each task once, none twice
+    rows = _table(out)
+    assert rows["run"] == list(range(64)) and not any(rows["error"])
+    # another study in the same folder is refused; the summary reads it
+    r = cli("sweep", str(_write(tmp_path / "t.toml", TINY)), "--out", str(out))
+    assert r.returncode == 2 and "holds another study" in r.stderr
+    r = cli("sweep", "--summary", str(out), "--x", "age", "--y", "group")
+    assert r.returncode == 0, r.stderr
+    assert (out / "summary-age-group.csv").exists() and (out / "summary-age-group.png").exists()
+    lines = (out / "summary-age-group.csv").read_text().splitlines()
+    assert len(lines) == 1 + 4 * 2  # ages x groups
+    r = cli("sweep", "--summary", str(out), "--x", "colour")
+    assert r.returncode == 2 and "--x: 'colour' is not a column" in r.stderr
