@@ -41,7 +41,7 @@ _LAZY = {
     # subpackages: ``exoleg.sizing.Child``, ``exoleg.export.write_urdf`` after ``import exoleg``
     **{n: f"exoleg.{n}" for n in ("control", "dynamics", "export", "io", "kinematics",
                                   "params", "plots", "reference", "sim", "sizing",
-                                  "validate")},
+                                  "study", "validate")},
 }
 
 

@@ -8,6 +8,9 @@ of imports so that the command line's parser stays fast."""
 #: a reference (:class:`exoleg.control.tracking.TrackingController`).
 LAWS = ("pd-gravity", "pd", "computed-torque")
 CONTROLLERS = ("walk", *LAWS)
+#: The hip motor's variants (``data/device/hip-variants``): the paper's 220 W EC 90 flat
+#: is rated on no maxon page; the shipped hip is the 160 W (the paper's assumption).
+HIP_VARIANTS = ("ec90flat-90w", "ec90flat-160w", "ec90flat-260w")
 
 #: name -> (lowest, highest, unit); "measured": any measured dimension
 CHILD_ENTRY = {"age": (2.0, 20.0, "years"), "height": (50.0, 220.0, "cm"),

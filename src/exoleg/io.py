@@ -129,7 +129,7 @@ def write_parquet_table(table: pa.Table, path: str | Path) -> Path:
 
 
 @contextlib.contextmanager
-def _signals_held() -> Iterator[None]:
+def signals_held() -> Iterator[None]:
     """SIGINT and SIGTERM wait until the block is done (main thread only)."""
     import threading
 
@@ -196,7 +196,7 @@ class OutputFolder:
         """Move the staged files into the folder; returns their final paths."""
         order = [n for n in self._names if n != last] + ([last] if last in self._names else [])
         done = []
-        with _signals_held():
+        with signals_held():
             for n in order:
                 src = self._staging / n
                 if src.exists():

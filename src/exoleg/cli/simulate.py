@@ -393,7 +393,7 @@ def add_parser(sub: Any) -> None:
     s.add_argument("--device", type=Path, help="with --walk or --actuators: a folder of device "
                    "files (actuators/*.toml, sensors.toml, gait_phase.toml, "
                    "walking_control.toml, safety.toml, walking.toml) replacing the shipped ones")
-    from exoleg.device.actuator import HIP_VARIANTS
+    from exoleg.entry import HIP_VARIANTS
 
     s.add_argument("--hip-motor", choices=HIP_VARIANTS, help="with --walk or --actuators: the "
                    "hip's motor variant (data/device/hip-variants; the shipped hip is "

@@ -43,6 +43,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from exoleg.dynamics.model import LegModel
+from exoleg.entry import HIP_VARIANTS
 from exoleg.errors import ParameterError
 from exoleg.io import read_text
 from exoleg.layout import F8, new
@@ -326,9 +327,6 @@ def paper_actuators(folder: str | Path | None = None
     return tuple(out)  # type: ignore[return-value]
 
 
-#: the hip motor's variants (``data/device/hip-variants``): the paper's 220 W EC 90 flat
-#: is rated on no maxon page; the shipped hip is the 160 W (the paper's assumption)
-HIP_VARIANTS = ("ec90flat-90w", "ec90flat-160w", "ec90flat-260w")
 
 
 def hip_variant(name: str) -> ActuatorModel:

@@ -125,7 +125,7 @@ def write_task(study: Study, out: Path, task: int, rows: list[dict[str, Any]]) -
     import pyarrow as pa
 
     from exoleg import __version__
-    from exoleg.io import write_parquet_table
+    from exoleg.io import signals_held, write_parquet_table
 
     axis = study.partition_by
     groups: dict[str, list[dict[str, Any]]] = {}
@@ -139,9 +139,10 @@ def write_task(study: Study, out: Path, task: int, rows: list[dict[str, Any]]) -
         folder = out / "data" / key if key else out / "data"
         folder.mkdir(parents=True, exist_ok=True)
         write_parquet_table(table, folder / f"task-{task:06d}.parquet")
-    _marker(out, task).write_text(f"{len(rows)} runs\n")
-    with (out / "tasks.log").open("a", encoding="utf-8") as fh:
-        fh.write(f"task {task} computed ({len(rows)} runs)\n")
+    with signals_held():  # the marker and its log line together, or neither
+        _marker(out, task).write_text(f"{len(rows)} runs\n")
+        with (out / "tasks.log").open("a", encoding="utf-8") as fh:
+            fh.write(f"task {task} computed ({len(rows)} runs)\n")
 
 
 def _key(study: Study, task: int) -> str:

@@ -27,9 +27,10 @@ JOINT_METRICS = ("rms_tracking_error_deg", "peak_torque_Nm", "torque_limit_Nm",
                  "winding_max_C", "gear_peak_Nm", "momentary_peak_Nm", "ticks_at_envelope",
                  "safety_winding_max_C", "safety_gear_peak_Nm")
 #: Whole-run figures: the device fits the child (geometry), walked (no safety fault), the
-#: fault (its kind and joint, '' for none) and when, the ticks the safety layer clipped
-#: torque, derated a motor or saw a gear beyond its momentary peak, the steps detected.
-RUN_METRICS = ("fits", "walked", "fault", "fault_time_s", "ticks_torque_clipped",
+#: fault (its kind and joint, '' for none) and when, the run's ticks and those in which
+#: the safety layer clipped torque, derated a motor or saw a gear beyond its momentary
+#: peak, the steps detected.
+RUN_METRICS = ("fits", "walked", "fault", "fault_time_s", "ticks", "ticks_torque_clipped",
                "ticks_derated", "ticks_gear_beyond_momentary", "steps", "error")
 
 
@@ -103,7 +104,7 @@ def empty_row(run_id: int, task: int, run: dict[str, Any]) -> dict[str, Any]:
     for m in JOINT_METRICS:
         for j in JOINTS:
             row[f"{m}_{j}"] = np.nan
-    row.update(fits=False, walked=False, fault="", fault_time_s=np.nan,
+    row.update(fits=False, walked=False, fault="", fault_time_s=np.nan, ticks=-1,
                ticks_torque_clipped=-1, ticks_derated=-1, ticks_gear_beyond_momentary=-1,
                steps=-1, error="")
     return row
@@ -149,7 +150,7 @@ def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[s
         f = Fault(int(r.fault[k]))
         jn = joint_name(f, int(r.fault_joint[k]))
         row.update(fault=f.name + (f" ({jn})" if jn else ""), fault_time_s=float(r.t[k]))
-    row.update(fits=bool(fit.fits), walked=not len(faulted),
+    row.update(fits=bool(fit.fits), walked=not len(faulted), ticks=len(r.t),
                ticks_torque_clipped=int(((status & Limited.TORQUE) > 0).sum()),
                ticks_derated=int(((status & Limited.DERATED) > 0).sum()),
                ticks_gear_beyond_momentary=int(((status & Limited.GEAR_PEAK) > 0).sum()),

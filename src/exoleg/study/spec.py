@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from exoleg.entry import HIP_VARIANTS
 from exoleg.errors import ParameterError
 from exoleg.io import read_text
 
@@ -75,8 +76,8 @@ AXES: dict[str, Axis] = {
     "percentile": Axis("number", 1.0, 99.0, default=50.0,
                        meaning="height and mass percentile of the group's chart"),
     # the device
-    "hip_motor": Axis("choice", choices=("ec90flat-90w", "ec90flat-160w", "ec90flat-260w"),
-                      default="ec90flat-160w", meaning="data/device/hip-variants"),
+    "hip_motor": Axis("choice", choices=HIP_VARIANTS, default="ec90flat-160w",
+                      meaning="data/device/hip-variants"),
     "bus_voltage": Axis("number", 10.0, 50.0, default=24.0,
                         meaning="V (the EPOS4 50/15: 10-50 V)"),
     "hip_ratio": Axis("choice", choices=RATIOS, default=100.0),

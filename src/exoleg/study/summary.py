@@ -15,8 +15,9 @@ from exoleg.errors import ParameterError
 from exoleg.params.records import JOINTS
 
 #: A cell's figures (:func:`summarise`).
-CELL = ("runs", "walked", "walked_fraction", "failed", "torque_use", "tracking_error_deg",
-        "winding_max_C", "gear_beyond_momentary_runs", "commonest_fault")
+CELL = ("runs", "walked", "walked_fraction", "failed", "clipped_fraction",
+        "tracking_error_deg", "winding_max_C", "gear_beyond_momentary_runs",
+        "commonest_fault")
 
 
 @dataclass(frozen=True)
@@ -49,8 +50,8 @@ def default_axes(out: str | Path) -> tuple[str, str]:
 
 def summarise(out: str | Path, x: str | None = None, y: str | None = None) -> Summary:
     """The coverage of the study in ``out`` over axes ``x`` and ``y`` (default: the first
-    two it sweeps). ``torque_use``: the largest of each joint's peak torque over its
-    limit, the cell's mean; ``tracking_error_deg``: the largest joint's RMS tracking
+    two it sweeps). ``clipped_fraction``: the share of ticks in which the safety layer
+    clipped a joint's torque at its limit, the cell's mean; ``tracking_error_deg``: the largest joint's RMS tracking
     error, the cell's mean over the runs that walked; ``winding_max_C``: the hottest
     winding the safety layer estimated."""
     from exoleg.study.engine import read_results
@@ -76,14 +77,13 @@ def summarise(out: str | Path, x: str | None = None, y: str | None = None) -> Su
     for key, idx in groups.items():
         ok = [i for i in idx if not cols["error"][i]]
         walked = [i for i in ok if cols["walked"][i]]
-        use = [max(cols[f"peak_torque_Nm_{j}"][i] / cols[f"torque_limit_Nm_{j}"][i]
-                   for j in JOINTS) for i in ok]
+        clipped = [cols["ticks_torque_clipped"][i] / cols["ticks"][i] for i in ok]
         faults = Counter(cols["fault"][i] for i in ok if cols["fault"][i])
         cells[key] = {
             "runs": len(idx), "walked": len(walked),
             "walked_fraction": len(walked) / len(idx),
             "failed": len(idx) - len(ok),
-            "torque_use": float(np.mean(use)) if use else float("nan"),
+            "clipped_fraction": float(np.mean(clipped)) if clipped else float("nan"),
             "tracking_error_deg": float(np.mean([worst("rms_tracking_error_deg", i)
                                                  for i in walked])) if walked else
             float("nan"),
@@ -108,8 +108,8 @@ def _axes(table: Any) -> list[str]:
 
 
 def heatmap(s: Summary, path: str | Path) -> Path:
-    """The fraction of runs that walked per cell, coloured, with the runs and the torque
-    use written in."""
+    """The fraction of runs that walked per cell, coloured, with the runs and the share of
+    ticks at a torque limit written in."""
     from exoleg.io import atomic_path
     from exoleg.plots.figures import new_figure
 
@@ -120,7 +120,7 @@ def heatmap(s: Summary, path: str | Path) -> Path:
     for (xv, yv), c in s.cells.items():
         i, j = s.ys.index(yv), s.xs.index(xv)
         img[i, j] = c["walked_fraction"]
-        ax.text(j, i, f"{c['walked']}/{c['runs']}\n{c['torque_use']:.2f}", ha="center",
+        ax.text(j, i, f"{c['walked']}/{c['runs']}\n{c['clipped_fraction']:.2f}", ha="center",
                 va="center", fontsize=7)
     im = ax.imshow(img, origin="lower", cmap="RdYlGn", vmin=0, vmax=1, aspect="auto")
     ax.set_xticks(range(len(s.xs)), [str(v) for v in s.xs], fontsize=7, rotation=30)
@@ -128,7 +128,7 @@ def heatmap(s: Summary, path: str | Path) -> Path:
     ax.set_xlabel(s.x, fontsize=8)
     ax.set_ylabel(s.y, fontsize=8)
     fig.colorbar(im, ax=ax, label="walked (no safety fault)")
-    ax.set_title("runs walked / runs, and the mean torque use (peak / limit, worst joint)",
+    ax.set_title("runs walked / runs, and the share of ticks with a torque at its limit",
                  fontsize=8)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110, format="png")
