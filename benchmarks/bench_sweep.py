@@ -31,7 +31,7 @@ from exoleg.study.spec import parse_study
 
 
 def study_text(runs: int) -> str:
-    seeds = max(1, runs // 5)
+    seeds = max(2, runs // 5)
     return (f"[study]\nname = \"bench\"\nstrides = 1\nruns_per_task = 50\n[axes]\n"
             f"age = [8, 9, 10, 11, 12]\nseed = {{min = 0, max = {seeds - 1}, "
             f"steps = {seeds}}}\n")
@@ -39,7 +39,7 @@ def study_text(runs: int) -> str:
 
 def _warm(_: int) -> int:
     """Compile (or load from numba's cache) in a pool process before the clock."""
-    run_task(0, [(0, parse_study(study_text(5)).runs()[0])], 1)
+    run_task(0, [(0, parse_study(study_text(10)).runs()[0])], 1)
     return os.getpid()
 
 

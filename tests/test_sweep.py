@@ -26,6 +26,9 @@ from exoleg.errors import ParameterError
 from exoleg.study.spec import parse_study
 
 ROOT = Path(__file__).resolve().parents[1]
+needs_dask = pytest.mark.skipif(
+    importlib.util.find_spec("distributed") is None,
+    reason="Dask's distributed is not installed (pip install exoleg[study])")
 #: Six runs of one stride in three tasks: small enough to run on three schedulers.
 TINY = """
 [study]
@@ -80,6 +83,22 @@ def test_a_bad_study_file_is_one_line_exit_2(tmp_path: Path) -> None:
     binary.write_bytes(b"\x00\x01\xff" * 10)
     r = cli("sweep", str(binary), "--out", str(tmp_path / "o"))
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    good = tmp_path / "good.toml"
+    good.write_text(TINY)
+    (tmp_path / "afile").write_text("x")
+    r = cli("sweep", str(good), "--out", str(tmp_path / "afile"))
+    assert r.returncode == 2 and "--out: is a file" in r.stderr, r.stderr
+
+
+@needs_dask
+def test_a_scheduler_that_does_not_answer_is_one_line_and_nothing_is_written(
+        tmp_path: Path) -> None:
+    good = _write(tmp_path / "good.toml", TINY)
+    r = cli("sweep", str(good), "--out", str(tmp_path / "o"), "--scheduler",
+            "tcp://127.0.0.1:9")  # the discard port: nothing listens
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert "--scheduler: 'tcp://127.0.0.1:9': no Dask scheduler answers there" in r.stderr
+    assert not (tmp_path / "o").exists()
 
 
 def test_grids_samples_and_lists() -> None:
@@ -127,11 +146,6 @@ def test_a_run_names_its_device_variant_and_its_row_holds_the_walk() -> None:
 
 
 # ------------------------------------------------------------------ the engine
-needs_dask = pytest.mark.skipif(
-    importlib.util.find_spec("distributed") is None,
-    reason="Dask's distributed is not installed (pip install exoleg[study])")
-
-
 def _table(out: Path) -> dict[str, list[object]]:
     from exoleg.study.engine import read_results
 

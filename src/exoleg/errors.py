@@ -19,6 +19,10 @@ class ParameterError(ExolegError, ValueError):
         self.problem = problem
         super().__init__(f"{where}: {field}: {problem}")
 
+    def __reduce__(self) -> tuple[type, tuple[str, str, str]]:
+        # crosses processes whole (a study's worker, a pool): pickled by its three parts
+        return (type(self), (self.where, self.field, self.problem))
+
 
 class UnreachableError(ExolegError, ValueError):
     """An inverse-kinematics target lies outside the leg's workspace."""

@@ -111,3 +111,14 @@ def test_model_input_errors_name_the_joint():
         exoleg.LegModel(leg.links[:2])
     with pytest.raises(ParameterError, match="variant"):
         exoleg.paper_leg("fancy")  # type: ignore[arg-type]
+
+
+def test_a_parameter_error_crosses_processes_whole() -> None:
+    # a study's workers and process pools send errors back pickled
+    import pickle
+
+    from exoleg.errors import ParameterError
+
+    e = pickle.loads(pickle.dumps(ParameterError("s.toml", "axes.age", "30 is outside 2-20")))
+    assert (e.where, e.field, e.problem) == ("s.toml", "axes.age", "30 is outside 2-20")
+    assert str(e) == "s.toml: axes.age: 30 is outside 2-20"

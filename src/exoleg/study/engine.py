@@ -77,9 +77,9 @@ def done_tasks(out: str | Path) -> set[int]:
             if p.name.split("-")[1].isdigit()}
 
 
-def prepare(study: Study, out: str | Path) -> Path:
-    """The study's folder: made and described, or -- when it holds the same study --
-    kept to resume; a folder holding anything else is refused (nothing written)."""
+def check_folder(study: Study, out: str | Path) -> bool:
+    """Whether ``out`` holds this study already (to resume); a folder that is a file,
+    holds another study or anything else is refused (nothing written)."""
     folder = Path(out)
     if folder.exists() and not folder.is_dir():
         raise ParameterError(str(folder), "--out", "is a file; name a folder")
@@ -89,11 +89,21 @@ def prepare(study: Study, out: str | Path) -> Path:
             raise ParameterError(str(folder), "--out", "holds another study (its "
                                  "study.toml differs): name another folder (nothing was "
                                  "written)")
-        return folder
+        return True
     if folder.exists() and any(folder.iterdir()):
         raise ParameterError(str(folder), "--out", "is not empty and holds no study: name "
                              "an empty or new folder (nothing was written)")
     check_room(study, folder)
+    return False
+
+
+def prepare(study: Study, out: str | Path) -> Path:
+    """The study's folder: made and described, or -- when it holds the same study --
+    kept to resume (:func:`check_folder` refuses anything else)."""
+    folder = Path(out)
+    if check_folder(study, folder):
+        return folder
+    held = folder / "study.toml"
     try:
         (folder / ".tasks").mkdir(parents=True, exist_ok=True)
         (folder / "data").mkdir(exist_ok=True)
@@ -162,9 +172,9 @@ def dask_client(scheduler: str | None = None, workers: int | None = None,
     if scheduler:
         try:
             if Path(scheduler).is_file():
-                client = Client(scheduler_file=scheduler, timeout="20s")
+                client = Client(scheduler_file=scheduler, timeout="10s")
             else:
-                client = Client(scheduler, timeout="20s")
+                client = Client(scheduler, timeout="10s")
         except (OSError, TimeoutError, ValueError) as e:
             raise ParameterError("exoleg sweep", "--scheduler", f"{scheduler!r}: no Dask "
                                  f"scheduler answers there ({e})") from None
@@ -200,12 +210,13 @@ def execute(study: Study, out: str | Path, scheduler: str | None = None, *,
     on ``client``, or a client of :func:`dask_client`. ``on_progress(done, total)`` after
     each task; ``stop_after``: stop (as an interruption would) once that many tasks were
     computed in this call."""
-    folder = prepare(study, out)
-    tasks = tasks_of(study)
-    done = done_tasks(folder)
-    todo = [t for t in range(len(tasks)) if t not in done]
+    check_folder(study, out)  # refused before a cluster starts
     with (contextlib.nullcontext(client) if client is not None
           else dask_client(scheduler, workers, processes)) as c:
+        folder = prepare(study, out)  # written once a scheduler answers
+        tasks = tasks_of(study)
+        done = done_tasks(folder)
+        todo = [t for t in range(len(tasks)) if t not in done]
         link = ""
         with contextlib.suppress(Exception):
             link = str(c.dashboard_link or "")
