@@ -139,6 +139,9 @@ def test_a_run_names_its_device_variant_and_its_row_holds_the_walk() -> None:
         min(34.0, 50 * 0.8 * 0.0712 * 12.88))  # the 50:1 gear's repeated peak binds
     assert row["peak_torque_Nm_hip"] <= row["torque_limit_Nm_hip"] + 1e-9
     assert row["steps"] >= 1 and np.isfinite(row["winding_max_C_knee"])
+    # the reflected inertia (3.25 kg m^2 at the hip, 1:100; 0.81 at 1:50) keeps
+    # h lambda(M^-1 Kd) far below 2: 0.034 in the paper's scenario (docs/device.md)
+    assert 0.005 < row["stability_margin"] < 0.2
     # a child the charts refuse is a row with its error, not a lost run
     bad = {**run, "age": 3.0, "percentile": 99.0, "group": "GMFCS IV"}
     row = run_one(8, 3, bad, strides=1)
@@ -155,63 +158,24 @@ def _table(out: Path) -> dict[str, list[object]]:
             for k, vals in cols.items()}
 
 
-@needs_dask
-def test_three_schedulers_give_the_same_dataset(tmp_path: Path) -> None:
-    from exoleg.study.engine import dask_client, execute
-
-    study = parse_study(TINY, "tiny.toml")
-    # 1. a LocalCluster of two single-threaded worker processes (the default)
-    execute(study, tmp_path / "local", workers=2)
-    # 2. threads in this process
-    with dask_client(workers=2, processes=False) as c:
-        execute(study, tmp_path / "inprocess", client=c)
-    # 3. a scheduler and two workers, each a process of its own, on loopback
-    sched_file = tmp_path / "scheduler.json"
-    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
-    sched = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler",
-                              "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                              "--scheduler-file", str(sched_file)], env=env,
-                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    work = None
-    try:
-        for _ in range(600):
-            if sched_file.exists() and sched_file.stat().st_size:
-                break
-            time.sleep(0.05)
-        work = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker",
-                                 "--scheduler-file", str(sched_file), "--nworkers", "2",
-                                 "--nthreads", "1", "--no-dashboard"], env=env,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        r = cli("sweep", str(_write(tmp_path / "tiny.toml", TINY)), "--out",
-                str(tmp_path / "remote"), "--scheduler", str(sched_file))
-        assert r.returncode == 0, r.stderr
-    finally:
-        for p in (work, sched):
-            if p is not None:
-                p.terminate()
-                p.wait(timeout=30)
-    tables = [_table(tmp_path / d) for d in ("local", "inprocess", "remote")]
-    assert len(tables[0]["run"]) == 6 and not any(tables[0]["error"])
-    assert tables[0] == tables[1] == tables[2]
-    # the study and exoleg's version travel with the data
-    import pyarrow.parquet as pq
-
-    part = next((tmp_path / "remote" / "data").rglob("*.parquet"))
-    meta = pq.read_schema(part).metadata
-    assert meta[b"exoleg.study"].decode() == TINY and meta[b"exoleg.version"]
-
-
 def _write(path: Path, text: str) -> Path:
     path.write_text(text)
     return path
 
 
 @needs_dask
-def test_an_interrupted_study_resumes_without_computing_a_task_twice(tmp_path: Path) -> None:
-    # The shipped small example (64 runs in 16 tasks), interrupted by a real SIGINT
-    # once some tasks are done, then run again: every task computed exactly once.
-    out = tmp_path / "small"
+def test_the_small_sweep_on_three_schedulers_interrupted_and_resumed(tmp_path: Path) -> None:
+    """The shipped small study (64 runs in 16 tasks) three times: (1) on the default
+    LocalCluster through the command line, interrupted by a real SIGINT once some tasks
+    are done and run again -- every task computed exactly once, counted in tasks.log;
+    (2) on threads in this process; (3) on a scheduler and two workers started as
+    processes of their own on loopback. The three datasets are identical."""
+    from exoleg.study.engine import dask_client, execute
+
     example = ROOT / "examples" / "sweep-small.toml"
+    small = example.read_text()
+    # 1. LocalCluster, interrupted and resumed
+    out = tmp_path / "local"
     p = subprocess.Popen([sys.executable, "-m", "exoleg.cli", "sweep", str(example), "--out",
                           str(out), "--workers", "2"], stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True)
@@ -229,11 +193,45 @@ def test_an_interrupted_study_resumes_without_computing_a_task_twice(tmp_path: P
     r = cli("sweep", str(example), "--out", str(out), "--workers", "2")
     assert r.returncode == 0, r.stderr
     assert f"({first} done: resuming)" in r.stdout
-    log = (out / "tasks.log").read_text().splitlines()
-    computed = [int(line.split()[1]) for line in log]
+    computed = [int(line.split()[1]) for line in (out / "tasks.log").read_text().splitlines()]
     assert sorted(computed) == list(range(16))  # each task once, none twice
-    rows = _table(out)
-    assert rows["run"] == list(range(64)) and not any(rows["error"])
+    # 2. threads in this process
+    with dask_client(workers=2, processes=False) as c:
+        execute(parse_study(small, str(example)), tmp_path / "inprocess", client=c)
+    # 3. a scheduler and two workers, each a process of its own, on loopback
+    sched_file = tmp_path / "scheduler.json"
+    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+    sched = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler",
+                              "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                              "--scheduler-file", str(sched_file)], env=env,
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    work = None
+    try:
+        for _ in range(600):
+            if sched_file.exists() and sched_file.stat().st_size:
+                break
+            time.sleep(0.05)
+        work = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker",
+                                 "--scheduler-file", str(sched_file), "--nworkers", "2",
+                                 "--nthreads", "1", "--no-dashboard"], env=env,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        r = cli("sweep", str(example), "--out", str(tmp_path / "remote"), "--scheduler",
+                str(sched_file))
+        assert r.returncode == 0, r.stderr
+    finally:
+        for proc in (work, sched):
+            if proc is not None:
+                proc.terminate()
+                proc.wait(timeout=30)
+    tables = [_table(tmp_path / d) for d in ("local", "inprocess", "remote")]
+    assert tables[0]["run"] == list(range(64)) and not any(tables[0]["error"])
+    assert tables[0] == tables[1] == tables[2]
+    # the study and exoleg's version travel with the data
+    import pyarrow.parquet as pq
+
+    part = next((tmp_path / "remote" / "data").rglob("*.parquet"))
+    meta = pq.read_schema(part).metadata
+    assert meta[b"exoleg.study"].decode() == small and meta[b"exoleg.version"]
     # another study in the same folder is refused; the summary reads it
     r = cli("sweep", str(_write(tmp_path / "t.toml", TINY)), "--out", str(out))
     assert r.returncode == 2 and "holds another study" in r.stderr

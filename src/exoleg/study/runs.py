@@ -29,9 +29,13 @@ JOINT_METRICS = ("rms_tracking_error_deg", "peak_torque_Nm", "torque_limit_Nm",
 #: Whole-run figures: the device fits the child (geometry), walked (no safety fault), the
 #: fault (its kind and joint, '' for none) and when, the run's ticks and those in which
 #: the safety layer clipped torque, derated a motor or saw a gear beyond its momentary
-#: peak, the steps detected.
+#: peak, the steps detected, and the sampled loop's stability margin: the largest
+#: h lambda(M^-1 Kd) of the stance and swing damping over the run's postures, the leg's
+#: mass matrix with the actuators' reflected inertia (a held velocity feedback is stable
+#: while it is below 2: docs/conventions.md).
 RUN_METRICS = ("fits", "walked", "fault", "fault_time_s", "ticks", "ticks_torque_clipped",
-               "ticks_derated", "ticks_gear_beyond_momentary", "steps", "error")
+               "ticks_derated", "ticks_gear_beyond_momentary", "steps", "stability_margin",
+               "error")
 
 
 def _child(run: dict[str, Any]) -> Any:
@@ -106,15 +110,17 @@ def empty_row(run_id: int, task: int, run: dict[str, Any]) -> dict[str, Any]:
             row[f"{m}_{j}"] = np.nan
     row.update(fits=False, walked=False, fault="", fault_time_s=np.nan, ticks=-1,
                ticks_torque_clipped=-1, ticks_derated=-1, ticks_gear_beyond_momentary=-1,
-               steps=-1, error="")
+               steps=-1, stability_margin=np.nan, error="")
     return row
 
 
 def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[str, Any]:
     """Walk one run (``strides`` strides after 1 s of standing) and judge it; a failure is
     the row's ``error``."""
+    from exoleg.control.controllers import PD
     from exoleg.control.gait_phase import Event
     from exoleg.control.safety import Fault, Limited, joint_name
+    from exoleg.sim.closed_loop import sampled_stability
     from exoleg.sim.metrics import actuator_peaks
     from exoleg.sim.walk import simulate_walk
     from exoleg.sizing.fit import fit_device
@@ -126,10 +132,10 @@ def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[s
         row.update(height_m=child.height, mass_kg=child.mass)
         fit = fit_device(child)
         leg = personalized_leg(child, fit)
+        gains = _gains(run)
         r = simulate_walk(leg, child.mass, strides=strides, speed=run["speed"],
                           stride_time=run["stride_time"], noise_scale=run["noise"],
-                          seed=run["seed"], actuators=device_variant(run),
-                          gains=_gains(run))
+                          seed=run["seed"], actuators=device_variant(run), gains=gains)
     except (ExolegError, ValueError, ArithmeticError) as e:
         row["error"] = f"{type(e).__name__}: {e}"
         return row
@@ -144,6 +150,10 @@ def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[s
         p["safety_gear_peak_Nm"] = float(np.abs(r.gear_torque[:, i]).max())
         for m in JOINT_METRICS:
             row[f"{m}_{j}"] = float(p[m])
+    postures = r.q[::10]
+    margin = max(sampled_stability(r.plant.leg, PD(Kp=kp, Kd=kd), dt, postures)
+                 for kp, kd in ((gains.kp_stance, gains.kd_stance),
+                                (gains.kp_swing, gains.kd_swing)))
     faulted = np.nonzero(r.fault != Fault.NONE)[0]
     if len(faulted):
         k = int(faulted[0])
@@ -154,7 +164,7 @@ def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[s
                ticks_torque_clipped=int(((status & Limited.TORQUE) > 0).sum()),
                ticks_derated=int(((status & Limited.DERATED) > 0).sum()),
                ticks_gear_beyond_momentary=int(((status & Limited.GEAR_PEAK) > 0).sum()),
-               steps=int(((r.events & Event.IC) > 0).sum()))
+               steps=int(((r.events & Event.IC) > 0).sum()), stability_margin=margin)
     return row
 
 

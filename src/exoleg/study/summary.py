@@ -17,7 +17,7 @@ from exoleg.params.records import JOINTS
 #: A cell's figures (:func:`summarise`).
 CELL = ("runs", "walked", "walked_fraction", "failed", "clipped_fraction",
         "tracking_error_deg", "winding_max_C", "gear_beyond_momentary_runs",
-        "commonest_fault")
+        "stability_margin", "commonest_fault")
 
 
 @dataclass(frozen=True)
@@ -51,9 +51,10 @@ def default_axes(out: str | Path) -> tuple[str, str]:
 def summarise(out: str | Path, x: str | None = None, y: str | None = None) -> Summary:
     """The coverage of the study in ``out`` over axes ``x`` and ``y`` (default: the first
     two it sweeps). ``clipped_fraction``: the share of ticks in which the safety layer
-    clipped a joint's torque at its limit, the cell's mean; ``tracking_error_deg``: the largest joint's RMS tracking
-    error, the cell's mean over the runs that walked; ``winding_max_C``: the hottest
-    winding the safety layer estimated."""
+    clipped a joint's torque at its limit, the cell's mean; ``tracking_error_deg``: the
+    largest joint's RMS tracking error, the cell's mean over the runs that walked;
+    ``winding_max_C``: the hottest winding the safety layer estimated;
+    ``stability_margin``: the largest sampled-loop h lambda (stable below 2)."""
     from exoleg.study.engine import read_results
 
     table = read_results(out)
@@ -91,6 +92,8 @@ def summarise(out: str | Path, x: str | None = None, y: str | None = None) -> Su
                                  default=float("nan")),
             "gear_beyond_momentary_runs": sum(1 for i in ok
                                               if cols["ticks_gear_beyond_momentary"][i] > 0),
+            "stability_margin": max((cols["stability_margin"][i] for i in ok),
+                                    default=float("nan")),
             "commonest_fault": faults.most_common(1)[0][0] if faults else ""}
     xs = sorted({k[0] for k in cells}, key=_order)
     ys = sorted({k[1] for k in cells}, key=_order)
