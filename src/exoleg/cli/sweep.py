@@ -5,6 +5,7 @@ summary over any two axes."""
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 import time
 from pathlib import Path
@@ -47,6 +48,9 @@ def _run(args: argparse.Namespace) -> int:
          f"{study.strides} strides in {n_tasks:,} tasks"
          + (f" ({before} done: resuming)" if before else "") + f", on {where}")
     t0 = time.perf_counter()
+    # SIGTERM as Ctrl-C: the cluster closes and the tasks done are kept (this process only
+    # orchestrates: no compiler callback for the exception to land in)
+    old = signal.signal(signal.SIGTERM, _as_interrupt)
     with Progress("[progress.description]{task.description}", BarColumn(),
                   MofNCompleteColumn(), TimeRemainingColumn(), transient=False) as bar:
         job = bar.add_task("tasks", total=n_tasks, completed=before)
@@ -60,6 +64,8 @@ def _run(args: argparse.Namespace) -> int:
                   f"{args.out}; run the same command to go on (no task is computed "
                   "twice)", file=sys.stderr)
             return 130
+        finally:
+            signal.signal(signal.SIGTERM, old)
     wall = time.perf_counter() - t0
     _say(f"{outcome.computed} tasks computed now, {outcome.already_done} before; "
          f"{outcome.runs:,} runs, {outcome.failed_runs} with an error; {wall:.1f} s"
@@ -67,6 +73,10 @@ def _run(args: argparse.Namespace) -> int:
     _say(f"wrote {args.out}/ (data/: Parquet, a row per run; study.toml, study.json); "
          f"summary: exoleg sweep --summary {args.out}")
     return 0
+
+
+def _as_interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
 
 
 def _summary(args: argparse.Namespace) -> int:

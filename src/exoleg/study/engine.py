@@ -29,6 +29,8 @@ import hashlib
 import json
 import logging
 import os
+import signal
+import threading
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -192,8 +194,19 @@ def dask_client(scheduler: str | None = None, workers: int | None = None,
         dashboard = None
     # worker processes talk over loopback TCP; threads in this process over inproc://
     where = {"host": "127.0.0.1"} if processes else {}
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=processes,
-                           dashboard_address=dashboard, silence_logs=logging.ERROR, **where)
+    # the workers start with SIGINT ignored (and keep it: a process started so leaves it
+    # so): a Ctrl-C at a terminal reaches the whole process group, and only this process
+    # is to answer it -- closing the cluster, keeping the tasks done -- not each worker
+    # with a traceback
+    main = threading.current_thread() is threading.main_thread()
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    try:
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=processes,
+                               dashboard_address=dashboard, silence_logs=logging.ERROR,
+                               **where)
+    finally:
+        if main:
+            signal.signal(signal.SIGINT, old)
     client = Client(cluster)
     try:
         yield client
