@@ -56,7 +56,8 @@ def _run(args: argparse.Namespace) -> int:
         job = bar.add_task("tasks", total=n_tasks, completed=before)
         try:
             outcome = execute(study, args.out, args.scheduler, workers=args.workers,
-                              on_progress=lambda d, _t: bar.update(job, completed=d))
+                              on_progress=lambda d, _t: bar.update(job, completed=d),
+                              on_start=_dashboard)
         except KeyboardInterrupt:
             bar.stop()
             done = len(done_tasks(args.out))
@@ -68,11 +69,15 @@ def _run(args: argparse.Namespace) -> int:
             signal.signal(signal.SIGTERM, old)
     wall = time.perf_counter() - t0
     _say(f"{outcome.computed} tasks computed now, {outcome.already_done} before; "
-         f"{outcome.runs:,} runs, {outcome.failed_runs} with an error; {wall:.1f} s"
-         + (f"; dashboard was {outcome.dashboard}" if outcome.dashboard else ""))
+         f"{outcome.runs:,} runs, {outcome.failed_runs} with an error; {wall:.1f} s")
     _say(f"wrote {args.out}/ (data/: Parquet, a row per run; study.toml, study.json); "
          f"summary: exoleg sweep --summary {args.out}")
     return 0
+
+
+def _dashboard(link: str) -> None:
+    _say(f"Dask's dashboard: {link}" if link else "Dask's dashboard: none (bokeh is not "
+         "installed where the scheduler runs)")
 
 
 def _as_interrupt(signum: int, frame: object) -> None:

@@ -218,11 +218,11 @@ def dask_client(scheduler: str | None = None, workers: int | None = None,
 def execute(study: Study, out: str | Path, scheduler: str | None = None, *,
             client: Any = None, workers: int | None = None, processes: bool = True,
             on_progress: Callable[[int, int], None] | None = None,
-            stop_after: int | None = None) -> Outcome:
+            on_start: Callable[[str], None] | None = None) -> Outcome:
     """Run ``study`` into the folder ``out`` (resuming it when it holds the same study)
-    on ``client``, or a client of :func:`dask_client`. ``on_progress(done, total)`` after
-    each task; ``stop_after``: stop (as an interruption would) once that many tasks were
-    computed in this call."""
+    on ``client``, or a client of :func:`dask_client`. ``on_start(dashboard)`` once the
+    scheduler answers (its dashboard's address, '' for none); ``on_progress(done,
+    total)`` after each task."""
     check_folder(study, out)  # refused before a cluster starts
     with (contextlib.nullcontext(client) if client is not None
           else dask_client(scheduler, workers, processes)) as c:
@@ -230,19 +230,20 @@ def execute(study: Study, out: str | Path, scheduler: str | None = None, *,
         tasks = tasks_of(study)
         done = done_tasks(folder)
         todo = [t for t in range(len(tasks)) if t not in done]
-        link = ""
+        link = ""  # Dask names a link even where no dashboard serves (bokeh missing)
         with contextlib.suppress(Exception):
-            link = str(c.dashboard_link or "")
-        computed = _compute(c, study, folder, tasks, todo, len(done), on_progress,
-                            stop_after)
+            if "dashboard" in c.scheduler_info().get("services", {}):
+                link = str(c.dashboard_link or "")
+        if on_start is not None:
+            on_start(link)
+        computed = _compute(c, study, folder, tasks, todo, len(done), on_progress)
     failed = _failed_runs(folder)
     return Outcome(tasks=len(tasks), already_done=len(done), computed=computed,
                    runs=sum(len(t) for t in tasks), failed_runs=failed, dashboard=link)
 
 
 def _compute(client: Any, study: Study, folder: Path, tasks: list[Any], todo: list[int],
-             done: int, on_progress: Callable[[int, int], None] | None,
-             stop_after: int | None) -> int:
+             done: int, on_progress: Callable[[int, int], None] | None) -> int:
     from distributed import as_completed
 
     workers = max(1, len(client.scheduler_info().get("workers", {})))
@@ -274,8 +275,6 @@ def _compute(client: Any, study: Study, folder: Path, tasks: list[Any], todo: li
             computed += 1
             if on_progress is not None:
                 on_progress(done + computed, len(tasks))
-            if stop_after is not None and computed >= stop_after:
-                raise KeyboardInterrupt
             nxt = submit()
             if nxt is not None:
                 pending.add(nxt)
