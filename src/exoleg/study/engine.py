@@ -162,6 +162,19 @@ def _key(study: Study, task: int) -> str:
     return f"exoleg-study-{digest}-task-{task:06d}"
 
 
+def _reachable(scheduler: str) -> None:
+    """A ``tcp://host:port`` that refuses connections fails at once (OSError), not after
+    Dask's handshake timeout."""
+    import socket
+    from urllib.parse import urlsplit
+
+    if scheduler.startswith("tcp://"):
+        u = urlsplit(scheduler)
+        if u.hostname is None or u.port is None:
+            raise ValueError("expected tcp://HOST:PORT")
+        socket.create_connection((u.hostname, u.port), timeout=5.0).close()
+
+
 @contextlib.contextmanager
 def dask_client(scheduler: str | None = None, workers: int | None = None,
                 processes: bool = True) -> Iterator[Any]:
@@ -173,6 +186,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None,
     logging.getLogger("distributed").setLevel(logging.ERROR)
     if scheduler:
         try:
+            _reachable(scheduler)
             if Path(scheduler).is_file():
                 client = Client(scheduler_file=scheduler, timeout="10s")
             else:
