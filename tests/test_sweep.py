@@ -142,10 +142,13 @@ def test_a_run_names_its_device_variant_and_its_row_holds_the_walk() -> None:
     # the reflected inertia (3.25 kg m^2 at the hip, 1:100; 0.81 at 1:50) keeps
     # h lambda(M^-1 Kd) far below 2: 0.034 in the paper's scenario (docs/device.md)
     assert 0.005 < row["stability_margin"] < 0.2
-    # a child the charts refuse is a row with its error, not a lost run
-    bad = {**run, "age": 3.0, "percentile": 99.0, "group": "GMFCS IV"}
+    # a child the growth charts refuse (300 kg at 9 y: beyond +5 SD) is a row with its
+    # error and no figures, not a lost run
+    bad = {**run, "profile": {"name": "x", "age": 9.0, "sex": "female", "height": 1.3,
+                              "mass": 300.0, "gmfcs": None}}
     row = run_one(8, 3, bad, strides=1)
-    assert row["error"] or row["steps"] >= 0
+    assert row["error"].startswith("ParameterError") and "mass" in row["error"]
+    assert row["steps"] == -1 and np.isnan(row["peak_torque_Nm_hip"]) and not row["walked"]
 
 
 # ------------------------------------------------------------------ the engine

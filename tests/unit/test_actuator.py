@@ -223,11 +223,11 @@ def test_the_winding_s_resistance_rises_with_its_temperature() -> None:
         assert limit_t == pytest.approx(crossing, abs=0.02)  # measured: < 0.01 s
         # hotter copper dissipates more: sooner than at 25 degC's resistance
         assert limit_t < time_to_winding_limit(a, a.peak_current, alpha=0.0)
-        # a series of torques: within 0.05 K of RK4 (measured 0.01 K: the loss held over
-        # each 1 ms step)
+        # a series of torques: within 2e-3 K of RK4 (measured 5e-4 K at the knee, the
+        # loss held over each 1 ms step)
         tau = np.full(20000, a.joint_torque_constant * a.peak_current)
         T = winding_temperature(a, tau, 1e-3)[:, 0]
-        np.testing.assert_allclose(T, copper_rk4(a, a.peak_current, 20.0)[1][1:], atol=0.05)
+        np.testing.assert_allclose(T, copper_rk4(a, a.peak_current, 20.0)[1][1:], atol=2e-3)
     # the steady state at I_N, T = (T_a + g (1 - 25 alpha)) / (1 - alpha g) with
     # g = R_25 I_N^2 R_th, below the winding's limit: the motor may run at I_N for ever
     g = HIP.terminal_resistance * HIP.nominal_current**2 * (

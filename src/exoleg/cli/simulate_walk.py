@@ -21,7 +21,7 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     import exoleg
     from exoleg.control.safety import Limited
     from exoleg.plots.figures import walk_figure
-    from exoleg.sim.metrics import actuator_peaks, detection_table
+    from exoleg.sim.metrics import detection_table, walk_peaks
     from exoleg.sim.walk import simulate_walk
 
     t0 = time.perf_counter()
@@ -37,18 +37,8 @@ def _simulate_walk(args: argparse.Namespace) -> int:
                       ankle_height=args.ankle_height / 100, device=args.device,
                       actuators=device_actuators(args))
     rows = detection_table([r])
-    walking = r.t >= r.walk_start + stride
-    err = np.degrees(np.sqrt(np.mean((r.q - r.q_ref)[walking] ** 2, axis=0)))
-    peaks = actuator_peaks(r.actuators, r.tau, r.dq, r.u_safe, r.envelope,
-                            float(r.t[1] - r.t[0]))
+    peaks = walk_peaks(r)
     over = (r.safety_status & Limited.GEAR_PEAK) > 0
-    for i, (p, e) in enumerate(zip(peaks, err, strict=True)):
-        p["rms_tracking_error_deg"] = float(e)
-        # what the safety layer saw: its estimates, the device's own view
-        p["safety_winding_max_C"] = float(r.winding_temp[:, i].max())
-        p["safety_gear_peak_Nm"] = float(np.abs(r.gear_torque[:, i]).max())
-        p["safety_gear_overload_ticks"] = int(
-            (over & (np.abs(r.gear_torque[:, i]) > p["momentary_peak_Nm"])).sum())
     fault = bool(np.any(r.safety_status & Limited.FAULT))
     if fault:
         k = int(np.argmax(r.safety_status & Limited.FAULT))

@@ -37,11 +37,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
 
-    from exoleg.study.engine import done_tasks, execute, tasks_of
+    from exoleg.study.engine import done_tasks, execute, task_count
     from exoleg.study.spec import count_runs, load_study
 
     study = load_study(args.study)
-    n_tasks = len(tasks_of(study))
+    n_tasks = task_count(study)
     before = len(done_tasks(args.out)) if (Path(args.out) / "study.toml").exists() else 0
     where = args.scheduler or f"a local Dask cluster ({args.workers or 'one worker per core'})"
     _say(f"exoleg sweep: study '{study.name}', {count_runs(study):,} runs of "

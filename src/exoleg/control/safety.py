@@ -46,13 +46,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from exoleg.device.actuator import (
-    COPPER_ALPHA,
-    R_REFERENCE_C,
-    paper_actuators,
-    params_array,
-    thermal_step,
-)
+from exoleg.control.motor_watch import gear_check, motors_tick, watch_limits
+from exoleg.device.actuator import paper_actuators, params_array
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8, new
 from exoleg.params import _check
@@ -266,27 +261,8 @@ class SafetyLimits:
         r["lower"], r["upper"], r["max_torque"] = self.lower, self.upper, self.max_torque
         r["max_step"] = self.max_torque_rate * self.dt
         r["max_speed"], r["hard_margin"] = self.max_speed, self.hard_margin
-        acts = self.actuators or ()
-        for i, a in enumerate(acts):
-            th = a.thermal()
-            # the two nodes' step over one tick with no loss and a 0 degC ambient: the
-            # columns of e^{A dt}, from the same exact step the device's model takes
-            cols = []
-            for unit in ((1.0, 0.0), (0.0, 1.0)):
-                T = np.array(unit)
-                thermal_step(th, T, 0.0, 0.0, self.dt)
-                cols.append(T)
-            r["phi"][0, i] = (cols[0][0], cols[1][0], cols[0][1], cols[1][1])
-            r["kt_joint"][0, i] = a.joint_torque_constant
-            r["r25"][0, i] = a.terminal_resistance
-            r["r_wh"][0, i] = a.thermal_resistance_winding
-            r["r_ha"][0, i] = a.thermal_resistance_housing
-            r["winding_limit"][0, i] = a.max_winding_temperature
-            r["derate_from"][0, i] = a.max_winding_temperature - self.derate_band
-            r["continuous"][0, i] = min(a.continuous_torque, self.max_torque[i])
-            r["momentary"][0, i] = a.momentary_peak_torque
-            r["inertia"][0, i] = a.reflected_inertia
-        r["ambient"], r["dt"], r["gear_fault"] = self.ambient, self.dt, self.gear_fault
+        watch_limits(r, self.actuators or (), self.dt, self.derate_band, self.max_torque)
+        r["ambient"], r["gear_fault"] = self.ambient, self.gear_fault
         return r
 
 
@@ -308,62 +284,6 @@ def check_state(lim, state, q, dq, u_cmd):  # type: ignore[no-untyped-def]
         if state[0].winding[i] > L.winding_limit[i]:
             return Fault.OVERTEMPERATURE, i
     return Fault.NONE, -1
-
-
-@njit(cache=True)
-def motors_tick(lim, state, dq, u):  # type: ignore[no-untyped-def]
-    """The motors' and gears' estimates after a tick that allowed ``u`` (3,) at the
-    measured rates ``dq``: each winding and housing heated over the tick by the copper
-    loss of the current ``|u| / (N eta k_t)``, the resistance at the winding's
-    temperature (exact step of the two-node model, the loss held); each gear's torque
-    for the next tick's check is worked out there. Temperatures start at the ambient."""
-    L = lim[0]
-    s = state[0]
-    if not s.started:
-        s.started = True
-        for i in range(3):
-            s.winding[i] = L.ambient
-            s.housing[i] = L.ambient
-            s.dq_prev[i] = dq[i] if math.isfinite(dq[i]) else 0.0
-        return
-    for i in range(3):
-        current = u[i] / L.kt_joint[i]
-        loss = L.r25[i] * (1.0 + COPPER_ALPHA * (s.winding[i] - R_REFERENCE_C)) * \
-            current * current
-        sw = L.ambient + loss * (L.r_wh[i] + L.r_ha[i])
-        sh = L.ambient + loss * L.r_ha[i]
-        xw, xh = s.winding[i] - sw, s.housing[i] - sh
-        s.winding[i] = sw + L.phi[i, 0] * xw + L.phi[i, 1] * xh
-        s.housing[i] = sh + L.phi[i, 2] * xw + L.phi[i, 3] * xh
-        s.dq_prev[i] = dq[i] if math.isfinite(dq[i]) else s.dq_prev[i]
-
-
-@njit(cache=True)
-def gear_check(lim, state, dq):  # type: ignore[no-untyped-def]
-    """Each gear's transmitted torque this tick, estimated as the torque allowed last
-    tick less the rotor's inertia torque (reflected inertia x the measured acceleration,
-    the rates' difference over the tick): kept in ``state``, its peak and the times it
-    went beyond the gear's momentary peak counted. Returns the first joint beyond it (-1
-    for none)."""
-    L = lim[0]
-    s = state[0]
-    over = -1
-    if not s.started:
-        return over
-    for i in range(3):
-        g = s.prev[i] - L.inertia[i] * (dq[i] - s.dq_prev[i]) / L.dt
-        if not math.isfinite(g):
-            g = 0.0  # a non-finite rate is the NONFINITE check's
-        beyond = abs(g) > L.momentary[i]
-        if beyond:
-            if abs(s.gear[i]) <= L.momentary[i]:
-                s.gear_events[i] += 1
-            if over < 0:
-                over = i
-        s.gear[i] = g
-        if abs(g) > s.gear_peak[i]:
-            s.gear_peak[i] = abs(g)
-    return over
 
 
 @njit(cache=True)

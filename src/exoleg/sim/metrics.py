@@ -124,3 +124,24 @@ def actuator_peaks(acts: Any, tau: Any, dq: Any, u_safe: Any, env: Any,
             "gear_peak_Nm": float(gear.max()), "momentary_peak_Nm": a.momentary_peak_torque,
             "ticks_over_momentary": int((gear > a.momentary_peak_torque).sum())})
     return out
+
+
+def walk_peaks(r: WalkResult) -> list[dict[str, Any]]:
+    """Per actuator, what a walk asked of it (:func:`actuator_peaks`), with the RMS
+    tracking error after the first stride (deg) and what the safety layer saw: its
+    hottest winding estimate (degC), its largest gear torque estimate (N m) and the ticks
+    that estimate was beyond the gear's momentary peak."""
+    from exoleg.control.safety import Limited
+
+    walking = r.t >= r.walk_start + r.stride_time
+    err = np.degrees(np.sqrt(np.mean((r.q - r.q_ref)[walking] ** 2, axis=0)))
+    peaks = actuator_peaks(r.actuators, r.tau, r.dq, r.u_safe, r.envelope,
+                           float(r.t[1] - r.t[0]))
+    over = (r.safety_status & Limited.GEAR_PEAK) > 0
+    for i, p in enumerate(peaks):
+        gear = np.abs(r.gear_torque[:, i])
+        p["rms_tracking_error_deg"] = float(err[i])
+        p["safety_winding_max_C"] = float(r.winding_temp[:, i].max())
+        p["safety_gear_peak_Nm"] = float(gear.max())
+        p["safety_gear_overload_ticks"] = int((over & (gear > p["momentary_peak_Nm"])).sum())
+    return peaks

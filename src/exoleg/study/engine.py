@@ -39,7 +39,7 @@ from urllib.parse import quote
 
 from exoleg.errors import ParameterError
 from exoleg.study.runs import empty_row, run_task
-from exoleg.study.spec import Study, check_room
+from exoleg.study.spec import Study, check_room, count_runs
 
 #: Tasks kept in flight per worker (the rest wait on this side: a study of a million
 #: runs does not put a million futures on the scheduler).
@@ -57,6 +57,11 @@ class Outcome:
     runs: int
     failed_runs: int
     dashboard: str
+
+
+def task_count(study: Study) -> int:
+    """How many tasks the study's runs make (without expanding them)."""
+    return -(-count_runs(study) // study.runs_per_task)
 
 
 def tasks_of(study: Study) -> list[list[tuple[int, dict[str, Any]]]]:
@@ -100,11 +105,8 @@ def check_folder(study: Study, out: str | Path) -> bool:
 
 
 def prepare(study: Study, out: str | Path) -> Path:
-    """The study's folder: made and described, or -- when it holds the same study --
-    kept to resume (:func:`check_folder` refuses anything else)."""
+    """The study's new folder, made and described (:func:`check_folder` first)."""
     folder = Path(out)
-    if check_folder(study, folder):
-        return folder
     held = folder / "study.toml"
     try:
         (folder / ".tasks").mkdir(parents=True, exist_ok=True)
@@ -114,11 +116,10 @@ def prepare(study: Study, out: str | Path) -> Path:
     from exoleg import __version__
     from exoleg.io import atomic_path
 
-    tasks = tasks_of(study)
     with atomic_path(folder / "study.json") as tmp:
         tmp.write_text(json.dumps({
             "name": study.name, "description": study.description,
-            "runs": sum(len(t) for t in tasks), "tasks": len(tasks),
+            "runs": count_runs(study), "tasks": task_count(study),
             "sampling": study.sampling, "strides": study.strides,
             "partition_by": study.partition_by, "swept": study.swept,
             "exoleg_version": __version__}, indent=2))
@@ -237,10 +238,11 @@ def execute(study: Study, out: str | Path, scheduler: str | None = None, *,
     on ``client``, or a client of :func:`dask_client`. ``on_start(dashboard)`` once the
     scheduler answers (its dashboard's address, '' for none); ``on_progress(done,
     total)`` after each task."""
-    check_folder(study, out)  # refused before a cluster starts
+    resuming = check_folder(study, out)  # refused before a cluster starts
     with (contextlib.nullcontext(client) if client is not None
           else dask_client(scheduler, workers, processes)) as c:
-        folder = prepare(study, out)  # written once a scheduler answers
+        # written once a scheduler answers
+        folder = Path(out) if resuming else prepare(study, out)
         tasks = tasks_of(study)
         done = done_tasks(folder)
         todo = [t for t in range(len(tasks)) if t not in done]
@@ -253,7 +255,7 @@ def execute(study: Study, out: str | Path, scheduler: str | None = None, *,
         computed = _compute(c, study, folder, tasks, todo, len(done), on_progress)
     failed = _failed_runs(folder)
     return Outcome(tasks=len(tasks), already_done=len(done), computed=computed,
-                   runs=sum(len(t) for t in tasks), failed_runs=failed, dashboard=link)
+                   runs=count_runs(study), failed_runs=failed, dashboard=link)
 
 
 def _compute(client: Any, study: Study, folder: Path, tasks: list[Any], todo: list[int],

@@ -121,7 +121,7 @@ def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[s
     from exoleg.control.gait_phase import Event
     from exoleg.control.safety import Fault, Limited, joint_name
     from exoleg.sim.closed_loop import sampled_stability
-    from exoleg.sim.metrics import actuator_peaks
+    from exoleg.sim.metrics import walk_peaks
     from exoleg.sim.walk import simulate_walk
     from exoleg.sizing.fit import fit_device
     from exoleg.sizing.personal import personalized_leg
@@ -140,14 +140,8 @@ def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[s
         row["error"] = f"{type(e).__name__}: {e}"
         return row
     dt = float(r.t[1] - r.t[0])
-    walking = r.t >= r.walk_start + r.stride_time
-    err = np.degrees(np.sqrt(np.mean((r.q - r.q_ref)[walking] ** 2, axis=0)))
-    peaks = actuator_peaks(r.actuators, r.tau, r.dq, r.u_safe, r.envelope, dt)
     status = r.safety_status
-    for i, (p, j) in enumerate(zip(peaks, JOINTS, strict=True)):
-        p["rms_tracking_error_deg"] = float(err[i])
-        p["safety_winding_max_C"] = float(r.winding_temp[:, i].max())
-        p["safety_gear_peak_Nm"] = float(np.abs(r.gear_torque[:, i]).max())
+    for p, j in zip(walk_peaks(r), JOINTS, strict=True):
         for m in JOINT_METRICS:
             row[f"{m}_{j}"] = float(p[m])
     postures = r.q[::10]
