@@ -1,0 +1,1 @@
+"""The child as an actor: passive joint moments, spasticity and the child's own effort."""

@@ -1,0 +1,232 @@
+"""Passive joint moments of the child: Riener & Edrich's double exponentials with their
+two-joint coupling (``data/child/passive.toml``), scaled to the child by height^5
+(Lebiedowska & Fisk 1999), with contracture as shortened muscles
+(``data/child/contracture.toml``).
+
+Each term k of joint j is ``sign_k exp(a_k + b_k . phi)`` with phi = (phi_A, phi_K,
+phi_H) in Riener's degrees (ankle plantarflexion, knee and hip flexion positive); a
+joint's moment is the sum of its terms and a constant. For a child of height H the
+moments are scaled by s = (H / H_ref)^5 (``ln s`` added to every a, the constants
+multiplied by s). A contracted muscle group's term ``exp(a + da + f_own b_own phi_own +
+f_cpl b_cpl . phi_cpl)``: ``da`` is the shortening (its passive force rises at a
+shorter stretch), ``f_own`` and ``f_cpl`` the steeper rise of shorter fibres over its own
+joint and over the joints it crosses besides; each scaled by the contracture level.
+
+Beyond the range the moments were measured over (:data:`VALID_DEG`) each term goes on
+along its tangent (never below zero) instead of growing exponentially.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from typing import Any
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from exoleg.errors import ParameterError
+from exoleg.layout import F8, new
+from exoleg.params import _check
+from exoleg.params.records import JOINTS
+
+F64 = NDArray[np.float64]
+
+#: muscle groups a term may stand for ("limit": the joint's own end-range structures)
+GROUPS = ("hip_flexors", "hip_extensors", "knee_flexors", "knee_extensors", "limit",
+          "plantarflexors", "dorsiflexors")
+#: each coordinate's range in Riener's degrees (phi_A plantarflexion +, phi_K, phi_H
+#: flexion +) over which the curves were measured and checked (the predictcpgait
+#: child's sweeps); the terms continue on their tangents beyond
+VALID_DEG = ((-30.0, 30.0), (0.0, 100.0), (-20.0, 90.0))
+N_TERMS = 7
+
+#: The passive model as the compiled code reads it: per term its joint (0 hip, 1 knee,
+#: 2 ankle), sign, exponent coefficients (a, b_A, b_K, b_H) with the child's scale and
+#: contracture applied; per joint its constant (N m, scaled) and viscous damping
+#: (N m s/rad); ``on`` 0 for a leg without a child model.
+PASSIVE = np.dtype([("on", F8), ("joint", F8, N_TERMS), ("sign", F8, N_TERMS),
+                    ("coef", F8, (N_TERMS, 4)), ("constant", F8, 3), ("damping", F8, 3),
+                    ("valid", F8, (3, 2))])
+
+
+def _data(name: str) -> dict[str, Any]:
+    text = resources.files("exoleg").joinpath("data", "child", name).read_text()
+    return tomllib.loads(text)
+
+
+@dataclass(frozen=True)
+class Term:
+    joint: int
+    group: str
+    sign: float
+    a: float
+    b: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class RienerModel:
+    """The adults' model as printed (``data/child/passive.toml``)."""
+
+    terms: tuple[Term, ...]
+    constant: tuple[float, float, float]
+    reference_height: float
+    source: str = field(default="", compare=False)
+
+    @classmethod
+    def shipped(cls) -> RienerModel:
+        d = _data("passive.toml")
+        terms = tuple(Term(JOINTS.index(t["joint"]), t["group"], float(t["sign"]),
+                           float(t["a"]), tuple(float(v) for v in t["b"]))  # type: ignore[arg-type]
+                      for t in d["term"])
+        return cls(terms, tuple(float(c) for c in d["constant"]),  # type: ignore[arg-type]
+                   float(d["reference_height_m"]), str(d["source"]))
+
+
+@dataclass(frozen=True)
+class Contracture:
+    """Shortened muscles: per group (:data:`GROUPS` but "limit") the shortening ``da``
+    (added to the term's exponent) and the steepening of its own (``f_own``) and coupled
+    (``f_cpl``) coordinates, and the change of each joint's constant moment (Riener's
+    units, N m at the reference height), at ``level`` 1; level 0 is none."""
+
+    name: str
+    groups: dict[str, tuple[float, float, float]]
+    level: float = 1.0
+    constant: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    source: str = field(default="", compare=False)
+
+    def __post_init__(self) -> None:
+        lv = _check.finite("contracture", "level", self.level)
+        if not 0.0 <= lv <= 1.5:
+            raise ParameterError("contracture", "level", f"{lv:g} is outside 0-1.5 "
+                                 "(0 none, 1 the preset as measured)")
+        for g, v in self.groups.items():
+            if g not in GROUPS or g == "limit":
+                raise ParameterError("contracture", g, "unknown muscle group (allowed: "
+                                     + ", ".join(x for x in GROUPS if x != "limit") + ")")
+            if not (len(v) == 3 and all(math.isfinite(x) for x in v)
+                    and -5 <= v[0] <= 5 and 0.1 <= v[1] <= 5 and 0.1 <= v[2] <= 5):
+                raise ParameterError("contracture", g, f"{v!r}: expected [da (-5..5), "
+                                     "f_own (0.1..5), f_cpl (0.1..5)]")
+
+    @classmethod
+    def none(cls) -> Contracture:
+        return cls("none", {}, 0.0)
+
+    @classmethod
+    def preset(cls, name: str, level: float = 1.0) -> Contracture:
+        """A shipped preset (``data/child/contracture.toml``): ``none`` or a measured
+        child's."""
+        if name == "none":
+            return cls.none()
+        d = _data("contracture.toml")
+        if name not in d:
+            raise ParameterError("contracture", "preset", f"unknown {name!r} (allowed: none, "
+                                 + ", ".join(sorted(d)) + ")")
+        p = d[name]
+        return cls(name, {g: tuple(float(x) for x in v) for g, v in p["groups"].items()},  # type: ignore[misc]
+                   level, tuple(float(x) for x in p.get("constant", (0, 0, 0))),  # type: ignore[arg-type]
+                   str(p.get("source", "")))
+
+
+#: which coordinate (0 A, 1 K, 2 H) is a term's own joint's
+_OWN = {0: 2, 1: 1, 2: 0}
+
+
+def passive_record(height: float, contracture: Contracture | None = None,
+                   damping: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                   model: RienerModel | None = None) -> NDArray[np.void]:
+    """The compiled model (:data:`PASSIVE`) for a child of ``height`` m."""
+    m = RienerModel.shipped() if model is None else model
+    c = Contracture.none() if contracture is None else contracture
+    h = _check.finite("passive", "height", height)
+    if not 0.5 <= h <= 2.2:
+        raise ParameterError("passive", "height", f"{h:g} m is outside 0.5-2.2 m")
+    s = (h / m.reference_height) ** 5
+    r = new(PASSIVE)
+    r["on"] = 1.0
+    for k, t in enumerate(m.terms):
+        da, fo, fc = c.groups.get(t.group, (0.0, 1.0, 1.0))
+        lv = c.level
+        da, fo, fc = lv * da, 1.0 + lv * (fo - 1.0), 1.0 + lv * (fc - 1.0)
+        own = _OWN[t.joint]
+        b = [v * (fo if i == own else fc) for i, v in enumerate(t.b)]
+        r["joint"][0, k], r["sign"][0, k] = t.joint, t.sign
+        r["coef"][0, k] = (t.a + da + math.log(s), *b)
+    r["constant"] = (np.array(m.constant) + c.level * np.array(c.constant)) * s
+    r["damping"] = damping
+    r["valid"] = VALID_DEG
+    return r
+
+
+@njit(cache=True)
+def term_value(P, k, phi):  # type: ignore[no-untyped-def]
+    """Term k's magnitude (>= 0) at phi (3,) in Riener's degrees: the exponential inside
+    the valid range, its tangent (not below zero) beyond."""
+    c = P.coef[k]
+    u = c[0]
+    lin = 0.0
+    for i in range(3):
+        lo, hi = P.valid[i, 0], P.valid[i, 1]
+        v = min(max(phi[i], lo), hi)
+        u += c[1 + i] * v
+        lin += c[1 + i] * (phi[i] - v)
+    return math.exp(u) * max(0.0, 1.0 + lin)
+
+
+@njit(cache=True)
+def riener_phi(q, phi):  # type: ignore[no-untyped-def]
+    """exoleg's joint angles q (rad) -> Riener's phi = (phi_A plantarflexion, phi_K
+    flexion, phi_H flexion), degrees."""
+    d = 180.0 / math.pi
+    phi[0] = -q[2] * d
+    phi[1] = -q[1] * d
+    phi[2] = q[0] * d
+
+
+@njit(cache=True)
+def passive_torque(P, q, dq, out):  # type: ignore[no-untyped-def]
+    """The passive joint torques (N m, exoleg's signs: + moves q +) at (q, dq) into out
+    (3,): the elastic moments and the viscous damping."""
+    R = P[0]
+    for j in range(3):
+        out[j] = 0.0
+    if R.on == 0.0:
+        return
+    phi = np.empty(3)
+    riener_phi(q, phi)
+    m = np.zeros(3)
+    for k in range(N_TERMS):
+        m[int(R.joint[k])] += R.sign[k] * term_value(R, k, phi)
+    for j in range(3):
+        m[j] += R.constant[j]
+    # Riener's moments flex hip and knee and plantarflex the ankle; exoleg's knee
+    # flexion and ankle plantarflexion are negative q
+    out[0] = m[0] - R.damping[0] * dq[0]
+    out[1] = -m[1] - R.damping[1] * dq[1]
+    out[2] = -m[2] - R.damping[2] * dq[2]
+
+
+def passive_moments(P: NDArray[np.void], q: Any, dq: Any = None) -> F64:
+    """The passive torques at joint angles ``q`` (3,) or (n, 3), rad; exoleg's signs."""
+    qa = np.atleast_2d(np.asarray(q, dtype=float))
+    da = np.zeros_like(qa) if dq is None else np.atleast_2d(np.asarray(dq, dtype=float))
+    out = np.empty_like(qa)
+    for i in range(qa.shape[0]):
+        passive_torque(P, qa[i], da[i], out[i])
+    return out[0] if np.ndim(q) == 1 else out
+
+
+def riener_moments(phi_a: float, phi_k: float, phi_h: float) -> tuple[float, float, float]:
+    """Riener & Edrich's (M_H, M_K, M_A) as printed (their signs and degrees), for
+    checking the shipped coefficients."""
+    m = RienerModel.shipped()
+    out = list(m.constant)
+    for t in m.terms:
+        out[t.joint] += t.sign * math.exp(t.a + t.b[0] * phi_a + t.b[1] * phi_k
+                                          + t.b[2] * phi_h)
+    return out[0], out[1], out[2]

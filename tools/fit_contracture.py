@@ -1,0 +1,83 @@
+"""Fit the predictcpgait child's contracture (data/child/contracture.toml) to its passive
+moment curves (data/child/falisse2020_cp_child_passive_moments.csv).
+
+The base is Riener & Edrich's model scaled to a 33 kg child (s = 0.30, height 1.375 m:
+child-references); per muscle group the shortening da and the steepening f_own, f_cpl
+are fitted (scipy least squares, weights 1/sqrt(1 + |M|) so the small moments near
+rest count) to the personalized curves. Prints the fit and the six signatures; writes
+the TOML with --write. Needs scipy (a development tool, not a dependency).
+
+    python tools/fit_contracture.py [--write]
+"""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from exoleg.child.passive import GROUPS, Contracture, passive_moments, passive_record
+from exoleg.child.curves import falisse_curves, signatures
+
+HEIGHT = 1.375
+MUSCLES = [g for g in GROUPS if g != "limit"]
+
+
+def contracture(x: np.ndarray) -> Contracture:
+    return Contracture("fit", {g: (x[3 * i], x[3 * i + 1], x[3 * i + 2])
+                               for i, g in enumerate(MUSCLES)}, 1.0, tuple(x[-3:]))
+
+
+def main() -> None:
+    cur = falisse_curves()
+    pers = cur[cur.params == "personalized"]
+    q, y = pers.q, pers.moment
+
+    def resid(x: np.ndarray) -> np.ndarray:
+        P = passive_record(HEIGHT, contracture(x))
+        m = passive_moments(P, q)[np.arange(len(y)), pers.joint]
+        return (m - y) / np.sqrt(1.0 + np.abs(y))
+
+    x0 = np.r_[np.tile([0.0, 1.0, 1.0], len(MUSCLES)), 0.0, 0.0, 0.0]
+    lo = np.r_[np.tile([-5.0, 0.1, 0.1], len(MUSCLES)), -100.0, -100.0, -100.0]
+    hi = np.r_[np.tile([5.0, 5.0, 5.0], len(MUSCLES)), 100.0, 100.0, 100.0]
+    best = None
+    for seed in range(8):
+        st = x0 if seed == 0 else np.clip(
+            x0 + np.random.default_rng(seed).normal(0, 0.4, x0.size), lo + 1e-6, hi - 1e-6)
+        r = least_squares(resid, st, bounds=(lo, hi))
+        if best is None or r.cost < best.cost:
+            best = r
+    x = best.x
+    P = passive_record(HEIGHT, contracture(x))
+    e = passive_moments(P, q)[np.arange(len(y)), pers.joint] - y
+    print(f"personalized: RMS {np.sqrt(np.mean(e ** 2)):.2f} N m, max {np.abs(e).max():.2f}")
+    for n, v in zip(("knee rest, hip 0 (deg)", "knee flexion moment, hip 90, knee 0 (N m)",
+                     "knee zero crossing, hip 90 (deg)", "ankle neutral, knee 0 (deg)",
+                     "plantarflexor moment at 0 deg (N m)", "dorsiflexion at 10 N m (deg)"),
+                    zip(signatures(passive_record(HEIGHT)), signatures(P), strict=True),
+                    strict=True):
+        print(f"  {n:45s} none {v[0]:7.2f}   fitted {v[1]:7.2f}")
+    lines = ["[predictcpgait]",
+             'source = "fitted by tools/fit_contracture.py to the personalized passive moments '
+             'of the predictcpgait child (Falisse et al. 2020, Front Hum Neurosci 14:40; '
+             'data/child/falisse2020_cp_child_passive_moments.csv) on Riener & Edrich scaled '
+             f'to {HEIGHT} m"',
+             "[predictcpgait.groups]   # da, f_own, f_cpl"]
+    lines.insert(2, f"constant = [{x[-3]:.4f}, {x[-2]:.4f}, {x[-1]:.4f}]   # N m, hip, knee, ankle")
+    lines += [f"{g} = [{x[3*i]:.4f}, {x[3*i+1]:.4f}, {x[3*i+2]:.4f}]"
+              for i, g in enumerate(MUSCLES)]
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if "--write" in sys.argv:
+        from importlib import resources
+        path = resources.files("exoleg").joinpath("data", "child", "contracture.toml")
+        head = ("# Contracture presets: shortened muscles (the exponent's shift da) with shorter\n"
+                "# fibres (steeper rise f_own over the muscle's own joint, f_cpl over the others\n"
+                "# it crosses), per muscle group of data/child/passive.toml; at level 1 as fitted.\n")
+        open(str(path), "w").write(head + text)
+
+
+if __name__ == "__main__":
+    main()
