@@ -13,7 +13,9 @@ import pytest
 
 import exoleg
 from exoleg.device import with_actuators
+from exoleg.child.passive import PASSIVE
 from exoleg.device.actuator import ACTUATOR
+from exoleg.layout import new
 from exoleg.device.walking import (
     WalkingPlant,
     step_contacts,
@@ -23,6 +25,7 @@ from exoleg.device.walking import (
 
 LEG = with_actuators(exoleg.paper_leg())
 NO_FRICTION = np.zeros(0, ACTUATOR)
+NO_CHILD = new(PASSIVE)  # no child actor: no passive moments
 H = 2.5e-4
 
 
@@ -36,7 +39,7 @@ def _run(plant: WalkingPlant, x0: np.ndarray, q_hold: np.ndarray, n: int,
     for _ in range(n):
         step_contacts(p, w, x, pts, F, gen)
         tau = kp * (q_hold - x[1:4]) - kd * x[5:8] + plant.leg.G(x[1:4])
-        walking_step(p, w, NO_FRICTION, x, tau, gen, h)
+        walking_step(p, w, NO_FRICTION, NO_CHILD, x, tau, gen, h)
         X.append(x.copy())
         FN.append(F[:, 1].sum())
         GEN.append(gen.copy())

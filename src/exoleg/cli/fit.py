@@ -90,10 +90,21 @@ def cmd_fit(args: argparse.Namespace) -> int:
         write_leg = fit.fits or args.write_leg
         out.stage("fit.json").write_text(json.dumps(rep.record(write_leg), indent=2))
         written = ["fit.json"]
+        if child.gmfcs != 5:
+            from exoleg.child.model import ChildModel, Spasticity
+            from exoleg.child.passive import Contracture
+
+            cm = ChildModel(child.name, child.age, child.height, child.mass, child.gmfcs or 0,
+                            Contracture.preset(args.contracture),
+                            Spasticity.preset(args.spasticity), True, args.crouch)
+            out.stage("child.toml").write_text(cm.to_toml())
+            written.insert(0, "child.toml")
         if write_leg:
             rep.save_leg(out.stage("leg.toml"))
             written.insert(0, "leg.toml")
         out.commit(last="fit.json")
+    if "child.toml" in written:
+        _say(f"wrote {out.folder}/child.toml (for exoleg simulate --walk --child)")
     if "leg.toml" in written:
         _say(f"wrote {out.folder}/leg.toml (for exoleg simulate --leg) and {out.folder}/fit.json")
     else:
@@ -130,6 +141,14 @@ def add_parser(sub: Any) -> None:
     f.add_argument("--no-simulate", action="store_true", help="skip the simulated gait demand")
     f.add_argument("--write-leg", action="store_true",
                    help="write leg.toml even when the device does not fit (marked as such)")
+    f.add_argument("--spasticity", choices=["none", "mild", "moderate", "severe"],
+                   default="none", help="the child model's spasticity preset (child.toml)")
+    f.add_argument("--crouch", type=int, choices=[0, 1, 2, 3, 4, 5], default=0,
+                   help="the child's intended gait: 0 normative, 1-5 Rozumalski & Schwartz "
+                        "2009's crouch cluster (child.toml)")
+    f.add_argument("--contracture", choices=["none", "predictcpgait"], default="none",
+                   help="the child model's contracture preset (child.toml): none, or the "
+                        "predictcpgait child's (Falisse et al. 2020)")
     f.add_argument("--name", default="child")
     f.add_argument("--out", type=Path, default=Path("exoleg-fit"))
     f.set_defaults(func=cmd_fit)

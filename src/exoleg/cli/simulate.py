@@ -54,6 +54,7 @@ APPLIES: dict[str, tuple[tuple[str, ...], str]] = {
     **{o: (("walk",), "") for o in _WALK_DEFAULTS},
     "device": (_DEVICE, ""),
     "hip_motor": (_DEVICE, ""),
+    "child": (("walk",), ""),
 }
 _FLAG = {"scenario": "the paper's scenario (neither --actuators nor --walk)",
          "actuators": "--actuators", "walk": "--walk"}
@@ -398,5 +399,9 @@ def add_parser(sub: Any) -> None:
     s.add_argument("--hip-motor", choices=HIP_VARIANTS, help="with --walk or --actuators: the "
                    "hip's motor variant (data/device/hip-variants; the shipped hip is "
                    "ec90flat-160w, the paper's '220 W' assumed)")
+    s.add_argument("--child", type=Path, metavar="FILE",
+                   help="walk: the child as an actor (child.toml, written by exoleg fit): "
+                        "passive joint moments, contracture, spasticity, their own effort; "
+                        "its mass replaces --body-mass")
     s.set_defaults(func=cmd_simulate,
                    variant_defaults={a.dest: a.default for a in s._actions if a.dest in APPLIES})

@@ -9,6 +9,7 @@ from typing import Any
 
 from exoleg.cli._common import _read_leg, _say, _table
 from exoleg.cli.simulate import _write_run, device_actuators
+from exoleg.sim.metrics import interaction_summary
 
 
 def _simulate_walk(args: argparse.Namespace) -> int:
@@ -32,10 +33,16 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     else:
         leg = exoleg.paper_leg("simplified")
     stride = args.stride_time or 1.1
+    child = None
+    if args.child:
+        from exoleg.child.model import ChildModel
+
+        child = ChildModel.load(args.child)
+        args.body_mass = child.mass
     r = simulate_walk(leg, args.body_mass, strides=args.strides, speed=args.speed or "Free",
                       stride_time=stride, noise_scale=args.noise, seed=args.seed,
                       ankle_height=args.ankle_height / 100, device=args.device,
-                      actuators=device_actuators(args))
+                      actuators=device_actuators(args), child=child)
     rows = detection_table([r])
     peaks = walk_peaks(r)
     over = (r.safety_status & Limited.GEAR_PEAK) > 0
@@ -47,7 +54,9 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     figs = {"strides_commanded": args.strides, "body_mass_kg": args.body_mass,
             "pelvis_mass_kg": r.plant.body_mass, "belt_speed_m_s": r.plant.belt_speed,
             "safety_fault": fault, "peaks": peaks, "gait_phase_detection": rows,
-            "max_contact_force_N": float(r.contact_force.sum(axis=1).max())}
+            "max_contact_force_N": float(r.contact_force.sum(axis=1).max()),
+            "child": None if child is None else child.name,
+            "interaction_torque": interaction_summary(r)}
     wrote = _write_run(args, r, walk_figure, "walk", t0,
                        {"leg": leg.name, "figures": figs, "notes": notes,
                         "actuators": [dataclasses.asdict(a) for a in r.actuators]})

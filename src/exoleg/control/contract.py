@@ -53,9 +53,12 @@ class Command(IntEnum):
 
 #: What the device reads each tick: joint angles (rad) and rates (rad/s) as measured
 #: (encoders and their filter), the four FSRs (ADC counts), the foot IMU's gyro (rad/s)
-#: and accelerations (m/s^2, foot frame), and the operator's command (:class:`Command`).
+#: and accelerations (m/s^2, foot frame), the operator's command (:class:`Command`),
+#: and the torque the cuffs transmit to the child per joint (N m,
+#: :mod:`exoleg.child.interaction`: the simulated device's own; NaN where a device has
+#: no cuff or joint-torque sensor, as the drives on the buses have not).
 SENSORS = np.dtype([("q", F8, 3), ("dq", F8, 3), ("fsr", F8, 4), ("gyro", F8),
-                    ("accel", F8, 2), ("command", I8)])
+                    ("accel", F8, 2), ("command", I8), ("interaction", F8, 3)])
 
 #: What a controller gives each tick: the torque to the drives (N m), the supervisor's
 #: mode (:class:`Mode`), the gait phase (:class:`~exoleg.control.gait_phase.Phase`), the
@@ -134,6 +137,9 @@ class TickRecords:
         v["fsr"][:] = _check.reading(w, "fsr", sensors.get("fsr"), 4)
         if "accel" in sensors:
             v["accel"][:] = _check.reading(w, "accel", sensors["accel"], 2)
+        it = sensors.get("interaction")
+        v["interaction"][:] = np.nan if it is None else _check.reading(
+            w, "interaction", it, 3)
         g = sensors.get("gyro", 0.0)
         v["gyro"][0] = g if type(g) is float else _check.reading(w, "gyro", [g], 1)[0]
         if isinstance(command, bool) or not isinstance(command, (int, np.integer)) \

@@ -41,6 +41,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from exoleg.child.passive import passive_torque
 from exoleg.device.actuator import friction
 from exoleg.device.sensors import SENSOR_X
 from exoleg.dynamics.kernels import (
@@ -348,20 +349,24 @@ def walking_energy(p, w, y, dy, q, dq):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def _deriv(p, w, A, y, dy, q, dq, tau, gen, out):  # type: ignore[no-untyped-def]
+def _deriv(p, w, A, P, y, dy, q, dq, tau, gen, out):  # type: ignore[no-untyped-def]
     """(ddy, ddq) with the actuators' friction (A: (3,) of
-    :data:`~exoleg.device.actuator.ACTUATOR`, or an empty one for none)."""
+    :data:`~exoleg.device.actuator.ACTUATOR`, or an empty one for none) and the child's
+    passive joint moments (P: :data:`~exoleg.child.passive.PASSIVE`, off for none)."""
     t = np.empty(3)
+    pas = np.empty(3)
+    passive_torque(P, q, dq, pas)
     for i in range(3):
-        t[i] = tau[i] - (friction(A[i:i + 1], dq[i]) if A.shape[0] == 3 else 0.0)
+        t[i] = tau[i] + pas[i] - (friction(A[i:i + 1], dq[i]) if A.shape[0] == 3 else 0.0)
     walking_accel(p, w, y, dy, q, dq, t, gen, out)
 
 
 @njit(cache=True)
-def walking_step(p, w, A, x, tau, gen, h):  # type: ignore[no-untyped-def]
+def walking_step(p, w, A, P, x, tau, gen, h):  # type: ignore[no-untyped-def]
     """One RK4 step of the state x (8,) = (y, q0, q1, q2, dy, dq0, dq1, dq2), in place, with
     the joint torques ``tau`` and generalized external forces ``gen`` held (the contact
-    forces of the step's start, :func:`step_contacts`)."""
+    forces of the step's start, :func:`step_contacts`); the child's passive moments
+    (``P``) in every stage."""
     k = np.empty((4, 8))
     s = x.copy()
     a = np.empty(4)
@@ -370,7 +375,7 @@ def walking_step(p, w, A, x, tau, gen, h):  # type: ignore[no-untyped-def]
         if stage > 0:
             for i in range(8):
                 s[i] = x[i] + c * h * k[stage - 1, i]
-        _deriv(p, w, A, s[0], s[4], s[1:4], s[5:8], tau, gen, a)
+        _deriv(p, w, A, P, s[0], s[4], s[1:4], s[5:8], tau, gen, a)
         for i in range(4):
             k[stage, i] = s[4 + i]
             k[stage, 4 + i] = a[i]

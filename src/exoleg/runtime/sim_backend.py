@@ -29,7 +29,8 @@ class SimBackend:
 
     columns = ([f"q_meas_{j}" for j in JOINTS] + [f"dq_meas_{j}" for j in JOINTS]
                + ["fsr_heel", "fsr_met1", "fsr_met5", "fsr_hallux", "gyro"]
-               + [f"q_{j}" for j in JOINTS] + ["pelvis"] + [f"tau_{j}" for j in JOINTS])
+               + [f"q_{j}" for j in JOINTS] + ["pelvis"] + [f"tau_{j}" for j in JOINTS]
+               + [f"interaction_{j}" for j in JOINTS] + [f"child_{j}" for j in JOINTS])
 
     def __init__(self, leg: LegModel, body_mass: float, period: float = 1e-3,
                  substeps: int = 2, seed: int = 0, **walk: Any) -> None:
@@ -42,6 +43,7 @@ class SimBackend:
         self.period = period
         self.substeps = substeps
         self.S = self.dev.state()
+        self.K = self.dev.child_records(period)
         self.w = self.dev.plant.record()
         self.p = self.dev.plant.leg.p
         self.sens = self.dev.sensors.record()
@@ -77,7 +79,8 @@ class SimBackend:
         device_sense(self.p, w, self.dev.A, self.sens, self.dev.imu_x, -self.dev.depth, S,
                      self.period, True, self.fsr_noise[0], self.imu_noise[0], self.bias,
                      new(SENSORS), f)
-        device_actuate(self.p, w, self.dev.A, S, self.period, self.substeps, np.zeros(3), f,
+        device_actuate(self.p, w, self.dev.A, self.dev.child_records(self.period), S,
+                       self.period, self.substeps, np.zeros(3), f,
                        False, 0.0, 1e18, self.dev.stride_time, self.dev.support,
                        self.dev.plant.support_height, np.zeros(3), np.zeros(3))
 
@@ -91,7 +94,8 @@ class SimBackend:
                      self.S, self.period, self.k == 0, self.fsr_noise[i], self.imu_noise[i],
                      self.bias, self.reading, self.fn)
         r = self.reading[0]
-        return {"q": r["q"], "dq": r["dq"], "fsr": r["fsr"], "gyro": float(r["gyro"])}
+        return {"q": r["q"], "dq": r["dq"], "fsr": r["fsr"], "gyro": float(r["gyro"]),
+                "interaction": r["interaction"]}
 
     def write(self, tau: F64, enable: bool) -> None:
         """The drives' torque command (N m), zero unless ``enable``."""
@@ -106,7 +110,8 @@ class SimBackend:
         t = self.k * self.period
         if self.walking and self.walk_start < 0:
             self.walk_start = t
-        device_actuate(self.p, self.w, self.dev.A, self.S, self.period, self.substeps, self.u,
+        device_actuate(self.p, self.w, self.dev.A, self.K, self.S, self.period, self.substeps,
+                       self.u,
                        self.fn, self.walking, t,
                        self.walk_start if self.walking else 1e18, self.dev.stride_time,
                        self.dev.support, self.dev.plant.support_height, self.env, self.tau)
@@ -116,4 +121,4 @@ class SimBackend:
     def record(self) -> F64:
         r, x = self.reading[0], self.S[0]["x"]
         return np.concatenate([r["q"], r["dq"], r["fsr"], [r["gyro"]], x[1:4], x[:1],
-                               self.tau])
+                               self.tau, r["interaction"], self.S[0]["child"]])

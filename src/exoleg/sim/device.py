@@ -14,11 +14,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from exoleg.child.interaction import device_leg, interaction_torque
+from exoleg.child.model import ChildModel, child_records, child_tick
 from exoleg.control.hierarchy import START_FRACTION, WalkController, WalkGains
 from exoleg.control.safety import SafetyLimits
 from exoleg.device.actuator import (
@@ -62,11 +65,14 @@ def _imu_point(p, x, px, py):  # type: ignore[no-untyped-def]
 #: last readings (rad), the filtered rates (rad/s), the IMU point's last velocity (m/s),
 #: the other leg's timing (this leg loaded, its last toe off and strike, s), the
 #: belt's speed while walking (m/s), and the FSRs' memory (their last normalised force,
-#: hysteresis direction and creep states: :func:`~exoleg.device.sensors.fsr_response`).
+#: hysteresis direction and creep states: :func:`~exoleg.device.sensors.fsr_response`),
+#: the child's muscles' torque over the last tick (reflexes and effort, N m; their
+#: passive moments act in the plant) and the cuffs' torque (the interaction torque,
+#: :mod:`exoleg.child.interaction`; NaN when the device's own links are unknown).
 DEVICE = np.dtype([("x", F8, 8), ("tau", F8, 3), ("qm", F8, 3), ("vm", F8, 3),
                    ("v_imu", F8, 2), ("loaded", np.bool_), ("t_off", F8), ("t_strike", F8),
                    ("belt", F8), ("fsr_last", F8, 4), ("fsr_memory", F8, 4),
-                   ("fsr_creep", F8, (4, 3))])
+                   ("fsr_creep", F8, (4, 3)), ("child", F8, 3), ("interaction", F8, 3)])
 
 
 def device_state(plant: WalkingPlant, A: NDArray[np.void], x0: F64, imu_x: float,
@@ -82,6 +88,7 @@ def device_state(plant: WalkingPlant, A: NDArray[np.void], x0: F64, imu_x: float
     r["loaded"] = True
     r["t_off"] = r["t_strike"] = -1e9
     r["belt"] = plant.belt_speed
+    r["interaction"] = np.nan
     return S
 
 
@@ -106,6 +113,8 @@ def device_sense(p, w, A, sens, imu_x, imu_y, S, h, first, fsr_noise, imu_noise,
     ax = 0.0 if first else (vx - D.v_imu[0]) / h
     ay = 0.0 if first else (vy - D.v_imu[1]) / h
     D.v_imu[0], D.v_imu[1] = vx, vy
+    for i in range(3):
+        o.interaction[i] = D.interaction[i]
     o.gyro, o.accel[0], o.accel[1] = imu(sens, x[5] + x[6] + x[7], ax, ay, phi, w[0].g,
                                          imu_bias[0], imu_bias[1], imu_bias[2],
                                          imu_noise[0], imu_noise[1], imu_noise[2])
@@ -120,14 +129,17 @@ def device_sense(p, w, A, sens, imu_x, imu_y, S, h, first, fsr_noise, imu_noise,
 
 
 @njit(cache=True, error_model="numpy")
-def device_actuate(p, w, A, S, h, sub, u, fn, walking, t, t_walk, stride, support,  # type: ignore[no-untyped-def]
+def device_actuate(p, w, A, K, S, h, sub, u, fn, walking, t, t_walk, stride, support,  # type: ignore[no-untyped-def]
                    stand_support, env, tau):
     """The drives and ``sub`` plant steps over one tick of ``h`` s under the torque command
     ``u`` (3,): the envelope at the measured speed (into ``env``), the current loop (the
     mean torque delivered into ``tau``), contacts held per step. The treadmill runs and the
     other leg (an actor) keeps time with this leg's true foot strikes (from ``fn``) while
-    ``walking``. Returns (the other leg's mean force on the pelvis, 1 if the state is
-    still finite)."""
+    ``walking``. The child (``K``: :meth:`SimulatedDevice.child_records`) acts too: their
+    passive moments in every stage, their reflexes and effort held over the tick; the
+    cuffs' torque of the tick into the state. Returns (the other leg's mean force on the
+    pelvis, 1 if the state is still finite)."""
+    P, C, CS, pd = K
     D = S[0]
     W = w[0]
     total = fn[0] + fn[1] + fn[2] + fn[3]
@@ -138,6 +150,7 @@ def device_actuate(p, w, A, S, h, sub, u, fn, walking, t, t_walk, stride, suppor
     elif D.loaded:
         D.loaded = False
         D.t_off = t
+    xc = 0.0
     if walking and t >= t_walk:
         W.belt_speed = D.belt
         if D.t_strike > t_walk:
@@ -152,10 +165,14 @@ def device_actuate(p, w, A, S, h, sub, u, fn, walking, t, t_walk, stride, suppor
     for i in range(3):
         env[i] = envelope(A[i:i + 1], D.vm[i])
     x = D.x
+    child_tick(P, C, CS, x[1:4], x[5:8], h, walking and t >= t_walk, xc, D.loaded,
+               D.child)
+    x0 = x.copy()
     pts = np.empty((4, 4))
     F = np.empty((4, 2))
     gen = np.empty(4)
     mean = np.empty(3)
+    joint = np.empty(3)
     acc = np.zeros(3)
     supp = 0.0
     hs = h / sub
@@ -164,10 +181,18 @@ def device_actuate(p, w, A, S, h, sub, u, fn, walking, t, t_walk, stride, suppor
             tc = min(max(u[i], -env[i]), env[i])
             D.tau[i], mean[i] = current_loop(A[i:i + 1], D.tau[i], tc, hs)
             acc[i] += mean[i]
+            joint[i] = mean[i] + D.child[i]
         supp += step_contacts(p, w, x, pts, F, gen)
-        walking_step(p, w, A, x, mean, gen, hs)
+        walking_step(p, w, A, P, x, joint, gen, hs)
     for i in range(3):
         tau[i] = acc[i] / sub
+    if pd.shape[0] > 0:  # the cuffs' torque over the tick, from its mean accelerations
+        qm, dqm, ddq = np.empty(3), np.empty(3), np.empty(3)
+        for i in range(3):
+            qm[i] = 0.5 * (x0[1 + i] + x[1 + i])
+            dqm[i] = 0.5 * (x0[5 + i] + x[5 + i])
+            ddq[i] = (x[5 + i] - x0[5 + i]) / h
+        interaction_torque(pd, A, W.g, qm, dqm, ddq, (x[4] - x0[4]) / h, tau, D.interaction)
     ok = 1
     for i in range(8):
         if not math.isfinite(x[i]):
@@ -192,6 +217,9 @@ class SimulatedDevice:
     controller: WalkController
     x0: F64
     stride_time: float
+    speed: str = "Free"
+    child: ChildModel | None = None
+    device_p: F64 | None = None
 
     @property
     def actuators(self) -> tuple[ActuatorModel, ...]:
@@ -209,6 +237,16 @@ class SimulatedDevice:
         """A fresh device state at the start posture (:data:`DEVICE`)."""
         return device_state(self.plant, self.A, self.x0, self.imu_x, -self.depth)
 
+    def child_records(self, h: float) -> tuple[Any, ...]:
+        """The child's compiled records, a fresh memory, and the device alone's parameters
+        (for the cuffs' torque), as :func:`device_actuate` takes them."""
+        q0 = self.controller.gains.standing
+        P, C, CS = child_records(self.child, h, self.stride_time, self.speed, q0,
+                                 float(self.leg.lengths[0] + self.leg.lengths[1]),
+                                 np.diag(self.plant.leg.M(q0)))
+        pd = np.zeros(0) if self.device_p is None else self.device_p
+        return P, C, CS, pd
+
 
 def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
                  stride_time: float = 1.1, noise_scale: float = 1.0,
@@ -216,11 +254,13 @@ def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
                  gains: WalkGains | None = None, safety: SafetyLimits | None = None,
                  ground: Ground | None = None, sensors: FootSensors | None = None,
                  control_dt: float = 1e-3, device: str | Path | None = None,
-                 config: DeviceConfig | None = None) -> SimulatedDevice:
+                 config: DeviceConfig | None = None, child: ChildModel | None = None
+                 ) -> SimulatedDevice:
     """The simulated device and its controller for ``leg`` (without actuators; theirs are
     added) and a child of ``body_mass`` kg (see :func:`exoleg.sim.walk.simulate_walk`):
     the device ``config``, or the one :meth:`DeviceConfig.load` reads from ``device``
-    with the records given; the treadmill's ``ground``."""
+    with the records given; the treadmill's ``ground``; the ``child`` as an actor
+    (:class:`~exoleg.child.model.ChildModel`; None: a passive leg, as the paper's)."""
     from exoleg.device.walking import body_weight_share
     from exoleg.entry import BODY_MASS
     from exoleg.reference.gait import SchwartzGait2008
@@ -251,4 +291,6 @@ def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
     return SimulatedDevice(leg=leg, config=cfg, plant=plant, A=params_array(cfg.actuators),
                            support=other_leg_support(leg, depth, speed, gr.support_drop),
                            depth=depth, imu_x=cfg.sensors.imu_position * float(leg.lengths[2]),
-                           controller=ctl, x0=x0, stride_time=stride_time)
+                           controller=ctl, x0=x0, stride_time=stride_time, speed=speed,
+                           child=child,
+                           device_p=device_leg(leg, cfg.actuators).p)

@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from exoleg.control import gait_phase as gp
+from exoleg.params.records import JOINTS
 
 if TYPE_CHECKING:
     from exoleg.sim.walk import WalkResult
@@ -145,3 +146,18 @@ def walk_peaks(r: WalkResult) -> list[dict[str, Any]]:
         p["safety_gear_peak_Nm"] = float(gear.max())
         p["safety_gear_overload_ticks"] = int((over & (gear > p["momentary_peak_Nm"])).sum())
     return peaks
+
+
+def interaction_summary(r: Any) -> list[dict[str, Any]]:
+    """Per joint, the cuffs' torque while walking (from the walk's start to its end):
+    RMS and peak in N m and per kg of the child's body mass."""
+    w = r.t >= r.walk_start
+    out = []
+    for i, j in enumerate(JOINTS):
+        v = r.interaction[w, i]
+        v = v[np.isfinite(v)]
+        rms = float(np.sqrt(np.mean(v * v))) if v.size else float("nan")
+        peak = float(np.max(np.abs(v))) if v.size else float("nan")
+        out.append({"joint": j, "rms_Nm": rms, "peak_Nm": peak,
+                    "rms_Nm_per_kg": rms / r.body_mass, "peak_Nm_per_kg": peak / r.body_mass})
+    return out

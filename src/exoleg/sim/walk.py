@@ -28,6 +28,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from exoleg.child.model import ChildModel
+from exoleg.child.passive import passive_moments
 from exoleg.control.contract import OUTPUT, SENSOR_POINTS, SENSORS, Command, Mode
 from exoleg.control.hierarchy import WalkGains, walk_control_step
 from exoleg.control.safety import SafetyLimits
@@ -44,12 +46,13 @@ from exoleg.sim.series import TimeSeries
 F64 = NDArray[np.float64]
 
 @njit(cache=True, error_model="numpy")
-def _run_walk(p, w, A, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_y, commands,  # type: ignore[no-untyped-def]
+def _run_walk(p, w, A, K, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_y, commands,  # type: ignore[no-untyped-def]
               h, sub, support, stand_support, t_walk, stride, S, X, SENS, FN, OUT, TAU, ENV,
-              SUP):
+              SUP, CH):
     """The walking run: per tick k the device's readings into ``SENS[k]``, the
     controller's tick (``ctl``: :meth:`WalkController.compiled`) into ``OUT[k]``, the
-    drives and the plant. Returns -1, or the tick whose state became non-finite."""
+    drives, the child (``K``) and the plant; the child's muscles' torque into ``CH[k]``.
+    Returns -1, or the tick whose state became non-finite."""
     cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref = ctl
     n = X.shape[0] - 1
     for k in range(n + 1):
@@ -68,12 +71,14 @@ def _run_walk(p, w, A, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_y, 
                 TAU[k, i] = S[0].tau[i]
             break
         # 3. the drives and 4. the plant
-        SUP[k], ok = device_actuate(p, w, A, S, h, sub, OUT[k].tau, FN[k],
+        SUP[k], ok = device_actuate(p, w, A, K, S, h, sub, OUT[k].tau, FN[k],
                                     OUT[k].mode == Mode.WALKING or OUT[k].mode == Mode.STOPPING,
                                     t, t_walk, stride, support,
                                     stand_support, ENV[k], TAU[k])
         for i in range(8):
             X[k + 1, i] = S[0].x[i]
+        for i in range(3):
+            CH[k, i] = S[0].child[i]
         if not ok:
             return k + 1
     return -1
@@ -88,7 +93,9 @@ class WalkResult(TimeSeries):
     status per tick; u_safe (to the drives), tau (delivered), envelope; support (the
     other leg's force on the pelvis, N); the safety layer's estimates per joint:
     winding_temp (degC) and gear_torque (N m); the fault latched and its joint per tick
-    (:class:`~exoleg.control.safety.Fault`, -1 for none)."""
+    (:class:`~exoleg.control.safety.Fault`, -1 for none); the child: ``interaction`` (the
+    cuffs' torque, N m, :mod:`exoleg.child.interaction`), ``child_torque`` (their
+    muscles' reflexes and effort, N m) and ``passive`` (their passive moments, N m)."""
 
     t: F64
     pelvis: F64
@@ -114,10 +121,14 @@ class WalkResult(TimeSeries):
     gear_torque: F64
     fault: NDArray[np.int64]
     fault_joint: NDArray[np.int64]
+    interaction: F64
+    child_torque: F64
+    passive: F64
     plant: WalkingPlant = field(repr=False)
     actuators: tuple[ActuatorModel, ...] = field(repr=False)
     walk_start: float = 0.0
     stride_time: float = 1.1
+    body_mass: float = 30.0
 
     @property
     def motor_speed(self) -> F64:
@@ -135,7 +146,8 @@ class WalkResult(TimeSeries):
     def columns(self) -> dict[str, F64]:
         cols: dict[str, F64] = {"t": self.t, "pelvis": self.pelvis}
         for name in ("q", "dq", "q_meas", "dq_meas", "q_ref", "u_safe", "tau", "envelope",
-                     "motor_speed", "power", "winding_temp", "gear_torque"):
+                     "motor_speed", "power", "winding_temp", "gear_torque", "interaction",
+                     "child_torque", "passive"):
             arr = getattr(self, name)
             for i, j in enumerate(JOINTS):
                 cols[f"{name}_{j}"] = arr[:, i].astype(float)
@@ -169,13 +181,17 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                   gains: WalkGains | None = None, safety: SafetyLimits | None = None,
                   ground: Ground | None = None, sensors: FootSensors | None = None,
                   substeps: int = 2, control_dt: float = 1e-3,
-                  device: str | Path | None = None) -> WalkResult:
+                  device: str | Path | None = None, child: ChildModel | None = None,
+                  commands: NDArray[np.int64] | None = None) -> WalkResult:
     """Walk ``leg`` (without actuators; theirs are added) on the treadmill for ``strides``
     strides of ``stride_time`` s after ``standing`` s of quiet stance; ``body_mass`` is
     the child's (the pelvis carries :func:`exoleg.device.walking.body_weight_share`).
     ``noise_scale`` multiplies the sensors' noise (0: ideal); ``seed`` fixes it.
     ``device``: a device folder (:mod:`exoleg.device.files`) whose files replace the
-    shipped actuators, sensors, detector settings, gains, safety limits and ground."""
+    shipped actuators, sensors, detector settings, gains, safety limits and ground.
+    ``child``: the child as an actor (:class:`~exoleg.child.model.ChildModel`; None: a
+    passive leg). ``commands``: the operator's command per tick (default: arm at 0, walk
+    after ``standing`` s)."""
     if not (isinstance(strides, int) and 1 <= strides <= 10000):
         raise ParameterError("simulate_walk", "strides", f"expected 1-10000, got {strides!r}")
     if not (isinstance(substeps, int) and 1 <= substeps <= 100):
@@ -183,13 +199,18 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     if not (np.isfinite(standing) and 0.2 <= standing <= 60.0):
         raise ParameterError("simulate_walk", "standing", f"{standing!r} is outside 0.2-60")
     dev = prepare_walk(leg, body_mass, speed, stride_time, noise_scale, ankle_height,
-                       actuators, gains, safety, ground, sensors, control_dt, device)
+                       actuators, gains, safety, ground, sensors, control_dt, device,
+                       child=child)
     ctl, plant, sens = dev.controller, dev.plant, dev.sensors
     check_step(plant, control_dt / substeps, dev.config.folder)
     n = int(round((standing + strides * stride_time) / control_dt))
-    commands = np.zeros(n + 1, dtype=np.int64)
-    commands[0] = Command.ARM
-    commands[int(round(standing / control_dt))] = Command.WALK
+    if commands is None:
+        commands = np.zeros(n + 1, dtype=np.int64)
+        commands[0] = Command.ARM
+        commands[int(round(standing / control_dt))] = Command.WALK
+    elif np.shape(commands) != (n + 1,):
+        raise ParameterError("simulate_walk", "commands", f"expected one per tick ({n + 1}), "
+                             f"got shape {np.shape(commands)}")
     X = np.zeros((n + 1, 8))
     X[0] = dev.x0
     fsr_noise, imu_noise, bias = draw_noise(sens, n + 1, seed)
@@ -197,10 +218,12 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     SENS, OUT = np.zeros(n + 1, SENSORS), np.zeros(n + 1, OUTPUT)
     FN = np.zeros((n + 1, 4))
     SUP = np.zeros(n + 1)
-    bad = _run_walk(plant.leg.p, plant.record(), dev.A, ctl.compiled(), sens.record(),
+    CH = np.zeros((n + 1, 3))
+    K = dev.child_records(control_dt)
+    bad = _run_walk(plant.leg.p, plant.record(), dev.A, K, ctl.compiled(), sens.record(),
                     fsr_noise, imu_noise, bias, dev.imu_x, -dev.depth, commands, control_dt,
                     substeps, dev.support, plant.support_height, standing, stride_time,
-                    dev.state(), X, SENS, FN, OUT, TAU, ENV, SUP)
+                    dev.state(), X, SENS, FN, OUT, TAU, ENV, SUP, CH)
     if bad >= 0:
         raise SimulationError(f"walking state became non-finite at t = {bad * control_dt:.4g} s")
     t: F64 = np.arange(n + 1, dtype=np.float64) * control_dt
@@ -212,8 +235,11 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                       safety_status=OUT["safety_status"], u_safe=OUT["tau"], tau=TAU,
                       envelope=ENV, support=SUP, winding_temp=OUT["winding_temp"],
                       gear_torque=OUT["gear_torque"], fault=OUT["fault"],
-                      fault_joint=OUT["fault_joint"], plant=plant, actuators=dev.actuators,
-                      walk_start=standing, stride_time=stride_time)
+                      fault_joint=OUT["fault_joint"],
+                      interaction=np.vstack([SENS["interaction"][1:], SENS["interaction"][-1:]]),
+                      child_torque=CH, passive=passive_moments(K[0], X[:, 1:4], X[:, 5:8]),
+                      plant=plant, actuators=dev.actuators, walk_start=standing,
+                      stride_time=stride_time, body_mass=body_mass)
 
 
 

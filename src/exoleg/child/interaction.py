@@ -1,0 +1,59 @@
+"""The interaction torque between child and device: what the device's cuffs transmit.
+
+At each joint, the torque the actuator delivers less what the device's own links, its
+motors' rotors (the reflected inertia) and its friction take:
+
+    tau_int = tau_act - friction(dq) - [M_d(q) ddq + C_d(q, dq) dq + G_d(q) + p_d(q) ddy]
+
+with M_d, C_d, G_d the device alone (its links with the rotors as armature) and
+p_d ddy what the pelvis's vertical acceleration asks of them (the walking plant's
+coupling, :mod:`exoleg.device.walking`). The ground's reaction passes through the
+footplate to the child's foot, so it is the child's, not the cuffs'. Positive moves the
+child's joint towards positive q (hip flexion, knee extension, dorsiflexion).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from exoleg.device.actuator import ActuatorModel, friction, with_actuators
+from exoleg.dynamics.kernels import coriolis_dq, gravity, mass_height_terms, mass_matrix
+from exoleg.dynamics.model import LegModel
+from exoleg.params.records import LINKS, Link
+
+
+def device_leg(leg: LegModel, actuators: tuple[ActuatorModel, ...]) -> LegModel:
+    """The device alone at ``leg``'s lengths, its rotors as armature: the links' parts
+    after the first (the child's) when the leg was composed from parts (a fitted child,
+    the paper's detailed leg), else the paper's SLE bodies at these telescope settings
+    (``data/paper/device.toml``)."""
+    if all(len(lk.parts) >= 2 for lk in leg.links):
+        links = [Link.from_parts(lk.length, lk.parts[1:], name=LINKS[i])
+                 for i, lk in enumerate(leg.links)]
+    else:
+        from exoleg.sizing.personal import device_bodies
+
+        bodies = device_bodies(float(leg.lengths[0]), float(leg.lengths[1]))
+        links = [Link.from_parts(float(leg.lengths[i]), (bodies[i],), name=LINKS[i])
+                 for i in range(3)]
+    return with_actuators(LegModel(links, g=leg.g, name="device alone"), actuators)
+
+
+@njit(cache=True)
+def interaction_torque(pd, A, g, q, dq, ddq, ddy, tau, out):  # type: ignore[no-untyped-def]
+    """The cuffs' torque (N m) into out (3,) from the delivered torque ``tau`` and the
+    motion (q, dq, ddq; the pelvis's ddy), the device alone's parameters ``pd``."""
+    M = np.empty((3, 3))
+    mass_matrix(q, pd, M)
+    Cq = np.empty(3)
+    coriolis_dq(q, dq, pd, Cq)
+    G = np.empty(3)
+    gravity(q, pd, g, G)
+    y0, y1, y2, _, _ = mass_height_terms(q, dq, pd)
+    pv = (y0, y1, y2)
+    for j in range(3):
+        need = Cq[j] + G[j] + pv[j] * ddy
+        for k in range(3):
+            need += M[j, k] * ddq[k]
+        out[j] = tau[j] - friction(A[j:j + 1], dq[j]) - need

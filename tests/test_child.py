@@ -1,0 +1,177 @@
+"""The child as an actor: passive moments against Riener & Edrich's printed formula and the
+predictcpgait child's curves, the height^5 law, the child file, the intended crouch gait,
+standing on the unpowered device, and the cuffs' torque against the device's statics."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import exoleg
+from exoleg.child.curves import SIGNATURES, curve_signatures, falisse_curves, signatures
+from exoleg.child.interaction import device_leg
+from exoleg.child.model import ChildModel, Spasticity, crouch_offset, intended_gait
+from exoleg.child.passive import Contracture, passive_moments, passive_record
+from exoleg.errors import ParameterError
+
+
+def riener_printed(pa: float, pk: float, ph: float) -> tuple[float, float, float]:
+    """Riener & Edrich 1999, eqs (1)-(3), typed from the paper (child-references.md)."""
+    mh = (math.exp(1.4655 - 0.0034 * pk - 0.0750 * ph)
+          - math.exp(1.3403 - 0.0226 * pk + 0.0305 * ph) + 8.072)
+    mk = (math.exp(1.800 - 0.0460 * pa - 0.0352 * pk + 0.0217 * ph)
+          - math.exp(-3.971 - 0.0004 * pa + 0.0495 * pk - 0.0128 * ph) - 4.820
+          + math.exp(2.220 - 0.150 * pk))
+    ma = (math.exp(2.1016 - 0.0843 * pa - 0.0176 * pk)
+          - math.exp(-7.9763 + 0.1949 * pa + 0.0008 * pk) - 1.792)
+    return mh, mk, ma
+
+
+@given(st.floats(-30, 30), st.floats(0, 100), st.floats(-20, 90))
+@settings(max_examples=200, deadline=None)
+def test_the_adults_moments_are_riener_and_edrichs_formula(pa: float, pk: float, ph: float
+                                                           ) -> None:
+    # reference: the printed equations; at the reference height (1.75 m) the scale is 1,
+    # and exoleg's signs are Riener's converted (hip as is, knee and ankle negated)
+    P = passive_record(1.75)
+    tau = passive_moments(P, np.radians([ph, -pk, -pa]))
+    mh, mk, ma = riener_printed(pa, pk, ph)
+    assert tau == pytest.approx([mh, -mk, -ma], rel=1e-12, abs=1e-12)
+
+
+@given(st.floats(1.0, 1.6), st.floats(1.0, 1.6))
+@settings(max_examples=50, deadline=None)
+def test_passive_stiffness_scales_with_height5_so_the_natural_frequency_does_not(
+        h1: float, h2: float) -> None:
+    # Lebiedowska & Fisk 1999: stiffness and inertia both ~ height^5, the natural
+    # frequency independent of height. A geometrically similar leg (mass ~ h^3, lengths
+    # ~ h) has inertia ~ h^5; the passive knee stiffness must scale the same way.
+    q = np.radians([0.0, -40.0, 0.0])
+    dq = np.radians([0.0, -1e-3, 0.0])
+
+    def stiffness(h: float) -> float:
+        P = passive_record(h)
+        return float((passive_moments(P, q + dq)[1] - passive_moments(P, q - dq)[1])
+                     / (2 * dq[1]))
+
+    k1, k2 = stiffness(h1), stiffness(h2)
+    assert k1 / k2 == pytest.approx((h1 / h2) ** 5, rel=1e-9)
+    inertia1, inertia2 = h1 ** 3 * h1 ** 2, h2 ** 3 * h2 ** 2
+    assert math.sqrt(abs(k1) / inertia1) == pytest.approx(math.sqrt(abs(k2) / inertia2),
+                                                          rel=1e-9)
+
+
+def test_the_predictcpgait_childs_contracture_signatures() -> None:
+    # reference: the shipped curves of Falisse et al. 2020's child (read off the CSV);
+    # tolerance: the issue's +-3 deg / +-15 % (measured: worst 14.2 % on the knee's
+    # moment at hip 90, knee 0: 100.7 against 88.1 N m)
+    want = curve_signatures("personalized")
+    got = signatures(passive_record(1.375, Contracture.preset("predictcpgait")))
+    for name, w, g in zip(SIGNATURES, want, got, strict=True):
+        if "deg" in name.split(",")[-1] or name.endswith("(deg)"):
+            assert abs(g - w) <= 3.0, (name, g, w)
+        else:
+            assert abs(g - w) <= 0.15 * abs(w), (name, g, w)
+
+
+def test_contracture_shortens_muscles_not_the_joint_limit() -> None:
+    none = passive_record(1.375)
+    cp = passive_record(1.375, Contracture.preset("predictcpgait"))
+    limit = 4  # the knee's extension-limit term of data/child/passive.toml
+    assert np.array_equal(none["coef"][0, limit], cp["coef"][0, limit])
+    # and the curves it was fitted to are met on the whole (RMS measured 3.1 N m)
+    c = falisse_curves()
+    c = c[c.params == "personalized"]
+    m = passive_moments(cp, c.q)[np.arange(len(c.moment)), c.joint]
+    assert float(np.sqrt(np.mean((m - c.moment) ** 2))) < 3.5
+
+
+def test_crouch_intention_meets_the_clusters_within_one_sd() -> None:
+    # reference: Rozumalski & Schwartz 2009, knee flexion at initial contact (mean, SD)
+    ic = [(28.9, 7.0), (30.6, 7.8), (31.8, 8.2), (41.7, 10.7), (47.3, 11.9)]
+    mins = [5.1, 18.7, 17.4, 24.5, 43.2]
+    for cluster in range(1, 6):
+        ch = ChildModel.typical("c", 10, 1.4, 32).with_(crouch=cluster)
+        q, _, _ = intended_gait(ch, 1.1)
+        knee = -np.degrees(q[:, 1])
+        assert abs(knee[0] - ic[cluster - 1][0]) <= ic[cluster - 1][1]
+        assert abs(knee[:55].min() - mins[cluster - 1]) <= ic[cluster - 1][1]
+    # no crouch at the swing's peak (72 %): the clusters' peak swing is near normal
+    assert all(abs(crouch_offset(c, np.array([0.72]))[0]) < 3.0 for c in range(1, 6))
+
+
+def test_child_file_round_trip_and_bad_files(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    ch = ChildModel("a", 9.5, 1.32, 27.0, 2, Contracture.preset("predictcpgait", 0.5),
+                    Spasticity.preset("moderate"), True, 3)
+    ch.save(tmp_path / "child.toml")
+    back = ChildModel.load(tmp_path / "child.toml")
+    assert back == ch
+    bad = {"gmfcs = 2": "gmfcs = 7", 'level = "moderate"': 'level = "extreme"',
+           "crouch = 3": "crouch = 9", "height_m = 1.32": "height_m = 13.2"}
+    for old, new in bad.items():
+        (tmp_path / "bad.toml").write_text((tmp_path / "child.toml").read_text()
+                                           .replace(old, new))
+        with pytest.raises(ParameterError) as e:
+            ChildModel.load(tmp_path / "bad.toml")
+        assert "bad.toml" in str(e.value)
+    (tmp_path / "bin.toml").write_bytes(b"\x00\x01\xff")
+    with pytest.raises(ParameterError):
+        ChildModel.load(tmp_path / "bin.toml")
+
+
+@pytest.fixture(scope="module")
+def fitted_leg() -> exoleg.LegModel:
+    from exoleg.sizing import Child
+    from exoleg.sizing.personal import personalized_leg
+
+    return personalized_leg(Child(age=10, sex="male", height=1.40, mass=32.0))
+
+
+@pytest.mark.parametrize("gmfcs,level", [(0, "none"), (2, "mild")])
+def test_a_child_stands_on_the_unpowered_device_for_a_minute(fitted_leg, gmfcs, level
+                                                              ) -> None:  # type: ignore[no-untyped-def]
+    from exoleg.sim.walk import simulate_walk
+
+    ch = ChildModel("c", 10, 1.40, 32.0, gmfcs, spasticity=Spasticity.preset(level))
+    n = 60_000
+    r = simulate_walk(fitted_leg, 32.0, strides=1, standing=60.0 - 1.1, child=ch,
+                      commands=np.zeros(n + 1, dtype=np.int64))
+    assert r.fault.max() == 0
+    # the knee stays within 3 deg of the standing posture (measured: 0.1-0.3 deg)
+    assert abs(np.degrees(r.q[-1, 1] - r.q[0, 1])) < 3.0
+    # the pelvis settles (measured 1.7-1.8 cm) onto the other leg's support, not further
+    assert r.pelvis[-1] > r.pelvis[1000] - 0.03
+
+
+def test_without_the_child_the_unpowered_leg_folds(fitted_leg) -> None:  # type: ignore[no-untyped-def]
+    # the same minute with a passive rigid leg: the knee folds (measured ~ -30 deg)
+    from exoleg.sim.walk import simulate_walk
+
+    n = 60_000
+    r = simulate_walk(fitted_leg, 32.0, strides=1, standing=60.0 - 1.1,
+                      commands=np.zeros(n + 1, dtype=np.int64))
+    assert abs(np.degrees(r.q[-1, 1] - r.q[0, 1])) > 10.0
+
+
+def test_the_cuffs_carry_the_device_at_rest(fitted_leg) -> None:  # type: ignore[no-untyped-def]
+    # reference: statics. Unpowered and near still, the cuffs hold the device's own
+    # links: tau_int = -G_device(q) - friction(dq) (the device alone's gravity through
+    # LegModel's general path; the drives' friction at the residual creep)
+    from exoleg.device.actuator import friction, paper_actuators, params_array
+    from exoleg.sim.walk import simulate_walk
+
+    ch = ChildModel("c", 10, 1.40, 32.0)
+    n = 3000
+    r = simulate_walk(fitted_leg, 32.0, strides=1, standing=3.0 - 1.1, child=ch,
+                      commands=np.zeros(n + 1, dtype=np.int64))
+    dev = device_leg(fitted_leg, paper_actuators())
+    k = -10
+    A = params_array(paper_actuators())
+    want = -np.asarray(dev.G(r.q[k])) - [friction(A[i:i + 1], r.dq[k, i]) for i in range(3)]
+    # tolerance: the tick's mean accelerations and midpoint posture (measured 1e-3 N m)
+    assert r.interaction[k] == pytest.approx(want, abs=0.02)
+    assert np.abs(want).max() > 1.0
