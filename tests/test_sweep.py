@@ -184,15 +184,15 @@ def test_the_small_sweep_on_three_schedulers_interrupted_and_resumed(tmp_path: P
                          stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 300
     while time.monotonic() < deadline and p.poll() is None:
-        if len(list((out / ".tasks").glob("task-*"))) >= 3:
-            break
-        time.sleep(0.05)
+        if len(list((out / ".tasks").glob("task-*"))) >= 1:
+            break  # the first task done: the rest take ~1.5 s warm, the window to interrupt
+        time.sleep(0.01)
     p.send_signal(signal.SIGINT)
     _, err = p.communicate(timeout=120)
     assert p.returncode == 130, err
     assert "run the same command to go on" in err
     first = len(list((out / ".tasks").glob("task-*")))
-    assert 3 <= first < 16
+    assert 1 <= first < 16
     r = cli("sweep", str(example), "--out", str(out), "--workers", "2")
     assert r.returncode == 0, r.stderr
     assert f"({first} done: resuming)" in r.stdout
