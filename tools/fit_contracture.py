@@ -17,8 +17,8 @@ import sys
 import numpy as np
 from scipy.optimize import least_squares
 
-from exoleg.child.passive import GROUPS, Contracture, passive_moments, passive_record
 from exoleg.child.curves import falisse_curves, signatures
+from exoleg.child.passive import GROUPS, Contracture, passive_moments, passive_record
 
 HEIGHT = 1.375
 MUSCLES = [g for g in GROUPS if g != "limit"]
@@ -73,9 +73,10 @@ def main() -> None:
     if "--write" in sys.argv:
         from importlib import resources
         path = resources.files("exoleg").joinpath("data", "child", "contracture.toml")
-        head = ("# Contracture presets: shortened muscles (the exponent's shift da) with shorter\n"
-                "# fibres (steeper rise f_own over the muscle's own joint, f_cpl over the others\n"
-                "# it crosses), per muscle group of data/child/passive.toml; at level 1 as fitted.\n")
+        head = ("# Contracture presets: shortened muscles (the exponent's shift da) with\n"
+                "# shorter fibres (steeper rise f_own over the muscle's own joint, f_cpl over\n"
+                "# the others it crosses), per muscle group of data/child/passive.toml; at\n"
+                "# level 1 as fitted.\n")
         open(str(path), "w").write(head + text)
 
 

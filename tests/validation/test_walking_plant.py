@@ -12,16 +12,16 @@ import numpy as np
 import pytest
 
 import exoleg
-from exoleg.device import with_actuators
 from exoleg.child.passive import PASSIVE
+from exoleg.device import with_actuators
 from exoleg.device.actuator import ACTUATOR
-from exoleg.layout import new
 from exoleg.device.walking import (
     WalkingPlant,
     step_contacts,
     walking_energy,
     walking_step,
 )
+from exoleg.layout import new
 
 LEG = with_actuators(exoleg.paper_leg())
 NO_FRICTION = np.zeros(0, ACTUATOR)

@@ -58,6 +58,8 @@ class Spasticity:
     srs_per_deg: float
     srs_range: float
     srs_decay: float
+    eccentric: float = 0.8
+    fv_speed: float = 30.0
 
     def __post_init__(self) -> None:
         w = "spasticity"
@@ -78,13 +80,15 @@ class Spasticity:
         lv = d["levels"][level]
         return cls(level, tuple(lv["tone"]), tuple(lv["g_f"]), tuple(lv["g_df"]),
                    float(d["delay_s"]), float(d["srs_per_deg"]), float(d["srs_range_deg"]),
-                   float(d["srs_decay_s"]))
+                   float(d["srs_decay_s"]), float(d["eccentric_gain"]),
+                   float(d["force_velocity_speed_deg_s"]))
 
 
 @dataclass(frozen=True)
 class ChildModel:
     """A child as the simulated device carries them: who (``name``, ``age`` y,
-    ``height`` m, ``mass`` kg, ``gmfcs`` 0 for typically developing, 1-4), their passive
+    ``height`` m, ``mass`` kg, ``gmfcs`` 0 for typically developing, 1-4, ``sex``: the
+    growth charts' and segment tables' group), their passive
     joints (``contracture``), their reflexes (``spasticity``), their own ``effort`` (on
     or off) with the strength of their GMFCS level, and the gait they intend
     (``crouch`` 0: the normative gait, 1-5: Rozumalski & Schwartz's crouch cluster)."""
@@ -98,9 +102,12 @@ class ChildModel:
     spasticity: Spasticity = field(default_factory=lambda: Spasticity.preset("none"))
     effort: bool = True
     crouch: int = 0
+    sex: str = "female"
 
     def __post_init__(self) -> None:
         w = "child"
+        if self.sex not in ("female", "male"):
+            raise ParameterError(w, "sex", f"{self.sex!r}: allowed female, male")
         for name, lo, hi, unit in (("age", 2.0, 20.0, "years"), ("height", 0.7, 2.0, "m"),
                                    ("mass", 8.0, 150.0, "kg")):
             v = _check.finite(w, name, getattr(self, name))
@@ -114,9 +121,18 @@ class ChildModel:
                                  "(Rozumalski & Schwartz 2009's clusters)")
 
     @classmethod
-    def typical(cls, name: str, age: float, height: float, mass: float) -> ChildModel:
+    def typical(cls, name: str, age: float, height: float, mass: float,
+                sex: str = "female") -> ChildModel:
         """A typically developing child: no contracture, no spasticity, full strength."""
-        return cls(name, age, height, mass)
+        return cls(name, age, height, mass, sex=sex)
+
+    def sizing_child(self) -> Any:
+        """This child for :mod:`exoleg.sizing` (dimensions estimated from age, sex and
+        height)."""
+        from exoleg.sizing import Child
+
+        return Child(age=self.age, sex=self.sex, height=self.height, mass=self.mass,  # type: ignore[arg-type]
+                     gmfcs=self.gmfcs or None, name=self.name, accept_unusual=True)
 
     @property
     def strength_fraction(self) -> float:
@@ -138,6 +154,7 @@ class ChildModel:
             f"age_years = {self.age:g}",
             f"height_m = {self.height:g}",
             f"mass_kg = {self.mass:g}",
+            f'sex = "{self.sex}"',
             f"gmfcs = {self.gmfcs}            # 0 typically developing, 1-4",
             "",
             "[passive]   # Riener & Edrich 1999 scaled by height^5 (Lebiedowska & Fisk 1999)",
@@ -175,7 +192,7 @@ class ChildModel:
     def from_dict(cls, d: dict[str, Any], where: str = "child.toml") -> ChildModel:
         _check.keys(where, d, ["child"], ["passive", "spasticity", "effort"])
         c = d["child"]
-        _check.keys(f"{where} [child]", c, ["age_years", "height_m", "mass_kg"],
+        _check.keys(f"{where} [child]", c, ["age_years", "height_m", "mass_kg", "sex"],
                     ["name", "gmfcs"])
         p = d.get("passive", {})
         _check.keys(f"{where} [passive]", p, [], ["contracture", "contracture_level"])
@@ -191,7 +208,7 @@ class ChildModel:
                        gmfcs=_int(where, "gmfcs", c.get("gmfcs", 0)), contracture=con,
                        spasticity=Spasticity.preset(str(s.get("level", "none"))),
                        effort=_bool(where, "effort.on", e.get("on", True)),
-                       crouch=_int(where, "crouch", e.get("crouch", 0)))
+                       crouch=_int(where, "crouch", e.get("crouch", 0)), sex=str(c["sex"]))
         except ParameterError as err:
             raise ParameterError(where, err.field, err.problem) from None
         except (TypeError, ValueError) as err:
@@ -268,13 +285,15 @@ def intended_gait(child: ChildModel, stride_time: float, speed: str = "Free"
 
 #: The child as the compiled tick reads it: the spastic groups' passive term (index into
 #: :data:`PASSIVE`'s terms), tone (N m, scaled), reflex gains, short-range stiffness
-#: (per degree of tone), its range (deg) and fade (s), the reflex delay (ticks); the
+#: (per degree of tone), its range (deg) and fade (s), the reflex delay (ticks), the
+#: tonically active muscles' force-velocity (the eccentric gain, its speed deg/s); the
 #: effort (1 on), its stiffness (N m/rad) and damping (N m s/rad) with the foot loaded
 #: (row 0) and in swing (row 1), strength (N m), delay
 #: (ticks), the standing posture (rad), the intended gait (q, dq rad, rad/s; internal
 #: moments N m) over the cycle and the share of those moments the child drives.
 CHILD = np.dtype([("term", I8, 4), ("tone", F8, 4), ("g_f", F8, 4), ("g_df", F8, 4),
                   ("srs", F8), ("srs_range", F8), ("srs_decay", F8), ("reflex_delay", I8),
+                  ("eccentric", F8), ("fv_speed", F8),
                   ("effort", F8), ("kp", F8, (2, 3)), ("kd", F8, (2, 3)), ("strength", F8, 3),
                   ("effort_delay", I8), ("stand", F8, 3),
                   ("gait_q", F8, (GAIT_SAMPLES, 3)), ("gait_dq", F8, (GAIT_SAMPLES, 3)),
@@ -314,6 +333,7 @@ def child_records(child: ChildModel | None, h: float, stride_time: float = 1.1,
     r["tone"] = np.array(sp.tone) * s
     r["g_f"], r["g_df"] = sp.g_f, sp.g_df
     r["srs"], r["srs_range"], r["srs_decay"] = sp.srs_per_deg, sp.srs_range, sp.srs_decay
+    r["eccentric"], r["fv_speed"] = sp.eccentric, sp.fv_speed
     for name, delay in (("reflex_delay", sp.delay),
                         ("effort_delay", float(_data("effort.toml")["delay_s"]))):
         n = int(round(delay / h))
@@ -367,7 +387,8 @@ def child_tick(P, C, CS, q, dq, h, walking, xc, loaded, out):  # type: ignore[no
     if R.on != 0.0:
         phi = np.empty(3)
         riener_phi(q, phi)
-        d = 180.0 / math.pi
+        dphi = np.empty(3)
+        riener_phi(dq, dphi)
         for g in range(4):
             t = c.term[g]
             jr = int(R.joint[t])
@@ -391,7 +412,13 @@ def child_tick(P, C, CS, q, dq, h, walking, xc, loaded, out):  # type: ignore[no
                     if dx < 0.5 * c.srs_range:
                         s.anchor[g] = x
                         s.yielded[g] = 0.0
-            force = c.tone[g] + s.srs[g] + term_value(R, t, phi)
+            # the tonically active muscle's force-velocity (Hill): more force
+            # lengthening, less shortening
+            v = dphi[own] * (1.0 if b > 0.0 else -1.0)
+            fv = (1.0 + c.eccentric * math.tanh(v / c.fv_speed) if v >= 0.0
+                  else 1.0 + math.tanh(v / c.fv_speed))
+            tone = c.tone[g] * fv
+            force = tone + s.srs[g] + term_value(R, t, phi)
             prev = s.force[(i - 1) % L, g] if k > 0 else force
             s.force[i, g] = force
             s.rate[i, g] = (force - prev) / h
@@ -400,10 +427,9 @@ def child_tick(P, C, CS, q, dq, h, walking, xc, loaded, out):  # type: ignore[no
                          + c.g_df[g] * _delayed(s.rate, k, n, g))
             active = 0.0
             if c.tone[g] > 0.0 or reflex > 0.0:
-                active = R.sign[t] * (c.tone[g] + s.srs[g] + reflex)
+                active = R.sign[t] * (tone + s.srs[g] + reflex)
             # Riener's moments flex hip and knee and plantarflex the ankle
             s.reflex[jr] += active if jr == 0 else -active
-        _ = d
     if c.effort != 0.0:
         n = c.effort_delay
         nx = c.gait_q.shape[0] - 1

@@ -18,11 +18,22 @@ import sys
 import threading
 from collections.abc import Sequence
 
-from exoleg.cli import export, fit, hmi, log, population, run, simulate, sweep, validate
+from exoleg.cli import (
+    assess,
+    export,
+    fit,
+    hmi,
+    log,
+    population,
+    run,
+    simulate,
+    sweep,
+    validate,
+)
 from exoleg.cli._common import _negative_values, _Parser
 
 #: the commands, one module each, in the order of the help
-COMMANDS = (validate, simulate, fit, population, sweep, run, hmi, log, export)
+COMMANDS = (validate, simulate, fit, assess, population, sweep, run, hmi, log, export)
 
 
 def build_parser() -> argparse.ArgumentParser:

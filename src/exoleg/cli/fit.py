@@ -96,7 +96,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
 
             cm = ChildModel(child.name, child.age, child.height, child.mass, child.gmfcs or 0,
                             Contracture.preset(args.contracture),
-                            Spasticity.preset(args.spasticity), True, args.crouch)
+                            Spasticity.preset(args.spasticity), True, args.crouch, child.sex)
             out.stage("child.toml").write_text(cm.to_toml())
             written.insert(0, "child.toml")
         if write_leg:
