@@ -154,6 +154,12 @@ def test_link_estop_goes_first_and_applied_commands_are_timed() -> None:
     assert (snap["mode"], snap["fault"], snap["safety_status"], snap["tau"]) == (3, 1, 2,
                                                                                 [0.0] * 3)
     assert snap["winding_temp"] == [40.0, 35.0, 30.0]  # the motors' estimates, for the page
+    # a device without cuff sensors (no "interaction" reading): null, which JSON can carry
+    assert snap["interaction"] == [None] * 3
+    json.dumps(snap, allow_nan=False)
+    link.loop_tick(7, 0.007, out, {**sensors, "interaction": np.array([1.5, -2.0, 0.25])},
+                   0.0, 1e-3, publish=True)
+    assert LoopLink.snapshot(link.web_copy())["interaction"] == [1.5, -2.0, 0.25]
     link.web_gains({"kp_swing": [1.0, 2.0, 3.0]})
     link.web_gains({"support": [0.5]})  # two changes within a tick: both act
     cmd, change = link.loop_poll()

@@ -290,14 +290,15 @@ def intended_gait(child: ChildModel, stride_time: float, speed: str = "Free"
 #: effort (1 on), its stiffness (N m/rad) and damping (N m s/rad) with the foot loaded
 #: (row 0) and in swing (row 1), strength (N m), delay
 #: (ticks), the standing posture (rad), the intended gait (q, dq rad, rad/s; internal
-#: moments N m) over the cycle and the share of those moments the child drives.
+#: moments N m) over the cycle, the share of those moments the child drives and the
+#: stride time (s) the cycle takes.
 CHILD = np.dtype([("term", I8, 4), ("tone", F8, 4), ("g_f", F8, 4), ("g_df", F8, 4),
                   ("srs", F8), ("srs_range", F8), ("srs_decay", F8), ("reflex_delay", I8),
                   ("eccentric", F8), ("fv_speed", F8),
                   ("effort", F8), ("kp", F8, (2, 3)), ("kd", F8, (2, 3)), ("strength", F8, 3),
                   ("effort_delay", I8), ("stand", F8, 3),
                   ("gait_q", F8, (GAIT_SAMPLES, 3)), ("gait_dq", F8, (GAIT_SAMPLES, 3)),
-                  ("gait_tau", F8, (GAIT_SAMPLES, 3)), ("share", F8)])
+                  ("gait_tau", F8, (GAIT_SAMPLES, 3)), ("share", F8), ("stride", F8)])
 
 #: The child's memory (:func:`child_tick`): ticks so far, each group's force and its
 #: rate, the joint angles and rates the child felt (rings of :data:`HISTORY` ticks), the
@@ -354,6 +355,7 @@ def child_records(child: ChildModel | None, h: float, stride_time: float = 1.1,
     r["stand"] = standing
     r["gait_q"], r["gait_dq"], r["gait_tau"] = intended_gait(child, stride_time, speed)
     r["share"] = float(e["share"])
+    r["stride"] = stride_time
     return P, C, S
 
 
@@ -362,6 +364,16 @@ def _delayed(ring, k, n, j):  # type: ignore[no-untyped-def]
     """Column j of the ring's entry n ticks before tick k (its oldest while younger)."""
     i = k - n if k >= n else 0
     return ring[i % ring.shape[0], j]
+
+
+@njit(cache=True)
+def _cycle(table, x, j):  # type: ignore[no-untyped-def]
+    """Column j of a table over one cycle (rows at 0 .. 1) at the fraction x, linear."""
+    nx = table.shape[0] - 1
+    f = x * nx
+    i0 = min(int(f), nx - 1)
+    a = f - i0
+    return (1 - a) * table[i0, j] + a * table[i0 + 1, j]
 
 
 @njit(cache=True)
@@ -432,16 +444,17 @@ def child_tick(P, C, CS, q, dq, h, walking, xc, loaded, out):  # type: ignore[no
             s.reflex[jr] += active if jr == 0 else -active
     if c.effort != 0.0:
         n = c.effort_delay
-        nx = c.gait_q.shape[0] - 1
         row = 0 if loaded else 1
+        # the error the child feels is the delayed one: what they felt a delay ago
+        # against what they meant then (their intention at that fraction of the cycle);
+        # the feedforward is the moment meant for now
+        xd = xc - n * h / c.stride
+        xd -= math.floor(xd)
         for j in range(3):
             if walking:
-                f = min(max(xc, 0.0), 1.0) * nx
-                i0 = min(int(f), nx - 1)
-                a = f - i0
-                qi = (1 - a) * c.gait_q[i0, j] + a * c.gait_q[i0 + 1, j]
-                dqi = (1 - a) * c.gait_dq[i0, j] + a * c.gait_dq[i0 + 1, j]
-                ff = c.share * ((1 - a) * c.gait_tau[i0, j] + a * c.gait_tau[i0 + 1, j])
+                qi = _cycle(c.gait_q, xd, j)
+                dqi = _cycle(c.gait_dq, xd, j)
+                ff = c.share * _cycle(c.gait_tau, min(max(xc, 0.0), 1.0), j)
             else:
                 qi, dqi, ff = c.stand[j], 0.0, 0.0
             u = (ff + c.kp[row, j] * (qi - _delayed(s.q, k, n, j))

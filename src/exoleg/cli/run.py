@@ -36,9 +36,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     bus_timeout = None if args.bus_timeout is None else args.bus_timeout * 1e-3
     check_options(args.backend, args.interface, args.arm, args.walk_after, bus_timeout,
                   controller=args.controller, link=True if args.hmi else None)
-    leg = None
+    leg = child = None
     if args.leg:
         leg, _ = _read_leg(args.leg, refuse_unfit="exoleg run")
+    if args.child:
+        from exoleg.child.model import ChildModel
+
+        child = ChildModel.load(args.child)
+        args.body_mass = child.mass
     link = web = None
     if args.hmi:
         import secrets
@@ -62,7 +67,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                         body_mass=args.body_mass, seed=args.seed,
                         realtime=not args.no_realtime, interface=args.interface,
                         channel=args.channel, link=link, bus_timeout=bus_timeout,
-                        controller=args.controller)
+                        controller=args.controller, child=child)
     finally:
         if web is not None:
             web.terminate()
@@ -111,6 +116,10 @@ def _refuse_unapplied(args: argparse.Namespace) -> None:
     if args.seed is not None and not simulated:
         raise ParameterError("exoleg run", "--seed", "the simulated sensors' noise: not on "
                              f"a real bus ({args.backend} --interface {args.interface})")
+    if args.child is not None and not simulated:
+        raise ParameterError("exoleg run", "--child", "the simulated child: not on a real "
+                             f"bus ({args.backend} --interface {args.interface}), where the "
+                             "child is real")
     for name in ("hmi_host", "hmi_port", "tls_cert", "tls_key"):
         if getattr(args, name) is not None and not args.hmi:
             raise ParameterError("exoleg run", "--" + name.replace("_", "-"),
@@ -149,6 +158,11 @@ def add_parser(sub: Any) -> None:
     r.add_argument("--leg", type=Path, help="leg file (from exoleg fit); default the paper's")
     r.add_argument("--body-mass", type=_body_mass, default=DEFAULT_BODY_MASS,
                    help="the simulated child's mass, kg")
+    r.add_argument("--child", type=Path, metavar="FILE",
+                   help="simulated device: the child as an actor (child.toml, written by "
+                        "exoleg fit): passive moments, spasticity, their own effort -- a "
+                        "disarmed GMFCS I-II child stands by themselves; its mass replaces "
+                        "--body-mass")
     r.add_argument("--seed", type=_count(0, 2**31 - 1), help="simulated device: its "
                    "sensors' noise (default 0)")
     r.add_argument("--hmi", action="store_true",

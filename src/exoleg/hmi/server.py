@@ -61,12 +61,13 @@ VOCABULARY = vocabulary()
 
 def _session_process(link: LoopLink, backend: str, interface: str | None, duration: float,
                      folder: str, leg_path: str | None, body_mass: float, arm: bool,
-                     cpus: set[int] | None) -> None:
+                     cpus: set[int] | None, child_path: str | None = None) -> None:
     """A session's own process (``exoleg hmi``): runs the loop until its duration, an
     E-stop fault, the operator's end, a signal, or a lost link (the server's heartbeat:
     :class:`~exoleg.runtime.link.LoopLink`) -- then nobody could stop it from the page.
     ``cpus``: the CPUs the server had before it kept off the loop's
-    (:func:`keep_off_loop_cpu`)."""
+    (:func:`keep_off_loop_cpu`). ``child_path``: the fitted child's ``child.toml`` (the
+    simulated child, on a simulated device)."""
     import exoleg
     from exoleg.runtime.session import run
 
@@ -74,9 +75,12 @@ def _session_process(link: LoopLink, backend: str, interface: str | None, durati
         with contextlib.suppress(AttributeError, OSError):
             os.sched_setaffinity(0, cpus)
     try:
+        from exoleg.child.model import ChildModel
+
         leg = exoleg.load_leg(leg_path) if leg_path else None
+        child = ChildModel.load(child_path) if child_path else None
         run(backend, duration, folder, leg=leg, body_mass=body_mass, arm=arm,
-            interface=interface, link=link)
+            interface=interface, link=link, child=child)
     except BaseException as e:  # said on the Sessions page; the torque is off either way
         write_json(Path(folder) / "failed.json",
                     {"error": f"{type(e).__name__}: {e}", "time": time.time()})
@@ -181,6 +185,9 @@ class HMI:
                                                    "child_id": kept["child_id"],
                                                    "fit_id": kept["id"]})
                 (folder / "leg.toml").write_text(kept["leg"], encoding="utf-8")
+                child_file = self._child_file(kept, folder)
+            else:
+                child_file = None
             if self.registry is not None:
                 self.registry.add_session(name, kept["child_id"] if kept else None,
                                           kept["id"] if kept else None, time.time())
@@ -189,7 +196,7 @@ class HMI:
                 target=_session_process, name="exoleg-session", daemon=True,
                 args=(link, self.backend, self.interface, duration, str(folder),
                       str(folder / "leg.toml") if kept else None, runs_on["body_mass"],
-                      arm, self.cpus))
+                      arm, self.cpus, child_file))
             self.proc.start()
             self.session = folder
             self.api.attach(link, folder)
@@ -199,6 +206,25 @@ class HMI:
             threading.Thread(target=self._watch, args=(self.proc, link, folder),
                              daemon=True).start()
             return 200, {"session": name, **runs_on}
+
+    def _child_file(self, kept: dict[str, Any], folder: Path) -> str | None:
+        """The fitted child as the simulated device carries them (``child.toml`` in the
+        session's folder: typically developing presets, their GMFCS level's strength),
+        when the session's device is simulated; None on a real bus, where the child is
+        real."""
+        from exoleg.child.model import ChildModel
+
+        if self.backend != "sim" and (self.interface or SIMULATED_BUS[self.backend]) != \
+                SIMULATED_BUS[self.backend]:
+            return None
+        c = kept["record"]["child"]
+        gm = int(c.get("gmfcs") or 0)
+        if gm > 4:
+            return None
+        model = ChildModel(str(c.get("name") or "child"), float(c["age"]), float(c["height"]),
+                           float(c["mass"]), gm, sex=str(c["sex"]))
+        (folder / "child.toml").write_text(model.to_toml(), encoding="utf-8")
+        return str(folder / "child.toml")
 
     def runs_on(self) -> dict[str, Any]:
         """The child, leg and body mass the next session runs on, and that as text."""

@@ -25,6 +25,7 @@ process, passed to the other as a ``Process`` argument.
 
 from __future__ import annotations
 
+import math
 import multiprocessing as mp
 import time
 from collections import deque
@@ -62,7 +63,7 @@ def _shape(dtype: np.dtype, name: str) -> tuple[int, ...]:
 PUBLISHED = ("mode", "phase", "gait_fraction", "events", "safety_status", "q_ref", "tau",
              "fault", "fault_joint", "fault_value", "fault_limit", "refused", "winding_temp",
              "gear_torque")
-READINGS = ("q", "dq", "fsr")
+READINGS = ("q", "dq", "fsr", "interaction")
 BLOCK = np.dtype([("seq", "f8"), ("t", "f8")]
                  + [(n, "f8", _shape(OUTPUT, n)) for n in PUBLISHED]
                  + [(n, "f8", _shape(SENSORS, n)) for n in READINGS]
@@ -196,7 +197,7 @@ class LoopLink:
             for name in PUBLISHED:
                 v[name] = out[name]
             for name in READINGS:
-                v[name] = sensors[name]
+                v[name] = sensors.get(name, np.nan)  # a device without cuff sensors
             v["events"] = self._events  # ORed since the last publication
             v["safety_status"] = self._status
             v["late_us"] = late * 1e6
@@ -245,8 +246,9 @@ class LoopLink:
         out: dict[str, Any] = {}
         for name in _SNAPSHOT:
             x = c[name]
-            out[name] = ([float(a) for a in x] if BLOCK[name].shape
-                         else int(x) if name in _INTS else float(x))
+            # NaN (a reading the device does not have) is null: JSON has no NaN
+            out[name] = ([float(a) if math.isfinite(a) else None for a in x]
+                         if BLOCK[name].shape else int(x) if name in _INTS else float(x))
         out["running"] = _RUNNING[int(out["running"])]
         out["steps"] = int(c["steps"])
         out["support"] = float(c["gain_support"]) if c["gains_set"] else None

@@ -193,7 +193,8 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         body_mass: float = DEFAULT_BODY_MASS, seed: int = 0, realtime: bool = True,
         interface: str | None = None, channel: str = "exoleg",
         inject: Any = None, link: Any = None, bus_timeout: float | None = None,
-        overrun: float = OVERRUN_S, controller: str = "walk") -> tuple[SessionResult, Path]:
+        overrun: float = OVERRUN_S, controller: str = "walk", child: Any = None
+        ) -> tuple[SessionResult, Path]:
     """One session: the device (``backend``) under ``controller`` (the walking hierarchy,
     or one of the paper's laws on the paper's scenario: :func:`make_controller`) for
     ``duration`` s, logged to ``out``/session.log. On ``sim`` the operator's arming may
@@ -205,7 +206,8 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     for every node's answer before it is a fault (s; default :data:`BUS_TIMEOUT_S`, or
     :data:`SIMULATED_BUS_TIMEOUT_S` on simulated nodes); ``overrun``: how late a tick may
     start before it is a fault (s). ``out`` must hold no recorded session and no other
-    run (:func:`claim_folder`): a session is never written over."""
+    run (:func:`claim_folder`): a session is never written over. ``child``: the simulated
+    child (:class:`~exoleg.child.model.ChildModel`) on a simulated device."""
     import os
 
     check_options(backend, interface, arm, walk_after, bus_timeout, overrun, controller,
@@ -214,7 +216,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     try:
         return _run(backend, duration, folder, period, arm, walk_after, leg, body_mass,
                     seed, realtime, interface, channel, inject, link, bus_timeout, overrun,
-                    controller)
+                    controller, child)
     finally:
         os.close(lock)
 
@@ -222,7 +224,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
 def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
          walk_after: float | None, leg: Any, body_mass: float, seed: int, realtime: bool,
          interface: str | None, channel: str, inject: Any, link: Any,
-         bus_timeout: float | None, overrun: float, controller: str
+         bus_timeout: float | None, overrun: float, controller: str, child: Any = None
          ) -> tuple[SessionResult, Path]:
     """:func:`run` in the folder it holds."""
     import exoleg
@@ -236,7 +238,8 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
     # a simulated device only where it is what answers: on sim, or behind simulated nodes
     simulated = backend == "sim" or (interface or SIMULATED_BUS[backend]) == \
         SIMULATED_BUS[backend]
-    sim = SimBackend(leg, body_mass, period, seed=seed, config=config) if simulated else None
+    sim = (SimBackend(leg, body_mass, period, seed=seed, config=config, child=child)
+           if simulated else None)
     ctl = make_controller(controller, config, leg, body_mass, sim)
     before = set(threading.enumerate())
     b, rig, bus_timeout = open_device(backend, config, sim, period, interface, channel,
@@ -262,6 +265,7 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
     log = SessionLog(path, LOG_HEAD + b.columns + LOG_TAIL,
                      {"period": period, "backend": backend, "max_loss_ticks": MAX_LOSS_TICKS,
                       "leg": leg.name, "body_mass": body_mass,
+                      "child": None if child is None else child.name,
                       "started": started, "controller": controller,
                       "interface": None if rig is None and backend == "sim" else
                       (interface or SIMULATED_BUS[backend])})

@@ -4,7 +4,8 @@ sensor noise levels and strides (``exoleg validate --gait-phase``).
 Children: the device's design range (paper section 2: 8-12 years, GMFCS I-IV) at the
 50th percentile of their growth charts, plus a typically developing child, each with the
 personalized child + device model (:func:`exoleg.sizing.personalized_leg`) walking on the
-treadmill (:func:`exoleg.sim.walk.simulate_walk`). Noise: the sensors' datasheet noise
+treadmill (:func:`exoleg.sim.walk.simulate_walk`) as an actor (:mod:`exoleg.child`:
+passive moments, their level's spasticity preset, their own effort). Noise: the sensors' datasheet noise
 times 0 (ideal), 1 and 3. Reference for comparison: shank-gyroscope detection in
 children with CP, onset error < 100 ms and > 99 % of phases detected (Behboodi et al.
 2019); in general, initial contact -25 ms, foot off < 75 ms, > 98 % detected (Catalfamo
@@ -25,6 +26,9 @@ CHILDREN: tuple[tuple[str, float, str, int | None], ...] = (
     ("TD girl 9 y", 9.0, "female", None),
 )
 NOISE = (0.0, 1.0, 3.0)
+#: each child walks as an actor (:mod:`exoleg.child`): their own effort with their
+#: level's strength, and this spasticity preset by GMFCS level (0: typically developing)
+SPASTICITY = {0: "none", 1: "mild", 2: "mild", 3: "moderate", 4: "moderate"}
 
 
 @dataclass(frozen=True)
@@ -41,6 +45,7 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
              ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[DetectionRun]]:
     """(the detection table over every run, over the runs the safety layer did not stop,
     the runs). Each child walks ``strides`` strides at each noise level."""
+    from exoleg.child.model import ChildModel, Spasticity
     from exoleg.control.safety import Limited
     from exoleg.sim.metrics import detection_table
     from exoleg.sim.walk import simulate_walk
@@ -55,9 +60,11 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
         fit = fit_device(child)
         leg = personalized_leg(child, fit)
         ankle = estimate_dimensions(child).ankle_height
+        actor = ChildModel(label, age, h, m, gmfcs or 0,
+                           spasticity=Spasticity.preset(SPASTICITY[gmfcs or 0]), sex=sex)
         for k, n in enumerate(noise):
             r = simulate_walk(leg, m, strides=strides, noise_scale=n, seed=seed + k,
-                              ankle_height=ankle)
+                              ankle_height=ankle, child=actor)
             results.append(r)
             runs.append(DetectionRun(label, n, strides,
                                      bool(np.any(r.safety_status & Limited.FAULT))))

@@ -283,6 +283,8 @@ function frame() {
       const bits = VOC().text.Limited.filter(([b]) => s.safety_status & b).map(([, n]) => n);
       $("safety").textContent = bits.length ? bits.join("; ") : "nominal";
       $("windings").textContent = s.winding_temp.map((v, i) => `${JOINTS[i]} ${v.toFixed(0)} °C`).join(", ");
+      $("interaction").textContent = s.interaction.every((v) => v === null) ? "not measured by this device"
+        : s.interaction.map((v, i) => `${JOINTS[i]} ${v === null ? "-" : v.toFixed(1)} N m`).join(", ");
       $("events").innerHTML = S.events.map((e) => `<li>${esc(e)}</li>`).join("");
       $("t").textContent = s.t.toFixed(2) + " s";
       $("late").textContent = s.late_us.toFixed(1) + " us";
