@@ -218,3 +218,21 @@ def test_assess_writes_the_summary_the_issue_names(tmp_path) -> None:  # type: i
     s = json.loads((tmp_path / "s" / "summary.json").read_text())
     assert len(s["peak_resistance_Nm"]) == len(s["speeds_deg_s"]) == 6
     assert "catch_angle_deg" in s
+
+
+def test_with_the_child_every_walk_goes_on_and_foot_flat_and_heel_off_are_seen() -> None:
+    # the children of `exoleg validate --gait-phase` (design range, TD), each an actor,
+    # 20 strides at sensor noise x0, x1, x3. Before the child model the detector saw foot
+    # flat and heel off in 1 and 2 of 5 strides and 6 of the 9 walks were stopped by the
+    # safety layer; the issue asks >= 95 % of strides. Measured: 98.7 % and 96.9 %, no
+    # fault; initial contact missed 1.2 % and false 1.8 %, toe off 1.1 % and 1.7 % (a
+    # scuff in swing counts as a contact in both the truth and the detector)
+    from exoleg.validate.gait_phase import evaluate
+
+    rows, _, runs = evaluate(strides=20)
+    assert not any(r.fault for r in runs)
+    by = {r["event"]: r for r in rows}
+    for event in ("foot flat", "heel off"):
+        assert by[event]["in_strides"] >= 0.95, by[event]
+    for event in ("initial contact", "toe off"):
+        assert by[event]["missed_rate"] <= 0.02 and by[event]["false_rate"] <= 0.02

@@ -93,8 +93,9 @@ def _detection_rows(rows: list[dict[str, Any]]) -> list[list[str]]:
         return "-" if v != v else f"{100 * v:.1f} %"
 
     return [[r["event"], str(r["true"]), ms(r["mean_error_ms"]), ms(r["worst_error_ms"]),
-             pct(r["missed_rate"]), pct(r["false_rate"])] for r in rows]
+             pct(r["missed_rate"]), pct(r["false_rate"]), pct(r["in_strides"])]
+            for r in rows]
 
 
 _DETECTION_HEADER = ["event", "true events", "mean error ms", "worst error ms", "missed",
-                     "false"]
+                     "false", "in % of strides"]

@@ -61,16 +61,23 @@ def true_events(force: F64, threshold: float = TRUE_CONTACT_N, dt: float = 1e-3,
 
 def detection_table(results: list[WalkResult], window: float = 0.2) -> list[dict[str, Any]]:
     """Detected against true events over runs: per event, the number of true events, the
-    mean and worst timing error (detected - true, s), missed and false rates. A detected
-    event matches the nearest true event of its kind within ``window`` s."""
+    mean and worst timing error (detected - true, s), missed and false rates, and the
+    share of strides (true initial contact to the next) in which the detector reports
+    it (for initial contact: within ``window`` of the stride's). A detected event
+    matches the nearest true event of its kind within ``window`` s."""
     rows = []
     for bit, name in gp.EVENT_NAMES.items():
         errs: list[float] = []
-        n_true = n_det = missed = false = 0
+        n_true = n_det = missed = false = strides = covered = 0
         for r in results:
             walking = r.t >= r.walk_start
             tt = r.t[walking & ((r.true_events() & bit) > 0)]
             td = r.t[walking & ((r.events & bit) > 0)]
+            ic = r.t[walking & ((r.true_events() & gp.Event.IC) > 0)]
+            for a, b in zip(ic[:-1], ic[1:], strict=True):
+                strides += 1
+                lo, hi = (a - window, a + window) if bit == gp.Event.IC else (a, b)
+                covered += bool(np.any((td >= lo) & (td < hi)))
             n_true += len(tt)
             n_det += len(td)
             used = np.zeros(len(td), dtype=bool)
@@ -90,7 +97,9 @@ def detection_table(results: list[WalkResult], window: float = 0.2) -> list[dict
                      "worst_error_ms": float(1e3 * e[np.argmax(np.abs(e))]) if len(e)
                      else float("nan"),
                      "missed_rate": missed / n_true if n_true else float("nan"),
-                     "false_rate": false / n_det if n_det else float("nan")})
+                     "false_rate": false / n_det if n_det else float("nan"),
+                     "strides": strides,
+                     "in_strides": covered / strides if strides else float("nan")})
     return rows
 
 
