@@ -236,3 +236,23 @@ def test_with_the_child_every_walk_goes_on_and_foot_flat_and_heel_off_are_seen()
         assert by[event]["in_strides"] >= 0.95, by[event]
     for event in ("initial contact", "toe off"):
         assert by[event]["missed_rate"] <= 0.02 and by[event]["false_rate"] <= 0.02
+
+
+@pytest.mark.skipif(not __import__("exoleg.validate.opensim_child", fromlist=["x"]).available(),
+                    reason="OpenSim not installed (pip install exoleg[opensim])")
+def test_opensim_integrates_the_same_pendulum() -> None:
+    # reference: OpenSim 4.6 (an independent multibody engine and integrator) with the
+    # same body, the passive moments as its own expression and the reflex torques as
+    # exoleg produced them. Measured over 5 s: 2.2e-4 deg (typical), 6.9e-5 deg
+    # (moderate spasticity); the peak velocities to 1e-4 deg/s
+    import warnings
+
+    from exoleg.validate.opensim_child import compare_pendulum
+
+    td = ChildModel.typical("td", 13, 1.56, 45.0, "male")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for c in (td, td.with_(spasticity=Spasticity.preset("moderate"))):
+            r = compare_pendulum(c)
+            assert r.max_difference < 1e-3
+            assert r.peak_velocity[0] == pytest.approx(r.peak_velocity[1], abs=1e-2)

@@ -57,17 +57,21 @@ def child_leg(child: ChildModel) -> Any:
 
 @dataclass(frozen=True)
 class Pendulum:
-    """A pendulum test: time (s), knee flexion (deg, + flexion) and its rate (deg/s);
-    its figures."""
+    """A pendulum test: time (s), knee flexion (deg, + flexion) and its rate (deg/s),
+    the reflexes' knee torque held over each tick (N m, exoleg's sign); its figures; the
+    posture it ran in (hip and ankle, rad, exoleg's q)."""
 
     t: F64
     knee: F64
     rate: F64
+    reflex: F64
     peak_velocity: float
     time_to_peak: float
     first_swing: float
     resting: float
     relaxation_index: float
+    hip: float = 0.0
+    ankle: float = 0.0
 
     def summary(self) -> dict[str, float]:
         return {"peak_knee_velocity_deg_s": self.peak_velocity,
@@ -115,7 +119,7 @@ def pendulum(child: ChildModel, duration: float = 10.0, h: float = 1e-3,
         return (-float(leg.G(geo)[1]) + out[1] + reflex) / I
 
     q, dq = 0.0, 0.0
-    Q, V = np.empty(n + 1), np.empty(n + 1)
+    Q, V, RF = np.empty(n + 1), np.empty(n + 1), np.zeros(n + 1)
     tick = np.zeros(3)
     for k in range(n + 1):
         Q[k], V[k] = q, dq
@@ -124,7 +128,7 @@ def pendulum(child: ChildModel, duration: float = 10.0, h: float = 1e-3,
         qa[:] = hip, q, ank
         dqa[:] = 0.0, dq, 0.0
         child_tick(P, C, CS, qa, dqa, h, False, 0.0, False, tick)
-        r = tick[1]
+        r = RF[k] = tick[1]
         k1q, k1v = dq, accel(q, dq, r)
         k2q, k2v = dq + 0.5 * h * k1v, accel(q + 0.5 * h * k1q, dq + 0.5 * h * k1v, r)
         k3q, k3v = dq + 0.5 * h * k2v, accel(q + 0.5 * h * k2q, dq + 0.5 * h * k2v, r)
@@ -138,8 +142,8 @@ def pendulum(child: ChildModel, duration: float = 10.0, h: float = 1e-3,
     kp = int(np.argmax(rate[:end + 1]))
     resting = float(np.mean(knee[-int(round(1.0 / h)):]))
     first = float(knee[end])
-    return Pendulum(t, knee, rate, float(rate[kp]), float(t[kp]), first, resting,
-                    first / resting if resting > 1e-9 else math.nan)
+    return Pendulum(t, knee, rate, RF, float(rate[kp]), float(t[kp]), first, resting,
+                    first / resting if resting > 1e-9 else math.nan, hip, ank)
 
 
 @dataclass(frozen=True)
