@@ -164,18 +164,21 @@ def passive_record(height: float, contracture: Contracture | None = None,
 
 
 @njit(cache=True)
+def _term(c, v, pa, pk, ph):  # type: ignore[no-untyped-def]
+    """A term's magnitude (>= 0) with coefficients ``c`` (a, b_A, b_K, b_H) at Riener's
+    (phi_A, phi_K, phi_H) degrees: the exponential inside the valid ranges ``v`` (3, 2),
+    its tangent (not below zero) beyond."""
+    ca = min(max(pa, v[0, 0]), v[0, 1])
+    ck = min(max(pk, v[1, 0]), v[1, 1])
+    ch = min(max(ph, v[2, 0]), v[2, 1])
+    lin = c[1] * (pa - ca) + c[2] * (pk - ck) + c[3] * (ph - ch)
+    return math.exp(c[0] + c[1] * ca + c[2] * ck + c[3] * ch) * max(0.0, 1.0 + lin)
+
+
+@njit(cache=True)
 def term_value(P, k, phi):  # type: ignore[no-untyped-def]
-    """Term k's magnitude (>= 0) at phi (3,) in Riener's degrees: the exponential inside
-    the valid range, its tangent (not below zero) beyond."""
-    c = P.coef[k]
-    u = c[0]
-    lin = 0.0
-    for i in range(3):
-        lo, hi = P.valid[i, 0], P.valid[i, 1]
-        v = min(max(phi[i], lo), hi)
-        u += c[1 + i] * v
-        lin += c[1 + i] * (phi[i] - v)
-    return math.exp(u) * max(0.0, 1.0 + lin)
+    """Term k's magnitude (>= 0) at phi (3,) in Riener's degrees (:func:`_term`)."""
+    return _term(P.coef[k], P.valid, phi[0], phi[1], phi[2])
 
 
 @njit(cache=True)
@@ -191,24 +194,29 @@ def riener_phi(q, phi):  # type: ignore[no-untyped-def]
 @njit(cache=True)
 def passive_torque(P, q, dq, out):  # type: ignore[no-untyped-def]
     """The passive joint torques (N m, exoleg's signs: + moves q +) at (q, dq) into out
-    (3,): the elastic moments and the viscous damping."""
+    (3,): the elastic moments and the viscous damping. (Scalars only: the plant calls it
+    in every stage.)"""
     R = P[0]
-    for j in range(3):
-        out[j] = 0.0
     if R.on == 0.0:
+        out[0] = out[1] = out[2] = 0.0
         return
-    phi = np.empty(3)
-    riener_phi(q, phi)
-    m = np.zeros(3)
+    d = 180.0 / math.pi
+    pa, pk, ph = -q[2] * d, -q[1] * d, q[0] * d
+    m0, m1, m2 = R.constant[0], R.constant[1], R.constant[2]
     for k in range(N_TERMS):
-        m[int(R.joint[k])] += R.sign[k] * term_value(R, k, phi)
-    for j in range(3):
-        m[j] += R.constant[j]
+        v = R.sign[k] * _term(R.coef[k], R.valid, pa, pk, ph)
+        j = R.joint[k]
+        if j == 0.0:
+            m0 += v
+        elif j == 1.0:
+            m1 += v
+        else:
+            m2 += v
     # Riener's moments flex hip and knee and plantarflex the ankle; exoleg's knee
     # flexion and ankle plantarflexion are negative q
-    out[0] = m[0] - R.damping[0] * dq[0]
-    out[1] = -m[1] - R.damping[1] * dq[1]
-    out[2] = -m[2] - R.damping[2] * dq[2]
+    out[0] = m0 - R.damping[0] * dq[0]
+    out[1] = -m1 - R.damping[1] * dq[1]
+    out[2] = -m2 - R.damping[2] * dq[2]
 
 
 def passive_moments(P: NDArray[np.void], q: Any, dq: Any = None) -> F64:

@@ -354,10 +354,9 @@ def _deriv(p, w, A, P, y, dy, q, dq, tau, gen, out):  # type: ignore[no-untyped-
     :data:`~exoleg.device.actuator.ACTUATOR`, or an empty one for none) and the child's
     passive joint moments (P: :data:`~exoleg.child.passive.PASSIVE`, off for none)."""
     t = np.empty(3)
-    pas = np.empty(3)
-    passive_torque(P, q, dq, pas)
+    passive_torque(P, q, dq, t)
     for i in range(3):
-        t[i] = tau[i] + pas[i] - (friction(A[i:i + 1], dq[i]) if A.shape[0] == 3 else 0.0)
+        t[i] += tau[i] - (friction(A[i:i + 1], dq[i]) if A.shape[0] == 3 else 0.0)
     walking_accel(p, w, y, dy, q, dq, t, gen, out)
 
 
