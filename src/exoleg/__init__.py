@@ -39,7 +39,7 @@ _LAZY = {
     **{n: "exoleg.params.records" for n in ("JOINTS", "LINKS", "Actuator", "Gains", "Link",
                                              "RangeOfMotion")},
     # subpackages: ``exoleg.sizing.Child``, ``exoleg.export.write_urdf`` after ``import exoleg``
-    **{n: f"exoleg.{n}" for n in ("control", "dynamics", "export", "io", "kinematics",
+    **{n: f"exoleg.{n}" for n in ("child", "control", "dynamics", "export", "io", "kinematics",
                                   "params", "plots", "reference", "sim", "sizing",
                                   "study", "validate")},
 }
