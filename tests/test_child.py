@@ -106,12 +106,13 @@ def test_crouch_intention_meets_the_clusters_within_one_sd() -> None:
 
 def test_child_file_round_trip_and_bad_files(tmp_path) -> None:  # type: ignore[no-untyped-def]
     ch = ChildModel("a", 9.5, 1.32, 27.0, 2, Contracture.preset("predictcpgait", 0.5),
-                    Spasticity.preset("moderate"), True, 3)
+                    Spasticity.preset("moderate"), True, 3, "male", 0.8)
     ch.save(tmp_path / "child.toml")
     back = ChildModel.load(tmp_path / "child.toml")
     assert back == ch
     bad = {"gmfcs = 2": "gmfcs = 7", 'level = "moderate"': 'level = "extreme"',
-           "crouch = 3": "crouch = 9", "height_m = 1.32": "height_m = 13.2"}
+           "crouch = 3": "crouch = 9", "height_m = 1.32": "height_m = 13.2",
+           "strength = 0.8": "strength = 3"}
     for old, new in bad.items():
         (tmp_path / "bad.toml").write_text((tmp_path / "child.toml").read_text()
                                            .replace(old, new))

@@ -151,6 +151,29 @@ def test_a_run_names_its_device_variant_and_its_row_holds_the_walk() -> None:
     assert row["steps"] == -1 and np.isnan(row["peak_torque_Nm_hip"]) and not row["walked"]
 
 
+def test_impairments_are_axes_and_the_cuffs_torque_is_in_every_row() -> None:
+    # the child as an actor (issue 22) in a study: spasticity, crouch, contracture and
+    # strength act on the actor only; every row keeps the interaction torque per kg
+    from exoleg.study.runs import actor, run_one
+
+    study = parse_study('[axes]\nchild = ["passive", "actor"]\ngroup = ["GMFCS II"]\n'
+                        'spasticity = ["moderate"]\ncrouch = [2]\nstrength = [0.5]\n')
+    passive, acting = study.runs()
+    assert actor(passive, object()) is None
+    rows = [run_one(i, 0, run, strides=2) for i, run in enumerate((passive, acting))]
+    assert all(r["error"] == "" and r["walked"] for r in rows)
+    for r in rows:
+        assert all(0.0 < r[f"interaction_rms_Nm_per_kg_{j}"] < 5.0
+                   for j in ("hip", "knee", "ankle"))
+    assert rows[0]["interaction_rms_Nm_per_kg_knee"] != rows[1]["interaction_rms_Nm_per_kg_knee"]
+    from exoleg.study.runs import _child
+
+    child = actor(acting, _child(acting))
+    assert (child.gmfcs, child.spasticity.level, child.crouch, child.strength_scale) == (
+        2, "moderate", 2, 0.5)
+    assert child.strength_fraction == pytest.approx(0.65 * 0.5)  # effort.toml's GMFCS II
+
+
 # ------------------------------------------------------------------ the engine
 def _table(out: Path) -> dict[str, list[object]]:
     from exoleg.study.engine import read_results

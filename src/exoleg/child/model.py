@@ -91,7 +91,9 @@ class ChildModel:
     growth charts' and segment tables' group), their passive
     joints (``contracture``), their reflexes (``spasticity``), their own ``effort`` (on
     or off) with the strength of their GMFCS level, and the gait they intend
-    (``crouch`` 0: the normative gait, 1-5: Rozumalski & Schwartz's crouch cluster)."""
+    (``crouch`` 0: the normative gait, 1-5: Rozumalski & Schwartz's crouch cluster);
+    ``strength_scale`` multiplies their GMFCS level's typical strength (a child measured
+    weaker or stronger than their level's)."""
 
     name: str
     age: float
@@ -103,6 +105,7 @@ class ChildModel:
     effort: bool = True
     crouch: int = 0
     sex: str = "female"
+    strength_scale: float = 1.0
 
     def __post_init__(self) -> None:
         w = "child"
@@ -116,6 +119,10 @@ class ChildModel:
         if self.gmfcs not in (0, 1, 2, 3, 4):
             raise ParameterError(w, "gmfcs", f"{self.gmfcs!r}: allowed 0 (typically "
                                  "developing), 1-4 (the device's users)")
+        sc = _check.finite(w, "strength", self.strength_scale)
+        if not 0.1 <= sc <= 1.5:
+            raise ParameterError(w, "strength", f"{sc:g} is outside 0.1-1.5 (x the GMFCS "
+                                 "level's typical strength)")
         if self.crouch not in (0, 1, 2, 3, 4, 5):
             raise ParameterError(w, "crouch", f"{self.crouch!r}: allowed 0 (none), 1-5 "
                                  "(Rozumalski & Schwartz 2009's clusters)")
@@ -136,7 +143,7 @@ class ChildModel:
 
     @property
     def strength_fraction(self) -> float:
-        return float(_data("effort.toml")["strength_by_gmfcs"][self.gmfcs])
+        return float(_data("effort.toml")["strength_by_gmfcs"][self.gmfcs]) * self.strength_scale
 
     def strength(self) -> F64:
         """The largest torque the child's muscles give at each joint, N m."""
@@ -167,6 +174,7 @@ class ChildModel:
             "[effort]",
             f"on = {'true' if self.effort else 'false'}",
             f"crouch = {self.crouch}   # 0 normative gait, 1-5 Rozumalski & Schwartz 2009 cluster",
+            f"strength = {self.strength_scale:g}   # x the GMFCS level's strength (0.1-1.5)",
         ]
         return "\n".join(lines) + "\n"
 
@@ -199,7 +207,7 @@ class ChildModel:
         s = d.get("spasticity", {})
         _check.keys(f"{where} [spasticity]", s, [], ["level"])
         e = d.get("effort", {})
-        _check.keys(f"{where} [effort]", e, [], ["on", "crouch"])
+        _check.keys(f"{where} [effort]", e, [], ["on", "crouch", "strength"])
         try:
             con = Contracture.preset(str(p.get("contracture", "none")),
                                      float(p.get("contracture_level", 1.0)))
@@ -208,7 +216,8 @@ class ChildModel:
                        gmfcs=_int(where, "gmfcs", c.get("gmfcs", 0)), contracture=con,
                        spasticity=Spasticity.preset(str(s.get("level", "none"))),
                        effort=_bool(where, "effort.on", e.get("on", True)),
-                       crouch=_int(where, "crouch", e.get("crouch", 0)), sex=str(c["sex"]))
+                       crouch=_int(where, "crouch", e.get("crouch", 0)), sex=str(c["sex"]),
+                       strength_scale=e.get("strength", 1.0))
         except ParameterError as err:
             raise ParameterError(where, err.field, err.problem) from None
         except (TypeError, ValueError) as err:

@@ -36,6 +36,9 @@ JOINT_METRICS = ("rms_tracking_error_deg", "peak_torque_Nm", "torque_limit_Nm",
 RUN_METRICS = ("fits", "walked", "fault", "fault_time_s", "ticks", "ticks_torque_clipped",
                "ticks_derated", "ticks_gear_beyond_momentary", "steps", "stability_margin",
                "error")
+#: Per joint, the cuffs' torque while walking (:mod:`exoleg.child.interaction`), RMS
+#: and peak per kg of body mass, as ``interaction_{rms,peak}_Nm_per_kg_{joint}``.
+INTERACTION_METRICS = ("interaction_rms_Nm_per_kg", "interaction_peak_Nm_per_kg")
 
 
 def _child(run: dict[str, Any]) -> Any:
@@ -82,6 +85,20 @@ def device_variant(run: dict[str, Any]) -> tuple[Any, ...]:
     return tuple(out)
 
 
+def actor(run: dict[str, Any], child: Any) -> Any:
+    """The child as an actor (:class:`~exoleg.child.model.ChildModel`) when the run's
+    ``child`` axis says so (its impairments from the run's axes), else None."""
+    if run["child"] != "actor":
+        return None
+    from exoleg.child.model import ChildModel, Spasticity
+    from exoleg.child.passive import Contracture
+
+    return ChildModel(child.name, child.age, child.height, child.mass,
+                      child.gmfcs or 0, Contracture.preset(run["contracture"]),
+                      Spasticity.preset(run["spasticity"]), True, int(run["crouch"]),
+                      child.sex, float(run["strength"]))
+
+
 def _gains(run: dict[str, Any]) -> Any:
     from exoleg.control.hierarchy import WalkGains
 
@@ -105,7 +122,7 @@ def empty_row(run_id: int, task: int, run: dict[str, Any]) -> dict[str, Any]:
     """A run's row before its figures: its id, task, axis values; NaN figures."""
     row: dict[str, Any] = {"run": run_id, "task": task, **_flat(run),
                            "height_m": np.nan, "mass_kg": np.nan}
-    for m in JOINT_METRICS:
+    for m in (*JOINT_METRICS, *INTERACTION_METRICS):
         for j in JOINTS:
             row[f"{m}_{j}"] = np.nan
     row.update(fits=False, walked=False, fault="", fault_time_s=np.nan, ticks=-1,
@@ -121,7 +138,7 @@ def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[s
     from exoleg.control.gait_phase import Event
     from exoleg.control.safety import Fault, Limited, joint_name
     from exoleg.sim.closed_loop import sampled_stability
-    from exoleg.sim.metrics import walk_peaks
+    from exoleg.sim.metrics import interaction_summary, walk_peaks
     from exoleg.sim.walk import simulate_walk
     from exoleg.sizing.fit import fit_device
     from exoleg.sizing.personal import personalized_leg
@@ -135,7 +152,8 @@ def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[s
         gains = _gains(run)
         r = simulate_walk(leg, child.mass, strides=strides, speed=run["speed"],
                           stride_time=run["stride_time"], noise_scale=run["noise"],
-                          seed=run["seed"], actuators=device_variant(run), gains=gains)
+                          seed=run["seed"], actuators=device_variant(run), gains=gains,
+                          child=actor(run, child))
     except (ExolegError, ValueError, ArithmeticError) as e:
         row["error"] = f"{type(e).__name__}: {e}"
         return row
@@ -144,6 +162,9 @@ def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[s
     for p, j in zip(walk_peaks(r), JOINTS, strict=True):
         for m in JOINT_METRICS:
             row[f"{m}_{j}"] = float(p[m])
+    for p in interaction_summary(r):
+        row[f"interaction_rms_Nm_per_kg_{p['joint']}"] = p["rms_Nm_per_kg"]
+        row[f"interaction_peak_Nm_per_kg_{p['joint']}"] = p["peak_Nm_per_kg"]
     postures = r.q[::10]
     margin = max(sampled_stability(r.plant.leg, PD(Kp=kp, Kd=kd), dt, postures)
                  for kp, kd in ((gains.kp_stance, gains.kd_stance),

@@ -75,6 +75,18 @@ AXES: dict[str, Axis] = {
                   meaning="TD (WHO 2007) or GMFCS I-IV (Brooks 2011)"),
     "percentile": Axis("number", 1.0, 99.0, default=50.0,
                        meaning="height and mass percentile of the group's chart"),
+    # the child as an actor (exoleg.child; "passive": the leg as a rigid body, as the
+    # paper's; the impairments below act on an actor only)
+    "child": Axis("choice", choices=("passive", "actor"), default="passive",
+                  meaning="passive leg, or the child as an actor (docs/child.md)"),
+    "spasticity": Axis("choice", choices=("none", "mild", "moderate", "severe"),
+                       default="none", meaning="data/child/spasticity.toml preset"),
+    "crouch": Axis("whole", 0, 5, default=0,
+                   meaning="intended gait: 0 normative, 1-5 Rozumalski & Schwartz cluster"),
+    "contracture": Axis("choice", choices=("none", "predictcpgait"), default="none",
+                        meaning="data/child/contracture.toml preset"),
+    "strength": Axis("number", 0.1, 1.5, default=1.0,
+                     meaning="x the GMFCS level's typical strength"),
     # the device
     "hip_motor": Axis("choice", choices=HIP_VARIANTS, default="ec90flat-160w",
                       meaning="data/device/hip-variants"),
