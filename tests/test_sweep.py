@@ -65,6 +65,8 @@ def cli(*args: str, **kw: object) -> subprocess.CompletedProcess[str]:
     ("[[profiles]]\nage = 9\nsex = \"female\"\nheight = 1.3\nmass = 300\n", "profiles[0]"),
     ("[study]\npartition_by = \"colour\"\n", "study.partition_by"),
     ("[study]\nsampling = \"list\"\n", "runs"),
+    ("[axes]\nspasticity = [\"mild\"]\n", "axes.spasticity"),      # on a passive leg
+    ("[axes]\nchild = [\"actor\"]\ncrouch = [7]\n", "axes.crouch"),  # no such cluster
 ])
 def test_a_bad_study_is_refused_naming_the_key(text: str, key: str) -> None:
     with pytest.raises(ParameterError) as e:

@@ -107,6 +107,8 @@ AXES: dict[str, Axis] = {
     "noise": Axis("number", 0.0, 10.0, default=1.0, meaning="x the sensors' datasheet noise"),
     "seed": Axis("whole", 0, 2**31 - 1, default=0, meaning="sensor noise seed"),
 }
+#: The axes that act on the child as an actor only (the ``child`` axis's "actor").
+IMPAIRMENTS = ("spasticity", "crouch", "contracture", "strength")
 #: The axes that describe a chart's child (replaced by ``profile`` when profiles are given).
 CHART_CHILD = ("age", "sex", "group", "percentile")
 SAMPLINGS = ("grid", "random", "lhs", "list")
@@ -148,6 +150,11 @@ class Study:
         """The axes that vary, in the file's order (``profile`` for profiles)."""
         names = [k for k, v in self.axes.items() if not (isinstance(v, list) and len(v) == 1)]
         return (["profile"] if len(self.profiles) > 1 else []) + names
+
+
+def _values_named(spec: Any) -> list[Any]:
+    """The values an axis's entry lists (a list, or a single value); [] for a range."""
+    return spec if isinstance(spec, list) else [] if isinstance(spec, dict) else [spec]
 
 
 def _where(path: str | Path | None) -> str:
@@ -199,6 +206,10 @@ def parse_study(text: str, where: str = "study") -> Study:
     if profiles and (clash := [k for k in CHART_CHILD if k in axes]):
         raise ParameterError(where, f"axes.{clash[0]}", "a chart's child and [[profiles]] "
                              "exclude each other: give one")
+    impaired = [k for k in IMPAIRMENTS if k in axes]
+    if impaired and "actor" not in _values_named(axes.get("child", {})):
+        raise ParameterError(where, f"axes.{impaired[0]}", "acts on the child as an actor "
+                             "only: add child = [\"actor\"] (the default is a passive leg)")
     listed = tuple(_listed(where, i, r) for i, r in enumerate(_tables(where, data, "runs")))
     if sampling == "list" and axes:
         raise ParameterError(where, "axes", "sampling = \"list\" takes [[runs]], not [axes]")
