@@ -133,6 +133,15 @@ class ChildModel:
         """A typically developing child: no contracture, no spasticity, full strength."""
         return cls(name, age, height, mass, sex=sex)
 
+    @classmethod
+    def of(cls, child: Any, contracture: str = "none", spasticity: str = "none",
+           crouch: int = 0, strength: float = 1.0) -> ChildModel:
+        """A fitted child (:class:`exoleg.sizing.Child`: who they are, their GMFCS level)
+        as an actor, with these presets (their effort on)."""
+        return cls(child.name, child.age, child.height, child.mass, child.gmfcs or 0,
+                   Contracture.preset(contracture), Spasticity.preset(spasticity), True,
+                   crouch, child.sex, strength)
+
     def sizing_child(self) -> Any:
         """This child for :mod:`exoleg.sizing` (dimensions estimated from age, sex and
         height)."""

@@ -91,12 +91,9 @@ def cmd_fit(args: argparse.Namespace) -> int:
         out.stage("fit.json").write_text(json.dumps(rep.record(write_leg), indent=2))
         written = ["fit.json"]
         if child.gmfcs != 5:
-            from exoleg.child.model import ChildModel, Spasticity
-            from exoleg.child.passive import Contracture
+            from exoleg.child.model import ChildModel
 
-            cm = ChildModel(child.name, child.age, child.height, child.mass, child.gmfcs or 0,
-                            Contracture.preset(args.contracture),
-                            Spasticity.preset(args.spasticity), True, args.crouch, child.sex)
+            cm = ChildModel.of(child, args.contracture, args.spasticity, args.crouch)
             out.stage("child.toml").write_text(cm.to_toml())
             written.insert(0, "child.toml")
         if write_leg:
@@ -105,6 +102,9 @@ def cmd_fit(args: argparse.Namespace) -> int:
         out.commit(last="fit.json")
     if "child.toml" in written:
         _say(f"wrote {out.folder}/child.toml (for exoleg simulate --walk --child)")
+    else:
+        _say("no child.toml: the child model covers typically developing children and "
+             "GMFCS I-IV, the device's users")
     if "leg.toml" in written:
         _say(f"wrote {out.folder}/leg.toml (for exoleg simulate --leg) and {out.folder}/fit.json")
     else:

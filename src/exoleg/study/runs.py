@@ -90,13 +90,10 @@ def actor(run: dict[str, Any], child: Any) -> Any:
     ``child`` axis says so (its impairments from the run's axes), else None."""
     if run["child"] != "actor":
         return None
-    from exoleg.child.model import ChildModel, Spasticity
-    from exoleg.child.passive import Contracture
+    from exoleg.child.model import ChildModel
 
-    return ChildModel(child.name, child.age, child.height, child.mass,
-                      child.gmfcs or 0, Contracture.preset(run["contracture"]),
-                      Spasticity.preset(run["spasticity"]), True, int(run["crouch"]),
-                      child.sex, float(run["strength"]))
+    return ChildModel.of(child, run["contracture"], run["spasticity"], int(run["crouch"]),
+                         float(run["strength"]))
 
 
 def _gains(run: dict[str, Any]) -> Any:

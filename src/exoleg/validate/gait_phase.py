@@ -45,7 +45,7 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
              ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[DetectionRun]]:
     """(the detection table over every run, over the runs the safety layer did not stop,
     the runs). Each child walks ``strides`` strides at each noise level."""
-    from exoleg.child.model import ChildModel, Spasticity
+    from exoleg.child.model import ChildModel
     from exoleg.control.safety import Limited
     from exoleg.sim.metrics import detection_table
     from exoleg.sim.walk import simulate_walk
@@ -60,8 +60,7 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
         fit = fit_device(child)
         leg = personalized_leg(child, fit)
         ankle = estimate_dimensions(child).ankle_height
-        actor = ChildModel(label, age, h, m, gmfcs or 0,
-                           spasticity=Spasticity.preset(SPASTICITY[gmfcs or 0]), sex=sex)
+        actor = ChildModel.of(child, spasticity=SPASTICITY[gmfcs or 0])
         for k, n in enumerate(noise):
             r = simulate_walk(leg, m, strides=strides, noise_scale=n, seed=seed + k,
                               ankle_height=ankle, child=actor)
