@@ -258,3 +258,23 @@ def test_opensim_integrates_the_same_pendulum() -> None:
             r = compare_pendulum(c)
             assert r.max_difference < 1e-3
             assert r.peak_velocity[0] == pytest.approx(r.peak_velocity[1], abs=1e-2)
+
+
+def test_a_session_with_the_child_logs_and_sums_up_the_cuffs_torque(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    # exoleg run --child on the simulated device: the child stands disarmed (the knee
+    # holds), the log has the cuffs' torque and the child's, and the summary sums it up
+    from exoleg.runtime.log import read_log
+    from exoleg.runtime.session import run, summarize
+
+    ch = ChildModel("c", 10, 1.40, 32.0, 2, spasticity=Spasticity.preset("mild"), sex="male")
+    _, path = run("sim", 2.0, tmp_path / "s", realtime=False, child=ch, body_mass=32.0)
+    header, cols, _ = read_log(path)
+    assert header["child"] == "c"
+    assert abs(np.degrees(cols["q_knee"][-1] - cols["q_knee"][0])) < 3.0
+    s = summarize(path)
+    assert set(s["interaction_rms_Nm"]) == {"hip", "knee", "ankle"}
+    assert all(math.isfinite(v) and v > 0 for v in s["interaction_rms_Nm_per_kg"].values())
+    # a log without the device's own cuff readings (the buses' drives): nothing claimed
+    from exoleg.runtime.session import _interaction_figures
+
+    assert _interaction_figures({"t": cols["t"]}, 32.0)["interaction_rms_Nm"] is None

@@ -94,6 +94,13 @@ def cmd_run(args: argparse.Namespace) -> int:
                                                    s["gear_peak_Nm"].items())
              + f" N m; ticks with a gear beyond its momentary peak "
                f"{s['ticks_gear_beyond_momentary_peak']}")
+    if s["interaction_rms_Nm"]:
+        _say("interaction torque (the cuffs on the child), RMS: "
+             + ", ".join(f"{j} {v:.1f}" for j, v in s["interaction_rms_Nm"].items())
+             + " N m (" + ", ".join(f"{v:.2f}" for v in
+                                    (s["interaction_rms_Nm_per_kg"] or {}).values())
+             + " N m/kg); peak " + ", ".join(f"{v:.0f}" for v in
+                                             s["interaction_peak_Nm"].values()) + " N m")
     from exoleg.runtime.log import MAX_LOSS_TICKS
 
     _say(f"\nwrote {path} (crash-safe: at most {MAX_LOSS_TICKS} ticks lost if killed) and "

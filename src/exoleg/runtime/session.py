@@ -321,7 +321,8 @@ def summarize(path: str | Path) -> dict[str, Any]:
     """What a session log holds: length, modes, faults, events, timing, tail dropped, and
     per joint the safety layer's hottest winding estimate (degC), its largest gear torque
     estimate (N m) and the ticks a gear was beyond its momentary peak (a log from before
-    these columns: None)."""
+    these columns: None), and the cuffs' torque, RMS and peak (N m) and RMS per kg (None
+    where the device does not measure it)."""
     from exoleg.control.gait_phase import Event
     from exoleg.control.safety import Limited
 
@@ -342,7 +343,29 @@ def summarize(path: str | Path) -> dict[str, Any]:
             "late_p99_us": float(np.percentile(late, 99)) if len(late) else 0.0,
             "late_max_us": float(late.max()) if len(late) else 0.0,
             "missed_deadlines": int((late > period * 1e6).sum()),
-            "cut_record_bytes": cut, **_motor_figures(cols, status)}
+            "cut_record_bytes": cut, **_motor_figures(cols, status),
+            **_interaction_figures(cols, float(header.get("body_mass", np.nan)))}
+
+
+def _interaction_figures(cols: dict[str, Any], body_mass: float) -> dict[str, Any]:
+    """The cuffs' torque over a session, per joint: RMS and peak (N m) and RMS per kg of
+    body mass; None where the device did not measure it (no column, or NaN: the buses'
+    drives)."""
+    from exoleg.params.records import JOINTS
+
+    out: dict[str, Any] = {"interaction_rms_Nm": None, "interaction_peak_Nm": None,
+                           "interaction_rms_Nm_per_kg": None}
+    if not all(f"interaction_{j}" in cols for j in JOINTS):
+        return out
+    vals = {j: cols[f"interaction_{j}"][np.isfinite(cols[f"interaction_{j}"])]
+            for j in JOINTS}
+    if any(not len(v) for v in vals.values()):
+        return out
+    rms = {j: float(np.sqrt(np.mean(v * v))) for j, v in vals.items()}
+    return {"interaction_rms_Nm": rms,
+            "interaction_peak_Nm": {j: float(np.abs(v).max()) for j, v in vals.items()},
+            "interaction_rms_Nm_per_kg": {j: r / body_mass for j, r in rms.items()}
+            if body_mass > 0 else None}
 
 
 def _motor_figures(cols: dict[str, Any], status: Any) -> dict[str, Any]:
