@@ -125,6 +125,8 @@ def test_child_page_fits_and_keeps_the_child(hmi: Any, operator: Any) -> None:
     (ada,) = [c for c in info["children"] if c["name"] == "Ada"]
     assert info["child"]["verdict"] == rep.verdict and info["child"]["child_id"] == ada["id"]
     assert f"Ada ({ada['id']}, fit " in info["runs_on"]
+    # on the simulated device the session carries her as an actor (docs/child.md)
+    assert "simulated as an actor (typically developing strength" in info["runs_on"]
     shot(d, "child")
 
 
@@ -207,7 +209,10 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
     # the runtime's log: the torque is zero from the E-stop's tick on
     from exoleg.runtime.log import read_log
 
-    _, cols, _ = read_log(folder / "session.log")
+    head, cols, _ = read_log(folder / "session.log")
+    # the session carried Ada as an actor: her child.toml, the cuffs' torque logged
+    assert (folder / "child.toml").exists() and head["child"] == "Ada"
+    assert np.all(np.isfinite(cols["interaction_knee"][1:]))
     k = applied[0]["tick"]
     assert cols["mode"][k] == 3 and cols["mode"][k - 1] == 2
     for j in ("hip", "knee", "ankle"):

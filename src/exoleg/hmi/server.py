@@ -214,8 +214,7 @@ class HMI:
         real."""
         from exoleg.child.model import ChildModel
 
-        if self.backend != "sim" and (self.interface or SIMULATED_BUS[self.backend]) != \
-                SIMULATED_BUS[self.backend]:
+        if not self._simulated():
             return None
         c = kept["record"]["child"]
         gm = int(c.get("gmfcs") or 0)
@@ -235,9 +234,19 @@ class HMI:
                     "text": f"no child fitted: the paper's leg {self.leg.name!r}, "
                             f"{DEFAULT_BODY_MASS:g} kg"}
         mass = float(kept["record"]["child"]["mass"])
+        gm = int(kept["record"]["child"].get("gmfcs") or 0)
+        actor = ("" if not self._simulated() or gm > 4 else
+                 f"; simulated as an actor ({'GMFCS ' + str(gm) if gm else 'typically developing'}"
+                 f" strength, no spasticity, no contracture: child.toml in the session)")
         return {"child": kept["name"], "child_id": kept["child_id"], "leg": self.leg.name,
                 "body_mass": mass, "text": f"{kept['name']} ({kept['child_id']}, fit "
-                f"{kept['id']}): leg {self.leg.name!r}, {mass:g} kg"}
+                f"{kept['id']}): leg {self.leg.name!r}, {mass:g} kg{actor}"}
+
+    def _simulated(self) -> bool:
+        """Whether the sessions' device is simulated (the sim backend, or simulated nodes
+        on a bus): only then is the child simulated too."""
+        return self.backend == "sim" or (self.interface or SIMULATED_BUS[self.backend]) == \
+            SIMULATED_BUS[self.backend]
 
     def _keep(self, kept: dict[str, Any] | None) -> None:
         """The fit the next session runs on (its leg drawn by the pages)."""
