@@ -20,7 +20,7 @@ from exoleg.child.passive import (
     PASSIVE,
     Contracture,
     RienerModel,
-    _data,
+    child_data,
     passive_record,
     riener_phi,
     term_value,
@@ -73,7 +73,7 @@ class Spasticity:
 
     @classmethod
     def preset(cls, level: str) -> Spasticity:
-        d = _data("spasticity.toml")
+        d = child_data("spasticity.toml")
         if level not in d["levels"]:
             raise ParameterError("spasticity", "level", f"unknown {level!r} (allowed: "
                                  + ", ".join(LEVELS) + ")")
@@ -152,11 +152,14 @@ class ChildModel:
 
     @property
     def strength_fraction(self) -> float:
-        return float(_data("effort.toml")["strength_by_gmfcs"][self.gmfcs]) * self.strength_scale
+        """Strength as a fraction of a typically developing child's: the GMFCS level's
+        (``data/child/effort.toml``) times :attr:`strength_scale`."""
+        typical = child_data("effort.toml")["strength_by_gmfcs"][self.gmfcs]
+        return float(typical) * self.strength_scale
 
     def strength(self) -> F64:
         """The largest torque the child's muscles give at each joint, N m."""
-        d = _data("effort.toml")
+        d = child_data("effort.toml")
         return np.array(d["strength_Nm_per_kg"]) * self.mass * self.strength_fraction
 
     # ---------------------------------------------------------------- child.toml
@@ -254,25 +257,21 @@ def crouch_offset(cluster: int, x: F64) -> F64:
     cluster (1-5): at initial contact the cluster's mean less the normative, through
     mid-stance its minimum less the normative, fading to none at the swing's peak
     (72 %) and back by the next contact (smooth, periodic)."""
-    d = _data("effort.toml")["crouch"]
+    d = child_data("effort.toml")["crouch"]
     ic = d["initial_contact_deg"][cluster - 1] - d["normative"][0]
     ms = d["min_stance_deg"][cluster - 1] - d["normative"][1]
     pts_x = np.array([0.0, 0.12, 0.45, 0.60, 0.72, 0.86, 1.0])
     pts_y = np.array([ic, ms, ms, 0.5 * ms, 0.0, 0.5 * ic, ic])
-    # a periodic cubic through the points (Catmull-Rom would overshoot less; this is
-    # smooth enough for an intention)
+    # straight lines between the points, over three cycles (periodic), their corners
+    # rounded by a moving average of 15 of 401 samples (a 3.5 % window)
     xs = np.concatenate([pts_x[:-1] - 1.0, pts_x, pts_x[1:] + 1.0])
     ys = np.concatenate([pts_y[:-1], pts_y, pts_y[1:]])
-    from numpy import interp
-
-    lin = interp(np.mod(x, 1.0), xs, ys)
-    # smooth the corners with a short moving average over the cycle
     k = 7
     grid = np.linspace(0, 1, 401)
-    g = interp(grid, xs, ys)
+    g = np.interp(grid, xs, ys)
     g = np.convolve(np.concatenate([g[-k:], g, g[:k]]), np.ones(2 * k + 1) / (2 * k + 1),
                     "same")[k:-k]
-    return interp(np.mod(x, 1.0), grid, g) if lin.size else lin
+    return np.interp(np.mod(x, 1.0), grid, g)
 
 
 def intended_gait(child: ChildModel, stride_time: float, speed: str = "Free"
@@ -354,13 +353,13 @@ def child_records(child: ChildModel | None, h: float, stride_time: float = 1.1,
     r["srs"], r["srs_range"], r["srs_decay"] = sp.srs_per_deg, sp.srs_range, sp.srs_decay
     r["eccentric"], r["fv_speed"] = sp.eccentric, sp.fv_speed
     for name, delay in (("reflex_delay", sp.delay),
-                        ("effort_delay", float(_data("effort.toml")["delay_s"]))):
+                        ("effort_delay", float(child_data("effort.toml")["delay_s"]))):
         n = int(round(delay / h))
         if n >= HISTORY:
             raise ParameterError("child", name, f"{delay:g} s is {n} ticks of {h:g} s; the "
                                  f"child's memory holds {HISTORY - 1}")
         r[name] = n
-    e = _data("effort.toml")
+    e = child_data("effort.toml")
     L = 0.53 * child.height if leg_length is None else leg_length
     kp = np.array(e["stiffness"]) * child.mass * 9.81 * L
     r["effort"] = 1.0 if child.effort else 0.0

@@ -53,7 +53,8 @@ PASSIVE = np.dtype([("on", F8), ("joint", F8, N_TERMS), ("sign", F8, N_TERMS),
                     ("valid", F8, (3, 2))])
 
 
-def _data(name: str) -> dict[str, Any]:
+def child_data(name: str) -> dict[str, Any]:
+    """One of the child model's shipped data files (``data/child/NAME``), parsed."""
     text = resources.files("exoleg").joinpath("data", "child", name).read_text()
     return tomllib.loads(text)
 
@@ -78,7 +79,7 @@ class RienerModel:
 
     @classmethod
     def shipped(cls) -> RienerModel:
-        d = _data("passive.toml")
+        d = child_data("passive.toml")
         terms = tuple(Term(JOINTS.index(t["joint"]), t["group"], float(t["sign"]),
                            float(t["a"]), tuple(float(v) for v in t["b"]))  # type: ignore[arg-type]
                       for t in d["term"])
@@ -123,7 +124,7 @@ class Contracture:
         child's."""
         if name == "none":
             return cls.none()
-        d = _data("contracture.toml")
+        d = child_data("contracture.toml")
         if name not in d:
             raise ParameterError("contracture", "preset", f"unknown {name!r} (allowed: none, "
                                  + ", ".join(sorted(d)) + ")")
