@@ -149,7 +149,7 @@ def test_a_child_stands_on_the_unpowered_device_for_a_minute(fitted_leg, gmfcs, 
 
 
 def test_without_the_child_the_unpowered_leg_folds(fitted_leg) -> None:  # type: ignore[no-untyped-def]
-    # the same minute with a passive rigid leg: the knee folds (measured ~ -30 deg)
+    # the same minute with a passive rigid leg: the knee folds (measured -28.8 deg)
     from exoleg.sim.walk import simulate_walk
 
     n = 60_000
@@ -173,7 +173,7 @@ def test_the_cuffs_carry_the_device_at_rest(fitted_leg) -> None:  # type: ignore
     k = -10
     A = params_array(paper_actuators())
     want = -np.asarray(dev.G(r.q[k])) - [friction(A[i:i + 1], r.dq[k, i]) for i in range(3)]
-    # tolerance: the tick's mean accelerations and midpoint posture (measured 1e-3 N m)
+    # tolerance: the tick's mean accelerations and midpoint posture (measured 1.5e-3 N m)
     assert r.interaction[k] == pytest.approx(want, abs=0.02)
     assert np.abs(want).max() > 1.0
 

@@ -82,7 +82,7 @@ class Pendulum:
 def ankle_neutral(P: NDArray[np.void], hip: float = 0.0) -> float:
     """Where the relaxed ankle rests with the knee extended: its passive moment's zero,
     rad (exoleg's q3: dorsiflexion positive), searched over -40..30 deg."""
-    from exoleg.child.curves import _root
+    from exoleg.child.curves import bisect_root
 
     q, out = np.zeros(3), np.zeros(3)
 
@@ -91,7 +91,7 @@ def ankle_neutral(P: NDArray[np.void], hip: float = 0.0) -> float:
         passive_torque(P, q, np.zeros(3), out)
         return float(out[2])
 
-    a = _root(moment, -40.0, 30.0)
+    a = bisect_root(moment, -40.0, 30.0)
     return math.radians(0.0 if math.isnan(a) else a)
 
 

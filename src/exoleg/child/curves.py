@@ -66,7 +66,7 @@ def falisse_curves() -> Curves:
     return Curves(np.array(par), np.array(jnt), np.array(qs), np.array(ms))
 
 
-def _root(f, lo: float, hi: float) -> float:  # type: ignore[no-untyped-def]
+def bisect_root(f, lo: float, hi: float) -> float:  # type: ignore[no-untyped-def]
     """Where f changes sign in [lo, hi] (bisection); NaN if it does not."""
     a, b = f(lo), f(hi)
     if a == 0.0:
@@ -91,12 +91,12 @@ def signatures(P: NDArray[np.void]) -> tuple[float, ...]:
     def dorsiflexion_moment(ankle: float) -> float:
         return float(passive_moments(P, clinical_q(0.0, 0.0, ankle))[2])
 
-    return (_root(lambda k: knee_flexion_moment(0.0, k), 0.0, 100.0),
+    return (bisect_root(lambda k: knee_flexion_moment(0.0, k), 0.0, 100.0),
             knee_flexion_moment(90.0, 0.0),
-            _root(lambda k: knee_flexion_moment(90.0, k), 30.0, 100.0),
-            _root(dorsiflexion_moment, -30.0, 30.0),
+            bisect_root(lambda k: knee_flexion_moment(90.0, k), 30.0, 100.0),
+            bisect_root(dorsiflexion_moment, -30.0, 30.0),
             -dorsiflexion_moment(0.0),
-            _root(lambda a: dorsiflexion_moment(a) + 10.0, -30.0, 40.0))
+            bisect_root(lambda a: dorsiflexion_moment(a) + 10.0, -30.0, 40.0))
 
 
 def curve_signatures(params: str) -> tuple[float, ...]:

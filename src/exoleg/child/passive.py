@@ -220,22 +220,18 @@ def passive_torque(P, q, dq, out):  # type: ignore[no-untyped-def]
     out[2] = -m2 - R.damping[2] * dq[2]
 
 
+@njit(cache=True)
+def _passive_rows(P, q, dq, out):  # type: ignore[no-untyped-def]
+    for i in range(q.shape[0]):
+        passive_torque(P, q[i], dq[i], out[i])
+
+
 def passive_moments(P: NDArray[np.void], q: Any, dq: Any = None) -> F64:
-    """The passive torques at joint angles ``q`` (3,) or (n, 3), rad; exoleg's signs."""
-    qa = np.atleast_2d(np.asarray(q, dtype=float))
-    da = np.zeros_like(qa) if dq is None else np.atleast_2d(np.asarray(dq, dtype=float))
+    """The passive torques at joint angles ``q`` (3,) or (n, 3), rad (rates ``dq`` for
+    the damping, default 0); exoleg's signs. One compiled loop over the rows."""
+    qa = np.ascontiguousarray(np.atleast_2d(np.asarray(q, dtype=float)))
+    da = (np.zeros_like(qa) if dq is None
+          else np.ascontiguousarray(np.atleast_2d(np.asarray(dq, dtype=float))))
     out = np.empty_like(qa)
-    for i in range(qa.shape[0]):
-        passive_torque(P, qa[i], da[i], out[i])
+    _passive_rows(P, qa, da, out)
     return out[0] if np.ndim(q) == 1 else out
-
-
-def riener_moments(phi_a: float, phi_k: float, phi_h: float) -> tuple[float, float, float]:
-    """Riener & Edrich's (M_H, M_K, M_A) as printed (their signs and degrees), for
-    checking the shipped coefficients."""
-    m = RienerModel.shipped()
-    out = list(m.constant)
-    for t in m.terms:
-        out[t.joint] += t.sign * math.exp(t.a + t.b[0] * phi_a + t.b[1] * phi_k
-                                          + t.b[2] * phi_h)
-    return out[0], out[1], out[2]

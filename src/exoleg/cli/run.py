@@ -114,16 +114,15 @@ def _refuse_unapplied(args: argparse.Namespace) -> None:
     the other bus, the simulated child's where no simulated device answers, the
     interface's without --hmi."""
     from exoleg.errors import ParameterError
-    from exoleg.runtime.session import SIMULATED_BUS
+    from exoleg.runtime.session import simulated
 
     if args.channel is not None and args.backend != "canopen":
         raise ParameterError("exoleg run", "--channel", "goes with --backend canopen")
-    simulated = args.backend == "sim" or (args.interface or SIMULATED_BUS[args.backend]) \
-        == SIMULATED_BUS[args.backend]
-    if args.seed is not None and not simulated:
+    sim = simulated(args.backend, args.interface)
+    if args.seed is not None and not sim:
         raise ParameterError("exoleg run", "--seed", "the simulated sensors' noise: not on "
                              f"a real bus ({args.backend} --interface {args.interface})")
-    if args.child is not None and not simulated:
+    if args.child is not None and not sim:
         raise ParameterError("exoleg run", "--child", "the simulated child: not on a real "
                              f"bus ({args.backend} --interface {args.interface}), where the "
                              "child is real")

@@ -44,7 +44,7 @@ from exoleg.runtime.control_api import (
     source_of,
 )
 from exoleg.runtime.link import LoopLink
-from exoleg.runtime.session import SIMULATED_BUS, check_options
+from exoleg.runtime.session import check_options, simulated
 
 STATIC = Path(__file__).parent / "static"
 #: the child form's fields as the page labels them (errors are said in the form's words)
@@ -245,8 +245,7 @@ class HMI:
     def _simulated(self) -> bool:
         """Whether the sessions' device is simulated (the sim backend, or simulated nodes
         on a bus): only then is the child simulated too."""
-        return self.backend == "sim" or (self.interface or SIMULATED_BUS[self.backend]) == \
-            SIMULATED_BUS[self.backend]
+        return simulated(self.backend, self.interface)
 
     def _keep(self, kept: dict[str, Any] | None) -> None:
         """The fit the next session runs on (its leg drawn by the pages)."""
@@ -386,7 +385,7 @@ class HMI:
             with self.lock:
                 kept, runs_on = self.kept, self.runs_on()
                 out = {"device": self.info, "backend": self.backend, "fixed": self.fixed,
-                       "simulated": self.interface == SIMULATED_BUS.get(self.backend),
+                       "simulated": self._simulated(),
                        "session": self.session.name if self.session else None,
                        "max_duration": MAX_DURATION, "vocabulary": VOCABULARY,
                        "gains": [g for g in WalkGains.TUNABLE if g != "support"],

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from pathlib import Path
@@ -38,6 +39,12 @@ BUS_TIMEOUT_S = 5e-3
 SIMULATED_BUS_TIMEOUT_S = 20e-3
 
 
+def simulated(backend: str, interface: str | None = None) -> bool:
+    """Whether a simulated device answers: the sim backend, or simulated nodes on a bus
+    (:data:`SIMULATED_BUS`, the default interface). Only there is the child simulated."""
+    return backend == "sim" or (interface or SIMULATED_BUS[backend]) == SIMULATED_BUS[backend]
+
+
 def check_options(backend: str, interface: str | None = None, arm: bool = False,
                   walk_after: float | None = None, bus_timeout: float | None = None,
                   overrun: float = OVERRUN_S, controller: str = "walk",
@@ -53,7 +60,7 @@ def check_options(backend: str, interface: str | None = None, arm: bool = False,
     if controller not in CONTROLLERS:
         raise ParameterError("exoleg run", "--controller", f"unknown {controller!r} "
                              "(allowed: " + ", ".join(CONTROLLERS) + ")")
-    if arm and backend != "sim" and interface not in (None, SIMULATED_BUS[backend]):
+    if arm and not simulated(backend, interface):
         raise ParameterError("exoleg run", "--arm", "only on the sim backend or simulated "
                              "nodes (canopen --interface virtual, ethercat --interface "
                              "fake): on a real device the operator arms")
@@ -236,10 +243,8 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
     leg = leg if leg is not None else exoleg.paper_leg()
     config = DeviceConfig.load(control_dt=period)
     # a simulated device only where it is what answers: on sim, or behind simulated nodes
-    simulated = backend == "sim" or (interface or SIMULATED_BUS[backend]) == \
-        SIMULATED_BUS[backend]
     sim = (SimBackend(leg, body_mass, period, seed=seed, config=config, child=child)
-           if simulated else None)
+           if simulated(backend, interface) else None)
     ctl = make_controller(controller, config, leg, body_mass, sim)
     before = set(threading.enumerate())
     b, rig, bus_timeout = open_device(backend, config, sim, period, interface, channel,
@@ -348,23 +353,22 @@ def summarize(path: str | Path) -> dict[str, Any]:
 
 
 def _interaction_figures(cols: dict[str, Any], body_mass: float) -> dict[str, Any]:
-    """The cuffs' torque over a session, per joint: RMS and peak (N m) and RMS per kg of
-    body mass; None where the device did not measure it (no column, or NaN: the buses'
-    drives)."""
+    """The cuffs' torque over a session, per joint (:func:`~exoleg.sim.metrics.
+    interaction_figures`): RMS and peak (N m) and RMS per kg of body mass; None where the
+    device did not measure it (no column, or NaN: the buses' drives)."""
     from exoleg.params.records import JOINTS
+    from exoleg.sim.metrics import interaction_figures
 
-    out: dict[str, Any] = {"interaction_rms_Nm": None, "interaction_peak_Nm": None,
-                           "interaction_rms_Nm_per_kg": None}
-    if not all(f"interaction_{j}" in cols for j in JOINTS):
-        return out
-    vals = {j: cols[f"interaction_{j}"][np.isfinite(cols[f"interaction_{j}"])]
-            for j in JOINTS}
-    if any(not len(v) for v in vals.values()):
-        return out
-    rms = {j: float(np.sqrt(np.mean(v * v))) for j, v in vals.items()}
-    return {"interaction_rms_Nm": rms,
-            "interaction_peak_Nm": {j: float(np.abs(v).max()) for j, v in vals.items()},
-            "interaction_rms_Nm_per_kg": {j: r / body_mass for j, r in rms.items()}
+    names = [f"interaction_{j}" for j in JOINTS]
+    figs = (interaction_figures(np.stack([cols[n] for n in names], axis=1), body_mass)
+            if all(n in cols for n in names) else [])
+    if not figs or any(not math.isfinite(f["rms_Nm"]) for f in figs):
+        return {"interaction_rms_Nm": None, "interaction_peak_Nm": None,
+                "interaction_rms_Nm_per_kg": None}
+    by = {f["joint"]: f for f in figs}
+    return {"interaction_rms_Nm": {j: f["rms_Nm"] for j, f in by.items()},
+            "interaction_peak_Nm": {j: f["peak_Nm"] for j, f in by.items()},
+            "interaction_rms_Nm_per_kg": {j: f["rms_Nm_per_kg"] for j, f in by.items()}
             if body_mass > 0 else None}
 
 

@@ -79,7 +79,7 @@ class SimBackend:
         device_sense(self.p, w, self.dev.A, self.sens, self.dev.imu_x, -self.dev.depth, S,
                      self.period, True, self.fsr_noise[0], self.imu_noise[0], self.bias,
                      new(SENSORS), f)
-        device_actuate(self.p, w, self.dev.A, self.dev.child_records(self.period), S,
+        device_actuate(self.p, w, self.dev.A, tuple(k.copy() for k in self.K), S,
                        self.period, self.substeps, np.zeros(3), f,
                        False, 0.0, 1e18, self.dev.stride_time, self.dev.support,
                        self.dev.plant.support_height, np.zeros(3), np.zeros(3))

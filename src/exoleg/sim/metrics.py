@@ -157,16 +157,21 @@ def walk_peaks(r: WalkResult) -> list[dict[str, Any]]:
     return peaks
 
 
-def interaction_summary(r: Any) -> list[dict[str, Any]]:
-    """Per joint, the cuffs' torque while walking (from the walk's start to its end):
-    RMS and peak in N m and per kg of the child's body mass."""
-    w = r.t >= r.walk_start
+def interaction_figures(values: Any, body_mass: float) -> list[dict[str, Any]]:
+    """Per joint, the cuffs' torque ``values`` (n, 3) (N m; NaN where not measured):
+    RMS and peak in N m and per kg of body mass, over the finite values (NaN if none)."""
     out = []
     for i, j in enumerate(JOINTS):
-        v = r.interaction[w, i]
+        v = np.asarray(values[:, i], dtype=float)
         v = v[np.isfinite(v)]
         rms = float(np.sqrt(np.mean(v * v))) if v.size else float("nan")
         peak = float(np.max(np.abs(v))) if v.size else float("nan")
         out.append({"joint": j, "rms_Nm": rms, "peak_Nm": peak,
-                    "rms_Nm_per_kg": rms / r.body_mass, "peak_Nm_per_kg": peak / r.body_mass})
+                    "rms_Nm_per_kg": rms / body_mass, "peak_Nm_per_kg": peak / body_mass})
     return out
+
+
+def interaction_summary(r: Any) -> list[dict[str, Any]]:
+    """Per joint, the cuffs' torque while walking (from the walk's start to its end):
+    :func:`interaction_figures`."""
+    return interaction_figures(r.interaction[r.t >= r.walk_start], r.body_mass)

@@ -100,6 +100,7 @@ def compare_pendulum(child: Any, duration: float = 5.0, accuracy: float = 1e-10
     izz = inertia_knee - m * (cx * cx + cy * cy)
 
     osim.Logger.setLevelString("Warn")  # not a line per integration on the terminal
+    osim.Logger.removeFileSink()  # nor an opensim.log in whatever folder this runs in
     t1 = time.perf_counter()
     model = osim.Model()
     model.setGravity(osim.Vec3(0, -g, 0))
