@@ -27,3 +27,13 @@ def sched_fifo() -> None:
         os.sched_setscheduler(0, policy, param)
     except (AttributeError, OSError):
         pytest.skip("SCHED_FIFO not permitted here (root or CAP_SYS_NICE)")
+
+
+@pytest.fixture
+def terminal_ctrl_c():  # type: ignore[no-untyped-def]
+    """A ``preexec_fn`` that gives a command SIGINT at its default, as a terminal's
+    foreground command has it: a test run from a background job starts with SIGINT
+    ignored, its children inherit that, and Python then never raises KeyboardInterrupt."""
+    import signal
+
+    return lambda: signal.signal(signal.SIGINT, signal.SIG_DFL)

@@ -14,6 +14,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -274,15 +275,15 @@ def test_failure_midway_keeps_the_previous_output(
     assert {p.name: p.read_text(errors="replace") for p in out.iterdir()} == before
 
 
-def test_ctrl_c_in_a_real_run_exits_130_with_one_line(tmp_path: Path) -> None:
+def test_ctrl_c_in_a_real_run_exits_130_with_one_line(tmp_path: Path,
+                                                      terminal_ctrl_c: Any) -> None:
     out = tmp_path / "out"
     before = _previous(out)
-    # Ctrl-C as in a terminal: SIGINT at its default even when this test runs from a
-    # background job (which starts with SIGINT ignored, and its children inherit that)
+    # Ctrl-C as in a terminal, even when this test runs from a background job
     proc = subprocess.Popen([sys.executable, "-m", "exoleg.cli", "simulate", "--duration",
                              "3000", "--no-engine", "--out", str(out)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+                            preexec_fn=terminal_ctrl_c)
     time.sleep(3.0)  # imported and running: 3000 s simulated and written take ~10 s
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=120)

@@ -18,6 +18,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -164,8 +165,10 @@ def test_impairments_are_axes_and_the_cuffs_torque_is_in_every_row() -> None:
     assert actor(passive, object()) is None
     rows = [run_one(i, 0, run, strides=2) for i, run in enumerate((passive, acting))]
     assert all(r["error"] == "" and r["walked"] for r in rows)
+    # measured: passive 1.45 / 0.76 / 0.62, actor 1.97 / 1.00 / 0.69 N m/kg RMS; the
+    # bounds are those figures' order (a row of zeros or of the impact spikes fails)
     for r in rows:
-        assert all(0.0 < r[f"interaction_rms_Nm_per_kg_{j}"] < 5.0
+        assert all(0.3 < r[f"interaction_rms_Nm_per_kg_{j}"] < 5.0
                    for j in ("hip", "knee", "ankle"))
     assert rows[0]["interaction_rms_Nm_per_kg_knee"] != rows[1]["interaction_rms_Nm_per_kg_knee"]
     from exoleg.study.runs import _child
@@ -192,7 +195,8 @@ def _write(path: Path, text: str) -> Path:
 
 
 @needs_dask
-def test_the_small_sweep_on_three_schedulers_interrupted_and_resumed(tmp_path: Path) -> None:
+def test_the_small_sweep_on_three_schedulers_interrupted_and_resumed(
+        tmp_path: Path, terminal_ctrl_c: Any) -> None:
     """The shipped small study (64 runs in 16 tasks) three times: (1) on the default
     LocalCluster through the command line, interrupted by a real SIGINT once some tasks
     are done and run again -- every task computed exactly once, counted in tasks.log;
@@ -205,28 +209,19 @@ def test_the_small_sweep_on_three_schedulers_interrupted_and_resumed(tmp_path: P
     # 1. LocalCluster, interrupted and resumed
     out = tmp_path / "local"
     p = subprocess.Popen([sys.executable, "-m", "exoleg.cli", "sweep", str(example), "--out",
-                          str(out), "--workers", "1"], stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True)
+                          str(out), "--workers", "2"], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, preexec_fn=terminal_ctrl_c)
     deadline = time.monotonic() + 300
     while time.monotonic() < deadline and p.poll() is None:
-        if len(list((out / ".tasks").glob("task-*"))) >= 1:
-            break  # the first task done: on one worker the rest take ~3 s, the window
-        time.sleep(0.01)
-    # Ctrl-C, again after half a second if the sweep goes on (under the full suite's load
-    # a first one was seen to go unanswered twice: a person presses it again too)
-    for _ in range(10):
-        p.send_signal(signal.SIGINT)
-        try:
-            said, err = p.communicate(timeout=0.5)
+        if len(list((out / ".tasks").glob("task-*"))) >= 3:
             break
-        except subprocess.TimeoutExpired:
-            continue
-    else:
-        said, err = p.communicate(timeout=120)
+        time.sleep(0.05)
+    p.send_signal(signal.SIGINT)
+    said, err = p.communicate(timeout=120)
     assert p.returncode == 130, (err, said[-2000:])
     assert "run the same command to go on" in err
     first = len(list((out / ".tasks").glob("task-*")))
-    assert 1 <= first < 16
+    assert 3 <= first < 16
     r = cli("sweep", str(example), "--out", str(out), "--workers", "2")
     assert r.returncode == 0, r.stderr
     assert f"({first} done: resuming)" in r.stdout

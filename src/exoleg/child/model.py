@@ -21,6 +21,7 @@ from exoleg.child.passive import (
     Contracture,
     RienerModel,
     child_data,
+    height_scale,
     passive_record,
     riener_phi,
     term_value,
@@ -341,7 +342,7 @@ def child_records(child: ChildModel | None, h: float, stride_time: float = 1.1,
     S = new(CHILD_STATE)
     if child is None:
         return new(PASSIVE), C, S
-    s = (child.height / RienerModel.shipped().reference_height) ** 5
+    s = height_scale(child.height)
     P = passive_record(child.height, child.contracture,
                        tuple(d * s for d in PASSIVE_DAMPING))  # type: ignore[arg-type]
     sp = child.spasticity

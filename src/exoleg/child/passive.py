@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 import tomllib
 from dataclasses import dataclass, field
+from functools import cache
 from importlib import resources
 from typing import Any
 
@@ -53,8 +54,10 @@ PASSIVE = np.dtype([("on", F8), ("joint", F8, N_TERMS), ("sign", F8, N_TERMS),
                     ("valid", F8, (3, 2))])
 
 
+@cache
 def child_data(name: str) -> dict[str, Any]:
-    """One of the child model's shipped data files (``data/child/NAME``), parsed."""
+    """One of the child model's shipped data files (``data/child/NAME``), parsed once per
+    process (read only: every child's records are built from it)."""
     text = resources.files("exoleg").joinpath("data", "child", name).read_text()
     return tomllib.loads(text)
 
@@ -79,6 +82,7 @@ class RienerModel:
 
     @classmethod
     def shipped(cls) -> RienerModel:
+        """The model as ``data/child/passive.toml`` holds it."""
         d = child_data("passive.toml")
         terms = tuple(Term(JOINTS.index(t["joint"]), t["group"], float(t["sign"]),
                            float(t["a"]), tuple(float(v) for v in t["b"]))  # type: ignore[arg-type]
@@ -138,6 +142,13 @@ class Contracture:
 _OWN = {0: 2, 1: 1, 2: 0}
 
 
+def height_scale(height: float, model: RienerModel | None = None) -> float:
+    """Lebiedowska & Fisk's height^5 law: a child of ``height`` m's passive moments,
+    damping and tone as a fraction of the model's adults'."""
+    m = RienerModel.shipped() if model is None else model
+    return (height / m.reference_height) ** 5
+
+
 def passive_record(height: float, contracture: Contracture | None = None,
                    damping: tuple[float, float, float] = (0.0, 0.0, 0.0),
                    model: RienerModel | None = None) -> NDArray[np.void]:
@@ -147,7 +158,7 @@ def passive_record(height: float, contracture: Contracture | None = None,
     h = _check.finite("passive", "height", height)
     if not 0.5 <= h <= 2.2:
         raise ParameterError("passive", "height", f"{h:g} m is outside 0.5-2.2 m")
-    s = (h / m.reference_height) ** 5
+    s = height_scale(h, m)
     r = new(PASSIVE)
     r["on"] = 1.0
     for k, t in enumerate(m.terms):
