@@ -152,7 +152,7 @@ def main() -> None:
     try:
         import mujoco
 
-        from exoleg.device.walking import WalkingPlant, step_contacts
+        from exoleg.device.walking import WalkingPlant, contact_buffers, step_contacts
         from exoleg.export.writers import to_mjcf
 
         plant = WalkingPlant.of(with_actuators(leg), 20.0, 0.8)
@@ -162,7 +162,7 @@ def main() -> None:
         d = mujoco.MjData(m)
         foot = m.body("foot").id
         p, w = plant.leg.p, plant.record()
-        pts, F, gen = np.empty((4, 4)), np.empty((4, 2)), np.empty(4)
+        pts, F, gen = contact_buffers()
         x = np.zeros(8)
         n_steps = int(walked / 5e-4)
 
@@ -174,7 +174,7 @@ def main() -> None:
                 step_contacts(p, w, x, pts, F, gen)
                 mujoco.mj_forward(m, d)
                 qfrc = np.zeros(4)
-                for i in range(4):
+                for i in range(w["n"][0]):
                     mujoco.mj_applyFT(m, d, np.array([F[i, 0], F[i, 1], 0.0]), np.zeros(3),
                                       np.array([pts[i, 0], pts[i, 1], 0.0]), foot, qfrc)
                 qfrc[0] += gen[0] - F[:, 1].sum()

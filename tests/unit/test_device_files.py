@@ -43,7 +43,11 @@ def _folder(tmp_path: Path, name: str, text: str) -> Path:
 @pytest.mark.parametrize("name,old,new,field", [
     ("safety.toml", "hard_margin_deg = 5.0", "hard_margin_deg = 90.0", "hard_margin_deg"),
     ("safety.toml", "overspeed_factor = 1.2", "overspeed_factor = nan", "overspeed_factor"),
-    ("walking.toml", "stiffness = 60000.0", "stiffness = 1e12", "stiffness"),
+    ("walking.toml", "stiffness = 80000.0", "stiffness = 1e12", "stiffness"),
+    ("walking.toml", "share = 0.35", "share = 0.45", "sole"),
+    ("walking.toml", 'region = "met5"', 'region = "arch"', "region"),
+    ("walking.toml", "x = 0.38,", "x = 0.40,", "sole"),
+    ("walking.toml", "lift_mm = 0.5", "lift_mm = 50.0", "lift_mm"),
     ("walking.toml", "friction = 0.8", "friction = \"high\"", "friction"),
     ("sensors.toml", "adc_bits = 12", "adc_bits = 12.5", "adc_bits"),
     ("sensors.toml", "full_scale_N = 445.0", "full_scale_N = -1.0", "full_scale_N"),

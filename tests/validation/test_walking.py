@@ -47,21 +47,25 @@ def test_walks_ten_strides_without_a_fault(walk) -> None:  # type: ignore[no-unt
 
 def test_detector_against_true_events(walk) -> None:  # type: ignore[no-untyped-def]
     # Catalfamo et al. 2010 (shank gyroscope): initial contact -25 ms, foot off < 75 ms,
-    # > 98 % detected; FSRs see contact directly: here within the debounce (8 ms) + 2 ms
-    # -- with the FSRs' hysteresis (4.5 % of full scale) and drift (5 % a decade) of the
-    # sheet (S11) in the readings the detector gets.
+    # > 98 % detected; FSRs see contact directly: here initial contact within the
+    # debounce (8 ms) + 2 ms, toe off up to 12 ms early (the toes' tips, beyond the
+    # hallux's sensor, leave the belt last on the rolling sole: measured mean -8.6 ms,
+    # worst -12 ms; bounded at 15) -- with the FSRs' hysteresis (4.5 % of full scale) and
+    # drift (5 % a decade) of the sheet (S11) in the readings the detector gets.
     rows = {r["event"]: r for r in detection_table([walk])}
     for name in ("initial contact", "toe off"):  # every stride has them
         row = rows[name]
         assert row["true"] >= 9, row
         assert row["missed_rate"] == 0 and row["false_rate"] == 0, row
-        assert abs(row["worst_error_ms"]) <= 10.0, row
-    # only where the heel is loaded: measured (seed 1) 1 foot flat, 8 ms late, and 2 heel
-    # offs, 19 ms worst (the heel FSR unloads slowly): bounded at 20 ms, that rounded up
+        assert abs(row["worst_error_ms"]) <= (10.0 if name == "initial contact" else 15.0), row
+    # the rolling sole (issue 22) loads heel and forefoot together through mid-stance:
+    # foot flat and heel off in every stride (on four hard points: 1 and 2 of 9). Measured
+    # (seed 1): foot flat 8.1 ms late on average, 9 worst; heel off 2.5 ms mean, 7 worst,
+    # one of 9 reported outside the matching window (counted missed and false once)
     for name in ("foot flat", "heel off"):
         row = rows[name]
-        assert row["true"] >= 1 and row["false_rate"] == 0, row
-        assert abs(row["worst_error_ms"]) <= 20.0, row
+        assert row["true"] >= 9 and row["in_strides"] == 1.0, row
+        assert row["false_rate"] <= 0.12 and abs(row["mean_error_ms"]) <= 10.0, row
 
 
 def test_deterministic_per_seed() -> None:
@@ -249,15 +253,22 @@ def test_stand_from_any_phase_ends_standing_inside_the_range_of_motion(
 
 def test_the_datasheets_device_does_not_carry_a_heavy_child() -> None:
     # What the device can do (issue 21), as a regression: at 24 V, its gears' repeated
-    # peak torque and 2 x I_N, a 12-year-old of 40 kg walking at the free speed faults
-    # (the knee past its hard limit) where Table 2's device carried him; a 21 kg
-    # 8-year-old walks. Measured: 40 kg faults, the knee 19 deg past its soft limit;
-    # 21 kg: no fault, every joint at least 2.8 deg inside.
+    # peak torque and 2 x I_N, a 12-year-old of 40 kg walking at the free speed is not
+    # carried where Table 2's device carried him -- the knee buckles (on the four hard
+    # points of issue 21 it went past its hard limit and faulted; on the rolling sole of
+    # issue 22 it buckles 83 deg off its reference, the hip and knee at their envelope
+    # for half the walk's ticks: 3324 and 3482 of 7601); a 21 kg 8-year-old walks
+    # (no fault, tracking within 8.3 / 3.7 / 10.0 deg after the first two strides).
     from exoleg.sizing import Child, personalized_leg
 
     heavy = personalized_leg(Child(age=12, sex="male", height=1.50, mass=40.0))
     r = simulate_walk(heavy, 40.0, strides=6)
-    assert np.any(r.mode == Mode.FAULT)
+    err = np.degrees(np.abs(r.q - r.q_ref)[r.t > 3.0]).max(axis=0)
+    assert np.any(r.mode == Mode.FAULT) or err[1] > 45.0, err
+    at_envelope = (np.abs(r.tau) >= r.envelope - 1e-6).sum(axis=0)
+    assert at_envelope[1] > 0.3 * len(r.t), at_envelope
     light = personalized_leg(Child(age=8, sex="female", height=1.20, mass=21.0))
     r = simulate_walk(light, 21.0, strides=6)
     assert not np.any(r.mode == Mode.FAULT)
+    err = np.degrees(np.abs(r.q - r.q_ref)[r.t > 3.0]).max(axis=0)
+    assert np.all(err < 12.0), err

@@ -17,6 +17,7 @@ from exoleg.device import with_actuators
 from exoleg.device.actuator import ACTUATOR
 from exoleg.device.walking import (
     WalkingPlant,
+    contact_buffers,
     step_contacts,
     walking_energy,
     walking_step,
@@ -34,7 +35,7 @@ def _run(plant: WalkingPlant, x0: np.ndarray, q_hold: np.ndarray, n: int,
     """n plant steps with a joint PD + gravity compensation held over each step."""
     p, w = plant.leg.p, plant.record()
     x = x0.copy()
-    pts, F, gen = np.empty((4, 4)), np.empty((4, 2)), np.empty(4)
+    pts, F, gen = contact_buffers()
     X, FN, GEN, TAU, PTS, FF = [x.copy()], [], [], [], [], []
     for _ in range(n):
         step_contacts(p, w, x, pts, F, gen)
@@ -85,7 +86,7 @@ def test_contacts_agree_with_mujoco_under_the_same_forces() -> None:
     for k in range(n):
         mujoco.mj_forward(m, d)
         qfrc = np.zeros(m.nv)
-        for i in range(4):
+        for i in range(plant.record()["n"][0]):
             point = np.array([r["pts"][k][i, 0], r["pts"][k][i, 1], 0.0])
             force = np.array([r["F"][k][i, 0], r["F"][k][i, 1], 0.0])
             mujoco.mj_applyFT(m, d, force, np.zeros(3), point, foot, qfrc)

@@ -12,11 +12,18 @@ Model (one set of equations; stance and swing differ only in which contacts act)
   ``F_c = max(0, k_c (y_c - y) - c_c dy)``, holding the pelvis at ``y_c`` while this
   leg swings; ``y_c`` sits a little below this leg's stance height, so in stance this
   leg carries the body weight;
-* the foot touches the belt at the four force-sensor points of the footplate
-  (``SENSOR_POINTS`` of :mod:`exoleg.control.contract`, in the foot frame, below the
-  ankle by the sole height):
-  normal force ``max(0, k d - c dy_p)`` for a penetration d > 0, and friction
-  ``-mu F_n tanh((dx_p - v_belt) / v_s)`` against the belt's speed.
+* the foot touches the belt through its **sole**: a row of compliant elements from the
+  heel's rim to the toes' tips (``walking.toml`` ``sole``, in the foot frame: along the
+  foot as fractions of its length, each raised above the flat sole by the heel's
+  rounding, the arch or the toes' spring), each with its share of the sole's stiffness
+  and damping: normal force ``max(0, k_i d - c_i dy_p)`` for a penetration d > 0, and
+  friction ``-mu F_n tanh((dx_p - v_belt) / v_s)`` against the belt's speed. A soft
+  sole on a rounded heel is what lets the foot *roll*: the load moves from the heel's
+  rim to the heel, the forefoot and the toes as the foot turns over stance, instead of
+  jumping between four hard points. Each element belongs to a region of the foot (the
+  four sensors' -- heel, first and fifth metatarsal heads, hallux -- or the midfoot);
+  four of them carry the footplate's FSRs, which read their own element's load only
+  (:func:`sole_loads`): load under the midfoot, between the sensors, is not sensed.
 
 Equations of motion, from the leg's own M, C, G (the generated kernels, with the
 armature) and the kinematics of its centre of mass (generated with them:
@@ -36,12 +43,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
 from exoleg.child.passive import passive_torque
+from exoleg.control.contract import SENSOR_POINTS
 from exoleg.device.actuator import friction
 from exoleg.device.sensors import SENSOR_X
 from exoleg.dynamics.kernels import (
@@ -55,7 +64,7 @@ from exoleg.dynamics.kernels import (
 )
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
-from exoleg.layout import F8, new
+from exoleg.layout import F8, I8, new
 from exoleg.params import _check
 
 F64 = NDArray[np.float64]
@@ -66,8 +75,8 @@ F64 = NDArray[np.float64]
 class Ground:
     """Contact and support parameters, SI units (defaults: ``data/device/walking.toml``)."""
 
-    stiffness: float          # N/m per contact point
-    damping: float            # N s/m per contact point
+    stiffness: float          # N/m, the whole sole (its elements share it)
+    damping: float            # N s/m, the whole sole
     friction: float           # Coulomb coefficient against the belt
     slip_speed: float         # m/s: friction is mu F_n tanh(v / this)
     support_stiffness: float  # N/m, the other leg under the pelvis
@@ -75,6 +84,7 @@ class Ground:
     support_drop: float       # m: the other leg holds the pelvis this far below this
                               # leg's standing height
     sole: float               # m: footplate height under the ankle's sole (paper: 23 mm)
+    elements: tuple[SoleElement, ...]   # the sole, heel to toe (walking.toml)
     source: str = field(default="", compare=False)
 
     def __post_init__(self) -> None:
@@ -86,6 +96,7 @@ class Ground:
             if not lo <= v <= hi:
                 raise ParameterError("Ground", name, f"{v:g} is outside {lo:g}-{hi:g}")
             object.__setattr__(self, name, v)
+        check_sole("Ground", self.elements)
 
     @classmethod
     def default(cls, folder: str | Path | None = None) -> Ground:
@@ -94,7 +105,7 @@ class Ground:
         from exoleg.device.files import load
 
         where, d = load("walking.toml", folder)
-        _check.keys(where, d, ["contact", "support", "footplate_height_m"], ["source"])
+        _check.keys(where, d, ["contact", "support", "footplate_height_m", "sole"], ["source"])
         c = _check.ranged(f"{where} [contact]", d["contact"],
                           {"stiffness": (1e3, 1e8, "N/m"), "damping": (0.0, 1e6, "N s/m"),
                            "friction": (0.0, 3.0, ""), "slip_speed": (1e-5, 1.0, "m/s")})
@@ -106,7 +117,81 @@ class Ground:
         return cls(stiffness=c["stiffness"], damping=c["damping"], friction=c["friction"],
                    slip_speed=c["slip_speed"], support_stiffness=s["stiffness"],
                    support_damping=s["damping"], support_drop=s["drop"], sole=sole,
-                   source=str(d.get("source", where)))
+                   elements=read_sole(where, d["sole"]), source=str(d.get("source", where)))
+
+
+#: The regions of the foot a sole element belongs to: the four sensors'
+#: (:data:`~exoleg.control.contract.SENSOR_POINTS`, in order) and the midfoot (no sensor).
+REGIONS = SENSOR_POINTS + ("midfoot",)
+#: The most elements a sole may have (the compiled plant's fixed size).
+SOLE_MAX = 12
+
+
+@dataclass(frozen=True)
+class SoleElement:
+    """One compliant element of the sole: its ``region`` (:data:`REGIONS`), where it sits
+    along the foot (``x``: a fraction of the foot link's length forward of the ankle), how
+    far it is raised above the flat sole (``lift``, m: the heel's rounding, the arch, the
+    toes' spring), its ``share`` of the sole's stiffness and damping, and whether the
+    region's FSR sits on it (``sensor``)."""
+
+    region: str
+    x: float
+    lift: float
+    share: float
+    sensor: bool = False
+
+
+def check_sole(where: str, elements: tuple[SoleElement, ...]) -> None:
+    """The sole must have 2-:data:`SOLE_MAX` elements from heel to toe, shares summing to
+    1, and exactly one sensor per sensor region, on its element at the sensor's place
+    (:data:`~exoleg.device.sensors.SENSOR_X`)."""
+    if not 2 <= len(elements) <= SOLE_MAX:
+        raise ParameterError(where, "sole", f"{len(elements)} elements: expected 2-{SOLE_MAX}")
+    xs = [e.x for e in elements]
+    if any(b <= a for a, b in zip(xs, xs[1:], strict=False)):
+        raise ParameterError(where, "sole", f"the elements' x {xs} must increase from heel "
+                             "to toe")
+    if abs(sum(e.share for e in elements) - 1.0) > 1e-6:
+        raise ParameterError(where, "sole", f"the shares sum to "
+                             f"{sum(e.share for e in elements):.6g}, not 1")
+    for i, name in enumerate(SENSOR_POINTS):
+        on = [e for e in elements if e.sensor and e.region == name]
+        if len(on) != 1:
+            raise ParameterError(where, "sole", f"the {name} sensor sits on {len(on)} "
+                                 "elements: expected exactly one")
+        if abs(on[0].x - SENSOR_X[i]) > 1e-9:
+            raise ParameterError(where, "sole", f"the {name} sensor's element is at x = "
+                                 f"{on[0].x:g}, the sensor at {SENSOR_X[i]:g} (SENSOR_X)")
+    if any(e.sensor and e.region == "midfoot" for e in elements):
+        raise ParameterError(where, "sole", "the midfoot carries no sensor")
+
+
+def read_sole(where: str, rows: Any) -> tuple[SoleElement, ...]:
+    """The ``sole`` array of ``walking.toml``: tables with ``region``, ``x``,
+    ``lift_mm``, ``share`` and optionally ``sensor`` (true on the element an FSR sits on)."""
+    if not isinstance(rows, list):
+        raise ParameterError(where, "sole", "expected an array of tables (region, x, "
+                             "lift_mm, share, sensor)")
+    out = []
+    for k, r in enumerate(rows):
+        at = f"{where} sole[{k}]"
+        if not isinstance(r, dict):
+            raise ParameterError(at, "(table)", f"expected a table, got {r!r}")
+        _check.keys(at, r, ["region", "x", "lift_mm", "share"], ["sensor"])
+        if r["region"] not in REGIONS:
+            raise ParameterError(at, "region", f"{r['region']!r}: expected one of "
+                                 f"{', '.join(REGIONS)}")
+        sensor = r.get("sensor", False)
+        if not isinstance(sensor, bool):
+            raise ParameterError(at, "sensor", f"{sensor!r}: expected true or false")
+        v = _check.ranged(at, {k2: r[k2] for k2 in ("x", "lift_mm", "share")},
+                          {"x": (-0.5, 1.0, "of the foot's length"),
+                           "lift_mm": (0.0, 20.0, "mm"), "share": (1e-3, 1.0, "")})
+        out.append(SoleElement(r["region"], v["x"], v["lift_mm"] * 1e-3, v["share"], sensor))
+    elements = tuple(out)
+    check_sole(where, elements)
+    return elements
 
 
 #: The child's ankle height the plant assumes unless told, m: Drillis & Contini's 0.039
@@ -132,7 +217,7 @@ STEP_LIMIT = 2.5
 @dataclass(frozen=True)
 class WalkingPlant:
     """The leg (with its armature), the pelvis mass, the ground and belt, and where the
-    four contact points sit on the foot (``points`` (4, 2), foot frame, m)."""
+    sole's elements sit on the foot (``points`` (n, 2), foot frame, m)."""
 
     leg: LegModel
     body_mass: float
@@ -151,9 +236,9 @@ class WalkingPlant:
     def of(cls, leg: LegModel, body_mass: float, belt_speed: float,
            ground: Ground | None = None, ankle_height: float = ANKLE_HEIGHT,
            support_height: float | None = None) -> WalkingPlant:
-        """The plant for ``leg`` carrying ``body_mass`` kg at the pelvis. The sensor points
-        lie ``ankle_height`` + the footplate below the ankle joint (default
-        :data:`ANKLE_HEIGHT`). ``support_height``: where the other
+        """The plant for ``leg`` carrying ``body_mass`` kg at the pelvis. The flat sole
+        lies ``ankle_height`` + the footplate below the ankle joint (default
+        :data:`ANKLE_HEIGHT`), its raised elements above it. ``support_height``: where the other
         leg holds the pelvis; default the standing height less the ground's drop."""
         gr = Ground.default() if ground is None else ground
         h = _check.finite("WalkingPlant", "ankle_height", ankle_height)
@@ -161,7 +246,7 @@ class WalkingPlant:
             raise ParameterError("WalkingPlant", "ankle_height", f"{h:g} m is outside 0-0.2 m")
         a3 = float(leg.lengths[2])
         depth = h + gr.sole
-        pts = np.array([[x * a3, -depth] for x in SENSOR_X])
+        pts = sole_points(gr, a3, depth)
         standing = float(leg.lengths[0] + leg.lengths[1] + depth)  # hip above the sole
         return cls(leg=leg, body_mass=float(body_mass), ground=gr, belt_speed=float(belt_speed),
                    points=pts, support_height=(standing - gr.support_drop
@@ -169,26 +254,26 @@ class WalkingPlant:
 
     def step_problem(self, h: float) -> str:
         """Why the plant's RK4 step of ``h`` s would diverge ('' when it would not): the
-        stiffest mode it meets, the pelvis on all four contact points and the other leg's
+        stiffest mode it meets, the pelvis on the whole sole and the other leg's
         support (mass: the pelvis's share and the leg; stiffness and damping: the
         ground's), has eigenvalues lambda; RK4 is stable for |lambda| h below 2.78 on the
         real axis and 2.83 on the imaginary one (its stability region), taken as 2.5."""
         g = self.ground
         m = self.body_mass + float(sum(link.mass for link in self.leg.links))
-        k = 4 * g.stiffness + g.support_stiffness
-        c = 4 * g.damping + g.support_damping
+        k = g.stiffness + g.support_stiffness
+        c = g.damping + g.support_damping
         lam = float(np.max(np.abs(np.roots([m, c, k]))))
         if lam * h <= STEP_LIMIT:
             return ""
         return (f"the contact (stiffness {g.stiffness:g} N/m, damping {g.damping:g} N s/m "
-                f"per point, on {m:.1f} kg) has a mode of {lam:.3g} /s: the plant's step of "
+                f"for the sole, on {m:.1f} kg) has a mode of {lam:.3g} /s: the plant's step of "
                 f"{h * 1e3:g} ms diverges above {STEP_LIMIT / h:.3g} /s (RK4: |lambda| h "
                 f"<= {STEP_LIMIT:g}); soften the contact or take more substeps")
 
     @property
     def depth(self) -> float:
-        """The sensor points' depth below the ankle joint, m."""
-        return float(-self.points[0, 1])
+        """The flat sole's depth below the ankle joint, m."""
+        return float(-self.points[:, 1].min())
 
     @property
     def standing_height(self) -> float:
@@ -203,48 +288,63 @@ class WalkingPlant:
         """What the compiled plant takes (:data:`PLANT`)."""
         gr = self.ground
         r = new(PLANT)
-        r["body_mass"], r["g"], r["stiffness"], r["damping"] = (
-            self.body_mass, self.leg.g, gr.stiffness, gr.damping)
+        r["body_mass"], r["g"] = self.body_mass, self.leg.g
         r["friction"], r["slip_speed"] = gr.friction, gr.slip_speed
         r["support_stiffness"], r["support_damping"] = gr.support_stiffness, gr.support_damping
-        r["support_height"], r["belt_speed"], r["points"] = (
-            self.support_height, self.belt_speed, self.points)
+        r["support_height"], r["belt_speed"] = self.support_height, self.belt_speed
+        n = len(gr.elements)
+        r["n"] = n
+        r["points"][0, :n] = self.points
+        r["k"][0, :n] = [e.share * gr.stiffness for e in gr.elements]
+        r["c"][0, :n] = [e.share * gr.damping for e in gr.elements]
+        r["region"][0, :n] = [REGIONS.index(e.region) for e in gr.elements]
+        r["sensed"][0, :n] = [int(e.sensor) for e in gr.elements]
         return r
 
 
+def sole_points(ground: Ground, foot_length: float, depth: float) -> F64:
+    """The sole's elements (n, 2) in the foot frame, m: ``x`` of ``foot_length`` forward
+    of the ankle, ``depth`` below it less their lift."""
+    return np.array([[e.x * foot_length, -depth + e.lift] for e in ground.elements])
+
+
 #: The walking plant's parameters as its compiled functions read them
-#: (:meth:`WalkingPlant.record`): the pelvis mass (kg), g, each contact's k (N/m), c
-#: (N s/m), mu and slip speed (m/s), the other leg's support k, c and height (m), the
-#: belt's speed (m/s; the scenery changes it and the support height as it runs), and the
-#: four contact points (x, y) in the foot frame (m).
-PLANT = np.dtype([("body_mass", F8), ("g", F8), ("stiffness", F8), ("damping", F8),
+#: (:meth:`WalkingPlant.record`): the pelvis mass (kg), g, the sole's mu and slip speed
+#: (m/s), the other leg's support k, c and height (m), the belt's speed (m/s; the
+#: scenery changes it and the support height as it runs); the sole's ``n`` elements: where
+#: they sit (x, y) in the foot frame (m), their k (N/m) and c (N s/m), their region (index
+#: into :data:`REGIONS`) and whether its FSR sits on them (1) or not (0).
+PLANT = np.dtype([("body_mass", F8), ("g", F8),
                   ("friction", F8), ("slip_speed", F8), ("support_stiffness", F8),
                   ("support_damping", F8), ("support_height", F8), ("belt_speed", F8),
-                  ("points", F8, (4, 2))])
+                  ("n", I8), ("points", F8, (SOLE_MAX, 2)), ("k", F8, SOLE_MAX),
+                  ("c", F8, SOLE_MAX), ("region", I8, SOLE_MAX),
+                  ("sensed", I8, SOLE_MAX)])
 
 
 @njit(cache=True)
 def contact_points(p, w, y, q, dq, dy, out):  # type: ignore[no-untyped-def]
-    """Positions and velocities of the four points: out (4, 4) rows (x, y, dx, dy), world
-    frame (hip at (0, y)); the leg's kinematics are the generated
-    :func:`~exoleg.dynamics.kernels.foot_point`."""
+    """Positions and velocities of the sole's elements: out (:data:`SOLE_MAX`, 4) rows (x,
+    y, dx, dy), world frame (hip at (0, y)), the first ``n`` filled; the leg's kinematics
+    are the generated :func:`~exoleg.dynamics.kernels.foot_point`."""
     P = w[0].points
-    for k in range(4):
+    for k in range(w[0].n):
         x, yy, vx, vy, _ = foot_point(q, dq, p, P[k, 0], P[k, 1])
         out[k, 0], out[k, 1], out[k, 2], out[k, 3] = x, y + yy, vx, dy + vy
 
 
 @njit(cache=True)
 def contact_forces(w, pts, F):  # type: ignore[no-untyped-def]
-    """Forces F (4, 2) (tangential x, normal y) of the belt on the four points from their
-    state ``pts`` (:func:`contact_points`): spring-damper normal force, never pulling;
-    friction against the belt. Returns the total normal force."""
+    """Forces F (:data:`SOLE_MAX`, 2) (tangential x, normal y) of the belt on the sole's
+    elements from their state ``pts`` (:func:`contact_points`): spring-damper normal
+    force, never pulling; friction against the belt (none on the unused rows). Returns the
+    total normal force."""
     W = w[0]
     total = 0.0
-    for k in range(4):
-        d = -pts[k, 1]  # the belt surface is y = 0
+    for k in range(SOLE_MAX):
+        d = -pts[k, 1] if k < W.n else 0.0  # the belt surface is y = 0
         if d > 0.0:
-            fn = max(0.0, W.stiffness * d - W.damping * pts[k, 3])
+            fn = max(0.0, W.k[k] * d - W.c[k] * pts[k, 3])
             slip = pts[k, 2] + W.belt_speed  # the belt moves at -belt_speed
             F[k, 0] = -W.friction * fn * math.tanh(slip / W.slip_speed)
             F[k, 1] = fn
@@ -291,13 +391,13 @@ def _solve4(A, r):  # type: ignore[no-untyped-def]
 
 @njit(cache=True)
 def generalized_contact(p, w, y, q, F, out):  # type: ignore[no-untyped-def]
-    """Generalized forces (4,) of point forces F (4, 2) at the contact points: on y the
+    """Generalized forces (4,) of the elements' forces F (:data:`SOLE_MAX`, 2): on y the
     sum of the normal forces, on the joints sum J_i^T F_i (the generated
     :func:`~exoleg.dynamics.kernels.foot_point_jacobian`)."""
     P = w[0].points
     J = np.empty((2, 3))
     out[:] = 0.0
-    for k in range(4):
+    for k in range(w[0].n):
         out[0] += F[k, 1]
         foot_point_jacobian(q, p, P[k, 0], P[k, 1], J)
         for j in range(3):
@@ -384,12 +484,35 @@ def walking_step(p, w, A, P, x, tau, gen, h):  # type: ignore[no-untyped-def]
 
 @njit(cache=True)
 def step_contacts(p, w, x, pts, F, gen):  # type: ignore[no-untyped-def]
-    """The contact and support forces at state x: points into pts (4, 4), their forces
-    into F (4, 2), the generalized forces (support included) into gen (4,). Returns the
-    support force."""
+    """The contact and support forces at state x: the sole's points into pts
+    (:data:`SOLE_MAX`, 4), their forces into F (:data:`SOLE_MAX`, 2), the generalized
+    forces (support included) into gen (4,). Returns the support force."""
     contact_points(p, w, x[0], x[1:4], x[5:8], x[4], pts)
     contact_forces(w, pts, F)
     generalized_contact(p, w, x[0], x[1:4], F, gen)
     fc = support_force(w, x[0], x[4])
     gen[0] += fc
     return fc
+
+
+@njit(cache=True)
+def sole_loads(w, F, region, sensor):  # type: ignore[no-untyped-def]
+    """The sole's normal forces F (:data:`SOLE_MAX`, 2) per sensor region into ``region``
+    (4,: the whole region's load, N; the midfoot's in none) and what each FSR carries into
+    ``sensor`` (4,: its own element's load, N)."""
+    W = w[0]
+    for i in range(4):
+        region[i] = 0.0
+        sensor[i] = 0.0
+    for k in range(W.n):
+        r = W.region[k]
+        if r < 4:
+            region[r] += F[k, 1]
+            if W.sensed[k] == 1:
+                sensor[r] = F[k, 1]
+
+
+def contact_buffers() -> tuple[F64, F64, F64]:
+    """Work arrays for :func:`step_contacts`: points (:data:`SOLE_MAX`, 4), forces
+    (:data:`SOLE_MAX`, 2), generalized forces (4,)."""
+    return np.zeros((SOLE_MAX, 4)), np.zeros((SOLE_MAX, 2)), np.zeros(4)

@@ -36,10 +36,12 @@ from exoleg.device.config import DeviceConfig, walk_controller
 from exoleg.device.sensors import FootSensors, fsr_counts, fsr_response, imu
 from exoleg.device.walking import (
     ANKLE_HEIGHT,
+    SOLE_MAX,
     Ground,
     WalkingPlant,
     contact_forces,
     contact_points,
+    sole_loads,
     step_contacts,
     walking_step,
 )
@@ -96,18 +98,20 @@ def device_state(plant: WalkingPlant, A: NDArray[np.void], x0: F64, imu_x: float
 def device_sense(p, w, A, sens, imu_x, imu_y, S, h, first, fsr_noise, imu_noise,  # type: ignore[no-untyped-def]
                  imu_bias, out, fn):
     """What the device's sensors read now into ``out`` (:data:`SENSORS`, its ``command``
-    left alone): FSR counts, encoder angles and filtered rates, IMU (gyro, accel x, y);
-    and the true normal forces ``fn`` (4,). ``S``: :data:`DEVICE`."""
+    left alone): FSR counts (each from its own sole element's load), encoder angles and
+    filtered rates, IMU (gyro, accel x, y); and the true normal force under each sensor's
+    region of the foot ``fn`` (4,). ``S``: :data:`DEVICE`."""
     D = S[0]
     o = out[0]
     x = D.x
-    pts = np.empty((4, 4))
-    F = np.empty((4, 2))
+    pts = np.empty((SOLE_MAX, 4))
+    F = np.empty((SOLE_MAX, 2))
+    carried = np.empty(4)
     contact_points(p, w, x[0], x[1:4], x[5:8], x[4], pts)
     contact_forces(w, pts, F)
+    sole_loads(w, F, fn, carried)
     for i in range(4):
-        fn[i] = F[i, 1]
-        read = fsr_response(sens, D.fsr_last, D.fsr_memory, D.fsr_creep, i, F[i, 1], h)
+        read = fsr_response(sens, D.fsr_last, D.fsr_memory, D.fsr_creep, i, carried[i], h)
         o.fsr[i] = fsr_counts(sens, read * sens[0].full_scale, fsr_noise[i])
     vx, vy, phi = _imu_point(p, x, imu_x, imu_y)
     ax = 0.0 if first else (vx - D.v_imu[0]) / h
@@ -168,8 +172,8 @@ def device_actuate(p, w, A, K, S, h, sub, u, fn, walking, t, t_walk, stride, sup
     child_tick(P, C, CS, x[1:4], x[5:8], h, walking and t >= t_walk, xc, D.loaded,
                D.child)
     x0 = x.copy()
-    pts = np.empty((4, 4))
-    F = np.empty((4, 2))
+    pts = np.empty((SOLE_MAX, 4))
+    F = np.empty((SOLE_MAX, 2))
     gen = np.empty(4)
     mean = np.empty(3)
     joint = np.empty(3)
@@ -286,10 +290,11 @@ def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
     fk = leg.fk(q0)
     x0 = np.zeros(8)
     x0[0] = (-min(fk["ankle"][1], fk["toe"][1]) + depth
-             - 0.5 * share * leg.g / (4 * gr.stiffness))
+             - 0.5 * share * leg.g / gr.stiffness)
     x0[1:4] = q0
     return SimulatedDevice(leg=leg, config=cfg, plant=plant, A=params_array(cfg.actuators),
-                           support=other_leg_support(leg, depth, speed, gr.support_drop),
+                           support=other_leg_support(leg, plant.points, speed,
+                                                     gr.support_drop),
                            depth=depth, imu_x=cfg.sensors.imu_position * float(leg.lengths[2]),
                            controller=ctl, x0=x0, stride_time=stride_time, speed=speed,
                            child=child,

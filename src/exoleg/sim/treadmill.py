@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from exoleg.device.sensors import SENSOR_X
 from exoleg.dynamics.model import LegModel
 
 F64 = NDArray[np.float64]
@@ -24,14 +23,13 @@ def belt_speed_for(leg: LegModel, speed: str, stride_time: float) -> float:
     return float(max(0.0, -(ankle[-1] - ankle[0]) / (t[-1] - t[0])))
 
 
-def hip_height(leg: LegModel, q: F64, depth: float) -> F64:
+def hip_height(leg: LegModel, q: F64, sole: F64) -> F64:
     """Height of the hip above the belt for postures q (N, 3) with the lowest of the
-    foot's four sensor points on it, m."""
+    sole's points ``sole`` (n, 2: foot frame, m; :attr:`WalkingPlant.points`) on it, m."""
     fk = leg.fk(q)
     phi = fk["phi"]
-    a3 = float(leg.lengths[2])
-    low = np.min([fk["ankle"][:, 1] + np.sin(phi) * x * a3 - np.cos(phi) * depth
-                  for x in SENSOR_X], axis=0)
+    low = np.min([fk["ankle"][:, 1] + np.sin(phi) * px + np.cos(phi) * py
+                  for px, py in sole], axis=0)
     return -low
 
 
@@ -40,7 +38,7 @@ def hip_height(leg: LegModel, q: F64, depth: float) -> F64:
 SWING = (0.58, 0.95)
 
 
-def other_leg_support(leg: LegModel, depth: float, speed: str, clearance: float,
+def other_leg_support(leg: LegModel, sole: F64, speed: str, clearance: float,
                       carry: float = 0.01, samples: int = 201) -> F64:
     """The other leg's support height over this leg's cycle (samples,), m.
 
@@ -53,7 +51,7 @@ def other_leg_support(leg: LegModel, depth: float, speed: str, clearance: float,
 
     gait = SchwartzGait2008(stride_time=1.0, speed=speed)
     x = np.linspace(0.0, 1.0, samples)
-    hh = hip_height(leg, gait.sample(x)[0], depth)
+    hh = hip_height(leg, gait.sample(x)[0], sole)
     swing = (x >= SWING[0]) & (x <= SWING[1])
     h = np.where(swing, np.max(hh[swing]) + clearance, hh - carry)
     k = max(1, samples // 40)  # smoothed over 5 % of the cycle, circularly
