@@ -71,7 +71,8 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
             ("inertia", "actuators/hip.toml", "ratio = 100.0", "ratio = 1000.0"),
             ("rate", "safety.toml", "max_torque_rate = [3000.0, 1400.0, 3400.0]",
              "max_torque_rate = [1e30, 1400.0, 3400.0]"),
-            ("contact", "walking.toml", "damping = 600.0 ", "damping = 900000.0 ")):
+            ("contact", "walking.toml", "damping = 1500.0                # N s/m: well",
+             "damping = 900000.0                # N s/m: well")):
         folder = d / f"device-{name}"
         shutil.copytree(shipped, folder,
                         ignore=shutil.ignore_patterns("canopen", "hip-variants",
