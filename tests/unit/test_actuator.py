@@ -20,6 +20,7 @@ from hypothesis import strategies as st
 
 from exoleg.device.actuator import (
     current_loop,
+    drive_limit,
     encode,
     envelope,
     filter_gain,
@@ -118,6 +119,21 @@ def test_envelope_against_the_motor_equations() -> None:
         pytest.approx(300.0)
     assert envelope(fast.record(), 0.999 * w_max) > 0 and envelope(fast.record(),
                                                                    1.001 * w_max) == 0
+
+
+@given(w=st.floats(-40.0, 40.0), u=st.floats(-200.0, 200.0))
+def test_the_drive_brakes_at_any_speed(w: float, u: float) -> None:
+    # Reference: a DC motor's four quadrants. Motoring (torque along the speed) the
+    # back-EMF opposes the bus: the envelope. Braking (torque against it) the back-EMF
+    # drives the current with the bus: only the current limit and the gear bind, even
+    # beyond the no-load or permissible speed (up to 40 rad/s here, 10 x the ankle's).
+    for a in ACTS:
+        p = PAR[a.joint]
+        limit = drive_limit(p, w, u)
+        if u * w < 0.0:
+            assert limit == min(a.torque_limit, a.joint_torque_constant * a.peak_current)
+        else:
+            assert limit == envelope(p, w)
 
 
 def test_the_gear_binds_before_table_2() -> None:

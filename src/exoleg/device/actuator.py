@@ -13,7 +13,10 @@ What it does, at the joint (SI units):
   ``min(I_limit, (V_bus - k_t w_m) / R)`` (the back-EMF constant is k_t in SI units),
   times ``N eta k_t``; capped by the gear's **repeated peak torque** (its working
   limit; the momentary peak is for collisions and E-stops, never commanded); zero
-  beyond the motor's maximum permissible speed;
+  beyond the motor's maximum permissible speed. That is the motoring envelope; a torque
+  against the motion (:func:`drive_limit`: braking, the back-EMF helping the current)
+  is limited by the current and the gear only, at any speed -- the drive brakes a joint
+  the load has driven past its speed, as a four-quadrant drive does;
 * **friction** (:func:`friction`): Coulomb from the motor's no-load current
   (``N k_t I_0``) and the gear's backdriving torque, smoothed near zero speed
   (``tanh(w / w_s)``, so the dynamics stay integrable), plus a viscous term;
@@ -371,6 +374,18 @@ def envelope(par, w):  # type: ignore[no-untyped-def]
         return 0.0
     i = min(P.current, max(0.0, (P.voltage - P.ke_joint * s) / P.resistance))
     return min(P.torque, P.kt_joint * i)
+
+
+@njit(cache=True)
+def drive_limit(par, w, u):  # type: ignore[no-untyped-def]
+    """Largest torque (N m, >= 0) the drive delivers in the direction of the command
+    ``u`` at joint speed ``w``: :func:`envelope` while motoring (``u`` along ``w``); while
+    braking (``u`` against ``w``, the back-EMF driving the current with the bus) the
+    current limit's torque within the gear's working limit, at any speed."""
+    if u * w < 0.0:
+        P = par[0]
+        return min(P.torque, P.kt_joint * P.current)
+    return envelope(par, w)
 
 
 @njit(cache=True)

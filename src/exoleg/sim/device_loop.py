@@ -37,8 +37,8 @@ from exoleg.control.safety import SafetyLayer, SafetyLimits, safety_step
 from exoleg.device.actuator import (
     ActuatorModel,
     current_loop,
+    drive_limit,
     encode,
-    envelope,
     filter_gain,
     friction,
     paper_actuators,
@@ -125,9 +125,10 @@ def _run_device(p, g, kind, kp, kd, kc, scale, limit, A, lim, state, Qr, DQr, DD
             DDQr[k, 0], DDQr[k, 1], DDQr[k, 2])
         # 3. the safety layer
         STATUS[k] = safety_step(lim, state, QM[k], vm, u_cmd, False, u_safe)
-        # 4. the drive: the torque-speed envelope at the measured speed
+        # 4. the drive: the torque-speed envelope at the measured speed (braking: the
+        #    current's limit)
         for i in range(3):
-            e = envelope(A[i:i + 1], vm[i])
+            e = drive_limit(A[i:i + 1], vm[i], u_safe[i])
             ENV[k, i] = e
             tau_cmd[i] = min(max(u_safe[i], -e), e)
             UC[k, i] = u_cmd[i]
