@@ -46,6 +46,26 @@ def test_gait_fits_schwartz_and_maps_signs():
     assert np.allclose(g.sample([0.3])[0], g.sample([1.3])[0], atol=1e-12)
 
 
+def test_upright_gait_is_the_printed_hip_less_the_pelvis_s_tilt():
+    # Reference: Schwartz 2008's printed hip flexion and pelvic tilt. The hip from an
+    # upright pelvis is the printed hip less the tilt's mean over the cycle (11.6 deg at
+    # the free speed); knee and ankle unchanged.
+    from exoleg.reference.gait import gait_angles, pelvic_tilt
+
+    pct, tilt, _ = schwartz2008("pelvis_tilt")
+    assert np.degrees(pelvic_tilt()) == pytest.approx(np.mean(tilt[:-1]), rel=1e-12)
+    _, printed = gait_angles()
+    _, upright = gait_angles(upright=True)
+    assert np.allclose(upright[:, 0], printed[:, 0] - pelvic_tilt(), atol=1e-15)
+    assert np.array_equal(upright[:, 1:], printed[:, 1:])
+    # the foot's angle to the ground (the joints' sum) through the foot-flat part of
+    # stance, 14-30 % of the cycle: within 2 deg of flat on the upright pelvis
+    # (measured -0.2 to -1.7), 9.9-11.4 deg toe-up with the printed hip
+    flat = (pct >= 14) & (pct <= 30)
+    assert np.all(np.abs(np.degrees(upright[flat].sum(axis=1))) < 2.0)
+    assert np.all(np.degrees(printed[flat].sum(axis=1)) > 9.0)
+
+
 def test_gait_bad_options():
     with pytest.raises(exoleg.ParameterError, match="speed"):
         SchwartzGait2008(speed="Jogging")

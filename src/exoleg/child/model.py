@@ -283,7 +283,7 @@ def intended_gait(child: ChildModel, stride_time: float, speed: str = "Free"
     from exoleg.reference.gait import SchwartzGait2008, schwartz2008
 
     x = np.linspace(0.0, 1.0, GAIT_SAMPLES)
-    gait = SchwartzGait2008(stride_time=stride_time, speed=speed)
+    gait = SchwartzGait2008(stride_time=stride_time, speed=speed, upright=True)
     q, dq, _ = gait.sample(x * stride_time)
     if child.crouch:
         off = np.radians(crouch_offset(child.crouch, x))
@@ -308,7 +308,8 @@ def intended_gait(child: ChildModel, stride_time: float, speed: str = "Free"
 #: effort (1 on), its stiffness (N m/rad) and damping (N m s/rad) with the foot loaded
 #: (row 0) and in swing (row 1), strength (N m), delay
 #: (ticks), the standing posture (rad), the intended gait (q, dq rad, rad/s; internal
-#: moments N m) over the cycle, the share of those moments the child drives and the
+#: moments N m) over the cycle, the share of those moments the child drives with the foot
+#: loaded (row 0: what the device's stance support leaves them) and in swing (row 1), and the
 #: stride time (s) the cycle takes.
 CHILD = np.dtype([("term", I8, 4), ("tone", F8, 4), ("g_f", F8, 4), ("g_df", F8, 4),
                   ("srs", F8), ("srs_range", F8), ("srs_decay", F8), ("reflex_delay", I8),
@@ -316,7 +317,7 @@ CHILD = np.dtype([("term", I8, 4), ("tone", F8, 4), ("g_f", F8, 4), ("g_df", F8,
                   ("effort", F8), ("kp", F8, (2, 3)), ("kd", F8, (2, 3)), ("strength", F8, 3),
                   ("effort_delay", I8), ("stand", F8, 3),
                   ("gait_q", F8, (GAIT_SAMPLES, 3)), ("gait_dq", F8, (GAIT_SAMPLES, 3)),
-                  ("gait_tau", F8, (GAIT_SAMPLES, 3)), ("share", F8), ("stride", F8)])
+                  ("gait_tau", F8, (GAIT_SAMPLES, 3)), ("share", F8, 2), ("stride", F8)])
 
 #: The child's memory (:func:`child_tick`): ticks so far, each group's force and its
 #: rate, the joint angles and rates the child felt (rings of :data:`HISTORY` ticks), the
@@ -331,13 +332,18 @@ CHILD_STATE = np.dtype([("k", I8), ("force", F8, (HISTORY, 4)), ("rate", F8, (HI
 
 def child_records(child: ChildModel | None, h: float, stride_time: float = 1.1,
                   speed: str = "Free", standing: Any = (0.0, 0.0, 0.0),
-                  leg_length: float | None = None, inertia: Any = (0.5, 0.2, 0.05)
+                  leg_length: float | None = None, inertia: Any = (0.5, 0.2, 0.05),
+                  device_support: float = 0.0
                   ) -> tuple[NDArray[np.void], NDArray[np.void], NDArray[np.void]]:
     """(:data:`PASSIVE`, :data:`CHILD`, :data:`CHILD_STATE`) for ``child`` at a tick of
     ``h`` s; for None a leg without a child actor (all off). ``standing``: the posture
     the child holds when not walking (rad); ``leg_length`` (m) scales the stance
     stiffness (default 0.53 of the height: Drillis & Contini's hip height); ``inertia``
-    (kg m^2 per joint: the swinging leg's, device included) sets the swing's."""
+    (kg m^2 per joint: the swinging leg's, device included) sets the swing's;
+    ``device_support`` (0-1): the share of the body weight the device carries in stance
+    (:class:`~exoleg.control.hierarchy.WalkGains` ``support``), which the child leaves to
+    it -- their stance feedforward is the rest (the slacking of people walking in a
+    device that helps: Emken et al. 2007)."""
     C = new(CHILD)
     S = new(CHILD_STATE)
     if child is None:
@@ -372,7 +378,7 @@ def child_records(child: ChildModel | None, h: float, stride_time: float = 1.1,
     r["strength"] = child.strength()
     r["stand"] = standing
     r["gait_q"], r["gait_dq"], r["gait_tau"] = intended_gait(child, stride_time, speed)
-    r["share"] = float(e["share"])
+    r["share"] = float(e["share"]) * (1.0 - device_support), float(e["share"])
     r["stride"] = stride_time
     return P, C, S
 
@@ -472,7 +478,7 @@ def child_tick(P, C, CS, q, dq, h, walking, xc, loaded, out):  # type: ignore[no
             if walking:
                 qi = _cycle(c.gait_q, xd, j)
                 dqi = _cycle(c.gait_dq, xd, j)
-                ff = c.share * _cycle(c.gait_tau, min(max(xc, 0.0), 1.0), j)
+                ff = c.share[row] * _cycle(c.gait_tau, min(max(xc, 0.0), 1.0), j)
             else:
                 qi, dqi, ff = c.stand[j], 0.0, 0.0
             u = (ff + c.kp[row, j] * (qi - _delayed(s.q, k, n, j))

@@ -307,7 +307,7 @@ def gait_tables(speed: str = "Free", sd: float = 0.0, samples: int = 201) -> tup
     second derivatives per unit cycle (divide by T and T^2 for a stride of T s)."""
     from exoleg.reference.gait import SchwartzGait2008
 
-    g = SchwartzGait2008(stride_time=1.0, speed=speed, sd=sd)
+    g = SchwartzGait2008(stride_time=1.0, speed=speed, sd=sd, upright=True)
     x = np.linspace(0.0, 1.0, samples)
     q, dq, ddq = g.sample(x)
     return np.ascontiguousarray(q), np.ascontiguousarray(np.hstack([dq, ddq]))

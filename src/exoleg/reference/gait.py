@@ -57,14 +57,28 @@ def schwartz2008(variable: str, speed: str = "Free") -> tuple[F64, F64, F64]:
 STRIDE_TIME_RANGE = (0.4, 4.0)
 
 
-def gait_angles(speed: str = "Free", sd: float = 0.0) -> tuple[F64, F64]:
-    """(% cycle (51,), q (51, 3) rad) of mean + sd * SD, in exoleg's signs."""
+def pelvic_tilt(speed: str = "Free") -> float:
+    """The pelvis's mean anterior tilt over the gait cycle (Schwartz 2008), rad: the hip
+    flexion a gait lab reads with the thigh vertical."""
+    _, tilt, _ = schwartz2008("pelvis_tilt", speed)
+    return float(np.radians(np.mean(tilt[:-1])))
+
+
+def gait_angles(speed: str = "Free", sd: float = 0.0, upright: bool = False
+                ) -> tuple[F64, F64]:
+    """(% cycle (51,), q (51, 3) rad) of mean + sd * SD, in exoleg's signs. ``upright``:
+    the hip angle from an upright pelvis -- the printed hip flexion less the pelvis's mean
+    anterior tilt (:func:`pelvic_tilt`), as a device whose hip is zeroed with the child
+    standing reads it, and as the walking plant's upright pelvis turns the thigh."""
     cols = []
     pct = np.zeros(0)
     for var, sign in _ANGLES:
         pct, mean, s = schwartz2008(var, speed)
         cols.append(sign * np.radians(mean + sd * s))
-    return pct, np.stack(cols, axis=1)
+    q = np.stack(cols, axis=1)
+    if upright:
+        q[:, 0] -= pelvic_tilt(speed)
+    return pct, q
 
 
 @dataclass(frozen=True)
@@ -79,6 +93,8 @@ class SchwartzGait2008:
             0.25 deg of every printed sample (Free, mean); the residual floor is the 100 %
             sample, which does not close exactly onto the 0 % one.
         phase: fraction of the cycle at t = 0 (0 = heel strike).
+        upright: the hip from an upright pelvis (:func:`gait_angles`): the gait the
+            walking plant walks and its device tracks.
     """
 
     stride_time: float = 1.0
@@ -86,6 +102,7 @@ class SchwartzGait2008:
     sd: float = 0.0
     harmonics: int = 10
     phase: float = 0.0
+    upright: bool = False
 
     def __post_init__(self) -> None:
         lo, hi = STRIDE_TIME_RANGE
@@ -103,7 +120,7 @@ class SchwartzGait2008:
     @property
     def coefficients(self) -> tuple[F64, F64, F64]:
         """(a0 (3,), a (K, 3), b (K, 3)): q(x) = a0 + sum a_k cos(2 pi k x) + b_k sin(2 pi k x)."""
-        _, q = gait_angles(self.speed, self.sd)
+        _, q = gait_angles(self.speed, self.sd, self.upright)
         samples = q[:-1]  # 0..98 %: 100 % repeats 0 % of the next cycle
         n = len(samples)
         F = np.fft.rfft(samples, axis=0) / n
@@ -112,7 +129,7 @@ class SchwartzGait2008:
 
     def fit_residual(self) -> float:
         """Largest |fit - printed sample| over the cycle, rad."""
-        pct, q = gait_angles(self.speed, self.sd)
+        pct, q = gait_angles(self.speed, self.sd, self.upright)
         fq, _, _ = self._eval(pct / 100.0)
         return float(np.max(np.abs(fq - q)))
 

@@ -27,8 +27,8 @@ from exoleg.control.safety import SafetyLimits
 from exoleg.device.actuator import (
     ActuatorModel,
     current_loop,
+    drive_limit,
     encode,
-    envelope,
     filter_gain,
     params_array,
 )
@@ -147,13 +147,17 @@ def device_actuate(p, w, A, K, S, h, sub, u, fn, walking, t, t_walk, stride, sup
     D = S[0]
     W = w[0]
     total = fn[0] + fn[1] + fn[2] + fn[3]
+    # a strike: the foot lands ahead of the hip, a while after its last toe off; a toe
+    # scuffing the belt behind the hip in swing is neither a strike nor a toe off
     if total > 5.0 and not D.loaded and t - D.t_off > 0.3 * stride:
-        D.t_strike = t
+        if foot_point(D.x[1:4], D.x[5:8], p, 0.0, 0.0)[0] > 0.0:
+            D.t_strike = t
     if total > 5.0:
         D.loaded = True
     elif D.loaded:
         D.loaded = False
-        D.t_off = t
+        if D.t_strike > D.t_off:
+            D.t_off = t
     xc = 0.0
     if walking and t >= t_walk:
         W.belt_speed = D.belt
@@ -167,7 +171,7 @@ def device_actuate(p, w, A, K, S, h, sub, u, fn, walking, t, t_walk, stride, sup
         W.belt_speed = 0.0
         W.support_height = stand_support
     for i in range(3):
-        env[i] = envelope(A[i:i + 1], D.vm[i])
+        env[i] = drive_limit(A[i:i + 1], D.vm[i], u[i])
     x = D.x
     child_tick(P, C, CS, x[1:4], x[5:8], h, walking and t >= t_walk, xc, D.loaded,
                D.child)
@@ -247,7 +251,8 @@ class SimulatedDevice:
         q0 = self.controller.gains.standing
         P, C, CS = child_records(self.child, h, self.stride_time, self.speed, q0,
                                  float(self.leg.lengths[0] + self.leg.lengths[1]),
-                                 np.diag(self.plant.leg.M(q0)))
+                                 np.diag(self.plant.leg.M(q0)),
+                                 self.controller.gains.support)
         pd = np.zeros(0) if self.device_p is None else self.device_p
         return P, C, CS, pd
 

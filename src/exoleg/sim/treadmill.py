@@ -17,7 +17,7 @@ def belt_speed_for(leg: LegModel, speed: str, stride_time: float) -> float:
     speed relative to the hip between 15 % and 45 % of the cycle (mid-stance), m/s."""
     from exoleg.reference.gait import SchwartzGait2008
 
-    gait = SchwartzGait2008(stride_time=stride_time, speed=speed)
+    gait = SchwartzGait2008(stride_time=stride_time, speed=speed, upright=True)
     t = np.linspace(0.15, 0.45, 61) * stride_time
     ankle = leg.fk(gait.sample(t)[0])["ankle"][:, 0]
     return float(max(0.0, -(ankle[-1] - ankle[0]) / (t[-1] - t[0])))
@@ -49,7 +49,7 @@ def other_leg_support(leg: LegModel, sole: F64, speed: str, clearance: float,
     stays ``carry`` below this leg's stance height, so this leg carries the body."""
     from exoleg.reference.gait import SchwartzGait2008
 
-    gait = SchwartzGait2008(stride_time=1.0, speed=speed)
+    gait = SchwartzGait2008(stride_time=1.0, speed=speed, upright=True)
     x = np.linspace(0.0, 1.0, samples)
     hh = hip_height(leg, gait.sample(x)[0], sole)
     swing = (x >= SWING[0]) & (x <= SWING[1])

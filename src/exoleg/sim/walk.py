@@ -33,7 +33,7 @@ from exoleg.child.passive import passive_moments
 from exoleg.control.contract import OUTPUT, SENSOR_POINTS, SENSORS, Command, Mode
 from exoleg.control.hierarchy import WalkGains, walk_control_step
 from exoleg.control.safety import SafetyLimits
-from exoleg.device.actuator import ActuatorModel, envelope
+from exoleg.device.actuator import ActuatorModel, drive_limit
 from exoleg.device.sensors import FootSensors, draw_noise
 from exoleg.device.walking import ANKLE_HEIGHT, Ground, WalkingPlant
 from exoleg.dynamics.model import LegModel
@@ -67,7 +67,7 @@ def _run_walk(p, w, A, K, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_
         walk_control_step(cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref, sk, t, ok_)
         if k == n:
             for i in range(3):
-                ENV[k, i] = envelope(A[i:i + 1], SENS[k].dq[i])
+                ENV[k, i] = drive_limit(A[i:i + 1], SENS[k].dq[i], OUT[k].tau[i])
                 TAU[k, i] = S[0].tau[i]
             break
         # 3. the drives and 4. the plant
@@ -140,8 +140,11 @@ class WalkResult(TimeSeries):
 
     def true_events(self) -> NDArray[np.int64]:
         """Event bits per tick from the true contact forces (> TRUE_CONTACT_N): the same
-        definitions as the detector's, without noise, thresholds on counts or debounce."""
-        return true_events(self.contact_force)
+        definitions as the detector's, without noise, thresholds on counts or debounce; a
+        stride's contact lands ahead of the hip (a toe scuffing the belt in swing is not
+        one)."""
+        ankle_x = self.plant.leg.fk(self.q)["ankle"][:, 0]
+        return true_events(self.contact_force, ahead=ankle_x > 0.0)
 
     def columns(self) -> dict[str, F64]:
         cols: dict[str, F64] = {"t": self.t, "pelvis": self.pelvis}
