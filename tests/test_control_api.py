@@ -487,6 +487,41 @@ def test_the_page_is_same_origin_and_the_records_need_the_token(tmp_path: Path) 
         assert r.status_code == 409  # read, no session: said, never a 413 or 5xx
 
 
+def test_the_child_form_sets_the_child_the_simulated_device_carries(tmp_path: Path) -> None:
+    # Issue 22: the child model is shown and set by the operator interface. The fit keeps
+    # the actor settings, the next session's child.toml carries them (read back by
+    # exoleg.child.model.ChildModel.load, the file every command takes), and a value the
+    # model does not have is refused in the form's words.
+    from exoleg.child.model import ChildModel
+    from exoleg.hmi.server import HMI
+
+    hmi = HMI(tmp_path)
+    code, rec = hmi.fit({"name": "Ada", "age": 10, "sex": "female", "height": 138,
+                         "mass": 32, "gmfcs": "3", "spasticity": "moderate", "crouch": "2",
+                         "contracture": "predictcpgait", "contracture_level": "0,5",
+                         "strength": "0.8"}, "t")
+    assert code == 200, rec
+    assert rec["actor_text"] == ("GMFCS 3 strength x 0.8, moderate spasticity, contracture "
+                                 "predictcpgait at 0.5, crouch cluster 2")
+    assert rec["actor_text"] in hmi.runs_on()["text"]
+    assert hmi.kept is not None and hmi.registry is not None
+    assert hmi._child_file(hmi.kept, tmp_path) == str(tmp_path / "child.toml")
+    back = ChildModel.load(tmp_path / "child.toml")
+    assert (back.gmfcs, back.spasticity.level, back.crouch, back.contracture.name,
+            back.contracture.level, back.strength_scale) == (3, "moderate", 2,
+                                                            "predictcpgait", 0.5, 0.8)
+    assert hmi.registry.children()[0]["actor"]["spasticity"] == "moderate"
+    for field, value, said in (("spasticity", "high", "Spasticity: 'high' is not a level"),
+                               ("crouch", "7", "Crouch: '7' is not a cluster"),
+                               ("contracture", "tight", "Contracture: 'tight' is not a preset"),
+                               ("contracture_level", "2", "Contracture level (0-1.5): 2 is "
+                                                          "outside 0-1.5"),
+                               ("strength", "abc", "Strength (x the GMFCS level's typical)")):
+        code, r = hmi.fit({"name": "Bo", "age": 10, "sex": "male", "height": 138,
+                           "mass": 32, field: value}, "t")
+        assert code == 422 and r["error"].startswith(said), (field, r)
+
+
 def test_damaged_records_are_listed_as_damaged(tmp_path: Path) -> None:
     # Issue 20, point 6: one damaged fit.json gave a server error on /api/info; one log
     # whose header lists no columns broke the whole Sessions list; damaged headers gave

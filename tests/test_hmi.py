@@ -108,6 +108,7 @@ def test_child_page_fits_and_keeps_the_child(hmi: Any, operator: Any) -> None:
         field = form.find_element("name", name)
         field.clear()
         field.send_keys(value)
+    form.find_element("name", "spasticity").send_keys("mild")  # the child as an actor
     d.find_element("id", "fit").click()
     verdict = wait_until("the fit's verdict", lambda: text(d, "verdict"), timeout=60)
     # the same child through exoleg's own fitting (exoleg.sizing.report.fit_report)
@@ -125,8 +126,11 @@ def test_child_page_fits_and_keeps_the_child(hmi: Any, operator: Any) -> None:
     (ada,) = [c for c in info["children"] if c["name"] == "Ada"]
     assert info["child"]["verdict"] == rep.verdict and info["child"]["child_id"] == ada["id"]
     assert f"Ada ({ada['id']}, fit " in info["runs_on"]
-    # on the simulated device the session carries her as an actor (docs/child.md)
-    assert "simulated as an actor (typically developing strength" in info["runs_on"]
+    # on the simulated device the session carries her as an actor (docs/child.md), as
+    # the form set her
+    assert ("simulated as an actor (typically developing strength, mild spasticity"
+            in info["runs_on"])
+    assert "mild spasticity" in text(d, "actor")
     shot(d, "child")
 
 
@@ -212,6 +216,9 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
     head, cols, _ = read_log(folder / "session.log")
     # the session carried Ada as an actor: her child.toml, the cuffs' torque logged
     assert (folder / "child.toml").exists() and head["child"] == "Ada"
+    from exoleg.child.model import ChildModel
+
+    assert ChildModel.load(folder / "child.toml").spasticity.level == "mild"
     assert np.all(np.isfinite(cols["interaction_knee"][1:]))
     k = applied[0]["tick"]
     assert cols["mode"][k] == 3 and cols["mode"][k - 1] == 2

@@ -189,8 +189,9 @@ class Registry:
         return None if row is None else self.fit(int(row[0]))
 
     def children(self) -> list[dict[str, Any]]:
-        """Every child: ``id``, ``name``, the latest fit's child record (``child``),
-        ``fits`` and ``sessions`` counted; by name, then id."""
+        """Every child: ``id``, ``name``, the latest fit's child record (``child``) and
+        actor settings (``actor``, empty for a fit made before them), ``fits`` and
+        ``sessions`` counted; by name, then id."""
         with self.lock:
             rows = self.db.execute(
                 "SELECT c.id, c.name, (SELECT record FROM fits WHERE child_id = c.id "
@@ -200,9 +201,9 @@ class Registry:
                 "FROM children c ORDER BY c.name, c.id").fetchall()
         out = []
         for cid, name, record, fits, sessions in rows:
-            child = json.loads(record)["child"] if record else {}
-            out.append({"id": cid, "name": name, "child": child, "fits": fits,
-                        "sessions": sessions})
+            rec = json.loads(record) if record else {}
+            out.append({"id": cid, "name": name, "child": rec.get("child", {}),
+                        "actor": rec.get("actor", {}), "fits": fits, "sessions": sessions})
         return out
 
     def session(self, name: str) -> dict[str, Any] | None:

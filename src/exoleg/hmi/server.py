@@ -51,7 +51,83 @@ STATIC = Path(__file__).parent / "static"
 FORM_LABELS = {"age": "Age (years)", "height": "Height (cm)", "mass": "Mass (kg)",
                "thigh": "Thigh (hip-knee, cm)", "shank": "Shank (knee-ankle, cm)",
                "leg_length": "Leg length (cm)", "foot_length": "Foot length (cm)",
-               "ankle_height": "Ankle height (cm)"}
+               "ankle_height": "Ankle height (cm)", "spasticity": "Spasticity",
+               "crouch": "Crouch", "contracture": "Contracture",
+               "contracture_level": "Contracture level (0-1.5)",
+               "strength": "Strength (x the GMFCS level's typical)"}
+#: what the simulated device carries the child as, when the form leaves it (docs/child.md)
+ACTOR_DEFAULTS = {"spasticity": "none", "crouch": 0, "contracture": "none",
+                  "contracture_level": 1.0, "strength": 1.0}
+
+
+def actor_settings(body: dict[str, Any]) -> dict[str, Any]:
+    """The child-as-an-actor settings of the child form (:data:`ACTOR_DEFAULTS` where it
+    leaves one empty), checked: ValueError in the form's words when one is not allowed."""
+    from exoleg.child.model import LEVELS
+    from exoleg.child.passive import child_data
+
+    out = dict(ACTOR_DEFAULTS)
+    for k in out:
+        v = body.get(k)
+        if v in (None, ""):
+            continue
+        label = FORM_LABELS[k]
+        if k == "spasticity":
+            if v not in LEVELS:
+                raise ValueError(f"{label}: {str(v)[:20]!r} is not a level (allowed: "
+                                 + ", ".join(LEVELS) + ")")
+            out[k] = v
+        elif k == "contracture":
+            names = ["none", *sorted(child_data("contracture.toml"))]
+            if v not in names:
+                raise ValueError(f"{label}: {str(v)[:20]!r} is not a preset (allowed: "
+                                 + ", ".join(names) + ")")
+            out[k] = v
+        elif k == "crouch":
+            if str(v) not in ("0", "1", "2", "3", "4", "5"):
+                raise ValueError(f"{label}: {str(v)[:20]!r} is not a cluster (allowed: none, "
+                                 "1-5)")
+            out[k] = int(v)
+        else:
+            lo, hi = (0.0, 1.5) if k == "contracture_level" else (0.1, 1.5)
+            x = typed_number(label, v)
+            if not lo <= x <= hi:
+                raise ValueError(f"{label}: {x:g} is outside {lo:g}-{hi:g}")
+            out[k] = x
+    return out
+
+
+def actor_model(child: dict[str, Any], actor: dict[str, Any]) -> Any:
+    """The fitted child (a fit record's ``child``) as the simulated device carries them
+    (:class:`~exoleg.child.model.ChildModel`) with the form's ``actor`` settings; None
+    for GMFCS V, which the child model does not cover."""
+    from exoleg.child.model import ChildModel, Spasticity
+    from exoleg.child.passive import Contracture
+
+    gm = int(child.get("gmfcs") or 0)
+    if gm > 4:
+        return None
+    a = {**ACTOR_DEFAULTS, **actor}
+    return ChildModel(str(child.get("name") or "child"), float(child["age"]),
+                      float(child["height"]), float(child["mass"]), gm,
+                      Contracture.preset(a["contracture"], float(a["contracture_level"])),
+                      Spasticity.preset(a["spasticity"]), True, int(a["crouch"]),
+                      str(child["sex"]), float(a["strength"]))
+
+
+def actor_text(child: dict[str, Any], actor: dict[str, Any]) -> str:
+    """The actor settings as the pages say them."""
+    gm = int(child.get("gmfcs") or 0)
+    a = {**ACTOR_DEFAULTS, **actor}
+    strength = ("typically developing strength" if not gm else f"GMFCS {gm} strength")
+    if a["strength"] != 1.0:
+        strength += f" x {a['strength']:g}"
+    contracture = ("no contracture" if a["contracture"] == "none" else
+                   f"contracture {a['contracture']} at {a['contracture_level']:g}")
+    crouch = "no crouch" if not a["crouch"] else f"crouch cluster {a['crouch']}"
+    spasticity = ("no spasticity" if a["spasticity"] == "none" else
+                  f"{a['spasticity']} spasticity")
+    return f"{strength}, {spasticity}, {contracture}, {crouch}"
 #: the longest session the HMI starts, s (a session may be ended at any time before)
 MAX_DURATION = 3600.0
 #: the names and texts of the modes, phases, events, faults and safety bits, from the
@@ -209,19 +285,13 @@ class HMI:
 
     def _child_file(self, kept: dict[str, Any], folder: Path) -> str | None:
         """The fitted child as the simulated device carries them (``child.toml`` in the
-        session's folder: typically developing presets, their GMFCS level's strength),
-        when the session's device is simulated; None on a real bus, where the child is
-        real."""
-        from exoleg.child.model import ChildModel
-
+        session's folder, with the fit's actor settings: :func:`actor_model`), when the
+        session's device is simulated; None on a real bus, where the child is real."""
         if not self._simulated():
             return None
-        c = kept["record"]["child"]
-        gm = int(c.get("gmfcs") or 0)
-        if gm > 4:
+        model = actor_model(kept["record"]["child"], kept["record"].get("actor", {}))
+        if model is None:
             return None
-        model = ChildModel(str(c.get("name") or "child"), float(c["age"]), float(c["height"]),
-                           float(c["mass"]), gm, sex=str(c["sex"]))
         (folder / "child.toml").write_text(model.to_toml(), encoding="utf-8")
         return str(folder / "child.toml")
 
@@ -233,11 +303,12 @@ class HMI:
                     "body_mass": DEFAULT_BODY_MASS,
                     "text": f"no child fitted: the paper's leg {self.leg.name!r}, "
                             f"{DEFAULT_BODY_MASS:g} kg"}
-        mass = float(kept["record"]["child"]["mass"])
-        gm = int(kept["record"]["child"].get("gmfcs") or 0)
+        child = kept["record"]["child"]
+        mass = float(child["mass"])
+        gm = int(child.get("gmfcs") or 0)
         actor = ("" if not self._simulated() or gm > 4 else
-                 f"; simulated as an actor ({'GMFCS ' + str(gm) if gm else 'typically developing'}"
-                 f" strength, no spasticity, no contracture: child.toml in the session)")
+                 f"; simulated as an actor ({actor_text(child, kept['record'].get('actor', {}))}"
+                 ": child.toml in the session)")
         return {"child": kept["name"], "child_id": kept["child_id"], "leg": self.leg.name,
                 "body_mass": mass, "text": f"{kept['name']} ({kept['child_id']}, fit "
                 f"{kept['id']}): leg {self.leg.name!r}, {mass:g} kg{actor}"}
@@ -337,10 +408,13 @@ class HMI:
                               name=str(body.get("name", "child"))[:60] or "child",
                               **values)  # Child checks sex and side and names what is allowed
             rep = fit_report(child)
+            actor = actor_settings(body)
         except (ParameterError, ValueError, TypeError) as e:
             self.api.record(source, "fit", False, str(e))
             return 422, {"error": str(e)}
         record = rep.record(leg_file_written=True)
+        record["actor"] = actor
+        record["actor_text"] = actor_text(record["child"], actor)
         record["warnings"] = [str(w.message) for w in caught]
         reg = self.registry
         assert reg is not None  # refused above without one

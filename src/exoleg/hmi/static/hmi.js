@@ -337,6 +337,8 @@ function pickChild(rec) {
   f.elements.gmfcs.value = c.gmfcs || 0;
   f.elements.side.value = c.affected_side;
   for (const k of ["thigh", "shank", "leg_length", "foot_length", "ankle_height"]) f.elements[k].value = c[k] ? (c[k] * 100).toFixed(1) : "";
+  const a = rec.actor || {};
+  for (const k of ["spasticity", "crouch", "contracture", "contracture_level", "strength"]) if (a[k] !== undefined) f.elements[k].value = a[k];
 }
 
 function showFit(f) {
@@ -345,6 +347,7 @@ function showFit(f) {
   const rows = f.demand.map((r) => `<tr><td>${esc(r.source)}</td><td>${esc(r.quantity)}</td>` +
     JOINTS.map((j) => `<td class="${r[j + "_margin"] !== null && r[j + "_margin"] < 1 ? "over" : ""}">${margin(r[j + "_margin"])}</td>`).join("") + "</tr>").join("");
   $("fit-result").innerHTML = `<h3>${esc(f.child.name)} <span class="muted">(${esc(f.child_id || "")})</span></h3><p id="verdict" class="verdict ${cls}">${f.verdict}</p>
+    ${f.actor_text ? `<p id="actor">On the simulated device, as an actor: ${esc(f.actor_text)}.</p>` : ""}
     <p>Telescopes: upper (hip-knee) <b>${(f.settings_m.upper * 100).toFixed(1)} cm</b> (27-40),
     lower (knee-sole) <b>${(f.settings_m.lower * 100).toFixed(1)} cm</b> (33-46); footplate 23.5 cm.</p>
     ${f.notes.length ? "<ul>" + f.notes.map((n) => `<li class="over">${esc(n)}</li>`).join("") + "</ul>" : ""}
