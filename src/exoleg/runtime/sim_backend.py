@@ -79,7 +79,12 @@ class SimBackend:
         device_sense(self.p, w, self.dev.A, self.sens, self.dev.imu_x, -self.dev.depth, S,
                      self.period, True, self.fsr_noise[0], self.imu_noise[0], self.bias,
                      new(SENSORS), f)
-        device_actuate(self.p, w, self.dev.A, tuple(k.copy() for k in self.K), S,
+        # the child's memory copied, the rest as the ticks pass it: a copy of the device
+        # alone's parameters (read-only in its model) is another type to numba, and the
+        # first real tick compiled it again -- a second late (a loop overrun on a fresh
+        # install, whose compile cache is empty)
+        P, C, CS, pd = self.K
+        device_actuate(self.p, w, self.dev.A, (P, C, CS.copy(), pd), S,
                        self.period, self.substeps, np.zeros(3), f,
                        False, 0.0, 1e18, self.dev.stride_time, self.dev.support,
                        self.dev.plant.support_height, np.zeros(3), np.zeros(3))
