@@ -10,7 +10,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from exoleg.control import gait_phase as gp
 from exoleg.params.records import JOINTS
 
 if TYPE_CHECKING:
@@ -64,47 +63,16 @@ def true_events(force: F64, threshold: float = TRUE_CONTACT_N, dt: float = 1e-3,
 
 
 def detection_table(results: list[WalkResult], window: float = 0.2) -> list[dict[str, Any]]:
-    """Detected against true events over runs: per event, the number of true events, the
-    mean and worst timing error (detected - true, s), missed and false rates, and the
-    share of strides (true initial contact to the next) in which the detector reports
-    it (for initial contact: within ``window`` of the stride's). A detected event
-    matches the nearest true event of its kind within ``window`` s."""
-    rows = []
-    for bit, name in gp.EVENT_NAMES.items():
-        errs: list[float] = []
-        n_true = n_det = missed = false = strides = covered = 0
-        for r in results:
-            walking = r.t >= r.walk_start
-            tt = r.t[walking & ((r.true_events() & bit) > 0)]
-            td = r.t[walking & ((r.events & bit) > 0)]
-            ic = r.t[walking & ((r.true_events() & gp.Event.IC) > 0)]
-            for a, b in zip(ic[:-1], ic[1:], strict=True):
-                strides += 1
-                lo, hi = (a - window, a + window) if bit == gp.Event.IC else (a, b)
-                covered += bool(np.any((td >= lo) & (td < hi)))
-            n_true += len(tt)
-            n_det += len(td)
-            used = np.zeros(len(td), dtype=bool)
-            for x in tt:
-                cand = np.where(~used & (np.abs(td - x) <= window))[0]
-                if not len(cand):
-                    missed += 1
-                    continue
-                j = cand[np.argmin(np.abs(td[cand] - x))]
-                used[j] = True
-                errs.append(float(td[j] - x))
-            false += int((~used).sum())
-        e = np.array(errs)
-        rows.append({"event": name, "true": n_true, "detected": n_det,
-                     "mean_error_ms": float(1e3 * e.mean()) if len(e) else float("nan"),
-                     "mean_abs_error_ms": float(1e3 * np.abs(e).mean()) if len(e) else float("nan"),
-                     "worst_error_ms": float(1e3 * e[np.argmax(np.abs(e))]) if len(e)
-                     else float("nan"),
-                     "missed_rate": missed / n_true if n_true else float("nan"),
-                     "false_rate": false / n_det if n_det else float("nan"),
-                     "strides": strides,
-                     "in_strides": covered / strides if strides else float("nan")})
-    return rows
+    """Detected against true events over walks, from the walk command on
+    (:func:`exoleg.control.replay.event_rows`: per event the true and detected counts,
+    timing errors, missed and false rates, the share of strides it is seen in)."""
+    from exoleg.control.replay import event_rows
+
+    series = []
+    for r in results:
+        walking = r.t >= r.walk_start
+        series.append((r.t[walking], r.events[walking], r.true_events()[walking]))
+    return event_rows(series, window)
 
 
 def actuator_peaks(acts: Any, tau: Any, dq: Any, u_safe: Any, env: Any,

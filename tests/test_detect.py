@@ -1,0 +1,162 @@
+"""``exoleg detect``: recorded walks through the controller's gait-phase detector.
+
+References: the simulator's closed loop and the runtime's session, which run the same
+compiled detector on the same FSR counts every tick (the events must be the same, tick
+for tick); the simulator's true contacts (timing errors); pandas reading the output.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import exoleg
+from exoleg.control.contract import SENSOR_POINTS
+from exoleg.control.replay import EVENT_CODES
+from exoleg.sim.walk import simulate_walk
+
+
+def _detect(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "exoleg.cli", "detect", *args],
+                          capture_output=True, text=True, check=False, timeout=300)
+
+
+def _events(bits: np.ndarray, t: np.ndarray) -> list[tuple[float, str]]:
+    return [(round(float(t[k]), 6), EVENT_CODES[b]) for k in np.flatnonzero(bits)
+            for b in EVENT_CODES if bits[k] & b]
+
+
+@pytest.fixture(scope="module")
+def walk() -> exoleg.sim.walk.WalkResult:
+    return simulate_walk(exoleg.paper_leg(), 30.0, strides=6, seed=3)
+
+
+def _write(path: Path, cols: dict[str, np.ndarray], fmt: dict[str, str]) -> None:
+    names = list(cols)
+    with path.open("w") as f:
+        f.write(",".join(names) + "\n")
+        for k in range(len(cols["t"])):
+            f.write(",".join(format(cols[n][k], fmt.get(n, ".9g")) for n in names) + "\n")
+
+
+def test_the_walks_own_counts_give_the_walks_own_events(walk, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    # The same detector on the same counts: the events the simulated device's controller
+    # detected while walking, tick for tick.
+    cols = {"t": walk.t, **{s: walk.fsr[:, i] for i, s in enumerate(SENSOR_POINTS)}}
+    rec = tmp_path / "counts.csv"
+    _write(rec, cols, {s: ".0f" for s in SENSOR_POINTS})
+    out = tmp_path / "events.csv"
+    r = _detect(str(rec), "--counts", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    pd = pytest.importorskip("pandas", reason="pandas (exoleg[dev])")
+    got = pd.read_csv(out)
+    assert list(got.columns) == ["t", "event"]
+    assert list(zip(got.t.round(6), got.event, strict=True)) == _events(walk.events, walk.t)
+
+
+def test_forces_at_100_hz_against_the_true_contacts(walk, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    # A recording as a lab's would be: forces in N at 100 Hz (the true loads under the
+    # sensors' regions), the true events as the reference column. The board holds each
+    # sample for 10 ticks: initial contact is seen up to a sample (10 ms) + the debounce
+    # (8 ms) late. Measured: initial contact +17 ms mean, toe off +5 ms (the regions'
+    # true loads, not the sensors' own elements); none missed, none extra.
+    keep = np.arange(0, len(walk.t), 10)
+    truth = walk.true_events()
+    ref = np.bitwise_or.reduceat(truth, keep)
+    cols = {"t": walk.t[keep], **{s: walk.contact_force[keep, i]
+                                 for i, s in enumerate(SENSOR_POINTS)},
+            "gyro": walk.gyro[keep], "reference": ref}
+    rec = tmp_path / "forces.csv"
+    _write(rec, cols, {"reference": "d"})
+    out = tmp_path / "events.csv"
+    r = _detect(str(rec), "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    assert "samples at 100 Hz" in r.stdout and "against the reference column" in r.stdout
+    from exoleg.control.replay import detect_events, event_rows, read_recording
+
+    rec_ = read_recording(rec)
+    rows = {x["event"]: x for x in event_rows([(rec_.t, detect_events(rec_),
+                                                rec_.reference)])}  # type: ignore[list-item]
+    for name in ("initial contact", "toe off"):
+        row = rows[name]
+        assert row["missed"] == 0 and row["false"] == 0, row
+        assert row["median_abs_error_ms"] <= 20.0 and row["p95_abs_error_ms"] <= 20.0, row
+
+
+def test_a_session_log_gives_the_sessions_own_events(tmp_path: Path) -> None:
+    # exoleg run on the simulated device logs the events its controller detected each
+    # tick; the same detector over the log's counts finds them again.
+    session = tmp_path / "session"
+    r = subprocess.run([sys.executable, "-m", "exoleg.cli", "run", "--duration", "5",
+                        "--arm", "--walk-after", "1", "--no-realtime", "--out", str(session)],
+                       capture_output=True, text=True, timeout=300, check=False)
+    assert r.returncode == 0, (r.stdout[:300], r.stderr)
+    out = tmp_path / "events.csv"
+    r = _detect(str(session), "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    from exoleg.runtime.log import read_log
+
+    _, cols, _ = read_log(session / "session.log")
+    logged = _events(cols["events"].astype(np.int64), cols["t"])
+    assert len(logged) >= 6  # walking: contacts and toe offs
+    got = [(round(float(t), 6), e) for t, e in
+           (line.split(",") for line in out.read_text().splitlines()[1:])]
+    assert [(t, e.strip('"')) for t, e in got] == logged
+
+
+BAD: list[tuple[str, str, str]] = [
+    # (case, the file's text, the one line must contain)
+    ("no sensor column", "t,heel,met1,met5\n0,1,2,3\n", "hallux: no such column"),
+    ("a column twice", "t,heel,met1,met5,hallux,heel\n0,1,1,1,1,1\n", "heel: named twice"),
+    ("not a number", "t,heel,met1,met5,hallux\n0,1,1,1,1\n0.01,x,1,1,1\n",
+     "heel: row 3: 'x' is not a number"),
+    ("NaN", "t,heel,met1,met5,hallux\n0,1,1,1,1\n0.01,nan,1,1,1\n", "not a finite number"),
+    ("time backwards", "t,heel,met1,met5,hallux\n0,1,1,1,1\n0.01,1,1,1,1\n0.005,1,1,1,1\n",
+     "t: row 4: the times must increase"),
+    ("too slow", "t,heel,met1,met5,hallux\n0,1,1,1,1\n0.1,1,1,1,1\n",
+     "at 50 Hz or faster"),
+    ("counts given as forces", "t,heel,met1,met5,hallux\n0,1,1,1,1\n0.01,4000,9000,1,1\n",
+     "met1: row 3: 9000 N is outside -20-5000 N (ADC counts? give --counts)"),
+    ("a bad reference", "t,heel,met1,met5,hallux,reference\n0,1,1,1,1,IC\n0.01,1,1,1,1,XX\n",
+     "reference: row 3: 'XX' is not an event"),
+    ("a ragged row", "t,heel,met1,met5,hallux\n0,1,1,1,1\n0.01,1,1\n", "row 3 has 3 fields"),
+    ("one sample", "t,heel,met1,met5,hallux\n0,1,1,1,1\n", "a walk needs at least two"),
+    ("empty", "", "the file is empty"),
+]
+
+
+@pytest.mark.parametrize("case,text,said", BAD, ids=[c[0] for c in BAD])
+def test_a_bad_recording_is_one_line_naming_the_column_or_value(tmp_path: Path, case: str,
+                                                               text: str, said: str) -> None:
+    rec = tmp_path / "rec.csv"
+    rec.write_text(text)
+    out = tmp_path / "events.csv"
+    r = _detect(str(rec), "--out", str(out))
+    assert r.returncode == 2, (case, r.stdout, r.stderr)
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("exoleg: error:"), (case, r.stderr)
+    assert said in r.stderr, (case, r.stderr)
+    assert not out.exists(), case
+
+
+def test_files_that_are_not_recordings(tmp_path: Path) -> None:
+    binary = tmp_path / "b.csv"
+    binary.write_bytes(bytes(range(256)))
+    good = tmp_path / "good.csv"
+    good.write_text("t,heel,met1,met5,hallux\n0,1,1,1,1\n0.01,1,1,1,1\n")
+    for args, said in (([str(binary), "--out", str(tmp_path / "e.csv")], "binary file"),
+                       ([str(tmp_path), "--out", str(tmp_path / "e.csv")], "is a folder"),
+                       ([str(tmp_path / "none.csv"), "--out", str(tmp_path / "e.csv")],
+                        "no such file"),
+                       ([str(good), "--out", str(good)], "is the recording being read"),
+                       ([str(good), "--out", str(tmp_path)], "is a folder"),
+                       ([str(good), "--out", str(tmp_path / "e.csv"), "--stride", "9"],
+                        "outside 0.4-4 s")):
+        r = _detect(*args)
+        assert r.returncode == 2 and said in r.stderr and "Traceback" not in r.stderr, \
+            (args, r.stderr)
+    assert good.read_text().startswith("t,heel")  # nothing a user wrote is lost
