@@ -143,6 +143,20 @@ def test_a_bad_recording_is_one_line_naming_the_column_or_value(tmp_path: Path, 
     assert not out.exists(), case
 
 
+def test_an_absurdly_long_recording_is_refused(tmp_path: Path, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    # a day at 50 Hz would be 86 million ticks (2.8 GB of counts); the cap is 4 h, tried
+    # here at 10 s so the file stays small
+    import exoleg.control.replay as replay
+    from exoleg.errors import ParameterError
+
+    rec = tmp_path / "long.csv"
+    rec.write_text("t,heel,met1,met5,hallux\n" + "".join(f"{k * 0.02},1,1,1,1\n"
+                                                          for k in range(1001)))
+    monkeypatch.setattr(replay, "MAX_DURATION_S", 10.0)
+    with pytest.raises(ParameterError, match="t: spans 0.00556 h; a recording is at most"):
+        replay.read_recording(rec)
+
+
 def test_files_that_are_not_recordings(tmp_path: Path) -> None:
     binary = tmp_path / "b.csv"
     binary.write_bytes(bytes(range(256)))

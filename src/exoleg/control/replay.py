@@ -44,6 +44,8 @@ EVENT_CODES = {gp.Event.IC: "IC", gp.Event.FF: "FF", gp.Event.HO: "HO", gp.Event
 MIN_RATE_HZ = 50.0
 #: The largest recording read: 500 MB, some 5 hours of a 1 kHz, 8-column CSV.
 MAX_BYTES = 500 << 20
+#: The longest recording replayed, s (at 1 kHz, 14.4 million ticks).
+MAX_DURATION_S = 4 * 3600.0
 #: Plausible readings: forces (N; a child's whole weight on one sensor is under 1 kN, a
 #: recording's offset may dip a little below zero) and ADC counts (12 bit).
 FORCE_RANGE = (-20.0, 5000.0)
@@ -189,14 +191,13 @@ def read_recording(path: str | Path, counts: bool = False, control_dt: float = 1
     if is_session_log(p):
         t, c, gyro = _read_log(p)
         ref = None
-        rate = 1.0 / float(np.median(np.diff(t)))
     else:
         t, raw, gyro, ref = _read_csv(p, counts)
-        rate = 1.0 / float(np.median(np.diff(t)))
-        if counts:
-            c = raw
-        else:
-            c = counts_of(FootSensors.default(0.0, device).record(), np.ascontiguousarray(raw))
+        c = raw if counts else counts_of(FootSensors.default(0.0, device).record(),
+                                         np.ascontiguousarray(raw))
+    if t[-1] - t[0] > MAX_DURATION_S:
+        raise ParameterError(str(p), "t", f"spans {(t[-1] - t[0]) / 3600:.3g} h; a recording "
+                             f"is at most {MAX_DURATION_S / 3600:g} h (split it)")
     ticks = t[0] + control_dt * np.arange(int(math.floor((t[-1] - t[0]) / control_dt + 1e-9))
                                           + 1)
     k = np.searchsorted(t, ticks + 1e-12, side="right") - 1   # the latest sample
@@ -207,7 +208,7 @@ def read_recording(path: str | Path, counts: bool = False, control_dt: float = 1
         for i in np.flatnonzero(ref):
             reference[near[i]] |= ref[i]
     return Recording(t=ticks, counts=c[k], gyro=gyro[k], reference=reference,
-                     source=str(p), rate_hz=rate)
+                     source=str(p), rate_hz=1.0 / float(np.median(np.diff(t))))
 
 
 def detect_events(rec: Recording, expected_stride: float = 1.1,
