@@ -26,7 +26,14 @@ from pathlib import Path
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
-from exoleg.dynamics.derive import JOINT_PARAMS, LINK_PARAMS, Derivation, derive
+from exoleg.dynamics.derive import (
+    BARYCENTRIC,
+    JOINT_PARAMS,
+    LINK_PARAMS,
+    Derivation,
+    derive,
+    regressor,
+)
 
 GENERATED = Path(__file__).with_name("_generated.py")
 
@@ -311,6 +318,18 @@ def generate(d: Derivation) -> str:
     funcs.append(_function("inverse_dynamics", "q, dq, ddq, p, g, out",
                            "tau = M ddq + C dq + G (eq 16) into out (n,).", lines))
 
+    reg = regressor(d)
+    cols = len(reg.pi)
+    lines = _body(d, list(reg.Y), [f"out[{i // cols}, {i % cols}]" for i in range(n * cols)],
+                  ["q", "dq"])
+    lines = [f"{reg.ddq[i]} = ddq[{i}]" for i in range(n) if reg.ddq[i] in reg.Y.free_symbols
+             ] + lines
+    funcs.append(_function(
+        "regressor", "q, dq, ddq, p, g, out",
+        f"Y (n, {cols}) into out, tau = Y pi: per link (m, m cx, m cy, I + m (cx^2 + cy^2)),\n"
+        "    then the joints' armatures (exoleg.dynamics.derive.regressor); from p only the\n"
+        "    links' lengths.", lines))
+
     funcs += _kinematics(d)
 
     header = (
@@ -326,6 +345,8 @@ def generate(d: Derivation) -> str:
         f"LINK_PARAMS = {LINK_PARAMS!r}\n"
         f"JOINT_PARAMS = {JOINT_PARAMS!r}\n"
         f"N_COEFFICIENTS = {len(kexprs)}\n"
+        f"N_INERTIAL = {cols}  # the regressor's columns: per link BARYCENTRIC, the armatures\n"
+        f"BARYCENTRIC = {BARYCENTRIC!r}\n"
         f"OFFSETS = {tuple(d.offsets)!r}\n\n\n"
     )
     return header + "\n\n".join(funcs)

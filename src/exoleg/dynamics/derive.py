@@ -140,3 +140,55 @@ def derive(offsets: Sequence[float], simplify: bool = True) -> Derivation:
                       M=M, C=C, G=G, Mdot=Mdot, T=T, V=V, phi=tuple(phi),
                       joints=tuple(joints), coms=tuple(coms), point_local=(px, py),
                       point=point, Y=Y)
+
+
+#: The inertial parameters the torques are linear in, per link (``barycentric``: mass,
+#: the first moments m cx and m cy in the link frame, the inertia about the proximal
+#: joint I + m (cx^2 + cy^2)), then per joint the armature -- the columns of the
+#: regressor (:func:`regressor`).
+BARYCENTRIC = ("m", "MX", "MY", "ZZ")
+
+
+@dataclass(frozen=True)
+class Regressor:
+    """tau = Y(q, dq, ddq) pi for the chain of ``d``: ``Y`` (n, 5 n), its columns the
+    parameters ``pi`` -- link by link :data:`BARYCENTRIC`, then the n armatures -- and
+    the joint accelerations ``ddq`` it takes besides ``d``'s q and dq."""
+
+    Y: sp.Matrix
+    pi: tuple[sp.Symbol, ...]
+    ddq: tuple[sp.Symbol, ...]
+
+
+def regressor(d: Derivation) -> Regressor:
+    """The chain's joint torques as linear in its inertial parameters. The energies are
+    written in them directly: with c = (cx, cy) in link i's frame, R(phi_i) its rotation
+    and w_i its absolute rate, the link's centre of mass moves at v_j + w_i R'(phi_i) c,
+    so that T_i = 1/2 m v_j^2 + w_i v_j . R' (MX, MY) + 1/2 ZZ w_i^2 and V_i = g (m y_j +
+    [R (MX, MY)]_y) -- no division by m to cancel -- and Lagrange's equations give tau;
+    Y is its Jacobian in pi."""
+    n = d.n
+    per = [sp.symbols(f"{name}0:{n}", real=True) for name in BARYCENTRIC]
+    arm = d.p[len(LINK_PARAMS) * n:]
+    ddq = sp.symbols(f"ddq0:{n}", real=True)
+    dqv = sp.Matrix(d.dq)
+    T: sp.Expr = sp.Integer(0)
+    V: sp.Expr = sp.Integer(0)
+    for i in range(n):
+        m, mx, my, zz = (p[i] for p in per)
+        j = d.joints[i]
+        vj = j.jacobian(d.q) * dqv
+        w = sum(d.dq[: i + 1])
+        c, s = sp.cos(d.phi[i]), sp.sin(d.phi[i])
+        turned = sp.Matrix([-s * mx - c * my, c * mx - s * my])  # R'(phi) (MX, MY)
+        T += (sp.Rational(1, 2) * m * (vj.T * vj)[0] + w * (vj.T * turned)[0]
+              + sp.Rational(1, 2) * zz * w**2)
+        V += d.g * (m * j[1] + s * mx + c * my)
+    T += sum(sp.Rational(1, 2) * arm[i] * d.dq[i] ** 2 for i in range(n))
+    tau = []
+    for k in range(n):
+        dT = sp.diff(T, d.dq[k])
+        tau.append(sp.expand(sum(sp.diff(dT, d.dq[i]) * ddq[i] + sp.diff(dT, d.q[i]) * d.dq[i]
+                                 for i in range(n)) - sp.diff(T, d.q[k]) + sp.diff(V, d.q[k])))
+    pi = tuple(p[i] for i in range(n) for p in per) + tuple(arm)
+    return Regressor(Y=sp.Matrix(tau).jacobian(pi), pi=pi, ddq=ddq)

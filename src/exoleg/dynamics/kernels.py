@@ -17,12 +17,15 @@ from collections.abc import Callable
 from functools import cache
 from typing import Any
 
-from numba import guvectorize
+import numpy as np
+from numba import guvectorize, njit
 
 from exoleg.dynamics._generated import (
+    BARYCENTRIC,
     JOINT_PARAMS,
     LINK_PARAMS,
     N_COEFFICIENTS,
+    N_INERTIAL,
     N_JOINTS,
     N_PARAMS,
     OFFSETS,
@@ -47,12 +50,15 @@ from exoleg.dynamics._generated import (
     mass_matrix,
     mass_matrix_dot,
     potential_energy,
+    regressor,
 )
 
 __all__ = [
+    "BARYCENTRIC",
     "JOINT_PARAMS",
     "LINK_PARAMS",
     "N_COEFFICIENTS",
+    "N_INERTIAL",
     "N_JOINTS",
     "N_PARAMS",
     "OFFSETS",
@@ -74,6 +80,7 @@ __all__ = [
     "mass_matrix",
     "mass_matrix_dot",
     "potential_energy",
+    "regressor",
 ]
 
 _V = "float64[:]"
@@ -129,6 +136,26 @@ def _build_inverse_dynamics() -> Any:
     def gu(q, dq, ddq, p, g, out):  # type: ignore[no-untyped-def]
         inverse_dynamics(q, dq, ddq, p, g, out)
     return gu
+
+
+@njit(cache=True)
+def regressor_rows(Q, DQ, DDQ, p, g, out):  # type: ignore[no-untyped-def]
+    """:func:`regressor` per row of the states (N, 3) into out (N, 3, N_INERTIAL)."""
+    for k in range(Q.shape[0]):
+        regressor(Q[k], DQ[k], DDQ[k], p, g, out[k])
+
+
+def _build_regressor() -> Any:
+    # the regressor's column count is not an input's dimension, which a gufunc needs:
+    # a compiled loop over the broadcast states instead
+    def call(q, dq, ddq, p, g):  # type: ignore[no-untyped-def]
+        q, dq, ddq = np.broadcast_arrays(q, dq, ddq)
+        shape = q.shape[:-1]
+        rows = [np.ascontiguousarray(a.reshape(-1, N_JOINTS)) for a in (q, dq, ddq)]
+        out = np.empty((len(rows[0]), N_JOINTS, N_INERTIAL))
+        regressor_rows(*rows, p, g, out)
+        return out.reshape(*shape, N_JOINTS, N_INERTIAL)
+    return call
 
 
 def _build_kinetic_energy() -> Any:

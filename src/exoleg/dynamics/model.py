@@ -32,6 +32,7 @@ _SIGNATURES: dict[str, tuple[tuple[str, ...], bool, tuple[int, ...]]] = {
     "mass_matrix_dot": (("q", "dq"), False, (3, 3)),
     "forward_dynamics": (("q", "dq", "tau"), True, (3,)),
     "inverse_dynamics": (("q", "dq", "ddq"), True, (3,)),
+    "regressor": (("q", "dq", "ddq"), True, (3, K.N_INERTIAL)),
     "kinetic_energy": (("q", "dq"), False, ()),
     "potential_energy": (("q",), True, ()),
 }
@@ -262,6 +263,22 @@ class LegModel:
         if out is not None:  # else not one float64 state, or not finite: the general path
             return out
         return self._run("inverse_dynamics", (q, dq, ddq))
+
+    def regressor(self, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike) -> F64:
+        """Y (..., 3, 15): the joint torques M ddq + C dq + G = Y :meth:`inertial` -- linear
+        in the inertial parameters, the geometry (the links' lengths) inside Y
+        (:func:`exoleg.dynamics.derive.regressor`)."""
+        return self._run("regressor", (q, dq, ddq))
+
+    def inertial(self) -> F64:
+        """The inertial parameters (15,) the regressor multiplies: per link m, m cx, m cy
+        and the inertia about its proximal joint I + m (cx^2 + cy^2)
+        (:data:`~exoleg.dynamics.kernels.BARYCENTRIC`), then the joints' armatures."""
+        out = []
+        for link in self.links:
+            m, cx, cy = link.mass, link.com[0], link.com[1]
+            out += [m, m * cx, m * cy, link.izz + m * (cx * cx + cy * cy)]
+        return np.array(out + list(self.armature), dtype=np.float64)
 
     def kinetic_energy(self, q: ArrayLike, dq: ArrayLike) -> F64:
         """Kinetic energy (...), J."""
