@@ -86,3 +86,68 @@ def test_the_regressor_agrees_with_pinocchios_column_by_column() -> None:
         assert np.allclose(Y @ base, tau, rtol=0, atol=1e-10 * np.abs(tau).max())
         assert np.array_equal(Y[:, 12:], np.diag(ddq))
     assert worst < 1e-10, worst  # measured 7.3e-16 (columns), torques 2.3e-16
+
+
+def _khalil(leg: LegModel, static: bool) -> dict[str, dict[str, float]]:
+    """Khalil & Dombre's regrouping of a planar chain on a fixed base (Modeling,
+    Identification and Control of Robots, 2002, ch. 12): the masses beyond joint j+1 join
+    link j's first moment along the link (times a_j) and its inertia (times a_j^2); the
+    first joint's armature joins link 0's inertia."""
+    a = leg.lengths
+    rules: dict[str, dict[str, float]] = {}
+    for j in range(3):
+        beyond = {f"m{k}": 1.0 for k in range(j + 1, 3)}
+        rules[f"MX{j}R"] = {f"MX{j}": 1.0, **{k: a[j] * v for k, v in beyond.items()}}
+        rules[f"MY{j}R"] = {f"MY{j}": 1.0}
+        if not static:
+            rules[f"ZZ{j}R"] = {f"ZZ{j}": 1.0, **{k: a[j] ** 2 * v for k, v in beyond.items()},
+                                **({"arm0": 1.0} if j == 0 else {})}
+    if not static:
+        rules["arm1R"], rules["arm2R"] = {"arm1": 1.0}, {"arm2": 1.0}
+    return rules
+
+
+@pytest.mark.parametrize("who", ["paper", "8 y girl", "12 y boy"])
+def test_the_base_parameters_are_khalil_and_dombres_regrouping(who: str) -> None:
+    # 9 inertial base parameters and 2 armatures in motion, 6 from static postures (the
+    # issue's count); each one the rule's combination to 1e-9 (measured 1e-15)
+    from exoleg.identify.base import NAMES, base_parameters
+    from exoleg.sizing import Child, personalized_leg
+
+    leg = LEG if who == "paper" else with_actuators(personalized_leg(
+        Child(age=8, sex="female", height=1.26, mass=25.0) if who == "8 y girl"
+        else Child(age=12, sex="male", height=1.52, mass=40.0)))
+    for static, count in ((False, 11), (True, 6)):
+        b = base_parameters(leg, static=static)
+        assert len(b.columns) == count
+        rules = _khalil(leg, static)
+        assert set(b.names) == set(rules)
+        for name, row in zip(b.names, b.K, strict=True):
+            want = np.zeros(15)
+            for k, v in rules[name].items():
+                want[NAMES.index(k)] = v
+            assert np.abs(row - want).max() < 1e-9, (name, row, want)
+        # the base regressor times the base parameters is the torque
+        rng = np.random.default_rng(3)
+        q, dq, ddq = rng.normal(size=(3, 40, 3))
+        if static:
+            dq[:] = ddq[:] = 0.0
+        Y = leg.regressor(q, dq, ddq)
+        tau = Y @ leg.inertial()
+        assert np.abs(b.regressor(Y) @ b.of(leg.inertial()) - tau).max() < 1e-12 * (
+            1 + np.abs(tau).max())
+
+
+def test_friction_columns_are_the_actuators_friction() -> None:
+    # reference: the actuators' own friction model (exoleg.device.actuator.friction)
+    from exoleg.device.actuator import friction, paper_actuators
+    from exoleg.identify.base import friction_columns
+
+    acts = paper_actuators()
+    dq = np.linspace(-3.0, 3.0, 61)[:, None] * np.array([1.0, -0.5, 2.0])
+    smooth = [a.friction_smoothing for a in acts]
+    F = friction_columns(dq, smooth)
+    theta = np.ravel([[a.viscous_friction, a.coulomb_friction] for a in acts])
+    want = np.stack([[friction(a.record(), float(w[j])) for j, a in enumerate(acts)]
+                     for w in dq])
+    assert np.abs(F @ theta - want).max() < 1e-12
