@@ -1,0 +1,112 @@
+"""Identification of the leg's inertial parameters (exoleg.identify.estimate).
+
+References: the true leg the torques were made from (its gravity torque and base
+parameters); statistics of least squares (noise-free data recovers the truth to
+rounding, noisy data within its standard deviations).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import exoleg
+from exoleg.device import with_actuators
+from exoleg.device.actuator import paper_actuators
+from exoleg.errors import ParameterError
+from exoleg.identify.base import base_parameters
+from exoleg.identify.estimate import identify_leg
+from exoleg.sizing import Child, personalized_leg
+
+ACTS = paper_actuators()
+TRUE = with_actuators(personalized_leg(Child(age=10, sex="male", height=1.40, mass=32.0)))
+#: the prior: the same child's model estimated 10 % heavy, the COMs 1 cm off along the
+#: links, the rotors 10 % light -- G off by 13 % of its largest
+PRIOR = exoleg.LegModel([dataclasses.replace(lk, mass=lk.mass * 1.1,
+                                             com=(lk.com[0] + 0.01, lk.com[1]), parts=())
+                         for lk in TRUE.links], g=TRUE.g, armature=TRUE.armature * 0.9)
+FRICTION = np.array([[a.viscous_friction, a.coulomb_friction] for a in ACTS])
+SMOOTH = np.array([a.friction_smoothing for a in ACTS])
+
+
+def _excitation(seconds: float = 60.0, dt: float = 0.01, seed: int = 0
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Five harmonics of 0.1 Hz per joint about a mid-range posture."""
+    t = np.arange(0.0, seconds, dt)
+    w = 2 * np.pi * 0.1
+    rng = np.random.default_rng(seed)
+    q, dq, ddq = (np.zeros((len(t), 3)) for _ in range(3))
+    for j, (amp, centre) in enumerate(((0.6, 0.3), (0.7, -0.7), (0.35, 0.0))):
+        for k in range(1, 6):
+            a, b = rng.normal(size=2) * amp / k
+            s, c = np.sin(k * w * t), np.cos(k * w * t)
+            q[:, j] += a * s + b * c
+            dq[:, j] += k * w * (a * c - b * s)
+            ddq[:, j] -= (k * w) ** 2 * (a * s + b * c)
+        q[:, j] += centre
+    return q, dq, ddq
+
+
+def _torques(q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
+    return (TRUE.inverse_dynamics(q, dq, ddq) + FRICTION[:, 0] * dq
+            + FRICTION[:, 1] * np.tanh(dq / SMOOTH))
+
+
+def test_noise_free_data_recovers_the_truth() -> None:
+    # the issue: noise-free recovery to 1e-6. Measured: G 4.3e-14 N m, friction 8e-15
+    q, dq, ddq = _excitation()
+    r = identify_leg(PRIOR, q, dq, ddq, _torques(q, dq, ddq), SMOOTH)
+    assert np.abs(r.leg.G(q) - TRUE.G(q)).max() < 1e-6
+    assert np.abs(r.friction - FRICTION).max() < 1e-6
+    b = base_parameters(TRUE)
+    assert np.abs(r.values - b.of(TRUE.inertial())).max() < 1e-6
+    # the identified leg's torques are the truth's, its full parameters the prior's
+    # moved least: what the data cannot see stays the prior's
+    assert np.abs(r.leg.inverse_dynamics(q, dq, ddq) - TRUE.inverse_dynamics(q, dq, ddq)
+                  ).max() < 1e-6
+
+
+def test_noisy_torques_within_the_goal_and_their_standard_deviations(tmp_path: Path
+                                                                     ) -> None:
+    # 0.5 N m of torque noise per sample (the drives' current noise through k_t N is
+    # smaller); the issue's goal for G over the range of motion: RMS <= 1 %, max <= 3 %
+    # of max |G|. Measured: 0.044 % and 0.14 % (prior: 13 %); every base parameter within
+    # 4 SD of the truth. Accelerations here are exact: from encoders they are estimated,
+    # which the issue's measurement through the runtime will carry.
+    q, dq, ddq = _excitation()
+    rng = np.random.default_rng(1)
+    r = identify_leg(PRIOR, q, dq, ddq, _torques(q, dq, ddq) + rng.normal(0, 0.5, q.shape),
+                     SMOOTH)
+    scale = np.abs(TRUE.G(q)).max()
+    err = r.leg.G(q) - TRUE.G(q)
+    assert np.sqrt(np.mean(err**2)) / scale < 0.01 and np.abs(err).max() / scale < 0.03
+    truth = base_parameters(TRUE).of(TRUE.inertial())
+    assert np.all(np.abs(r.values - truth) <= 4 * r.sd), (r.values - truth) / r.sd
+    assert np.allclose(r.residual_rms, 0.5, rtol=0.05)
+    # the identified leg is a leg file every command takes
+    exoleg.save_leg(r.leg, tmp_path / "leg.toml")
+    back = exoleg.load_leg(tmp_path / "leg.toml")
+    assert np.allclose(back.G(q[:50]), r.leg.G(q[:50]), rtol=0, atol=1e-9)
+    rows = r.table()
+    assert rows[0]["parameter"] == "MX0R" and rows[0]["low95"] < rows[0]["value"]
+
+
+def test_what_cannot_identify_is_refused() -> None:
+    q, dq, ddq = _excitation(seconds=20.0)
+    tau = _torques(q, dq, ddq)
+    hip_only = [x.copy() for x in (q, dq, ddq)]
+    for x in hip_only:
+        x[:, 1:] = 0.0
+    with pytest.raises(ParameterError, match="excite every joint"):
+        identify_leg(PRIOR, *hip_only, tau, SMOOTH)
+    with pytest.raises(ParameterError, match="samples"):
+        identify_leg(PRIOR, q[:5], dq[:5], ddq[:5], tau[:5], SMOOTH)
+    bad = tau.copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(ParameterError, match="tau: holds a value that is not finite"):
+        identify_leg(PRIOR, q, dq, ddq, bad, SMOOTH)
+    with pytest.raises(ParameterError, match="expected shape"):
+        identify_leg(PRIOR, q[:, :2], dq, ddq, tau, SMOOTH)
