@@ -14,7 +14,8 @@ armature (its rotor turns with link 0) vanish into them -- 9 inertial base param
 and 2 armatures in motion, 6 (the first moments) from static postures alone.
 
 The actuators' friction adds two columns per joint (:func:`friction_columns`): viscous
-``dq`` and Coulomb ``tanh(dq / w_s)`` (the actuators' model, :func:`exoleg.device.actuator.friction`).
+``dq`` and Coulomb ``tanh(dq / w_s)`` (the actuators' model,
+:func:`exoleg.device.actuator.friction`).
 """
 
 from __future__ import annotations

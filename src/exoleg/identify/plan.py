@@ -1,0 +1,192 @@
+"""Excitation plans: the motion identification drives the leg through.
+
+A plan is data: per joint a finite Fourier series about a centre posture,
+
+    q_j(t) = c_j + sum_k a_jk sin(k w t) + b_jk cos(k w t),   w = 2 pi / period,
+
+played for a whole number of periods (periodic: it starts and ends at the same posture
+with the same rates, so the samples of each period weigh alike; Swevers et al. 1997).
+:func:`design_plan` draws candidate coefficients, scales each to the limits and keeps
+the one whose base regressor is best conditioned (the smallest condition number of the
+stacked, column-scaled Y_b: the estimate's sensitivity to noise). Every candidate kept
+stays inside :func:`plan_limits` -- the safety layer's range of motion less a margin,
+the child's comfortable speed, the actuators' speed and the torque the safety layer
+allows (with the model's inverse dynamics and friction) -- and :func:`check_plan` says
+what a plan exceeds, so that no plan runs unchecked.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from exoleg.control.safety import SafetyLimits
+from exoleg.device.actuator import ActuatorModel
+from exoleg.dynamics.kernels import N_JOINTS
+from exoleg.dynamics.model import LegModel
+from exoleg.errors import ParameterError
+from exoleg.identify.base import base_parameters
+from exoleg.params.records import JOINTS
+
+F64 = NDArray[np.float64]
+
+#: The child's comfort: the plan's joint speeds at most this, rad/s (about 60 deg/s -- a
+#: slow, deliberate movement, a quarter of walking's peak knee speed).
+COMFORT_SPEED = 1.0
+#: Kept inside the range of motion by this, rad (5 deg).
+RANGE_MARGIN = np.radians(5.0)
+#: The torque the plan may use: this share of what the safety layer allows (the rest for
+#: the tracking controller's corrections).
+TORQUE_SHARE = 0.6
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A periodic excitation: ``period`` s, played ``periods`` times; per joint the centre
+    posture ``centre`` (3,) rad and the coefficients ``a``, ``b`` (3, K) rad."""
+
+    period: float
+    periods: int
+    centre: F64
+    a: F64
+    b: F64
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.period) and 2.0 <= self.period <= 60.0):
+            raise ParameterError("Plan", "period", f"{self.period!r} s is outside 2-60 s")
+        if not (isinstance(self.periods, int) and 1 <= self.periods <= 20):
+            raise ParameterError("Plan", "periods", f"expected 1-20, got {self.periods!r}")
+        for name in ("centre", "a", "b"):
+            v = np.asarray(getattr(self, name), dtype=float)
+            if not np.isfinite(v).all():
+                raise ParameterError("Plan", name, "holds a value that is not finite")
+            object.__setattr__(self, name, v)
+
+    @property
+    def duration(self) -> float:
+        return self.period * self.periods
+
+    def sample(self, dt: float = 1e-3) -> tuple[F64, F64, F64, F64]:
+        """(t, q, dq, ddq) every ``dt`` s over the whole plan."""
+        t = np.arange(0.0, self.duration + 0.5 * dt, dt)
+        w = 2 * np.pi / self.period
+        k = np.arange(1, self.a.shape[1] + 1)
+        s, c = np.sin(np.outer(t, k) * w), np.cos(np.outer(t, k) * w)
+        q = self.centre + s @ self.a.T + c @ self.b.T
+        dq = (c * k * w) @ self.a.T - (s * k * w) @ self.b.T
+        ddq = -(s * (k * w) ** 2) @ self.a.T - (c * (k * w) ** 2) @ self.b.T
+        return t, q, dq, ddq
+
+
+@dataclass(frozen=True)
+class Limits:
+    """What a plan must stay within: the range (rad), speed (rad/s) and torque (N m) per
+    joint."""
+
+    lower: F64
+    upper: F64
+    speed: F64
+    torque: F64
+
+
+def plan_limits(safety: SafetyLimits, actuators: tuple[ActuatorModel, ...]) -> Limits:
+    """The safety layer's range of motion less :data:`RANGE_MARGIN`, the smaller of the
+    child's comfort and the actuators' speed, and :data:`TORQUE_SHARE` of the torque the
+    safety layer allows."""
+    lo = np.asarray(safety.lower) + RANGE_MARGIN
+    hi = np.asarray(safety.upper) - RANGE_MARGIN
+    speed = np.minimum(COMFORT_SPEED, [a.max_velocity for a in actuators])
+    torque = TORQUE_SHARE * np.asarray(safety.max_torque)
+    return Limits(lo, hi, np.asarray(speed, dtype=float), torque)
+
+
+def _torques(leg: LegModel, actuators: tuple[ActuatorModel, ...], q: F64, dq: F64, ddq: F64) -> F64:
+    fr = np.stack([a.viscous_friction * dq[:, j]
+                   + a.coulomb_friction * np.tanh(dq[:, j] / a.friction_smoothing)
+                   for j, a in enumerate(actuators)], axis=1)
+    out: F64 = leg.inverse_dynamics(q, dq, ddq) + fr
+    return out
+
+
+def check_plan(plan: Plan, leg: LegModel, actuators: tuple[ActuatorModel, ...], limits: Limits,
+               dt: float = 1e-3) -> list[str]:
+    """What the plan exceeds ([] when nothing), each named with its joint, its worst value
+    and the limit."""
+    _, q, dq, ddq = plan.sample(dt)
+    tau = _torques(leg, actuators, q, dq, ddq)
+    out = []
+    for j, name in enumerate(JOINTS):
+        if q[:, j].min() < limits.lower[j] - 1e-9 or q[:, j].max() > limits.upper[j] + 1e-9:
+            out.append(f"{name}: {np.degrees(q[:, j].min()):.1f} to "
+                       f"{np.degrees(q[:, j].max()):.1f} deg leaves "
+                       f"{np.degrees(limits.lower[j]):.1f} to "
+                       f"{np.degrees(limits.upper[j]):.1f} deg")
+        if np.abs(dq[:, j]).max() > limits.speed[j] + 1e-9:
+            out.append(f"{name}: {np.degrees(np.abs(dq[:, j]).max()):.0f} deg/s over "
+                       f"{np.degrees(limits.speed[j]):.0f} deg/s")
+        if np.abs(tau[:, j]).max() > limits.torque[j] + 1e-9:
+            out.append(f"{name}: {np.abs(tau[:, j]).max():.1f} N m over "
+                       f"{limits.torque[j]:.1f} N m")
+    return out
+
+
+def condition(plan: Plan, leg: LegModel, dt: float = 0.01) -> float:
+    """The condition number of the plan's base regressor (stacked over its samples, each
+    column scaled to unit norm)."""
+    b = base_parameters(leg)
+    _, q, dq, ddq = plan.sample(dt)
+    W = b.regressor(leg.regressor(q, dq, ddq)).reshape(-1, len(b.columns))
+    W = W / np.linalg.norm(W, axis=0)
+    return float(np.linalg.cond(W))
+
+
+def _fit(plan: Plan, leg: LegModel, actuators: tuple[ActuatorModel, ...], limits: Limits
+         ) -> Plan | None:
+    """The plan as it is if it fits the limits, else its amplitudes (about the centre)
+    scaled down to just within them (bisection); None if only a tiny one fits."""
+    def scaled(s: float) -> Plan:
+        return Plan(plan.period, plan.periods, plan.centre, plan.a * s, plan.b * s)
+
+    if not check_plan(plan, leg, actuators, limits, dt=0.005):
+        return plan
+    lo, hi, best = 0.0, 1.0, None
+    for _ in range(14):
+        s = 0.5 * (lo + hi)
+        if check_plan(scaled(s), leg, actuators, limits, dt=0.005):
+            hi = s
+        else:
+            lo, best = s, scaled(s)
+    return best if lo > 0.02 else None
+
+
+def design_plan(leg: LegModel, actuators: tuple[ActuatorModel, ...], limits: Limits,
+                duration: float = 120.0, harmonics: int = 5, candidates: int = 40,
+                seed: int = 0) -> Plan:
+    """The best-conditioned of ``candidates`` random plans within ``limits``, ``duration``
+    s long (at most 2 minutes of device time: the issue's bound), ``harmonics`` per
+    joint, the period a fifth of the duration."""
+    if not (np.isfinite(duration) and 10.0 <= duration <= 120.0):
+        raise ParameterError("design_plan", "duration", f"{duration!r} s is outside 10-120 s")
+    if not (isinstance(harmonics, int) and 1 <= harmonics <= 10):
+        raise ParameterError("design_plan", "harmonics", f"expected 1-10, got {harmonics!r}")
+    rng = np.random.default_rng(seed)
+    periods = 5
+    centre = 0.5 * (limits.lower + limits.upper)
+    half = 0.5 * (limits.upper - limits.lower)
+    best: tuple[float, Plan] | None = None
+    for _ in range(candidates):
+        k = np.arange(1, harmonics + 1)
+        a = rng.normal(size=(N_JOINTS, harmonics)) * half[:, None] / k
+        b = rng.normal(size=(N_JOINTS, harmonics)) * half[:, None] / k
+        c = centre + rng.uniform(-0.3, 0.3, N_JOINTS) * half
+        fitted = _fit(Plan(duration / periods, periods, c, a, b), leg, actuators, limits)
+        if fitted is None:
+            continue
+        cond = condition(fitted, leg)
+        if best is None or cond < best[0]:
+            best = (cond, fitted)
+    if best is None:
+        raise ParameterError("design_plan", "limits", "no plan fits within these limits")
+    return best[1]
