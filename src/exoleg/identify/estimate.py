@@ -1,19 +1,20 @@
 """Estimating the leg's inertial parameters from joint motion and torque.
 
-Given samples of the joint angles, rates, accelerations and torques, the base parameters
-and the actuators' friction are the weighted least-squares solution of
+Given samples of the joint angles, rates, accelerations and torques,
 
-    tau = Y_b(q, dq, ddq) pi_b + F(dq) theta
+    tau = Y(q, dq, ddq) pi + F(dq) theta
 
-(:mod:`exoleg.identify.base`), each joint's rows weighted by the inverse of its noise
-(the residual's standard deviation per joint of an ordinary fit first: Gautier &
-Poignet's two-step weighting), with the parameters' standard deviations from the
-weighted residual. The full parameters -- what a leg file holds -- are the prior's (the
-fitted model's) moved as little as possible to match the identified base parameters:
-``pi = pi_0 + K^T (K K^T)^-1 (pi_b - K pi_0)``, the least-norm change; the data cannot
-see the rest. The result is checked for physical consistency (per link m > 0 and
-m ZZ >= MX^2 + MY^2, the planar case of Wensing et al. 2017) and refused, naming the
-link, when it is not.
+(:mod:`exoleg.identify.base`). An ordinary least-squares fit on the base parameters
+first says whether the motion excites every one and how noisy each joint's torque is
+(Gautier & Poignet's two-step weighting: each joint's rows are then weighted by the
+inverse of its residual's SD). The full parameters -- what a leg file holds -- are then
+estimated with the fitted model as a prior (Gaussian, SDs :func:`prior_sd`: the rotors' inertia from their
+datasheets trusted more than a child's segment from anthropometric tables): the data
+decide what they can tell, the prior the rest (a maximum a posteriori estimate,
+``(W^T W + P) pi = W^T tau_w + P pi_0``); the base parameters and their SDs are the
+full estimate's, ``K pi`` and ``K C K^T``. The result is checked for physical consistency (per link
+m > 0 and m ZZ >= MX^2 + MY^2, the planar case of Wensing et al. 2017) and refused,
+naming the link, when it is not.
 """
 
 from __future__ import annotations
@@ -97,39 +98,75 @@ def identify_leg(prior: LegModel, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike,
         raise ParameterError("identify", "samples", f"{n} samples give {n * N_JOINTS} "
                              f"equations for {cols} unknowns: give at least "
                              f"{-(-2 * cols // N_JOINTS)}")
-    # step 1: ordinary least squares; step 2: rows weighted by each joint's residual SD
+    # step 1: ordinary least squares on the base parameters (and friction): is every one
+    # excited, and how noisy is each joint's torque
     x, *_ = np.linalg.lstsq(A.reshape(-1, cols), TAU.ravel(), rcond=None)
-    res = TAU - A @ x
-    sd = np.sqrt(np.maximum(np.mean(res**2, axis=0), 1e-30))            # (3,)
-    W = (A / sd[None, :, None]).reshape(-1, cols)
-    w_tau = (TAU / sd[None, :]).ravel()
-    x, *_ = np.linalg.lstsq(W, w_tau, rcond=None)
-    rank = np.linalg.matrix_rank(W)
+    rank = np.linalg.matrix_rank(A.reshape(-1, cols))
     if rank < cols:
         raise ParameterError("identify", "excitation", f"the motion identifies {rank} of "
                              f"the {cols} parameters: excite every joint (speeds and "
                              "accelerations in both directions)")
-    res_w = w_tau - W @ x
-    sigma2 = float(res_w @ res_w) / max(1, len(w_tau) - cols)
-    cov = sigma2 * np.linalg.inv(W.T @ W)
-    stdev = np.sqrt(np.diag(cov))
-    r = len(b.columns)
-    pi_b = x[:r]
-    leg = _with_base(prior, b, pi_b)
-    residual = TAU - A @ x
-    fr = x[r:].reshape(-1, 2) if cols > r else np.zeros((0, 2))
-    fr_sd = stdev[r:].reshape(-1, 2) if cols > r else np.zeros((0, 2))
-    return Identified(names=b.names, values=pi_b, sd=stdev[:r], friction=fr,
-                      friction_sd=fr_sd, leg=leg,
+    res = TAU - A @ x
+    floor = 1e-6 * float(np.sqrt(np.mean(TAU**2)))
+    sd = np.sqrt(np.maximum(np.mean(res**2, axis=0), floor**2))       # (3,)
+    # step 2: the full parameters, the rows weighted by each joint's noise, the prior's
+    # parameters with their SDs (prior_sd) for what the data cannot tell apart; friction
+    # with a weak prior (zero, SD 10 N m and 10 N m s/rad)
+    full = [prior.regressor(Q, DQ, DDQ)]
+    if friction_smoothing is not None:
+        full.append(friction_columns(DQ, friction_smoothing))
+    F = np.concatenate(full, axis=2)
+    nf = F.shape[2] - len(prior.inertial())
+    W = (F / sd[None, :, None]).reshape(-1, F.shape[2])
+    w_tau = (TAU / sd[None, :]).ravel()
+    x0 = np.concatenate([prior.inertial(), np.zeros(nf)])
+    root = np.concatenate([1.0 / prior_sd(prior), np.full(nf, 0.1)])   # P^(1/2)
+    # the prior as rows of its own: least squares on [W; P^(1/2)] (by QR, not the normal
+    # equations, whose conditioning is the square of this)
+    x, *_ = np.linalg.lstsq(np.vstack([W, np.diag(root)]),
+                            np.concatenate([w_tau, root * x0]), rcond=None)
+    _, R = np.linalg.qr(np.vstack([W, np.diag(root)]))
+    Ri = np.linalg.inv(R)
+    cov = Ri @ Ri.T                                                     # (W^T W + P)^-1
+    pi = x[:len(x0) - nf]
+    K = b.K
+    pi_b = K @ pi
+    base_sd = np.sqrt(np.diag(K @ cov[:len(pi), :len(pi)] @ K.T))
+    leg = _leg(prior, np.asarray(pi, dtype=np.float64))
+    residual = TAU - F @ x
+    fr = x[len(pi):].reshape(-1, 2)
+    fr_sd = np.sqrt(np.diag(cov))[len(pi):].reshape(-1, 2)
+    return Identified(names=b.names, values=np.asarray(pi_b, dtype=np.float64),
+                      sd=np.asarray(base_sd, dtype=np.float64),
+                      friction=np.asarray(fr, dtype=np.float64),
+                      friction_sd=np.asarray(fr_sd, dtype=np.float64), leg=leg,
                       residual_rms=np.sqrt(np.mean(residual**2, axis=0)), samples=n)
 
 
-def _with_base(prior: LegModel, b: BaseParameters, pi_b: F64) -> LegModel:
-    """``prior`` moved least to have the base parameters ``pi_b``; refused (naming the
-    link) when the result is not a physical body."""
+#: How far the prior's parameters are trusted, one SD: masses, first moments and
+#: inertias of the links this share of their size (a child's segments differ from the
+#: tables by 10-20 %), the first moments at least 2 cm x the mass; the rotors' reflected
+#: inertia from their datasheets, 2 %.
+PRIOR_SD = {"m": 0.15, "MX": 0.15, "MY": 0.15, "ZZ": 0.15, "arm": 0.02}
+PRIOR_COM_SD = 0.02
+
+
+def prior_sd(prior: LegModel) -> F64:
+    """One SD (15,) of each of the prior's inertial parameters (:data:`PRIOR_SD`)."""
     pi0 = prior.inertial()
-    K = b.K
-    pi = pi0 + K.T @ np.linalg.solve(K @ K.T, pi_b - K @ pi0)
+    out = np.empty_like(pi0)
+    for i in range(N_JOINTS):
+        m = pi0[4 * i]
+        for k, name in enumerate(("m", "MX", "MY", "ZZ")):
+            v = PRIOR_SD[name] * abs(pi0[4 * i + k])
+            out[4 * i + k] = max(v, PRIOR_COM_SD * m) if name in ("MX", "MY") else v
+    out[4 * N_JOINTS:] = PRIOR_SD["arm"] * np.abs(pi0[4 * N_JOINTS:])
+    return np.maximum(out, 1e-9)
+
+
+def _leg(prior: LegModel, pi: F64) -> LegModel:
+    """The leg with the inertial parameters ``pi`` (the prior's geometry); refused (naming
+    the link) when it is not a physical body."""
     links = []
     for i, link in enumerate(prior.links):
         m, mx, my, zz = pi[4 * i:4 * i + 4]
