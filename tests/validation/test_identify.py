@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import exoleg
@@ -118,6 +118,7 @@ def test_what_cannot_identify_is_refused() -> None:
 @settings(max_examples=6, deadline=None)
 @given(seed=st.integers(0, 10_000), child=st.sampled_from(["8 y girl", "10 y boy",
                                                            "12 y boy"]))
+@example(seed=1015, child="12 y boy")  # checked every 5 ms, its hip torque peaked between
 def test_an_excitation_plan_stays_within_the_safety_bounds(seed: int, child: str) -> None:
     # the issue: the plan never leaves the safety bounds, and takes <= 2 min of device
     # time. The bounds: the safety layer's range of motion less 5 deg, 60 deg/s (the

@@ -189,4 +189,11 @@ def design_plan(leg: LegModel, actuators: tuple[ActuatorModel, ...], limits: Lim
             best = (cond, fitted)
     if best is None:
         raise ParameterError("design_plan", "limits", "no plan fits within these limits")
-    return best[1]
+    # the candidates were checked every 5 ms; the device runs every 1 ms: a peak between
+    # two coarse samples scales the plan down a little more
+    plan = best[1]
+    for _ in range(50):
+        if not check_plan(plan, leg, actuators, limits, dt=1e-3):
+            return plan
+        plan = Plan(plan.period, plan.periods, plan.centre, plan.a * 0.99, plan.b * 0.99)
+    raise ParameterError("design_plan", "limits", "no plan fits within these limits")
