@@ -77,8 +77,8 @@ def test_noisy_torques_within_the_goal_and_their_standard_deviations(tmp_path: P
     # 0.5 N m of torque noise per sample (the drives' current noise through k_t N is
     # smaller); the issue's goal for G over the range of motion: RMS <= 1 %, max <= 3 %
     # of max |G|. Measured: 0.081 % and 0.20 % (prior: 13 %); every base parameter within
-    # 4 SD of the truth (the worst 2.1 SD). Accelerations here are exact: from encoders they are estimated,
-    # which the issue's measurement through the runtime will carry.
+    # 4 SD of the truth (the worst 2.1 SD). Accelerations here are exact: from encoders
+    # they are estimated, which the issue's measurement through the runtime will carry.
     q, dq, ddq = _excitation()
     rng = np.random.default_rng(1)
     r = identify_leg(PRIOR, q, dq, ddq, _torques(q, dq, ddq) + rng.normal(0, 0.5, q.shape),

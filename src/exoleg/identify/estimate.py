@@ -8,8 +8,9 @@ Given samples of the joint angles, rates, accelerations and torques,
 first says whether the motion excites every one and how noisy each joint's torque is
 (Gautier & Poignet's two-step weighting: each joint's rows are then weighted by the
 inverse of its residual's SD). The full parameters -- what a leg file holds -- are then
-estimated with the fitted model as a prior (Gaussian, SDs :func:`prior_sd`: the rotors' inertia from their
-datasheets trusted more than a child's segment from anthropometric tables): the data
+estimated with the fitted model as a prior (Gaussian, SDs :func:`prior_sd`: the rotors'
+inertia from their datasheets trusted more than a child's segment from anthropometric
+tables): the data
 decide what they can tell, the prior the rest (a maximum a posteriori estimate,
 ``(W^T W + P) pi = W^T tau_w + P pi_0``); the base parameters and their SDs are the
 full estimate's, ``K pi`` and ``K C K^T``. The result is checked for physical consistency (per link
