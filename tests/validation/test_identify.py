@@ -151,3 +151,18 @@ def test_the_designed_plan_identifies_the_leg() -> None:
     _, q, dq, ddq = plan.sample(0.01)
     r = identify_leg(PRIOR, q, dq, ddq, _torques(q, dq, ddq), SMOOTH)
     assert np.abs(r.leg.G(q) - TRUE.G(q)).max() < 1e-6
+
+
+def test_simulated_children_identified_within_the_goal() -> None:
+    # exoleg validate --identify's pipeline on three children of the design range: their
+    # segments off the tables, 20-bit encoders differentiated over 41 ms, torque noise 1 %
+    # of continuous. The goal: G RMS <= 1 %, max <= 3 % of max |G|. Measured on
+    # these three: RMS 0.015-0.018 %, max 0.037-0.049 %, the fitted legs 9.7-12.2 % off.
+    # (With the prior on the inertia about the joint rather than the centre of mass, one
+    # child in ten came out with a foot that is not a body.)
+    from exoleg.validate.identify import children, run_child
+
+    for i, c in enumerate(children(3)):
+        r = run_child(c, i)
+        assert r.g_rms_pct <= 1.0 and r.g_max_pct <= 3.0, r
+        assert r.g_max_pct < r.prior_g_max_pct / 20, r

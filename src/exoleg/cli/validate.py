@@ -12,6 +12,25 @@ from exoleg.cli.simulate_walk import _DETECTION_HEADER, _detection_rows
 
 # --------------------------------------------------------------------------- validate
 def cmd_validate(args: argparse.Namespace) -> int:
+    if args.identify:
+        from exoleg.cli._common import _Progress
+        from exoleg.validate.identify import children, run_child, summary
+
+        kids = children(args.children)
+        done = []
+        progress = _Progress()
+        try:
+            for i, c in enumerate(kids):
+                done.append(run_child(c, i))
+                progress("identify", (i + 1) / len(kids))
+        finally:
+            progress.stop()
+        _table(summary(done), ["", "median", "p95", "worst"],
+               title=f"identification over {len(done)} simulated children (offline: encoders, "
+                     "a 41 ms differentiator, torque noise 1 % of continuous)")
+        _say("the issue's goal: G error RMS <= 1 %, max <= 3 %")
+        ok = all(r.g_max_pct <= 3.0 and r.g_rms_pct <= 1.0 for r in done)
+        return 0 if ok else 1
     if args.gait_phase:
         from exoleg.validate.gait_phase import evaluate
 
@@ -51,4 +70,9 @@ def add_parser(sub: Any) -> None:
                    help="the gait-phase detector against the true contacts: children x noise")
     v.add_argument("--strides", type=_count(1, 1000), default=20, metavar="N",
                    help="with --gait-phase: strides per walk, 1-1000 (default 20)")
+    v.add_argument("--identify", action="store_true",
+                   help="identification of the leg over simulated children of the design "
+                        "range (offline)")
+    v.add_argument("--children", type=_count(1, 10000), default=100, metavar="N",
+                   help="with --identify: how many children, 1-10000 (default 100)")
     v.set_defaults(func=cmd_validate)

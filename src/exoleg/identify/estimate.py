@@ -121,14 +121,39 @@ def identify_leg(prior: LegModel, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike,
     W = (F / sd[None, :, None]).reshape(-1, F.shape[2])
     w_tau = (TAU / sd[None, :]).ravel()
     x0 = np.concatenate([prior.inertial(), np.zeros(nf)])
-    root = np.concatenate([1.0 / prior_sd(prior), np.full(nf, 0.1)])   # P^(1/2)
-    # the prior as rows of its own: least squares on [W; P^(1/2)] (by QR, not the normal
-    # equations, whose conditioning is the square of this)
-    x, *_ = np.linalg.lstsq(np.vstack([W, np.diag(root)]),
-                            np.concatenate([w_tau, root * x0]), rcond=None)
-    _, R = np.linalg.qr(np.vstack([W, np.diag(root)]))
+    n_pi = len(x0) - nf
+    # the prior on what a body is made of -- mass, first moments, and the inertia about
+    # the centre of mass (a child's segment's, from the tables; the rotors' armature) --
+    # so that the estimate stays a body where the data cannot tell (the inertia about the
+    # joint ZZ = I + (MX^2 + MY^2) / m is not where the prior's uncertainty lies); the
+    # friction's prior weak (zero, SD 10 N m and 10 N m s/rad). Gauss-Newton on the data's
+    # rows (linear) and the prior's (the centroidal inertia's is not), from the prior.
+    sdp = prior_sd(prior)
+    izz0 = np.array([lk.izz for lk in prior.links])
+
+    def prior_rows(x: NDArray[np.floating]) -> tuple[F64, F64]:
+        r: F64 = np.concatenate([(x[:n_pi] - x0[:n_pi]) / sdp, 0.1 * x[n_pi:]])
+        J: F64 = np.diag(np.concatenate([1.0 / sdp, np.full(nf, 0.1)]))
+        for i in range(N_JOINTS):
+            m, mx, my, zz = x[4 * i:4 * i + 4]
+            k = 4 * i + 3
+            s_i = PRIOR_SD["ZZ"] * izz0[i]
+            r[k] = (zz - (mx * mx + my * my) / m - izz0[i]) / s_i
+            J[k, 4 * i:4 * i + 4] = [(mx * mx + my * my) / (m * m) / s_i,
+                                     -2 * mx / m / s_i, -2 * my / m / s_i, 1.0 / s_i]
+        return r, J
+
+    x = x0.copy()
+    for _ in range(8):
+        rp, Jp = prior_rows(x)
+        J = np.vstack([W, Jp])
+        step, *_ = np.linalg.lstsq(J, -np.concatenate([W @ x - w_tau, rp]), rcond=None)
+        x = x + step
+        if np.abs(step).max() <= 1e-12 * (1.0 + np.abs(x).max()):
+            break
+    _, R = np.linalg.qr(np.vstack([W, prior_rows(x)[1]]))
     Ri = np.linalg.inv(R)
-    cov = Ri @ Ri.T                                                     # (W^T W + P)^-1
+    cov = Ri @ Ri.T                                                     # (J^T J)^-1
     pi = x[:len(x0) - nf]
     K = b.K
     pi_b = K @ pi
