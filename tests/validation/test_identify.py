@@ -58,7 +58,7 @@ def _torques(q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
 
 
 def test_noise_free_data_recovers_the_truth() -> None:
-    # the issue: noise-free recovery to 1e-6. Measured: G 1.6e-11 N m, friction 1.9e-11 (the
+    # the issue: noise-free recovery to 1e-6. Measured: G 9.0e-12 N m, friction 1.2e-11 (the
     # prior's rows weigh 1e-6 of the data's)
     q, dq, ddq = _excitation()
     r = identify_leg(PRIOR, q, dq, ddq, _torques(q, dq, ddq), SMOOTH)
@@ -76,8 +76,8 @@ def test_noisy_torques_within_the_goal_and_their_standard_deviations(tmp_path: P
                                                                      ) -> None:
     # 0.5 N m of torque noise per sample (the drives' current noise through k_t N is
     # smaller); the issue's goal for G over the range of motion: RMS <= 1 %, max <= 3 %
-    # of max |G|. Measured: 0.081 % and 0.20 % (prior: 13 %); every base parameter within
-    # 4 SD of the truth (the worst 2.1 SD). Accelerations here are exact: from encoders
+    # of max |G|. Measured: 0.079 % and 0.22 % (prior: 13 %); every base parameter within
+    # 4 SD of the truth (the worst 1.8 SD). Accelerations here are exact: from encoders
     # they are estimated, which the issue's measurement through the runtime will carry.
     q, dq, ddq = _excitation()
     rng = np.random.default_rng(1)

@@ -141,13 +141,12 @@ def test_the_base_parameters_are_khalil_and_dombres_regrouping(who: str) -> None
 def test_friction_columns_are_the_actuators_friction() -> None:
     # reference: the actuators' own friction model (exoleg.device.actuator.friction)
     from exoleg.device.actuator import friction, paper_actuators
-    from exoleg.identify.base import friction_columns
+    from exoleg.identify.base import actuator_friction, friction_columns
 
     acts = paper_actuators()
     dq = np.linspace(-3.0, 3.0, 61)[:, None] * np.array([1.0, -0.5, 2.0])
-    smooth = [a.friction_smoothing for a in acts]
+    theta, smooth = actuator_friction(acts)
     F = friction_columns(dq, smooth)
-    theta = np.ravel([[a.viscous_friction, a.coulomb_friction] for a in acts])
     want = np.stack([[friction(a.record(), float(w[j])) for j, a in enumerate(acts)]
                      for w in dq])
     assert np.abs(F @ theta - want).max() < 1e-12

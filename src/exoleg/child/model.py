@@ -33,6 +33,10 @@ from exoleg.params import _check
 F64 = NDArray[np.float64]
 
 LEVELS = ("none", "mild", "moderate", "severe")
+#: Strength as a multiple of the GMFCS level's typical, the range a child model takes.
+STRENGTH_SCALE = (0.1, 1.5)
+#: Rozumalski & Schwartz 2009's crouch clusters (0: the normative gait).
+CROUCH_CLUSTERS = (0, 1, 2, 3, 4, 5)
 SPASTIC_GROUPS = ("plantarflexors", "knee_flexors", "knee_extensors", "hip_flexors")
 #: ticks of history the child's delays may reach back
 HISTORY = 256
@@ -121,10 +125,11 @@ class ChildModel:
             raise ParameterError(w, "gmfcs", f"{self.gmfcs!r}: allowed 0 (typically "
                                  "developing), 1-4 (the device's users)")
         sc = _check.finite(w, "strength", self.strength_scale)
-        if not 0.1 <= sc <= 1.5:
-            raise ParameterError(w, "strength", f"{sc:g} is outside 0.1-1.5 (x the GMFCS "
+        if not STRENGTH_SCALE[0] <= sc <= STRENGTH_SCALE[1]:
+            raise ParameterError(w, "strength", f"{sc:g} is outside "
+                                 f"{STRENGTH_SCALE[0]:g}-{STRENGTH_SCALE[1]:g} (x the GMFCS "
                                  "level's typical strength)")
-        if self.crouch not in (0, 1, 2, 3, 4, 5):
+        if self.crouch not in CROUCH_CLUSTERS:
             raise ParameterError(w, "crouch", f"{self.crouch!r}: allowed 0 (none), 1-5 "
                                  "(Rozumalski & Schwartz 2009's clusters)")
 

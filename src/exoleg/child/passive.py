@@ -43,6 +43,8 @@ GROUPS = ("hip_flexors", "hip_extensors", "knee_flexors", "knee_extensors", "lim
 #: flexion +) over which the curves were measured and checked (the predictcpgait
 #: child's sweeps); the terms continue on their tangents beyond
 VALID_DEG = ((-30.0, 30.0), (0.0, 100.0), (-20.0, 90.0))
+#: The contracture levels a preset may be taken at (0 none, 1 as measured).
+CONTRACTURE_LEVELS = (0.0, 1.5)
 N_TERMS = 7
 
 #: The passive model as the compiled code reads it: per term its joint (0 hip, 1 knee,
@@ -106,8 +108,9 @@ class Contracture:
 
     def __post_init__(self) -> None:
         lv = _check.finite("contracture", "level", self.level)
-        if not 0.0 <= lv <= 1.5:
-            raise ParameterError("contracture", "level", f"{lv:g} is outside 0-1.5 "
+        lo, hi = CONTRACTURE_LEVELS
+        if not lo <= lv <= hi:
+            raise ParameterError("contracture", "level", f"{lv:g} is outside {lo:g}-{hi:g} "
                                  "(0 none, 1 the preset as measured)")
         for g, v in self.groups.items():
             if g not in GROUPS or g == "limit":

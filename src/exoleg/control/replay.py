@@ -216,9 +216,9 @@ def detect_events(rec: Recording, expected_stride: float = 1.1,
     """The detector's event bits per tick over the recording (its state fresh at the
     start: the running maxima at the calibration floor, no stride yet)."""
     from exoleg.device.config import FSR_FLOOR_N
-    from exoleg.device.sensors import FootSensors, fsr_counts
+    from exoleg.device.sensors import FootSensors
 
-    floor = float(fsr_counts(FootSensors.default(0.0, device).record(), FSR_FLOOR_N, 0.0))
+    floor = FootSensors.default(0.0, device).counts(FSR_FLOOR_N)
     d = gp.DetectorSettings.default(device).record(floor, expected_stride)
     out: NDArray[np.int64] = detect_all(d, gp.new_state(d), np.ascontiguousarray(rec.counts),
                                         rec.t)

@@ -20,7 +20,7 @@ from exoleg.control.gait_phase import DetectorSettings
 from exoleg.control.hierarchy import WalkController, WalkGains
 from exoleg.control.safety import SafetyLimits
 from exoleg.device.actuator import ActuatorModel, paper_actuators, params_array, with_actuators
-from exoleg.device.sensors import FootSensors, fsr_counts
+from exoleg.device.sensors import FootSensors
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
 
@@ -72,7 +72,7 @@ class DeviceConfig:
     @property
     def fsr_floor_counts(self) -> float:
         """The detector's calibration floor in ADC counts (:data:`FSR_FLOOR_N`)."""
-        return float(fsr_counts(self.sensors.record(), FSR_FLOOR_N, 0.0))
+        return self.sensors.counts(FSR_FLOOR_N)
 
     def leg(self, leg: LegModel) -> LegModel:
         """``leg`` with the actuators' reflected inertia (the device's leg model)."""

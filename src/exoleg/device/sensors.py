@@ -103,6 +103,10 @@ class FootSensors:
                    accel_bias=k * i["accel_bias_mg"] * 1e-3 * g,
                    accel_range=i["accel_range_g"] * g, imu_position=i["position"])
 
+    def counts(self, force: float) -> float:
+        """The board's noise-free reading of ``force`` N on an FSR, ADC counts."""
+        return float(fsr_counts(self.record(), force, 0.0))
+
     def record(self) -> NDArray[np.void]:
         """What the compiled functions take (:data:`BOARD`)."""
         r = new(BOARD)

@@ -13,14 +13,13 @@ Model (one set of equations; stance and swing differ only in which contacts act)
   leg swings; ``y_c`` sits a little below this leg's stance height, so in stance this
   leg carries the body weight;
 * the foot touches the belt through its **sole**: a row of compliant elements from the
-  heel's rim to the toes' tips (``walking.toml`` ``sole``, in the foot frame: along the
-  foot as fractions of its length, each raised above the flat sole by the heel's
-  rounding, the arch or the toes' spring), each with its share of the sole's stiffness
-  and damping: normal force ``max(0, k_i d - c_i dy_p)`` for a penetration d > 0, and
-  friction ``-mu F_n tanh((dx_p - v_belt) / v_s)`` against the belt's speed. A soft
-  sole on a rounded heel is what lets the foot *roll*: the load moves from the heel's
-  rim to the heel, the forefoot and the toes as the foot turns over stance, instead of
-  jumping between four hard points. Each element belongs to a region of the foot (the
+  heel to the toes' tips (``walking.toml`` ``sole``, in the foot frame: along the foot
+  as fractions of its length, each raised above the flat sole by the arch or the toes'
+  spring), each with its share of the sole's stiffness and damping: normal force
+  ``max(0, k_i d - c_i dy_p)`` for a penetration d > 0, and friction
+  ``-mu F_n tanh((dx_p - v_belt) / v_s)`` against the belt's speed. A soft sole is what
+  lets the foot *roll*: the load moves from the heel to the forefoot and the toes as the
+  foot turns over stance, instead of jumping between four hard points. Each element belongs to a region of the foot (the
   four sensors' -- heel, first and fifth metatarsal heads, hallux -- or the midfoot);
   four of them carry the footplate's FSRs, which read their own element's load only
   (:func:`sole_loads`): load under the midfoot, between the sensors, is not sensed.
@@ -114,10 +113,16 @@ class Ground:
                            "drop": (0.0, 0.2, "m")})
         sole = _check.ranged(where, {"footplate_height_m": d["footplate_height_m"]},
                              {"footplate_height_m": (0.0, 0.1, "m")})["footplate_height_m"]
-        return cls(stiffness=c["stiffness"], damping=c["damping"], friction=c["friction"],
-                   slip_speed=c["slip_speed"], support_stiffness=s["stiffness"],
-                   support_damping=s["damping"], support_drop=s["drop"], sole=sole,
-                   elements=read_sole(where, d["sole"]), source=str(d.get("source", where)))
+        try:  # the sole as a whole is checked once, by Ground: name the file
+            return cls(stiffness=c["stiffness"], damping=c["damping"],
+                       friction=c["friction"], slip_speed=c["slip_speed"],
+                       support_stiffness=s["stiffness"], support_damping=s["damping"],
+                       support_drop=s["drop"], sole=sole, elements=read_sole(where, d["sole"]),
+                       source=str(d.get("source", where)))
+        except ParameterError as e:
+            if e.where != "Ground":  # read_sole's: it names the file and the element
+                raise
+            raise ParameterError(where, e.field, e.problem) from None
 
 
 #: The regions of the foot a sole element belongs to: the four sensors'
@@ -131,8 +136,7 @@ SOLE_MAX = 12
 class SoleElement:
     """One compliant element of the sole: its ``region`` (:data:`REGIONS`), where it sits
     along the foot (``x``: a fraction of the foot link's length forward of the ankle), how
-    far it is raised above the flat sole (``lift``, m: the heel's rounding, the arch, the
-    toes' spring), its ``share`` of the sole's stiffness and damping, and whether the
+    far it is raised above the flat sole (``lift``, m: the arch, the toes' spring), its ``share`` of the sole's stiffness and damping, and whether the
     region's FSR sits on it (``sensor``)."""
 
     region: str
@@ -169,7 +173,8 @@ def check_sole(where: str, elements: tuple[SoleElement, ...]) -> None:
 
 def read_sole(where: str, rows: Any) -> tuple[SoleElement, ...]:
     """The ``sole`` array of ``walking.toml``: tables with ``region``, ``x``,
-    ``lift_mm``, ``share`` and optionally ``sensor`` (true on the element an FSR sits on)."""
+    ``lift_mm``, ``share`` and optionally ``sensor`` (true on the element an FSR sits on),
+    each checked; the sole as a whole by :func:`check_sole` (when :class:`Ground` is made)."""
     if not isinstance(rows, list):
         raise ParameterError(where, "sole", "expected an array of tables (region, x, "
                              "lift_mm, share, sensor)")
@@ -189,9 +194,7 @@ def read_sole(where: str, rows: Any) -> tuple[SoleElement, ...]:
                           {"x": (-0.5, 1.0, "of the foot's length"),
                            "lift_mm": (0.0, 20.0, "mm"), "share": (1e-3, 1.0, "")})
         out.append(SoleElement(r["region"], v["x"], v["lift_mm"] * 1e-3, v["share"], sensor))
-    elements = tuple(out)
-    check_sole(where, elements)
-    return elements
+    return tuple(out)
 
 
 #: The child's ankle height the plant assumes unless told, m: Drillis & Contini's 0.039

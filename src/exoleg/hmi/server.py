@@ -63,8 +63,8 @@ ACTOR_DEFAULTS = {"spasticity": "none", "crouch": 0, "contracture": "none",
 def actor_settings(body: dict[str, Any]) -> dict[str, Any]:
     """The child-as-an-actor settings of the child form (:data:`ACTOR_DEFAULTS` where it
     leaves one empty), checked: ValueError in the form's words when one is not allowed."""
-    from exoleg.child.model import LEVELS
-    from exoleg.child.passive import child_data
+    from exoleg.child.model import CROUCH_CLUSTERS, LEVELS, STRENGTH_SCALE
+    from exoleg.child.passive import CONTRACTURE_LEVELS, child_data
 
     out = dict(ACTOR_DEFAULTS)
     for k in out:
@@ -84,12 +84,12 @@ def actor_settings(body: dict[str, Any]) -> dict[str, Any]:
                                  + ", ".join(names) + ")")
             out[k] = v
         elif k == "crouch":
-            if str(v) not in ("0", "1", "2", "3", "4", "5"):
+            if str(v) not in {str(c) for c in CROUCH_CLUSTERS}:
                 raise ValueError(f"{label}: {str(v)[:20]!r} is not a cluster (allowed: none, "
-                                 "1-5)")
+                                 f"1-{max(CROUCH_CLUSTERS)})")
             out[k] = int(v)
         else:
-            lo, hi = (0.0, 1.5) if k == "contracture_level" else (0.1, 1.5)
+            lo, hi = CONTRACTURE_LEVELS if k == "contracture_level" else STRENGTH_SCALE
             x = typed_number(label, v)
             if not lo <= x <= hi:
                 raise ValueError(f"{label}: {x:g} is outside {lo:g}-{hi:g}")

@@ -20,11 +20,13 @@ The actuators' friction adds two columns per joint (:func:`friction_columns`): v
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from exoleg.device.actuator import ActuatorModel
 from exoleg.dynamics.kernels import BARYCENTRIC, N_JOINTS
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
@@ -112,3 +114,12 @@ def friction_columns(dq: ArrayLike, smoothing: ArrayLike) -> F64:
         out[..., j, 2 * j] = v[..., j]
         out[..., j, 2 * j + 1] = np.tanh(v[..., j] / w[j])
     return out
+
+
+def actuator_friction(actuators: Sequence[ActuatorModel]) -> tuple[F64, F64]:
+    """The actuators' friction in :func:`friction_columns`' terms: its coefficients (6,),
+    joint by joint viscous (N m s/rad) and Coulomb (N m), and the Coulomb term's smoothing
+    speeds (3,) rad/s -- ``friction_columns(dq, smoothing) @ coefficients`` is their
+    friction torque."""
+    theta = np.ravel([[a.viscous_friction, a.coulomb_friction] for a in actuators])
+    return theta, np.array([a.friction_smoothing for a in actuators])

@@ -89,11 +89,11 @@ def identify_leg(prior: LegModel, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike,
     Q, DQ, DDQ, TAU = _states(q, dq, ddq, tau)
     n = len(Q)
     b = base_parameters(prior) if base is None else base
-    Yb = b.regressor(prior.regressor(Q, DQ, DDQ))                      # (N, 3, r)
-    blocks = [Yb]
-    if friction_smoothing is not None:
-        blocks.append(friction_columns(DQ, friction_smoothing))
-    A = np.concatenate(blocks, axis=2)                                  # (N, 3, r + 6)
+    Y = prior.regressor(Q, DQ, DDQ)                                     # (N, 3, 15)
+    n_pi = Y.shape[2]
+    fric = ([] if friction_smoothing is None
+            else [friction_columns(DQ, friction_smoothing)])            # (N, 3, 6)
+    A = np.concatenate([b.regressor(Y), *fric], axis=2)                 # base + friction
     cols = A.shape[2]
     if n * N_JOINTS < 2 * cols:
         raise ParameterError("identify", "samples", f"{n} samples give {n * N_JOINTS} "
@@ -101,8 +101,7 @@ def identify_leg(prior: LegModel, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike,
                              f"{-(-2 * cols // N_JOINTS)}")
     # step 1: ordinary least squares on the base parameters (and friction): is every one
     # excited, and how noisy is each joint's torque
-    x, *_ = np.linalg.lstsq(A.reshape(-1, cols), TAU.ravel(), rcond=None)
-    rank = np.linalg.matrix_rank(A.reshape(-1, cols))
+    x, _, rank, _ = np.linalg.lstsq(A.reshape(-1, cols), TAU.ravel(), rcond=None)
     if rank < cols:
         raise ParameterError("identify", "excitation", f"the motion identifies {rank} of "
                              f"the {cols} parameters: excite every joint (speeds and "
@@ -110,82 +109,75 @@ def identify_leg(prior: LegModel, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike,
     res = TAU - A @ x
     floor = 1e-6 * float(np.sqrt(np.mean(TAU**2)))
     sd = np.sqrt(np.maximum(np.mean(res**2, axis=0), floor**2))       # (3,)
-    # step 2: the full parameters, the rows weighted by each joint's noise, the prior's
-    # parameters with their SDs (prior_sd) for what the data cannot tell apart; friction
-    # with a weak prior (zero, SD 10 N m and 10 N m s/rad)
-    full = [prior.regressor(Q, DQ, DDQ)]
-    if friction_smoothing is not None:
-        full.append(friction_columns(DQ, friction_smoothing))
-    F = np.concatenate(full, axis=2)
-    nf = F.shape[2] - len(prior.inertial())
-    W = (F / sd[None, :, None]).reshape(-1, F.shape[2])
-    w_tau = (TAU / sd[None, :]).ravel()
+    # step 2: the full parameters, each joint's rows weighted by its noise, with the
+    # prior on what a body is made of -- mass, first moments, the inertia about the centre
+    # of mass (a child's segment's, from the tables), the rotors' armature: prior_sd --
+    # so that the estimate stays a body where the data cannot tell; the friction's prior
+    # weak (zero, SD 10 N m and 10 N m s/rad). Gauss-Newton on the data's rows (linear:
+    # reduced once to their QR's triangle) and the prior's (the centroidal inertia's is
+    # not linear), from the prior.
+    F = np.concatenate([Y, *fric], axis=2)
+    nf = F.shape[2] - n_pi
+    Qw, Rw = np.linalg.qr((F / sd[None, :, None]).reshape(-1, F.shape[2]))
+    cw = Qw.T @ (TAU / sd[None, :]).ravel()
     x0 = np.concatenate([prior.inertial(), np.zeros(nf)])
-    n_pi = len(x0) - nf
-    # the prior on what a body is made of -- mass, first moments, and the inertia about
-    # the centre of mass (a child's segment's, from the tables; the rotors' armature) --
-    # so that the estimate stays a body where the data cannot tell (the inertia about the
-    # joint ZZ = I + (MX^2 + MY^2) / m is not where the prior's uncertainty lies); the
-    # friction's prior weak (zero, SD 10 N m and 10 N m s/rad). Gauss-Newton on the data's
-    # rows (linear) and the prior's (the centroidal inertia's is not), from the prior.
     sdp = prior_sd(prior)
-    izz0 = np.array([lk.izz for lk in prior.links])
 
     def prior_rows(x: NDArray[np.floating]) -> tuple[F64, F64]:
         r: F64 = np.concatenate([(x[:n_pi] - x0[:n_pi]) / sdp, 0.1 * x[n_pi:]])
         J: F64 = np.diag(np.concatenate([1.0 / sdp, np.full(nf, 0.1)]))
-        for i in range(N_JOINTS):
+        for i in range(N_JOINTS):  # the fourth of each link's: its centroidal inertia
             m, mx, my, zz = x[4 * i:4 * i + 4]
             k = 4 * i + 3
-            s_i = PRIOR_SD["ZZ"] * izz0[i]
-            r[k] = (zz - (mx * mx + my * my) / m - izz0[i]) / s_i
-            J[k, 4 * i:4 * i + 4] = [(mx * mx + my * my) / (m * m) / s_i,
-                                     -2 * mx / m / s_i, -2 * my / m / s_i, 1.0 / s_i]
+            r[k] = (zz - (mx * mx + my * my) / m - prior.links[i].izz) / sdp[k]
+            J[k, 4 * i:4 * i + 4] = [(mx * mx + my * my) / (m * m) / sdp[k],
+                                     -2 * mx / m / sdp[k], -2 * my / m / sdp[k], 1.0 / sdp[k]]
         return r, J
 
     x = x0.copy()
     for _ in range(8):
         rp, Jp = prior_rows(x)
-        J = np.vstack([W, Jp])
-        step, *_ = np.linalg.lstsq(J, -np.concatenate([W @ x - w_tau, rp]), rcond=None)
+        step, *_ = np.linalg.lstsq(np.vstack([Rw, Jp]),
+                                   -np.concatenate([Rw @ x - cw, rp]), rcond=None)
         x = x + step
         if np.abs(step).max() <= 1e-12 * (1.0 + np.abs(x).max()):
             break
-    _, R = np.linalg.qr(np.vstack([W, prior_rows(x)[1]]))
+    _, R = np.linalg.qr(np.vstack([Rw, prior_rows(x)[1]]))
     Ri = np.linalg.inv(R)
     cov = Ri @ Ri.T                                                     # (J^T J)^-1
-    pi = x[:len(x0) - nf]
+    pi = x[:n_pi]
     K = b.K
-    pi_b = K @ pi
-    base_sd = np.sqrt(np.diag(K @ cov[:len(pi), :len(pi)] @ K.T))
-    leg = _leg(prior, np.asarray(pi, dtype=np.float64))
+    base_sd = np.sqrt(np.diag(K @ cov[:n_pi, :n_pi] @ K.T))
     residual = TAU - F @ x
-    fr = x[len(pi):].reshape(-1, 2)
-    fr_sd = np.sqrt(np.diag(cov))[len(pi):].reshape(-1, 2)
-    return Identified(names=b.names, values=np.asarray(pi_b, dtype=np.float64),
+    return Identified(names=b.names, values=np.asarray(K @ pi, dtype=np.float64),
                       sd=np.asarray(base_sd, dtype=np.float64),
-                      friction=np.asarray(fr, dtype=np.float64),
-                      friction_sd=np.asarray(fr_sd, dtype=np.float64), leg=leg,
+                      friction=np.asarray(x[n_pi:].reshape(-1, 2), dtype=np.float64),
+                      friction_sd=np.asarray(np.sqrt(np.diag(cov))[n_pi:].reshape(-1, 2),
+                                             dtype=np.float64),
+                      leg=_leg(prior, np.asarray(pi, dtype=np.float64)),
                       residual_rms=np.sqrt(np.mean(residual**2, axis=0)), samples=n)
 
 
-#: How far the prior's parameters are trusted, one SD: masses, first moments and
-#: inertias of the links this share of their size (a child's segments differ from the
+#: How far the prior is trusted, one SD: a link's mass, first moments and inertia about
+#: its centre of mass ("I") this share of their size (a child's segments differ from the
 #: tables by 10-20 %), the first moments at least 2 cm x the mass; the rotors' reflected
 #: inertia from their datasheets, 2 %.
-PRIOR_SD = {"m": 0.15, "MX": 0.15, "MY": 0.15, "ZZ": 0.15, "arm": 0.02}
+PRIOR_SD = {"m": 0.15, "MX": 0.15, "MY": 0.15, "I": 0.15, "arm": 0.02}
 PRIOR_COM_SD = 0.02
 
 
 def prior_sd(prior: LegModel) -> F64:
-    """One SD (15,) of each of the prior's inertial parameters (:data:`PRIOR_SD`)."""
+    """One SD (15,) per inertial parameter of the prior (:data:`PRIOR_SD`), in the
+    regressor's order -- but in each link's fourth place the SD of its inertia about the
+    centre of mass, on which the prior is (not on ZZ, the inertia about the joint)."""
     pi0 = prior.inertial()
     out = np.empty_like(pi0)
-    for i in range(N_JOINTS):
+    for i, link in enumerate(prior.links):
         m = pi0[4 * i]
-        for k, name in enumerate(("m", "MX", "MY", "ZZ")):
-            v = PRIOR_SD[name] * abs(pi0[4 * i + k])
-            out[4 * i + k] = max(v, PRIOR_COM_SD * m) if name in ("MX", "MY") else v
+        out[4 * i] = PRIOR_SD["m"] * m
+        for k, name in ((1, "MX"), (2, "MY")):
+            out[4 * i + k] = max(PRIOR_SD[name] * abs(pi0[4 * i + k]), PRIOR_COM_SD * m)
+        out[4 * i + 3] = PRIOR_SD["I"] * link.izz
     out[4 * N_JOINTS:] = PRIOR_SD["arm"] * np.abs(pi0[4 * N_JOINTS:])
     return np.maximum(out, 1e-9)
 

@@ -27,7 +27,12 @@ from exoleg.device.actuator import ActuatorModel
 from exoleg.dynamics.kernels import N_JOINTS
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
-from exoleg.identify.base import base_parameters
+from exoleg.identify.base import (
+    BaseParameters,
+    actuator_friction,
+    base_parameters,
+    friction_columns,
+)
 from exoleg.params.records import JOINTS
 
 F64 = NDArray[np.float64]
@@ -103,10 +108,8 @@ def plan_limits(safety: SafetyLimits, actuators: tuple[ActuatorModel, ...]) -> L
 
 
 def _torques(leg: LegModel, actuators: tuple[ActuatorModel, ...], q: F64, dq: F64, ddq: F64) -> F64:
-    fr = np.stack([a.viscous_friction * dq[:, j]
-                   + a.coulomb_friction * np.tanh(dq[:, j] / a.friction_smoothing)
-                   for j, a in enumerate(actuators)], axis=1)
-    out: F64 = leg.inverse_dynamics(q, dq, ddq) + fr
+    theta, smoothing = actuator_friction(actuators)
+    out: F64 = leg.inverse_dynamics(q, dq, ddq) + friction_columns(dq, smoothing) @ theta
     return out
 
 
@@ -132,10 +135,11 @@ def check_plan(plan: Plan, leg: LegModel, actuators: tuple[ActuatorModel, ...], 
     return out
 
 
-def condition(plan: Plan, leg: LegModel, dt: float = 0.01) -> float:
+def condition(plan: Plan, leg: LegModel, dt: float = 0.01,
+              base: BaseParameters | None = None) -> float:
     """The condition number of the plan's base regressor (stacked over its samples, each
-    column scaled to unit norm)."""
-    b = base_parameters(leg)
+    column scaled to unit norm); ``base``: ``leg``'s base parameters, if already found."""
+    b = base_parameters(leg) if base is None else base
     _, q, dq, ddq = plan.sample(dt)
     W = b.regressor(leg.regressor(q, dq, ddq)).reshape(-1, len(b.columns))
     W = W / np.linalg.norm(W, axis=0)
@@ -176,6 +180,7 @@ def design_plan(leg: LegModel, actuators: tuple[ActuatorModel, ...], limits: Lim
     centre = 0.5 * (limits.lower + limits.upper)
     half = 0.5 * (limits.upper - limits.lower)
     best: tuple[float, Plan] | None = None
+    base = base_parameters(leg)
     for _ in range(candidates):
         k = np.arange(1, harmonics + 1)
         a = rng.normal(size=(N_JOINTS, harmonics)) * half[:, None] / k
@@ -184,7 +189,7 @@ def design_plan(leg: LegModel, actuators: tuple[ActuatorModel, ...], limits: Lim
         fitted = _fit(Plan(duration / periods, periods, c, a, b), leg, actuators, limits)
         if fitted is None:
             continue
-        cond = condition(fitted, leg)
+        cond = condition(fitted, leg, base=base)
         if best is None or cond < best[0]:
             best = (cond, fitted)
     if best is None:

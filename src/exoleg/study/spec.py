@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from exoleg.child.model import CROUCH_CLUSTERS, LEVELS, STRENGTH_SCALE
 from exoleg.entry import HIP_VARIANTS
 from exoleg.errors import ParameterError
 from exoleg.io import read_text
@@ -79,13 +80,13 @@ AXES: dict[str, Axis] = {
     # paper's; the impairments below act on an actor only)
     "child": Axis("choice", choices=("passive", "actor"), default="passive",
                   meaning="passive leg, or the child as an actor (docs/child.md)"),
-    "spasticity": Axis("choice", choices=("none", "mild", "moderate", "severe"),
+    "spasticity": Axis("choice", choices=LEVELS,
                        default="none", meaning="data/child/spasticity.toml preset"),
-    "crouch": Axis("whole", 0, 5, default=0,
+    "crouch": Axis("whole", min(CROUCH_CLUSTERS), max(CROUCH_CLUSTERS), default=0,
                    meaning="intended gait: 0 normative, 1-5 Rozumalski & Schwartz cluster"),
     "contracture": Axis("choice", choices=("none", "predictcpgait"), default="none",
                         meaning="data/child/contracture.toml preset"),
-    "strength": Axis("number", 0.1, 1.5, default=1.0,
+    "strength": Axis("number", *STRENGTH_SCALE, default=1.0,
                      meaning="x the GMFCS level's typical strength"),
     # the device
     "hip_motor": Axis("choice", choices=HIP_VARIANTS, default="ec90flat-160w",

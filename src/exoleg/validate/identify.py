@@ -32,8 +32,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
+from exoleg.device.actuator import encode
 from exoleg.dynamics.model import LegModel
 
 F64 = NDArray[np.float64]
@@ -68,6 +70,15 @@ def derivatives(q: F64, dt: float, half: int = HALF_WINDOW) -> tuple[F64, F64, F
     return out[0], out[1], out[2]
 
 
+@njit(cache=True)
+def _encoded(par, q):  # type: ignore[no-untyped-def]
+    """The encoder's readings (:func:`~exoleg.device.actuator.encode`) of the angles q."""
+    out = np.empty_like(q)
+    for k in range(len(q)):
+        out[k] = encode(par, q[k])
+    return out
+
+
 def _true_leg(fitted: LegModel, rng: np.random.Generator) -> LegModel:
     links = []
     for lk in fitted.links:
@@ -83,8 +94,8 @@ def run_child(child: object, seed: int, candidates: int = 4) -> IdentifyRun:
     """One child: design, drive, measure, identify, compare."""
     from exoleg.control.safety import SafetyLimits
     from exoleg.device import with_actuators
-    from exoleg.device.actuator import encode, paper_actuators
-    from exoleg.identify.base import base_parameters
+    from exoleg.device.actuator import paper_actuators
+    from exoleg.identify.base import actuator_friction, base_parameters, friction_columns
     from exoleg.identify.estimate import identify_leg
     from exoleg.identify.plan import condition, design_plan, plan_limits
     from exoleg.sizing import personalized_leg
@@ -97,13 +108,11 @@ def run_child(child: object, seed: int, candidates: int = 4) -> IdentifyRun:
     plan = design_plan(fitted, acts, lim, candidates=candidates, seed=seed)
     dt = 1e-3
     _, q, dq, ddq = plan.sample(dt)
-    smooth = np.array([a.friction_smoothing for a in acts])
-    fr = np.array([[a.viscous_friction, a.coulomb_friction] for a in acts])
-    tau = (true.inverse_dynamics(q, dq, ddq) + fr[:, 0] * dq + fr[:, 1] * np.tanh(dq / smooth)
+    theta, smooth = actuator_friction(acts)
+    tau = (true.inverse_dynamics(q, dq, ddq) + friction_columns(dq, smooth) @ theta
            + rng.normal(size=q.shape) * TORQUE_NOISE * np.array([a.continuous_torque
                                                                  for a in acts]))
-    enc = np.stack([[encode(a.record(), float(x)) for x in q[:, j]]
-                    for j, a in enumerate(acts)], axis=1)
+    enc = np.stack([_encoded(a.record(), q[:, j]) for j, a in enumerate(acts)], axis=1)
     qm, dqm, ddqm = derivatives(enc, dt)
     tm = tau[HALF_WINDOW:-HALF_WINDOW]
     step = 10  # every 10 ms: the smoothing leaves little between
