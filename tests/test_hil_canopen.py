@@ -122,6 +122,42 @@ def test_lost_heartbeat_is_a_fault(tmp_path: Path) -> None:
     assert len(read_log(path)[1]["t"]) <= 300 + 200 + 20
 
 
+def test_heartbeat_is_counted_from_the_first_exchange() -> None:
+    """A heartbeat last seen before the cyclic exchange began (compiling before the
+    clock starts held the interpreter 249 ms in a CI run, and the first tick called the
+    ankle drive lost) is not a fault; silence over the exchange is, after HEARTBEAT_LOST
+    periods (CiA 301's heartbeat consumer)."""
+    import time
+
+    import exoleg
+    from exoleg.device.config import DeviceConfig
+    from exoleg.hw.canopen_backend import HEARTBEAT_LOST, HEARTBEAT_MS, CanopenBackend
+    from exoleg.hw.canopen_sim import SimulatedRig
+    from exoleg.runtime.sim_backend import SimBackend
+
+    config = DeviceConfig.load()
+    sim = SimBackend(exoleg.paper_leg(), 30.0, 1e-3, config=config)
+    sim.configure(config.safety)
+    rig = SimulatedRig(sim, "virtual", "hil-first")
+    master = CanopenBackend(config.actuators, 1e-3, "virtual", "hil-first", T)
+    try:
+        master.configure(config.safety)
+        rig.nodes["ankle"].nmt.stop_heartbeat()
+        master.nodes["ankle"].nmt.timestamp = time.time() - 0.3  # stale before the loop
+        assert "fault" not in master.read(0.0)
+        lost = HEARTBEAT_LOST * HEARTBEAT_MS / 1000.0
+        t0 = time.perf_counter()
+        fault = ""
+        while not fault and time.perf_counter() - t0 < 2 * lost:
+            time.sleep(1e-3)
+            fault = master.read(0.0).get("fault", "")
+        assert fault.startswith("no heartbeat from the ankle drive (node 1)"), fault
+        assert time.perf_counter() - t0 >= lost
+    finally:
+        master.deactivate()
+        rig.close()
+
+
 @pytest.mark.parametrize("fault,text", [
     # the units exoleg wrote before issue 21 (mN m from the drive's 15 A); an EPOS4 holds
     # uN m from the motor's nominal current (device-datasheets.md, S3)

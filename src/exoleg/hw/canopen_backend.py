@@ -89,7 +89,10 @@ class CanopenBackend(DriveMaster):
         self.foot = threading.Event()
         self.net.subscribe(FOOT_FSR_COB, self._on_fsr)
         self.net.subscribe(FOOT_IMU_COB, self._on_imu)
-        self.started = time.time()
+        #: when the cyclic exchange began (the first read): a drive's silence is counted
+        #: from there -- the start-up has checked every drive answers, and compiling
+        #: before the clock starts may hold the interpreter longer than a heartbeat
+        self.cycling: float | None = None
 
     def _on_inputs(self, joint: str) -> Any:
         def on(pdo: Any) -> None:
@@ -166,8 +169,10 @@ class CanopenBackend(DriveMaster):
             q[i] = self.scaling[j].to_rad(int(tp["Position actual value"].raw))
         if not fault:
             now = time.time()
+            if self.cycling is None:
+                self.cycling = now
             for j in JOINT_ORDER:
-                last = self.nodes[j].nmt.timestamp or self.started
+                last = max(self.nodes[j].nmt.timestamp or 0.0, self.cycling)
                 if now - last > HEARTBEAT_LOST * HEARTBEAT_MS / 1000.0:
                     fault = (f"no heartbeat from the {j} drive (node {DRIVE_IDS[j]}) for "
                              f"{(now - last) * 1e3:.0f} ms")
