@@ -139,8 +139,25 @@ def test_an_excitation_plan_stays_within_the_safety_bounds(seed: int, child: str
     _, q, dq, ddq = plan.sample(1e-3)
     assert np.all(q >= lim.lower - 1e-9) and np.all(q <= lim.upper + 1e-9)
     assert np.all(np.abs(dq) <= lim.speed + 1e-9)
-    # periodic: it ends where it started, at the same rates
+    # periodic: it ends where it started, at the same rates -- at rest, so the
+    # minimum-jerk moves from the device's standing posture join it without a jolt
     assert np.allclose(q[0], q[-1], atol=1e-9) and np.allclose(dq[0], dq[-1], atol=1e-9)
+    assert np.abs(dq[0]).max() < 1e-9 and np.abs(ddq[0]).max() < 1e-9
+    # what the device follows, moves in and out included, within the bounds too (the
+    # moves within the safety layer's range itself: the standing knee is within 5 deg of
+    # its end); continuous to the acceleration at the joins (finite differences)
+    from exoleg.device.config import DeviceConfig
+    from exoleg.identify.plan import RANGE_MARGIN, PlanReference
+
+    ref = PlanReference(plan, DeviceConfig.load().gains.standing)
+    assert check_plan(ref, leg, ACTS, lim, dt=1e-3) == []
+    t = np.arange(0.0, ref.duration, 1e-3)
+    rq, rdq, rddq = ref.sample(t)
+    assert np.all(rq >= lim.lower - RANGE_MARGIN - 1e-9)
+    assert np.all(rq <= lim.upper + RANGE_MARGIN + 1e-9)
+    assert np.all(np.abs(rdq) <= lim.speed + 1e-9)
+    assert np.allclose(rq[0], ref.start) and np.allclose(rq[-1], ref.start)
+    assert np.abs(np.diff(rdq, axis=0)).max() / 1e-3 <= 1.01 * np.abs(rddq).max()
 
 
 def test_the_designed_plan_identifies_the_leg() -> None:

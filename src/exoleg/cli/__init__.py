@@ -24,6 +24,7 @@ from exoleg.cli import (
     export,
     fit,
     hmi,
+    identify,
     log,
     population,
     run,
@@ -35,7 +36,7 @@ from exoleg.cli._common import _negative_values, _Parser
 
 #: the commands, one module each, in the order of the help
 COMMANDS = (validate, simulate, fit, assess, population, sweep, run, hmi, log, detect,
-            export)
+            identify, export)
 
 
 def build_parser() -> argparse.ArgumentParser:

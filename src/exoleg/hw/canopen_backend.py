@@ -167,6 +167,7 @@ class CanopenBackend(DriveMaster):
             if fault:
                 break
             q[i] = self.scaling[j].to_rad(int(tp["Position actual value"].raw))
+            self.tau_meas[i] = self.scaling[j].to_nm(int(tp["Torque actual value"].raw))
         if not fault:
             now = time.time()
             if self.cycling is None:

@@ -203,7 +203,7 @@ class EthercatBackend(DriveMaster):
                      "a slave did not answer the process data")
         else:
             for i, j in enumerate(JOINT_ORDER):
-                status, counts, _, _, inputs = TX.unpack(bytes(self.slaves[j].input))
+                status, counts, torque, _, inputs = TX.unpack(bytes(self.slaves[j].input))
                 state = cia402.decode(status)
                 self.states[i] = state
                 fault = fault or cia402.interlock_fault(
@@ -212,6 +212,7 @@ class EthercatBackend(DriveMaster):
                     fault = fault or (f"the {j} drive (slave {SLAVE_POS[j]}) is in "
                                       f"{state.name}")
                 q[i] = self.scaling[j].to_rad(counts)
+                self.tau_meas[i] = self.scaling[j].to_nm(torque)
             v = FOOT_IN.unpack(bytes(self.foot_slave.input))
             self.fsr[:] = v[:4]
             self.gyro = v[4] / 1000.0

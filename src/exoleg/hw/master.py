@@ -27,7 +27,8 @@ class DriveMaster:
 
     columns = ([f"q_meas_{j}" for j in JOINT_ORDER] + [f"dq_meas_{j}" for j in JOINT_ORDER]
                + ["fsr_heel", "fsr_met1", "fsr_met5", "fsr_hallux", "gyro"]
-               + [f"state_{j}" for j in JOINT_ORDER] + ["bus_us"])
+               + [f"state_{j}" for j in JOINT_ORDER] + ["bus_us"]
+               + [f"tau_meas_{j}" for j in JOINT_ORDER])
 
     def __init__(self, actuators: tuple[Any, ...], period: float, timeout: float,
                  offsets: dict[str, int] | None) -> None:
@@ -45,6 +46,7 @@ class DriveMaster:
         self.vm = np.zeros(3)
         self.fsr = np.zeros(4)
         self.gyro = 0.0
+        self.tau_meas = np.zeros(3)  # each drive's torque actual value (0x6077), N m
         self.states = [cia402.State.SWITCH_ON_DISABLED] * 3
         self.first = True
         self.bus_us = 0.0
@@ -124,4 +126,5 @@ class DriveMaster:
 
     def record(self) -> F64:
         return np.concatenate([self.q_prev, self.vm, self.fsr, [self.gyro],
-                               [s.value[1] for s in self.states], [self.bus_us]])
+                               [s.value[1] for s in self.states], [self.bus_us],
+                               self.tau_meas])

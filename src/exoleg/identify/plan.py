@@ -5,7 +5,10 @@ A plan is data: per joint a finite Fourier series about a centre posture,
     q_j(t) = c_j + sum_k a_jk sin(k w t) + b_jk cos(k w t),   w = 2 pi / period,
 
 played for a whole number of periods (periodic: it starts and ends at the same posture
-with the same rates, so the samples of each period weigh alike; Swevers et al. 1997).
+with the same rates, so the samples of each period weigh alike; Swevers et al. 1997),
+at rest at the start of each period (zero velocity and acceleration: the first
+harmonic's coefficients set by the others), so that a minimum-jerk move from the posture
+the device stands in joins it without a jolt (:class:`PlanReference`).
 :func:`design_plan` draws candidate coefficients, scales each to the limits and keeps
 the one whose base regressor is best conditioned (the smallest condition number of the
 stacked, column-scaled Y_b: the estimate's sensitivity to noise). Every candidate kept
@@ -17,10 +20,11 @@ what a plan exceeds, so that no plan runs unchecked.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from exoleg.control.safety import SafetyLimits
 from exoleg.device.actuator import ActuatorModel
@@ -75,7 +79,10 @@ class Plan:
 
     def sample(self, dt: float = 1e-3) -> tuple[F64, F64, F64, F64]:
         """(t, q, dq, ddq) every ``dt`` s over the whole plan."""
-        t = np.arange(0.0, self.duration + 0.5 * dt, dt)
+        return self.at(np.arange(0.0, self.duration + 0.5 * dt, dt))
+
+    def at(self, t: F64) -> tuple[F64, F64, F64, F64]:
+        """(t, q, dq, ddq) at the times ``t`` (s from the plan's start)."""
         w = 2 * np.pi / self.period
         k = np.arange(1, self.a.shape[1] + 1)
         s, c = np.sin(np.outer(t, k) * w), np.cos(np.outer(t, k) * w)
@@ -83,6 +90,57 @@ class Plan:
         dq = (c * k * w) @ self.a.T - (s * k * w) @ self.b.T
         ddq = -(s * (k * w) ** 2) @ self.a.T - (c * (k * w) ** 2) @ self.b.T
         return t, q, dq, ddq
+
+
+#: The minimum-jerk moves into the plan from the standing posture and back, s.
+RAMP_S = 4.0
+
+
+@dataclass(frozen=True)
+class PlanReference:
+    """What the device follows to play ``plan``: a minimum-jerk move over ``ramp`` s from
+    the posture ``start`` (rad, the device's standing posture) to the plan's first
+    posture, the plan, and the move back (a :class:`~exoleg.reference.steps.Reference`:
+    ``sample(t)``). The plan must start at rest (:func:`design_plan`'s do)."""
+
+    plan: Plan
+    start: F64
+    ramp: float = RAMP_S
+    _moves: Any = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        from exoleg.reference.minjerk import MinJerk
+
+        _, q, dq, ddq = self.plan.sample(self.plan.period)  # t = 0 and one period on
+        if np.abs(dq[0]).max() > 1e-9 or np.abs(ddq[0]).max() > 1e-9:
+            raise ParameterError("PlanReference", "plan", "does not start at rest (a "
+                                 "minimum-jerk move cannot join it without a jolt)")
+        if not (np.isfinite(self.ramp) and 1.0 <= self.ramp <= 30.0):
+            raise ParameterError("PlanReference", "ramp", f"{self.ramp!r} s is outside 1-30 s")
+        start = np.asarray(self.start, dtype=float)
+        object.__setattr__(self, "start", start)
+        r, d = self.ramp, self.plan.duration
+        object.__setattr__(self, "_moves", MinJerk(
+            np.array([0.0, r, r + d, 2 * r + d]), np.stack([start, q[0], q[0], start])))
+
+    @property
+    def duration(self) -> float:
+        """From the start of the move in to the end of the move back, s."""
+        return self.plan.duration + 2 * self.ramp
+
+    @property
+    def window(self) -> tuple[float, float]:
+        """When the plan itself plays, s from the reference's start."""
+        return self.ramp, self.ramp + self.plan.duration
+
+    def sample(self, t: ArrayLike) -> tuple[F64, F64, F64]:
+        tt = np.atleast_1d(np.asarray(t, dtype=float))
+        q, dq, ddq = self._moves.sample(tt)
+        inside = (tt >= self.window[0]) & (tt <= self.window[1])
+        if inside.any():
+            _, pq, pdq, pddq = self.plan.at(tt[inside] - self.ramp)
+            q[inside], dq[inside], ddq[inside] = pq, pdq, pddq
+        return q, dq, ddq
 
 
 @dataclass(frozen=True)
@@ -113,15 +171,26 @@ def _torques(leg: LegModel, actuators: tuple[ActuatorModel, ...], q: F64, dq: F6
     return out
 
 
-def check_plan(plan: Plan, leg: LegModel, actuators: tuple[ActuatorModel, ...], limits: Limits,
+def check_plan(plan: Plan | PlanReference, leg: LegModel,
+               actuators: tuple[ActuatorModel, ...], limits: Limits,
                dt: float = 1e-3) -> list[str]:
     """What the plan exceeds ([] when nothing), each named with its joint, its worst value
-    and the limit."""
-    _, q, dq, ddq = plan.sample(dt)
+    and the limit. For the reference playing a plan, its moves in and out too (their
+    range the safety layer's own: the posture the device stands in may lie within the
+    plan's margin)."""
+    if isinstance(plan, PlanReference):
+        t = np.arange(0.0, plan.duration + 0.5 * dt, dt)
+        q, dq, ddq = plan.sample(t)
+        moving = (t < plan.window[0]) | (t > plan.window[1])
+    else:
+        _, q, dq, ddq = plan.sample(dt)
+        moving = np.zeros(len(q), dtype=bool)
     tau = _torques(leg, actuators, q, dq, ddq)
+    lower = np.where(moving[:, None], limits.lower - RANGE_MARGIN, limits.lower)
+    upper = np.where(moving[:, None], limits.upper + RANGE_MARGIN, limits.upper)
     out = []
     for j, name in enumerate(JOINTS):
-        if q[:, j].min() < limits.lower[j] - 1e-9 or q[:, j].max() > limits.upper[j] + 1e-9:
+        if (q[:, j] < lower[:, j] - 1e-9).any() or (q[:, j] > upper[:, j] + 1e-9).any():
             out.append(f"{name}: {np.degrees(q[:, j].min()):.1f} to "
                        f"{np.degrees(q[:, j].max()):.1f} deg leaves "
                        f"{np.degrees(limits.lower[j]):.1f} to "
@@ -185,6 +254,9 @@ def design_plan(leg: LegModel, actuators: tuple[ActuatorModel, ...], limits: Lim
         k = np.arange(1, harmonics + 1)
         a = rng.normal(size=(N_JOINTS, harmonics)) * half[:, None] / k
         b = rng.normal(size=(N_JOINTS, harmonics)) * half[:, None] / k
+        # at rest at t = 0: dq(0) = w sum k a_k = 0, ddq(0) = -w^2 sum k^2 b_k = 0
+        a[:, 0] = -(a[:, 1:] * k[1:]).sum(axis=1)
+        b[:, 0] = -(b[:, 1:] * k[1:] ** 2).sum(axis=1)
         c = centre + rng.uniform(-0.3, 0.3, N_JOINTS) * half
         fitted = _fit(Plan(duration / periods, periods, c, a, b), leg, actuators, limits)
         if fitted is None:

@@ -125,12 +125,12 @@ def claim_folder(out: str | Path) -> tuple[Path, int]:
 
 
 def make_controller(name: str, config: DeviceConfig, leg: LegModel, body_mass: float,
-                    sim: Any = None) -> Controller:
+                    sim: Any = None, reference: Any = None) -> Controller:
     """The controller called ``name`` (:data:`~exoleg.entry.CONTROLLERS`) for the device
     ``config`` and the child's ``leg``: the walking hierarchy (the simulated device
-    ``sim``'s own when there is one), or one of the paper's laws following the paper's
-    scenario (stance and swing postures every 3 s, section 6) on the leg with the
-    actuators' reflected inertia."""
+    ``sim``'s own when there is one), or one of the paper's laws following ``reference``
+    (default the paper's scenario: stance and swing postures every 3 s, section 6) on
+    the leg with the actuators' reflected inertia."""
     if name == "walk":
         if sim is not None:
             return cast("Controller", sim.controller)
@@ -143,7 +143,8 @@ def make_controller(name: str, config: DeviceConfig, leg: LegModel, body_mass: f
     from exoleg.control.tracking import TrackingController
     from exoleg.sim.scenario import paper_reference
 
-    return TrackingController(law_named(name, config.leg(leg)), paper_reference(),
+    return TrackingController(law_named(name, config.leg(leg)),
+                              paper_reference() if reference is None else reference,
                               config.safety)
 
 
@@ -200,7 +201,8 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         body_mass: float = DEFAULT_BODY_MASS, seed: int = 0, realtime: bool = True,
         interface: str | None = None, channel: str = "exoleg",
         inject: Any = None, link: Any = None, bus_timeout: float | None = None,
-        overrun: float = OVERRUN_S, controller: str = "walk", child: Any = None
+        overrun: float = OVERRUN_S, controller: str = "walk", child: Any = None,
+        reference: Any = None, step: float = 0.0, model: Any = None
         ) -> tuple[SessionResult, Path]:
     """One session: the device (``backend``) under ``controller`` (the walking hierarchy,
     or one of the paper's laws on the paper's scenario: :func:`make_controller`) for
@@ -214,7 +216,12 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     :data:`SIMULATED_BUS_TIMEOUT_S` on simulated nodes); ``overrun``: how late a tick may
     start before it is a fault (s). ``out`` must hold no recorded session and no other
     run (:func:`claim_folder`): a session is never written over. ``child``: the simulated
-    child (:class:`~exoleg.child.model.ChildModel`) on a simulated device."""
+    child (:class:`~exoleg.child.model.ChildModel`) on a simulated device; ``reference``:
+    what a law other than the walking hierarchy follows (default the paper's scenario);
+    ``step``: on a simulated device, the child on a step that high (m), the leg hanging
+    (:func:`~exoleg.sim.device.prepare_walk`); ``model``: the leg a law is given, when it
+    is not the one a simulated device carries (``leg``: the truth identification
+    measures)."""
     import os
 
     check_options(backend, interface, arm, walk_after, bus_timeout, overrun, controller,
@@ -223,7 +230,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     try:
         return _run(backend, duration, folder, period, arm, walk_after, leg, body_mass,
                     seed, realtime, interface, channel, inject, link, bus_timeout, overrun,
-                    controller, child)
+                    controller, child, reference, step, model)
     finally:
         os.close(lock)
 
@@ -231,7 +238,8 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
 def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
          walk_after: float | None, leg: Any, body_mass: float, seed: int, realtime: bool,
          interface: str | None, channel: str, inject: Any, link: Any,
-         bus_timeout: float | None, overrun: float, controller: str, child: Any = None
+         bus_timeout: float | None, overrun: float, controller: str, child: Any = None,
+         reference: Any = None, step: float = 0.0, model: Any = None
          ) -> tuple[SessionResult, Path]:
     """:func:`run` in the folder it holds."""
     import exoleg
@@ -243,9 +251,10 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
     leg = leg if leg is not None else exoleg.paper_leg()
     config = DeviceConfig.load(control_dt=period)
     # a simulated device only where it is what answers: on sim, or behind simulated nodes
-    sim = (SimBackend(leg, body_mass, period, seed=seed, config=config, child=child)
-           if simulated(backend, interface) else None)
-    ctl = make_controller(controller, config, leg, body_mass, sim)
+    sim = (SimBackend(leg, body_mass, period, seed=seed, config=config, child=child,
+                      step=step) if simulated(backend, interface) else None)
+    ctl = make_controller(controller, config, leg if model is None else model, body_mass,
+                          sim, reference)
     before = set(threading.enumerate())
     b, rig, bus_timeout = open_device(backend, config, sim, period, interface, channel,
                                       bus_timeout, inject)

@@ -25,7 +25,8 @@ class SimBackend:
     the plant steps under it when the device is read again (as a bus's drives act at
     the next cycle); ``record()`` what the log keeps of the device per tick. ``walking``
     is the scenery's: while the child walks the treadmill runs and the other leg steps
-    (the session sets it from the supervisor's mode)."""
+    (the session sets it from the supervisor's mode) -- unless the child stands on a step
+    (``step`` of :func:`~exoleg.sim.device.prepare_walk`), the leg hanging."""
 
     columns = ([f"q_meas_{j}" for j in JOINTS] + [f"dq_meas_{j}" for j in JOINTS]
                + ["fsr_heel", "fsr_met1", "fsr_met5", "fsr_hallux", "gyro"]
@@ -113,12 +114,13 @@ class SimBackend:
 
     def _step(self) -> None:
         t = self.k * self.period
-        if self.walking and self.walk_start < 0:
+        walking = self.walking and not self.dev.step
+        if walking and self.walk_start < 0:
             self.walk_start = t
         device_actuate(self.p, self.w, self.dev.A, self.K, self.S, self.period, self.substeps,
                        self.u,
-                       self.fn, self.walking, t,
-                       self.walk_start if self.walking else 1e18, self.dev.stride_time,
+                       self.fn, walking, t,
+                       self.walk_start if walking else 1e18, self.dev.stride_time,
                        self.dev.support, self.dev.plant.support_height, self.env, self.tau)
         self.k += 1
         self._written = False

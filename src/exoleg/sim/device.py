@@ -11,6 +11,7 @@ tick (:mod:`exoleg.runtime.sim_backend`)."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -228,6 +229,7 @@ class SimulatedDevice:
     speed: str = "Free"
     child: ChildModel | None = None
     device_p: F64 | None = None
+    step: float = 0.0  # m: the child on a step, the leg hanging (the belt never runs)
 
     @property
     def actuators(self) -> tuple[ActuatorModel, ...]:
@@ -263,13 +265,15 @@ def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
                  gains: WalkGains | None = None, safety: SafetyLimits | None = None,
                  ground: Ground | None = None, sensors: FootSensors | None = None,
                  control_dt: float = 1e-3, device: str | Path | None = None,
-                 config: DeviceConfig | None = None, child: ChildModel | None = None
-                 ) -> SimulatedDevice:
+                 config: DeviceConfig | None = None, child: ChildModel | None = None,
+                 step: float = 0.0) -> SimulatedDevice:
     """The simulated device and its controller for ``leg`` (without actuators; theirs are
     added) and a child of ``body_mass`` kg (see :func:`exoleg.sim.walk.simulate_walk`):
     the device ``config``, or the one :meth:`DeviceConfig.load` reads from ``device``
     with the records given; the treadmill's ``ground``; the ``child`` as an actor
-    (:class:`~exoleg.child.model.ChildModel`; None: a passive leg, as the paper's)."""
+    (:class:`~exoleg.child.model.ChildModel`; None: a passive leg, as the paper's).
+    ``step`` > 0 (m): the child stands on a step this high beside the belt, on the other
+    leg, the device's leg hanging free above the belt (identification's setting)."""
     from exoleg.device.walking import body_weight_share
     from exoleg.entry import BODY_MASS
     from exoleg.reference.gait import SchwartzGait2008
@@ -290,12 +294,15 @@ def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
     depth = ankle_height + gr.sole
     plant = WalkingPlant.of(cfg.leg(leg), share, belt_speed_for(leg, speed, stride_time), gr,
                             ankle_height)
+    if step:  # the other leg holds the pelvis that much higher
+        plant = dataclasses.replace(plant, support_height=plant.support_height + step)
     ctl = walk_controller(cfg, leg, share, depth, speed, stride_time)
     q0 = ctl.gains.standing
     fk = leg.fk(q0)
     x0 = np.zeros(8)
     x0[0] = (-min(fk["ankle"][1], fk["toe"][1]) + depth
-             - 0.5 * share * leg.g / gr.stiffness)
+             - 0.5 * share * leg.g / gr.stiffness) if not step else (
+        plant.support_height - (share + plant.leg_mass) * leg.g / gr.support_stiffness)
     x0[1:4] = q0
     return SimulatedDevice(leg=leg, config=cfg, plant=plant, A=params_array(cfg.actuators),
                            support=other_leg_support(leg, plant.points, speed,
@@ -303,4 +310,4 @@ def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
                            depth=depth, imu_x=cfg.sensors.imu_position * float(leg.lengths[2]),
                            controller=ctl, x0=x0, stride_time=stride_time, speed=speed,
                            child=child,
-                           device_p=device_leg(leg, cfg.actuators).p)
+                           device_p=device_leg(leg, cfg.actuators).p, step=float(step))

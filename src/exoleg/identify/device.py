@@ -1,0 +1,262 @@
+"""Identification on the device (``exoleg identify``): an excitation plan played through
+the runtime -- the same session, supervisor, safety layer and drives as every other
+(:func:`exoleg.runtime.session.run`) -- and the leg identified from what the session
+logged: the encoders' angles and the drives' torque from their current.
+
+The session: the plan designed on the fitted leg (:func:`~exoleg.identify.plan.design_plan`)
+is followed by the paper's PD + gravity law as a reference with minimum-jerk moves from
+the device's standing posture and back (:class:`~exoleg.identify.plan.PlanReference`,
+checked whole by :func:`~exoleg.identify.plan.check_plan` before the session starts);
+armed and started as any session, E-stop and faults as always. The child relaxes (their
+own effort off); on the simulated device they stand on a step beside the belt, the
+device's leg hanging free (:data:`STEP_M`).
+
+The estimate (:func:`estimate_from_log`): the logged angles differentiated by a local
+quadratic fit over 41 ms (:func:`~exoleg.identify.signals.derivatives`), the torque
+smoothed by the same filter, the relaxed child's own torques held at their model -- the
+passive moments, and a spastic child's tone and stretch reflexes replayed over the
+recording (:func:`child_torques`; added back: the drives work against them) -- then
+:func:`~exoleg.identify.estimate.identify_leg` with the fitted leg as the prior on every
+period of the plan but the last, which is held out to say how well the identified leg
+predicts torque it was not fitted to.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from exoleg.child.model import ChildModel, child_tick
+from exoleg.dynamics.model import LegModel
+from exoleg.errors import ParameterError, SimulationError
+from exoleg.identify.estimate import Identified
+from exoleg.identify.plan import Plan, PlanReference
+from exoleg.params.records import JOINTS
+
+F64 = NDArray[np.float64]
+
+#: On the simulated device, the step the child stands on beside the belt (m): the
+#: device's foot clear of the belt over any posture of the range of motion.
+STEP_M = 0.3
+#: The plan starts this long after the arming (s).
+START_AFTER_S = 1.0
+#: The drives' measured torque in a session log: the buses' torque actual value, or the
+#: simulated device's delivered torque.
+TORQUE_COLUMNS = ("tau_meas_", "tau_")
+
+
+@dataclass(frozen=True)
+class Measured:
+    """What a session logged of a plan, ready for the estimate: time from the plan's
+    start (s), angles, rates, accelerations (rad...), the drives' torque (N m) with the
+    child's passive moments at their model added, and which samples are held out."""
+
+    t: F64
+    q: F64
+    dq: F64
+    ddq: F64
+    tau: F64
+    held_out: NDArray[np.bool_]
+
+
+@dataclass(frozen=True)
+class DeviceIdentification:
+    """An identification on the device: the estimate, the plan and its reference, the
+    plan's condition number, the held-out torque's prediction error (RMS per joint, N m,
+    and as a share of its RMS, %), and the measured signals."""
+
+    identified: Identified
+    reference: PlanReference
+    condition: float
+    held_out_rms: F64
+    held_out_pct: F64
+    measured: Measured
+    predicted: F64
+
+    def summary(self) -> dict[str, Any]:
+        r = self.identified
+        return {"plan": {"period_s": self.reference.plan.period,
+                         "periods": self.reference.plan.periods,
+                         "duration_s": self.reference.duration,
+                         "condition_number": self.condition},
+                "samples": r.samples,
+                "residual_rms_nm": dict(zip(JOINTS, r.residual_rms.tolist(), strict=True)),
+                "held_out_rms_nm": dict(zip(JOINTS, self.held_out_rms.tolist(), strict=True)),
+                "held_out_pct": dict(zip(JOINTS, self.held_out_pct.tolist(), strict=True))}
+
+
+@njit(cache=True)
+def _muscles(P, C, CS, q, dq, h, out):  # type: ignore[no-untyped-def]
+    """The child's muscles (:func:`~exoleg.child.model.child_tick`, relaxed: standing, not
+    walking, unloaded) over the recorded angles and rates, tick by tick, into out."""
+    for k in range(q.shape[0]):
+        child_tick(P, C, CS, q[k], dq[k], h, False, 0.0, False, out[k])
+
+
+def child_torques(child: ChildModel, period: float, q: F64, dq: F64) -> F64:
+    """The relaxed ``child``'s own joint torques at their model over a recording of the
+    angles ``q`` and rates ``dq`` (N, 3) every ``period`` s: their passive moments
+    (elastic and viscous) and their muscles' -- tone, short-range stiffness and the
+    delayed stretch reflex of the spastic groups (none for a child without spasticity)."""
+    from exoleg.child.model import child_records
+    from exoleg.child.passive import passive_moments
+
+    P, C, CS = child_records(dataclasses.replace(child, effort=False), period)
+    out = np.zeros_like(q)
+    _muscles(P, C, CS, np.ascontiguousarray(q), np.ascontiguousarray(dq), period, out)
+    total: F64 = out + passive_moments(P, q, dq)
+    return total
+
+
+def estimate_from_log(cols: dict[str, F64], period: float, reference: PlanReference,
+                      prior: LegModel, friction_smoothing: F64,
+                      child: ChildModel | None = None) -> tuple[Measured, Identified]:
+    """The leg identified from a session log's columns (:func:`~exoleg.runtime.log.read_log`)
+    of ``reference`` played at ``period`` s: the plan's clock from the first WALKING tick
+    (the tracking controller's reference runs from there), its last period held out;
+    ``child``: the relaxed child's own torques at their model (:func:`child_torques`, on
+    the encoders' angles and the drives' filtered rates) added to the drives' torque
+    (the drives work against them)."""
+    from exoleg.control.contract import Mode
+    from exoleg.identify.estimate import identify_leg
+    from exoleg.identify.signals import HALF_WINDOW, derivatives
+
+    where = "exoleg identify"
+    walking = np.flatnonzero(cols["mode"] == Mode.WALKING)
+    if len(walking) == 0:
+        raise ParameterError(where, "session", "the plan never started (no WALKING tick)")
+    first = int(walking[0])
+    n = int(round(reference.duration / period)) + 1
+    if first + n > len(cols["mode"]) or not np.all(cols["mode"][first:first + n]
+                                                  == Mode.WALKING):
+        raise ParameterError(where, "session", "the plan did not play to its end")
+    prefix = next((p for p in TORQUE_COLUMNS if f"{p}hip" in cols), None)
+    if prefix is None:
+        raise ParameterError(where, "session", "the log holds no drive torque ("
+                             + ", ".join(f"{p}hip" for p in TORQUE_COLUMNS) + ")")
+    sl = slice(first, first + n)
+    q = np.stack([cols[f"q_meas_{j}"][sl] for j in JOINTS], axis=1)
+    tau = np.stack([cols[f"{prefix}{j}"][sl] for j in JOINTS], axis=1)
+    if child is not None:
+        dqm = np.stack([cols[f"dq_meas_{j}"][sl] for j in JOINTS], axis=1)
+        tau = tau + child_torques(child, period, q, dqm)
+    qs, dq, ddq = derivatives(q, period)
+    ts, _, _ = derivatives(tau, period)  # the same zero-phase filter on the torque
+    t = np.arange(HALF_WINDOW, n - HALF_WINDOW, dtype=np.float64) * period
+    plan = reference.plan
+    start, end = reference.window
+    held = (t >= start + (plan.periods - 1) * plan.period) & (t <= end)
+    m = Measured(t=t, q=qs, dq=dq, ddq=ddq, tau=ts, held_out=held)
+    step = 10  # every 10 ms: the smoothing leaves little between
+    fit = ~held
+    r = identify_leg(prior, qs[fit][::step], dq[fit][::step], ddq[fit][::step],
+                     ts[fit][::step], friction_smoothing)
+    return m, r
+
+
+def predicted_torque(r: Identified, friction_smoothing: F64, q: F64, dq: F64,
+                     ddq: F64) -> F64:
+    """The drives' torque the identified leg and friction predict (N m)."""
+    from exoleg.identify.base import friction_columns
+
+    out: F64 = (r.leg.inverse_dynamics(q, dq, ddq)
+                + friction_columns(dq, friction_smoothing) @ r.friction.ravel())
+    return out
+
+
+def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
+                    child: Any = None, body_mass: float | None = None,
+                    duration: float = 120.0, seed: int = 0, interface: str | None = None,
+                    channel: str = "exoleg", realtime: bool = True,
+                    truth: LegModel | None = None, candidates: int = 20
+                    ) -> DeviceIdentification:
+    """Design a plan for the fitted ``leg`` (the child + device model, without the
+    actuators: the device file's are added), play it on ``backend`` in a session under
+    ``out``/session, identify the leg from the log and write into ``out``: the
+    identified leg file (``leg.toml``), the parameters with their 95 % intervals
+    (``parameters.csv``), ``identify.json`` and the held-out torque figure
+    (``identify.png``). ``child``: the :class:`~exoleg.child.model.ChildModel` in the
+    device (relaxed: their effort off; their passive moments held at their model);
+    ``truth``: on a simulated device, the leg it carries when not the model's (what a
+    child's real segments are: the test of this)."""
+    import exoleg
+    from exoleg.device.config import DeviceConfig
+    from exoleg.identify.base import actuator_friction
+    from exoleg.identify.plan import check_plan, condition, design_plan, plan_limits
+    from exoleg.io import OutputFolder, write_json
+    from exoleg.runtime.log import read_log
+    from exoleg.runtime.session import DEFAULT_BODY_MASS, check_folder, run, simulated
+
+    where = "exoleg identify"
+    if not simulated(backend, interface):
+        raise ParameterError(where, "--interface", "on a real device the plan is started "
+                             "by the operator from the operator interface, which does not "
+                             "offer identification yet: use the sim backend or simulated "
+                             "nodes (canopen --interface virtual, ethercat --interface fake)")
+    folder = Path(out)
+    check_folder(folder / "session")  # before the plan: a recorded session is kept
+    leg = exoleg.paper_leg() if leg is None else leg
+    mass = (child.mass if child is not None else DEFAULT_BODY_MASS) if body_mass is None \
+        else body_mass
+    config = DeviceConfig.load()
+    acts = config.actuators
+    fitted = config.leg(leg)
+    limits = plan_limits(config.safety, acts)
+    plan: Plan = design_plan(fitted, acts, limits, duration=duration, candidates=candidates,
+                             seed=seed)
+    ref = PlanReference(plan, config.gains.standing)
+    problems = check_plan(ref, fitted, acts, limits)
+    if problems:
+        raise ParameterError(where, "plan", "; ".join(problems))
+    relaxed = None if child is None else dataclasses.replace(child, effort=False)
+    res, path = run(backend, START_AFTER_S + ref.duration + 0.5, folder / "session",
+                    arm=True, walk_after=START_AFTER_S, leg=leg if truth is None else truth,
+                    body_mass=mass, seed=seed, realtime=realtime, interface=interface,
+                    channel=channel, controller="pd-gravity", child=relaxed,
+                    reference=ref, step=STEP_M, model=None if truth is None else leg)
+    if not res.stopped_by.startswith("duration"):
+        raise SimulationError(f"{where}: the session stopped before the plan's end: "
+                              f"{res.stopped_by} (its log: {path})")
+    header, cols, _ = read_log(path)
+    _, smooth = actuator_friction(acts)
+    try:
+        m, r = estimate_from_log(cols, header["period"], ref, fitted, smooth, child)
+    except ParameterError as e:
+        hint = (" -- or the child's own torques are not their model's (relaxed? their "
+                "spasticity and contracture as in the child file?)" if child is not None
+                else "")
+        raise ParameterError(where, "estimate", f"{e.field}: {e.problem}{hint}; the session's log "
+                             f"is kept: {path}") from None
+    pred = predicted_torque(r, smooth, m.q, m.dq, m.ddq)
+    err = (pred - m.tau)[m.held_out]
+    rms = np.sqrt(np.mean(err**2, axis=0))
+    share = 100 * rms / np.sqrt(np.mean(m.tau[m.held_out] ** 2, axis=0))
+    ident = DeviceIdentification(identified=r, reference=ref,
+                                 condition=condition(plan, fitted), held_out_rms=rms,
+                                 held_out_pct=share, measured=m, predicted=pred)
+    from exoleg.plots.identify import identify_figure
+
+    with OutputFolder(folder) as o:
+        exoleg.save_leg(r.leg, o.stage("leg.toml"), header=f"identified on the device "
+                        f"({backend}) from {r.samples} samples; prior: {leg.name}")
+        _write_parameters(r, o.stage("parameters.csv"))
+        identify_figure(ident, o.stage("identify.png"))
+        write_json(o.stage("identify.json"), {**ident.summary(), "backend": backend,
+                                              "session": str(path), "prior": leg.name})
+        o.commit(last="identify.json")
+    return ident
+
+
+def _write_parameters(r: Identified, path: Path) -> None:
+    import pyarrow as pa
+
+    from exoleg.io import write_csv_table
+
+    rows = r.table()
+    write_csv_table(pa.table({k: [row[k] for row in rows] for k in rows[0]}), path)
