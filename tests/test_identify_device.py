@@ -34,7 +34,7 @@ def test_a_spastic_child_identified_over_the_can_bus(tmp_path: Path) -> None:
     device; the simulated device carries their true leg (segments off the tables), the
     identification knows only the fitted one. The plan (10 s: the shortest; a clinic's is
     120 s) runs over CANopen on the virtual bus, torque from the drives' torque actual
-    value. Measured: G of the identified leg 0.27 % of max |G| off the truth at worst
+    value. Measured: G of the identified leg 0.28 % of max |G| off the truth at worst
     over the range of motion (the fitted leg's 7.8 %); held-out torque 1.0 / 3.2 / 1.0 %
     of its RMS. Holding the child at no spasticity (or mild) instead leaves a thigh that
     is not a body: refused."""

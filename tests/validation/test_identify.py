@@ -171,12 +171,14 @@ def test_the_designed_plan_identifies_the_leg() -> None:
 
 
 def test_simulated_children_identified_within_the_goal() -> None:
-    # exoleg validate --identify's pipeline on three children of the design range: their
-    # segments off the tables, 20-bit encoders differentiated over 41 ms, torque noise 1 %
-    # of continuous. The goal: G RMS <= 1 %, max <= 3 % of max |G|. Measured on
-    # these three: RMS 0.015-0.018 %, max 0.037-0.049 %, the fitted legs 9.7-12.2 % off.
-    # (With the prior on the inertia about the joint rather than the centre of mass, one
-    # child in ten came out with a foot that is not a body.)
+    # exoleg validate --identify's pipeline on three children of the design range (GMFCS
+    # IV, typically developing, GMFCS II): their segments off the tables, 20-bit encoders
+    # differentiated over 41 ms, torque noise 1 % of continuous, each child's passive
+    # moments and their level's spasticity against the drives, held at their model. The
+    # issue's goal: G RMS <= 1 %, max <= 3 % of max |G|. Measured on these three: RMS
+    # 0.008-0.049 %, max 0.024-0.114 %, the fitted legs 9.7-12.2 % off. (With the prior
+    # on the inertia about the joint rather than the centre of mass, one child in ten
+    # came out with a foot that is not a body.)
     from exoleg.validate.identify import children, run_child
 
     for i, c in enumerate(children(3)):

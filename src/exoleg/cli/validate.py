@@ -27,7 +27,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
             progress.stop()
         _table(summary(done), ["", "median", "p95", "worst"],
                title=f"identification over {len(done)} simulated children (offline: encoders, "
-                     "a 41 ms differentiator, torque noise 1 % of continuous)")
+                     "a 41 ms differentiator, torque noise 1 % of continuous, each child's "
+                     "passive moments and their level's spasticity held at their model)")
         _say("the issue's goal: G error RMS <= 1 %, max <= 3 %")
         ok = all(r.g_max_pct <= 3.0 and r.g_rms_pct <= 1.0 for r in done)
         return 0 if ok else 1

@@ -16,9 +16,16 @@ driven through it; what the identification reads is what the device would measur
   noise of 1 % of each actuator's continuous torque per sample (the drive's current
   measurement through k_t N; a choice, above the EPOS4's current resolution).
 
-The child's passive moments and muscles are not in these torques: the rigid child +
-device leg is what is identified (holding the passive moments at their model, as the
-issue allows, subtracts the same model it adds). Measured: G of the identified leg
+* the child's own torques against the drives': each child as an actor
+  (:class:`~exoleg.child.model.ChildModel`, relaxed): their passive moments (with the
+  shipped contracture for a child with CP) and their level's spasticity (tone,
+  short-range stiffness, the delayed stretch reflex; none for a typically developing
+  child), computed on the true motion; held at their model by the estimate, computed on
+  the encoders' angles and rates (as ``exoleg identify`` does: the model is the
+  simulator's own here, so what this measures is the signals' part, not a model's
+  error).
+
+Measured: G of the identified leg
 against the true one over a grid of the plan's range of motion (9 x 9 x 9), RMS and
 largest as a share of the largest |G|; the base parameters' relative errors (median);
 and the fitted leg's G error beside them. The plan is played offline, not through the
@@ -80,7 +87,10 @@ def run_child(child: object, seed: int, candidates: int = 4) -> IdentifyRun:
     from exoleg.control.safety import SafetyLimits
     from exoleg.device import with_actuators
     from exoleg.device.actuator import paper_actuators
+    from exoleg.child.model import ChildModel
     from exoleg.identify.base import actuator_friction, base_parameters, friction_columns
+    from exoleg.identify.device import child_torques
+    from exoleg.validate.gait_phase import SPASTICITY
     from exoleg.identify.estimate import identify_leg
     from exoleg.identify.plan import condition, design_plan, plan_limits
     from exoleg.sizing import personalized_leg
@@ -94,10 +104,16 @@ def run_child(child: object, seed: int, candidates: int = 4) -> IdentifyRun:
     dt = 1e-3
     _, q, dq, ddq = plan.sample(dt)
     theta, smooth = actuator_friction(acts)
+    actor = ChildModel.of(child, "predictcpgait" if getattr(child, "gmfcs", None) else "none",
+                          SPASTICITY[getattr(child, "gmfcs", None) or 0])
     tau = (true.inverse_dynamics(q, dq, ddq) + friction_columns(dq, smooth) @ theta
+           - child_torques(actor, dt, q, dq)  # the drives work against the child's own
            + rng.normal(size=q.shape) * TORQUE_NOISE * np.array([a.continuous_torque
                                                                  for a in acts]))
     enc = np.stack([_encoded(a.record(), q[:, j]) for j, a in enumerate(acts)], axis=1)
+    # the child's own held at their model, on what the device measures (the encoders'
+    # angles and their rates), as exoleg identify does
+    tau = tau + child_torques(actor, dt, enc, np.gradient(enc, dt, axis=0))
     qm, dqm, ddqm = derivatives(enc, dt)
     tm = tau[HALF_WINDOW:-HALF_WINDOW]
     step = 10  # every 10 ms: the smoothing leaves little between
