@@ -81,8 +81,8 @@ def add_parser(sub: Any) -> None:
                    help="simulated device: the leg it carries, when not --leg's (the "
                         "child's true segments; to see identification at work)")
     d.add_argument("--duration", type=_within(10.0, 120.0, " s"), default=120.0,
-                   help="the plan's length, s (10-120; default 120), and 8 s of moves in "
-                        "and out")
+                   help="the plan's length, s (10-120; default 120), besides the moves in "
+                        "and out (2 s each or longer, at a comfortable speed)")
     d.add_argument("--seed", type=_count(0, 2**31 - 1), default=0,
                    help="the plan's design and the simulated sensors' noise (default 0)")
     d.add_argument("--no-realtime", action="store_true",

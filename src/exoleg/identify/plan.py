@@ -92,8 +92,11 @@ class Plan:
         return t, q, dq, ddq
 
 
-#: The minimum-jerk moves into the plan from the standing posture and back, s.
-RAMP_S = 4.0
+#: The minimum-jerk moves into the plan from the standing posture and back: at least
+#: this long (s), and long enough that their peak speed (1.875 x the mean) stays within
+#: this share of :data:`COMFORT_SPEED`.
+RAMP_S = 2.0
+RAMP_SPEED_SHARE = 0.8
 
 
 @dataclass(frozen=True)
@@ -101,11 +104,12 @@ class PlanReference:
     """What the device follows to play ``plan``: a minimum-jerk move over ``ramp`` s from
     the posture ``start`` (rad, the device's standing posture) to the plan's first
     posture, the plan, and the move back (a :class:`~exoleg.reference.steps.Reference`:
-    ``sample(t)``). The plan must start at rest (:func:`design_plan`'s do)."""
+    ``sample(t)``). The plan must start at rest (:func:`design_plan`'s do). ``ramp``
+    None: :data:`RAMP_S`, or longer for a long move (:data:`RAMP_SPEED_SHARE`)."""
 
     plan: Plan
     start: F64
-    ramp: float = RAMP_S
+    ramp: float | None = None
     _moves: Any = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -115,30 +119,38 @@ class PlanReference:
         if np.abs(dq[0]).max() > 1e-9 or np.abs(ddq[0]).max() > 1e-9:
             raise ParameterError("PlanReference", "plan", "does not start at rest (a "
                                  "minimum-jerk move cannot join it without a jolt)")
-        if not (np.isfinite(self.ramp) and 1.0 <= self.ramp <= 30.0):
-            raise ParameterError("PlanReference", "ramp", f"{self.ramp!r} s is outside 1-30 s")
         start = np.asarray(self.start, dtype=float)
+        if start.shape != (3,) or not np.isfinite(start).all():
+            raise ParameterError("PlanReference", "start", "expected 3 finite angles (rad)")
+        if self.ramp is None:
+            far = float(np.abs(q[0] - start).max())
+            object.__setattr__(self, "ramp", round(max(
+                RAMP_S, 1.875 * far / (RAMP_SPEED_SHARE * COMFORT_SPEED)), 1))
+        r = float(self.ramp)  # type: ignore[arg-type]
+        if not (np.isfinite(r) and 1.0 <= r <= 30.0):
+            raise ParameterError("PlanReference", "ramp", f"{r!r} s is outside 1-30 s")
         object.__setattr__(self, "start", start)
-        r, d = self.ramp, self.plan.duration
+        d = self.plan.duration
         object.__setattr__(self, "_moves", MinJerk(
             np.array([0.0, r, r + d, 2 * r + d]), np.stack([start, q[0], q[0], start])))
 
     @property
     def duration(self) -> float:
         """From the start of the move in to the end of the move back, s."""
-        return self.plan.duration + 2 * self.ramp
+        return self.plan.duration + 2 * float(self.ramp)  # type: ignore[arg-type]
 
     @property
     def window(self) -> tuple[float, float]:
         """When the plan itself plays, s from the reference's start."""
-        return self.ramp, self.ramp + self.plan.duration
+        r = float(self.ramp)  # type: ignore[arg-type]
+        return r, r + self.plan.duration
 
     def sample(self, t: ArrayLike) -> tuple[F64, F64, F64]:
         tt = np.atleast_1d(np.asarray(t, dtype=float))
         q, dq, ddq = self._moves.sample(tt)
         inside = (tt >= self.window[0]) & (tt <= self.window[1])
         if inside.any():
-            _, pq, pdq, pddq = self.plan.at(tt[inside] - self.ramp)
+            _, pq, pdq, pddq = self.plan.at(tt[inside] - self.window[0])
             q[inside], dq[inside], ddq[inside] = pq, pdq, pddq
         return q, dq, ddq
 

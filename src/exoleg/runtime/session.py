@@ -252,7 +252,7 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
     config = DeviceConfig.load(control_dt=period)
     # a simulated device only where it is what answers: on sim, or behind simulated nodes
     sim = (SimBackend(leg, body_mass, period, seed=seed, config=config, child=child,
-                      step=step) if simulated(backend, interface) else None)
+                      step=step, model=model) if simulated(backend, interface) else None)
     ctl = make_controller(controller, config, leg if model is None else model, body_mass,
                           sim, reference)
     before = set(threading.enumerate())

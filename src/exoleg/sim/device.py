@@ -266,7 +266,7 @@ def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
                  ground: Ground | None = None, sensors: FootSensors | None = None,
                  control_dt: float = 1e-3, device: str | Path | None = None,
                  config: DeviceConfig | None = None, child: ChildModel | None = None,
-                 step: float = 0.0) -> SimulatedDevice:
+                 step: float = 0.0, model: LegModel | None = None) -> SimulatedDevice:
     """The simulated device and its controller for ``leg`` (without actuators; theirs are
     added) and a child of ``body_mass`` kg (see :func:`exoleg.sim.walk.simulate_walk`):
     the device ``config``, or the one :meth:`DeviceConfig.load` reads from ``device``
@@ -296,7 +296,8 @@ def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
                             ankle_height)
     if step:  # the other leg holds the pelvis that much higher
         plant = dataclasses.replace(plant, support_height=plant.support_height + step)
-    ctl = walk_controller(cfg, leg, share, depth, speed, stride_time)
+    ctl = walk_controller(cfg, leg if model is None else model, share, depth, speed,
+                          stride_time)
     q0 = ctl.gains.standing
     fk = leg.fk(q0)
     x0 = np.zeros(8)

@@ -185,7 +185,8 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                   ground: Ground | None = None, sensors: FootSensors | None = None,
                   substeps: int = 2, control_dt: float = 1e-3,
                   device: str | Path | None = None, child: ChildModel | None = None,
-                  commands: NDArray[np.int64] | None = None) -> WalkResult:
+                  commands: NDArray[np.int64] | None = None, model: LegModel | None = None
+                  ) -> WalkResult:
     """Walk ``leg`` (without actuators; theirs are added) on the treadmill for ``strides``
     strides of ``stride_time`` s after ``standing`` s of quiet stance; ``body_mass`` is
     the child's (the pelvis carries :func:`exoleg.device.walking.body_weight_share`).
@@ -194,7 +195,8 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     shipped actuators, sensors, detector settings, gains, safety limits and ground.
     ``child``: the child as an actor (:class:`~exoleg.child.model.ChildModel`; None: a
     passive leg). ``commands``: the operator's command per tick (default: arm at 0, walk
-    after ``standing`` s)."""
+    after ``standing`` s). ``model``: the leg the controller is given (default ``leg``:
+    the controller knows the leg it walks)."""
     if not (isinstance(strides, int) and 1 <= strides <= 10000):
         raise ParameterError("simulate_walk", "strides", f"expected 1-10000, got {strides!r}")
     if not (isinstance(substeps, int) and 1 <= substeps <= 100):
@@ -203,7 +205,7 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
         raise ParameterError("simulate_walk", "standing", f"{standing!r} is outside 0.2-60")
     dev = prepare_walk(leg, body_mass, speed, stride_time, noise_scale, ankle_height,
                        actuators, gains, safety, ground, sensors, control_dt, device,
-                       child=child)
+                       child=child, model=model)
     ctl, plant, sens = dev.controller, dev.plant, dev.sensors
     check_step(plant, control_dt / substeps, dev.config.folder)
     n = int(round((standing + strides * stride_time) / control_dt))

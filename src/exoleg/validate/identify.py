@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -50,16 +51,31 @@ F64 = NDArray[np.float64]
 
 #: The torque noise, a share of each actuator's continuous torque (one SD per sample).
 TORQUE_NOISE = 0.01
+#: A child the device carries walking: with the true leg's model, the tracking error's
+#: RMS within this at every joint, deg (the shipped device's walks: 2-6 deg)
+CARRIED_DEG = 10.0
 
 
 @dataclass(frozen=True)
 class IdentifyRun:
+    """One child's measures: G's error (RMS and largest, % of max |G|), the fitted leg's,
+    the base parameters' (median, %), the plan's condition number; and the controllers
+    given the identified or the fitted leg on the true one: the walking tracking RMS's
+    largest departure from the true leg's over the joints (%; NaN when the device does
+    not carry the child: the true leg's walk faulted), the paper's postures held (their
+    largest departure from where the true leg's law holds them, deg)."""
+
     child: str
     g_rms_pct: float
     g_max_pct: float
     prior_g_max_pct: float
     base_error_pct: float
     condition: float
+    walk_true_deg: float = float("nan")
+    walk_identified_pct: float = float("nan")
+    walk_fitted_pct: float = float("nan")
+    hold_identified_deg: float = float("nan")
+    hold_fitted_deg: float = float("nan")
 
 
 @njit(cache=True)
@@ -82,18 +98,31 @@ def _true_leg(fitted: LegModel, rng: np.random.Generator) -> LegModel:
     return LegModel(links, g=fitted.g, name=f"{fitted.name} (true)", armature=fitted.armature)
 
 
-def run_child(child: object, seed: int, candidates: int = 4) -> IdentifyRun:
-    """One child: design, drive, measure, identify, compare."""
+@dataclass(frozen=True)
+class ChildIdentification:
+    """One simulated child's identification: their mass (kg), fitted leg (the prior), true
+    leg, the estimate, the plan and the limits it was designed within."""
+
+    mass: float
+    fitted: LegModel
+    true: LegModel
+    identified: Any
+    plan: Any
+    limits: Any
+
+
+def identify_child(child: object, seed: int, candidates: int = 4) -> ChildIdentification:
+    """One child: design, drive, measure, identify."""
+    from exoleg.child.model import ChildModel
     from exoleg.control.safety import SafetyLimits
     from exoleg.device import with_actuators
     from exoleg.device.actuator import paper_actuators
-    from exoleg.child.model import ChildModel
-    from exoleg.identify.base import actuator_friction, base_parameters, friction_columns
+    from exoleg.identify.base import actuator_friction, friction_columns
     from exoleg.identify.device import child_torques
-    from exoleg.validate.gait_phase import SPASTICITY
     from exoleg.identify.estimate import identify_leg
-    from exoleg.identify.plan import condition, design_plan, plan_limits
+    from exoleg.identify.plan import design_plan, plan_limits
     from exoleg.sizing import personalized_leg
+    from exoleg.validate.gait_phase import SPASTICITY
 
     rng = np.random.default_rng(seed)
     acts = paper_actuators()
@@ -104,8 +133,8 @@ def run_child(child: object, seed: int, candidates: int = 4) -> IdentifyRun:
     dt = 1e-3
     _, q, dq, ddq = plan.sample(dt)
     theta, smooth = actuator_friction(acts)
-    actor = ChildModel.of(child, "predictcpgait" if getattr(child, "gmfcs", None) else "none",
-                          SPASTICITY[getattr(child, "gmfcs", None) or 0])
+    level = getattr(child, "gmfcs", None)
+    actor = ChildModel.of(child, "predictcpgait" if level else "none", SPASTICITY[level or 0])
     tau = (true.inverse_dynamics(q, dq, ddq) + friction_columns(dq, smooth) @ theta
            - child_torques(actor, dt, q, dq)  # the drives work against the child's own
            + rng.normal(size=q.shape) * TORQUE_NOISE * np.array([a.continuous_torque
@@ -118,6 +147,19 @@ def run_child(child: object, seed: int, candidates: int = 4) -> IdentifyRun:
     tm = tau[HALF_WINDOW:-HALF_WINDOW]
     step = 10  # every 10 ms: the smoothing leaves little between
     r = identify_leg(fitted, qm[::step], dqm[::step], ddqm[::step], tm[::step], smooth)
+    return ChildIdentification(float(child.mass), fitted, true, r, plan, lim)  # type: ignore[attr-defined]
+
+
+def run_child(child: object, seed: int, candidates: int = 4, control: bool = False
+              ) -> IdentifyRun:
+    """One child: :func:`identify_child`, then G and the base parameters against the
+    truth; with ``control``, the controllers on the true leg given each model
+    (:func:`walking_tracking`, :func:`posture_errors`)."""
+    from exoleg.identify.base import base_parameters
+    from exoleg.identify.plan import condition
+
+    c = identify_child(child, seed, candidates)
+    fitted, true, r, lim = c.fitted, c.true, c.identified, c.limits
     grid = np.stack(np.meshgrid(*(np.linspace(lim.lower[j], lim.upper[j], 9)
                                   for j in range(3)), indexing="ij"), axis=-1).reshape(-1, 3)
     g_true = true.G(grid)
@@ -125,13 +167,79 @@ def run_child(child: object, seed: int, candidates: int = 4) -> IdentifyRun:
     err = r.leg.G(grid) - g_true
     truth = base_parameters(true).of(true.inertial())
     size = np.maximum(np.abs(truth), 1e-3 * np.abs(truth).max())
+    more: dict[str, float] = {}
+    if control:
+        walk = walking_tracking(c)
+        if walk:
+            more["walk_true_deg"] = float(np.degrees(walk["true"].max()))
+            for name in ("identified", "fitted"):
+                more[f"walk_{name}_pct"] = 100 * float(np.abs(walk[name] / walk["true"]
+                                                              - 1).max())
+        hold = posture_errors(c)
+        more["hold_identified_deg"] = float(np.degrees(hold["identified"]))
+        more["hold_fitted_deg"] = float(np.degrees(hold["fitted"]))
     return IdentifyRun(child=str(getattr(child, "name", "child")),
                        g_rms_pct=100 * float(np.sqrt(np.mean(err**2))) / scale,
                        g_max_pct=100 * float(np.abs(err).max()) / scale,
                        prior_g_max_pct=100 * float(np.abs(fitted.G(grid) - g_true).max())
                        / scale,
                        base_error_pct=100 * float(np.median(np.abs(r.values - truth) / size)),
-                       condition=condition(plan, fitted))
+                       condition=condition(c.plan, fitted), **more)
+
+
+def _models(c: ChildIdentification) -> tuple[LegModel, dict[str, LegModel]]:
+    """The child's true leg (without actuators) and the three models of it."""
+    bare = LegModel(c.true.links, g=c.true.g, name="true")
+    return bare, {name: LegModel(m.links, g=m.g, name=name) for name, m in
+                  (("true", bare), ("identified", c.identified.leg), ("fitted", c.fitted))}
+
+
+def walking_tracking(c: ChildIdentification, strides: int = 10) -> dict[str, F64]:
+    """The walking controller on the child's true leg (passive: the controller's models
+    alone carry it) given each model of it -- ``true``, ``identified``, ``fitted`` -- ->
+    the tracking error's RMS per joint (rad) over the strides after the first two; {}
+    when the walk with the true leg faults or tracks worse than :data:`CARRIED_DEG` at
+    a joint (the device does not carry this child)."""
+    from exoleg.control.contract import Mode
+    from exoleg.sim.walk import simulate_walk
+
+    bare, models = _models(c)
+    out = {}
+    for name, model in models.items():
+        w = simulate_walk(bare, c.mass, strides=strides, model=model)
+        walking = w.mode == Mode.WALKING
+        first = int(np.flatnonzero(walking)[0]) + int(round(2 * 1.1 / 1e-3))
+        walking[:first] = False
+        e = w.q[walking] - w.q_ref[walking]
+        out[name] = np.sqrt(np.mean(e**2, axis=0))
+        if name == "true" and (np.any(w.fault) or np.degrees(out[name].max()) > CARRIED_DEG):
+            return {}
+    return out
+
+
+def posture_errors(c: ChildIdentification) -> dict[str, float]:
+    """The paper's PD + gravity law (eq 23) holding its stance and swing postures (section
+    6, 3 s each) on the child's true leg with the actuators, given the ``identified`` or
+    the ``fitted`` model of it -> the largest departure over the joints and postures
+    from where it holds them given the true leg (rad; each the mean over the last 0.5 s
+    of its 3 s): K_p^-1 times the model's error in G."""
+    from exoleg.control.controllers import law_named
+    from exoleg.device import with_actuators
+    from exoleg.sim.closed_loop import simulate
+    from exoleg.sim.scenario import SEGMENT, paper_reference
+
+    bare, models = _models(c)
+    plant = with_actuators(bare)
+    ref = paper_reference()
+    held = {}
+    for name, model in models.items():
+        r = simulate(plant, law_named("pd-gravity", with_actuators(model)), ref,
+                     4 * SEGMENT, beyond_range_of_motion=True)
+        held[name] = np.stack([r.q[(r.t > (k + 1) * SEGMENT - 0.5)
+                                   & (r.t <= (k + 1) * SEGMENT - 1e-9)].mean(axis=0)
+                               for k in range(4)])
+    return {name: float(np.abs(held[name] - held["true"]).max())
+            for name in ("identified", "fitted")}
 
 
 def children(n: int, seed: int = 0) -> list[Any]:
@@ -149,9 +257,29 @@ def children(n: int, seed: int = 0) -> list[Any]:
     return out
 
 
-def evaluate(n: int = 100, seed: int = 0) -> list[IdentifyRun]:
-    """:func:`run_child` over :func:`children` (n of them)."""
-    return [run_child(c, seed + i) for i, c in enumerate(children(n, seed))]
+def _one(job: tuple[Any, int, bool]) -> IdentifyRun:
+    return run_child(job[0], job[1], control=job[2])
+
+
+def evaluate(n: int = 100, seed: int = 0, control: bool = True,
+             progress: Callable[[float], None] | None = None) -> list[IdentifyRun]:
+    """:func:`run_child` over :func:`children` (n of them), on every CPU; ``progress``
+    is told the share done."""
+    import multiprocessing
+    import os
+    from concurrent.futures import ProcessPoolExecutor
+
+    jobs = [(c, seed + i, control) for i, c in enumerate(children(n, seed))]
+    out = []
+    # spawned: a forked worker called the parent's compiled code at address 0 (numba's
+    # machine code is not kept across a fork)
+    with ProcessPoolExecutor(max_workers=min(len(jobs), os.cpu_count() or 1),
+                             mp_context=multiprocessing.get_context("spawn")) as pool:
+        for r in pool.map(_one, jobs):
+            out.append(r)
+            if progress is not None:
+                progress(len(out) / len(jobs))
+    return out
 
 
 def summary(runs: list[IdentifyRun]) -> list[list[str]]:
@@ -161,8 +289,19 @@ def summary(runs: list[IdentifyRun]) -> list[list[str]]:
                        ("G error max, % of max |G|", "g_max_pct"),
                        ("base parameters' error (median), %", "base_error_pct"),
                        ("the fitted leg's G error max, %", "prior_g_max_pct"),
-                       ("the plan's condition number", "condition")):
+                       ("the plan's condition number", "condition"),
+                       ("walking tracking RMS, identified G vs true, largest |change| %",
+                        "walk_identified_pct"),
+                       ("walking tracking RMS, fitted G vs true, largest |change| %",
+                        "walk_fitted_pct"),
+                       ("the paper's postures held, identified G vs true, deg",
+                        "hold_identified_deg"),
+                       ("the paper's postures held, fitted G vs true, deg",
+                        "hold_fitted_deg")):
         v = np.array([getattr(r, key) for r in runs])
+        v = v[np.isfinite(v)]
+        if len(v) == 0:
+            continue
         rows.append([label, f"{np.median(v):.3g}", f"{np.percentile(v, 95):.3g}",
                      f"{v.max():.3g}"])
     return rows
