@@ -65,6 +65,7 @@ def process_safe() -> None:
     per cache folder (once per process)."""
     try:
         import fcntl  # noqa: F401
+
         from numba.core import caching
     except ImportError:
         return

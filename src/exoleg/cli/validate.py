@@ -14,11 +14,13 @@ from exoleg.cli.simulate_walk import _DETECTION_HEADER, _detection_rows
 def cmd_validate(args: argparse.Namespace) -> int:
     if args.identify:
         from exoleg.cli._common import _Progress
-        from exoleg.validate.identify import evaluate, summary
+        from exoleg.validate.identify import evaluate as identify_children
+        from exoleg.validate.identify import summary
 
         progress = _Progress()
         try:
-            done = evaluate(args.children, progress=lambda f: progress("identify", f))
+            done = identify_children(args.children,
+                                     progress=lambda f: progress("identify", f))
         finally:
             progress.stop()
         _table(summary(done), ["", "median", "p95", "worst"],
