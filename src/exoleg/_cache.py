@@ -77,6 +77,28 @@ def process_safe() -> None:
     cls._exoleg_locked = True
 
 
+def _drop_entries(folder: Path) -> None:
+    """Remove a cache folder's numba entries, under its exclusive lock where there is one
+    (a process loading from it meanwhile loads whole entries or none)."""
+    names = [f for f in folder.iterdir() if f.suffix in (".nbi", ".nbc")]
+    if not names:
+        return
+    try:
+        import fcntl
+
+        lock = open(folder / LOCK_NAME, "a")  # noqa: SIM115
+    except (ImportError, OSError):
+        lock = None
+    try:
+        if lock is not None:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+        for f in names:
+            f.unlink(missing_ok=True)
+    finally:
+        if lock is not None:
+            lock.close()
+
+
 class _AfterCaching:
     """A meta path finder that makes numba's cache process safe once
     ``numba.core.caching`` is imported (importing numba itself here would cost a quarter
@@ -117,8 +139,7 @@ def guard() -> None:
         stamp = _sources_stamp()
         if _STAMP.exists() and _STAMP.read_text() == stamp:
             return
-        for f in _ROOT.rglob("__pycache__/*"):
-            if f.suffix in (".nbi", ".nbc"):
-                f.unlink()
+        for folder in _ROOT.rglob("__pycache__"):
+            _drop_entries(folder)
         _STAMP.parent.mkdir(exist_ok=True)
         _STAMP.write_text(stamp)

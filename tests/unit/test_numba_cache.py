@@ -30,8 +30,9 @@ def test_two_processes_saving_at_once_keep_every_entry(tmp_path: Path) -> None:
     procs = [subprocess.Popen([sys.executable, "-c", SAVER, str(tmp_path), who, str(n)])
              for who in ("a", "b")]
     assert all(p.wait(timeout=120) == 0 for p in procs)
-    import exoleg  # noqa: F401
     from numba.core.caching import IndexDataCacheFile
+
+    import exoleg  # noqa: F401
 
     f = IndexDataCacheFile(str(tmp_path), "f", "stamp")
     wrong = [(who, i) for who in ("a", "b") for i in range(n)

@@ -196,8 +196,7 @@ def test_control_with_the_identified_leg_as_with_the_true_one() -> None:
     # paper's PD + gravity holding its postures shows G itself: the identified leg holds
     # them 0.009 deg from where the true leg's law does, the fitted 0.68 deg (K_p^-1 of
     # its 9.7 % error in G).
-    from exoleg.validate.identify import children, identify_child, posture_errors, \
-        walking_tracking
+    from exoleg.validate.identify import children, identify_child, posture_errors, walking_tracking
 
     c = identify_child(children(1)[0], 0)
     walk = walking_tracking(c)

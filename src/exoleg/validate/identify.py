@@ -35,8 +35,8 @@ runtime's loop and drives.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -290,6 +290,8 @@ def summary(runs: list[IdentifyRun]) -> list[list[str]]:
                        ("base parameters' error (median), %", "base_error_pct"),
                        ("the fitted leg's G error max, %", "prior_g_max_pct"),
                        ("the plan's condition number", "condition"),
+                       ("walking tracking RMS with the true G, worst joint, deg",
+                        "walk_true_deg"),
                        ("walking tracking RMS, identified G vs true, largest |change| %",
                         "walk_identified_pct"),
                        ("walking tracking RMS, fitted G vs true, largest |change| %",
