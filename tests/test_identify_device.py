@@ -29,52 +29,83 @@ def _grid() -> np.ndarray:
     return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
 
 
-def test_a_spastic_child_identified_over_the_can_bus(tmp_path: Path) -> None:
-    """A GMFCS II 10-year-old with contracture and moderate spasticity, relaxed in the
-    device; the simulated device carries their true leg (segments off the tables), the
-    identification knows only the fitted one. The plan (10 s: the shortest; a clinic's is
-    120 s) runs over CANopen on the virtual bus, torque from the drives' torque actual
-    value. Measured: G of the identified leg 0.28 % of max |G| off the truth at worst
-    over the range of motion (the fitted leg's 7.8 %); held-out torque 1.0 / 3.2 / 1.0 %
-    of its RMS. Holding the child at no spasticity (or mild) instead leaves a thigh that
-    is not a body: refused."""
+def test_a_spastic_child_identified_in_stages_over_the_can_bus(tmp_path: Path) -> None:
+    """Li et al. 2022's stages. The device alone first (no child; the simulated device
+    carries the true device, its links off their model by 5 %), then a GMFCS II
+    10-year-old with contracture and moderate spasticity, relaxed in it (their segments
+    off the tables by 15 %, 2 cm), over CANopen on the virtual bus, torque from the
+    drives' torque actual value; the device identified is the device's share of the
+    prior. Plans of 10 s (the shortest; a clinic's are 120 s). Measured: G of the
+    identified leg 0.26 % of max |G| off the truth at worst over the range of motion (the
+    fitted leg's 1.6 %: the issue's goal is 1 %); the child's share of the base
+    parameters 2.2 % off (median), against 12.1 % for one stage from the same log (the
+    leg less the device's model); held-out torque 1.1 / 3.0 / 0.8 % of its RMS."""
     import pandas as pd
 
+    from exoleg.child.interaction import device_leg
     from exoleg.child.model import ChildModel, Spasticity
     from exoleg.child.passive import Contracture
-    from exoleg.identify.device import identify_device
+    from exoleg.device.config import DeviceConfig
+    from exoleg.identify.base import actuator_friction, base_parameters
+    from exoleg.identify.device import estimate_from_log, identify_device
+    from exoleg.identify.staged import child_share
+    from exoleg.runtime.log import read_log
     from exoleg.sizing import personalized_leg
-    from exoleg.validate.identify import _true_leg
+    from exoleg.validate.identify import true_legs
 
     child = ChildModel("c", 10.0, 1.38, 32.0, gmfcs=2,
                        contracture=Contracture.preset("predictcpgait"),
                        spasticity=Spasticity.preset("moderate"))
-    fitted = personalized_leg(child.sizing_child())
-    t = _true_leg(fitted, np.random.default_rng(5))
-    truth = exoleg.LegModel(t.links, g=t.g, name="the child's true leg")
-    r = identify_device("canopen", tmp_path, leg=fitted, child=child, duration=10.0,
-                        truth=truth, realtime=False, candidates=4, channel="identify")
+    fitted = personalized_leg(child.sizing_child())  # the child's segments + the device's
+    acts = DeviceConfig.load().actuators
+    model = DeviceConfig.load().leg(fitted)
+    truth, device_truth = true_legs(model, acts, np.random.default_rng(5))
+    device = identify_device("sim", tmp_path / "device", leg=fitted, duration=10.0,
+                             truth=device_truth, realtime=False, candidates=4,
+                             device_alone=True)
+    assert device.summary()["stage"] == "device alone"
+    r = identify_device("canopen", tmp_path / "leg", leg=fitted, child=child, duration=10.0,
+                        truth=truth, realtime=False, candidates=4, channel="identify",
+                        device=tmp_path / "device")
     grid = _grid()
     g = truth.G(grid)
     scale = np.abs(g).max()
     err = np.abs(r.identified.leg.G(grid) - g).max() / scale
-    prior = np.abs(fitted.G(grid) - g).max() / scale
-    assert err < 0.01 and err < prior / 10, (err, prior)
+    prior = np.abs(model.G(grid) - g).max() / scale
+    assert err < 0.006 and 0.01 < prior, (err, prior)
     assert np.all(r.held_out_pct < 6.0), r.held_out_pct
+    # the child's share: staged against one stage on the same log
+    b = base_parameters(model)
+    share = b.of(child_share(truth, device_truth))
+    floor = np.maximum(np.abs(share), 1e-2 * np.abs(share).max())
+    staged = np.median(np.abs(np.array(list(r.summary()["child_share"].values())) - share)
+                       / floor)
+    header, cols, _ = read_log(tmp_path / "leg" / "session" / "session.log")
+    _, one = estimate_from_log(cols, header["period"], r.reference, model,
+                               actuator_friction(acts)[1], child)
+    single = np.median(np.abs(b.of(child_share(one.leg, device_leg(model, acts))) - share)
+                       / floor)
+    assert staged < single / 2, (staged, single)
     # what it wrote: the leg file loads and is the identified leg; the parameters with
     # their intervals; the summary; the figure; the session's log
-    back = exoleg.load_leg(tmp_path / "leg.toml")
+    out = tmp_path / "leg"
+    back = exoleg.load_leg(out / "leg.toml")
     assert np.allclose(back.G(grid), r.identified.leg.G(grid), rtol=0, atol=1e-9)
-    table = pd.read_csv(tmp_path / "parameters.csv")
+    table = pd.read_csv(out / "parameters.csv")
     assert len(table) == 11 + 6  # 9 inertial + 2 armatures in motion; friction per joint
     assert np.all((table["low95"] < table["value"]) & (table["value"] < table["high95"]))
-    assert (tmp_path / "identify.png").stat().st_size > 10_000
-    assert (tmp_path / "identify.json").exists()
-    assert (tmp_path / "session" / "session.log").exists()
+    assert (out / "identify.png").stat().st_size > 10_000
+    assert (out / "identify.json").exists()
+    assert (out / "session" / "session.log").exists()
     # a second identification into the same folder keeps the first's session
     with pytest.raises(ParameterError, match="recorded session"):
-        identify_device("canopen", tmp_path, leg=fitted, duration=10.0, realtime=False,
+        identify_device("canopen", out, leg=fitted, duration=10.0, realtime=False,
                         channel="identify")
+    # the stages need the device identified at this child's telescope settings
+    with pytest.raises(ParameterError, match="identify the device alone with its "
+                                             "telescopes set for this child"):
+        identify_device("sim", tmp_path / "other", duration=10.0, realtime=False,
+                        device=tmp_path / "device")
 
 
 def test_identify_refuses_what_it_cannot_do(tmp_path: Path) -> None:

@@ -33,7 +33,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
     r = identify_device(args.backend, args.out, leg=leg, child=child,
                         duration=args.duration, seed=args.seed, interface=args.interface,
                         channel=args.channel or "exoleg",
-                        realtime=not args.no_realtime, truth=truth)
+                        realtime=not args.no_realtime, truth=truth,
+                        device_alone=args.device_alone, device=args.device)
     s = r.summary()
     _say(f"exoleg identify --backend {args.backend}: a plan of {s['plan']['periods']} x "
          f"{s['plan']['period_s']:g} s (condition number {s['plan']['condition_number']:.1f}"
@@ -47,6 +48,10 @@ def cmd_identify(args: argparse.Namespace) -> int:
              f"{row['low95']:.5g} to {row['high95']:.5g}"]
             for row in r.identified.table()],
            ["base parameter", "value", "SD", "95 % interval"])
+    if "child_share" in s:
+        _table([[k, f"{v:.5g}"] for k, v in s["child_share"].items()],
+               ["base parameter", "the child's share"],
+               title="the child: the identified leg less the identified device")
     out = Path(args.out)
     _say(f"wrote {out / 'leg.toml'} (loadable with --leg), {out / 'parameters.csv'}, "
          f"{out / 'identify.png'}, {out / 'identify.json'} and the session in "
@@ -77,6 +82,13 @@ def add_parser(sub: Any) -> None:
                    help="the child in the device (child.toml, from exoleg fit): their "
                         "passive moments are held at their model; simulated device: the "
                         "child as an actor, relaxed")
+    d.add_argument("--device-alone", action="store_true",
+                   help="the first stage: the device with no child in it, its telescopes "
+                        "set for --leg (identify a device once; then --device)")
+    d.add_argument("--device", type=Path, metavar="DIR",
+                   help="the folder of an identification of the device alone: its result "
+                        "is the device's share of the prior, and the child's share of the "
+                        "base parameters is reported (Li et al. 2022's stages)")
     d.add_argument("--sim-leg", type=Path, metavar="FILE",
                    help="simulated device: the leg it carries, when not --leg's (the "
                         "child's true segments; to see identification at work)")

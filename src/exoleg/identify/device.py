@@ -69,7 +69,8 @@ class Measured:
 class DeviceIdentification:
     """An identification on the device: the estimate, the plan and its reference, the
     plan's condition number, the held-out torque's prediction error (RMS per joint, N m,
-    and as a share of its RMS, %), and the measured signals."""
+    and as a share of its RMS, %), the measured signals and what the stage adds
+    (``details``)."""
 
     identified: Identified
     reference: PlanReference
@@ -78,10 +79,13 @@ class DeviceIdentification:
     held_out_pct: F64
     measured: Measured
     predicted: F64
+    details: dict[str, Any] = dataclasses.field(default_factory=dict)
 
     def summary(self) -> dict[str, Any]:
+        """What ``identify.json`` holds of it (with :attr:`details`: the stage, and the
+        device alone's SDs or the child's share)."""
         r = self.identified
-        return {"plan": {"period_s": self.reference.plan.period,
+        return {**self.details, "plan": {"period_s": self.reference.plan.period,
                          "periods": self.reference.plan.periods,
                          "duration_s": self.reference.duration,
                          "condition_number": self.condition},
@@ -116,13 +120,15 @@ def child_torques(child: ChildModel, period: float, q: F64, dq: F64) -> F64:
 
 def estimate_from_log(cols: dict[str, F64], period: float, reference: PlanReference,
                       prior: LegModel, friction_smoothing: F64,
-                      child: ChildModel | None = None) -> tuple[Measured, Identified]:
+                      child: ChildModel | None = None, prior_sds: F64 | None = None
+                      ) -> tuple[Measured, Identified]:
     """The leg identified from a session log's columns (:func:`~exoleg.runtime.log.read_log`)
     of ``reference`` played at ``period`` s: the plan's clock from the first WALKING tick
     (the tracking controller's reference runs from there), its last period held out;
     ``child``: the relaxed child's own torques at their model (:func:`child_torques`, on
     the encoders' angles and the drives' filtered rates) added to the drives' torque
-    (the drives work against them)."""
+    (the drives work against them); ``prior_sds``: the prior's SDs (default
+    :func:`~exoleg.identify.estimate.prior_sd`)."""
     from exoleg.control.contract import Mode
     from exoleg.identify.estimate import identify_leg
     from exoleg.identify.signals import HALF_WINDOW, derivatives
@@ -159,7 +165,7 @@ def estimate_from_log(cols: dict[str, F64], period: float, reference: PlanRefere
     step = 10  # every 10 ms: the smoothing leaves little between
     fit = ~held
     r = identify_leg(prior, qs[fit][::step], dq[fit][::step], ddq[fit][::step],
-                     ts[fit][::step], friction_smoothing)
+                     ts[fit][::step], friction_smoothing, prior_sds=prior_sds)
     return m, r
 
 
@@ -173,11 +179,43 @@ def predicted_torque(r: Identified, friction_smoothing: F64, q: F64, dq: F64,
     return out
 
 
+#: What ``identify.json`` says of an identification of the device alone (its ``stage``).
+DEVICE_ALONE = "device alone"
+
+
+def load_device(folder: str | Path) -> tuple[LegModel, F64]:
+    """An identification of the device alone (``exoleg identify --device-alone``'s
+    folder): the identified device (its ``leg.toml``) and its parameters' SDs (its
+    ``identify.json``); a ParameterError naming what is missing or wrong."""
+    import json
+
+    import exoleg
+    from exoleg.dynamics.kernels import N_INERTIAL
+    from exoleg.io import read_text
+
+    where = "exoleg identify --device"
+    d = Path(folder)
+    text = read_text(d / "identify.json", where)
+    try:
+        info = json.loads(text)
+    except ValueError as e:
+        raise ParameterError(where, str(d / "identify.json"), f"is not JSON: {e}") from None
+    if not isinstance(info, dict) or info.get("stage") != DEVICE_ALONE:
+        raise ParameterError(where, str(d), "is not an identification of the device alone "
+                             "(exoleg identify --device-alone writes one)")
+    sd = np.asarray(info.get("inertial_sd", []), dtype=float)
+    if sd.shape != (N_INERTIAL,) or not np.all(np.isfinite(sd)) or np.any(sd <= 0):
+        raise ParameterError(where, str(d / "identify.json"), f"inertial_sd: expected "
+                             f"{N_INERTIAL} positive SDs")
+    return exoleg.load_leg(d / "leg.toml"), sd
+
+
 def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
                     child: Any = None, body_mass: float | None = None,
                     duration: float = 120.0, seed: int = 0, interface: str | None = None,
                     channel: str = "exoleg", realtime: bool = True,
-                    truth: LegModel | None = None, candidates: int = 20
+                    truth: LegModel | None = None, candidates: int = 20,
+                    device_alone: bool = False, device: str | Path | None = None
                     ) -> DeviceIdentification:
     """Design a plan for the fitted ``leg`` (the child + device model, without the
     actuators: the device file's are added), play it on ``backend`` in a session under
@@ -187,8 +225,15 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
     (``identify.png``). ``child``: the :class:`~exoleg.child.model.ChildModel` in the
     device (relaxed: their effort off; their passive moments held at their model);
     ``truth``: on a simulated device, the leg it carries when not the model's (what a
-    child's real segments are: the test of this)."""
+    child's real segments are: the test of this).
+
+    Staged (:mod:`exoleg.identify.staged`): ``device_alone`` identifies the device with
+    no child in it, at ``leg``'s telescope settings (the prior its model,
+    :func:`~exoleg.child.interaction.device_leg`); ``device``, the folder of such an
+    identification, makes it the device's share of the prior, and ``identify.json`` then
+    holds the child's share of the base parameters."""
     import exoleg
+    from exoleg.child.interaction import device_leg
     from exoleg.device.config import DeviceConfig
     from exoleg.identify.base import actuator_friction
     from exoleg.identify.plan import check_plan, condition, design_plan, plan_limits
@@ -202,14 +247,28 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
                              "by the operator from the operator interface, which does not "
                              "offer identification yet: use the sim backend or simulated "
                              "nodes (canopen --interface virtual, ethercat --interface fake)")
+    if device_alone and (child is not None or device is not None):
+        raise ParameterError(where, "--device-alone", "no child is in the device alone (no "
+                             "--child), and it is the first stage (no --device)")
     folder = Path(out)
     check_folder(folder / "session")  # before the plan: a recorded session is kept
     leg = exoleg.paper_leg() if leg is None else leg
-    mass = (child.mass if child is not None else DEFAULT_BODY_MASS) if body_mass is None \
-        else body_mass
     config = DeviceConfig.load()
     acts = config.actuators
     fitted = config.leg(leg)
+    stage = DEVICE_ALONE if device_alone else "leg"
+    prior_sds = None
+    if device_alone:
+        fitted = device_leg(fitted, acts)
+        leg = LegModel(fitted.links, g=fitted.g, name=f"{fitted.name} ({leg.name})")
+    elif device is not None:
+        from exoleg.identify.staged import staged_prior
+
+        dev, dev_sd = load_device(device)
+        fitted, prior_sds = staged_prior(fitted, device_leg(fitted, acts), dev, dev_sd)
+        stage = "leg on the identified device"
+    mass = (child.mass if child is not None else DEFAULT_BODY_MASS) if body_mass is None \
+        else body_mass
     limits = plan_limits(config.safety, acts)
     plan: Plan = design_plan(fitted, acts, limits, duration=duration, candidates=candidates,
                              seed=seed)
@@ -229,25 +288,38 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
     header, cols, _ = read_log(path)
     _, smooth = actuator_friction(acts)
     try:
-        m, r = estimate_from_log(cols, header["period"], ref, fitted, smooth, child)
+        m, r = estimate_from_log(cols, header["period"], ref, fitted, smooth, child,
+                                 prior_sds)
     except ParameterError as e:
         hint = (" -- or the child's own torques are not their model's (relaxed? their "
                 "spasticity and contracture as in the child file?)" if child is not None
                 else "")
-        raise ParameterError(where, "estimate", f"{e.field}: {e.problem}{hint}; the session's log "
-                             f"is kept: {path}") from None
+        raise ParameterError(where, "estimate", f"{e.field}: {e.problem}{hint}; the "
+                             f"session's log is kept: {path}") from None
     pred = predicted_torque(r, smooth, m.q, m.dq, m.ddq)
     err = (pred - m.tau)[m.held_out]
     rms = np.sqrt(np.mean(err**2, axis=0))
-    share = 100 * rms / np.sqrt(np.mean(m.tau[m.held_out] ** 2, axis=0))
+    held = 100 * rms / np.sqrt(np.mean(m.tau[m.held_out] ** 2, axis=0))
+    extra: dict[str, Any] = {"stage": stage}
+    if device_alone:
+        extra["inertial_sd"] = np.asarray(r.inertial_sd).tolist()
+    elif device is not None:
+        from exoleg.identify.base import base_parameters
+        from exoleg.identify.staged import child_share
+
+        b = base_parameters(fitted)
+        extra["device"] = str(device)
+        extra["child_share"] = dict(zip(b.names, b.of(child_share(r.leg, dev)).tolist(),
+                                        strict=True))
     ident = DeviceIdentification(identified=r, reference=ref,
                                  condition=condition(plan, fitted), held_out_rms=rms,
-                                 held_out_pct=share, measured=m, predicted=pred)
+                                 held_out_pct=held, measured=m, predicted=pred,
+                                 details=extra)
     from exoleg.plots.identify import identify_figure
 
     with OutputFolder(folder) as o:
         exoleg.save_leg(r.leg, o.stage("leg.toml"), header=f"identified on the device "
-                        f"({backend}) from {r.samples} samples; prior: {leg.name}")
+                        f"({backend}, {stage}) from {r.samples} samples; prior: {leg.name}")
         _write_parameters(r, o.stage("parameters.csv"))
         identify_figure(ident, o.stage("identify.png"))
         write_json(o.stage("identify.json"), {**ident.summary(), "backend": backend,

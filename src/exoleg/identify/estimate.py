@@ -39,7 +39,9 @@ class Identified:
     """An identification: the base parameters (``names``, ``values``, their standard
     deviations ``sd``), the friction per joint (viscous N m s/rad, Coulomb N m) and its
     SD, the leg with the identified parameters (``leg``: the prior's moved to them), the
-    residual's RMS per joint (N m) and the number of samples."""
+    residual's RMS per joint (N m), the number of samples, and the SDs of the leg's
+    parameters in :func:`prior_sd`'s terms (``inertial_sd``: mass, first moments, inertia
+    about the centre of mass per link, then the armatures)."""
 
     names: tuple[str, ...]
     values: F64
@@ -49,6 +51,7 @@ class Identified:
     leg: LegModel
     residual_rms: F64
     samples: int
+    inertial_sd: F64 | None = None
 
     def table(self) -> list[dict[str, float | str]]:
         """One row per estimated parameter: name, value, SD, 95 % interval."""
@@ -81,11 +84,14 @@ def _states(q: ArrayLike, dq: ArrayLike, ddq: ArrayLike, tau: ArrayLike
 
 def identify_leg(prior: LegModel, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike,
                  tau: ArrayLike, friction_smoothing: ArrayLike | None = None,
-                 base: BaseParameters | None = None) -> Identified:
+                 base: BaseParameters | None = None,
+                 prior_sds: ArrayLike | None = None
+                 ) -> Identified:
     """The leg identified from samples (N, 3) of q, dq, ddq (rad, rad/s, rad/s^2) and the
     joint torques tau (N m): base parameters by weighted least squares, friction with
     them when ``friction_smoothing`` (rad/s per joint: the Coulomb term's) is given, the
-    full parameters from ``prior`` (the fitted leg, its geometry the regressor's)."""
+    full parameters from ``prior`` (the fitted leg, its geometry the regressor's) and
+    their SDs ``prior_sds`` (:func:`prior_sd`'s layout; default :func:`prior_sd`)."""
     Q, DQ, DDQ, TAU = _states(q, dq, ddq, tau)
     n = len(Q)
     b = base_parameters(prior) if base is None else base
@@ -121,7 +127,7 @@ def identify_leg(prior: LegModel, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike,
     Qw, Rw = np.linalg.qr((F / sd[None, :, None]).reshape(-1, F.shape[2]))
     cw = Qw.T @ (TAU / sd[None, :]).ravel()
     x0 = np.concatenate([prior.inertial(), np.zeros(nf)])
-    sdp = prior_sd(prior)
+    sdp = prior_sd(prior) if prior_sds is None else _check_sd(prior_sds, n_pi)
 
     def prior_rows(x: NDArray[np.floating]) -> tuple[F64, F64]:
         r: F64 = np.concatenate([(x[:n_pi] - x0[:n_pi]) / sdp, 0.1 * x[n_pi:]])
@@ -148,14 +154,19 @@ def identify_leg(prior: LegModel, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike,
     pi = x[:n_pi]
     K = b.K
     base_sd = np.sqrt(np.diag(K @ cov[:n_pi, :n_pi] @ K.T))
+    # the posterior's SDs in the prior's terms (the centroidal inertia linearised): what
+    # a later identification may take as its prior's (identify.staged)
+    D = prior_rows(x)[1][:n_pi, :n_pi] * sdp[:, None]
+    post_sd = np.sqrt(np.diag(D @ cov[:n_pi, :n_pi] @ D.T))
     residual = TAU - F @ x
     return Identified(names=b.names, values=np.asarray(K @ pi, dtype=np.float64),
                       sd=np.asarray(base_sd, dtype=np.float64),
                       friction=np.asarray(x[n_pi:].reshape(-1, 2), dtype=np.float64),
                       friction_sd=np.asarray(np.sqrt(np.diag(cov))[n_pi:].reshape(-1, 2),
                                              dtype=np.float64),
-                      leg=_leg(prior, np.asarray(pi, dtype=np.float64)),
-                      residual_rms=np.sqrt(np.mean(residual**2, axis=0)), samples=n)
+                      leg=leg_of(prior, np.asarray(pi, dtype=np.float64)),
+                      residual_rms=np.sqrt(np.mean(residual**2, axis=0)), samples=n,
+                      inertial_sd=np.asarray(post_sd, dtype=np.float64))
 
 
 #: How far the prior is trusted, one SD: a link's mass, first moments and inertia about
@@ -182,9 +193,18 @@ def prior_sd(prior: LegModel) -> F64:
     return np.maximum(out, 1e-9)
 
 
-def _leg(prior: LegModel, pi: F64) -> LegModel:
-    """The leg with the inertial parameters ``pi`` (the prior's geometry); refused (naming
-    the link) when it is not a physical body."""
+def _check_sd(sd: ArrayLike, n: int) -> F64:
+    v = np.asarray(sd, dtype=np.float64)
+    if v.shape != (n,) or not np.all(np.isfinite(v)) or np.any(v <= 0):
+        raise ParameterError("identify", "prior_sds", f"expected {n} positive finite SDs "
+                             "(prior_sd's layout)")
+    return v
+
+
+def leg_of(prior: LegModel, pi: F64, name: str | None = None) -> LegModel:
+    """The leg with the inertial parameters ``pi`` (the regressor's order) and ``prior``'s
+    geometry, called ``name`` (default: the prior's, identified); refused (naming the
+    link) when it is not a physical body."""
     links = []
     for i, link in enumerate(prior.links):
         m, mx, my, zz = pi[4 * i:4 * i + 4]
@@ -200,4 +220,4 @@ def _leg(prior: LegModel, pi: F64) -> LegModel:
     if np.any(arm < 0):
         raise ParameterError("identify", "armature", f"identified {np.round(arm, 4).tolist()}"
                              " kg m^2: an armature is never negative")
-    return LegModel(links, g=prior.g, name=f"{prior.name} (identified)", armature=arm)
+    return LegModel(links, g=prior.g, name=name or f"{prior.name} (identified)", armature=arm)

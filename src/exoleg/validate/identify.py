@@ -51,6 +51,10 @@ F64 = NDArray[np.float64]
 
 #: The torque noise, a share of each actuator's continuous torque (one SD per sample).
 TORQUE_NOISE = 0.01
+#: How a child's segments differ from the tables (mass and inertia SD, share; centre of
+#: mass SD along the link, m), and how the device's links differ from its model.
+CHILD_SPREAD = (0.15, 0.02)
+DEVICE_SPREAD = (0.05, 0.005)
 #: A child the device carries walking: with the true leg's model, the tracking error's
 #: RMS within this at every joint, deg (the shipped device's walks: 2-6 deg)
 CARRIED_DEG = 10.0
@@ -59,7 +63,9 @@ CARRIED_DEG = 10.0
 @dataclass(frozen=True)
 class IdentifyRun:
     """One child's measures: G's error (RMS and largest, % of max |G|), the fitted leg's,
-    the base parameters' (median, %), the plan's condition number; and the controllers
+    the base parameters' (median, %), the plan's condition number; the child's share of
+    the base parameters' error (median, %: the leg's less the device's model, one stage;
+    less the device identified, staged) and G's largest error staged; and the controllers
     given the identified or the fitted leg on the true one: the walking tracking RMS's
     largest departure from the true leg's over the joints (%; NaN when the device does
     not carry the child: the true leg's walk faulted), the paper's postures held (their
@@ -71,6 +77,9 @@ class IdentifyRun:
     prior_g_max_pct: float
     base_error_pct: float
     condition: float
+    child_one_stage_pct: float = float("nan")
+    child_staged_pct: float = float("nan")
+    staged_g_max_pct: float = float("nan")
     walk_true_deg: float = float("nan")
     walk_identified_pct: float = float("nan")
     walk_fitted_pct: float = float("nan")
@@ -87,21 +96,39 @@ def _encoded(par, q):  # type: ignore[no-untyped-def]
     return out
 
 
-def _true_leg(fitted: LegModel, rng: np.random.Generator) -> LegModel:
-    links = []
-    for lk in fitted.links:
-        k = max(0.5, rng.normal(1.0, 0.15))
-        links.append(dataclasses.replace(
-            lk, mass=lk.mass * k, com=(lk.com[0] + rng.normal(0, 0.02),
-                                       lk.com[1] + rng.normal(0, 0.005)),
-            izz=lk.izz * max(0.5, rng.normal(1.0, 0.15)), parts=()))
-    return LegModel(links, g=fitted.g, name=f"{fitted.name} (true)", armature=fitted.armature)
+def _perturbed(leg: LegModel, rng: np.random.Generator, share: float, along: float
+               ) -> LegModel:
+    """``leg`` with each link's mass and inertia x N(1, ``share``) (at least half) and its
+    centre of mass moved N(0, ``along``) along the link and a quarter of it across."""
+    links = [dataclasses.replace(
+        lk, mass=lk.mass * max(0.5, rng.normal(1.0, share)),
+        com=(lk.com[0] + rng.normal(0, along), lk.com[1] + rng.normal(0, along / 4)),
+        izz=lk.izz * max(0.5, rng.normal(1.0, share)), parts=()) for lk in leg.links]
+    return LegModel(links, g=leg.g, name=leg.name, armature=leg.armature)
+
+
+def true_legs(fitted: LegModel, actuators: tuple[Any, ...], rng: np.random.Generator
+              ) -> tuple[LegModel, LegModel]:
+    """A child's true leg in the device and the true device alone, for the ``fitted`` leg
+    (with the actuators): the child's segments off the tables (:data:`CHILD_SPREAD`), the
+    device's links off its model (:data:`DEVICE_SPREAD`), the rotors as modelled."""
+    from exoleg.child.interaction import device_leg
+    from exoleg.identify.estimate import leg_of
+    from exoleg.identify.staged import child_share
+
+    model = device_leg(fitted, actuators)
+    device = _perturbed(model, rng, *DEVICE_SPREAD)
+    child = _perturbed(leg_of(fitted, child_share(fitted, model)), rng, *CHILD_SPREAD)
+    pi = child.inertial() + device.inertial()
+    return leg_of(fitted, pi, f"{fitted.name} (true)"), device
 
 
 @dataclass(frozen=True)
 class ChildIdentification:
     """One simulated child's identification: their mass (kg), fitted leg (the prior), true
-    leg, the estimate, the plan and the limits it was designed within."""
+    leg, the estimate, the plan and the limits it was designed within; and staged (Li et
+    al. 2022): the device alone's model, true and identified legs, the child + device leg
+    identified on the identified device (``staged``)."""
 
     mass: float
     fitted: LegModel
@@ -109,45 +136,73 @@ class ChildIdentification:
     identified: Any
     plan: Any
     limits: Any
+    device_model: LegModel
+    device_true: LegModel
+    device: Any
+    staged: Any
+
+
+def _measured(true: LegModel, plan: Any, actuators: tuple[Any, ...], rng: np.random.Generator,
+              actor: Any = None) -> tuple[F64, F64, F64, F64]:
+    """What the device measures driving ``true`` through ``plan`` (every 10 ms): the
+    encoders' angles differentiated, and the drives' torque with its noise -- against the
+    ``actor``'s own torques, which are held at their model on the encoders' readings."""
+    from exoleg.identify.base import actuator_friction, friction_columns
+    from exoleg.identify.device import child_torques
+
+    dt = 1e-3
+    _, q, dq, ddq = plan.sample(dt)
+    theta, smooth = actuator_friction(actuators)
+    tau = (true.inverse_dynamics(q, dq, ddq) + friction_columns(dq, smooth) @ theta
+           + rng.normal(size=q.shape) * TORQUE_NOISE * np.array([a.continuous_torque
+                                                                 for a in actuators]))
+    enc = np.stack([_encoded(a.record(), q[:, j]) for j, a in enumerate(actuators)], axis=1)
+    if actor is not None:
+        # the drives work against the child's own; held at their model, on what the
+        # device measures (the encoders' angles and their rates), as exoleg identify does
+        tau = (tau - child_torques(actor, dt, q, dq)
+               + child_torques(actor, dt, enc, np.gradient(enc, dt, axis=0)))
+    qm, dqm, ddqm = derivatives(enc, dt)
+    tm = tau[HALF_WINDOW:-HALF_WINDOW]
+    step = 10  # every 10 ms: the smoothing leaves little between
+    return qm[::step], dqm[::step], ddqm[::step], tm[::step]
 
 
 def identify_child(child: object, seed: int, candidates: int = 4) -> ChildIdentification:
-    """One child: design, drive, measure, identify."""
+    """One child: design, drive, measure, identify -- in one stage, and staged."""
+    from exoleg.child.interaction import device_leg
     from exoleg.child.model import ChildModel
     from exoleg.control.safety import SafetyLimits
     from exoleg.device import with_actuators
     from exoleg.device.actuator import paper_actuators
-    from exoleg.identify.base import actuator_friction, friction_columns
-    from exoleg.identify.device import child_torques
+    from exoleg.identify.base import actuator_friction
     from exoleg.identify.estimate import identify_leg
     from exoleg.identify.plan import design_plan, plan_limits
+    from exoleg.identify.staged import staged_prior
     from exoleg.sizing import personalized_leg
     from exoleg.validate.gait_phase import SPASTICITY
 
     rng = np.random.default_rng(seed)
     acts = paper_actuators()
     fitted = with_actuators(personalized_leg(child))  # type: ignore[arg-type]
-    true = _true_leg(fitted, rng)
+    true, device_true = true_legs(fitted, acts, rng)
     lim = plan_limits(SafetyLimits.paper(), acts)
+    _, smooth = actuator_friction(acts)
+    # the device alone, no child in it: its own plan
+    device_model = device_leg(fitted, acts)
+    device_plan = design_plan(device_model, acts, lim, candidates=candidates, seed=seed)
+    device = identify_leg(device_model, *_measured(device_true, device_plan, acts, rng),
+                          smooth)
+    # the device with the child
     plan = design_plan(fitted, acts, lim, candidates=candidates, seed=seed)
-    dt = 1e-3
-    _, q, dq, ddq = plan.sample(dt)
-    theta, smooth = actuator_friction(acts)
     level = getattr(child, "gmfcs", None)
     actor = ChildModel.of(child, "predictcpgait" if level else "none", SPASTICITY[level or 0])
-    tau = (true.inverse_dynamics(q, dq, ddq) + friction_columns(dq, smooth) @ theta
-           - child_torques(actor, dt, q, dq)  # the drives work against the child's own
-           + rng.normal(size=q.shape) * TORQUE_NOISE * np.array([a.continuous_torque
-                                                                 for a in acts]))
-    enc = np.stack([_encoded(a.record(), q[:, j]) for j, a in enumerate(acts)], axis=1)
-    # the child's own held at their model, on what the device measures (the encoders'
-    # angles and their rates), as exoleg identify does
-    tau = tau + child_torques(actor, dt, enc, np.gradient(enc, dt, axis=0))
-    qm, dqm, ddqm = derivatives(enc, dt)
-    tm = tau[HALF_WINDOW:-HALF_WINDOW]
-    step = 10  # every 10 ms: the smoothing leaves little between
-    r = identify_leg(fitted, qm[::step], dqm[::step], ddqm[::step], tm[::step], smooth)
-    return ChildIdentification(float(child.mass), fitted, true, r, plan, lim)  # type: ignore[attr-defined]
+    data = _measured(true, plan, acts, rng, actor)
+    r = identify_leg(fitted, *data, smooth)
+    prior, sds = staged_prior(fitted, device_model, device.leg, device.inertial_sd)
+    staged = identify_leg(prior, *data, smooth, prior_sds=sds)
+    return ChildIdentification(float(child.mass), fitted, true, r, plan, lim,  # type: ignore[attr-defined]
+                               device_model, device_true, device, staged)
 
 
 def run_child(child: object, seed: int, candidates: int = 4, control: bool = False
@@ -157,6 +212,7 @@ def run_child(child: object, seed: int, candidates: int = 4, control: bool = Fal
     (:func:`walking_tracking`, :func:`posture_errors`)."""
     from exoleg.identify.base import base_parameters
     from exoleg.identify.plan import condition
+    from exoleg.identify.staged import child_share
 
     c = identify_child(child, seed, candidates)
     fitted, true, r, lim = c.fitted, c.true, c.identified, c.limits
@@ -165,9 +221,19 @@ def run_child(child: object, seed: int, candidates: int = 4, control: bool = Fal
     g_true = true.G(grid)
     scale = float(np.abs(g_true).max())
     err = r.leg.G(grid) - g_true
-    truth = base_parameters(true).of(true.inertial())
+    base = base_parameters(true)
+    truth = base.of(true.inertial())
     size = np.maximum(np.abs(truth), 1e-3 * np.abs(truth).max())
-    more: dict[str, float] = {}
+    # the child's share of the base parameters (what the motion tells of the child):
+    # the leg's less the device's model (one stage) or less the device identified
+    share = base.of(child_share(true, c.device_true))
+    floor = np.maximum(np.abs(share), 1e-2 * np.abs(share).max())
+    more: dict[str, float] = {
+        "child_one_stage_pct": 100 * float(np.median(np.abs(
+            base.of(child_share(r.leg, c.device_model)) - share) / floor)),
+        "child_staged_pct": 100 * float(np.median(np.abs(
+            base.of(child_share(c.staged.leg, c.device.leg)) - share) / floor)),
+        "staged_g_max_pct": 100 * float(np.abs(c.staged.leg.G(grid) - g_true).max()) / scale}
     if control:
         walk = walking_tracking(c)
         if walk:
@@ -290,6 +356,11 @@ def summary(runs: list[IdentifyRun]) -> list[list[str]]:
                        ("base parameters' error (median), %", "base_error_pct"),
                        ("the fitted leg's G error max, %", "prior_g_max_pct"),
                        ("the plan's condition number", "condition"),
+                       ("staged: G error max, % of max |G|", "staged_g_max_pct"),
+                       ("the child's share of the base parameters, error (median) %: "
+                        "one stage", "child_one_stage_pct"),
+                       ("the child's share of the base parameters, error (median) %: "
+                        "staged", "child_staged_pct"),
                        ("walking tracking RMS with the true G, worst joint, deg",
                         "walk_true_deg"),
                        ("walking tracking RMS, identified G vs true, largest |change| %",
