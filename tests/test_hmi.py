@@ -460,3 +460,43 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
     finally:
         phone.quit()
         desk.quit()
+
+
+def test_identification_is_a_step_of_fitting(hmi: Any, operator: Any) -> None:
+    """Issue 25: the operator interface offers identification as a step of fitting. The
+    operator starts it for the kept child (Ada), arms (at the start: the simulated child
+    folds when disarmed), Walk starts the plan, the session ends by itself once the plan
+    has played, and the identified leg becomes her kept fit: the next session runs on
+    it. Reference: the identification's own record (exoleg.identify.device)."""
+    d = operator
+    goto(d, "control")
+    fill(d, "plan", 10)
+    box = d.find_element("id", "arm-start")
+    if not box.is_selected():
+        press(d, "arm-start")
+    press(d, "identify")
+    wait_until("armed for the plan", lambda: text(d, "ctl-mode") == "STANDING", timeout=60)
+    press(d, "cmd-walk")
+    wait_until("the plan playing", lambda: text(d, "ctl-mode") == "WALKING")
+    shot(d, "identify")
+    info = httpx.get(f"{hmi.url}/api/info", headers=AUTH(hmi)).json()
+    folder = next(hmi.sessions.glob(f"*-{info['child']['child_id']}-identify"))
+    wait_until("the plan played", lambda: (folder / "identified" / "identify.json").exists(),
+               timeout=90)
+    result = json.loads((folder / "identified" / "identify.json").read_text())
+    assert all(v < 6.0 for v in result["held_out_pct"].values()), result["held_out_pct"]
+    run = json.loads(wait_until("the session's summary", lambda: (
+        folder / "run.json").exists() and (folder / "run.json").read_text(), timeout=30))
+    assert run["stopped_by"].startswith("the reference played to its end"), run
+    # kept: the next session runs on the identified leg
+    runs_on = wait_until("the identified leg kept", lambda: (
+        lambda i: "(identified)" in i["runs_on"] and i["runs_on"])(
+        httpx.get(f"{hmi.url}/api/info", headers=AUTH(hmi)).json()), timeout=30)
+    assert "Ada (" in runs_on
+    import exoleg
+
+    kept = exoleg.load_leg(folder / "identified" / "leg.toml")
+    assert kept.name in runs_on
+    actions = [json.loads(x) for x in (folder / "control.log").read_text().splitlines()]
+    said = [a for a in actions if a["command"] == "identification"]
+    assert said and said[0]["accepted"] and "kept for the next sessions" in said[0]["why"]

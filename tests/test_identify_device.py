@@ -116,7 +116,7 @@ def test_identify_refuses_what_it_cannot_do(tmp_path: Path) -> None:
 
     for args, text in (
             (("--backend", "canopen", "--interface", "socketcan", "--channel", "can0"),
-             "on a real device the plan is started by the operator"),
+             "on a real device the operator arms the device and starts the plan"),
             (("--backend", "canopen", "--interface", "socketcan", "--sim-leg", "x.toml"),
              "--sim-leg: the simulated device's leg"),
             (("--channel", "can0",), "--channel: goes with --backend canopen or ethercat"),

@@ -130,6 +130,8 @@ def actor_text(child: dict[str, Any], actor: dict[str, Any]) -> str:
     return f"{strength}, {spasticity}, {contracture}, {crouch}"
 #: the longest session the HMI starts, s (a session may be ended at any time before)
 MAX_DURATION = 3600.0
+#: an identification's plan, s (exoleg.identify.plan.design_plan's range)
+PLAN_RANGE = (10.0, 120.0)
 #: the names and texts of the modes, phases, events, faults and safety bits, from the
 #: enumerations the compiled tick uses (the page keeps no table of its own)
 VOCABULARY = vocabulary()
@@ -161,6 +163,36 @@ def _session_process(link: LoopLink, backend: str, interface: str | None, durati
         write_json(Path(folder) / "failed.json",
                     {"error": f"{type(e).__name__}: {e}", "time": time.time()})
         link.loop_ended()
+
+
+def _identify_process(link: LoopLink, backend: str, interface: str | None, plan: float,
+                      folder: str, leg_path: str | None, arm: bool, cpus: set[int] | None,
+                      child_path: str | None = None) -> None:
+    """An identification's own process (:func:`exoleg.identify.device.identify_device`
+    through the operator's link): the session in ``folder``, the identified leg and its
+    report in ``folder``/:data:`IDENTIFIED`; ``plan``: its length, s."""
+    import exoleg
+    from exoleg.identify.device import identify_device
+
+    if cpus:
+        with contextlib.suppress(AttributeError, OSError):
+            os.sched_setaffinity(0, cpus)
+    try:
+        from exoleg.child.model import ChildModel
+
+        leg = exoleg.load_leg(leg_path) if leg_path else None
+        child = ChildModel.load(child_path) if child_path else None
+        identify_device(backend, Path(folder) / IDENTIFIED, leg=leg, child=child,
+                        duration=plan, interface=interface, link=link, arm=arm,
+                        session=folder)
+    except BaseException as e:  # said on the Sessions page; the torque is off either way
+        write_json(Path(folder) / "failed.json",
+                   {"error": f"{type(e).__name__}: {e}", "time": time.time()})
+        link.loop_ended()
+
+
+#: an identification session's own folder for what it identified
+IDENTIFIED = "identified"
 
 
 def device_info(leg: Any) -> dict[str, Any]:
@@ -224,11 +256,13 @@ class HMI:
             self.api.attach(fixed[0], self.session)
 
     # ------------------------------------------------------------------ sessions
-    def start(self, duration: float, source: str, arm: bool = False
-              ) -> tuple[int, dict[str, Any]]:
+    def start(self, duration: float, source: str, arm: bool = False,
+              identify: bool = False) -> tuple[int, dict[str, Any]]:
         """Start a session (its own process) with the child kept, if any. ``arm``: arm as
         the loop starts -- only on the simulated device, whose child has no muscles of its
-        own and folds within about a second while the device is disarmed."""
+        own and folds within about a second while the device is disarmed. ``identify``:
+        the session plays identification's plan (``duration`` s of it; the operator starts
+        it with Walk) and the identified leg is kept for the sessions after."""
         with self.lock:
             try:
                 check_options(self.backend, self.interface, arm)
@@ -240,15 +274,17 @@ class HMI:
             if self.proc is not None and self.proc.is_alive():
                 return 409, {"error": f"session {self.session.name if self.session else ''}"
                                       " is running; end it first"}
-            if not (np.isfinite(duration) and 1.0 <= duration <= MAX_DURATION):
-                return 422, {"error": f"Duration (s): {duration:g} is outside 1-"
-                                      f"{MAX_DURATION:g} s"}
+            lo, hi, label = ((*PLAN_RANGE, "Plan (s)") if identify
+                             else (1.0, MAX_DURATION, "Duration (s)"))
+            if not (np.isfinite(duration) and lo <= duration <= hi):
+                return 422, {"error": f"{label}: {duration:g} is outside {lo:g}-{hi:g} s"}
             kept = self.kept
             if kept is not None and not kept["record"]["fits"]:
                 return 409, {"error": f"the device does not fit {kept['name']}: "
                                       f"{'; '.join(kept['record']['notes'])}"}
             stem = time.strftime("%Y%m%d-%H%M%S") + "-" + (kept["child_id"] if kept
                                                             else "paper-leg")
+            stem += "-identify" if identify else ""
             name, n = stem, 1
             while (self.root / name).exists():  # never into a recorded session's folder
                 n += 1
@@ -261,33 +297,44 @@ class HMI:
                                                    "child_id": kept["child_id"],
                                                    "fit_id": kept["id"]})
                 (folder / "leg.toml").write_text(kept["leg"], encoding="utf-8")
-                child_file = self._child_file(kept, folder)
+                child_file = self._child_file(kept, folder, identify)
             else:
                 child_file = None
             if self.registry is not None:
                 self.registry.add_session(name, kept["child_id"] if kept else None,
                                           kept["id"] if kept else None, time.time())
             link = LoopLink.new()
-            self.proc = mp.get_context("spawn").Process(
-                target=_session_process, name="exoleg-session", daemon=True,
-                args=(link, self.backend, self.interface, duration, str(folder),
-                      str(folder / "leg.toml") if kept else None, runs_on["body_mass"],
-                      arm, self.cpus, child_file))
+            leg_path = str(folder / "leg.toml") if kept else None
+            if identify:
+                target: Any = _identify_process
+                args: tuple[Any, ...] = (link, self.backend, self.interface, duration,
+                                         str(folder), leg_path, arm, self.cpus, child_file)
+            else:
+                target = _session_process
+                args = (link, self.backend, self.interface, duration, str(folder), leg_path,
+                        runs_on["body_mass"], arm, self.cpus, child_file)
+            self.proc = mp.get_context("spawn").Process(target=target, name="exoleg-session",
+                                                        daemon=True, args=args)
             self.proc.start()
             self.session = folder
             self.api.attach(link, folder)
+            what = (f"identification (a plan of {duration:g} s: Arm, then Walk starts it)"
+                    if identify else f"{duration:g} s")
             self.api.record(source, f"start session {name} for {runs_on['text']} "
-                            f"({duration:g} s, {self.backend}"
-                            f"{', armed at start' if arm else ''})", True)
-            threading.Thread(target=self._watch, args=(self.proc, link, folder),
+                            f"({what}, {self.backend}{', armed at start' if arm else ''})",
+                            True)
+            threading.Thread(target=self._watch, args=(self.proc, link, folder, identify),
                              daemon=True).start()
-            return 200, {"session": name, **runs_on}
+            return 200, {"session": name, **runs_on, "identify": identify}
 
-    def _child_file(self, kept: dict[str, Any], folder: Path) -> str | None:
+    def _child_file(self, kept: dict[str, Any], folder: Path, wanted: bool = False
+                    ) -> str | None:
         """The fitted child as the simulated device carries them (``child.toml`` in the
         session's folder, with the fit's actor settings: :func:`actor_model`), when the
-        session's device is simulated; None on a real bus, where the child is real."""
-        if not self._simulated():
+        session's device is simulated; None on a real bus, where the child is real --
+        unless the child's model is ``wanted`` there too (identification holds their
+        own torques at it)."""
+        if not (self._simulated() or wanted):
             return None
         model = actor_model(kept["record"]["child"], kept["record"].get("actor", {}))
         if model is None:
@@ -331,17 +378,49 @@ class HMI:
             self.leg = LegModel(links, g=g, name=name, armature=meta.get("armature"))
             self.info = device_info(self.leg)
 
-    def _watch(self, proc: Any, link: LoopLink, folder: Path) -> None:
+    def _watch(self, proc: Any, link: LoopLink, folder: Path, identify: bool = False
+               ) -> None:
         """When the session's process ends: its last applied commands and how it ended
-        go to its control.log, and the page sees no session."""
+        go to its control.log, and the page sees no session; an identification's leg is
+        kept for the sessions after (:meth:`keep_identified`)."""
         proc.join()
         with self.lock:
+            if identify:
+                self.keep_identified(folder)
             if self.api.link is not link:  # a new session started in between
                 return
             self.api.poll_applied()
             self.api.record("session", "session ended", True,
                             why=self.archive.summary(folder)["stopped_by"])
             self.api.detach()
+
+    def keep_identified(self, folder: Path) -> None:
+        """After an identification session in ``folder``: the identified leg, when there
+        is one, becomes a fit of the child (their fit's record, with what identified it)
+        kept for the next sessions; said in the session's control.log either way."""
+        import json
+
+        result = folder / IDENTIFIED / "identify.json"
+        kept = self.kept
+        if not result.exists():
+            self.api.record("session", "identification", False,
+                            why="no leg identified (the plan did not play to its end)")
+            return
+        summary = json.loads(result.read_text(encoding="utf-8"))
+        leg_text = (folder / IDENTIFIED / "leg.toml").read_text(encoding="utf-8")
+        text = ("held-out torque error " + ", ".join(
+            f"{j} {v:.1f} %" for j, v in summary["held_out_pct"].items()))
+        if self.registry is None or kept is None:
+            self.api.record("session", "identification", True,
+                            why=f"{text}; the paper's leg is kept (no child fitted)")
+            return
+        record = {**kept["record"], "identified": {"session": folder.name, **summary}}
+        fit_id = self.registry.add_fit(kept["child_id"], record, leg_text)
+        self.registry.keep(fit_id)
+        self._keep(self.registry.fit(fit_id))
+        self.api.record("session", "identification", True,
+                        why=f"{text}; the identified leg (fit {fit_id}) is kept for the "
+                            "next sessions")
 
     def end(self, source: str) -> tuple[int, dict[str, Any]]:
         with self.lock:
@@ -497,6 +576,22 @@ class HMI:
                 api.record(source_of(request), "start session", False, out["error"])
             return JSONResponse(out, status)
 
+        async def identify_start(request: Request) -> JSONResponse:
+            refused = api.refusal(request, "start identification")
+            if refused:
+                return refused
+            body = await body_of(request)
+            try:
+                plan = typed_number("Plan (s)", body.get("plan", PLAN_RANGE[1]))
+            except ValueError as e:
+                api.record(source_of(request), "start identification", False, str(e))
+                return JSONResponse({"error": str(e)}, 422)
+            status, out = self.start(plan, source_of(request), arm=body.get("arm") is True,
+                                     identify=True)
+            if status != 200:
+                api.record(source_of(request), "start identification", False, out["error"])
+            return JSONResponse(out, status)
+
         async def session_end(request: Request) -> JSONResponse:
             refused = api.refusal(request, "end session")
             if refused:
@@ -560,6 +655,7 @@ class HMI:
         routes = [Route("/", index), Route("/api/info", info),
                   Route("/api/fit", fit, methods=["POST"]),
                   Route("/api/session/start", session_start, methods=["POST"]),
+                  Route("/api/identify/start", identify_start, methods=["POST"]),
                   Route("/api/session/end", session_end, methods=["POST"]),
                   Route("/api/sessions", sessions),
                   Route("/api/sessions/{name}", session_detail),

@@ -44,8 +44,10 @@ F64 = NDArray[np.float64]
 #: On the simulated device, the step the child stands on beside the belt (m): the
 #: device's foot clear of the belt over any posture of the range of motion.
 STEP_M = 0.3
-#: The plan starts this long after the arming (s).
+#: The plan starts this long after the arming (s), on the command line.
 START_AFTER_S = 1.0
+#: From the operator interface, the operator has this long to arm and start the plan (s).
+OPERATOR_WAIT_S = 600.0
 #: The drives' measured torque in a session log: the buses' torque actual value, or the
 #: simulated device's delivered torque.
 TORQUE_COLUMNS = ("tau_meas_", "tau_")
@@ -215,7 +217,8 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
                     duration: float = 120.0, seed: int = 0, interface: str | None = None,
                     channel: str = "exoleg", realtime: bool = True,
                     truth: LegModel | None = None, candidates: int = 20,
-                    device_alone: bool = False, device: str | Path | None = None
+                    device_alone: bool = False, device: str | Path | None = None,
+                    link: Any = None, arm: bool = True, session: str | Path | None = None
                     ) -> DeviceIdentification:
     """Design a plan for the fitted ``leg`` (the child + device model, without the
     actuators: the device file's are added), play it on ``backend`` in a session under
@@ -239,19 +242,22 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
     from exoleg.identify.plan import check_plan, condition, design_plan, plan_limits
     from exoleg.io import OutputFolder, write_json
     from exoleg.runtime.log import read_log
+    from exoleg.runtime.loop import ENDS, REFERENCE_PLAYED
     from exoleg.runtime.session import DEFAULT_BODY_MASS, check_folder, run, simulated
 
     where = "exoleg identify"
-    if not simulated(backend, interface):
-        raise ParameterError(where, "--interface", "on a real device the plan is started "
-                             "by the operator from the operator interface, which does not "
-                             "offer identification yet: use the sim backend or simulated "
-                             "nodes (canopen --interface virtual, ethercat --interface fake)")
+    if link is None and not simulated(backend, interface):
+        raise ParameterError(where, "--interface", "on a real device the operator arms the "
+                             "device and starts the plan: identify from the operator "
+                             "interface (exoleg hmi), or here on the sim backend or "
+                             "simulated nodes (canopen --interface virtual, ethercat "
+                             "--interface fake)")
     if device_alone and (child is not None or device is not None):
         raise ParameterError(where, "--device-alone", "no child is in the device alone (no "
                              "--child), and it is the first stage (no --device)")
     folder = Path(out)
-    check_folder(folder / "session")  # before the plan: a recorded session is kept
+    session = folder / "session" if session is None else Path(session)
+    check_folder(session)  # before the plan: a recorded session is kept
     leg = exoleg.paper_leg() if leg is None else leg
     config = DeviceConfig.load()
     acts = config.actuators
@@ -277,12 +283,14 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
     if problems:
         raise ParameterError(where, "plan", "; ".join(problems))
     relaxed = None if child is None else dataclasses.replace(child, effort=False)
-    res, path = run(backend, START_AFTER_S + ref.duration + 0.5, folder / "session",
-                    arm=True, walk_after=START_AFTER_S, leg=leg if truth is None else truth,
-                    body_mass=mass, seed=seed, realtime=realtime, interface=interface,
-                    channel=channel, controller="pd-gravity", child=relaxed,
-                    reference=ref, step=STEP_M, model=None if truth is None else leg)
-    if not res.stopped_by.startswith("duration"):
+    wait = START_AFTER_S if link is None else OPERATOR_WAIT_S
+    res, path = run(backend, wait + ref.duration + 1.0, session,
+                    arm=arm or link is None, walk_after=START_AFTER_S if link is None else None,
+                    leg=leg if truth is None else truth, body_mass=mass, seed=seed,
+                    realtime=realtime, interface=interface, channel=channel,
+                    controller="pd-gravity", child=relaxed, reference=ref, step=STEP_M,
+                    model=None if truth is None else leg, link=link)
+    if not res.stopped_by.startswith(ENDS[REFERENCE_PLAYED]):
         raise SimulationError(f"{where}: the session stopped before the plan's end: "
                               f"{res.stopped_by} (its log: {path})")
     header, cols, _ = read_log(path)

@@ -134,9 +134,11 @@ STOP_GRACE_S = 5.0
 #: what ``on_tick`` returns to end the session (torque off, log closed), and why
 END_SESSION = -1
 LINK_LOST = -2
+REFERENCE_PLAYED = -3
 ENDS = {END_SESSION: "the operator ended the session",
         LINK_LOST: "link lost: the operator interface's heartbeat stopped (nobody could "
-                   "stop the device from a page)"}
+                   "stop the device from a page)",
+        REFERENCE_PLAYED: "the reference played to its end"}
 
 
 def run_session(backend: Device, controller: Controller, duration: float, period: float,
@@ -148,7 +150,8 @@ def run_session(backend: Device, controller: Controller, duration: float, period
                 scenery: Callable[[dict[str, Any]], None] | None = None) -> SessionResult:
     """Run ``duration`` s of ticks; ``commands``: tick -> operator command (arm, walk...).
     ``on_tick(k, out, sensors, late)`` may return a command for the next tick (the
-    operator's way in), or :data:`END_SESSION` / :data:`LINK_LOST` (:data:`ENDS`). Every
+    operator's way in), or :data:`END_SESSION` / :data:`LINK_LOST` /
+    :data:`REFERENCE_PLAYED` (:data:`ENDS`). Every
     tick: read, update, log, write (the drives enabled in the armed modes). The end of
     the duration, the operator's end and a lost link are controlled stops while the child
     walks: the loop commands a stand, goes on until the supervisor stands (at most

@@ -138,7 +138,8 @@ class OperatorRules:
         """Why ``change`` is refused ('' when it is within bounds)."""
         _, bounds = self.gains()
         if not bounds:
-            return "no session is running"
+            return ("no session is running" if self.link is None else
+                    "this session has no gains to change (identification's plan)")
         for k, v in change.items():
             if k not in bounds:
                 return f"unknown gain {k!r} (allowed: {', '.join(GAIN_NAMES)})"

@@ -17,6 +17,7 @@ from exoleg.runtime.loop import (
     LOG_HEAD,
     LOG_TAIL,
     OVERRUN_S,
+    REFERENCE_PLAYED,
     Device,
     SessionResult,
     run_session,
@@ -48,12 +49,13 @@ def simulated(backend: str, interface: str | None = None) -> bool:
 def check_options(backend: str, interface: str | None = None, arm: bool = False,
                   walk_after: float | None = None, bus_timeout: float | None = None,
                   overrun: float = OVERRUN_S, controller: str = "walk",
-                  link: Any = None) -> None:
+                  link: Any = None, plan: bool = False) -> None:
     """Refuses (ParameterError) what :func:`run` refuses before it touches a bus: an
     unknown backend or controller, arming at the start on a real device (there the
     operator arms, not a command line), walking without arming, a bus timeout outside
     0.1 ms to the overrun limit, an operator interface for a controller other than the
-    walking one (its gains and pages are the walking controller's)."""
+    walking one (its gains and pages are the walking controller's) unless it follows
+    identification's ``plan``."""
     if backend not in BACKENDS:
         raise ParameterError("exoleg run", "--backend", f"unknown {backend!r} (allowed: "
                              + ", ".join(BACKENDS) + ")")
@@ -71,9 +73,10 @@ def check_options(backend: str, interface: str | None = None, arm: bool = False,
     if walk_after is not None and not arm:
         raise ParameterError("exoleg run", "--walk-after", "needs --arm (no motion without "
                              "arming)")
-    if link is not None and controller != "walk":
+    if link is not None and controller != "walk" and not plan:
         raise ParameterError("exoleg run", "--hmi", f"the operator interface runs the "
-                             f"walking controller, not {controller!r}")
+                             f"walking controller, not {controller!r} (but for "
+                             "identification's plan)")
 
 
 #: the files that make a recorded session (a folder holding any of them holds one)
@@ -225,7 +228,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     import os
 
     check_options(backend, interface, arm, walk_after, bus_timeout, overrun, controller,
-                  link)
+                  link, plan=reference is not None)
     folder, lock = claim_folder(out)
     try:
         return _run(backend, duration, folder, period, arm, walk_after, leg, body_mass,
@@ -289,16 +292,21 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
     if walk_after is not None:
         commands[max(1, int(round(walk_after / period)))] = int(Command.WALK)
 
+    # a reference with an end (identification's plan) ends the session once played
+    played = getattr(reference, "duration", None)
+
     def on_tick(k: int, out: dict[str, Any], sensors: dict[str, Any], late: float
                 ) -> int | None:
         if inject is not None:
             inject(k, rig)
+        if played is not None and getattr(ctl, "clock", 0.0) >= played:
+            return REFERENCE_PLAYED
         if link is None:
             return None
         # 100 Hz to the operator's side: enough for a person, cheap for the loop
         link.loop_tick(k, k * period, out, sensors, late, period, publish=k % 10 == 0)
         cmd, change = link.loop_poll()
-        if change is not None:
+        if change is not None and tunable:  # (the web side refuses any other)
             ctl.set_gains(change)
             link.loop_gains(ctl.gains_now())
         return cmd
@@ -309,7 +317,10 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
         if sim is not None:
             sim.walking = out["mode"] in WALKING_MODES
 
-    if link is not None:
+    # the page's gains are the walking controller's: another law (identification's plan)
+    # publishes none, and the web side refuses a change
+    tunable = controller == "walk"
+    if link is not None and tunable:
         link.loop_gains(ctl.gains_now())
     try:
         res = run_session(b, ctl, duration, period, log, commands, realtime=realtime,

@@ -385,12 +385,14 @@ $("release").onclick = async () => {
   await act("DELETE", "/api/operator", undefined, "control given up");
   S.operator = ""; sessionStorage.removeItem("exoleg-operator"); refreshOperator();
 };
+const freshLive = () => { S.hist = []; S.events = []; S.lastMode = null; S.lastEvent = -1; S.eventCount = 0; refreshInfo(); };
 $("start").onclick = async () => {
   const r = await act("POST", "/api/session/start", {duration: $("duration").value, arm: $("arm-start").checked}, "session started");
-  if (r.ok) {
-    say(`session ${r.data.session} started for ${r.data.text}`, true);
-    S.hist = []; S.events = []; S.lastMode = null; S.lastEvent = -1; S.eventCount = 0; refreshInfo();
-  }
+  if (r.ok) { say(`session ${r.data.session} started for ${r.data.text}`, true); freshLive(); }
+};
+$("identify").onclick = async () => {
+  const r = await act("POST", "/api/identify/start", {plan: $("plan").value, arm: $("arm-start").checked}, "identification started");
+  if (r.ok) { say(`identification ${r.data.session} started for ${r.data.text}: Arm, then Walk starts the plan`, true); freshLive(); }
 };
 const ARMED = () => VOC().armed || [];  // the modes in which the drives are enabled
 $("end").onclick = async () => {
