@@ -175,8 +175,9 @@ def test_simulated_children_identified_within_the_goal() -> None:
     # IV, typically developing, GMFCS II): their segments off the tables, 20-bit encoders
     # differentiated over 41 ms, torque noise 1 % of continuous, each child's passive
     # moments and their level's spasticity against the drives, held at their model. The
-    # issue's goal: G RMS <= 1 %, max <= 3 % of max |G|. Measured on these three: RMS
-    # 0.008-0.049 %, max 0.024-0.114 %, the fitted legs 9.7-12.2 % off. (With the prior
+    # issue's goal: G RMS <= 1 %, max <= 3 % of max |G|. Measured on these three (their
+    # segments 15 % off the tables, the device's links 5 % off its model): RMS
+    # 0.019-0.032 %, max 0.048-0.063 %, the fitted legs 0.91-5.9 % off. (With the prior
     # on the inertia about the joint rather than the centre of mass, one child in ten
     # came out with a foot that is not a body.)
     from exoleg.validate.identify import children, run_child
@@ -184,18 +185,18 @@ def test_simulated_children_identified_within_the_goal() -> None:
     for i, c in enumerate(children(3)):
         r = run_child(c, i)
         assert r.g_rms_pct <= 1.0 and r.g_max_pct <= 3.0, r
-        assert r.g_max_pct < r.prior_g_max_pct / 20, r
+        assert r.g_max_pct < r.prior_g_max_pct / 10, r
 
 
 def test_control_with_the_identified_leg_as_with_the_true_one() -> None:
     # The issue: gravity compensation with the identified leg tracks as well as with the
     # true leg (walking RMS error within 10 %). The walking controller on a GMFCS IV
     # 9-year-old's true leg (passive), given the true, identified or fitted model: the
-    # tracking RMS with the identified G 0.16 % from the true G's at worst over the
-    # joints, with the fitted G 4.7 % (measured). Walking is impedance-dominated; the
+    # tracking RMS with the identified G 0.83 % from the true G's at worst over the
+    # joints, with the fitted G 1.2 % (measured). Walking is impedance-dominated; the
     # paper's PD + gravity holding its postures shows G itself: the identified leg holds
-    # them 0.009 deg from where the true leg's law does, the fitted 0.68 deg (K_p^-1 of
-    # its 9.7 % error in G).
+    # them 0.018 deg from where the true leg's law does, the fitted 0.23 deg (K_p^-1 of
+    # its 5.9 % error in G).
     from exoleg.validate.identify import children, identify_child, posture_errors, walking_tracking
 
     c = identify_child(children(1)[0], 0)
@@ -203,4 +204,4 @@ def test_control_with_the_identified_leg_as_with_the_true_one() -> None:
     assert walk, "the device carries this child"
     assert np.all(np.abs(walk["identified"] / walk["true"] - 1) <= 0.10), walk
     held = posture_errors(c)
-    assert held["identified"] < np.radians(0.05) < np.radians(0.3) < held["fitted"], held
+    assert held["identified"] < np.radians(0.05) < np.radians(0.15) < held["fitted"], held

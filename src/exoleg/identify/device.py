@@ -55,9 +55,9 @@ TORQUE_COLUMNS = ("tau_meas_", "tau_")
 
 @dataclass(frozen=True)
 class Measured:
-    """What a session logged of a plan, ready for the estimate: time from the plan's
-    start (s), angles, rates, accelerations (rad...), the drives' torque (N m) with the
-    child's passive moments at their model added, and which samples are held out."""
+    """What a session logged of a plan, ready for the estimate: time from the reference's
+    start (s), angles, rates, accelerations (rad, rad/s, rad/s^2), the drives' torque
+    (N m) with the child's own at their model added, and which samples are held out."""
 
     t: F64
     q: F64
@@ -87,10 +87,10 @@ class DeviceIdentification:
         """What ``identify.json`` holds of it (with :attr:`details`: the stage, and the
         device alone's SDs or the child's share)."""
         r = self.identified
-        return {**self.details, "plan": {"period_s": self.reference.plan.period,
-                         "periods": self.reference.plan.periods,
-                         "duration_s": self.reference.duration,
-                         "condition_number": self.condition},
+        plan = {"period_s": self.reference.plan.period,
+                "periods": self.reference.plan.periods,
+                "duration_s": self.reference.duration, "condition_number": self.condition}
+        return {**self.details, "plan": plan,
                 "samples": r.samples,
                 "residual_rms_nm": dict(zip(JOINTS, r.residual_rms.tolist(), strict=True)),
                 "held_out_rms_nm": dict(zip(JOINTS, self.held_out_rms.tolist(), strict=True)),
@@ -143,7 +143,8 @@ def estimate_from_log(cols: dict[str, F64], period: float, reference: PlanRefere
     n = int(round(reference.duration / period)) + 1
     if first + n > len(cols["mode"]) or not np.all(cols["mode"][first:first + n]
                                                   == Mode.WALKING):
-        raise ParameterError(where, "session", "the plan did not play to its end")
+        raise ParameterError(where, "session", "the plan did not play through once started "
+                             "(stopped or paused: a plan is played whole)")
     prefix = next((p for p in TORQUE_COLUMNS if f"{p}hip" in cols), None)
     if prefix is None:
         raise ParameterError(where, "session", "the log holds no drive torque ("
