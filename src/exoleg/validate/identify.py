@@ -2,20 +2,21 @@
 
 For each child of the design range (8-12 years, both sexes, typically developing and
 GMFCS I-IV, percentiles 10-90 of their growth charts), the **fitted** leg is exoleg's
-model of them (:func:`exoleg.sizing.personalized_leg`, the device's actuators), and the
-**true** leg the same with each link's mass, centre of mass and inertia off the tables
-as a child's are (mass and inertia x N(1, 0.15), the centre of mass N(0, 2 cm) along the
-link and N(0, 0.5 cm) across; the link lengths are the telescopes', known). The plan is
-designed on the fitted leg (:func:`exoleg.identify.plan.design_plan`), the true leg
-driven through it; what the identification reads is what the device would measure:
+model of them (:func:`exoleg.sizing.personalized_leg`: their segments from the tables
+and the device's parts, with its actuators), and the **true** leg the child's segments
+off the tables as a child's are (:data:`CHILD_SPREAD`: mass and inertia x N(1, 0.15),
+the centre of mass N(0, 2 cm) along the link, a quarter of it across) on a device whose
+links are off its model by less (:data:`DEVICE_SPREAD`); the link lengths are the
+telescopes', known. Plans are designed on the models (:func:`design_plan`), the true
+legs driven through them; what the identification reads is what the device would
+measure:
 
 * the joint angles through the 20-bit encoders (:func:`exoleg.device.actuator.encode`),
   their rates and accelerations by a zero-phase quadratic fit over 41 ms (a
   Savitzky-Golay differentiator: the identification runs offline on the recording);
 * the joint torques: the true leg's inverse dynamics plus the actuators' friction, with
   noise of 1 % of each actuator's continuous torque per sample (the drive's current
-  measurement through k_t N; a choice, above the EPOS4's current resolution).
-
+  measurement through k_t N; a choice, above the EPOS4's current resolution);
 * the child's own torques against the drives': each child as an actor
   (:class:`~exoleg.child.model.ChildModel`, relaxed): their passive moments (with the
   shipped contracture for a child with CP) and their level's spasticity (tone,
@@ -25,10 +26,14 @@ driven through it; what the identification reads is what the device would measur
   simulator's own here, so what this measures is the signals' part, not a model's
   error).
 
-Measured: G of the identified leg
-against the true one over a grid of the plan's range of motion (9 x 9 x 9), RMS and
-largest as a share of the largest |G|; the base parameters' relative errors (median);
-and the fitted leg's G error beside them. The plan is played offline, not through the
+Identified in one stage (the fitted leg the prior) and staged (the device alone first,
+its plan of its own; then the device with the child, the identified device its share of
+the prior: :mod:`exoleg.identify.staged`). Measured: G of the identified leg against the
+true one over a grid of the plan's range of motion (9 x 9 x 9), RMS and largest as a
+share of the largest |G|; the base parameters' relative errors (median); the fitted
+leg's G error beside them; the child's share of the base parameters, one stage and
+staged; and, given each model, the walking controller on the true leg and the paper's
+PD + gravity holding its postures. Offline: ``exoleg identify`` plays a plan through the
 runtime's loop and drives.
 """
 
