@@ -10,6 +10,10 @@ from exoleg.cli._common import _count, _say, _table
 from exoleg.cli.simulate_walk import _DETECTION_HEADER, _detection_rows
 
 
+def _ms(x: float) -> str:
+    return "-" if x != x else f"{x:.0f}"
+
+
 # --------------------------------------------------------------------------- validate
 def cmd_validate(args: argparse.Namespace) -> int:
     if args.identify:
@@ -40,7 +44,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     if args.gait_phase:
         from exoleg.validate.gait_phase import evaluate
 
-        rows, rows_ok, runs = evaluate(strides=args.strides)
+        rows, rows_ok, runs, faults = evaluate(strides=args.strides)
         _table([[r.child, f"x{r.noise:g}", str(r.strides),
                  "stopped by the safety layer" if r.fault else "ok"] for r in runs],
                ["child", "sensor noise", "strides", "walk"])
@@ -49,6 +53,16 @@ def cmd_validate(args: argparse.Namespace) -> int:
         if rows_ok and len(rows_ok) != len(rows) or any(r.fault for r in runs):
             _table(_detection_rows(rows_ok), _DETECTION_HEADER,
                    title="the same, runs the safety layer did not stop")
+        _table([[case if i == 0 else "", r["event"], _ms(r["median_abs_error_ms"]),
+                 _ms(r["p95_abs_error_ms"]), str(r["missed"]), str(r["false"]),
+                 f"{100 * r['in_strides']:.0f} %"]
+                for case, table in faults.items()
+                for i, r in enumerate(x for x in table if x["event"] in ("initial contact",
+                                                                          "toe off"))],
+               ["sensor fault", "event", "median |error| ms", "p95 |error| ms", "missed",
+                "extra", "in strides"],
+               title="sensor faults, replayed through the detector over the same walks "
+                     "(FSR only: the IMU is not fused yet)")
         _say("published, shank gyroscope: initial contact -25 ms, foot off < 75 ms, > 98 % "
              "detected (Catalfamo et al. 2010); children with CP: onset < 100 ms, > 99 % of "
              "phases (Behboodi et al. 2019)")

@@ -42,9 +42,11 @@ class DetectionRun:
 def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
              children: tuple[tuple[str, float, str, int | None], ...] = CHILDREN,
              seed: int = 0
-             ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[DetectionRun]]:
+             ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[DetectionRun],
+                        dict[str, list[dict[str, Any]]]]:
     """(the detection table over every run, over the runs the safety layer did not stop,
-    the runs). Each child walks ``strides`` strides at each noise level."""
+    the runs, the fault cases replayed over the runs the safety layer did not stop:
+    :func:`fault_cases`). Each child walks ``strides`` strides at each noise level."""
     from exoleg.child.model import ChildModel
     from exoleg.control.safety import Limited
     from exoleg.sim.metrics import detection_table
@@ -68,4 +70,50 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
             runs.append(DetectionRun(label, n, strides,
                                      bool(np.any(r.safety_status & Limited.FAULT))))
     ok = [r for r, run in zip(results, runs, strict=True) if not run.fault]
-    return detection_table(results), detection_table(ok) if ok else [], runs
+    return (detection_table(results), detection_table(ok) if ok else [], runs,
+            fault_cases(ok))
+
+
+#: The foot board's full scale, counts (12-bit ADC).
+FULL_SCALE = 4095.0
+#: Sensor faults, replayed over the walks' FSR readings through the controller's own
+#: detector (open loop: each walk itself ran on its clean readings): what the board reads
+#: instead of each tick's counts (n, 4: heel, met1, met5, hallux) at times t (s).
+FAULTS = {
+    "none (the walks' own readings, replayed)": lambda c, t: c,
+    "heel sensor failed (reads 0)": lambda c, t: _set(c, 0, 0.0),
+    "hallux sensor failed (reads 0)": lambda c, t: _set(c, 3, 0.0),
+    "first metatarsal preloaded by the strap (+25 % of full scale)":
+        lambda c, t: _set(c, 1, np.minimum(c[:, 1] + 0.25 * FULL_SCALE, FULL_SCALE)),
+    "every sensor drifting up, +50 % of its reading per minute":
+        lambda c, t: np.minimum(c * (1.0 + 0.5 * (t - t[0]) / 60.0)[:, None], FULL_SCALE),
+}
+
+
+def _set(c: Any, i: int, value: Any) -> Any:
+    out = c.copy()
+    out[:, i] = value
+    return out
+
+
+def fault_cases(results: list[Any], stride_time: float = 1.1
+                ) -> dict[str, list[dict[str, Any]]]:
+    """Per :data:`FAULTS` case, the detection table (:func:`exoleg.control.replay.
+    event_rows`) of the controller's detector replayed from a fresh state over each
+    walk's FSR counts with the fault, against the walk's true events."""
+    from exoleg.control import gait_phase as gp
+    from exoleg.control.replay import detect_all, event_rows
+    from exoleg.device.config import DeviceConfig
+
+    cfg = DeviceConfig.load()
+    d = cfg.detector.record(cfg.fsr_floor_counts, stride_time)
+    out = {}
+    for name, fault in FAULTS.items():
+        series = []
+        for r in results:
+            counts = np.ascontiguousarray(fault(np.asarray(r.fsr, dtype=float), r.t))
+            bits = detect_all(d, gp.new_state(d), counts, r.t)
+            walking = r.t >= r.walk_start
+            series.append((r.t[walking], bits[walking], r.true_events()[walking]))
+        out[name] = event_rows(series)
+    return out
