@@ -255,7 +255,8 @@ def test_with_the_child_every_walk_goes_on_and_foot_flat_and_heel_off_are_seen()
     # now stops)
     from exoleg.validate.gait_phase import evaluate
 
-    rows, _, runs, faults = evaluate(strides=20)
+    v = evaluate(strides=20)
+    rows, runs, faults = v.rows, v.runs, v.faults
     assert not any(r.fault for r in runs)
     # the replay (exoleg detect's detector over the walks' own readings, a fresh state)
     # gives the closed loop's events exactly

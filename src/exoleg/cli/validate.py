@@ -44,10 +44,11 @@ def cmd_validate(args: argparse.Namespace) -> int:
     if args.gait_phase:
         from exoleg.validate.gait_phase import evaluate
 
-        rows, rows_ok, runs, faults = evaluate(strides=args.strides)
-        _table([[r.child, f"x{r.noise:g}", str(r.strides),
+        v = evaluate(strides=args.strides)
+        rows, rows_ok, runs, faults = v.rows, v.rows_ok, v.runs, v.faults
+        _table([[r.child, f"x{r.noise:g}", f"{r.stride_time:g} s", str(r.strides),
                  "stopped by the safety layer" if r.fault else "ok"] for r in runs],
-               ["child", "sensor noise", "strides", "walk"])
+               ["child", "sensor noise", "stride", "strides", "walk"])
         _table(_detection_rows(rows), _DETECTION_HEADER,
                title="gait-phase detection (FSR) against the true contacts, all runs")
         if rows_ok and len(rows_ok) != len(rows) or any(r.fault for r in runs):
@@ -63,6 +64,9 @@ def cmd_validate(args: argparse.Namespace) -> int:
                 "extra", "in strides"],
                title="sensor faults, replayed through the detector over the same walks "
                      "(FSR only: the IMU is not fused yet)")
+        for st, table in v.slow.items():
+            _table(_detection_rows(table), _DETECTION_HEADER,
+                   title=f"the same children walking slowly, strides of {st:g} s (x1 noise)")
         _say("published, shank gyroscope: initial contact -25 ms, foot off < 75 ms, > 98 % "
              "detected (Catalfamo et al. 2010); children with CP: onset < 100 ms, > 99 % of "
              "phases (Behboodi et al. 2019)")

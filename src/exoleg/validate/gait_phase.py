@@ -26,6 +26,8 @@ CHILDREN: tuple[tuple[str, float, str, int | None], ...] = (
     ("TD girl 9 y", 9.0, "female", None),
 )
 NOISE = (0.0, 1.0, 3.0)
+#: slower walking, stride times (s): the issue's range reaches 4 s
+SLOW = (2.0, 4.0)
 #: each child walks as an actor (:mod:`exoleg.child`): their own effort with their
 #: level's strength, and this spasticity preset by GMFCS level (0: typically developing)
 SPASTICITY = {0: "none", 1: "mild", 2: "mild", 3: "moderate", 4: "moderate"}
@@ -37,23 +39,38 @@ class DetectionRun:
     noise: float
     strides: int
     fault: bool
+    stride_time: float = 1.1
+
+
+@dataclass(frozen=True)
+class GaitPhaseValidation:
+    """What ``exoleg validate --gait-phase`` measures: the detection table over every
+    walk at the expected stride time (``rows``) and over those the safety layer did not
+    stop (``rows_ok``), the walks (``runs``), the sensor faults replayed over the latter
+    (``faults``, :func:`fault_cases`), and per slower stride time (s) the table of the
+    children walking so (``slow``)."""
+
+    rows: list[dict[str, Any]]
+    rows_ok: list[dict[str, Any]]
+    runs: list[DetectionRun]
+    faults: dict[str, list[dict[str, Any]]]
+    slow: dict[float, list[dict[str, Any]]]
 
 
 def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
              children: tuple[tuple[str, float, str, int | None], ...] = CHILDREN,
-             seed: int = 0
-             ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[DetectionRun],
-                        dict[str, list[dict[str, Any]]]]:
-    """(the detection table over every run, over the runs the safety layer did not stop,
-    the runs, the fault cases replayed over the runs the safety layer did not stop:
-    :func:`fault_cases`). Each child walks ``strides`` strides at each noise level."""
+             seed: int = 0, slow: tuple[float, ...] = SLOW) -> GaitPhaseValidation:
+    """Each child walks ``strides`` strides at each noise level at the expected 1.1 s
+    stride, and at the datasheet noise at each of the ``slow`` stride times (s)."""
     from exoleg.child.model import ChildModel
     from exoleg.control.safety import Limited
     from exoleg.sim.metrics import detection_table
     from exoleg.sim.walk import simulate_walk
     from exoleg.sizing import Child, estimate_dimensions, fit_device, growth, personalized_leg
 
-    results, runs = [], []
+    results: list[Any] = []  # (walk, run) at the expected stride
+    runs: list[DetectionRun] = []
+    slow_results: dict[float, list[Any]] = {s: [] for s in slow}
     for label, age, sex, gmfcs in children:
         chart = growth.chart_for(gmfcs)
         h = growth.value_at(chart, sex, "height", age, 50.0)
@@ -63,15 +80,23 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
         leg = personalized_leg(child, fit)
         ankle = estimate_dimensions(child).ankle_height
         actor = ChildModel.of(child, spasticity=SPASTICITY[gmfcs or 0])
-        for k, n in enumerate(noise):
+        walks = [(n, 1.1, k) for k, n in enumerate(noise)] + [
+            (1.0, st, len(noise) + k) for k, st in enumerate(slow)]
+        for n, st, k in walks:
             r = simulate_walk(leg, m, strides=strides, noise_scale=n, seed=seed + k,
-                              ankle_height=ankle, child=actor)
-            results.append(r)
-            runs.append(DetectionRun(label, n, strides,
-                                     bool(np.any(r.safety_status & Limited.FAULT))))
-    ok = [r for r, run in zip(results, runs, strict=True) if not run.fault]
-    return (detection_table(results), detection_table(ok) if ok else [], runs,
-            fault_cases(ok))
+                              ankle_height=ankle, child=actor, stride_time=st)
+            run = DetectionRun(label, n, strides, bool(np.any(r.safety_status & Limited.FAULT)),
+                               st)
+            runs.append(run)
+            if k < len(noise):
+                results.append((r, run))
+            else:
+                slow_results[st].append(r)
+    walks_ = [r for r, _ in results]
+    ok = [r for r, run in results if not run.fault]
+    return GaitPhaseValidation(detection_table(walks_), detection_table(ok) if ok else [],
+                               runs, fault_cases(ok),
+                               {st: detection_table(rs) for st, rs in slow_results.items()})
 
 
 #: The foot board's full scale, counts (12-bit ADC).
