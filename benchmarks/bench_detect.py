@@ -31,15 +31,16 @@ def main() -> None:
     child = Child(age=10, sex="male", height=1.40, mass=32.0)
     w = simulate_walk(personalized_leg(child), 32.0, strides=54)  # about 60 s
     counts = np.ascontiguousarray(np.tile(w.fsr, (10, 1)))
+    gyro = np.ascontiguousarray(np.tile(w.gyro, 10))
     t = np.arange(len(counts)) * 1e-3
     cfg = DeviceConfig.load()
-    d = cfg.detector.record(cfg.fsr_floor_counts, 1.1)
-    detect_all(d, gp.new_state(d), counts[:1000], t[:1000])
+    d = cfg.detector.record(cfg.fsr_floor_counts, 1.1, cfg.sensors.gyro_range)
+    detect_all(d, gp.new_state(d), counts[:1000], gyro[:1000], t[:1000])
     ticks = []
     for _ in range(5):
         st = gp.new_state(d)
         t0 = time.perf_counter()
-        bits = detect_all(d, st, counts, t)
+        bits = detect_all(d, st, counts, gyro, t)
         ticks.append((time.perf_counter() - t0) / len(t))
     tick = min(ticks) * 1e9
     rec = Recording(t=w.t, counts=np.ascontiguousarray(w.fsr), gyro=w.gyro, reference=None,

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import time
 
-
 from exoleg.control.safety import SafetyLimits
 from exoleg.device import with_actuators
 from exoleg.device.actuator import paper_actuators

@@ -28,7 +28,7 @@ def _walk(strides: int, T: float = 1.0, dt: float = 1e-3, noise: float = 0.0,
 
 def _run(counts: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     st = gp.new_state(D)
-    ev = np.array([gp.detect(D, st, c, tt) for c, tt in zip(counts, t, strict=True)])
+    ev = np.array([gp.detect(D, st, c, np.nan, tt) for c, tt in zip(counts, t, strict=True)])
     return ev, st
 
 
@@ -87,3 +87,59 @@ def test_bad_settings_are_named() -> None:
         gp.DetectorSettings(0.1, 0.2, 20.0, 0.008, 0.15, 0.15, 3, (0.25, 1.75))
     with pytest.raises(ParameterError, match="stride_accept"):
         gp.DetectorSettings(0.25, 0.15, 20.0, 0.008, 0.15, 0.15, 3, (1.2, 1.75))
+
+
+def _gyro(t: np.ndarray, T: float = 1.0) -> np.ndarray:
+    """The foot's sagittal rate for :func:`_walk`'s gait, rad/s: still in stance, turning
+    toe-down from push-off (50 %) through toe off (60 %) to 62 % (as the simulated walks'
+    feet do: their fastest toe-down turn 30 ms after toe off), then swinging forward (a
+    half sine of 6 rad/s)."""
+    x = (t / T) % 1.0
+    return np.where(x < 0.5, 0.0, np.where(x < 0.62, -4.0,
+                                           6.0 * np.sin(np.pi * (x - 0.62) / 0.38)))
+
+
+def _fused(counts: np.ndarray, gyro: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    st = gp.new_state(D)
+    ev = np.array([gp.detect(D, st, c, g, tt) for c, g, tt in zip(counts, gyro, t, strict=True)])
+    return ev, st
+
+
+def test_the_gyroscope_ends_a_stance_a_preloaded_sensor_holds_on_to() -> None:
+    # reference: the gait's construction (swing from 60 % of each 1 s stride). A strap
+    # preloading the first metatarsal sensor by 25 % of full scale: the FSRs alone never
+    # see the foot lift; with the gyroscope, the first swing ends the stance once the
+    # foot has swung forward faster than 3 rad/s for 50 ms (sin > 0.5 from 68.3 % of the
+    # stride), the readings then become the sensors' offsets, and every later
+    # toe off is the FSRs' again (60 % + the debounce), confirmed by the foot turning.
+    counts, t = _walk(5)
+    counts[:, 1] = np.minimum(counts[:, 1] + 0.25 * 4095, 4095)
+    alone, _ = _run(counts, t)
+    assert not np.any(alone & gp.Event.TO)  # the FSRs alone: one endless stance
+    ev, st = _fused(counts, _gyro(t), t)
+    to = t[(ev & gp.Event.TO) > 0]
+    assert to[0] == pytest.approx(0.62 + 0.38 / 6 + SET.gyro_swing_time, abs=2e-3)
+    assert np.allclose(to[1:] % 1.0, 0.6 + SET.debounce, atol=2e-3)
+    assert len(to) == 5 and st[0]["source"] == gp.Source.FSR_IMU
+    ic = t[(ev & gp.Event.IC) > 0]
+    assert np.allclose(ic[1:] % 1.0, SET.debounce, atol=2e-3) and len(ic) == 5
+
+
+def test_a_still_foot_is_on_the_ground_whatever_the_fsrs_read() -> None:
+    # load under the midfoot, between the sensors, 30-40 % of the stride: the FSRs read
+    # nothing. Alone they call it a toe off (then an initial contact); with the gyroscope
+    # reading a still foot there is none -- and without a gyroscope reading (NaN, or at
+    # its range: saturated) the detector is the FSRs' alone.
+    counts, t = _walk(4)
+    x = t % 1.0
+    counts[(x >= 0.30) & (x < 0.40)] = 0.0
+    alone, _ = _run(counts, t)
+    assert np.sum((alone & gp.Event.TO) > 0) == 8  # two a stride: one of them false
+    ev, _ = _fused(counts, _gyro(t), t)
+    to = t[(ev & gp.Event.TO) > 0]
+    assert len(to) == 4 and np.allclose(to % 1.0, 0.6 + SET.debounce, atol=2e-3)
+    d = SET.record(FLOOR, 1.0, gyro_range=5.0)  # the swing's 6 rad/s is beyond it
+    st = gp.new_state(d)
+    sat = np.array([gp.detect(d, st, c, g, tt) for c, g, tt in
+                    zip(counts, np.clip(_gyro(t), -5.0, 5.0), t, strict=True)])
+    assert np.sum((sat & gp.Event.TO) > 0) >= 4

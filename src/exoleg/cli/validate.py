@@ -50,7 +50,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
                  "stopped by the safety layer" if r.fault else "ok"] for r in runs],
                ["child", "sensor noise", "stride", "strides", "walk"])
         _table(_detection_rows(rows), _DETECTION_HEADER,
-               title="gait-phase detection (FSR) against the true contacts, all runs")
+               title="gait-phase detection (FSRs and the foot's gyroscope) against the true contacts, all runs")
         if rows_ok and len(rows_ok) != len(rows) or any(r.fault for r in runs):
             _table(_detection_rows(rows_ok), _DETECTION_HEADER,
                    title="the same, runs the safety layer did not stop")
@@ -62,8 +62,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
                                                                           "toe off"))],
                ["sensor fault", "event", "median |error| ms", "p95 |error| ms", "missed",
                 "extra", "in strides"],
-               title="sensor faults, replayed through the detector over the same walks "
-                     "(FSR only: the IMU is not fused yet)")
+               title="sensor faults, replayed through the detector (FSRs and the foot's "
+                     "gyroscope) over the same walks")
         for st, table in v.slow.items():
             _table(_detection_rows(table), _DETECTION_HEADER,
                    title=f"the same children walking slowly, strides of {st:g} s (x1 noise)")

@@ -13,7 +13,22 @@ for ``debounce_ms``. From the two regions:
     FF: heel unloaded, forefoot loaded --> heel off (HO)
     any stance phase: nothing loaded --> toe off (TO) --> swing
 
-An initial contact after a toe-walking approach (forefoot first) counts too. The
+An initial contact after a toe-walking approach (forefoot first) counts too.
+
+The foot's gyroscope (its sagittal rate, rad/s), when it reads (finite, within its
+range), is fused with the FSRs (foot-gyro detection: Catalfamo et al. 2010; in children
+with CP, Behboodi et al. 2019):
+
+* a foot that is not rotating is on the ground whatever the sensors under it read: toe
+  off needs the foot turning faster than ``gyro_turning`` (load under the midfoot,
+  between the sensors, reads as a lifted foot);
+* a foot swinging forward faster than ``gyro_swing`` for ``gyro_swing_ms`` is in swing
+  whatever the sensors under it read: a stance the FSRs hold on to (a sensor preloaded
+  by the strap, drift) ends with a toe off there, and each sensor's reading then is its
+  offset from then on (its baseline: the running calibration).
+
+Without the gyroscope (NaN, or at its range: saturated) the FSRs decide alone. The
+state says which source decided the last toe off (``source``: :class:`Source`). The
 stride time is the mean of the last ``strides_averaged`` IC-to-IC intervals that lie
 within ``stride_accept`` times the expected one; the gait percentage is the time since
 the last IC over it. Thresholds, hysteresis, debounce and stride rules are data
@@ -22,6 +37,7 @@ the last IC over it. Thresholds, hysteresis, debounce and stride rules are data
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from enum import IntEnum
 from pathlib import Path
@@ -54,6 +70,14 @@ class Event(IntEnum):
     TO = 8
 
 
+class Source(IntEnum):
+    """What the detector's last toe off rested on."""
+
+    FSR = 0          # the FSRs alone (no gyroscope reading)
+    FSR_IMU = 1      # the FSRs, confirmed by the foot turning
+    IMU = 2          # the gyroscope's swing, the FSRs still loaded (re-baselined)
+
+
 EVENT_NAMES = {Event.IC: "initial contact", Event.FF: "foot flat", Event.HO: "heel off",
                Event.TO: "toe off"}
 PHASE_NAMES = {Phase.UNKNOWN: "unknown", Phase.SWING: "swing", Phase.LOADING: "loading",
@@ -72,6 +96,9 @@ class DetectorSettings:
     min_stance: float
     strides_averaged: int
     stride_accept: tuple[float, float]
+    gyro_turning: float = 1.0      # rad/s
+    gyro_swing: float = 3.0        # rad/s
+    gyro_swing_time: float = 0.05  # s
 
     def __post_init__(self) -> None:
         w = "DetectorSettings"
@@ -83,6 +110,11 @@ class DetectorSettings:
             v = _check.finite(w, name, getattr(self, name))
             if not 0.0 <= v <= hi:
                 raise ParameterError(w, name, f"{v:g} s is outside 0-{hi:g} s")
+        for name, lo, hi in (("gyro_turning", 0.0, 20.0), ("gyro_swing", 0.5, 30.0),
+                             ("gyro_swing_time", 0.0, 0.5)):
+            v = _check.finite(w, name, getattr(self, name))
+            if not lo <= v <= hi:
+                raise ParameterError(w, name, f"{v:g} is outside {lo:g}-{hi:g}")
         if not 1 <= self.strides_averaged <= 10:
             raise ParameterError(w, "strides_averaged", "must be 1-10")
         lo, hi = self.stride_accept
@@ -100,7 +132,8 @@ class DetectorSettings:
             "contact_on": (0.0, 1.0, ""), "contact_off": (0.0, 1.0, ""),
             "calibration_floor_N": (0.1, 1e3, "N"), "debounce_ms": (0.0, 200.0, "ms"),
             "min_swing_ms": (0.0, 2000.0, "ms"), "min_stance_ms": (0.0, 2000.0, "ms"),
-            "strides_averaged": (1.0, 10.0, "")})
+            "strides_averaged": (1.0, 10.0, ""), "gyro_turning_dps": (0.0, 1200.0, "deg/s"),
+            "gyro_swing_dps": (30.0, 1800.0, "deg/s"), "gyro_swing_ms": (0.0, 500.0, "ms")})
         if "stride_accept" not in d:
             raise ParameterError(where, "stride_accept", "missing ([lower, upper] multiples)")
         acc = _check.vector(where, "stride_accept", d["stride_accept"], 2)
@@ -110,18 +143,24 @@ class DetectorSettings:
                        debounce=v["debounce_ms"] / 1e3, min_swing=v["min_swing_ms"] / 1e3,
                        min_stance=v["min_stance_ms"] / 1e3,
                        strides_averaged=int(v["strides_averaged"]),
-                       stride_accept=(float(acc[0]), float(acc[1])))
+                       stride_accept=(float(acc[0]), float(acc[1])),
+                       gyro_turning=math.radians(v["gyro_turning_dps"]),
+                       gyro_swing=math.radians(v["gyro_swing_dps"]),
+                       gyro_swing_time=v["gyro_swing_ms"] / 1e3)
         except ParameterError as e:  # a rule across fields: name the file
             raise ParameterError(where, e.field, e.problem) from None
 
-    def record(self, floor_counts: float, expected_stride: float) -> NDArray[np.void]:
+    def record(self, floor_counts: float, expected_stride: float,
+               gyro_range: float = math.inf) -> NDArray[np.void]:
         """For :func:`detect` (:data:`SETTINGS`): thresholds, times, the calibration
-        floor in counts, the expected stride time."""
+        floor in counts, the expected stride time, the gyroscope's range (rad/s: a
+        reading at it is saturated)."""
         r = new(SETTINGS)
         for name in ("contact_on", "contact_off", "debounce", "min_swing", "min_stance",
-                     "strides_averaged"):
+                     "strides_averaged", "gyro_turning", "gyro_swing", "gyro_swing_time"):
             r[name] = getattr(self, name)
         r["floor"], r["expected_stride"] = floor_counts, expected_stride
+        r["gyro_range"] = gyro_range
         r["accept_lo"], r["accept_hi"] = self.stride_accept
         return r
 
@@ -132,18 +171,22 @@ class DetectorSettings:
 SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("floor", F8),
                      ("debounce", F8), ("min_swing", F8), ("min_stance", F8),
                      ("strides_averaged", I8), ("accept_lo", F8), ("accept_hi", F8),
-                     ("expected_stride", F8)])
+                     ("expected_stride", F8), ("gyro_turning", F8), ("gyro_swing", F8),
+                     ("gyro_swing_time", F8), ("gyro_range", F8)])
 #: Strides remembered (the most :attr:`DetectorSettings.strides_averaged` allows).
 HISTORY = 10
 #: The detector's state: the phase (:class:`Phase`); per region (heel, forefoot) the
 #: raw and the debounced loaded flags and since when the raw one differs (s, -1: it
 #: does not); the times of the last initial contact and toe off (s); the strides
 #: accepted; the running maxima per sensor and of their sum (counts); the accepted
-#: stride times, newest first (s).
+#: stride times, newest first (s); each sensor's baseline (its offset, counts); since
+#: when the gyroscope has read a swing (s, -1: it does not); what the last toe off
+#: rested on (:class:`Source`).
 STATE = np.dtype([("phase", I8), ("heel_raw", np.bool_), ("fore_raw", np.bool_),
                   ("heel", np.bool_), ("fore", np.bool_), ("heel_since", F8),
                   ("fore_since", F8), ("t_ic", F8), ("t_to", F8), ("n_stride", I8),
-                  ("max", F8, 4), ("total_max", F8), ("history", F8, HISTORY)])
+                  ("max", F8, 4), ("total_max", F8), ("history", F8, HISTORY),
+                  ("base", F8, 4), ("swing_since", F8), ("source", I8)])
 
 
 def new_state(settings: NDArray[np.void]) -> NDArray[np.void]:
@@ -155,6 +198,7 @@ def new_state(settings: NDArray[np.void]) -> NDArray[np.void]:
     s["t_ic"] = s["t_to"] = -1e9
     s["max"] = settings[0]["floor"]
     s["total_max"] = settings[0]["floor"]
+    s["swing_since"] = -1.0
     return s
 
 
@@ -188,20 +232,26 @@ def stride_time(d, st):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def detect(d, st, counts, t):  # type: ignore[no-untyped-def]
-    """One reading of the four FSRs (ADC counts: heel, met1, met5, hallux) at time t.
-    ``d``: :data:`SETTINGS`, ``st``: :data:`STATE` (updated). Returns the events (bits
-    of :class:`Event`) of this tick."""
+def detect(d, st, counts, gyro, t):  # type: ignore[no-untyped-def]
+    """One reading of the four FSRs (ADC counts: heel, met1, met5, hallux) and the foot's
+    gyroscope (rad/s; NaN: none) at time t. ``d``: :data:`SETTINGS`, ``st``:
+    :data:`STATE` (updated). Returns the events (bits of :class:`Event`) of this tick."""
     D = d[0]
     s = st[0]
+    c = np.empty(4)
+    total = 0.0
     for i in range(4):
         if counts[i] > s.max[i]:
             s.max[i] = counts[i]
-    total = counts[0] + counts[1] + counts[2] + counts[3]
+        c[i] = max(counts[i] - s.base[i], 0.0)
+        total += counts[i]
     if total > s.total_max:
         s.total_max = total
-    heel = counts[0] / s.max[0]
-    fore = max(counts[1] / s.max[1], counts[2] / s.max[2], counts[3] / s.max[3])
+    base = s.base[0] + s.base[1] + s.base[2] + s.base[3]
+    heel = c[0] / max(s.max[0] - s.base[0], D.floor)
+    fore = max(c[1] / max(s.max[1] - s.base[1], D.floor),
+               c[2] / max(s.max[2] - s.base[2], D.floor),
+               c[3] / max(s.max[3] - s.base[3], D.floor))
     s.heel_raw, s.heel, s.heel_since = _region(s.heel_raw, s.heel, s.heel_since, heel,
                                                D.contact_on, D.contact_off, t, D.debounce)
     s.fore_raw, s.fore, s.fore_since = _region(s.fore_raw, s.fore, s.fore_since, fore,
@@ -210,11 +260,21 @@ def detect(d, st, counts, t):  # type: ignore[no-untyped-def]
     f = s.fore
     # the whole foot unloaded, too: a load spread over several sensors, each below its own
     # threshold, is still a foot on the ground
-    lifted = total / s.total_max < D.contact_off
+    lifted = (total - base) / max(s.total_max - base, D.floor) < D.contact_off
+    gyro_ok = math.isfinite(gyro) and abs(gyro) < D.gyro_range
+    turning = not gyro_ok or abs(gyro) > D.gyro_turning
+    swinging = False
+    if gyro_ok and gyro > D.gyro_swing:
+        if s.swing_since < 0.0:
+            s.swing_since = t
+        swinging = t - s.swing_since >= D.gyro_swing_time - 1e-12
+    else:
+        s.swing_since = -1.0
     phase = s.phase
     ev = 0
     if phase <= Phase.SWING:  # swing or unknown
-        if (h or f) and (phase == Phase.UNKNOWN or t - s.t_to >= D.min_swing):
+        if (h or f) and (phase == Phase.UNKNOWN or t - s.t_to >= D.min_swing) \
+                and not swinging:
             ev |= Event.IC
             dt = t - s.t_ic
             expected = stride_time(d, st)
@@ -230,11 +290,21 @@ def detect(d, st, counts, t):  # type: ignore[no-untyped-def]
             else:
                 phase = Phase.LOADING
     else:
-        if not h and not f and lifted:
-            if t - s.t_ic >= D.min_stance:
-                ev |= Event.TO
-                s.t_to = t
-                phase = Phase.SWING
+        to = -1
+        if not h and not f and lifted and turning:
+            to = Source.FSR_IMU if gyro_ok else Source.FSR
+        elif swinging:  # the gyroscope reads a swing the FSRs do not
+            to = Source.IMU
+        if to >= 0 and t - s.t_ic >= D.min_stance:
+            ev |= Event.TO
+            s.t_to = t
+            s.source = to
+            phase = Phase.SWING
+            if to == Source.IMU:  # the FSRs' readings now are their offsets
+                for i in range(4):
+                    s.base[i] = counts[i]
+                s.heel = s.fore = s.heel_raw = s.fore_raw = False
+                s.heel_since = s.fore_since = -1.0
         elif phase == Phase.LOADING and h and f:
             ev |= Event.FF
             phase = Phase.FLAT

@@ -218,19 +218,21 @@ def detect_events(rec: Recording, expected_stride: float = 1.1,
     from exoleg.device.config import FSR_FLOOR_N
     from exoleg.device.sensors import FootSensors
 
-    floor = FootSensors.default(0.0, device).counts(FSR_FLOOR_N)
-    d = gp.DetectorSettings.default(device).record(floor, expected_stride)
+    board = FootSensors.default(0.0, device)
+    d = gp.DetectorSettings.default(device).record(board.counts(FSR_FLOOR_N), expected_stride,
+                                                   board.gyro_range)
     out: NDArray[np.int64] = detect_all(d, gp.new_state(d), np.ascontiguousarray(rec.counts),
-                                        rec.t)
+                                        np.ascontiguousarray(rec.gyro), rec.t)
     return out
 
 
 @njit(cache=True)
-def detect_all(d, st, counts, t):  # type: ignore[no-untyped-def]
-    """:func:`~exoleg.control.gait_phase.detect` over every tick: the event bits (n,)."""
+def detect_all(d, st, counts, gyro, t):  # type: ignore[no-untyped-def]
+    """:func:`~exoleg.control.gait_phase.detect` over every tick (the FSR counts (n, 4),
+    the gyroscope (n,), NaN where none): the event bits (n,)."""
     out = np.zeros(len(t), dtype=np.int64)
     for k in range(len(t)):
-        out[k] = gp.detect(d, st, counts[k], t[k])
+        out[k] = gp.detect(d, st, counts[k], gyro[k], t[k])
     return out
 
 

@@ -101,17 +101,24 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
 
 #: The foot board's full scale, counts (12-bit ADC).
 FULL_SCALE = 4095.0
-#: Sensor faults, replayed over the walks' FSR readings through the controller's own
+#: Sensor faults, replayed over the walks' readings through the controller's own
 #: detector (open loop: each walk itself ran on its clean readings): what the board reads
-#: instead of each tick's counts (n, 4: heel, met1, met5, hallux) at times t (s).
+#: instead of each tick's FSR counts (n, 4: heel, met1, met5, hallux) and gyroscope (n,
+#: rad/s) at times t (s).
 FAULTS = {
-    "none (the walks' own readings, replayed)": lambda c, t: c,
-    "heel sensor failed (reads 0)": lambda c, t: _set(c, 0, 0.0),
-    "hallux sensor failed (reads 0)": lambda c, t: _set(c, 3, 0.0),
+    "none (the walks' own readings, replayed)": lambda c, g, t: (c, g),
+    "heel sensor failed (reads 0)": lambda c, g, t: (_set(c, 0, 0.0), g),
+    "hallux sensor failed (reads 0)": lambda c, g, t: (_set(c, 3, 0.0), g),
     "first metatarsal preloaded by the strap (+25 % of full scale)":
-        lambda c, t: _set(c, 1, np.minimum(c[:, 1] + 0.25 * FULL_SCALE, FULL_SCALE)),
+        lambda c, g, t: (_set(c, 1, np.minimum(c[:, 1] + 0.25 * FULL_SCALE, FULL_SCALE)), g),
     "every sensor drifting up, +50 % of its reading per minute":
-        lambda c, t: np.minimum(c * (1.0 + 0.5 * (t - t[0]) / 60.0)[:, None], FULL_SCALE),
+        lambda c, g, t: (np.minimum(c * (1.0 + 0.5 * (t - t[0]) / 60.0)[:, None],
+                                    FULL_SCALE), g),
+    "gyroscope failed (no reading: the FSRs alone)":
+        lambda c, g, t: (c, np.full_like(g, np.nan)),
+    "preloaded metatarsal, gyroscope failed":
+        lambda c, g, t: (_set(c, 1, np.minimum(c[:, 1] + 0.25 * FULL_SCALE, FULL_SCALE)),
+                         np.full_like(g, np.nan)),
 }
 
 
@@ -125,19 +132,20 @@ def fault_cases(results: list[Any], stride_time: float = 1.1
                 ) -> dict[str, list[dict[str, Any]]]:
     """Per :data:`FAULTS` case, the detection table (:func:`exoleg.control.replay.
     event_rows`) of the controller's detector replayed from a fresh state over each
-    walk's FSR counts with the fault, against the walk's true events."""
+    walk's readings with the fault, against the walk's true events."""
     from exoleg.control import gait_phase as gp
     from exoleg.control.replay import detect_all, event_rows
     from exoleg.device.config import DeviceConfig
 
     cfg = DeviceConfig.load()
-    d = cfg.detector.record(cfg.fsr_floor_counts, stride_time)
+    d = cfg.detector.record(cfg.fsr_floor_counts, stride_time, cfg.sensors.gyro_range)
     out = {}
     for name, fault in FAULTS.items():
         series = []
         for r in results:
-            counts = np.ascontiguousarray(fault(np.asarray(r.fsr, dtype=float), r.t))
-            bits = detect_all(d, gp.new_state(d), counts, r.t)
+            counts, gyro = fault(np.asarray(r.fsr, dtype=float), np.asarray(r.gyro), r.t)
+            bits = detect_all(d, gp.new_state(d), np.ascontiguousarray(counts),
+                              np.ascontiguousarray(gyro), r.t)
             walking = r.t >= r.walk_start
             series.append((r.t[walking], bits[walking], r.true_events()[walking]))
         out[name] = event_rows(series)
