@@ -158,5 +158,8 @@ def test_simulate_walk_bad_options(tmp_path):
 def test_validate_gait_phase_table():
     r = run("validate", "--gait-phase", "--strides", "3")
     assert r.returncode in (0, 1), r.stderr  # 1: a walk was stopped by the safety layer
-    assert "gait-phase detection (FSR) against the true contacts" in r.stdout
+    assert "gait-phase detection (FSRs and the foot's gyroscope) against the true " \
+        "contacts" in r.stdout
+    assert "sensor faults, replayed through the detector" in r.stdout
+    assert "walking slowly, strides of 4 s" in r.stdout
     assert "Catalfamo" in r.stdout

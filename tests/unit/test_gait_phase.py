@@ -143,3 +143,16 @@ def test_a_still_foot_is_on_the_ground_whatever_the_fsrs_read() -> None:
     sat = np.array([gp.detect(d, st, c, g, tt) for c, g, tt in
                     zip(counts, np.clip(_gyro(t), -5.0, 5.0), t, strict=True)])
     assert np.sum((sat & gp.Event.TO) > 0) >= 4
+
+
+def test_a_baseline_follows_a_strap_loosened() -> None:
+    # the preload of the test above, gone after 3 strides (the strap loosened): the
+    # baseline the gyroscope's swing set falls to the swing's readings, and the sensor
+    # counts its load again -- every stride still has its toe off at 60 % + the debounce
+    counts, t = _walk(6)
+    pre = t < 3.0
+    counts[pre, 1] = np.minimum(counts[pre, 1] + 0.25 * 4095, 4095)
+    ev, st = _fused(counts, _gyro(t), t)
+    to = t[(ev & gp.Event.TO) > 0]
+    assert len(to) == 6 and np.allclose(to[1:] % 1.0, 0.6 + SET.debounce, atol=2e-3)
+    assert st[0]["base"][1] == 0.0

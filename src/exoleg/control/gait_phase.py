@@ -25,7 +25,8 @@ with CP, Behboodi et al. 2019):
 * a foot swinging forward faster than ``gyro_swing`` for ``gyro_swing_ms`` is in swing
   whatever the sensors under it read: a stance the FSRs hold on to (a sensor preloaded
   by the strap, drift) ends with a toe off there, and each sensor's reading then is its
-  offset from then on (its baseline: the running calibration).
+  offset from then on (its baseline: the running calibration; a lower reading in a
+  later swing lowers it).
 
 Without the gyroscope (NaN, or at its range: saturated) the FSRs decide alone. The
 state says which source decided the last toe off (``source``: :class:`Source`). The
@@ -271,6 +272,10 @@ def detect(d, st, counts, gyro, t):  # type: ignore[no-untyped-def]
     else:
         s.swing_since = -1.0
     phase = s.phase
+    if phase == Phase.SWING:  # a reading in swing is at most the sensor's offset
+        for i in range(4):
+            if counts[i] < s.base[i]:
+                s.base[i] = counts[i]
     ev = 0
     if phase <= Phase.SWING:  # swing or unknown
         if (h or f) and (phase == Phase.UNKNOWN or t - s.t_to >= D.min_swing) \
