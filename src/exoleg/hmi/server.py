@@ -146,23 +146,13 @@ def _session_process(link: LoopLink, backend: str, interface: str | None, durati
     ``cpus``: the CPUs the server had before it kept off the loop's
     (:func:`keep_off_loop_cpu`). ``child_path``: the fitted child's ``child.toml`` (the
     simulated child, on a simulated device)."""
-    import exoleg
     from exoleg.runtime.session import run
 
-    if cpus:
-        with contextlib.suppress(AttributeError, OSError):
-            os.sched_setaffinity(0, cpus)
-    try:
-        from exoleg.child.model import ChildModel
-
-        leg = exoleg.load_leg(leg_path) if leg_path else None
-        child = ChildModel.load(child_path) if child_path else None
+    def session(leg: Any, child: Any) -> None:
         run(backend, duration, folder, leg=leg, body_mass=body_mass, arm=arm,
             interface=interface, link=link, child=child)
-    except BaseException as e:  # said on the Sessions page; the torque is off either way
-        write_json(Path(folder) / "failed.json",
-                    {"error": f"{type(e).__name__}: {e}", "time": time.time()})
-        link.loop_ended()
+
+    _in_own_process(link, folder, cpus, leg_path, child_path, session)
 
 
 def _identify_process(link: LoopLink, backend: str, interface: str | None, plan: float,
@@ -171,8 +161,23 @@ def _identify_process(link: LoopLink, backend: str, interface: str | None, plan:
     """An identification's own process (:func:`exoleg.identify.device.identify_device`
     through the operator's link): the session in ``folder``, the identified leg and its
     report in ``folder``/:data:`IDENTIFIED`; ``plan``: its length, s."""
-    import exoleg
     from exoleg.identify.device import identify_device
+
+    def identification(leg: Any, child: Any) -> None:
+        identify_device(backend, Path(folder) / IDENTIFIED, leg=leg, child=child,
+                        duration=plan, interface=interface, link=link, arm=arm,
+                        session=folder)
+
+    _in_own_process(link, folder, cpus, leg_path, child_path, identification)
+
+
+def _in_own_process(link: LoopLink, folder: str, cpus: set[int] | None, leg_path: str | None,
+                    child_path: str | None, work: Any) -> None:
+    """What a session's process does around its ``work(leg, child)``: back on the
+    server's CPUs (``cpus``), the leg and child read from their files, and any failure
+    said in ``failed.json`` (the Sessions page shows it; the torque is off either way)
+    with the link told the loop ended."""
+    import exoleg
 
     if cpus:
         with contextlib.suppress(AttributeError, OSError):
@@ -180,11 +185,8 @@ def _identify_process(link: LoopLink, backend: str, interface: str | None, plan:
     try:
         from exoleg.child.model import ChildModel
 
-        leg = exoleg.load_leg(leg_path) if leg_path else None
-        child = ChildModel.load(child_path) if child_path else None
-        identify_device(backend, Path(folder) / IDENTIFIED, leg=leg, child=child,
-                        duration=plan, interface=interface, link=link, arm=arm,
-                        session=folder)
+        work(exoleg.load_leg(leg_path) if leg_path else None,
+             ChildModel.load(child_path) if child_path else None)
     except BaseException as e:  # said on the Sessions page; the torque is off either way
         write_json(Path(folder) / "failed.json",
                    {"error": f"{type(e).__name__}: {e}", "time": time.time()})
