@@ -110,6 +110,7 @@ class PlanReference:
     plan: Plan
     start: F64
     ramp: float | None = None
+    _ramp: float = field(init=False, repr=False, compare=False)
     _moves: Any = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -122,14 +123,13 @@ class PlanReference:
         start = np.asarray(self.start, dtype=float)
         if start.shape != (3,) or not np.isfinite(start).all():
             raise ParameterError("PlanReference", "start", "expected 3 finite angles (rad)")
-        if self.ramp is None:
-            far = float(np.abs(q[0] - start).max())
-            object.__setattr__(self, "ramp", round(max(
-                RAMP_S, 1.875 * far / (RAMP_SPEED_SHARE * COMFORT_SPEED)), 1))
-        r = float(self.ramp)  # type: ignore[arg-type]
+        far = float(np.abs(q[0] - start).max())
+        r = (round(max(RAMP_S, 1.875 * far / (RAMP_SPEED_SHARE * COMFORT_SPEED)), 1)
+             if self.ramp is None else float(self.ramp))
         if not (np.isfinite(r) and 1.0 <= r <= 30.0):
             raise ParameterError("PlanReference", "ramp", f"{r!r} s is outside 1-30 s")
         object.__setattr__(self, "start", start)
+        object.__setattr__(self, "_ramp", r)
         d = self.plan.duration
         object.__setattr__(self, "_moves", MinJerk(
             np.array([0.0, r, r + d, 2 * r + d]), np.stack([start, q[0], q[0], start])))
@@ -137,13 +137,12 @@ class PlanReference:
     @property
     def duration(self) -> float:
         """From the start of the move in to the end of the move back, s."""
-        return self.plan.duration + 2 * float(self.ramp)  # type: ignore[arg-type]
+        return self.plan.duration + 2 * self._ramp
 
     @property
     def window(self) -> tuple[float, float]:
         """When the plan itself plays, s from the reference's start."""
-        r = float(self.ramp)  # type: ignore[arg-type]
-        return r, r + self.plan.duration
+        return self._ramp, self._ramp + self.plan.duration
 
     def sample(self, t: ArrayLike) -> tuple[F64, F64, F64]:
         tt = np.atleast_1d(np.asarray(t, dtype=float))
