@@ -19,6 +19,7 @@ met5, hallux); ``0x280 + 16``: int16 gyro (mrad/s), int16 accel x, y (cm/s^2).
 
 from __future__ import annotations
 
+import struct
 import threading
 import time
 from importlib import resources
@@ -35,6 +36,11 @@ from exoleg.hw.rig import FOOT_FSR, FOOT_IMU, JOINT_ORDER
 F64 = NDArray[np.float64]
 DRIVE_IDS = {"ankle": 1, "knee": 2, "hip": 3}
 FOOT_ID = 16
+#: TPDO1 of every drive, as the EDS maps it: statusword (0x6041, u16), position actual
+#: (0x6064, i32, counts), torque actual (0x6077, i16, per mille), little-endian -- unpacked
+#: at once each tick (three PDO variables decoded one by one cost the loop's thread more)
+TPDO1_MAP = ((0x6041, 16), (0x6064, 32), (0x6077, 16))
+TPDO1 = struct.Struct("<Hih")
 FOOT_FSR_COB = 0x180 + FOOT_ID
 FOOT_IMU_COB = 0x280 + FOOT_ID
 #: the drives' heartbeat period, ms; the master calls a node lost after HEARTBEAT_LOST
@@ -81,6 +87,11 @@ class CanopenBackend(DriveMaster):
             self.net.add_node(node)
             node.rpdo.read(from_od=True)
             node.tpdo.read(from_od=True)
+            mapped = tuple((v.index, v.length) for v in node.tpdo[1].map)
+            if mapped != TPDO1_MAP:
+                raise ParameterError(f"{j} drive (node {DRIVE_IDS[j]})", "TPDO1",
+                                     f"maps {[(hex(i), n) for i, n in mapped]}; the master "
+                                     f"reads {[(hex(i), n) for i, n in TPDO1_MAP]}")
             node.tpdo[1].subscribe()
             node.tpdo[2].add_callback(self._on_inputs(j))  # event-driven: on a change
             node.emcy.add_callback(self.on_emcy(j))
@@ -157,7 +168,8 @@ class CanopenBackend(DriveMaster):
                 fault = f"no PDO from the {j} drive (node {DRIVE_IDS[j]}) within " \
                         f"{self.timeout * 1e3:g} ms"
                 break
-            state = cia402.decode(int(tp["Statusword"].raw))
+            status, counts, torque = TPDO1.unpack(bytes(tp.data))
+            state = cia402.decode(status)
             self.states[i] = state
             fault = cia402.interlock_fault(f"{j} drive (node {DRIVE_IDS[j]})",
                                            self.inputs[j])
@@ -166,8 +178,8 @@ class CanopenBackend(DriveMaster):
                 fault = f"the {j} drive (node {DRIVE_IDS[j]}) is in {state.name}"
             if fault:
                 break
-            q[i] = self.scaling[j].to_rad(int(tp["Position actual value"].raw))
-            self.tau_meas[i] = self.scaling[j].to_nm(int(tp["Torque actual value"].raw))
+            q[i] = self.scaling[j].to_rad(counts)
+            self.tau_meas[i] = self.scaling[j].to_nm(torque)
         if not fault:
             now = time.time()
             if self.cycling is None:
