@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import contextlib
 import multiprocessing as mp
-import os
 import threading
 import time
 from pathlib import Path
@@ -31,6 +30,13 @@ from exoleg.control.hierarchy import WalkGains
 from exoleg.entry import DEFAULT_BODY_MASS, typed_number
 from exoleg.errors import ParameterError
 from exoleg.hmi.archive import Archive
+from exoleg.hmi.child_form import (
+    FORM_LABELS,
+    actor_model,
+    actor_settings,
+    actor_text,
+)
+from exoleg.hmi.processes import IDENTIFIED, _identify_process, _session_process
 from exoleg.hmi.registry import FILE as RECORDS
 from exoleg.hmi.registry import Registry
 from exoleg.io import write_json
@@ -47,87 +53,6 @@ from exoleg.runtime.link import LoopLink
 from exoleg.runtime.session import check_options, simulated
 
 STATIC = Path(__file__).parent / "static"
-#: the child form's fields as the page labels them (errors are said in the form's words)
-FORM_LABELS = {"age": "Age (years)", "height": "Height (cm)", "mass": "Mass (kg)",
-               "thigh": "Thigh (hip-knee, cm)", "shank": "Shank (knee-ankle, cm)",
-               "leg_length": "Leg length (cm)", "foot_length": "Foot length (cm)",
-               "ankle_height": "Ankle height (cm)", "spasticity": "Spasticity",
-               "crouch": "Crouch", "contracture": "Contracture",
-               "contracture_level": "Contracture level (0-1.5)",
-               "strength": "Strength (x the GMFCS level's typical)"}
-#: what the simulated device carries the child as, when the form leaves it (docs/child.md)
-ACTOR_DEFAULTS = {"spasticity": "none", "crouch": 0, "contracture": "none",
-                  "contracture_level": 1.0, "strength": 1.0}
-
-
-def actor_settings(body: dict[str, Any]) -> dict[str, Any]:
-    """The child-as-an-actor settings of the child form (:data:`ACTOR_DEFAULTS` where it
-    leaves one empty), checked: ValueError in the form's words when one is not allowed."""
-    from exoleg.child.model import CROUCH_CLUSTERS, LEVELS, STRENGTH_SCALE
-    from exoleg.child.passive import CONTRACTURE_LEVELS, child_data
-
-    out = dict(ACTOR_DEFAULTS)
-    for k in out:
-        v = body.get(k)
-        if v in (None, ""):
-            continue
-        label = FORM_LABELS[k]
-        if k == "spasticity":
-            if v not in LEVELS:
-                raise ValueError(f"{label}: {str(v)[:20]!r} is not a level (allowed: "
-                                 + ", ".join(LEVELS) + ")")
-            out[k] = v
-        elif k == "contracture":
-            names = ["none", *sorted(child_data("contracture.toml"))]
-            if v not in names:
-                raise ValueError(f"{label}: {str(v)[:20]!r} is not a preset (allowed: "
-                                 + ", ".join(names) + ")")
-            out[k] = v
-        elif k == "crouch":
-            if str(v) not in {str(c) for c in CROUCH_CLUSTERS}:
-                raise ValueError(f"{label}: {str(v)[:20]!r} is not a cluster (allowed: none, "
-                                 f"1-{max(CROUCH_CLUSTERS)})")
-            out[k] = int(v)
-        else:
-            lo, hi = CONTRACTURE_LEVELS if k == "contracture_level" else STRENGTH_SCALE
-            x = typed_number(label, v)
-            if not lo <= x <= hi:
-                raise ValueError(f"{label}: {x:g} is outside {lo:g}-{hi:g}")
-            out[k] = x
-    return out
-
-
-def actor_model(child: dict[str, Any], actor: dict[str, Any]) -> Any:
-    """The fitted child (a fit record's ``child``) as the simulated device carries them
-    (:class:`~exoleg.child.model.ChildModel`) with the form's ``actor`` settings; None
-    for GMFCS V, which the child model does not cover."""
-    from exoleg.child.model import ChildModel, Spasticity
-    from exoleg.child.passive import Contracture
-
-    gm = int(child.get("gmfcs") or 0)
-    if gm > 4:
-        return None
-    a = {**ACTOR_DEFAULTS, **actor}
-    return ChildModel(str(child.get("name") or "child"), float(child["age"]),
-                      float(child["height"]), float(child["mass"]), gm,
-                      Contracture.preset(a["contracture"], float(a["contracture_level"])),
-                      Spasticity.preset(a["spasticity"]), True, int(a["crouch"]),
-                      str(child["sex"]), float(a["strength"]))
-
-
-def actor_text(child: dict[str, Any], actor: dict[str, Any]) -> str:
-    """The actor settings as the pages say them."""
-    gm = int(child.get("gmfcs") or 0)
-    a = {**ACTOR_DEFAULTS, **actor}
-    strength = ("typically developing strength" if not gm else f"GMFCS {gm} strength")
-    if a["strength"] != 1.0:
-        strength += f" x {a['strength']:g}"
-    contracture = ("no contracture" if a["contracture"] == "none" else
-                   f"contracture {a['contracture']} at {a['contracture_level']:g}")
-    crouch = "no crouch" if not a["crouch"] else f"crouch cluster {a['crouch']}"
-    spasticity = ("no spasticity" if a["spasticity"] == "none" else
-                  f"{a['spasticity']} spasticity")
-    return f"{strength}, {spasticity}, {contracture}, {crouch}"
 #: the longest session the HMI starts, s (a session may be ended at any time before)
 MAX_DURATION = 3600.0
 #: an identification's plan, s (exoleg.identify.plan.design_plan's range)
@@ -135,66 +60,6 @@ PLAN_RANGE = (10.0, 120.0)
 #: the names and texts of the modes, phases, events, faults and safety bits, from the
 #: enumerations the compiled tick uses (the page keeps no table of its own)
 VOCABULARY = vocabulary()
-
-
-def _session_process(link: LoopLink, backend: str, interface: str | None, duration: float,
-                     folder: str, leg_path: str | None, body_mass: float, arm: bool,
-                     cpus: set[int] | None, child_path: str | None = None) -> None:
-    """A session's own process (``exoleg hmi``): runs the loop until its duration, an
-    E-stop fault, the operator's end, a signal, or a lost link (the server's heartbeat:
-    :class:`~exoleg.runtime.link.LoopLink`) -- then nobody could stop it from the page.
-    ``cpus``: the CPUs the server had before it kept off the loop's
-    (:func:`keep_off_loop_cpu`). ``child_path``: the fitted child's ``child.toml`` (the
-    simulated child, on a simulated device)."""
-    from exoleg.runtime.session import run
-
-    def session(leg: Any, child: Any) -> None:
-        run(backend, duration, folder, leg=leg, body_mass=body_mass, arm=arm,
-            interface=interface, link=link, child=child)
-
-    _in_own_process(link, folder, cpus, leg_path, child_path, session)
-
-
-def _identify_process(link: LoopLink, backend: str, interface: str | None, plan: float,
-                      folder: str, leg_path: str | None, arm: bool, cpus: set[int] | None,
-                      child_path: str | None = None) -> None:
-    """An identification's own process (:func:`exoleg.identify.device.identify_device`
-    through the operator's link): the session in ``folder``, the identified leg and its
-    report in ``folder``/:data:`IDENTIFIED`; ``plan``: its length, s."""
-    from exoleg.identify.device import identify_device
-
-    def identification(leg: Any, child: Any) -> None:
-        identify_device(backend, Path(folder) / IDENTIFIED, leg=leg, child=child,
-                        duration=plan, interface=interface, link=link, arm=arm,
-                        session=folder)
-
-    _in_own_process(link, folder, cpus, leg_path, child_path, identification)
-
-
-def _in_own_process(link: LoopLink, folder: str, cpus: set[int] | None, leg_path: str | None,
-                    child_path: str | None, work: Any) -> None:
-    """What a session's process does around its ``work(leg, child)``: back on the
-    server's CPUs (``cpus``), the leg and child read from their files, and any failure
-    said in ``failed.json`` (the Sessions page shows it; the torque is off either way)
-    with the link told the loop ended."""
-    import exoleg
-
-    if cpus:
-        with contextlib.suppress(AttributeError, OSError):
-            os.sched_setaffinity(0, cpus)
-    try:
-        from exoleg.child.model import ChildModel
-
-        work(exoleg.load_leg(leg_path) if leg_path else None,
-             ChildModel.load(child_path) if child_path else None)
-    except BaseException as e:  # said on the Sessions page; the torque is off either way
-        write_json(Path(folder) / "failed.json",
-                   {"error": f"{type(e).__name__}: {e}", "time": time.time()})
-        link.loop_ended()
-
-
-#: an identification session's own folder for what it identified
-IDENTIFIED = "identified"
 
 
 def device_info(leg: Any) -> dict[str, Any]:

@@ -1,0 +1,91 @@
+"""The operator interface's child form: its fields as the page labels them, and the
+child as an actor (:mod:`exoleg.child`) the form sets -- checked, turned into the model
+the simulated device carries, and said in words."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from exoleg.entry import typed_number
+
+#: the child form's fields as the page labels them (errors are said in the form's words)
+FORM_LABELS = {"age": "Age (years)", "height": "Height (cm)", "mass": "Mass (kg)",
+               "thigh": "Thigh (hip-knee, cm)", "shank": "Shank (knee-ankle, cm)",
+               "leg_length": "Leg length (cm)", "foot_length": "Foot length (cm)",
+               "ankle_height": "Ankle height (cm)", "spasticity": "Spasticity",
+               "crouch": "Crouch", "contracture": "Contracture",
+               "contracture_level": "Contracture level (0-1.5)",
+               "strength": "Strength (x the GMFCS level's typical)"}
+#: what the simulated device carries the child as, when the form leaves it (docs/child.md)
+ACTOR_DEFAULTS = {"spasticity": "none", "crouch": 0, "contracture": "none",
+                  "contracture_level": 1.0, "strength": 1.0}
+
+
+def actor_settings(body: dict[str, Any]) -> dict[str, Any]:
+    """The child-as-an-actor settings of the child form (:data:`ACTOR_DEFAULTS` where it
+    leaves one empty), checked: ValueError in the form's words when one is not allowed."""
+    from exoleg.child.model import CROUCH_CLUSTERS, LEVELS, STRENGTH_SCALE
+    from exoleg.child.passive import CONTRACTURE_LEVELS, child_data
+
+    out = dict(ACTOR_DEFAULTS)
+    for k in out:
+        v = body.get(k)
+        if v in (None, ""):
+            continue
+        label = FORM_LABELS[k]
+        if k == "spasticity":
+            if v not in LEVELS:
+                raise ValueError(f"{label}: {str(v)[:20]!r} is not a level (allowed: "
+                                 + ", ".join(LEVELS) + ")")
+            out[k] = v
+        elif k == "contracture":
+            names = ["none", *sorted(child_data("contracture.toml"))]
+            if v not in names:
+                raise ValueError(f"{label}: {str(v)[:20]!r} is not a preset (allowed: "
+                                 + ", ".join(names) + ")")
+            out[k] = v
+        elif k == "crouch":
+            if str(v) not in {str(c) for c in CROUCH_CLUSTERS}:
+                raise ValueError(f"{label}: {str(v)[:20]!r} is not a cluster (allowed: none, "
+                                 f"1-{max(CROUCH_CLUSTERS)})")
+            out[k] = int(v)
+        else:
+            lo, hi = CONTRACTURE_LEVELS if k == "contracture_level" else STRENGTH_SCALE
+            x = typed_number(label, v)
+            if not lo <= x <= hi:
+                raise ValueError(f"{label}: {x:g} is outside {lo:g}-{hi:g}")
+            out[k] = x
+    return out
+
+
+def actor_model(child: dict[str, Any], actor: dict[str, Any]) -> Any:
+    """The fitted child (a fit record's ``child``) as the simulated device carries them
+    (:class:`~exoleg.child.model.ChildModel`) with the form's ``actor`` settings; None
+    for GMFCS V, which the child model does not cover."""
+    from exoleg.child.model import ChildModel, Spasticity
+    from exoleg.child.passive import Contracture
+
+    gm = int(child.get("gmfcs") or 0)
+    if gm > 4:
+        return None
+    a = {**ACTOR_DEFAULTS, **actor}
+    return ChildModel(str(child.get("name") or "child"), float(child["age"]),
+                      float(child["height"]), float(child["mass"]), gm,
+                      Contracture.preset(a["contracture"], float(a["contracture_level"])),
+                      Spasticity.preset(a["spasticity"]), True, int(a["crouch"]),
+                      str(child["sex"]), float(a["strength"]))
+
+
+def actor_text(child: dict[str, Any], actor: dict[str, Any]) -> str:
+    """The actor settings as the pages say them."""
+    gm = int(child.get("gmfcs") or 0)
+    a = {**ACTOR_DEFAULTS, **actor}
+    strength = ("typically developing strength" if not gm else f"GMFCS {gm} strength")
+    if a["strength"] != 1.0:
+        strength += f" x {a['strength']:g}"
+    contracture = ("no contracture" if a["contracture"] == "none" else
+                   f"contracture {a['contracture']} at {a['contracture_level']:g}")
+    crouch = "no crouch" if not a["crouch"] else f"crouch cluster {a['crouch']}"
+    spasticity = ("no spasticity" if a["spasticity"] == "none" else
+                  f"{a['spasticity']} spasticity")
+    return f"{strength}, {spasticity}, {contracture}, {crouch}"
