@@ -11,6 +11,7 @@ from exoleg.control import gait_phase as gp
 SET = gp.DetectorSettings.default()
 FLOOR = 200.0
 D = SET.record(FLOOR, 1.0)
+NO_ACC = np.full(2, np.nan)  # no accelerometer reading
 
 
 def _walk(strides: int, T: float = 1.0, dt: float = 1e-3, noise: float = 0.0,
@@ -28,7 +29,8 @@ def _walk(strides: int, T: float = 1.0, dt: float = 1e-3, noise: float = 0.0,
 
 def _run(counts: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     st = gp.new_state(D)
-    ev = np.array([gp.detect(D, st, c, np.nan, tt) for c, tt in zip(counts, t, strict=True)])
+    ev = np.array([gp.detect(D, st, c, np.nan, NO_ACC, tt)
+                   for c, tt in zip(counts, t, strict=True)])
     return ev, st
 
 
@@ -90,39 +92,74 @@ def test_bad_settings_are_named() -> None:
 
 
 def _gyro(t: np.ndarray, T: float = 1.0) -> np.ndarray:
-    """The foot's sagittal rate for :func:`_walk`'s gait, rad/s: still in stance, turning
-    toe-down from push-off (50 %) through toe off (60 %) to 62 % (as the simulated walks'
-    feet do: their fastest toe-down turn 30 ms after toe off), then swinging forward (a
-    half sine of 6 rad/s)."""
+    """The foot's sagittal rate for :func:`_walk`'s gait, rad/s, shaped as the simulated
+    walks' feet turn: a toe-down slap as the heel lands (0-6 %), still at foot flat, a
+    toe-down turn from heel rise (50 %) growing to 4 rad/s at 64 % -- after the toe off
+    at 60 %: the toes' tips, on no sensor, leave last -- then a forward swing (a half
+    sine of 6 rad/s)."""
     x = (t / T) % 1.0
-    return np.where(x < 0.5, 0.0, np.where(x < 0.62, -4.0,
-                                           6.0 * np.sin(np.pi * (x - 0.62) / 0.38)))
+    slap = -2.0 * np.sin(np.pi * np.clip(x, 0.0, 0.06) / 0.06)
+    turn = -2.0 * (1.0 - np.cos(np.pi * (x - 0.5) / 0.14))
+    swing = 6.0 * np.sin(np.pi * (x - 0.64) / 0.36) \
+        - 4.0 * np.cos(0.5 * np.pi * np.minimum((x - 0.64) / 0.04, 1.0))
+    return np.where(x < 0.06, slap, np.where(x < 0.5, 0.0, np.where(x < 0.64, turn, swing)))
 
 
-def _fused(counts: np.ndarray, gyro: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    st = gp.new_state(D)
-    ev = np.array([gp.detect(D, st, c, g, tt) for c, g, tt in zip(counts, gyro, t, strict=True)])
-    return ev, st
+#: Where the toe-down turn of :func:`_gyro` has eased to half its steepest since the
+#: FSRs' lift at 60 % + the debounce: turn' ~ sin(pi (x - 0.5) / 0.14), steepest at the
+#: lift (past 57 %), half of it at sin = sin(lift) / 2; plus the slope's smoothing
+#: (``slope_time``) as a lag
+_LIFT = 0.6 + SET.debounce
+_TO = 0.5 + 0.14 / np.pi * (np.pi - np.arcsin(0.5 * np.sin(np.pi * (_LIFT - 0.5) / 0.14)))
+
+
+def _fused(counts: np.ndarray, gyro: np.ndarray, t: np.ndarray, acc: np.ndarray = NO_ACC,
+           d: np.ndarray = D) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Event bits and the source at each tick, and the final state."""
+    st = gp.new_state(d)
+    ev = np.empty(len(t), dtype=np.int64)
+    src = np.empty(len(t), dtype=np.int64)
+    for k in range(len(t)):
+        ev[k] = gp.detect(d, st, counts[k], gyro[k], acc, t[k])
+        src[k] = st[0]["source"]
+    return ev, src, st
+
+
+def _times(ev: np.ndarray, t: np.ndarray, bit: gp.Event) -> np.ndarray:
+    return t[(ev & bit) > 0]
+
+
+def test_the_gyroscope_times_the_toe_off_the_fsrs_read_early() -> None:
+    # reference: the gait's construction (:data:`_TO`). The FSRs alone call the toe off
+    # at their lift (60 % + the debounce); fused, it is when the foot's toe-down turn has
+    # eased past its steepest, within the slope's smoothing after the constructed time
+    counts, t = _walk(4)
+    ev, src, _ = _fused(counts, _gyro(t), t)
+    to = _times(ev, t, gp.Event.TO) % 1.0
+    assert len(to) == 4
+    assert np.all((to >= _TO) & (to <= _TO + 2 * SET.slope_time)), (to, _TO)
+    assert np.allclose(_times(ev, t, gp.Event.IC) % 1.0, SET.debounce, atol=2e-3)
+    assert np.all(src == gp.Source.FSR_IMU)
 
 
 def test_the_gyroscope_ends_a_stance_a_preloaded_sensor_holds_on_to() -> None:
-    # reference: the gait's construction (swing from 60 % of each 1 s stride). A strap
-    # preloading the first metatarsal sensor by 25 % of full scale: the FSRs alone never
-    # see the foot lift; with the gyroscope, the first swing ends the stance once the
-    # foot has swung forward faster than 3 rad/s for 50 ms (sin > 0.5 from 68.3 % of the
-    # stride), the readings then become the sensors' offsets, and every later
-    # toe off is the FSRs' again (60 % + the debounce), confirmed by the foot turning.
+    # reference: the gait's construction. A strap preloading the first metatarsal sensor
+    # by 25 % of full scale: the FSRs alone never see the foot lift; with the gyroscope,
+    # the first swing ends the stance once the foot has swung forward faster than 3 rad/s
+    # for 50 ms, the readings then become the sensors' offsets, and every later toe off
+    # is the fused one again
     counts, t = _walk(5)
     counts[:, 1] = np.minimum(counts[:, 1] + 0.25 * 4095, 4095)
     alone, _ = _run(counts, t)
     assert not np.any(alone & gp.Event.TO)  # the FSRs alone: one endless stance
-    ev, st = _fused(counts, _gyro(t), t)
-    to = t[(ev & gp.Event.TO) > 0]
-    assert to[0] == pytest.approx(0.62 + 0.38 / 6 + SET.gyro_swing_time, abs=2e-3)
-    assert np.allclose(to[1:] % 1.0, 0.6 + SET.debounce, atol=2e-3)
-    assert len(to) == 5 and st[0]["source"] == gp.Source.FSR_IMU
-    ic = t[(ev & gp.Event.IC) > 0]
-    assert np.allclose(ic[1:] % 1.0, SET.debounce, atol=2e-3) and len(ic) == 5
+    g = _gyro(t)
+    ev, src, _ = _fused(counts, g, t)
+    to = _times(ev, t, gp.Event.TO)
+    first_fast = t[np.argmax((g > SET.gyro_swing) & (t < 1.0))]
+    assert to[0] == pytest.approx(first_fast + SET.gyro_swing_time, abs=2e-3)
+    assert len(to) == 5 and np.all((to[1:] % 1.0 >= _TO) & (to[1:] % 1.0 <= _TO + 0.012))
+    assert np.all(src == gp.Source.FSR_IMU)
+    assert np.allclose(_times(ev, t, gp.Event.IC)[1:] % 1.0, SET.debounce, atol=2e-3)
 
 
 def test_a_still_foot_is_on_the_ground_whatever_the_fsrs_read() -> None:
@@ -135,24 +172,82 @@ def test_a_still_foot_is_on_the_ground_whatever_the_fsrs_read() -> None:
     counts[(x >= 0.30) & (x < 0.40)] = 0.0
     alone, _ = _run(counts, t)
     assert np.sum((alone & gp.Event.TO) > 0) == 8  # two a stride: one of them false
-    ev, _ = _fused(counts, _gyro(t), t)
-    to = t[(ev & gp.Event.TO) > 0]
-    assert len(to) == 4 and np.allclose(to % 1.0, 0.6 + SET.debounce, atol=2e-3)
+    ev, _, _ = _fused(counts, _gyro(t), t)
+    assert len(_times(ev, t, gp.Event.TO)) == 4
     d = SET.record(FLOOR, 1.0, gyro_range=5.0)  # the swing's 6 rad/s is beyond it
-    st = gp.new_state(d)
-    sat = np.array([gp.detect(d, st, c, g, tt) for c, g, tt in
-                    zip(counts, np.clip(_gyro(t), -5.0, 5.0), t, strict=True)])
+    sat, src, _ = _fused(counts, np.clip(_gyro(t), -5.0, 5.0), t, d=d)
     assert np.sum((sat & gp.Event.TO) > 0) >= 4
+    assert gp.Source.FSR in src  # says so while the gyroscope reads at its range
 
 
 def test_a_baseline_follows_a_strap_loosened() -> None:
     # the preload of the test above, gone after 3 strides (the strap loosened): the
     # baseline the gyroscope's swing set falls to the swing's readings, and the sensor
-    # counts its load again -- every stride still has its toe off at 60 % + the debounce
+    # counts its load again -- every later stride has its fused toe off
     counts, t = _walk(6)
     pre = t < 3.0
     counts[pre, 1] = np.minimum(counts[pre, 1] + 0.25 * 4095, 4095)
-    ev, st = _fused(counts, _gyro(t), t)
-    to = t[(ev & gp.Event.TO) > 0]
-    assert len(to) == 6 and np.allclose(to[1:] % 1.0, 0.6 + SET.debounce, atol=2e-3)
+    ev, _, st = _fused(counts, _gyro(t), t)
+    to = _times(ev, t, gp.Event.TO)
+    assert len(to) == 6 and np.all((to[1:] % 1.0 >= _TO) & (to[1:] % 1.0 <= _TO + 0.012))
     assert st[0]["base"][1] == 0.0
+
+
+@pytest.mark.parametrize("fault", ["missing", "zeros", "frozen"])
+def test_the_imu_walks_on_when_the_fsrs_are_lost(fault: str) -> None:
+    # reference: the gait's construction. From 2 s the FSRs are lost: their readings
+    # missing (NaN: at once), reading zeros (silent: after fsr_silent_strides strides the
+    # IMU walks), or frozen at their last loaded reading (after frozen_ms). The IMU alone
+    # then gives an initial contact as the slap's toe-down turn passes the contact
+    # threshold (0.12 x the 6 rad/s swing: 0.72 rad/s, at 0.65 % of the stride) and the
+    # toe off as the push-off's turn eases past its steepest (half of it past 57 %); the
+    # detector says it rests on the IMU, and on both again once the FSRs read.
+    counts, t = _walk(8)
+    lost = (t >= 2.0) & (t < 6.0)
+    if fault == "missing":
+        counts[lost] = np.nan
+    elif fault == "zeros":
+        counts[lost] = 0.0
+    else:
+        counts[lost] = counts[np.argmax(t >= 1.5)]  # held at a loaded reading
+    ev, src, _ = _fused(counts, _gyro(t), t)
+    onset = {"missing": 2.0, "zeros": 2.0 + 2 * 1.0, "frozen": 1.5 + SET.frozen_time}[fault]
+    imu = t[src == gp.Source.IMU]
+    assert imu[0] == pytest.approx(onset, abs=0.6) and imu[-1] < 6.0 + 0.1
+    k = (t > imu[0] + 0.05) & (t < 6.0)
+    ic = _times(ev[k], t[k], gp.Event.IC) % 1.0
+    to = _times(ev[k], t[k], gp.Event.TO) % 1.0
+    ic_at = np.arcsin(0.12 * 6.0 / 2.0) / np.pi * 0.06
+    to_at = 0.5 + 0.14 / np.pi * (np.pi - np.pi / 6)
+    assert len(ic) >= 1 and np.allclose(ic, ic_at, atol=2e-3), ic
+    assert len(to) >= 1 and np.all((to >= to_at) & (to <= to_at + 2 * SET.slope_time)), to
+    assert src[-1] == gp.Source.FSR_IMU  # the FSRs read again
+
+
+def test_a_frozen_gyroscope_leaves_the_fsrs_alone() -> None:
+    # the gyroscope held at its last reading from 1.5 s (a board repeating a stale
+    # frame): after frozen_ms the FSRs decide alone, and say so
+    counts, t = _walk(4)
+    g = _gyro(t)
+    g[t >= 1.5] = g[np.argmax(t >= 1.5)]
+    ev, src, _ = _fused(counts, g, t)
+    assert np.all(src[t >= 1.5 + SET.frozen_time + 1e-3] == gp.Source.FSR)
+    late = t > 2.5
+    assert np.allclose(_times(ev[late], t[late], gp.Event.TO) % 1.0, _LIFT, atol=2e-3)
+
+
+def test_the_accelerometer_keeps_a_jolted_foot_off_the_ground() -> None:
+    # the IMU alone, standing up from an unknown phase: a foot still in rotation but
+    # jolted (its specific force 5 m/s^2 off g) is not yet flat; once its specific force
+    # is g's it is (reference: the rule, still_ms after both settle)
+    t = np.arange(1000) * 1e-3
+    nan4 = np.full((len(t), 4), np.nan)
+    st = gp.new_state(D)
+    first = None
+    for k in range(len(t)):
+        acc = np.array([0.0, 9.80665 + (5.0 if t[k] < 0.3 else 0.0)])
+        ev = gp.detect(D, st, nan4[k], 1e-3 * np.sin(50 * t[k]), acc, t[k])
+        if ev & gp.Event.FF and first is None:
+            first = t[k]
+    assert first == pytest.approx(0.3 + SET.still_time, abs=2e-3)
+    assert st[0]["source"] == gp.Source.IMU

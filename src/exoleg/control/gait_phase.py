@@ -1,36 +1,43 @@
-"""Gait-phase detection from the foot board's force sensors.
+"""Gait-phase detection from the foot board's force sensors and its IMU, together or alone.
 
-Each FSR reading is normalised by its running maximum (a floor keeps an unloaded start
-from dividing by nothing); the heel region is the heel sensor, the forefoot the largest
-of the metatarsal and hallux sensors; toe off also needs the sum of all four under the
-off threshold of its own running maximum (a load spread over several sensors, each
-below its threshold, is still a foot on the ground). A region is loaded above ``contact_on`` and
-unloaded below ``contact_off`` (hysteresis), and a change counts only once it has held
-for ``debounce_ms``. From the two regions:
+**The FSRs.** Each FSR reading is normalised by its running maximum (a floor keeps an
+unloaded start from dividing by nothing); the heel region is the heel sensor, the
+forefoot the largest of the metatarsal and hallux sensors; the foot is lifted when
+neither is loaded and the sum of all four is under the off threshold of its own running
+maximum (a load spread over several sensors, each below its threshold, is still a foot on
+the ground). A region is loaded above ``contact_on`` and unloaded below ``contact_off``
+(hysteresis), and a change counts only once it has held for ``debounce_ms``:
 
     swing --(either region loaded)--> initial contact (IC)
     IC: heel and forefoot loaded --> foot flat (FF)
     FF: heel unloaded, forefoot loaded --> heel off (HO)
-    any stance phase: nothing loaded --> toe off (TO) --> swing
+    any stance phase: the foot lifted --> toe off (TO) --> swing
 
 An initial contact after a toe-walking approach (forefoot first) counts too.
 
-The foot's gyroscope (its sagittal rate, rad/s), when it reads (finite, within its
-range), is fused with the FSRs (foot-gyro detection: Catalfamo et al. 2010; in children
-with CP, Behboodi et al. 2019):
+**Fused with the foot's gyroscope** (its sagittal rate, rad/s; foot-gyro detection:
+Catalfamo et al. 2010; in children with CP, Behboodi et al. 2019):
 
-* a foot that is not rotating is on the ground whatever the sensors under it read: toe
-  off needs the foot turning faster than ``gyro_turning`` (load under the midfoot,
-  between the sensors, reads as a lifted foot);
-* a foot swinging forward faster than ``gyro_swing`` for ``gyro_swing_ms`` is in swing
-  whatever the sensors under it read: a stance the FSRs hold on to (a sensor preloaded
-  by the strap, drift) ends with a toe off there, and each sensor's reading then is its
-  offset from then on (its baseline: the running calibration; a lower reading in a
-  later swing lowers it).
+* the toe off is timed by the foot's turn: the last load is under the toes' tips, on no
+  sensor, so the FSRs read the foot lifted 30-90 ms early; the toe off is when, the FSRs
+  reading it lifted, the foot's toe-down turn has passed its steepest (its rate of
+  change eased to ``slope_eased`` of the steepest since). A foot not turning is on the
+  ground whatever the sensors under it read (load under the midfoot, between them);
+* a foot swinging forward (faster than half the last swing's fastest turn, within
+  ``gyro_swing_floor``-``gyro_swing``: the running calibration, slow walking swings
+  slowly) for ``gyro_swing_ms`` is in swing whatever the FSRs read: a stance they hold
+  on to (a sensor preloaded by the strap, drift) ends with a toe off there, and each
+  sensor's reading then is its offset (its baseline; a lower reading in a later swing
+  lowers it).
 
-Without the gyroscope (NaN, or at its range: saturated) the FSRs decide alone. The
-state says which source decided the last toe off (``source``: :class:`Source`). The
-stride time is the mean of the last ``strides_averaged`` IC-to-IC intervals that lie
+**The IMU alone** (:func:`_imu_path`, its own phases from the gyroscope and the
+accelerometer) runs beside them and decides when the FSRs cannot: their readings missing
+(NaN), frozen (a loaded reading unchanged for ``frozen_ms``: noise always moves a live
+one) or silent (nothing loaded for ``fsr_silent_strides`` strides the IMU has walked).
+The gyroscope is not used when missing, saturated (at its range) or frozen; the FSRs then
+decide alone. The state says which source it rests on (``source``: :class:`Source`).
+
+The stride time is the mean of the last ``strides_averaged`` IC-to-IC intervals that lie
 within ``stride_accept`` times the expected one; the gait percentage is the time since
 the last IC over it. Thresholds, hysteresis, debounce and stride rules are data
 (``data/device/gait_phase.toml``); the update is compiled (:func:`detect`).
@@ -72,11 +79,12 @@ class Event(IntEnum):
 
 
 class Source(IntEnum):
-    """What the detector's last toe off rested on."""
+    """What the detector rests on."""
 
     FSR = 0          # the FSRs alone (no gyroscope reading)
-    FSR_IMU = 1      # the FSRs, confirmed by the foot turning
-    IMU = 2          # the gyroscope's swing, the FSRs still loaded (re-baselined)
+    FSR_IMU = 1      # the FSRs, their toe off timed and confirmed by the foot's turn
+    IMU = 2          # the foot's IMU alone (the FSRs missing, frozen or silent)
+    NONE = 3         # neither reads
 
 
 EVENT_NAMES = {Event.IC: "initial contact", Event.FF: "foot flat", Event.HO: "heel off",
@@ -100,6 +108,20 @@ class DetectorSettings:
     gyro_turning: float = 1.0      # rad/s
     gyro_swing: float = 3.0        # rad/s
     gyro_swing_time: float = 0.05  # s
+    gyro_swing_floor: float = 0.8  # rad/s
+    slope_time: float = 0.006      # s
+    slope_floor: float = 5.0       # rad/s^2
+    slope_eased: float = 0.5       # of the steepest
+    gyro_rise: float = 0.1         # rad/s
+    push_depth: float = 0.85       # of the last push-off's fastest turn
+    contact_fraction: float = 0.12  # of the last swing's fastest
+    gyro_contact: float = 0.5      # rad/s
+    gyro_heel_off: float = 0.4     # rad/s
+    gyro_still: float = 0.5        # rad/s
+    accel_still: float = 2.0       # m/s^2
+    still_time: float = 0.02       # s
+    frozen_time: float = 0.5       # s
+    fsr_silent_strides: float = 2.0
 
     def __post_init__(self) -> None:
         w = "DetectorSettings"
@@ -112,7 +134,15 @@ class DetectorSettings:
             if not 0.0 <= v <= hi:
                 raise ParameterError(w, name, f"{v:g} s is outside 0-{hi:g} s")
         for name, lo, hi in (("gyro_turning", 0.0, 20.0), ("gyro_swing", 0.5, 30.0),
-                             ("gyro_swing_time", 0.0, 0.5)):
+                             ("gyro_swing_time", 0.0, 0.5), ("gyro_swing_floor", 0.1, 30.0),
+                             ("slope_time", 0.0, 0.1),
+                             ("slope_floor", 0.0, 1e3), ("slope_eased", 0.01, 0.99),
+                             ("gyro_rise", 0.0, 5.0), ("push_depth", 0.1, 1.0),
+                             ("contact_fraction", 0.0, 1.0), ("gyro_contact", 0.0, 20.0),
+                             ("gyro_heel_off", 0.0, 20.0), ("gyro_still", 0.0, 5.0),
+                             ("accel_still", 0.0, 50.0), ("still_time", 0.0, 0.5),
+                             ("frozen_time", 0.01, 10.0),
+                             ("fsr_silent_strides", 1.0, 10.0)):
             v = _check.finite(w, name, getattr(self, name))
             if not lo <= v <= hi:
                 raise ParameterError(w, name, f"{v:g} is outside {lo:g}-{hi:g}")
@@ -134,7 +164,15 @@ class DetectorSettings:
             "calibration_floor_N": (0.1, 1e3, "N"), "debounce_ms": (0.0, 200.0, "ms"),
             "min_swing_ms": (0.0, 2000.0, "ms"), "min_stance_ms": (0.0, 2000.0, "ms"),
             "strides_averaged": (1.0, 10.0, ""), "gyro_turning_dps": (0.0, 1200.0, "deg/s"),
-            "gyro_swing_dps": (30.0, 1800.0, "deg/s"), "gyro_swing_ms": (0.0, 500.0, "ms")})
+            "gyro_swing_dps": (30.0, 1800.0, "deg/s"), "gyro_swing_ms": (0.0, 500.0, "ms"),
+            "gyro_swing_floor_dps": (5.0, 1800.0, "deg/s"),
+            "slope_ms": (0.0, 100.0, "ms"), "slope_floor_dps2": (0.0, 6e4, "deg/s^2"),
+            "slope_eased": (0.01, 0.99, ""), "contact_fraction": (0.0, 1.0, ""),
+            "gyro_rise_dps": (0.0, 300.0, "deg/s"), "push_depth": (0.1, 1.0, ""),
+            "gyro_contact_dps": (0.0, 1200.0, "deg/s"), "gyro_heel_off_dps": (0.0, 1200.0, "deg/s"),
+            "gyro_still_dps": (0.0, 300.0, "deg/s"), "accel_still": (0.0, 50.0, "m/s^2"),
+            "still_ms": (0.0, 500.0, "ms"),
+            "frozen_ms": (10.0, 10000.0, "ms"), "fsr_silent_strides": (1.0, 10.0, "")})
         if "stride_accept" not in d:
             raise ParameterError(where, "stride_accept", "missing ([lower, upper] multiples)")
         acc = _check.vector(where, "stride_accept", d["stride_accept"], 2)
@@ -147,59 +185,106 @@ class DetectorSettings:
                        stride_accept=(float(acc[0]), float(acc[1])),
                        gyro_turning=math.radians(v["gyro_turning_dps"]),
                        gyro_swing=math.radians(v["gyro_swing_dps"]),
-                       gyro_swing_time=v["gyro_swing_ms"] / 1e3)
+                       gyro_swing_time=v["gyro_swing_ms"] / 1e3,
+                       gyro_swing_floor=math.radians(v["gyro_swing_floor_dps"]),
+                       slope_time=v["slope_ms"] / 1e3,
+                       slope_floor=math.radians(v["slope_floor_dps2"]),
+                       slope_eased=v["slope_eased"], contact_fraction=v["contact_fraction"],
+                       gyro_rise=math.radians(v["gyro_rise_dps"]), push_depth=v["push_depth"],
+                       gyro_contact=math.radians(v["gyro_contact_dps"]),
+                       gyro_heel_off=math.radians(v["gyro_heel_off_dps"]),
+                       gyro_still=math.radians(v["gyro_still_dps"]),
+                       accel_still=v["accel_still"], still_time=v["still_ms"] / 1e3,
+                       frozen_time=v["frozen_ms"] / 1e3,
+                       fsr_silent_strides=v["fsr_silent_strides"])
         except ParameterError as e:  # a rule across fields: name the file
             raise ParameterError(where, e.field, e.problem) from None
 
     def record(self, floor_counts: float, expected_stride: float,
-               gyro_range: float = math.inf) -> NDArray[np.void]:
+               gyro_range: float = math.inf, accel_range: float = math.inf
+               ) -> NDArray[np.void]:
         """For :func:`detect` (:data:`SETTINGS`): thresholds, times, the calibration
-        floor in counts, the expected stride time, the gyroscope's range (rad/s: a
-        reading at it is saturated)."""
+        floor in counts, the expected stride time, the IMU's ranges (rad/s, m/s^2: a
+        reading at its range is saturated)."""
         r = new(SETTINGS)
-        for name in ("contact_on", "contact_off", "debounce", "min_swing", "min_stance",
-                     "strides_averaged", "gyro_turning", "gyro_swing", "gyro_swing_time"):
+        for name in _RECORDED:
             r[name] = getattr(self, name)
         r["floor"], r["expected_stride"] = floor_counts, expected_stride
-        r["gyro_range"] = gyro_range
+        r["gyro_range"], r["accel_range"] = gyro_range, accel_range
         r["accept_lo"], r["accept_hi"] = self.stride_accept
         return r
 
 
+_RECORDED = ("contact_on", "contact_off", "debounce", "min_swing", "min_stance",
+             "strides_averaged", "gyro_turning", "gyro_swing", "gyro_swing_time",
+             "gyro_swing_floor", "slope_time", "slope_floor", "slope_eased", "gyro_rise",
+             "push_depth",
+             "contact_fraction", "gyro_contact", "gyro_heel_off", "gyro_still",
+             "accel_still", "still_time", "frozen_time", "fsr_silent_strides")
+
+
 #: The detector's settings as :func:`detect` reads them (:meth:`DetectorSettings.record`):
 #: thresholds (normalised), the calibration floor (ADC counts), times (s), the stride
-#: rules and the stride time expected before any is measured (s).
+#: rules, the stride time expected before any is measured (s), the IMU's rules (rad/s,
+#: m/s^2, s) and ranges (a reading at its range is saturated).
 SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("floor", F8),
                      ("debounce", F8), ("min_swing", F8), ("min_stance", F8),
                      ("strides_averaged", I8), ("accept_lo", F8), ("accept_hi", F8),
                      ("expected_stride", F8), ("gyro_turning", F8), ("gyro_swing", F8),
-                     ("gyro_swing_time", F8), ("gyro_range", F8)])
+                     ("gyro_swing_time", F8), ("gyro_swing_floor", F8),
+                     ("slope_time", F8), ("slope_floor", F8), ("slope_eased", F8),
+                     ("gyro_rise", F8), ("push_depth", F8),
+                     ("contact_fraction", F8),
+                     ("gyro_contact", F8), ("gyro_heel_off", F8), ("gyro_still", F8),
+                     ("accel_still", F8), ("still_time", F8),
+                     ("frozen_time", F8), ("fsr_silent_strides", F8), ("gyro_range", F8),
+                     ("accel_range", F8)])
 #: Strides remembered (the most :attr:`DetectorSettings.strides_averaged` allows).
 HISTORY = 10
-#: The detector's state: the phase (:class:`Phase`); per region (heel, forefoot) the
-#: raw and the debounced loaded flags and since when the raw one differs (s, -1: it
-#: does not); the times of the last initial contact and toe off (s); the strides
-#: accepted; the running maxima per sensor and of their sum (counts); the accepted
-#: stride times, newest first (s); each sensor's baseline (its offset, counts); since
-#: when the gyroscope has read a swing (s, -1: it does not); what the last toe off
-#: rested on (:class:`Source`).
-STATE = np.dtype([("phase", I8), ("heel_raw", np.bool_), ("fore_raw", np.bool_),
+#: The detector's state. What it says: the phase (:class:`Phase`), the times of the last
+#: initial contact and toe off (s), the strides accepted and their times (newest first,
+#: s), the source it rests on (:class:`Source`). The FSRs' path: its phase and times;
+#: per region (heel, forefoot) the raw and the debounced loaded flags and since when the
+#: raw one differs (s, -1: it does not); the running maxima per sensor and of their sum
+#: (counts); each sensor's baseline (its offset, counts); since when the gyroscope has
+#: read a swing (s, -1: it does not); whether the FSRs read the foot lifted and the
+#: fastest toe-down turn since (rad/s); when any region last read loaded (s). The IMU's
+#: path: its phase and times, whether it has seen the swing since its toe off, the
+#: fastest forward swing of this and of the last stride and the fastest toe-down turn
+#: since heel off (rad/s), since when the foot is still (s, -1: it is not). The sources'
+#: health: the last readings and since when they have not changed (s).
+STATE = np.dtype([("phase", I8), ("t_ic", F8), ("t_to", F8), ("n_stride", I8),
+                  ("history", F8, HISTORY), ("source", I8),
+                  ("phase_f", I8), ("t_ic_f", F8), ("t_to_f", F8),
+                  ("heel_raw", np.bool_), ("fore_raw", np.bool_),
                   ("heel", np.bool_), ("fore", np.bool_), ("heel_since", F8),
-                  ("fore_since", F8), ("t_ic", F8), ("t_to", F8), ("n_stride", I8),
-                  ("max", F8, 4), ("total_max", F8), ("history", F8, HISTORY),
-                  ("base", F8, 4), ("swing_since", F8), ("source", I8)])
+                  ("fore_since", F8), ("max", F8, 4), ("total_max", F8), ("base", F8, 4),
+                  ("swing_since", F8), ("lift", np.bool_), ("lift_min", F8), ("stance_min", F8),
+                  ("push", F8),
+                  ("slope", F8),
+                  ("steepest", F8),
+                  ("t_loaded", F8),
+                  ("phase_i", I8), ("t_ic_i", F8), ("t_to_i", F8), ("swung", np.bool_),
+                  ("peak_now", F8), ("peak", F8), ("turn_min", F8), ("steep_i", F8),
+                  ("still_since", F8),
+                  ("gyro_last", F8), ("gyro_same", F8), ("fsr_last", F8, 4),
+                  ("fsr_same", F8)])
 
 
 def new_state(settings: NDArray[np.void]) -> NDArray[np.void]:
     """A detector's state before its first reading: phase unknown, running maxima at the
     floor, no strides."""
     s = new(STATE)
-    s["phase"] = Phase.UNKNOWN
-    s["heel_since"] = s["fore_since"] = -1.0
-    s["t_ic"] = s["t_to"] = -1e9
+    s["phase"] = s["phase_f"] = s["phase_i"] = Phase.UNKNOWN
+    s["heel_since"] = s["fore_since"] = s["swing_since"] = s["still_since"] = -1.0
+    for name in ("t_ic", "t_to", "t_ic_f", "t_to_f", "t_ic_i", "t_to_i", "t_loaded"):
+        s[name] = -1e9
     s["max"] = settings[0]["floor"]
     s["total_max"] = settings[0]["floor"]
-    s["swing_since"] = -1.0
+    s["peak"] = 2.0 * settings[0]["gyro_swing"]  # the first swing's level: gyro_swing
+    s["gyro_last"] = s["fsr_last"] = np.nan
+    s["push"] = -np.inf  # no push-off yet
+    s["source"] = Source.NONE
     return s
 
 
@@ -232,13 +317,17 @@ def stride_time(d, st):  # type: ignore[no-untyped-def]
     return acc / n
 
 
+@njit(inline="always")
+def _swing_level(D, s):  # type: ignore[no-untyped-def]
+    """The forward turn (rad/s) that is a swing: half the last swing's fastest, within
+    ``gyro_swing_floor``-``gyro_swing`` (the running calibration: slow walking swings
+    slowly)."""
+    return min(D.gyro_swing, max(D.gyro_swing_floor, 0.5 * s.peak))
+
+
 @njit(cache=True)
-def detect(d, st, counts, gyro, t):  # type: ignore[no-untyped-def]
-    """One reading of the four FSRs (ADC counts: heel, met1, met5, hallux) and the foot's
-    gyroscope (rad/s; NaN: none) at time t. ``d``: :data:`SETTINGS`, ``st``:
-    :data:`STATE` (updated). Returns the events (bits of :class:`Event`) of this tick."""
-    D = d[0]
-    s = st[0]
+def _fsr_path(D, s, counts, gyro, gyro_ok, t):  # type: ignore[no-untyped-def]
+    """The FSRs' path, the gyroscope fused when it reads: this tick's events."""
     c = np.empty(4)
     total = 0.0
     for i in range(4):
@@ -259,53 +348,68 @@ def detect(d, st, counts, gyro, t):  # type: ignore[no-untyped-def]
                                                D.contact_on, D.contact_off, t, D.debounce)
     h = s.heel
     f = s.fore
+    if s.heel_raw or s.fore_raw:
+        s.t_loaded = t
     # the whole foot unloaded, too: a load spread over several sensors, each below its own
     # threshold, is still a foot on the ground
-    lifted = (total - base) / max(s.total_max - base, D.floor) < D.contact_off
-    gyro_ok = math.isfinite(gyro) and abs(gyro) < D.gyro_range
-    turning = not gyro_ok or abs(gyro) > D.gyro_turning
+    lifted = not h and not f and \
+        (total - base) / max(s.total_max - base, D.floor) < D.contact_off
     swinging = False
-    if gyro_ok and gyro > D.gyro_swing:
+    if gyro_ok and gyro > _swing_level(D, s):
         if s.swing_since < 0.0:
             s.swing_since = t
         swinging = t - s.swing_since >= D.gyro_swing_time - 1e-12
     else:
         s.swing_since = -1.0
-    phase = s.phase
+    phase = s.phase_f
     if phase == Phase.SWING:  # a reading in swing is at most the sensor's offset
         for i in range(4):
             if counts[i] < s.base[i]:
                 s.base[i] = counts[i]
     ev = 0
     if phase <= Phase.SWING:  # swing or unknown
-        if (h or f) and (phase == Phase.UNKNOWN or t - s.t_to >= D.min_swing) \
+        if (h or f) and (phase == Phase.UNKNOWN or t - s.t_to_f >= D.min_swing) \
                 and not swinging:
             ev |= Event.IC
-            dt = t - s.t_ic
-            expected = stride_time(d, st)
-            if phase == Phase.SWING and D.accept_lo * expected <= dt <= D.accept_hi * expected:
-                for i in range(HISTORY - 1, 0, -1):
-                    s.history[i] = s.history[i - 1]
-                s.history[0] = dt
-                s.n_stride += 1
-            s.t_ic = t
+            s.t_ic_f = t
+            s.stance_min = 0.0
             if h and f:
                 ev |= Event.FF
                 phase = Phase.FLAT
             else:
                 phase = Phase.LOADING
+        s.lift = False
     else:
-        to = -1
-        if not h and not f and lifted and turning:
-            to = Source.FSR_IMU if gyro_ok else Source.FSR
-        elif swinging:  # the gyroscope reads a swing the FSRs do not
-            to = Source.IMU
-        if to >= 0 and t - s.t_ic >= D.min_stance:
+        # the FSRs read the foot lifted: with the gyroscope, the toe off is when the foot's
+        # toe-down turn has passed its fastest (the toes' tips, on no sensor, leave last)
+        # (the toes' tips, on no sensor, leave last): once its toe-down turn has passed
+        # its steepest, its rate of turning eased to slope_eased of the steepest
+        if gyro_ok and t - s.t_ic_f >= D.min_stance:  # not the turn as the foot lands
+            s.stance_min = min(s.stance_min, gyro)
+        if lifted and not s.lift:
+            s.lift_min = np.inf
+            s.steepest = 0.0
+        s.lift = lifted
+        if lifted and gyro_ok:
+            s.lift_min = min(s.lift_min, gyro)
+            s.steepest = min(s.steepest, s.slope)
+        to = False
+        if lifted and not gyro_ok:
+            to = True
+        elif lifted:  # a still foot is on the ground whatever the sensors under it read
+            to = s.lift_min < -D.gyro_turning and (
+                (s.steepest < -D.slope_floor and s.slope > D.slope_eased * s.steepest)
+                # lifted late, the turn's fastest past (as deep as the last push-off's)
+                or (s.lift_min < D.push_depth * s.push and gyro >= s.lift_min + D.gyro_rise))
+            to = to or gyro > D.gyro_turning
+        rebase = not to and swinging  # the gyroscope reads a swing the FSRs do not
+        if (to or rebase) and t - s.t_ic_f >= D.min_stance:
             ev |= Event.TO
-            s.t_to = t
-            s.source = to
+            s.t_to_f = t
+            if gyro_ok:
+                s.push = s.stance_min
             phase = Phase.SWING
-            if to == Source.IMU:  # the FSRs' readings now are their offsets
+            if rebase:  # the FSRs' readings now are their offsets
                 for i in range(4):
                     s.base[i] = counts[i]
                 s.heel = s.fore = s.heel_raw = s.fore_raw = False
@@ -316,7 +420,144 @@ def detect(d, st, counts, gyro, t):  # type: ignore[no-untyped-def]
         elif phase == Phase.FLAT and f and not h:
             ev |= Event.HO
             phase = Phase.PUSH
-    s.phase = phase
+    s.phase_f = phase
+    return ev
+
+
+@njit(cache=True)
+def _imu_path(D, s, gyro, acc_dev, t):  # type: ignore[no-untyped-def]
+    """The foot IMU's path (a reading gyroscope; ``acc_dev``: the accelerometer's
+    |specific force| less g, m/s^2, 0 without one): this tick's events.
+
+    A foot still (turning slower than ``gyro_still``, its specific force within
+    ``accel_still`` of g) for ``still_time`` is flat on the ground; after a swing (the foot
+    turning forward faster than ``gyro_swing_floor``), its turning toe-down faster than
+    ``gyro_contact`` and ``contact_fraction`` of the last swing's fastest turn is an initial
+    contact; from flat, turning toe-down faster than ``gyro_heel_off`` is heel off; from
+    heel off, the toe-down turn past its steepest (as the fused toe off, :func:`detect`)
+    is toe off."""
+    still = abs(gyro) < D.gyro_still and abs(acc_dev) < D.accel_still
+    if still:
+        if s.still_since < 0.0:
+            s.still_since = t
+        still = t - s.still_since >= D.still_time - 1e-12
+    else:
+        s.still_since = -1.0
+    phase = s.phase_i
+    ev = 0
+    if phase <= Phase.SWING:
+        if gyro > s.peak_now:
+            s.peak_now = gyro
+        if gyro > D.gyro_swing_floor:
+            s.swung = True
+        contact = False
+        if phase == Phase.UNKNOWN:
+            contact = still
+        elif s.swung and t - s.t_to_i >= D.min_swing:
+            contact = gyro < -max(D.gyro_contact, D.contact_fraction * s.peak)
+        if contact:
+            ev |= Event.IC
+            if phase == Phase.SWING:
+                s.peak = s.peak_now
+            s.t_ic_i = t
+            phase = Phase.LOADING
+            if still:
+                ev |= Event.FF
+                phase = Phase.FLAT
+    else:
+        if phase == Phase.LOADING and still:
+            ev |= Event.FF
+            phase = Phase.FLAT
+        elif phase == Phase.FLAT and gyro < -D.gyro_heel_off:
+            ev |= Event.HO
+            phase = Phase.PUSH
+            s.turn_min = gyro
+            s.steep_i = 0.0
+        elif phase == Phase.LOADING and t - s.t_ic_i < D.min_stance:
+            s.turn_min = 0.0  # the turn as the foot lands is not the push-off's
+            s.steep_i = 0.0
+        elif phase != Phase.FLAT:
+            s.turn_min = min(s.turn_min, gyro)
+            s.steep_i = min(s.steep_i, s.slope)
+            if s.turn_min < -D.gyro_turning and s.steep_i < -D.slope_floor and \
+                    s.slope > D.slope_eased * s.steep_i:
+                ev |= Event.TO
+                s.t_to_i = t
+                s.swung = False
+                s.peak_now = gyro
+                phase = Phase.SWING
+    s.phase_i = phase
+    return ev
+
+
+@njit(cache=True)
+def detect(d, st, counts, gyro, acc, t):  # type: ignore[no-untyped-def]
+    """One reading of the four FSRs (ADC counts: heel, met1, met5, hallux; NaN: none), the
+    foot's gyroscope (its sagittal rate, rad/s; NaN: none) and accelerometer (x, y
+    specific force in the foot frame, m/s^2; NaN: none) at time t. ``d``:
+    :data:`SETTINGS`, ``st``: :data:`STATE` (updated). Returns the events (bits of
+    :class:`Event`) of this tick."""
+    D = d[0]
+    s = st[0]
+    # the sources' health: a reading missing (NaN), at its range (saturated) or unchanged
+    # for frozen_time (a sensor's noise always moves it) is not used
+    gyro_ok = math.isfinite(gyro) and abs(gyro) < D.gyro_range
+    if gyro != s.gyro_last:  # a new reading: the turn's rate of change (rad/s^2) since
+        # the last one, smoothed over slope_time (a board sending slower than the
+        # controller's rate repeats its readings)
+        if gyro_ok and math.isfinite(s.gyro_last) and t > s.gyro_same:
+            dt = t - s.gyro_same
+            s.slope += dt / (D.slope_time + dt) * ((gyro - s.gyro_last) / dt - s.slope)
+        else:
+            s.slope = 0.0
+        s.gyro_same = t
+        s.gyro_last = gyro
+    gyro_ok = gyro_ok and t - s.gyro_same < D.frozen_time
+    fsr_ok = True
+    loaded = False
+    same = True
+    for i in range(4):
+        fsr_ok = fsr_ok and math.isfinite(counts[i])
+        loaded = loaded or counts[i] > D.floor
+        same = same and counts[i] == s.fsr_last[i]
+        s.fsr_last[i] = counts[i]
+    if not same:
+        s.fsr_same = t
+    # frozen loaded: a board holding its last reading (its noise would move it)
+    fsr_ok = fsr_ok and not (loaded and t - s.fsr_same >= D.frozen_time)
+    acc_dev = 0.0
+    if math.isfinite(acc[0]) and math.isfinite(acc[1]) and abs(acc[0]) < D.accel_range \
+            and abs(acc[1]) < D.accel_range:
+        acc_dev = math.sqrt(acc[0] * acc[0] + acc[1] * acc[1]) - 9.80665
+    ev_f = _fsr_path(D, s, counts, gyro, gyro_ok, t) if fsr_ok else 0
+    ev_i = _imu_path(D, s, gyro, acc_dev, t) if gyro_ok else 0
+    # silent: the FSRs have read nothing loaded for fsr_silent_strides strides the IMU
+    # has walked (their cable off, the board reading zeros)
+    if fsr_ok and gyro_ok and s.t_ic_i > s.t_loaded + 0.5 * stride_time(d, st):
+        fsr_ok = t - s.t_loaded < D.fsr_silent_strides * stride_time(d, st)
+    if fsr_ok:
+        ev = ev_f
+        s.phase = s.phase_f
+        s.source = Source.FSR_IMU if gyro_ok else Source.FSR
+    elif gyro_ok:
+        ev = ev_i
+        s.phase = s.phase_i
+        s.source = Source.IMU
+    else:
+        ev = 0
+        s.phase = Phase.UNKNOWN
+        s.source = Source.NONE
+    if ev & Event.IC:
+        dt = t - s.t_ic
+        expected = stride_time(d, st)
+        if D.accept_lo * expected <= dt <= D.accept_hi * expected:
+            for i in range(HISTORY - 1, 0, -1):
+                s.history[i] = s.history[i - 1]
+            s.history[0] = dt
+            s.n_stride += 1
+        s.t_ic = t
+    if ev & Event.TO:
+        s.t_to = t
     return ev
 
 

@@ -232,7 +232,7 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, sens, t, out): 
         R.t_stand = -1.0
     qm = s.q
     vm = s.dq
-    ev = gp.detect(d, st, s.fsr, s.gyro, t)
+    ev = gp.detect(d, st, s.fsr, s.gyro, s.accel, t)
     phase = st[0].phase
     qr = np.empty(3)
     dqr = np.empty(3)
@@ -332,7 +332,8 @@ class WalkController:
                  detector: gp.DetectorSettings | None = None,
                  safety: SafetyLimits | None = None, speed: str = "Free",
                  expected_stride: float = 1.1, fsr_floor_counts: float = 200.0,
-                 sole: float = 0.073, gyro_range: float = math.inf) -> None:
+                 sole: float = 0.073, gyro_range: float = math.inf,
+                 accel_range: float = math.inf) -> None:
         from exoleg.device.sensors import SENSOR_X
 
         w = "WalkController"
@@ -351,7 +352,8 @@ class WalkController:
                                     -float(sole))  # the sensors' y in the foot frame
         self.gq, self.gdq = gait_tables(speed)
         self.cp[0]["stop_fraction"] = stop_fraction(leg, self.gq)
-        self.d = self.detector.record(fsr_floor_counts, expected_stride, gyro_range)
+        self.d = self.detector.record(fsr_floor_counts, expected_stride, gyro_range,
+                                      accel_range)
         self.st = gp.new_state(self.d)
         self.lim, self.sst, self.sup = self.safety.record(), sf.new_state(), new(SUPERVISOR)
         self.ref = new_reference()

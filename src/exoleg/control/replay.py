@@ -55,12 +55,14 @@ COUNTS_RANGE = (0.0, 4095.0)
 @dataclass(frozen=True)
 class Recording:
     """A recording at the controller's rate: tick times ``t`` (s), FSR counts (n, 4),
-    the gyroscope (rad/s; NaN where none), the true events per tick (bits; None where
-    none were given), and what it was read from."""
+    the gyroscope (rad/s) and the accelerometer (n, 2: x, y, m/s^2; NaN where none), the
+    true events per tick (bits; None where none were given), and what it was read
+    from."""
 
     t: F64
     counts: F64
     gyro: F64
+    accel: F64
     reference: NDArray[np.int64] | None
     source: str
     rate_hz: float
@@ -89,8 +91,10 @@ def _event_bits(where: str, row: int, text: str) -> int:
     return int(x)
 
 
-def _read_csv(path: Path, counts: bool) -> tuple[F64, F64, F64, NDArray[np.int64] | None]:
-    """(t, sensors (N, 4) as recorded, gyro (N,), reference bits (N,) or None)."""
+def _read_csv(path: Path, counts: bool
+              ) -> tuple[F64, F64, F64, F64, NDArray[np.int64] | None]:
+    """(t, sensors (N, 4) as recorded, gyro (N,), accelerometer (N, 2), reference bits
+    (N,) or None)."""
     from exoleg.io import read_text
 
     where = str(path)
@@ -151,12 +155,22 @@ def _read_csv(path: Path, counts: bool) -> tuple[F64, F64, F64, NDArray[np.int64
                              f"last sample; samples must come at {MIN_RATE_HZ:g} Hz or "
                              f"faster ({1e3 / MIN_RATE_HZ:g} ms apart at most)")
     sensors = np.stack([np.array(values[c]) for c in SENSOR_COLUMNS], axis=1)
-    gyro = np.array(values["gyro"]) if "gyro" in values else np.full(len(t), np.nan)
-    return t, sensors, gyro, (np.array(ref, dtype=np.int64) if "reference" in idx else None)
+    return t, sensors, *_imu_columns(values, len(t)), (
+        np.array(ref, dtype=np.int64) if "reference" in idx else None)
 
 
-def _read_log(path: Path) -> tuple[F64, F64, F64]:
-    """(t, FSR counts (N, 4), gyro) of a session log."""
+def _imu_columns(cols: Any, n: int) -> tuple[F64, F64]:
+    """The gyroscope (n,) and the accelerometer (n, 2) of a recording's columns, NaN
+    where it has none."""
+    nan = np.full(n, np.nan)
+    gyro = np.asarray(cols["gyro"], dtype=float) if "gyro" in cols else nan
+    acc = np.stack([np.asarray(cols[c], dtype=float) if c in cols else nan
+                    for c in ("acc_x", "acc_y")], axis=1)
+    return gyro, acc
+
+
+def _read_log(path: Path) -> tuple[F64, F64, F64, F64]:
+    """(t, FSR counts (N, 4), gyro, accelerometer (N, 2)) of a session log."""
     from exoleg.runtime.log import read_log
 
     _, cols, _ = read_log(path)
@@ -168,7 +182,7 @@ def _read_log(path: Path) -> tuple[F64, F64, F64]:
     if len(t) < 2:
         raise ParameterError(where, "t", f"{len(t)} ticks recorded; a walk needs at least two")
     counts = np.stack([cols[f"fsr_{s}"] for s in SENSOR_COLUMNS], axis=1)
-    return t, counts, cols.get("gyro", np.full(len(t), np.nan))
+    return t, counts, *_imu_columns(cols, len(t))
 
 
 def is_session_log(path: Path) -> bool:
@@ -189,10 +203,10 @@ def read_recording(path: str | Path, counts: bool = False, control_dt: float = 1
 
     p = Path(path)
     if is_session_log(p):
-        t, c, gyro = _read_log(p)
+        t, c, gyro, acc = _read_log(p)
         ref = None
     else:
-        t, raw, gyro, ref = _read_csv(p, counts)
+        t, raw, gyro, acc, ref = _read_csv(p, counts)
         c = raw if counts else counts_of(FootSensors.default(0.0, device).record(),
                                          np.ascontiguousarray(raw))
     if t[-1] - t[0] > MAX_DURATION_S:
@@ -207,7 +221,7 @@ def read_recording(path: str | Path, counts: bool = False, control_dt: float = 1
         near = np.clip(np.rint((t - t[0]) / control_dt).astype(np.int64), 0, len(ticks) - 1)
         for i in np.flatnonzero(ref):
             reference[near[i]] |= ref[i]
-    return Recording(t=ticks, counts=c[k], gyro=gyro[k], reference=reference,
+    return Recording(t=ticks, counts=c[k], gyro=gyro[k], accel=acc[k], reference=reference,
                      source=str(p), rate_hz=1.0 / float(np.median(np.diff(t))))
 
 
@@ -220,19 +234,20 @@ def detect_events(rec: Recording, expected_stride: float = 1.1,
 
     board = FootSensors.default(0.0, device)
     d = gp.DetectorSettings.default(device).record(board.counts(FSR_FLOOR_N), expected_stride,
-                                                   board.gyro_range)
+                                                   board.gyro_range, board.accel_range)
     out: NDArray[np.int64] = detect_all(d, gp.new_state(d), np.ascontiguousarray(rec.counts),
-                                        np.ascontiguousarray(rec.gyro), rec.t)
+                                        np.ascontiguousarray(rec.gyro),
+                                        np.ascontiguousarray(rec.accel), rec.t)
     return out
 
 
 @njit(cache=True)
-def detect_all(d, st, counts, gyro, t):  # type: ignore[no-untyped-def]
+def detect_all(d, st, counts, gyro, accel, t):  # type: ignore[no-untyped-def]
     """:func:`~exoleg.control.gait_phase.detect` over every tick (the FSR counts (n, 4),
-    the gyroscope (n,), NaN where none): the event bits (n,)."""
+    the gyroscope (n,), the accelerometer (n, 2), NaN where none): the event bits (n,)."""
     out = np.zeros(len(t), dtype=np.int64)
     for k in range(len(t)):
-        out[k] = gp.detect(d, st, counts[k], gyro[k], t[k])
+        out[k] = gp.detect(d, st, counts[k], gyro[k], accel[k], t[k])
     return out
 
 

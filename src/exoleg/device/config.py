@@ -92,4 +92,4 @@ def walk_controller(config: DeviceConfig, leg: LegModel, body_mass: float,
         raise ParameterError("walk_controller", "depth", f"{depth!r} m is outside 0-0.3 m")
     return WalkController(config.leg(leg), body_mass, config.gains, config.detector,
                           config.safety, speed, stride_time, config.fsr_floor_counts, depth,
-                          config.sensors.gyro_range)
+                          config.sensors.gyro_range, config.sensors.accel_range)

@@ -114,7 +114,9 @@ class CanopenBackend(DriveMaster):
         self.fsr[:] = FOOT_FSR.unpack(bytes(data))
 
     def _on_imu(self, can_id: int, data: bytes, timestamp: float) -> None:
-        self.gyro = FOOT_IMU.unpack(bytes(data))[0] / 1000.0
+        g, ax, ay = FOOT_IMU.unpack(bytes(data))
+        self.gyro = g / 1000.0
+        self.accel[:] = ax / 100.0, ay / 100.0
         self.foot.set()
 
     def start_up(self, lower: F64, upper: F64, margin: float) -> list[str]:

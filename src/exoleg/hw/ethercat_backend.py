@@ -216,6 +216,7 @@ class EthercatBackend(DriveMaster):
             v = FOOT_IN.unpack(bytes(self.foot_slave.input))
             self.fsr[:] = v[:4]
             self.gyro = v[4] / 1000.0
+            self.accel[:] = v[5] / 100.0, v[6] / 100.0
         if not fault and self.emcy:
             j, msg = self.emcy[0]
             fault = (f"EMCY from the {j} drive (slave {SLAVE_POS[j]}): "

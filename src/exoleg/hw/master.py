@@ -26,7 +26,7 @@ class DriveMaster:
     """The master's side of three CiA 402 drives and the foot board, whatever the bus."""
 
     columns = ([f"q_meas_{j}" for j in JOINT_ORDER] + [f"dq_meas_{j}" for j in JOINT_ORDER]
-               + ["fsr_heel", "fsr_met1", "fsr_met5", "fsr_hallux", "gyro"]
+               + ["fsr_heel", "fsr_met1", "fsr_met5", "fsr_hallux", "gyro", "acc_x", "acc_y"]
                + [f"state_{j}" for j in JOINT_ORDER] + ["bus_us"]
                + [f"tau_meas_{j}" for j in JOINT_ORDER])
 
@@ -46,6 +46,7 @@ class DriveMaster:
         self.vm = np.zeros(3)
         self.fsr = np.zeros(4)
         self.gyro = 0.0
+        self.accel = np.full(2, np.nan)  # the foot's accelerometer, m/s^2 (none yet)
         self.tau_meas = np.zeros(3)  # each drive's torque actual value (0x6077), N m
         self.states = [cia402.State.SWITCH_ON_DISABLED] * 3
         self.first = True
@@ -119,12 +120,12 @@ class DriveMaster:
         self.q_prev = q
         self.bus_us = (time.perf_counter() - t0) * 1e6
         out: dict[str, Any] = {"q": q, "dq": self.vm.copy(), "fsr": self.fsr.copy(),
-                               "gyro": self.gyro}
+                               "gyro": self.gyro, "accel": self.accel.copy()}
         if fault:
             out["fault"] = fault
         return out
 
     def record(self) -> F64:
-        return np.concatenate([self.q_prev, self.vm, self.fsr, [self.gyro],
+        return np.concatenate([self.q_prev, self.vm, self.fsr, [self.gyro], self.accel,
                                [s.value[1] for s in self.states], [self.bus_us],
                                self.tau_meas])

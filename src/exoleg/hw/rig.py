@@ -71,7 +71,8 @@ class DriveRig:
             s = self.sensors
             c = np.clip(np.round(s["fsr"]), 0, 65535).astype(int)
             g = int(np.clip(round(1000 * s["gyro"]), -32768, 32767))
-            self._foot = (FOOT_FSR.pack(*c), FOOT_IMU.pack(g, 0, 0))
+            a = np.clip(np.round(100 * np.asarray(s["accel"])), -32768, 32767).astype(int)
+            self._foot = (FOOT_FSR.pack(*c), FOOT_IMU.pack(g, *a))
         return self._foot
 
     def fault(self, joint: str) -> None:

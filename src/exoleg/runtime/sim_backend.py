@@ -29,7 +29,7 @@ class SimBackend:
     (``step`` of :func:`~exoleg.sim.device.prepare_walk`), the leg hanging."""
 
     columns = ([f"q_meas_{j}" for j in JOINTS] + [f"dq_meas_{j}" for j in JOINTS]
-               + ["fsr_heel", "fsr_met1", "fsr_met5", "fsr_hallux", "gyro"]
+               + ["fsr_heel", "fsr_met1", "fsr_met5", "fsr_hallux", "gyro", "acc_x", "acc_y"]
                + [f"q_{j}" for j in JOINTS] + ["pelvis"] + [f"tau_{j}" for j in JOINTS]
                + [f"interaction_{j}" for j in JOINTS] + [f"child_{j}" for j in JOINTS])
 
@@ -101,7 +101,7 @@ class SimBackend:
                      self.bias, self.reading, self.fn)
         r = self.reading[0]
         return {"q": r["q"], "dq": r["dq"], "fsr": r["fsr"], "gyro": float(r["gyro"]),
-                "interaction": r["interaction"]}
+                "accel": r["accel"], "interaction": r["interaction"]}
 
     def write(self, tau: F64, enable: bool) -> None:
         """The drives' torque command (N m), zero unless ``enable``."""
@@ -127,5 +127,6 @@ class SimBackend:
 
     def record(self) -> F64:
         r, x = self.reading[0], self.S[0]["x"]
-        return np.concatenate([r["q"], r["dq"], r["fsr"], [r["gyro"]], x[1:4], x[:1],
+        return np.concatenate([r["q"], r["dq"], r["fsr"], [r["gyro"]], r["accel"], x[1:4],
+                               x[:1],
                                self.tau, r["interaction"], self.S[0]["child"]])

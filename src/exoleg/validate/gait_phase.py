@@ -138,14 +138,15 @@ def fault_cases(results: list[Any], stride_time: float = 1.1
     from exoleg.device.config import DeviceConfig
 
     cfg = DeviceConfig.load()
-    d = cfg.detector.record(cfg.fsr_floor_counts, stride_time, cfg.sensors.gyro_range)
+    d = cfg.detector.record(cfg.fsr_floor_counts, stride_time, cfg.sensors.gyro_range,
+                            cfg.sensors.accel_range)
     out = {}
     for name, fault in FAULTS.items():
         series = []
         for r in results:
             counts, gyro = fault(np.asarray(r.fsr, dtype=float), np.asarray(r.gyro), r.t)
             bits = detect_all(d, gp.new_state(d), np.ascontiguousarray(counts),
-                              np.ascontiguousarray(gyro), r.t)
+                              np.ascontiguousarray(gyro), np.ascontiguousarray(r.accel), r.t)
             walking = r.t >= r.walk_start
             series.append((r.t[walking], bits[walking], r.true_events()[walking]))
         out[name] = event_rows(series)
