@@ -15,6 +15,19 @@ def _ms(x: float) -> str:
 
 
 # --------------------------------------------------------------------------- validate
+def _fault_table(cases: dict[str, list[dict[str, Any]]], title: str) -> None:
+    """Initial contact and toe off per replayed case (:func:`exoleg.validate.gait_phase.
+    fault_cases`)."""
+    _table([[case if i == 0 else "", r["event"], _ms(r["median_abs_error_ms"]),
+             _ms(r["p95_abs_error_ms"]), str(r["missed"]), str(r["false"]),
+             f"{100 * r['in_strides']:.0f} %"]
+            for case, table in cases.items()
+            for i, r in enumerate(x for x in table if x["event"] in ("initial contact",
+                                                                      "toe off"))],
+           ["sensor fault", "event", "median |error| ms", "p95 |error| ms", "missed",
+            "extra", "in strides"], title=title)
+
+
 def cmd_validate(args: argparse.Namespace) -> int:
     if args.identify:
         from exoleg.cli._common import _Progress
@@ -54,19 +67,13 @@ def cmd_validate(args: argparse.Namespace) -> int:
         if rows_ok and len(rows_ok) != len(rows) or any(r.fault for r in runs):
             _table(_detection_rows(rows_ok), _DETECTION_HEADER,
                    title="the same, runs the safety layer did not stop")
-        _table([[case if i == 0 else "", r["event"], _ms(r["median_abs_error_ms"]),
-                 _ms(r["p95_abs_error_ms"]), str(r["missed"]), str(r["false"]),
-                 f"{100 * r['in_strides']:.0f} %"]
-                for case, table in faults.items()
-                for i, r in enumerate(x for x in table if x["event"] in ("initial contact",
-                                                                          "toe off"))],
-               ["sensor fault", "event", "median |error| ms", "p95 |error| ms", "missed",
-                "extra", "in strides"],
-               title="sensor faults, replayed through the detector (FSRs and the foot's "
-                     "gyroscope) over the same walks")
+        _fault_table(faults, "sensor faults, replayed through the detector (FSRs and the "
+                             "foot's IMU) over the same walks")
         for st, table in v.slow.items():
             _table(_detection_rows(table), _DETECTION_HEADER,
                    title=f"the same children walking slowly, strides of {st:g} s (x1 noise)")
+            _fault_table(v.slow_sources[st], f"strides of {st:g} s: each source alone, "
+                                             "replayed over the same walks")
         _say("published, shank gyroscope: initial contact -25 ms, foot off < 75 ms, > 98 % "
              "detected (Catalfamo et al. 2010); children with CP: onset < 100 ms, > 99 % of "
              "phases (Behboodi et al. 2019)")

@@ -48,13 +48,15 @@ class GaitPhaseValidation:
     walk at the expected stride time (``rows``) and over those the safety layer did not
     stop (``rows_ok``), the walks (``runs``), the sensor faults replayed over the latter
     (``faults``, :func:`fault_cases`), and per slower stride time (s) the table of the
-    children walking so (``slow``)."""
+    children walking so (``slow``) and each single source's over the same walks
+    (``slow_sources``: :data:`SOURCES`)."""
 
     rows: list[dict[str, Any]]
     rows_ok: list[dict[str, Any]]
     runs: list[DetectionRun]
     faults: dict[str, list[dict[str, Any]]]
     slow: dict[float, list[dict[str, Any]]]
+    slow_sources: dict[float, dict[str, list[dict[str, Any]]]]
 
 
 def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
@@ -96,7 +98,9 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
     ok = [r for r, run in results if not run.fault]
     return GaitPhaseValidation(detection_table(walks_), detection_table(ok) if ok else [],
                                runs, fault_cases(ok),
-                               {st: detection_table(rs) for st, rs in slow_results.items()})
+                               {st: detection_table(rs) for st, rs in slow_results.items()},
+                               {st: fault_cases(rs, st, SOURCES)
+                                for st, rs in slow_results.items()})
 
 
 #: The foot board's full scale, counts (12-bit ADC).
@@ -116,6 +120,14 @@ FAULTS = {
                                     FULL_SCALE), g),
     "gyroscope failed (no reading: the FSRs alone)":
         lambda c, g, t: (c, np.full_like(g, np.nan)),
+    "FSRs failed (no reading: the IMU alone)":
+        lambda c, g, t: (np.full_like(c, np.nan), g),
+    "FSRs reading zeros (their cable off: the IMU alone once silent)":
+        lambda c, g, t: (np.zeros_like(c), g),
+    "foot board frozen: FSRs repeating a reading from 2 s":
+        lambda c, g, t: (np.where((t >= 2.0)[:, None], c[np.argmax(t >= 2.0)], c), g),
+    "gyroscope frozen: repeating a reading from 2 s":
+        lambda c, g, t: (c, np.where(t >= 2.0, g[np.argmax(t >= 2.0)], g)),
     "preloaded metatarsal, gyroscope failed":
         lambda c, g, t: (_set(c, 1, np.minimum(c[:, 1] + 0.25 * FULL_SCALE, FULL_SCALE)),
                          np.full_like(g, np.nan)),
@@ -128,11 +140,18 @@ def _set(c: Any, i: int, value: Any) -> Any:
     return out
 
 
-def fault_cases(results: list[Any], stride_time: float = 1.1
-                ) -> dict[str, list[dict[str, Any]]]:
-    """Per :data:`FAULTS` case, the detection table (:func:`exoleg.control.replay.
-    event_rows`) of the controller's detector replayed from a fresh state over each
-    walk's readings with the fault, against the walk's true events."""
+#: The single sources, as :data:`FAULTS` cases: both, the FSRs alone, the IMU alone.
+SOURCES = ("none (the walks' own readings, replayed)",
+           "gyroscope failed (no reading: the FSRs alone)",
+           "FSRs failed (no reading: the IMU alone)")
+
+
+def fault_cases(results: list[Any], stride_time: float = 1.1,
+                cases: tuple[str, ...] | None = None) -> dict[str, list[dict[str, Any]]]:
+    """Per :data:`FAULTS` case (or those named in ``cases``), the detection table
+    (:func:`exoleg.control.replay.event_rows`) of the controller's detector replayed from
+    a fresh state over each walk's readings with the fault, against the walk's true
+    events."""
     from exoleg.control import gait_phase as gp
     from exoleg.control.replay import detect_all, event_rows
     from exoleg.device.config import DeviceConfig
@@ -141,7 +160,8 @@ def fault_cases(results: list[Any], stride_time: float = 1.1
     d = cfg.detector.record(cfg.fsr_floor_counts, stride_time, cfg.sensors.gyro_range,
                             cfg.sensors.accel_range)
     out = {}
-    for name, fault in FAULTS.items():
+    for name in cases or tuple(FAULTS):
+        fault = FAULTS[name]
         series = []
         for r in results:
             counts, gyro = fault(np.asarray(r.fsr, dtype=float), np.asarray(r.gyro), r.t)
