@@ -241,25 +241,30 @@ SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("floor", F8),
                      ("accel_range", F8)])
 #: Strides remembered (the most :attr:`DetectorSettings.strides_averaged` allows).
 HISTORY = 10
-#: The detector's state. What it says: the phase (:class:`Phase`), the times of the last
-#: initial contact and toe off (s), the strides accepted and their times (newest first,
-#: s), the source it rests on (:class:`Source`). The FSRs' path: its phase and times;
-#: per region (heel, forefoot) the raw and the debounced loaded flags and since when the
-#: raw one differs (s, -1: it does not); the running maxima per sensor and of their sum
-#: (counts); each sensor's baseline (its offset, counts); since when the gyroscope has
-#: read a swing (s, -1: it does not); whether the FSRs read the foot lifted and the
-#: fastest toe-down turn since (rad/s); when any region last read loaded (s). The IMU's
-#: path: its phase and times, whether it has seen the swing since its toe off, the
-#: fastest forward swing of this and of the last stride and the fastest toe-down turn
-#: since heel off (rad/s), since when the foot is still (s, -1: it is not). The sources'
-#: health: the last readings and since when they have not changed (s).
-STATE = np.dtype([("phase", I8), ("t_ic", F8), ("t_to", F8), ("n_stride", I8),
-                  ("history", F8, HISTORY), ("source", I8),
+#: The detector's state. What it says: the phase (:class:`Phase`); whether the foot
+#: bears weight (a stance phase, and the FSRs not reading it lifted and turning: from
+#: then its toes' tips alone bear until the toe off -- the controller's stance model
+#: follows this); the times of the last initial contact and toe off (s); the strides
+#: accepted and their times (newest first, s); the source it rests on (:class:`Source`).
+#: The FSRs' path: its phase and times; per region (heel, forefoot) the raw and the
+#: debounced loaded flags and since when the raw one differs (s, -1: it does not); the
+#: running maxima per sensor and of their sum (counts); each sensor's baseline (its
+#: offset, counts); since when the gyroscope has read a swing (s, -1: it does not);
+#: whether the FSRs read the foot lifted, whether it is unloaded (lifted and turning),
+#: the fastest toe-down turn since the lift and in this stance, the last push-off's
+#: (rad/s), the turn's rate of change and its steepest since the lift (rad/s^2); when
+#: any region last read loaded (s). The IMU's path: its phase and times, whether it has
+#: seen the swing since its toe off, the fastest forward swing of this and of the last
+#: stride, the fastest toe-down turn and its steepest rate since heel off, since when the
+#: foot is still (s, -1: it is not). The sources' health: the last readings and since
+#: when they have not changed (s).
+STATE = np.dtype([("phase", I8), ("bearing", np.bool_), ("t_ic", F8), ("t_to", F8),
+                  ("n_stride", I8), ("history", F8, HISTORY), ("source", I8),
                   ("phase_f", I8), ("t_ic_f", F8), ("t_to_f", F8),
                   ("heel_raw", np.bool_), ("fore_raw", np.bool_),
                   ("heel", np.bool_), ("fore", np.bool_), ("heel_since", F8),
                   ("fore_since", F8), ("max", F8, 4), ("total_max", F8), ("base", F8, 4),
-                  ("swing_since", F8), ("lift", np.bool_), ("lift_min", F8), ("stance_min", F8),
+                  ("swing_since", F8), ("lift", np.bool_), ("unloaded", np.bool_), ("lift_min", F8), ("stance_min", F8),
                   ("push", F8),
                   ("slope", F8),
                   ("steepest", F8),
@@ -379,10 +384,14 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, t):  # type: ignore[no-untyped-def]
             else:
                 phase = Phase.LOADING
         s.lift = False
+        s.unloaded = False
     else:
-        # the FSRs read the foot lifted: with the gyroscope, the toe off is when the foot's
-        # toe-down turn has passed its fastest (the toes' tips, on no sensor, leave last)
-        # (the toes' tips, on no sensor, leave last): once its toe-down turn has passed
+        # the FSRs read the foot lifted and it turns: the weight is off the foot, its
+        # toes' tips (on no sensor) alone bearing -- the controller's swing from here
+        if lifted and (not gyro_ok or abs(gyro) > D.gyro_turning) \
+                and t - s.t_ic_f >= D.min_stance:
+            s.unloaded = True
+        # with the gyroscope, the toe off is when the foot's toe-down turn has passed
         # its steepest, its rate of turning eased to slope_eased of the steepest
         if gyro_ok and t - s.t_ic_f >= D.min_stance:  # not the turn as the foot lands
             s.stance_min = min(s.stance_min, gyro)
@@ -535,14 +544,17 @@ def detect(d, st, counts, gyro, acc, t):  # type: ignore[no-untyped-def]
     # has walked (their cable off, the board reading zeros)
     if fsr_ok and gyro_ok and s.t_ic_i > s.t_loaded + 0.5 * stride_time(d, st):
         fsr_ok = t - s.t_loaded < D.fsr_silent_strides * stride_time(d, st)
+    s.bearing = False
     if fsr_ok:
         ev = ev_f
         s.phase = s.phase_f
         s.source = Source.FSR_IMU if gyro_ok else Source.FSR
+        s.bearing = s.phase >= Phase.LOADING and not s.unloaded
     elif gyro_ok:
         ev = ev_i
         s.phase = s.phase_i
         s.source = Source.IMU
+        s.bearing = s.phase >= Phase.LOADING
     else:
         ev = 0
         s.phase = Phase.UNKNOWN

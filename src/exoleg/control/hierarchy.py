@@ -252,7 +252,9 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, sens, t, out): 
                 R.q_from[j] = qr[j]
     R.x = x
     blending = mode == Mode.STANDING and R.t_stand >= 0.0 and t - R.t_stand < C.stand_blend
-    stance = phase >= gp.Phase.LOADING or (mode == Mode.STANDING and not blending)
+    # the stance model while the foot bears weight (the detector's: from the FSRs' lift
+    # on, the toes' tips alone bear it until the toe off)
+    stance = st[0].bearing or (mode == Mode.STANDING and not blending)
     if blending:
         _stand_blend(R.q_from, C.standing, C.stand_blend, (t - R.t_stand) / C.stand_blend,
                      qr, dqr, ddqr)
