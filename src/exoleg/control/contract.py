@@ -62,6 +62,7 @@ SENSORS = np.dtype([("q", F8, 3), ("dq", F8, 3), ("fsr", F8, 4), ("gyro", F8),
 
 #: What a controller gives each tick: the torque to the drives (N m), the supervisor's
 #: mode (:class:`Mode`), the gait phase (:class:`~exoleg.control.gait_phase.Phase`), the
+#: what the detector rests on (:class:`~exoleg.control.gait_phase.Source`), the
 #: gait fraction, the tick's events (bits of :class:`~exoleg.control.gait_phase.Event`),
 #: the safety layer's status bits (:class:`~exoleg.control.safety.Limited`), the
 #: reference (rad), the fault latched (:class:`~exoleg.control.safety.Fault`), its
@@ -70,7 +71,8 @@ SENSORS = np.dtype([("q", F8, 3), ("dq", F8, 3), ("fsr", F8, 4), ("gyro", F8),
 #: none was, e.g. a reset while a fault still holds), and per joint the safety layer's
 #: estimates: the motor's winding temperature (degC) and the gear's transmitted torque
 #: (N m).
-OUTPUT = np.dtype([("tau", F8, 3), ("mode", I8), ("phase", I8), ("gait_fraction", F8),
+OUTPUT = np.dtype([("tau", F8, 3), ("mode", I8), ("phase", I8), ("gait_source", I8),
+                   ("gait_fraction", F8),
                    ("events", I8), ("safety_status", I8), ("q_ref", F8, 3), ("fault", I8),
                    ("fault_joint", I8), ("fault_value", F8), ("fault_limit", F8),
                    ("refused", I8), ("winding_temp", F8, 3), ("gear_torque", F8, 3)])
@@ -156,11 +158,12 @@ class TickRecords:
 
 def output_kinds() -> dict[str, dict[int, IntEnum]]:
     """The output fields that hold an enumeration, each as value -> member."""
-    from exoleg.control.gait_phase import Phase
+    from exoleg.control.gait_phase import Phase, Source
     from exoleg.control.safety import Fault
 
     return {name: {int(m): m for m in kind} for name, kind in
-            (("mode", Mode), ("phase", Phase), ("fault", Fault), ("refused", Command))}
+            (("mode", Mode), ("phase", Phase), ("gait_source", Source), ("fault", Fault),
+             ("refused", Command))}
 
 
 def output_columns() -> list[str]:
@@ -183,7 +186,7 @@ def vocabulary() -> dict[str, Any]:
     names by value, the texts of the phases, events and safety bits, the joints and the
     FSR points, the commands that apply in each mode (``applies``) and the modes in
     which the drives are enabled (``armed``)."""
-    from exoleg.control.gait_phase import EVENT_NAMES, PHASE_NAMES, Event, Phase
+    from exoleg.control.gait_phase import EVENT_NAMES, PHASE_NAMES, SOURCE_NAMES, Event, Phase
     from exoleg.control.safety import LIMITED_TEXT, Fault, Limited
 
     out: dict[str, Any] = {k: {str(v): n for n, v in t.items()}
@@ -191,6 +194,7 @@ def vocabulary() -> dict[str, Any]:
                                                   Limited).items()}
     out["text"] = {"Phase": {str(int(k)): v for k, v in PHASE_NAMES.items()},
                    "Event": [[int(k), v] for k, v in EVENT_NAMES.items()],
+                   "Source": {str(int(k)): v for k, v in SOURCE_NAMES.items()},
                    "Limited": [[int(k), v] for k, v in LIMITED_TEXT.items()]}
     out["joints"], out["sensors"] = list(JOINTS), list(SENSOR_POINTS)
     from exoleg.control.supervisor import APPLIES

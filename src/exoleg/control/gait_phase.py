@@ -89,6 +89,8 @@ class Source(IntEnum):
 
 EVENT_NAMES = {Event.IC: "initial contact", Event.FF: "foot flat", Event.HO: "heel off",
                Event.TO: "toe off"}
+SOURCE_NAMES = {Source.FSR: "the FSRs alone", Source.FSR_IMU: "the FSRs and the foot's IMU",
+                Source.IMU: "the foot's IMU alone", Source.NONE: "no sensor reading"}
 PHASE_NAMES = {Phase.UNKNOWN: "unknown", Phase.SWING: "swing", Phase.LOADING: "loading",
                Phase.FLAT: "foot flat", Phase.PUSH: "push-off"}
 
@@ -112,8 +114,8 @@ class DetectorSettings:
     slope_time: float = 0.006      # s
     slope_floor: float = 5.0       # rad/s^2
     slope_eased: float = 0.5       # of the steepest
-    gyro_rise: float = 0.1         # rad/s
-    push_depth: float = 0.85       # of the last push-off's fastest turn
+    gyro_rise: float = 0.7         # rad/s
+    push_depth: float = 0.85       # of the stance's fastest toe-down turn
     contact_fraction: float = 0.12  # of the last swing's fastest
     gyro_contact: float = 0.5      # rad/s
     gyro_heel_off: float = 0.4     # rad/s
@@ -251,8 +253,7 @@ HISTORY = 10
 #: running maxima per sensor and of their sum (counts); each sensor's baseline (its
 #: offset, counts); since when the gyroscope has read a swing (s, -1: it does not);
 #: whether the FSRs read the foot lifted, whether it is unloaded (lifted and turning),
-#: the fastest toe-down turn since the lift and in this stance, the last push-off's
-#: (rad/s), the turn's rate of change and its steepest since the lift (rad/s^2); when
+#: the fastest toe-down turn since the lift and in this stance (rad/s), the turn's rate of change and its steepest since the lift (rad/s^2); when
 #: any region last read loaded (s). The IMU's path: its phase and times, whether it has
 #: seen the swing since its toe off, the fastest forward swing of this and of the last
 #: stride, the fastest toe-down turn and its steepest rate since heel off, since when the
@@ -265,7 +266,6 @@ STATE = np.dtype([("phase", I8), ("bearing", np.bool_), ("t_ic", F8), ("t_to", F
                   ("heel", np.bool_), ("fore", np.bool_), ("heel_since", F8),
                   ("fore_since", F8), ("max", F8, 4), ("total_max", F8), ("base", F8, 4),
                   ("swing_since", F8), ("lift", np.bool_), ("unloaded", np.bool_), ("lift_min", F8), ("stance_min", F8),
-                  ("push", F8),
                   ("slope", F8),
                   ("steepest", F8),
                   ("t_loaded", F8),
@@ -288,7 +288,6 @@ def new_state(settings: NDArray[np.void]) -> NDArray[np.void]:
     s["total_max"] = settings[0]["floor"]
     s["peak"] = 2.0 * settings[0]["gyro_swing"]  # the first swing's level: gyro_swing
     s["gyro_last"] = s["fsr_last"] = np.nan
-    s["push"] = -np.inf  # no push-off yet
     s["source"] = Source.NONE
     return s
 
@@ -408,15 +407,14 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, t):  # type: ignore[no-untyped-def]
         elif lifted:  # a still foot is on the ground whatever the sensors under it read
             to = s.lift_min < -D.gyro_turning and (
                 (s.steepest < -D.slope_floor and s.slope > D.slope_eased * s.steepest)
-                # lifted late, the turn's fastest past (as deep as the last push-off's)
-                or (s.lift_min < D.push_depth * s.push and gyro >= s.lift_min + D.gyro_rise))
+                # lifted late, the turn's fastest past (as deep as this stance's deepest)
+                or (s.lift_min <= D.push_depth * s.stance_min
+                    and gyro >= s.lift_min + D.gyro_rise))
             to = to or gyro > D.gyro_turning
         rebase = not to and swinging  # the gyroscope reads a swing the FSRs do not
         if (to or rebase) and t - s.t_ic_f >= D.min_stance:
             ev |= Event.TO
             s.t_to_f = t
-            if gyro_ok:
-                s.push = s.stance_min
             phase = Phase.SWING
             if rebase:  # the FSRs' readings now are their offsets
                 for i in range(4):

@@ -282,6 +282,7 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, sens, t, out): 
     settle(sup, sst)
     report(sup, sst, refused, status, out)
     o.phase = phase
+    o.gait_source = st[0].source
     o.gait_fraction = x
     o.events = ev
     for j in range(3):

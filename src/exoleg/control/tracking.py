@@ -22,7 +22,7 @@ from numba import njit
 from exoleg.control import safety as sf
 from exoleg.control.contract import OUTPUT, SENSORS, Mode, TickRecords
 from exoleg.control.controllers import Controller as LawRecord
-from exoleg.control.gait_phase import Phase
+from exoleg.control.gait_phase import Phase, Source
 from exoleg.control.laws import control_law
 from exoleg.control.safety import SafetyLimits, safety_step
 from exoleg.control.supervisor import SUPERVISOR, report, settle, supervise
@@ -47,6 +47,7 @@ def track_step(kind, kp, kd, kc, scale, limit, lim, sst, sup, sens, refused, qr,
     settle(sup, sst)
     report(sup, sst, refused, status, out)
     o.phase = Phase.UNKNOWN
+    o.gait_source = Source.NONE
     o.gait_fraction = 0.0
     o.events = 0
     for j in range(3):

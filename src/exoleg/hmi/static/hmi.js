@@ -280,6 +280,7 @@ function frame() {
       $("fault-live").textContent = s.fault ? s.fault_text : "";
       drawLeg(s); drawAngles(); drawTorques(s); drawFsr(s);
       $("phase").textContent = VOC().text.Phase[s.phase] || s.phase;
+      $("gait-source").textContent = VOC().text.Source[s.gait_source] || s.gait_source;
       const bits = VOC().text.Limited.filter(([b]) => s.safety_status & b).map(([, n]) => n);
       $("safety").textContent = bits.length ? bits.join("; ") : "nominal";
       $("windings").textContent = s.winding_temp.map((v, i) => `${JOINTS[i]} ${v.toFixed(0)} °C`).join(", ");
