@@ -243,29 +243,30 @@ SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("floor", F8),
                      ("accel_range", F8)])
 #: Strides remembered (the most :attr:`DetectorSettings.strides_averaged` allows).
 HISTORY = 10
-#: The detector's state. What it says: the phase (:class:`Phase`); whether the foot
-#: bears weight (a stance phase, and the FSRs not reading it lifted and turning: from
-#: then its toes' tips alone bear until the toe off -- the controller's stance model
-#: follows this); the times of the last initial contact and toe off (s); the strides
-#: accepted and their times (newest first, s); the source it rests on (:class:`Source`).
-#: The FSRs' path: its phase and times; per region (heel, forefoot) the raw and the
-#: debounced loaded flags and since when the raw one differs (s, -1: it does not); the
-#: running maxima per sensor and of their sum (counts); each sensor's baseline (its
-#: offset, counts); since when the gyroscope has read a swing (s, -1: it does not);
-#: whether the FSRs read the foot lifted, whether it is unloaded (lifted and turning),
-#: the fastest toe-down turn since the lift and in this stance (rad/s), the turn's rate of change and its steepest since the lift (rad/s^2); when
-#: any region last read loaded (s). The IMU's path: its phase and times, whether it has
-#: seen the swing since its toe off, the fastest forward swing of this and of the last
-#: stride, the fastest toe-down turn and its steepest rate since heel off, since when the
-#: foot is still (s, -1: it is not). The sources' health: the last readings and since
-#: when they have not changed (s).
+#: The detector's state. What it says: the phase (:class:`Phase`); whether the foot bears
+#: weight (a stance phase, and the FSRs not reading it lifted and turning: from then its
+#: toes' tips alone bear until the toe off -- the controller's stance model follows
+#: this); the times of the last initial contact and toe off (s); the strides accepted and
+#: their times (newest first, s); the source it rests on (:class:`Source`). The FSRs'
+#: path: its phase and times; per region (heel, forefoot) the raw and the debounced
+#: loaded flags and since when the raw one differs (s, -1: it does not); the running
+#: maxima per sensor and of their sum (counts); each sensor's baseline (its offset,
+#: counts); since when the gyroscope has read a swing (s, -1: it does not); whether the
+#: FSRs read the foot lifted, whether it is unloaded (lifted and turning), the fastest
+#: toe-down turn since the lift and in this stance (rad/s), the turn's rate of change and
+#: its steepest since the lift (rad/s^2); when any region last read loaded (s). The IMU's
+#: path: its phase and times, whether it has seen the swing since its toe off, the
+#: fastest forward swing of this and of the last stride, the fastest toe-down turn and
+#: its steepest rate since heel off, since when the foot is still (s, -1: it is not). The
+#: sources' health: the last readings and since when they have not changed (s).
 STATE = np.dtype([("phase", I8), ("bearing", np.bool_), ("t_ic", F8), ("t_to", F8),
                   ("n_stride", I8), ("history", F8, HISTORY), ("source", I8),
                   ("phase_f", I8), ("t_ic_f", F8), ("t_to_f", F8),
                   ("heel_raw", np.bool_), ("fore_raw", np.bool_),
                   ("heel", np.bool_), ("fore", np.bool_), ("heel_since", F8),
                   ("fore_since", F8), ("max", F8, 4), ("total_max", F8), ("base", F8, 4),
-                  ("swing_since", F8), ("lift", np.bool_), ("unloaded", np.bool_), ("lift_min", F8), ("stance_min", F8),
+                  ("swing_since", F8), ("lift", np.bool_), ("unloaded", np.bool_),
+                  ("lift_min", F8), ("stance_min", F8),
                   ("slope", F8),
                   ("steepest", F8),
                   ("t_loaded", F8),

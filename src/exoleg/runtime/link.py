@@ -60,9 +60,9 @@ def _shape(dtype: np.dtype, name: str) -> tuple[int, ...]:
 #: holds them), the ring of applied commands (command, request id, tick, wall time,
 #: refused by the supervisor (1) or not (0), the mode then), the steps (initial
 #: contacts) so far and the ring of every tick's gait events (time, event bits)
-PUBLISHED = ("mode", "phase", "gait_source", "gait_fraction", "events", "safety_status", "q_ref", "tau",
-             "fault", "fault_joint", "fault_value", "fault_limit", "refused", "winding_temp",
-             "gear_torque")
+PUBLISHED = ("mode", "phase", "gait_source", "gait_fraction", "events", "safety_status",
+             "q_ref", "tau", "fault", "fault_joint", "fault_value", "fault_limit", "refused",
+             "winding_temp", "gear_torque")
 READINGS = ("q", "dq", "fsr", "interaction")
 BLOCK = np.dtype([("seq", "f8"), ("t", "f8")]
                  + [(n, "f8", _shape(OUTPUT, n)) for n in PUBLISHED]
@@ -76,8 +76,8 @@ SIZE = BLOCK.itemsize // 8
 #: the snapshot's fields, in the block's order
 _SNAPSHOT = ("t", *PUBLISHED, *READINGS, "late_us", "late_max_us", "missed", "tick",
              "running")
-_INTS = {"mode", "phase", "gait_source", "events", "safety_status", "fault", "fault_joint", "refused",
-         "missed", "tick"}
+_INTS = {"mode", "phase", "gait_source", "events", "safety_status", "fault", "fault_joint",
+         "refused", "missed", "tick"}
 _RUNNING = ("starting", "running", "ended")
 
 
