@@ -251,3 +251,24 @@ def test_the_accelerometer_keeps_a_jolted_foot_off_the_ground() -> None:
             first = t[k]
     assert first == pytest.approx(0.3 + SET.still_time, abs=2e-3)
     assert st[0]["source"] == gp.Source.IMU
+
+
+def test_the_toe_off_once_the_foot_has_rolled_over_its_toes() -> None:
+    # reference: the construction. The foot turns toe-down at a steady 6 rad/s from 55 %
+    # to 70 % of the stride (no easing to time it by): once its hallux's sensor has read
+    # a load in the last stance, the toe off is when it has rolled toe_roll (10 deg) past
+    # the FSRs' lift (60 % + the debounce): 29 ms later; the first stride (no stance
+    # before) and every stride with the hallux's sensor failed wait for the turn to ease
+    # (the swing from 70 %)
+    counts, t = _walk(4)
+    x = t % 1.0
+    g = np.where(x < 0.55, 0.0, np.where(x < 0.70, -6.0, 6.0 * np.sin(np.pi * (x - 0.7) / 0.3)))
+    g += np.random.default_rng(0).normal(0.0, 1e-3, len(t))  # a live sensor's noise
+    roll = _LIFT + SET.toe_roll / 6.0
+    ev, _, _ = _fused(counts, g, t)
+    to = _times(ev, t, gp.Event.TO) % 1.0
+    assert to[0] == pytest.approx(0.70, abs=2e-3)
+    assert np.allclose(to[1:], roll, atol=2e-3), (to, roll)
+    counts[:, 3] = 0.0  # the hallux's sensor failed
+    ev, _, _ = _fused(counts, g, t)
+    assert np.allclose(_times(ev, t, gp.Event.TO) % 1.0, 0.70, atol=2e-3)

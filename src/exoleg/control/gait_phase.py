@@ -21,8 +21,11 @@ Catalfamo et al. 2010; in children with CP, Behboodi et al. 2019):
 * the toe off is timed by the foot's turn: the last load is under the toes' tips, on no
   sensor, so the FSRs read the foot lifted 30-90 ms early; the toe off is when, the FSRs
   reading it lifted, the foot's toe-down turn has passed its steepest (its rate of
-  change eased to ``slope_eased`` of the steepest since). A foot not turning is on the
-  ground whatever the sensors under it read (load under the midfoot, between them);
+  change eased to ``slope_eased`` of the steepest since), or -- the hallux's sensor
+  working -- the foot has rolled ``toe_roll`` over its toes since, or, lifted late, the
+  turn has eased ``gyro_rise`` from its fastest. The controller's stance model ends at
+  the lift (``bearing``). A foot not turning is on the ground whatever the sensors under
+  it read (load under the midfoot, between them);
 * a foot swinging forward (faster than half the last swing's fastest turn, within
   ``gyro_swing_floor``-``gyro_swing``: the running calibration, slow walking swings
   slowly) for ``gyro_swing_ms`` is in swing whatever the FSRs read: a stance they hold
@@ -116,6 +119,7 @@ class DetectorSettings:
     slope_eased: float = 0.5       # of the steepest
     gyro_rise: float = 0.7         # rad/s
     push_depth: float = 0.85       # of the stance's fastest toe-down turn
+    toe_roll: float = 0.175        # rad
     contact_fraction: float = 0.12  # of the last swing's fastest
     gyro_contact: float = 0.5      # rad/s
     gyro_heel_off: float = 0.4     # rad/s
@@ -140,6 +144,7 @@ class DetectorSettings:
                              ("slope_time", 0.0, 0.1),
                              ("slope_floor", 0.0, 1e3), ("slope_eased", 0.01, 0.99),
                              ("gyro_rise", 0.0, 5.0), ("push_depth", 0.1, 1.0),
+                             ("toe_roll", 0.0, 1.0),
                              ("contact_fraction", 0.0, 1.0), ("gyro_contact", 0.0, 20.0),
                              ("gyro_heel_off", 0.0, 20.0), ("gyro_still", 0.0, 5.0),
                              ("accel_still", 0.0, 50.0), ("still_time", 0.0, 0.5),
@@ -171,6 +176,7 @@ class DetectorSettings:
             "slope_ms": (0.0, 100.0, "ms"), "slope_floor_dps2": (0.0, 6e4, "deg/s^2"),
             "slope_eased": (0.01, 0.99, ""), "contact_fraction": (0.0, 1.0, ""),
             "gyro_rise_dps": (0.0, 300.0, "deg/s"), "push_depth": (0.1, 1.0, ""),
+            "toe_roll_deg": (0.0, 45.0, "deg"),
             "gyro_contact_dps": (0.0, 1200.0, "deg/s"), "gyro_heel_off_dps": (0.0, 1200.0, "deg/s"),
             "gyro_still_dps": (0.0, 300.0, "deg/s"), "accel_still": (0.0, 50.0, "m/s^2"),
             "still_ms": (0.0, 500.0, "ms"),
@@ -193,6 +199,7 @@ class DetectorSettings:
                        slope_floor=math.radians(v["slope_floor_dps2"]),
                        slope_eased=v["slope_eased"], contact_fraction=v["contact_fraction"],
                        gyro_rise=math.radians(v["gyro_rise_dps"]), push_depth=v["push_depth"],
+                       toe_roll=math.radians(v["toe_roll_deg"]),
                        gyro_contact=math.radians(v["gyro_contact_dps"]),
                        gyro_heel_off=math.radians(v["gyro_heel_off_dps"]),
                        gyro_still=math.radians(v["gyro_still_dps"]),
@@ -220,7 +227,7 @@ class DetectorSettings:
 _RECORDED = ("contact_on", "contact_off", "debounce", "min_swing", "min_stance",
              "strides_averaged", "gyro_turning", "gyro_swing", "gyro_swing_time",
              "gyro_swing_floor", "slope_time", "slope_floor", "slope_eased", "gyro_rise",
-             "push_depth",
+             "push_depth", "toe_roll",
              "contact_fraction", "gyro_contact", "gyro_heel_off", "gyro_still",
              "accel_still", "still_time", "frozen_time", "fsr_silent_strides")
 
@@ -235,7 +242,7 @@ SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("floor", F8),
                      ("expected_stride", F8), ("gyro_turning", F8), ("gyro_swing", F8),
                      ("gyro_swing_time", F8), ("gyro_swing_floor", F8),
                      ("slope_time", F8), ("slope_floor", F8), ("slope_eased", F8),
-                     ("gyro_rise", F8), ("push_depth", F8),
+                     ("gyro_rise", F8), ("push_depth", F8), ("toe_roll", F8),
                      ("contact_fraction", F8),
                      ("gyro_contact", F8), ("gyro_heel_off", F8), ("gyro_still", F8),
                      ("accel_still", F8), ("still_time", F8),
@@ -254,7 +261,9 @@ HISTORY = 10
 #: counts); since when the gyroscope has read a swing (s, -1: it does not); whether the
 #: FSRs read the foot lifted, whether it is unloaded (lifted and turning), the fastest
 #: toe-down turn since the lift and in this stance (rad/s), the turn's rate of change and
-#: its steepest since the lift (rad/s^2); when any region last read loaded (s). The IMU's
+#: its steepest since the lift (rad/s^2), the foot's angle turned (rad; the gyroscope
+#: integrated) now and at the lift, whether the hallux's sensor read a load this stance
+#: and the last; when any region last read loaded (s). The IMU's
 #: path: its phase and times, whether it has seen the swing since its toe off, the
 #: fastest forward swing of this and of the last stride, the fastest toe-down turn and
 #: its steepest rate since heel off, since when the foot is still (s, -1: it is not). The
@@ -267,6 +276,8 @@ STATE = np.dtype([("phase", I8), ("bearing", np.bool_), ("t_ic", F8), ("t_to", F
                   ("fore_since", F8), ("max", F8, 4), ("total_max", F8), ("base", F8, 4),
                   ("swing_since", F8), ("lift", np.bool_), ("unloaded", np.bool_),
                   ("lift_min", F8), ("stance_min", F8),
+                  ("angle", F8), ("lift_angle", F8), ("hallux_now", np.bool_),
+                  ("hallux_last", np.bool_),
                   ("slope", F8),
                   ("steepest", F8),
                   ("t_loaded", F8),
@@ -344,9 +355,11 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, t):  # type: ignore[no-untyped-def]
         s.total_max = total
     base = s.base[0] + s.base[1] + s.base[2] + s.base[3]
     heel = c[0] / max(s.max[0] - s.base[0], D.floor)
+    hallux = c[3] / max(s.max[3] - s.base[3], D.floor)
     fore = max(c[1] / max(s.max[1] - s.base[1], D.floor),
-               c[2] / max(s.max[2] - s.base[2], D.floor),
-               c[3] / max(s.max[3] - s.base[3], D.floor))
+               c[2] / max(s.max[2] - s.base[2], D.floor), hallux)
+    if hallux > D.contact_on:
+        s.hallux_now = True
     s.heel_raw, s.heel, s.heel_since = _region(s.heel_raw, s.heel, s.heel_since, heel,
                                                D.contact_on, D.contact_off, t, D.debounce)
     s.fore_raw, s.fore, s.fore_since = _region(s.fore_raw, s.fore, s.fore_since, fore,
@@ -378,6 +391,7 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, t):  # type: ignore[no-untyped-def]
             ev |= Event.IC
             s.t_ic_f = t
             s.stance_min = 0.0
+            s.hallux_now = hallux > D.contact_on
             if h and f:
                 ev |= Event.FF
                 phase = Phase.FLAT
@@ -398,6 +412,7 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, t):  # type: ignore[no-untyped-def]
         if lifted and not s.lift:
             s.lift_min = np.inf
             s.steepest = 0.0
+            s.lift_angle = s.angle
         s.lift = lifted
         if lifted and gyro_ok:
             s.lift_min = min(s.lift_min, gyro)
@@ -408,6 +423,9 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, t):  # type: ignore[no-untyped-def]
         elif lifted:  # a still foot is on the ground whatever the sensors under it read
             to = s.lift_min < -D.gyro_turning and (
                 (s.steepest < -D.slope_floor and s.slope > D.slope_eased * s.steepest)
+                # rolled over the toes' tips by toe_roll since the hallux's sensor
+                # unloaded (it read a load last stance: not failed)
+                or (s.hallux_last and s.lift_angle - s.angle >= D.toe_roll)
                 # lifted late, the turn's fastest past (as deep as this stance's deepest)
                 or (s.lift_min <= D.push_depth * s.stance_min
                     and gyro >= s.lift_min + D.gyro_rise))
@@ -416,6 +434,7 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, t):  # type: ignore[no-untyped-def]
         if (to or rebase) and t - s.t_ic_f >= D.min_stance:
             ev |= Event.TO
             s.t_to_f = t
+            s.hallux_last = s.hallux_now
             phase = Phase.SWING
             if rebase:  # the FSRs' readings now are their offsets
                 for i in range(4):
@@ -516,6 +535,7 @@ def detect(d, st, counts, gyro, acc, t):  # type: ignore[no-untyped-def]
         if gyro_ok and math.isfinite(s.gyro_last) and t > s.gyro_same:
             dt = t - s.gyro_same
             s.slope += dt / (D.slope_time + dt) * ((gyro - s.gyro_last) / dt - s.slope)
+            s.angle += 0.5 * (gyro + s.gyro_last) * dt
         else:
             s.slope = 0.0
         s.gyro_same = t
