@@ -93,9 +93,10 @@ def test_the_device_readings_at_100_hz_against_the_true_contacts(walk, tmp_path:
     # The device's own readings at 100 Hz (its four sensors' counts, the foot's gyroscope
     # and accelerometer), the true events as the reference: the fused detector. Measured
     # on this walk (the paper's leg, 30 kg): initial contact median and p95 18 ms; toe off
-    # +18 ms mean, median and p95 20 ms (at 1 kHz: 11.5 and 12.7 ms -- this foot rolls 6
-    # deg over its toes after the FSRs' lift, the detector waits for 10; a reading every
-    # 10 ms adds to it); none missed, none extra.
+    # +20 ms mean, median 20 ms, p95 27.5 ms (at 1 kHz: 12 and 14.5 ms -- this foot rolls 6
+    # deg over its toes after the FSRs' lift, the detector waits for 10, and in the first
+    # stride for its turn to ease; a reading every 10 ms adds to it); none missed, none
+    # extra.
     from exoleg.control.replay import detect_events, event_rows, read_recording
 
     keep = np.arange(0, len(walk.t), 10)
@@ -108,7 +109,7 @@ def test_the_device_readings_at_100_hz_against_the_true_contacts(walk, tmp_path:
     rec_ = read_recording(rec, counts=True)
     rows = {x["event"]: x for x in event_rows([(rec_.t, detect_events(rec_),
                                                 rec_.reference)])}  # type: ignore[list-item]
-    for name, median, p95 in (("initial contact", 20.0, 20.0), ("toe off", 20.5, 25.0)):
+    for name, median, p95 in (("initial contact", 20.0, 20.0), ("toe off", 20.5, 30.0)):
         row = rows[name]
         assert row["missed"] == 0 and row["false"] == 0, row
         assert row["median_abs_error_ms"] <= median and row["p95_abs_error_ms"] <= p95, row
