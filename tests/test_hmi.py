@@ -165,6 +165,8 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
     for i, point in enumerate(("hip", "knee", "ankle", "toe")):
         assert pts[i] == pytest.approx(list(fk[point]), abs=1e-12)
     assert text(d, "phase") in ("swing", "loading", "foot flat", "push-off")
+    # the simulated foot board sends its FSRs and IMU: the detector says it rests on both
+    assert text(d, "gait-source") == "the FSRs and the foot's IMU"
     shot(d, "live")
 
     # Gains: outside the bounds refused with the reason, inside accepted

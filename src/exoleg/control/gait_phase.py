@@ -341,23 +341,26 @@ def _swing_level(D, s):  # type: ignore[no-untyped-def]
     return min(D.gyro_swing, max(D.gyro_swing_floor, 0.5 * s.peak))
 
 
+@njit(inline="always")
+def _normalised(D, s, counts, i):  # type: ignore[no-untyped-def]
+    """Sensor i's reading above its baseline over its running maximum's."""
+    return max(counts[i] - s.base[i], 0.0) / max(s.max[i] - s.base[i], D.floor)
+
+
 @njit(cache=True)
 def _fsr_path(D, s, counts, gyro, gyro_ok, t):  # type: ignore[no-untyped-def]
     """The FSRs' path, the gyroscope fused when it reads: this tick's events."""
-    c = np.empty(4)
     total = 0.0
     for i in range(4):
         if counts[i] > s.max[i]:
             s.max[i] = counts[i]
-        c[i] = max(counts[i] - s.base[i], 0.0)
         total += counts[i]
     if total > s.total_max:
         s.total_max = total
     base = s.base[0] + s.base[1] + s.base[2] + s.base[3]
-    heel = c[0] / max(s.max[0] - s.base[0], D.floor)
-    hallux = c[3] / max(s.max[3] - s.base[3], D.floor)
-    fore = max(c[1] / max(s.max[1] - s.base[1], D.floor),
-               c[2] / max(s.max[2] - s.base[2], D.floor), hallux)
+    heel = _normalised(D, s, counts, 0)
+    hallux = _normalised(D, s, counts, 3)
+    fore = max(_normalised(D, s, counts, 1), _normalised(D, s, counts, 2), hallux)
     if hallux > D.contact_on:
         s.hallux_now = True
     s.heel_raw, s.heel, s.heel_since = _region(s.heel_raw, s.heel, s.heel_since, heel,
