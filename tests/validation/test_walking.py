@@ -55,9 +55,9 @@ def test_detector_against_true_events(walk) -> None:  # type: ignore[no-untyped-
     # rolling sole); timed by the foot's gyroscope (its toe-down turn easing past its
     # steepest, or rolled 10 deg over the toes since the FSRs' lift) it is late on this
     # leg, which rolls 6 deg, and in the first stride the turn's easing: measured mean
-    # +12.6 ms, worst +15 ms; bounded at 20 -- with
-    # the FSRs' hysteresis (4.5 % of full scale) and drift (5 % a decade) of the sheet
-    # (S11) in the readings the detector gets.
+    # +12.6 ms, worst +15 ms; bounded at 20 -- with the FSRs' hysteresis (4.5 % of full
+    # scale) and drift (5 % a decade) of the sheet (S11) in the readings the detector
+    # gets.
     rows = {r["event"]: r for r in detection_table([walk])}
     for name in ("initial contact", "toe off"):  # every stride has them
         row = rows[name]
