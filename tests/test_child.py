@@ -260,7 +260,7 @@ def test_with_the_child_every_walk_goes_on_and_foot_flat_and_heel_off_are_seen()
     assert not any(r.fault for r in runs)
     # the replay (exoleg detect's detector over the walks' own readings, a fresh state)
     # gives the closed loop's events exactly
-    from exoleg.validate.gait_phase import FAULTS
+    from exoleg.validate.gait_phase import FAULTS, SOURCES
 
     assert faults[next(iter(FAULTS))] == rows
     by = {r["event"]: r for r in rows}
@@ -268,6 +268,21 @@ def test_with_the_child_every_walk_goes_on_and_foot_flat_and_heel_off_are_seen()
         assert by[event]["in_strides"] >= 0.95, by[event]
     for event in ("initial contact", "toe off"):
         assert by[event]["missed_rate"] <= 0.03 and by[event]["false_rate"] <= 0.03
+    # issue 24's goal for the FSRs and the foot's IMU together: initial contact and toe off
+    # median |error| <= 20 ms, p95 <= 40 ms, missed + extra <= 1 % of the true events --
+    # on these walks, with each single-sensor fault the FSRs can lose and the IMU cover
+    # (drift, a preloaded or failed hallux sensor), at 2 and 4 s strides and for the
+    # harder walkers (crouch, contracture, weak, a controlled stop). Measured: initial
+    # contact 8 / 8 ms everywhere; toe off at most 12 / 17 ms; none missed, none extra.
+    # Not met, and so not asserted: the heel's sensor failed (initial contact 54 ms: the
+    # FSRs see the contact only as the forefoot loads), the single sources alone (docs).
+    tables = [faults[c] for c in FAULTS if c.startswith(("none", "every", "first", "hallux"))]
+    tables += [t[SOURCES[0]] for t in (*v.slow_sources.values(), *v.worst.values())]
+    for table in tables:
+        for r in table:
+            if r["event"] in ("initial contact", "toe off"):
+                assert r["median_abs_error_ms"] <= 20.0 and r["p95_abs_error_ms"] <= 40.0, r
+                assert r["missed"] + r["false"] <= 0.01 * r["true"], r
 
 
 @pytest.mark.skipif(not __import__("exoleg.validate.opensim_child", fromlist=["x"]).available(),

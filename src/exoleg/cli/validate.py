@@ -74,6 +74,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
                    title=f"the same children walking slowly, strides of {st:g} s (x1 noise)")
             _fault_table(v.slow_sources[st], f"strides of {st:g} s: each source alone, "
                                              "replayed over the same walks")
+        for label, cases in v.worst.items():
+            _fault_table(cases, f"{label} (x1 noise): both sources and each alone")
         _say("published, shank gyroscope: initial contact -25 ms, foot off < 75 ms, > 98 % "
              "detected (Catalfamo et al. 2010); children with CP: onset < 100 ms, > 99 % of "
              "phases (Behboodi et al. 2019)")

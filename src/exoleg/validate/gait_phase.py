@@ -31,6 +31,24 @@ SLOW = (2.0, 4.0)
 #: each child walks as an actor (:mod:`exoleg.child`): their own effort with their
 #: level's strength, and this spasticity preset by GMFCS level (0: typically developing)
 SPASTICITY = {0: "none", 1: "mild", 2: "mild", 3: "moderate", 4: "moderate"}
+#: Harder walkers, at the datasheet noise: (label, age, sex, GMFCS level, the actor's
+#: :meth:`~exoleg.child.model.ChildModel.of` options, the operator's commands: "walk" --
+#: walking from the standing start on -- or "stop": walking, then a controlled stop two
+#: thirds of the way and standing). Crouch: Rozumalski & Schwartz 2009's clusters; the
+#: contracture: Falisse et al. 2020's child with CP (``child-references.md``). Walking
+#: again after a stop is not simulated: the other leg, the simulator's actor, keeps the
+#: clock of the walk's first start.
+WORST: tuple[tuple[str, float, str, int | None, dict[str, Any], str], ...] = (
+    ("GMFCS III girl 10 y, crouch (cluster 5), contracture, moderate spasticity", 10.0,
+     "female", 3, {"contracture": "predictcpgait", "spasticity": "moderate", "crouch": 5},
+     "walk"),
+    ("GMFCS IV boy 11 y, crouch (cluster 4), contracture, half strength", 11.0, "male", 4,
+     {"contracture": "predictcpgait", "spasticity": "moderate", "crouch": 4,
+      "strength": 0.5}, "walk"),
+    ("GMFCS II boy 9 y, contracture, moderate spasticity", 9.0, "male", 2,
+     {"contracture": "predictcpgait", "spasticity": "moderate"}, "walk"),
+    ("TD girl 9 y, walking, then a controlled stop", 9.0, "female", None, {}, "stop"),
+)
 
 
 @dataclass(frozen=True)
@@ -49,7 +67,8 @@ class GaitPhaseValidation:
     stop (``rows_ok``), the walks (``runs``), the sensor faults replayed over the latter
     (``faults``, :func:`fault_cases`), and per slower stride time (s) the table of the
     children walking so (``slow``) and each single source's over the same walks
-    (``slow_sources``: :data:`SOURCES`)."""
+    (``slow_sources``: :data:`SOURCES`), and per harder walker (:data:`WORST`) each
+    source's (``worst``)."""
 
     rows: list[dict[str, Any]]
     rows_ok: list[dict[str, Any]]
@@ -57,31 +76,55 @@ class GaitPhaseValidation:
     faults: dict[str, list[dict[str, Any]]]
     slow: dict[float, list[dict[str, Any]]]
     slow_sources: dict[float, dict[str, list[dict[str, Any]]]]
+    worst: dict[str, dict[str, list[dict[str, Any]]]]
+
+
+def _walker(label: str, age: float, sex: str, gmfcs: int | None,
+            actor: dict[str, Any]) -> tuple[Any, float, float, Any]:
+    """(personalized leg, body mass kg, ankle height m, the child as an actor) of a child
+    at the 50th percentile of their growth charts."""
+    from exoleg.child.model import ChildModel
+    from exoleg.sizing import Child, estimate_dimensions, fit_device, growth, personalized_leg
+
+    chart = growth.chart_for(gmfcs)
+    h = growth.value_at(chart, sex, "height", age, 50.0)
+    m = growth.value_at(growth.chart_for(gmfcs, "weight", age), sex, "weight", age, 50.0)
+    child = Child(age=age, sex=sex, height=h, mass=m, gmfcs=gmfcs, name=label)  # type: ignore[arg-type]
+    leg = personalized_leg(child, fit_device(child))
+    return leg, m, estimate_dimensions(child).ankle_height, ChildModel.of(child, **actor)
+
+
+def _stop(strides: int, stride_time: float, standing: float = 1.0, dt: float = 1e-3) -> Any:
+    """The operator's commands per tick for :func:`~exoleg.sim.walk.simulate_walk`: arm,
+    walk after ``standing`` s, stand after two thirds of the strides."""
+    from exoleg.control.contract import Command
+
+    n = int(round((standing + strides * stride_time) / dt))
+    c = np.zeros(n + 1, dtype=np.int64)
+    walk = int(round(standing / dt))
+    c[0], c[walk] = Command.ARM, Command.WALK
+    c[walk + int(round(2 * strides / 3 * stride_time / dt))] = Command.STAND
+    return c
 
 
 def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
              children: tuple[tuple[str, float, str, int | None], ...] = CHILDREN,
-             seed: int = 0, slow: tuple[float, ...] = SLOW) -> GaitPhaseValidation:
+             seed: int = 0, slow: tuple[float, ...] = SLOW,
+             worst: tuple[tuple[str, float, str, int | None, dict[str, Any], str], ...]
+             = WORST) -> GaitPhaseValidation:
     """Each child walks ``strides`` strides at each noise level at the expected 1.1 s
-    stride, and at the datasheet noise at each of the ``slow`` stride times (s)."""
-    from exoleg.child.model import ChildModel
+    stride, and at the datasheet noise at each of the ``slow`` stride times (s); each of
+    the ``worst`` walkers ``strides`` strides at the datasheet noise."""
     from exoleg.control.safety import Limited
     from exoleg.sim.metrics import detection_table
     from exoleg.sim.walk import simulate_walk
-    from exoleg.sizing import Child, estimate_dimensions, fit_device, growth, personalized_leg
 
     results: list[Any] = []  # (walk, run) at the expected stride
     runs: list[DetectionRun] = []
     slow_results: dict[float, list[Any]] = {s: [] for s in slow}
     for label, age, sex, gmfcs in children:
-        chart = growth.chart_for(gmfcs)
-        h = growth.value_at(chart, sex, "height", age, 50.0)
-        m = growth.value_at(growth.chart_for(gmfcs, "weight", age), sex, "weight", age, 50.0)
-        child = Child(age=age, sex=sex, height=h, mass=m, gmfcs=gmfcs, name=label)  # type: ignore[arg-type]
-        fit = fit_device(child)
-        leg = personalized_leg(child, fit)
-        ankle = estimate_dimensions(child).ankle_height
-        actor = ChildModel.of(child, spasticity=SPASTICITY[gmfcs or 0])
+        leg, m, ankle, actor = _walker(label, age, sex, gmfcs,
+                                       {"spasticity": SPASTICITY[gmfcs or 0]})
         walks = [(n, 1.1, k) for k, n in enumerate(noise)] + [
             (1.0, st, len(noise) + k) for k, st in enumerate(slow)]
         for n, st, k in walks:
@@ -94,13 +137,21 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
                 results.append((r, run))
             else:
                 slow_results[st].append(r)
+    hard = {}
+    for k, (label, age, sex, gmfcs, options, how) in enumerate(worst):
+        leg, m, ankle, actor = _walker(label, age, sex, gmfcs, options)
+        r = simulate_walk(leg, m, strides=strides, seed=seed + 10 + k, ankle_height=ankle,
+                          child=actor, commands=_stop(strides, 1.1) if how == "stop" else None)
+        runs.append(DetectionRun(label, 1.0, strides,
+                                 bool(np.any(r.safety_status & Limited.FAULT))))
+        hard[label] = fault_cases([r], 1.1, SOURCES)
     walks_ = [r for r, _ in results]
     ok = [r for r, run in results if not run.fault]
     return GaitPhaseValidation(detection_table(walks_), detection_table(ok) if ok else [],
                                runs, fault_cases(ok),
                                {st: detection_table(rs) for st, rs in slow_results.items()},
                                {st: fault_cases(rs, st, SOURCES)
-                                for st, rs in slow_results.items()})
+                                for st, rs in slow_results.items()}, hard)
 
 
 #: The foot board's full scale, counts (12-bit ADC).
