@@ -272,3 +272,17 @@ def test_the_toe_off_once_the_foot_has_rolled_over_its_toes() -> None:
     counts[:, 3] = 0.0  # the hallux's sensor failed
     ev, _, _ = _fused(counts, g, t)
     assert np.allclose(_times(ev, t, gp.Event.TO) % 1.0, 0.70, atol=2e-3)
+
+
+def test_a_jolt_of_a_standing_foot_is_not_a_push_off() -> None:
+    # the IMU alone (the FSRs reading NaN), the foot flat and still, then jolted toe-down
+    # at 2 rad/s for 20 ms (as when walking starts) and still again: heel off at most,
+    # then flat again -- no toe off (a push-off lasts push_ms and ends turning)
+    t = np.arange(2000) * 1e-3
+    g = 1e-3 * np.sin(50 * t) - 2.0 * np.sin(np.pi * np.clip((t - 1.0) / 0.02, 0.0, 1.0))
+    nan4 = np.full(4, np.nan)
+    st = gp.new_state(D)
+    ev = np.array([gp.detect(D, st, nan4, g[k], np.array([0.0, 9.80665]), t[k])
+                   for k in range(len(t))])
+    assert not np.any(ev & gp.Event.TO)
+    assert st[0]["phase"] == gp.Phase.FLAT and st[0]["source"] == gp.Source.IMU

@@ -120,6 +120,7 @@ class DetectorSettings:
     gyro_rise: float = 0.7         # rad/s
     push_depth: float = 0.85       # of the stance's fastest toe-down turn
     toe_roll: float = 0.175        # rad
+    push_time: float = 0.05        # s
     contact_fraction: float = 0.12  # of the last swing's fastest
     gyro_contact: float = 0.5      # rad/s
     gyro_heel_off: float = 0.4     # rad/s
@@ -144,7 +145,7 @@ class DetectorSettings:
                              ("slope_time", 0.0, 0.1),
                              ("slope_floor", 0.0, 1e3), ("slope_eased", 0.01, 0.99),
                              ("gyro_rise", 0.0, 5.0), ("push_depth", 0.1, 1.0),
-                             ("toe_roll", 0.0, 1.0),
+                             ("toe_roll", 0.0, 1.0), ("push_time", 0.0, 0.5),
                              ("contact_fraction", 0.0, 1.0), ("gyro_contact", 0.0, 20.0),
                              ("gyro_heel_off", 0.0, 20.0), ("gyro_still", 0.0, 5.0),
                              ("accel_still", 0.0, 50.0), ("still_time", 0.0, 0.5),
@@ -176,7 +177,7 @@ class DetectorSettings:
             "slope_ms": (0.0, 100.0, "ms"), "slope_floor_dps2": (0.0, 6e4, "deg/s^2"),
             "slope_eased": (0.01, 0.99, ""), "contact_fraction": (0.0, 1.0, ""),
             "gyro_rise_dps": (0.0, 300.0, "deg/s"), "push_depth": (0.1, 1.0, ""),
-            "toe_roll_deg": (0.0, 45.0, "deg"),
+            "toe_roll_deg": (0.0, 45.0, "deg"), "push_ms": (0.0, 500.0, "ms"),
             "gyro_contact_dps": (0.0, 1200.0, "deg/s"), "gyro_heel_off_dps": (0.0, 1200.0, "deg/s"),
             "gyro_still_dps": (0.0, 300.0, "deg/s"), "accel_still": (0.0, 50.0, "m/s^2"),
             "still_ms": (0.0, 500.0, "ms"),
@@ -199,7 +200,7 @@ class DetectorSettings:
                        slope_floor=math.radians(v["slope_floor_dps2"]),
                        slope_eased=v["slope_eased"], contact_fraction=v["contact_fraction"],
                        gyro_rise=math.radians(v["gyro_rise_dps"]), push_depth=v["push_depth"],
-                       toe_roll=math.radians(v["toe_roll_deg"]),
+                       toe_roll=math.radians(v["toe_roll_deg"]), push_time=v["push_ms"] / 1e3,
                        gyro_contact=math.radians(v["gyro_contact_dps"]),
                        gyro_heel_off=math.radians(v["gyro_heel_off_dps"]),
                        gyro_still=math.radians(v["gyro_still_dps"]),
@@ -227,7 +228,7 @@ class DetectorSettings:
 _RECORDED = ("contact_on", "contact_off", "debounce", "min_swing", "min_stance",
              "strides_averaged", "gyro_turning", "gyro_swing", "gyro_swing_time",
              "gyro_swing_floor", "slope_time", "slope_floor", "slope_eased", "gyro_rise",
-             "push_depth", "toe_roll",
+             "push_depth", "toe_roll", "push_time",
              "contact_fraction", "gyro_contact", "gyro_heel_off", "gyro_still",
              "accel_still", "still_time", "frozen_time", "fsr_silent_strides")
 
@@ -243,6 +244,7 @@ SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("floor", F8),
                      ("gyro_swing_time", F8), ("gyro_swing_floor", F8),
                      ("slope_time", F8), ("slope_floor", F8), ("slope_eased", F8),
                      ("gyro_rise", F8), ("push_depth", F8), ("toe_roll", F8),
+                     ("push_time", F8),
                      ("contact_fraction", F8),
                      ("gyro_contact", F8), ("gyro_heel_off", F8), ("gyro_still", F8),
                      ("accel_still", F8), ("still_time", F8),
@@ -281,7 +283,8 @@ STATE = np.dtype([("phase", I8), ("bearing", np.bool_), ("t_ic", F8), ("t_to", F
                   ("slope", F8),
                   ("steepest", F8),
                   ("t_loaded", F8),
-                  ("phase_i", I8), ("t_ic_i", F8), ("t_to_i", F8), ("swung", np.bool_),
+                  ("phase_i", I8), ("t_ic_i", F8), ("t_ho_i", F8), ("t_to_i", F8),
+                  ("swung", np.bool_),
                   ("peak_now", F8), ("peak", F8), ("turn_min", F8), ("steep_i", F8),
                   ("still_since", F8),
                   ("gyro_last", F8), ("gyro_same", F8), ("fsr_last", F8, 4),
@@ -294,7 +297,7 @@ def new_state(settings: NDArray[np.void]) -> NDArray[np.void]:
     s = new(STATE)
     s["phase"] = s["phase_f"] = s["phase_i"] = Phase.UNKNOWN
     s["heel_since"] = s["fore_since"] = s["swing_since"] = s["still_since"] = -1.0
-    for name in ("t_ic", "t_to", "t_ic_f", "t_to_f", "t_ic_i", "t_to_i", "t_loaded"):
+    for name in ("t_ic", "t_to", "t_ic_f", "t_to_f", "t_ic_i", "t_ho_i", "t_to_i", "t_loaded"):
         s[name] = -1e9
     s["max"] = settings[0]["floor"]
     s["total_max"] = settings[0]["floor"]
@@ -465,7 +468,9 @@ def _imu_path(D, s, gyro, acc_dev, t):  # type: ignore[no-untyped-def]
     ``gyro_contact`` and ``contact_fraction`` of the last swing's fastest turn is an initial
     contact; from flat, turning toe-down faster than ``gyro_heel_off`` is heel off; from
     heel off, the toe-down turn past its steepest (as the fused toe off, :func:`detect`)
-    is toe off."""
+    and still faster than ``gyro_turning`` is toe off, no sooner than ``push_ms`` after heel
+    off; a foot still again after heel off is flat (a jolt as walking starts is not a
+    push-off)."""
     still = abs(gyro) < D.gyro_still and abs(acc_dev) < D.accel_still
     if still:
         if s.still_since < 0.0:
@@ -503,6 +508,9 @@ def _imu_path(D, s, gyro, acc_dev, t):  # type: ignore[no-untyped-def]
             phase = Phase.PUSH
             s.turn_min = gyro
             s.steep_i = 0.0
+            s.t_ho_i = t
+        elif phase == Phase.PUSH and still:  # the heel down again: no push-off (a jolt)
+            phase = Phase.FLAT
         elif phase == Phase.LOADING and t - s.t_ic_i < D.min_stance:
             s.turn_min = 0.0  # the turn as the foot lands is not the push-off's
             s.steep_i = 0.0
@@ -510,7 +518,8 @@ def _imu_path(D, s, gyro, acc_dev, t):  # type: ignore[no-untyped-def]
             s.turn_min = min(s.turn_min, gyro)
             s.steep_i = min(s.steep_i, s.slope)
             if s.turn_min < -D.gyro_turning and s.steep_i < -D.slope_floor and \
-                    s.slope > D.slope_eased * s.steep_i:
+                    s.slope > D.slope_eased * s.steep_i and gyro < -D.gyro_turning and \
+                    (phase == Phase.LOADING or t - s.t_ho_i >= D.push_time):
                 ev |= Event.TO
                 s.t_to_i = t
                 s.swung = False
