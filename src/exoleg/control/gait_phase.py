@@ -101,7 +101,7 @@ HISTORY = 10
 #: The detector's state. What it says: the phase (:class:`Phase`); whether the foot bears
 #: weight (a stance phase, and the FSRs not reading it lifted and turning: from then its
 #: toes' tips alone bear until the toe off -- the controller's stance model follows
-#: this); the times of the last initial contact and toe off (s); the strides accepted and
+#: this); the time of the last initial contact (s); the strides accepted and
 #: their times (newest first, s); the source it rests on (:class:`Source`). The FSRs'
 #: path: its phase and times; per region (heel, forefoot) the raw and the debounced
 #: loaded flags and since when the raw one differs (s, -1: it does not); the running
@@ -116,7 +116,7 @@ HISTORY = 10
 #: fastest forward swing of this and of the last stride, the fastest toe-down turn and
 #: its steepest rate since heel off, since when the foot is still (s, -1: it is not). The
 #: sources' health: the last readings and since when they have not changed (s).
-STATE = np.dtype([("phase", I8), ("bearing", np.bool_), ("t_ic", F8), ("t_to", F8),
+STATE = np.dtype([("phase", I8), ("bearing", np.bool_), ("t_ic", F8),
                   ("n_stride", I8), ("history", F8, HISTORY), ("source", I8),
                   ("phase_f", I8), ("t_ic_f", F8), ("t_to_f", F8),
                   ("heel_raw", np.bool_), ("fore_raw", np.bool_),
@@ -143,7 +143,7 @@ def new_state(settings: NDArray[np.void]) -> NDArray[np.void]:
     s = new(STATE)
     s["phase"] = s["phase_f"] = s["phase_i"] = Phase.UNKNOWN
     s["heel_since"] = s["fore_since"] = s["swing_since"] = s["still_since"] = -1.0
-    for name in ("t_ic", "t_to", "t_ic_f", "t_to_f", "t_ic_i", "t_ho_i", "t_to_i", "t_loaded"):
+    for name in ("t_ic", "t_ic_f", "t_to_f", "t_ic_i", "t_ho_i", "t_to_i", "t_loaded"):
         s[name] = -1e9
     s["max"] = settings[0]["floor"]
     s["total_max"] = settings[0]["floor"]
@@ -418,17 +418,20 @@ def detect(d, st, counts, gyro, acc, t):  # type: ignore[no-untyped-def]
         s.fsr_same = t
     # frozen loaded: a board holding its last reading (its noise would move it)
     fsr_ok = fsr_ok and not (loaded and t - s.fsr_same >= D.frozen_time)
-    acc_dev = 0.0
-    if math.isfinite(acc[0]) and math.isfinite(acc[1]) and abs(acc[0]) < D.accel_range \
-            and abs(acc[1]) < D.accel_range:
-        acc_dev = math.sqrt(acc[0] * acc[0] + acc[1] * acc[1]) - 9.80665
     ev_f = _fsr_path(D, s, counts, gyro, gyro_ok, t) if fsr_ok else 0
-    ev_i = _imu_path(D, s, gyro, acc_dev, t) if gyro_ok else 0
+    ev_i = 0
+    if gyro_ok:
+        acc_dev = 0.0  # the accelerometer's |specific force| less g (0: none reading)
+        if math.isfinite(acc[0]) and math.isfinite(acc[1]) and \
+                abs(acc[0]) < D.accel_range and abs(acc[1]) < D.accel_range:
+            acc_dev = math.sqrt(acc[0] * acc[0] + acc[1] * acc[1]) - 9.80665
+        ev_i = _imu_path(D, s, gyro, acc_dev, t)
     # silent: the FSRs have read nothing loaded for fsr_silent_strides strides the IMU
     # has walked (their cable off, the board reading zeros)
-    if fsr_ok and gyro_ok and s.t_ic_i > s.t_loaded and \
-            s.t_ic_i > s.t_loaded + 0.5 * stride_time(d, st):
-        fsr_ok = t - s.t_loaded < D.fsr_silent_strides * stride_time(d, st)
+    if fsr_ok and gyro_ok and s.t_ic_i > s.t_loaded:
+        T = stride_time(d, st)
+        if s.t_ic_i > s.t_loaded + 0.5 * T:
+            fsr_ok = t - s.t_loaded < D.fsr_silent_strides * T
     s.bearing = False
     if fsr_ok:
         ev = ev_f
@@ -453,8 +456,6 @@ def detect(d, st, counts, gyro, acc, t):  # type: ignore[no-untyped-def]
             s.history[0] = dt
             s.n_stride += 1
         s.t_ic = t
-    if ev & Event.TO:
-        s.t_to = t
     return ev
 
 

@@ -5,7 +5,7 @@ package's), checked, and the record the compiled detector reads (:data:`SETTINGS
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
@@ -135,20 +135,13 @@ class DetectorSettings:
         floor in counts, the expected stride time, the IMU's ranges (rad/s, m/s^2: a
         reading at its range is saturated)."""
         r = new(SETTINGS)
-        for name in _RECORDED:
-            r[name] = getattr(self, name)
+        for f in fields(self):  # every setting the record holds as it is
+            if f.name in _RECORD_NAMES:
+                r[f.name] = getattr(self, f.name)
         r["floor"], r["expected_stride"] = floor_counts, expected_stride
         r["gyro_range"], r["accel_range"] = gyro_range, accel_range
         r["accept_lo"], r["accept_hi"] = self.stride_accept
         return r
-
-
-_RECORDED = ("contact_on", "contact_off", "debounce", "min_swing", "min_stance",
-             "strides_averaged", "gyro_turning", "gyro_swing", "gyro_swing_time",
-             "gyro_swing_floor", "slope_time", "slope_floor", "slope_eased", "gyro_rise",
-             "push_depth", "toe_roll", "push_time",
-             "contact_fraction", "gyro_contact", "gyro_heel_off", "gyro_still",
-             "accel_still", "still_time", "frozen_time", "fsr_silent_strides")
 
 
 #: The detector's settings as :func:`detect` reads them (:meth:`DetectorSettings.record`):
@@ -168,3 +161,4 @@ SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("floor", F8),
                      ("accel_still", F8), ("still_time", F8),
                      ("frozen_time", F8), ("fsr_silent_strides", F8), ("gyro_range", F8),
                      ("accel_range", F8)])
+_RECORD_NAMES = frozenset(SETTINGS.names or ())

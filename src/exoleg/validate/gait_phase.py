@@ -79,19 +79,19 @@ class GaitPhaseValidation:
     worst: dict[str, dict[str, list[dict[str, Any]]]]
 
 
-def _walker(label: str, age: float, sex: str, gmfcs: int | None,
+def _walker(age: float, sex: str, gmfcs: int | None,
             actor: dict[str, Any]) -> tuple[Any, float, float, Any]:
     """(personalized leg, body mass kg, ankle height m, the child as an actor) of a child
-    at the 50th percentile of their growth charts."""
+    at the 50th percentile of their growth charts
+    (:func:`~exoleg.sizing.population.population_child`)."""
     from exoleg.child.model import ChildModel
-    from exoleg.sizing import Child, estimate_dimensions, fit_device, growth, personalized_leg
+    from exoleg.sizing import estimate_dimensions, fit_device, personalized_leg
+    from exoleg.sizing.population import population_child
 
-    chart = growth.chart_for(gmfcs)
-    h = growth.value_at(chart, sex, "height", age, 50.0)
-    m = growth.value_at(growth.chart_for(gmfcs, "weight", age), sex, "weight", age, 50.0)
-    child = Child(age=age, sex=sex, height=h, mass=m, gmfcs=gmfcs, name=label)  # type: ignore[arg-type]
+    child, _ = population_child(gmfcs, sex, age, 50.0)
     leg = personalized_leg(child, fit_device(child))
-    return leg, m, estimate_dimensions(child).ankle_height, ChildModel.of(child, **actor)
+    return leg, child.mass, estimate_dimensions(child).ankle_height, ChildModel.of(child,
+                                                                                  **actor)
 
 
 def _stop(strides: int, stride_time: float, standing: float = 1.0, dt: float = 1e-3) -> Any:
@@ -123,8 +123,7 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
     runs: list[DetectionRun] = []
     slow_results: dict[float, list[Any]] = {s: [] for s in slow}
     for label, age, sex, gmfcs in children:
-        leg, m, ankle, actor = _walker(label, age, sex, gmfcs,
-                                       {"spasticity": SPASTICITY[gmfcs or 0]})
+        leg, m, ankle, actor = _walker(age, sex, gmfcs, {"spasticity": SPASTICITY[gmfcs or 0]})
         walks = [(n, 1.1, k) for k, n in enumerate(noise)] + [
             (1.0, st, len(noise) + k) for k, st in enumerate(slow)]
         for n, st, k in walks:
@@ -139,7 +138,7 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
                 slow_results[st].append(r)
     hard = {}
     for k, (label, age, sex, gmfcs, options, how) in enumerate(worst):
-        leg, m, ankle, actor = _walker(label, age, sex, gmfcs, options)
+        leg, m, ankle, actor = _walker(age, sex, gmfcs, options)
         r = simulate_walk(leg, m, strides=strides, seed=seed + 10 + k, ankle_height=ankle,
                           child=actor, commands=_stop(strides, 1.1) if how == "stop" else None)
         runs.append(DetectionRun(label, 1.0, strides,
