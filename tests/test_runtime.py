@@ -176,6 +176,7 @@ def test_run_refuses_walking_without_arming(tmp_path: Path) -> None:
     assert r.returncode == 2 and "needs --arm" in r.stderr
 
 
+@pytest.mark.device_overrun
 def test_loop_overrun_takes_torque_off(tmp_path: Path, backend_factory) -> None:  # type: ignore[no-untyped-def]
     """A stall longer than the overrun limit (injected: one tick's controller sleeps
     80 ms) stops the session with the torque off; the stalled tick is the last logged.
@@ -200,6 +201,7 @@ def test_loop_overrun_takes_torque_off(tmp_path: Path, backend_factory) -> None:
     b = backend_factory()
     res, cols = _session(tmp_path, b, Stalling(b.controller), 1.0, {0: Command.ARM})
     assert res.stopped_by.startswith("loop overrun: tick 300 started "), res.stopped_by
+    assert "(limit 50 ms)" in res.stopped_by  # the device's, not the suite's (conftest)
     assert np.array_equal(b.u, np.zeros(3))  # the drives were told zero
     assert len(cols["t"]) == 300
     assert np.any(cols["u_knee"] != 0.0)  # it was applying torque before

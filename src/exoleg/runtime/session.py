@@ -48,7 +48,7 @@ def simulated(backend: str, interface: str | None = None) -> bool:
 
 def check_options(backend: str, interface: str | None = None, arm: bool = False,
                   walk_after: float | None = None, bus_timeout: float | None = None,
-                  overrun: float = OVERRUN_S, controller: str = "walk",
+                  overrun: float | None = None, controller: str = "walk",
                   link: Any = None, plan: bool = False) -> None:
     """Refuses (ParameterError) what :func:`run` refuses before it touches a bus: an
     unknown backend or controller, arming at the start on a real device (there the
@@ -66,6 +66,7 @@ def check_options(backend: str, interface: str | None = None, arm: bool = False,
         raise ParameterError("exoleg run", "--arm", "only on the sim backend or simulated "
                              "nodes (canopen --interface virtual, ethercat --interface "
                              "fake): on a real device the operator arms")
+    overrun = OVERRUN_S if overrun is None else overrun
     if bus_timeout is not None and not 1e-4 <= bus_timeout <= overrun:
         raise ParameterError("exoleg run", "--bus-timeout",
                              f"{bus_timeout * 1e3:g} ms (allowed 0.1 ms to the overrun limit, "
@@ -204,7 +205,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         body_mass: float = DEFAULT_BODY_MASS, seed: int = 0, realtime: bool = True,
         interface: str | None = None, channel: str = "exoleg",
         inject: Any = None, link: Any = None, bus_timeout: float | None = None,
-        overrun: float = OVERRUN_S, controller: str = "walk", child: Any = None,
+        overrun: float | None = None, controller: str = "walk", child: Any = None,
         reference: Any = None, step: float = 0.0, model: Any = None
         ) -> tuple[SessionResult, Path]:
     """One session: the device (``backend``) under ``controller`` (the walking hierarchy,
@@ -217,7 +218,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     :data:`SIMULATED_BUS`: simulated nodes). ``bus_timeout``: how long the master waits
     for every node's answer before it is a fault (s; default :data:`BUS_TIMEOUT_S`, or
     :data:`SIMULATED_BUS_TIMEOUT_S` on simulated nodes); ``overrun``: how late a tick may
-    start before it is a fault (s). ``out`` must hold no recorded session and no other
+    start before it is a fault (s; default :data:`~exoleg.runtime.loop.OVERRUN_S`). ``out`` must hold no recorded session and no other
     run (:func:`claim_folder`): a session is never written over. ``child``: the simulated
     child (:class:`~exoleg.child.model.ChildModel`) on a simulated device; ``reference``:
     what a law other than the walking hierarchy follows (default the paper's scenario);
@@ -241,7 +242,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
 def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
          walk_after: float | None, leg: Any, body_mass: float, seed: int, realtime: bool,
          interface: str | None, channel: str, inject: Any, link: Any,
-         bus_timeout: float | None, overrun: float, controller: str, child: Any = None,
+         bus_timeout: float | None, overrun: float | None, controller: str, child: Any = None,
          reference: Any = None, step: float = 0.0, model: Any = None
          ) -> tuple[SessionResult, Path]:
     """:func:`run` in the folder it holds."""
