@@ -218,8 +218,9 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     :data:`SIMULATED_BUS`: simulated nodes). ``bus_timeout``: how long the master waits
     for every node's answer before it is a fault (s; default :data:`BUS_TIMEOUT_S`, or
     :data:`SIMULATED_BUS_TIMEOUT_S` on simulated nodes); ``overrun``: how late a tick may
-    start before it is a fault (s; default :data:`~exoleg.runtime.loop.OVERRUN_S`). ``out`` must hold no recorded session and no other
-    run (:func:`claim_folder`): a session is never written over. ``child``: the simulated
+    start before it is a fault (s; default :data:`~exoleg.runtime.loop.OVERRUN_S`).
+    ``out`` must hold no recorded session and no other run (:func:`claim_folder`): a
+    session is never written over. ``child``: the simulated
     child (:class:`~exoleg.child.model.ChildModel`) on a simulated device; ``reference``:
     what a law other than the walking hierarchy follows (default the paper's scenario);
     ``step``: on a simulated device, the child on a step that high (m), the leg hanging
