@@ -322,7 +322,8 @@ CHILD = np.dtype([("term", I8, 4), ("tone", F8, 4), ("g_f", F8, 4), ("g_df", F8,
                   ("effort", F8), ("kp", F8, (2, 3)), ("kd", F8, (2, 3)), ("strength", F8, 3),
                   ("effort_delay", I8), ("stand", F8, 3),
                   ("gait_q", F8, (GAIT_SAMPLES, 3)), ("gait_dq", F8, (GAIT_SAMPLES, 3)),
-                  ("gait_tau", F8, (GAIT_SAMPLES, 3)), ("share", F8, 2), ("stride", F8)])
+                  ("gait_tau", F8, (GAIT_SAMPLES, 3)), ("share", F8, 2), ("stride", F8),
+                  ("intrinsic", F8)])
 
 #: The child's memory (:func:`child_tick`): ticks so far, each group's force and its
 #: rate, the joint angles and rates the child felt (rings of :data:`HISTORY` ticks), the
@@ -385,6 +386,7 @@ def child_records(child: ChildModel | None, h: float, stride_time: float = 1.1,
     r["gait_q"], r["gait_dq"], r["gait_tau"] = intended_gait(child, stride_time, speed)
     r["share"] = float(e["share"]) * (1.0 - device_support), float(e["share"])
     r["stride"] = stride_time
+    r["intrinsic"] = float(e["intrinsic"])
     return P, C, S
 
 
@@ -479,15 +481,21 @@ def child_tick(P, C, CS, q, dq, h, walking, xc, loaded, out):  # type: ignore[no
         # the feedforward is the moment meant for now
         xd = xc - n * h / c.stride
         xd -= math.floor(xd)
+        r = c.intrinsic
         for j in range(3):
             if walking:
-                qi = _cycle(c.gait_q, xd, j)
-                dqi = _cycle(c.gait_dq, xd, j)
-                ff = c.share[row] * _cycle(c.gait_tau, min(max(xc, 0.0), 1.0), j)
+                x = min(max(xc, 0.0), 1.0)
+                qi, dqi = _cycle(c.gait_q, xd, j), _cycle(c.gait_dq, xd, j)
+                qn, dqn = _cycle(c.gait_q, x, j), _cycle(c.gait_dq, x, j)
+                ff = c.share[row] * _cycle(c.gait_tau, x, j)
             else:
                 qi, dqi, ff = c.stand[j], 0.0, 0.0
-            u = (ff + c.kp[row, j] * (qi - _delayed(s.q, k, n, j))
-                 + c.kd[row, j] * (dqi - _delayed(s.dq, k, n, j)))
+                qn, dqn = qi, dqi
+            # the loop's share the muscles' own visco-elasticity gives at once, about the
+            # posture meant now; the rest through the delayed loop
+            u = (ff + r * (c.kp[row, j] * (qn - q[j]) + c.kd[row, j] * (dqn - dq[j]))
+                 + (1.0 - r) * (c.kp[row, j] * (qi - _delayed(s.q, k, n, j))
+                                + c.kd[row, j] * (dqi - _delayed(s.dq, k, n, j))))
             s.effort[j] = min(max(u, -c.strength[j]), c.strength[j])
     for j in range(3):
         out[j] = s.reflex[j] + s.effort[j]

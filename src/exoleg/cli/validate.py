@@ -28,6 +28,37 @@ def _fault_table(cases: dict[str, list[dict[str, Any]]], title: str) -> None:
             "extra", "in strides"], title=title)
 
 
+def _transparency(strides: int) -> int:
+    """``validate --transparency``: the budget and the walk's table
+    (:mod:`exoleg.validate.transparency`); 0 when the goal is met."""
+    from exoleg.params.records import JOINTS
+    from exoleg.validate.transparency import GOAL_NM_PER_KG, PREX_NM, SETTLE_STRIDES, evaluate
+
+    v = evaluate(strides=strides)
+    _table([[b["joint"], f"{b['need_rms_Nm']:.1f} / {b['need_peak_Nm']:.1f}",
+             f"{b['inertial_rms_Nm']:.1f}", f"{b['limit_Nm']:.1f}",
+             f"{100 * b['beyond_share']:.0f} %", f"{b['floor_Nm_per_kg']:.3f}",
+             f"{b['rotor_inertia_kgm2']:.3f} / {b['fits_kgm2']:.3f}"] for b in v.budget],
+           ["joint", "device alone needs RMS / peak N m", "of it inertial RMS N m",
+            "drive's limit N m", "cycle beyond it", "floor N m/kg",
+            "rotor's inertia now / that fits kg m^2"],
+           title=f"the budget: the device alone along the normative gait at 1.1 s strides, "
+                 f"{v.child} ({v.body_mass:.1f} kg)")
+    _table([[r["parts"], *(f"{r['rms_Nm_per_kg'][j]:.3f} ({r['rms_Nm'][j]:.1f})"
+                           for j in JOINTS)] for r in v.rows],
+           ["transparent law's parts", *(f"{j} N m/kg (N m)" for j in JOINTS)],
+           title=f"the cuffs' torque RMS over {strides} strides in the transparent mode "
+                 f"(the first {SETTLE_STRIDES} left out), on the same motion without the "
+                 "parts after each row's")
+    _say("at the drive's limit: " + ", ".join(f"{j} {100 * x:.0f} %"
+                                            for j, x in v.saturated.items())
+         + ("; the safety layer stopped the walk" if v.fault else "; no safety event"))
+    _say(f"goal: <= {GOAL_NM_PER_KG} N m/kg RMS at every joint (Lerner et al. 2018, a CP "
+         f"ankle exoskeleton in zero-torque mode: 0.015-0.036); P.REX < {PREX_NM} N m "
+         "(Chen et al. 2021): " + ("met" if v.met else "not met"))
+    return 0 if v.met else 1
+
+
 def cmd_validate(args: argparse.Namespace) -> int:
     if args.identify:
         from exoleg.cli._common import _Progress
@@ -54,10 +85,12 @@ def cmd_validate(args: argparse.Namespace) -> int:
         ok = all(r.g_max_pct <= 3.0 and r.g_rms_pct <= 1.0 for r in done) and all(
             r.walk_identified_pct <= 10.0 for r in carried)
         return 0 if ok else 1
+    if args.transparency:
+        return _transparency(args.strides or 10)
     if args.gait_phase:
         from exoleg.validate.gait_phase import evaluate
 
-        v = evaluate(strides=args.strides)
+        v = evaluate(strides=args.strides or 20)
         rows, rows_ok, runs, faults = v.rows, v.rows_ok, v.runs, v.faults
         _table([[r.child, f"x{r.noise:g}", f"{r.stride_time:g} s", str(r.strides),
                  "stopped by the safety layer" if r.fault else "ok"] for r in runs],
@@ -101,8 +134,12 @@ def add_parser(sub: Any) -> None:
     v.add_argument("--quick", action="store_true", help="fewer random legs and states")
     v.add_argument("--gait-phase", action="store_true",
                    help="the gait-phase detector against the true contacts: children x noise")
-    v.add_argument("--strides", type=_count(1, 1000), default=20, metavar="N",
-                   help="with --gait-phase: strides per walk, 1-1000 (default 20)")
+    v.add_argument("--strides", type=_count(1, 1000), metavar="N",
+                   help="with --gait-phase (default 20) or --transparency (default 10): "
+                        "strides per walk, 1-1000")
+    v.add_argument("--transparency", action="store_true",
+                   help="the transparent mode: the device's budget and a typically "
+                        "developing child walking in it")
     v.add_argument("--identify", action="store_true",
                    help="identification of the leg over simulated children of the design "
                         "range (offline)")

@@ -40,7 +40,9 @@ class Mode(IntEnum):
 
 
 class Command(IntEnum):
-    """An operator's command for a tick."""
+    """An operator's command for a tick. IMPEDANCE and TRANSPARENT choose the walking
+    controller's support mode (:class:`~exoleg.control.transparency.SupportMode`),
+    blended over a ramp."""
 
     NONE = 0
     ARM = 1
@@ -49,6 +51,8 @@ class Command(IntEnum):
     DISARM = 4
     ESTOP = 5
     RESET = 6
+    IMPEDANCE = 7
+    TRANSPARENT = 8
 
 
 #: What the device reads each tick: joint angles (rad) and rates (rad/s) as measured
@@ -68,14 +72,17 @@ SENSORS = np.dtype([("q", F8, 3), ("dq", F8, 3), ("fsr", F8, 4), ("gyro", F8),
 #: reference (rad), the fault latched (:class:`~exoleg.control.safety.Fault`), its
 #: joint (-1: none), the value that latched it and the limit it crossed (rad, rad/s: the
 #: safety layer's STATE), and the command refused this tick (:class:`Command`; NONE if
-#: none was, e.g. a reset while a fault still holds), and per joint the safety layer's
+#: none was, e.g. a reset while a fault still holds), per joint the safety layer's
 #: estimates: the motor's winding temperature (degC) and the gear's transmitted torque
-#: (N m).
+#: (N m), and the support mode in force
+#: (:class:`~exoleg.control.transparency.SupportMode`; a law that is not the walking
+#: controller's: IMPEDANCE).
 OUTPUT = np.dtype([("tau", F8, 3), ("mode", I8), ("phase", I8), ("gait_source", I8),
                    ("gait_fraction", F8),
                    ("events", I8), ("safety_status", I8), ("q_ref", F8, 3), ("fault", I8),
                    ("fault_joint", I8), ("fault_value", F8), ("fault_limit", F8),
-                   ("refused", I8), ("winding_temp", F8, 3), ("gear_torque", F8, 3)])
+                   ("refused", I8), ("winding_temp", F8, 3), ("gear_torque", F8, 3),
+                   ("support_mode", I8)])
 
 LABELS = {3: JOINTS, 4: SENSOR_POINTS}
 #: The modes in which the drives are enabled (torque may flow), and those in which the
@@ -160,10 +167,11 @@ def output_kinds() -> dict[str, dict[int, IntEnum]]:
     """The output fields that hold an enumeration, each as value -> member."""
     from exoleg.control.gait_phase import Phase, Source
     from exoleg.control.safety import Fault
+    from exoleg.control.transparency import SupportMode
 
     return {name: {int(m): m for m in kind} for name, kind in
             (("mode", Mode), ("phase", Phase), ("gait_source", Source), ("fault", Fault),
-             ("refused", Command))}
+             ("refused", Command), ("support_mode", SupportMode))}
 
 
 def output_columns() -> list[str]:
@@ -188,10 +196,11 @@ def vocabulary() -> dict[str, Any]:
     which the drives are enabled (``armed``)."""
     from exoleg.control.gait_phase import EVENT_NAMES, PHASE_NAMES, SOURCE_NAMES, Event, Phase
     from exoleg.control.safety import LIMITED_TEXT, Fault, Limited
+    from exoleg.control.transparency import SupportMode
 
     out: dict[str, Any] = {k: {str(v): n for n, v in t.items()}
                            for k, t in enum_table(Mode, Command, Phase, Event, Fault,
-                                                  Limited).items()}
+                                                  Limited, SupportMode).items()}
     out["text"] = {"Phase": {str(int(k)): v for k, v in PHASE_NAMES.items()},
                    "Event": [[int(k), v] for k, v in EVENT_NAMES.items()],
                    "Source": {str(int(k)): v for k, v in SOURCE_NAMES.items()},
@@ -199,6 +208,11 @@ def vocabulary() -> dict[str, Any]:
     out["joints"], out["sensors"] = list(JOINTS), list(SENSOR_POINTS)
     from exoleg.control.supervisor import APPLIES
 
+    from exoleg.control.transparency import SUPPORT_APPLIES, SUPPORT_COMMANDS
+
     out["applies"] = {str(int(m)): [c.name.lower() for c in cs] for m, cs in APPLIES.items()}
+    # the walking controller's support modes (a law other than its refuses them)
+    out["support_applies"] = [m.name for m in SUPPORT_APPLIES]
+    out["support_commands"] = [c.name.lower() for c in SUPPORT_COMMANDS]
     out["armed"] = sorted(m.name for m in ARMED_MODES)
     return out

@@ -42,6 +42,14 @@ from exoleg.control import safety as sf
 from exoleg.control.contract import OUTPUT, SENSORS, Mode, TickRecords
 from exoleg.control.safety import SafetyLimits, safety_step
 from exoleg.control.supervisor import SUPERVISOR, report, settle, supervise
+from exoleg.control.transparency import (
+    SupportMode,
+    TransparencySettings,
+    new_support_state,
+    support_blend,
+    support_command,
+    transparent_torque,
+)
 from exoleg.dynamics.kernels import foot_point_jacobian, gravity, links_mass, mass_matrix
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
@@ -197,14 +205,16 @@ def stance_gravity(p, g, q, fx, sole, counts, weight, out):  # type: ignore[no-u
 
 
 @njit(cache=True)
-def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, sens, t, out):  # type: ignore[no-untyped-def]
+def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, sens, t, out):  # type: ignore[no-untyped-def]
     """One control tick. ``cp``: the controller's parameters (:data:`PARAMS`); ``gq``,
     ``gdq``: the gait tables (K, 3), (K, 6) (rad, rad per cycle); ``p``: its leg model's
     parameter vector; ``d``, ``st``: the detector's settings and state
     (:data:`~exoleg.control.gait_phase.SETTINGS`, ``STATE``); ``lim``, ``sst``: the
     safety layer's (:data:`~exoleg.control.safety.LIMITS`, ``STATE``); ``sup``: the
     supervisor's (:data:`SUPERVISOR`); ``ref``: the reference's (:data:`REFERENCE`);
-    ``sens``: this tick's readings and command (:data:`~exoleg.control.contract.SENSORS`);
+    ``tp``, ``A``, ``ss``: the transparent mode's parameters, the actuators' records and
+    the support mode's state (:mod:`exoleg.control.transparency`); ``sens``: this
+    tick's readings and command (:data:`~exoleg.control.contract.SENSORS`);
     ``t`` s. Writes ``out`` (:data:`~exoleg.control.contract.OUTPUT`). Every record is a
     one-element array.
 
@@ -219,7 +229,9 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, sens, t, out): 
     s = sens[0]
     o = out[0]
     before = sup[0].mode
-    refused = supervise(sup, lim, sst, s.command, s.q, s.dq)
+    command, refused = support_command(tp, ss, s.command, before)
+    if command != 0:
+        refused = supervise(sup, lim, sst, command, s.q, s.dq)
     mode = sup[0].mode
     R = ref[0]
     if mode == Mode.WALKING and before == Mode.STANDING:
@@ -278,11 +290,23 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, sens, t, out): 
         kd = C.kd_stance[j] if stance else C.kd_swing[j]
         cmd[j] = (kp * (qr[j] - qm[j]) + kd * (dqr[j] - vm[j]) + G[j]
                   + M[j, 0] * ddqr[0] + M[j, 1] * ddqr[1] + M[j, 2] * ddqr[2])
+    # the support mode: the impedance above, or the device made transparent; a change
+    # blended over the transparent mode's ramp
+    w = support_blend(tp, ss, t)
+    S = ss[0]
+    if S.mode == SupportMode.TRANSPARENT or S.from_mode == SupportMode.TRANSPARENT:
+        tr = np.empty(3)
+        transparent_torque(tp, A, ss, qm, vm, s.interaction, lim[0].lower, lim[0].upper, C.g, lim[0].dt,
+                           sup[0].mode != Mode.DISARMED and sup[0].mode != Mode.FAULT, tr)
+        a = w if S.mode == SupportMode.TRANSPARENT else 1.0 - w
+        for j in range(3):
+            cmd[j] = a * tr[j] + (1.0 - a) * cmd[j]
     status = safety_step(lim, sst, qm, vm, cmd, False, o.tau)
     settle(sup, sst)
     report(sup, sst, refused, status, out)
     o.phase = phase
     o.gait_source = st[0].source
+    o.support_mode = S.mode
     o.gait_fraction = x
     o.events = ev
     for j in range(3):
@@ -336,7 +360,10 @@ class WalkController:
                  safety: SafetyLimits | None = None, speed: str = "Free",
                  expected_stride: float = 1.1, fsr_floor_counts: float = 200.0,
                  sole: float = 0.073, gyro_range: float = math.inf,
-                 accel_range: float = math.inf) -> None:
+                 accel_range: float = math.inf, device_p: F64 | None = None,
+                 actuators: NDArray[np.void] | None = None,
+                 transparency: TransparencySettings | None = None,
+                 support_mode: SupportMode = SupportMode.IMPEDANCE) -> None:
         from exoleg.device.sensors import SENSOR_X
 
         w = "WalkController"
@@ -360,6 +387,19 @@ class WalkController:
         self.st = gp.new_state(self.d)
         self.lim, self.sst, self.sup = self.safety.record(), sf.new_state(), new(SUPERVISOR)
         self.ref = new_reference()
+        self.transparency = (TransparencySettings.default() if transparency is None
+                             else transparency)
+        if (device_p is None) != (actuators is None):
+            raise ParameterError(w, "device_p", "the device alone's parameters and the "
+                                 "actuators' records go together (the transparent mode's)")
+        if device_p is None and support_mode != SupportMode.IMPEDANCE:
+            raise ParameterError(w, "support_mode", "the transparent mode needs the device "
+                                 "alone's parameters and the actuators' records")
+        from exoleg.device.actuator import ACTUATOR
+
+        self.tp = self.transparency.record(device_p)
+        self.A = np.zeros(3, ACTUATOR) if actuators is None else actuators
+        self.ss = new_support_state(support_mode)
         self.io = TickRecords("WalkController.update")
 
     def gains_now(self) -> dict[str, list[float]]:
@@ -390,16 +430,17 @@ class WalkController:
     def compiled(self) -> tuple[Any, ...]:
         """What :func:`walk_control_step` takes before the tick's readings, in its order:
         parameters, gait tables, leg model, detector settings and state, safety limits and
-        state, supervisor state, reference state (the state records are this controller's
-        own)."""
+        state, supervisor state, reference state, the transparent mode's parameters, the
+        actuators' records, the support mode's state (the state records are this
+        controller's own)."""
         return (self.cp, self.gq, self.gdq, self.leg.p, self.d, self.st, self.lim, self.sst,
-                self.sup, self.ref)
+                self.sup, self.ref, self.tp, self.A, self.ss)
 
     def warm_up(self) -> None:
         """Compile (or load from numba's cache) the tick on copies of the state."""
-        cp, gq, gdq, p, d, st, lim, sst, sup, ref = self.compiled()  # a tick's types
-        _tick(cp, gq, gdq, p, d, st.copy(), lim, sst.copy(), sup.copy(), ref.copy(),
-              new(SENSORS), 0.0, new(OUTPUT))
+        cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss = self.compiled()
+        _tick(cp, gq, gdq, p, d, st.copy(), lim, sst.copy(), sup.copy(), ref.copy(), tp,
+              A, ss.copy(), new(SENSORS), 0.0, new(OUTPUT))
 
     def update(self, sensors: Mapping[str, Any], command: int, t: float) -> dict[str, Any]:
         """One tick on ``sensors`` with the operator's ``command`` at ``t`` s (the

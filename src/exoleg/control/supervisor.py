@@ -116,6 +116,9 @@ def refusal(command: int, mode: int) -> str:
            Command.STAND: "stand applies while walking",
            Command.DISARM: "disarm is refused while walking: stand first (a controlled "
                            "stop), or E-stop",
-           Command.RESET: "reset applies in FAULT, once the fault no longer holds"}
+           Command.RESET: "reset applies in FAULT, once the fault no longer holds",
+           Command.IMPEDANCE: "a support mode is chosen outside FAULT",
+           Command.TRANSPARENT: "a support mode is chosen outside FAULT; the transparent "
+                                "one needs the walking controller and its device's model"}
     return f"{c.name.lower()} refused in {m.name}: {why.get(c, 'not a command here')}"
 

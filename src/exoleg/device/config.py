@@ -11,7 +11,7 @@ scaling and the start-up check against the range of motion) and to the controlle
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +19,7 @@ import numpy as np
 from exoleg.control.gait_phase import DetectorSettings
 from exoleg.control.hierarchy import WalkController, WalkGains
 from exoleg.control.safety import SafetyLimits
+from exoleg.control.transparency import SupportMode, TransparencySettings
 from exoleg.device.actuator import ActuatorModel, paper_actuators, params_array, with_actuators
 from exoleg.device.sensors import FootSensors
 from exoleg.dynamics.model import LegModel
@@ -39,11 +40,13 @@ class DeviceConfig:
     detector: DetectorSettings
     gains: WalkGains
     folder: Path | None = None
+    transparency: TransparencySettings = field(default_factory=TransparencySettings.default)
 
     def __post_init__(self) -> None:
         w = "DeviceConfig"
         for name, kind in (("safety", SafetyLimits), ("sensors", FootSensors),
-                           ("detector", DetectorSettings), ("gains", WalkGains)):
+                           ("detector", DetectorSettings), ("gains", WalkGains),
+                           ("transparency", TransparencySettings)):
             if not isinstance(getattr(self, name), kind):
                 raise ParameterError(w, name, f"expected {kind.__name__}, got "
                                      f"{type(getattr(self, name)).__name__}")
@@ -67,7 +70,8 @@ class DeviceConfig:
                    sensors=(FootSensors.default(noise_scale, where) if sensors is None
                             else sensors),
                    detector=DetectorSettings.default(where),
-                   gains=WalkGains.default(where) if gains is None else gains, folder=where)
+                   gains=WalkGains.default(where) if gains is None else gains, folder=where,
+                   transparency=TransparencySettings.default(where))
 
     @property
     def fsr_floor_counts(self) -> float:
@@ -80,11 +84,15 @@ class DeviceConfig:
 
 
 def walk_controller(config: DeviceConfig, leg: LegModel, body_mass: float,
-                    depth: float, speed: str = "Free", stride_time: float = 1.1
-                    ) -> WalkController:
+                    depth: float, speed: str = "Free", stride_time: float = 1.1,
+                    support_mode: SupportMode = SupportMode.IMPEDANCE) -> WalkController:
     """The walking hierarchy for the child + device ``leg`` (without actuators: theirs
     are added) carrying ``body_mass`` kg at the pelvis, its FSRs ``depth`` m below the
-    ankle joint, expecting strides of ``stride_time`` s of the ``speed`` gait."""
+    ankle joint, expecting strides of ``stride_time`` s of the ``speed`` gait, starting
+    in ``support_mode`` (the transparent mode's model: the device alone at ``leg``'s
+    telescope settings, :func:`~exoleg.child.interaction.device_leg`)."""
+    from exoleg.child.interaction import device_leg
+
     if not isinstance(config, DeviceConfig):
         raise ParameterError("walk_controller", "config",
                              f"expected DeviceConfig, got {type(config).__name__}")
@@ -92,4 +100,6 @@ def walk_controller(config: DeviceConfig, leg: LegModel, body_mass: float,
         raise ParameterError("walk_controller", "depth", f"{depth!r} m is outside 0-0.3 m")
     return WalkController(config.leg(leg), body_mass, config.gains, config.detector,
                           config.safety, speed, stride_time, config.fsr_floor_counts, depth,
-                          config.sensors.gyro_range, config.sensors.accel_range)
+                          config.sensors.gyro_range, config.sensors.accel_range,
+                          device_leg(leg, config.actuators).p, params_array(config.actuators),
+                          config.transparency, support_mode)

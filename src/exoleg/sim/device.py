@@ -25,6 +25,7 @@ from exoleg.child.interaction import device_leg, interaction_torque
 from exoleg.child.model import ChildModel, child_records, child_tick
 from exoleg.control.hierarchy import START_FRACTION, WalkController, WalkGains
 from exoleg.control.safety import SafetyLimits
+from exoleg.control.transparency import SupportMode
 from exoleg.device.actuator import (
     ActuatorModel,
     current_loop,
@@ -249,12 +250,17 @@ class SimulatedDevice:
 
     def child_records(self, h: float) -> tuple[Any, ...]:
         """The child's compiled records, a fresh memory, and the device alone's parameters
-        (for the cuffs' torque), as :func:`device_actuate` takes them."""
-        q0 = self.controller.gains.standing
+        (for the cuffs' torque), as :func:`device_actuate` takes them. The child leaves
+        the device the stance support its controller starts with (none when
+        transparent)."""
+        ctl = self.controller
+        q0 = ctl.gains.standing
+        support = (ctl.gains.support if ctl.ss[0]["mode"] == SupportMode.IMPEDANCE
+                   else 0.0)
         P, C, CS = child_records(self.child, h, self.stride_time, self.speed, q0,
                                  float(self.leg.lengths[0] + self.leg.lengths[1]),
                                  np.diag(self.plant.leg.M(q0)),
-                                 self.controller.gains.support)
+                                 support)
         pd = np.zeros(0) if self.device_p is None else self.device_p
         return P, C, CS, pd
 
@@ -266,7 +272,8 @@ def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
                  ground: Ground | None = None, sensors: FootSensors | None = None,
                  control_dt: float = 1e-3, device: str | Path | None = None,
                  config: DeviceConfig | None = None, child: ChildModel | None = None,
-                 step: float = 0.0, model: LegModel | None = None) -> SimulatedDevice:
+                 step: float = 0.0, model: LegModel | None = None,
+                 support_mode: SupportMode = SupportMode.IMPEDANCE) -> SimulatedDevice:
     """The simulated device and its controller for ``leg`` (without actuators; theirs are
     added) and a child of ``body_mass`` kg (see :func:`exoleg.sim.walk.simulate_walk`):
     the device ``config``, or the one :meth:`DeviceConfig.load` reads from ``device``
@@ -297,7 +304,7 @@ def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
     if step:  # the other leg holds the pelvis that much higher
         plant = dataclasses.replace(plant, support_height=plant.support_height + step)
     ctl = walk_controller(cfg, leg if model is None else model, share, depth, speed,
-                          stride_time)
+                          stride_time, support_mode)
     q0 = ctl.gains.standing
     fk = leg.fk(q0)
     x0 = np.zeros(8)

@@ -32,6 +32,7 @@ from exoleg.child.model import ChildModel
 from exoleg.child.passive import passive_moments
 from exoleg.control.contract import OUTPUT, SENSOR_POINTS, SENSORS, Command, Mode
 from exoleg.control.hierarchy import WalkGains, walk_control_step
+from exoleg.control.transparency import PARTS, SupportMode
 from exoleg.control.safety import SafetyLimits
 from exoleg.device.actuator import ActuatorModel, drive_limit
 from exoleg.device.sensors import FootSensors, draw_noise
@@ -48,12 +49,13 @@ F64 = NDArray[np.float64]
 @njit(cache=True, error_model="numpy")
 def _run_walk(p, w, A, K, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_y, commands,  # type: ignore[no-untyped-def]
               h, sub, support, stand_support, t_walk, stride, S, X, SENS, FN, OUT, TAU, ENV,
-              SUP, CH):
+              SUP, CH, PA):
     """The walking run: per tick k the device's readings into ``SENS[k]``, the
     controller's tick (``ctl``: :meth:`WalkController.compiled`) into ``OUT[k]``, the
-    drives, the child (``K``) and the plant; the child's muscles' torque into ``CH[k]``.
+    drives, the child (``K``) and the plant; the child's muscles' torque into ``CH[k]``,
+    the transparent law's parts and wall (the controller's support state) into ``PA[k]``.
     Returns -1, or the tick whose state became non-finite."""
-    cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref = ctl
+    cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref, tp, cA, ss = ctl
     n = X.shape[0] - 1
     for k in range(n + 1):
         t = k * h
@@ -64,7 +66,12 @@ def _run_walk(p, w, A, K, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_
                      imu_bias, sk, FN[k])
         sk[0].command = commands[k]
         # 2. the controller tick (supervisor, detection, reference, impedance, safety)
-        walk_control_step(cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref, sk, t, ok_)
+        walk_control_step(cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref, tp, cA, ss, sk, t,
+                          ok_)
+        for i in range(3):
+            for m in range(4):
+                PA[k, m, i] = ss[0].parts[m, i]
+            PA[k, 4, i] = ss[0].wall[i]
         if k == n:
             for i in range(3):
                 ENV[k, i] = drive_limit(A[i:i + 1], SENS[k].dq[i], OUT[k].tau[i])
@@ -95,7 +102,11 @@ class WalkResult(TimeSeries):
     winding_temp (degC) and gear_torque (N m); the fault latched and its joint per tick
     (:class:`~exoleg.control.safety.Fault`, -1 for none); the child: ``interaction`` (the
     cuffs' torque, N m, :mod:`exoleg.child.interaction`), ``child_torque`` (their
-    muscles' reflexes and effort, N m) and ``passive`` (their passive moments, N m)."""
+    muscles' reflexes and effort, N m) and ``passive`` (their passive moments, N m); the
+    support mode per tick (:class:`~exoleg.control.transparency.SupportMode`) and the
+    transparent law's torque per part (``transparent_parts`` (n, 4, 3):
+    :data:`~exoleg.control.transparency.PARTS`; zero while it is not computed) and its
+    wall's (``wall``), N m."""
 
     t: F64
     pelvis: F64
@@ -124,6 +135,9 @@ class WalkResult(TimeSeries):
     interaction: F64
     child_torque: F64
     passive: F64
+    support_mode: NDArray[np.int64]
+    transparent_parts: F64
+    wall: F64
     plant: WalkingPlant = field(repr=False)
     actuators: tuple[ActuatorModel, ...] = field(repr=False)
     walk_start: float = 0.0
@@ -150,7 +164,7 @@ class WalkResult(TimeSeries):
         cols: dict[str, F64] = {"t": self.t, "pelvis": self.pelvis}
         for name in ("q", "dq", "q_meas", "dq_meas", "q_ref", "u_safe", "tau", "envelope",
                      "motor_speed", "power", "winding_temp", "gear_torque", "interaction",
-                     "child_torque", "passive"):
+                     "child_torque", "passive", "wall"):
             arr = getattr(self, name)
             for i, j in enumerate(JOINTS):
                 cols[f"{name}_{j}"] = arr[:, i].astype(float)
@@ -164,6 +178,10 @@ class WalkResult(TimeSeries):
         cols["gait_fraction"] = self.gait_fraction
         cols["true_events"] = self.true_events().astype(float)
         cols["support"] = self.support
+        cols["support_mode"] = self.support_mode.astype(float)
+        for m, part in enumerate(PARTS):
+            for i, j in enumerate(JOINTS):
+                cols[f"transparent_{part}_{j}"] = self.transparent_parts[:, m, i]
         return cols
 
 
@@ -185,8 +203,8 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                   ground: Ground | None = None, sensors: FootSensors | None = None,
                   substeps: int = 2, control_dt: float = 1e-3,
                   device: str | Path | None = None, child: ChildModel | None = None,
-                  commands: NDArray[np.int64] | None = None, model: LegModel | None = None
-                  ) -> WalkResult:
+                  commands: NDArray[np.int64] | None = None, model: LegModel | None = None,
+                  support_mode: SupportMode = SupportMode.IMPEDANCE) -> WalkResult:
     """Walk ``leg`` (without actuators; theirs are added) on the treadmill for ``strides``
     strides of ``stride_time`` s after ``standing`` s of quiet stance; ``body_mass`` is
     the child's (the pelvis carries :func:`exoleg.device.walking.body_weight_share`).
@@ -196,7 +214,9 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     ``child``: the child as an actor (:class:`~exoleg.child.model.ChildModel`; None: a
     passive leg). ``commands``: the operator's command per tick (default: arm at 0, walk
     after ``standing`` s). ``model``: the leg the controller is given (default ``leg``:
-    the controller knows the leg it walks)."""
+    the controller knows the leg it walks). ``support_mode``: the controller's
+    (:class:`~exoleg.control.transparency.SupportMode`: the paper's impedance, or the
+    device transparent)."""
     if not (isinstance(strides, int) and 1 <= strides <= 10000):
         raise ParameterError("simulate_walk", "strides", f"expected 1-10000, got {strides!r}")
     if not (isinstance(substeps, int) and 1 <= substeps <= 100):
@@ -205,7 +225,7 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
         raise ParameterError("simulate_walk", "standing", f"{standing!r} is outside 0.2-60")
     dev = prepare_walk(leg, body_mass, speed, stride_time, noise_scale, ankle_height,
                        actuators, gains, safety, ground, sensors, control_dt, device,
-                       child=child, model=model)
+                       child=child, model=model, support_mode=support_mode)
     ctl, plant, sens = dev.controller, dev.plant, dev.sensors
     check_step(plant, control_dt / substeps, dev.config.folder)
     n = int(round((standing + strides * stride_time) / control_dt))
@@ -224,11 +244,12 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     FN = np.zeros((n + 1, 4))
     SUP = np.zeros(n + 1)
     CH = np.zeros((n + 1, 3))
+    PA = np.zeros((n + 1, len(PARTS) + 1, 3))
     K = dev.child_records(control_dt)
     bad = _run_walk(plant.leg.p, plant.record(), dev.A, K, ctl.compiled(), sens.record(),
                     fsr_noise, imu_noise, bias, dev.imu_x, -dev.depth, commands, control_dt,
                     substeps, dev.support, plant.support_height, standing, stride_time,
-                    dev.state(), X, SENS, FN, OUT, TAU, ENV, SUP, CH)
+                    dev.state(), X, SENS, FN, OUT, TAU, ENV, SUP, CH, PA)
     if bad >= 0:
         raise SimulationError(f"walking state became non-finite at t = {bad * control_dt:.4g} s")
     t: F64 = np.arange(n + 1, dtype=np.float64) * control_dt
@@ -243,7 +264,8 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                       fault_joint=OUT["fault_joint"],
                       interaction=np.vstack([SENS["interaction"][1:], SENS["interaction"][-1:]]),
                       child_torque=CH, passive=passive_moments(K[0], X[:, 1:4], X[:, 5:8]),
-                      plant=plant, actuators=dev.actuators, walk_start=standing,
+                      support_mode=OUT["support_mode"], transparent_parts=PA[:, :len(PARTS)],
+                      wall=PA[:, len(PARTS)], plant=plant, actuators=dev.actuators, walk_start=standing,
                       stride_time=stride_time, body_mass=body_mass)
 
 

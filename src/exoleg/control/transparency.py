@@ -1,0 +1,290 @@
+"""The support modes of the walking controller, and the transparent (zero-torque) one.
+
+:class:`SupportMode`: how much the device does for the child. ``IMPEDANCE`` is the
+paper's phase-scheduled impedance (:mod:`exoleg.control.hierarchy`); ``TRANSPARENT``
+lets the child move as if the device were not there: the drives deliver what the
+device's own links, its motors' rotors (the reflected inertia, hip 3.2 kg m^2) and its
+friction take, so that the cuffs pass (ideally) no torque::
+
+    tau = G_d(q) + C_d(q, dq) dq + M_d(q) ddq^ + f(dq + lead ddq^)
+          - kp tau_int - ki \\int tau_int
+
+with M_d, C_d, G_d the device alone (:func:`exoleg.child.interaction.device_leg`: its
+links at the child's telescope settings with the rotors as armature), f the actuators'
+friction (:func:`exoleg.device.actuator.friction`), ddq^ the joint acceleration
+estimated from the measured rates (their difference per tick, low-passed), ``lead``
+the drive's lag the friction's speed is taken ahead by, and the last terms the feedback
+of the cuffs' torque ``tau_int`` measured (the :data:`SENSORS` field ``interaction``,
+what a joint torque sensor between the drive and the cuff -- or a cuff load cell --
+reads; the device has none today: on the buses the reading is NaN and the mode is the
+model's feedforward alone). Each part can be switched off (:attr:`TransparencySettings.parts`)
+so that one run shows what each contributes (``exoleg validate --transparency``).
+
+A change of support mode is blended over ``ramp`` s (the two laws' torques mixed
+linearly), never a step: :func:`support_blend`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum
+from pathlib import Path
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from exoleg.control.contract import Command, Mode
+from exoleg.device.actuator import friction
+from exoleg.dynamics.kernels import coriolis_dq, gravity, mass_matrix
+from exoleg.errors import ParameterError
+from exoleg.layout import F8, I8, new
+from exoleg.params import _check
+
+F64 = NDArray[np.float64]
+
+
+class SupportMode(IntEnum):
+    """How the walking controller supports the child (``exoleg simulate --walk
+    --controller``, ``exoleg run --controller``)."""
+
+    IMPEDANCE = 0
+    TRANSPARENT = 1
+
+
+#: The names people type for the support modes.
+SUPPORT_NAMES = {"impedance": SupportMode.IMPEDANCE, "transparent": SupportMode.TRANSPARENT}
+#: The parts of the transparent law, in the order they are added.
+PARTS = ("gravity", "inertia", "friction", "interaction")
+#: The length of a leg's parameter vector (:attr:`exoleg.dynamics.model.LegModel.p`).
+P_LENGTH = 18
+#: (field in the file, unit, lower, upper) of the transparent mode's scalar settings.
+_SCALARS = (("accel_filter_hz", "Hz", 1.0, 500.0), ("inertia_share", "", 0.0, 1.0),
+            ("lead_ms", "ms", 0.0, 20.0), ("ramp_s", "s", 0.05, 5.0))
+#: (field in the file, upper) of its per-joint settings (lower 0).
+_VECTORS = (("kp_interaction", 20.0), ("ki_interaction", 1000.0),
+            ("integral_limit", 100.0), ("wall_stiffness", 1e4), ("wall_damping", 500.0))
+
+
+@dataclass(frozen=True)
+class TransparencySettings:
+    """The transparent mode's settings (``data/device/transparency.toml``): which parts
+    act (:data:`PARTS`); the acceleration estimate's low-pass (Hz) and the share of the
+    device's inertia compensated with it; the lead (s) the friction's speed is taken
+    ahead by; the cuffs' torque feedback's proportional (dimensionless) and integral
+    (1/s) gains per joint with the integral's bound (N m); the wall at the range of
+    motion's ends (N m/rad, N m s/rad per joint); the blend between support modes (s)."""
+
+    parts: tuple[bool, bool, bool, bool]
+    accel_filter_hz: float
+    inertia_share: float
+    lead: float
+    kp: F64
+    ki: F64
+    integral_limit: F64
+    wall_stiffness: F64
+    wall_damping: F64
+    ramp: float
+
+    def __post_init__(self) -> None:
+        w = "TransparencySettings"
+        if len(self.parts) != len(PARTS) or not all(isinstance(b, bool) for b in self.parts):
+            raise ParameterError(w, "parts", f"expected {len(PARTS)} true/false "
+                                 f"({', '.join(PARTS)}), got {self.parts!r}")
+        for (_, unit, lo, hi), name, scale in zip(
+                _SCALARS, ("accel_filter_hz", "inertia_share", "lead", "ramp"),
+                (1.0, 1.0, 1e3, 1.0), strict=True):
+            v = _check.finite(w, name, getattr(self, name)) * scale
+            if not lo <= v <= hi:
+                raise ParameterError(w, name, f"{v:g} {unit} is outside {lo:g}-{hi:g} {unit}")
+        for (_, hi), name in zip(_VECTORS, ("kp", "ki", "integral_limit", "wall_stiffness",
+                                            "wall_damping"), strict=True):
+            vec = _check.vector(w, name, list(getattr(self, name)), 3)
+            if np.any(vec < 0.0) or np.any(vec > hi):
+                raise ParameterError(w, name, f"{vec.tolist()} is outside 0-{hi:g} per joint")
+            object.__setattr__(self, name, vec)
+
+    @classmethod
+    def default(cls, folder: str | Path | None = None) -> TransparencySettings:
+        """From ``transparency.toml`` (a device folder's, :mod:`exoleg.device.files`, or
+        the package's)."""
+        from exoleg.device.files import load
+
+        where, d = load("transparency.toml", folder)
+        _check.keys(where, d, ["parts", *(f[0] for f in _SCALARS), *(f[0] for f in _VECTORS)],
+                    ["source"])
+        parts = d["parts"]
+        if not isinstance(parts, dict):
+            raise ParameterError(where, "parts", f"expected a table of {', '.join(PARTS)}")
+        _check.keys(f"{where} [parts]", parts, PARTS)
+        for p in PARTS:
+            if not isinstance(parts[p], bool):
+                raise ParameterError(f"{where} [parts]", p, f"expected true or false, got "
+                                     f"{parts[p]!r}")
+        v = {name: _check.vector(where, name, d[name], 3) for name, _ in _VECTORS}
+        x = {name: _check.finite(where, name, d[name]) for name, *_ in _SCALARS}
+        try:
+            return cls(parts=tuple(parts[p] for p in PARTS),
+                       accel_filter_hz=x["accel_filter_hz"], inertia_share=x["inertia_share"],
+                       lead=x["lead_ms"] / 1e3, kp=v["kp_interaction"],
+                       ki=v["ki_interaction"], integral_limit=v["integral_limit"],
+                       wall_stiffness=v["wall_stiffness"], wall_damping=v["wall_damping"],
+                       ramp=x["ramp_s"])
+        except ParameterError as e:  # a range checked by the record: name the file
+            raise ParameterError(where, e.field, e.problem) from None
+
+    def with_parts(self, *names: str) -> TransparencySettings:
+        """These settings with only the parts ``names`` acting."""
+        for n in names:
+            if n not in PARTS:
+                raise ParameterError("TransparencySettings", "parts", f"unknown {n!r} "
+                                     f"(allowed: {', '.join(PARTS)})")
+        import dataclasses
+
+        return dataclasses.replace(self, parts=tuple(p in names for p in PARTS))  # type: ignore[arg-type]
+
+    def record(self, device_p: F64 | None) -> NDArray[np.void]:
+        """What the compiled tick reads (:data:`TRANSPARENCY`) for the device alone's
+        parameters ``device_p`` (:func:`~exoleg.child.interaction.device_leg`; None: not
+        known, the transparent mode refused)."""
+        r = new(TRANSPARENCY)
+        if device_p is None:
+            return r
+        if np.shape(device_p) != (P_LENGTH,):
+            raise ParameterError("TransparencySettings.record", "device_p",
+                                 f"expected a leg's {P_LENGTH} parameters, got shape "
+                                 f"{np.shape(device_p)}")
+        r["parts"] = [1.0 if b else 0.0 for b in self.parts]
+        for name in ("accel_filter_hz", "inertia_share", "lead", "kp", "ki", "integral_limit",
+                     "wall_stiffness", "wall_damping", "ramp"):
+            r[name] = getattr(self, name)
+        r["device_p"], r["known"] = device_p, True
+        return r
+
+
+#: The transparent law's parameters (:meth:`TransparencySettings.record`): the parts
+#: acting (1/0, :data:`PARTS`), the acceleration filter (Hz) and the inertia's share
+#: compensated, the lead (s), the cuffs' torque feedback (kp, ki 1/s, the integral's
+#: bound N m), the wall (N m/rad, N m s/rad), the support modes' blend (s), the device
+#: alone's parameters and whether they are known (not: the mode refused).
+TRANSPARENCY = np.dtype([("parts", F8, 4), ("accel_filter_hz", F8), ("inertia_share", F8),
+                         ("lead", F8), ("kp", F8, 3), ("ki", F8, 3),
+                         ("integral_limit", F8, 3), ("wall_stiffness", F8, 3),
+                         ("wall_damping", F8, 3), ("ramp", F8),
+                         ("device_p", F8, P_LENGTH), ("known", np.bool_)])
+#: Its state: the support mode asked (:class:`SupportMode`: by the operator's command,
+#: :func:`support_command`), the one in force and the one it blends from, when the blend
+#: started (s; negative: none under way), the rates last measured (rad/s), the
+#: acceleration estimate (rad/s^2), the cuffs' torque integral (N m), whether a tick has
+#: run (the first has no rate before it), and the last tick's torque of each part of the
+#: transparent law (:data:`PARTS`, N m per joint) and of its wall.
+SUPPORT_STATE = np.dtype([("asked", I8), ("mode", I8), ("from_mode", I8), ("t_switch", F8),
+                          ("dq_last", F8, 3), ("ddq", F8, 3), ("integral", F8, 3),
+                          ("started", np.bool_), ("parts", F8, (4, 3)), ("wall", F8, 3)])
+
+
+def new_support_state(mode: SupportMode = SupportMode.IMPEDANCE) -> NDArray[np.void]:
+    """The support state before the first tick, in ``mode``."""
+    s = new(SUPPORT_STATE)
+    s["asked"] = s["mode"] = s["from_mode"] = int(mode)
+    s["t_switch"] = -1.0
+    return s
+
+
+@njit(cache=True)
+def transparent_torque(tp, A, ss, q, dq, tau_int, lower, upper, g, h, armed, out):  # type: ignore[no-untyped-def]
+    """The transparent law's torque (N m) into ``out`` (3,) at the measured ``q``,
+    ``dq``, the cuffs' torque ``tau_int`` read this tick (NaN: no sensor, the feedback
+    off), the range of motion ``lower``, ``upper`` (rad), a tick of ``h`` s. ``tp``:
+    :data:`TRANSPARENCY`; ``A``: the actuators' records; ``ss``: :data:`SUPPORT_STATE`
+    (its estimate and integral advance here, each part's torque is kept). The integral
+    runs only while ``armed``, within its bound. Beyond the range of motion a wall
+    (stiffness, and damping against the motion outwards) pushes back."""
+    T = tp[0]
+    S = ss[0]
+    P = S.parts
+    b = 1.0 - math.exp(-2.0 * math.pi * T.accel_filter_hz * h)
+    for j in range(3):
+        if S.started:
+            S.ddq[j] += b * ((dq[j] - S.dq_last[j]) / h - S.ddq[j])
+        S.dq_last[j] = dq[j]
+        for i in range(4):
+            P[i, j] = 0.0
+    S.started = True
+    pd = T.device_p
+    if T.parts[0] != 0.0:
+        gravity(q, pd, g, P[0])
+    if T.parts[1] != 0.0:
+        M = np.empty((3, 3))
+        mass_matrix(q, pd, M)
+        coriolis_dq(q, dq, pd, P[1])
+        for j in range(3):
+            P[1, j] += T.inertia_share * (M[j, 0] * S.ddq[0] + M[j, 1] * S.ddq[1]
+                                          + M[j, 2] * S.ddq[2])
+    for j in range(3):
+        if T.parts[2] != 0.0:
+            P[2, j] = friction(A[j:j + 1], dq[j] + T.lead * S.ddq[j])
+        if T.parts[3] != 0.0 and armed and math.isfinite(tau_int[j]):
+            lim = T.integral_limit[j]
+            S.integral[j] = min(max(S.integral[j] + T.ki[j] * h * tau_int[j], -lim), lim)
+            P[3, j] = -(T.kp[j] * tau_int[j] + S.integral[j])
+        else:
+            S.integral[j] = 0.0
+        w = 0.0
+        if q[j] > upper[j]:
+            w = -T.wall_stiffness[j] * (q[j] - upper[j]) - T.wall_damping[j] * max(dq[j], 0.0)
+        elif q[j] < lower[j]:
+            w = T.wall_stiffness[j] * (lower[j] - q[j]) - T.wall_damping[j] * min(dq[j], 0.0)
+        S.wall[j] = w
+        out[j] = P[0, j] + P[1, j] + P[2, j] + P[3, j] + w
+
+
+#: The operator's commands that choose a support mode, and the mode each asks.
+SUPPORT_COMMANDS = {Command.IMPEDANCE: SupportMode.IMPEDANCE,
+                    Command.TRANSPARENT: SupportMode.TRANSPARENT}
+#: The supervisor's modes in which the walking controller takes them (the transparent
+#: one with the device's model known); the supervisor itself refuses them.
+SUPPORT_APPLIES = (Mode.DISARMED, Mode.STANDING, Mode.WALKING, Mode.STOPPING)
+
+
+@njit(cache=True)
+def support_command(tp, ss, command, mode):  # type: ignore[no-untyped-def]
+    """Take the operator's ``command`` if it chooses a support mode (in any supervisor
+    ``mode`` but FAULT; the transparent one only with the device's model known):
+    returns (the command left for the supervisor -- NONE when this took it --, the
+    command refused here or NONE)."""
+    if command == Command.IMPEDANCE or command == Command.TRANSPARENT:
+        if mode == Mode.FAULT or (command == Command.TRANSPARENT and not tp[0].known):
+            return Command.NONE, command
+        ss[0].asked = (SupportMode.IMPEDANCE if command == Command.IMPEDANCE
+                       else SupportMode.TRANSPARENT)
+        return Command.NONE, Command.NONE
+    return command, Command.NONE
+
+
+@njit(cache=True)
+def support_blend(tp, ss, t):  # type: ignore[no-untyped-def]
+    """The weight (0-1) of the support mode in force against the one it blends from at
+    ``t`` s, a change asked (the state's ``asked``) starting a blend of ``ramp`` s
+    (asked back mid-blend: from where the blend is)."""
+    T = tp[0]
+    S = ss[0]
+    if S.asked != S.mode:
+        w = 1.0
+        if S.t_switch >= 0.0:
+            w = min((t - S.t_switch) / T.ramp, 1.0)
+        if S.asked == S.from_mode and w < 1.0:  # back before the blend ended
+            S.t_switch = t - (1.0 - w) * T.ramp
+        else:
+            S.t_switch = t
+        S.from_mode = S.mode
+        S.mode = S.asked
+    if S.t_switch < 0.0:
+        return 1.0
+    w = (t - S.t_switch) / T.ramp
+    if w >= 1.0:
+        S.t_switch = -1.0
+        S.from_mode = S.mode
+        return 1.0
+    return w

@@ -1,0 +1,158 @@
+"""How transparent the device can be, and how transparent it is (``exoleg validate
+--transparency``).
+
+**The budget**: what the device alone (its links at the child's telescope settings and
+its motors' rotors, :func:`~exoleg.child.interaction.device_leg`, and its friction) takes
+to move along the child's gait, ``M_d(q) ddq + C_d(q, dq) dq + G_d(q) + f(dq)`` on the
+normative gait (Schwartz 2008) at the stride time, against the torque its drives
+deliver (the gear's working limit). Whatever is beyond the drives the child moves: no
+controller takes it away, so its RMS is the floor of the transparent mode's residual.
+
+**The walk**: a typically developing child (the 50th percentile 10-year-old girl of
+the WHO / CDC charts, :func:`~exoleg.sizing.population.population_child`) walking in the
+device in the transparent mode. Each part of the transparent law is logged
+(:attr:`~exoleg.sim.walk.WalkResult.transparent_parts`), so the one run shows what the
+child would feel on this motion without each: the cuffs' torque plus the parts left out,
+added in the law's order (none, gravity, + inertia, + friction, + the cuffs' torque
+feedback) -- each part as commanded, the drive's lag and saturation aside.
+
+References: Lerner et al. 2018 (zero-torque residual of a CP ankle exoskeleton, 0.015-
+0.036 N m/kg RMS: the goal is its upper end), Chen et al. 2021 (P.REX, a pediatric
+knee exoskeleton: under 1.8 N m in its zero mode), ``shared/design/child-references.md``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from exoleg.params.records import JOINTS
+
+F64 = NDArray[np.float64]
+
+#: the transparent mode's goal, N m/kg RMS per joint (Lerner et al. 2018, Table II's upper end)
+GOAL_NM_PER_KG = 0.036
+#: P.REX's residual in its zero mode, N m (Chen et al. 2021)
+PREX_NM = 1.8
+#: strides left out of the figures at the walk's start (the child settles into it)
+SETTLE_STRIDES = 2
+
+
+def budget(leg: Any, config: Any, body_mass: float, stride_time: float = 1.1,
+           speed: str = "Free", samples: int = 1101) -> list[dict[str, Any]]:
+    """Per joint: what the device alone at ``leg``'s telescope settings takes along the
+    normative gait of ``stride_time`` s (N m: RMS, peak, and its inertial part's RMS),
+    the drive's limit (N m), the share of the cycle beyond it and the RMS beyond it per
+    kg of ``body_mass`` (the residual's floor); the rotor's reflected inertia today and
+    the largest with which the need stays within the drive's limit (kg m^2; the gear
+    ratio scales it by its square)."""
+    from exoleg.child.interaction import device_leg
+    from exoleg.device.actuator import friction, params_array
+    from exoleg.reference.gait import SchwartzGait2008
+
+    dev = device_leg(leg, config.actuators)
+    A = params_array(config.actuators)
+    t = np.linspace(0.0, stride_time, samples)
+    q, dq, ddq = SchwartzGait2008(stride_time=stride_time, speed=speed, upright=True).sample(t)
+    fr = np.array([[friction(A[j:j + 1], w) for j, w in enumerate(row)] for row in dq])
+    need = dev.inverse_dynamics(q, dq, ddq) + fr
+    inertial = np.einsum("kij,kj->ki", dev.M(q), ddq)
+    rotors = np.array([a.reflected_inertia for a in config.actuators])
+    links = dev.with_armature(np.zeros(3)).inverse_dynamics(q, dq, ddq) + fr
+    rows = []
+    for j, joint in enumerate(JOINTS):
+        lim = config.actuators[j].torque_limit
+        over = np.maximum(np.abs(need[:, j]) - lim, 0.0)
+        # the need is the links' and friction's plus the rotor's J ddq: the largest J
+        # that keeps |links + J ddq| within the limit at every sample of the cycle
+        a, b = ddq[:, j], links[:, j]
+        moving = a != 0.0
+        fits = (0.0 if np.any(np.abs(b) > lim) else
+                max(0.0, float(np.min((lim - b[moving] * np.sign(a[moving]))
+                                      / np.abs(a[moving])))))
+        rows.append({"joint": joint, "need_rms_Nm": _rms(need[:, j]),
+                     "need_peak_Nm": float(np.abs(need[:, j]).max()),
+                     "inertial_rms_Nm": _rms(inertial[:, j]), "limit_Nm": float(lim),
+                     "beyond_share": float(np.mean(over > 0.0)),
+                     "floor_Nm_per_kg": _rms(over) / body_mass,
+                     "rotor_inertia_kgm2": float(rotors[j]), "fits_kgm2": fits})
+    return rows
+
+
+def contributions(r: Any, after: float | None = None) -> list[dict[str, Any]]:
+    """The cuffs' torque a walk in the transparent mode leaves (``r``: a
+    :class:`~exoleg.sim.walk.WalkResult`), and what it would be on the same motion
+    without the law's parts, left out from the last: rows (``parts``, RMS N m and N m/kg
+    per joint) over the walk from ``after`` s (default: :data:`SETTLE_STRIDES` strides
+    after its start)."""
+    from exoleg.control.transparency import PARTS
+
+    t0 = r.walk_start + SETTLE_STRIDES * r.stride_time if after is None else after
+    sel = r.t >= t0
+    it = r.interaction[sel]
+    parts = r.transparent_parts[sel]
+    rows = []
+    for n in range(len(PARTS) + 1):
+        left_out = parts[:, n:].sum(axis=1)
+        rms = np.sqrt(np.mean((it + left_out) ** 2, axis=0))
+        rows.append({"parts": "none" if n == 0 else " + ".join(PARTS[:n]),
+                     "rms_Nm": dict(zip(JOINTS, rms.tolist(), strict=True)),
+                     "rms_Nm_per_kg": dict(zip(JOINTS, (rms / r.body_mass).tolist(),
+                                               strict=True))})
+    return rows
+
+
+@dataclass(frozen=True)
+class Transparency:
+    """``exoleg validate --transparency``'s figures: the child, the budget rows, the
+    contribution rows, each joint's share of the walk at the drive's limit, whether the
+    safety layer stopped the walk, the run."""
+
+    child: str
+    body_mass: float
+    budget: list[dict[str, Any]]
+    rows: list[dict[str, Any]]
+    saturated: dict[str, float]
+    fault: bool
+    run: Any
+
+    @property
+    def met(self) -> bool:
+        """Every joint's residual within :data:`GOAL_NM_PER_KG`, no fault."""
+        last = self.rows[-1]["rms_Nm_per_kg"]
+        return not self.fault and all(v <= GOAL_NM_PER_KG for v in last.values())
+
+
+def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0) -> Transparency:
+    """The typically developing 10-year-old girl walking ``strides`` strides of
+    ``stride_time`` s in the transparent mode (the sensors at their datasheet noise)."""
+    from exoleg.child.model import ChildModel
+    from exoleg.control.safety import Limited
+    from exoleg.control.transparency import SupportMode
+    from exoleg.device.config import DeviceConfig
+    from exoleg.sim.walk import simulate_walk
+    from exoleg.sizing import personalized_leg
+    from exoleg.sizing.population import population_child
+
+    c, _ = population_child(None, "female", 10.0, 50.0)
+    child = ChildModel.of(c)
+    leg = personalized_leg(c)
+    config = DeviceConfig.load()
+    r = simulate_walk(leg, c.mass, strides=strides, stride_time=stride_time, child=child,
+                      seed=seed, support_mode=SupportMode.TRANSPARENT)
+    sel = r.t >= r.walk_start + SETTLE_STRIDES * stride_time
+    lim = np.array([a.torque_limit for a in config.actuators])
+    at = np.abs(r.tau[sel]) >= 0.99 * lim
+    return Transparency(child=c.name or "child", body_mass=c.mass,
+                        budget=budget(leg, config, c.mass, stride_time),
+                        rows=contributions(r), fault=bool(np.any(r.safety_status
+                                                                 & Limited.FAULT)),
+                        saturated=dict(zip(JOINTS, at.mean(axis=0).tolist(), strict=True)),
+                        run=r)
+
+
+def _rms(x: F64) -> float:
+    return float(np.sqrt(np.mean(np.square(x))))
