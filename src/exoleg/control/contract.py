@@ -207,7 +207,6 @@ def vocabulary() -> dict[str, Any]:
                    "Limited": [[int(k), v] for k, v in LIMITED_TEXT.items()]}
     out["joints"], out["sensors"] = list(JOINTS), list(SENSOR_POINTS)
     from exoleg.control.supervisor import APPLIES
-
     from exoleg.control.transparency import SUPPORT_APPLIES, SUPPORT_COMMANDS
 
     out["applies"] = {str(int(m)): [c.name.lower() for c in cs] for m, cs in APPLIES.items()}

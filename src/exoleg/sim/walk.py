@@ -32,8 +32,8 @@ from exoleg.child.model import ChildModel
 from exoleg.child.passive import passive_moments
 from exoleg.control.contract import OUTPUT, SENSOR_POINTS, SENSORS, Command, Mode
 from exoleg.control.hierarchy import WalkGains, walk_control_step
-from exoleg.control.transparency import PARTS, SupportMode
 from exoleg.control.safety import SafetyLimits
+from exoleg.control.transparency import PARTS, SupportMode
 from exoleg.device.actuator import ActuatorModel, drive_limit
 from exoleg.device.sensors import FootSensors, draw_noise
 from exoleg.device.walking import ANKLE_HEIGHT, Ground, WalkingPlant
