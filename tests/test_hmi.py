@@ -146,6 +146,13 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
     wait_until("standing", lambda: text(d, "ctl-mode") == "STANDING")
     d.find_element("id", "cmd-walk").click()
     wait_until("walking", lambda: text(d, "ctl-mode") == "WALKING")
+    # the support mode: transparent and back while walking, blended, no fault
+    assert text(d, "ctl-support") == "impedance"
+    d.find_element("id", "cmd-transparent").click()
+    wait_until("transparent", lambda: text(d, "ctl-support") == "transparent")
+    d.find_element("id", "cmd-impedance").click()
+    wait_until("impedance again", lambda: text(d, "ctl-support") == "impedance")
+    assert text(d, "ctl-mode") == "WALKING"
     shot(d, "control")
     _server_keeps_off_the_loops_cpu(hmi.process.pid)
 
@@ -362,7 +369,7 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
         enabled = {b.get_attribute("data-command"): b.is_enabled()
                    for b in phone.find_elements("css selector", "[data-command]")}
         assert enabled == {"arm": False, "stand": False, "walk": True, "disarm": True,
-                           "reset": False}
+                           "reset": False, "impedance": True, "transparent": True}
         assert not phone.find_element("id", "start").is_enabled()
         # a command the supervisor refuses says why, in its words
         phone.execute_script("act('POST', '/api/command', {command: 'arm'}, 'arm applied')")
@@ -424,7 +431,7 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
         enabled = {b.get_attribute("data-command"): b.is_enabled()
                    for b in phone.find_elements("css selector", "[data-command]")}
         assert enabled == {"arm": False, "stand": False, "walk": False, "disarm": True,
-                           "reset": True}
+                           "reset": True, "impedance": False, "transparent": False}
         shot(phone, "phone-fault")
         press(phone, "end")
         folder = next(p for p in hmi.sessions.iterdir() if (p / "control.log").exists()

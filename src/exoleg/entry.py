@@ -3,11 +3,15 @@ line (``exoleg fit``) and the operator interface share before :class:`exoleg.siz
 checks the values against the growth charts, and the names of the controllers. Kept free
 of imports so that the command line's parser stays fast."""
 
-#: The paper's laws by name (:func:`exoleg.control.controllers.law_named`), and the
-#: controllers a session on a device may run: the walking hierarchy or a law following
-#: a reference (:class:`exoleg.control.tracking.TrackingController`).
+#: The paper's laws by name (:func:`exoleg.control.controllers.law_named`); the walking
+#: controller's support modes (:class:`exoleg.control.transparency.SupportMode`); and the
+#: controllers a session on a device may run: the walking hierarchy -- ``walk`` is it in
+#: its impedance mode -- starting in a support mode, or a law following a reference
+#: (:class:`exoleg.control.tracking.TrackingController`).
 LAWS = ("pd-gravity", "pd", "computed-torque")
-CONTROLLERS = ("walk", *LAWS)
+SUPPORT_MODES = ("impedance", "transparent")
+WALKING_CONTROLLERS = ("walk", *SUPPORT_MODES)
+CONTROLLERS = (*WALKING_CONTROLLERS, *LAWS)
 #: The hip motor's variants (``data/device/hip-variants``): the paper's 220 W EC 90 flat
 #: is rated on no maxon page; the shipped hip is the 160 W (the paper's assumption).
 HIP_VARIANTS = ("ec90flat-90w", "ec90flat-160w", "ec90flat-260w")

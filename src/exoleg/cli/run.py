@@ -150,7 +150,9 @@ def add_parser(sub: Any) -> None:
                         "before it is a fault, ms (default 5; 20 on simulated nodes, threads "
                         "of this computer)")
     r.add_argument("--controller", choices=CONTROLLERS, default="walk",
-                   help="walk: the walking hierarchy (default); pd-gravity, pd, "
+                   help="walk: the walking hierarchy (default), in its impedance mode; "
+                        "impedance, transparent: the same starting in that support mode "
+                        "(the operator may switch); pd-gravity, pd, "
                         "computed-torque: the paper's law following its scenario (stance "
                         "and swing postures every 3 s from the walk command; held at rest "
                         "while standing)")

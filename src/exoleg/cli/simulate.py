@@ -29,7 +29,7 @@ from exoleg.cli._common import (
     _three,
     _within,
 )
-from exoleg.entry import DEFAULT_BODY_MASS, LAWS
+from exoleg.entry import DEFAULT_BODY_MASS, LAWS, SUPPORT_MODES
 
 #: simulate --walk options' defaults
 _WALK_DEFAULTS: dict[str, Any] = {"strides": 10, "body_mass": DEFAULT_BODY_MASS,
@@ -42,8 +42,7 @@ _PAPER, _DEVICE = ("scenario", "actuators"), ("walk", "actuators")
 #: Which variants each option goes with (an option not listed goes with all of them),
 #: and why not, where that helps: one declaration, checked by :func:`check_variant`.
 APPLIES: dict[str, tuple[tuple[str, ...], str]] = {
-    **{o: (_PAPER, "it follows normative gait at the detected phase")
-       for o in ("reference", "controller")},
+    "reference": (_PAPER, "it follows normative gait at the detected phase"),
     **{o: (_PAPER, "the walking controller's gains are data/device/walking_control.toml")
        for o in ("kp", "kd")},
     **{o: (_PAPER, "") for o in ("postures", "times", "sd", "q0", "beyond_rom", "no_engine")},
@@ -77,6 +76,13 @@ def check_variant(args: argparse.Namespace) -> str:
     from exoleg.errors import ParameterError
 
     v = "walk" if args.walk else "actuators" if args.actuators else "scenario"
+    names = SUPPORT_MODES if v == "walk" else LAWS
+    if args.controller is None:  # each variant's own default
+        args.controller = names[0]
+    elif args.controller not in names:
+        raise ParameterError("exoleg simulate", "--controller",
+                             f"{args.controller!r} does not go with {_FLAG[v]} (allowed: "
+                             + ", ".join(names) + ")")
     for dest, (goes, why) in APPLIES.items():
         if v not in goes and getattr(args, dest) != args.variant_defaults[dest]:
             opt = "--" + dest.replace("_", "-")
@@ -352,8 +358,10 @@ def add_parser(sub: Any) -> None:
     s.add_argument("--stride-time", type=_within(*STRIDE_TIME_RANGE, " s"),
                    help="gait: s per cycle, 0.4-4 (default 1.2)")
     s.add_argument("--sd", type=_within(*SD_RANGE, " SD"), help="gait: mean + sd * SD, -3..3")
-    s.add_argument("--controller", choices=LAWS,
-                   default="pd-gravity")
+    s.add_argument("--controller", choices=(*LAWS, *SUPPORT_MODES),
+                   help="the paper's scenario and --actuators: the law, " + ", ".join(LAWS)
+                        + " (default pd-gravity); --walk: the walking controller's support "
+                          "mode, " + ", ".join(SUPPORT_MODES) + " (default impedance)")
     s.add_argument("--kp", type=_three, help="gains 'hip,knee,ankle' (default: paper's)")
     s.add_argument("--kd", type=_three, help="gains 'hip,knee,ankle' (default: paper's)")
     s.add_argument("--saturate", action="store_true", help="clip torques at Table 2's limits")

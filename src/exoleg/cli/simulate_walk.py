@@ -20,9 +20,12 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     import numpy as np
 
     import exoleg
+    from exoleg.control.gait_phase import Event
+    from exoleg.errors import ParameterError
     from exoleg.control.safety import Limited
+    from exoleg.control.transparency import SUPPORT_NAMES
     from exoleg.plots.figures import walk_figure
-    from exoleg.sim.metrics import detection_table, walk_peaks
+    from exoleg.sim.metrics import detection_table, safety_events, support_by_stride, walk_peaks
     from exoleg.sim.walk import simulate_walk
 
     t0 = time.perf_counter()
@@ -34,6 +37,10 @@ def _simulate_walk(args: argparse.Namespace) -> int:
         leg = exoleg.paper_leg("simplified")
     stride = args.stride_time or 1.1
     child = None
+    if args.controller == "transparent" and not args.child:
+        raise ParameterError("exoleg simulate --walk", "--controller",
+                             "transparent leaves the leg to the child: give --child (a "
+                             "passive leg in a transparent device falls)")
     if args.child:
         from exoleg.child.model import ChildModel
 
@@ -42,7 +49,8 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     r = simulate_walk(leg, args.body_mass, strides=args.strides, speed=args.speed or "Free",
                       stride_time=stride, noise_scale=args.noise, seed=args.seed,
                       ankle_height=args.ankle_height / 100, device=args.device,
-                      actuators=device_actuators(args), child=child)
+                      actuators=device_actuators(args), child=child,
+                      support_mode=SUPPORT_NAMES[args.controller])
     rows = detection_table([r])
     peaks = walk_peaks(r)
     over = (r.safety_status & Limited.GEAR_PEAK) > 0
@@ -51,16 +59,23 @@ def _simulate_walk(args: argparse.Namespace) -> int:
         k = int(np.argmax(r.safety_status & Limited.FAULT))
         notes.append(f"the safety layer stopped the walk at t = {r.t[k]:.3f} s; torque was off "
                      "from then on")
+    inter = interaction_summary(r)
+    strikes = r.t[((r.true_events() & Event.IC) != 0) & (r.t >= r.walk_start)]
     figs = {"strides_commanded": args.strides, "body_mass_kg": args.body_mass,
             "pelvis_mass_kg": r.plant.body_mass, "belt_speed_m_s": r.plant.belt_speed,
             "safety_fault": fault, "peaks": peaks, "gait_phase_detection": rows,
             "max_contact_force_N": float(r.contact_force.sum(axis=1).max()),
             "child": None if child is None else child.name,
-            "interaction_torque": interaction_summary(r)}
+            "controller": args.controller,
+            "interaction_torque": inter,
+            "interaction_torque_rms_per_kg": {f["joint"]: f["rms_Nm_per_kg"] for f in inter},
+            "support_by_stride": support_by_stride(r.t, r.support_level, strikes),
+            "safety_events": safety_events(r.t, r.safety_status, r.walk_start)}
     wrote = _write_run(args, r, walk_figure, "walk", t0,
                        {"leg": leg.name, "figures": figs, "notes": notes,
                         "actuators": [dataclasses.asdict(a) for a in r.actuators]})
-    _say(f"exoleg simulate --walk: leg '{leg.name}', body {args.body_mass:g} kg (pelvis carries "
+    _say(f"exoleg simulate --walk --controller {args.controller}: leg '{leg.name}', body "
+         f"{args.body_mass:g} kg (pelvis carries "
          f"{r.plant.body_mass:.1f} kg), {args.strides} strides of {stride:g} s on a belt at "
          f"{r.plant.belt_speed:.2f} m/s, sensor noise x{args.noise:g} (seed {args.seed})")
     _table([[p["joint"], f"{p['rms_tracking_error_deg']:.1f}",

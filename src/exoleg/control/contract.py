@@ -74,15 +74,15 @@ SENSORS = np.dtype([("q", F8, 3), ("dq", F8, 3), ("fsr", F8, 4), ("gyro", F8),
 #: safety layer's STATE), and the command refused this tick (:class:`Command`; NONE if
 #: none was, e.g. a reset while a fault still holds), per joint the safety layer's
 #: estimates: the motor's winding temperature (degC) and the gear's transmitted torque
-#: (N m), and the support mode in force
-#: (:class:`~exoleg.control.transparency.SupportMode`; a law that is not the walking
-#: controller's: IMPEDANCE).
+#: (N m), the support mode in force (:class:`~exoleg.control.transparency.SupportMode`;
+#: a law that is not the walking controller's: IMPEDANCE) and the support level per joint
+#: (0: transparent, 1: the impedance's full support; between while a change blends).
 OUTPUT = np.dtype([("tau", F8, 3), ("mode", I8), ("phase", I8), ("gait_source", I8),
                    ("gait_fraction", F8),
                    ("events", I8), ("safety_status", I8), ("q_ref", F8, 3), ("fault", I8),
                    ("fault_joint", I8), ("fault_value", F8), ("fault_limit", F8),
                    ("refused", I8), ("winding_temp", F8, 3), ("gear_torque", F8, 3),
-                   ("support_mode", I8)])
+                   ("support_mode", I8), ("support_level", F8, 3)])
 
 LABELS = {3: JOINTS, 4: SENSOR_POINTS}
 #: The modes in which the drives are enabled (torque may flow), and those in which the

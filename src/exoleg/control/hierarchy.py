@@ -294,9 +294,11 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, sens
     # blended over the transparent mode's ramp
     w = support_blend(tp, ss, t)
     S = ss[0]
+    a = 0.0  # the transparent law's weight
     if S.mode == SupportMode.TRANSPARENT or S.from_mode == SupportMode.TRANSPARENT:
         tr = np.empty(3)
-        transparent_torque(tp, A, ss, qm, vm, s.interaction, lim[0].lower, lim[0].upper, C.g, lim[0].dt,
+        L = lim[0]
+        transparent_torque(tp, A, ss, qm, vm, s.interaction, L.lower, L.upper, C.g, L.dt,
                            sup[0].mode != Mode.DISARMED and sup[0].mode != Mode.FAULT, tr)
         a = w if S.mode == SupportMode.TRANSPARENT else 1.0 - w
         for j in range(3):
@@ -307,6 +309,8 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, sens
     o.phase = phase
     o.gait_source = st[0].source
     o.support_mode = S.mode
+    for j in range(3):
+        o.support_level[j] = 1.0 - a
     o.gait_fraction = x
     o.events = ev
     for j in range(3):

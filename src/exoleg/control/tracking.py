@@ -52,6 +52,7 @@ def track_step(kind, kp, kd, kc, scale, limit, lim, sst, sup, sens, refused, qr,
     o.events = 0
     for j in range(3):
         o.q_ref[j] = qr[j]
+        o.support_level[j] = 1.0  # the law carries the leg along its reference
 
 
 #: The ticks as Python calls them (numba's dispatcher has no signature for a type checker).

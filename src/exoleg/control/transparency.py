@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 
 from exoleg.control.contract import Command, Mode
 from exoleg.device.actuator import friction
+from exoleg.entry import SUPPORT_MODES
 from exoleg.dynamics.kernels import coriolis_dq, gravity, mass_matrix
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8, new
@@ -53,8 +54,8 @@ class SupportMode(IntEnum):
     TRANSPARENT = 1
 
 
-#: The names people type for the support modes.
-SUPPORT_NAMES = {"impedance": SupportMode.IMPEDANCE, "transparent": SupportMode.TRANSPARENT}
+#: The names people type for the support modes (:data:`exoleg.entry.SUPPORT_MODES`).
+SUPPORT_NAMES = {n: SupportMode[n.upper()] for n in SUPPORT_MODES}
 #: The parts of the transparent law, in the order they are added.
 PARTS = ("gravity", "inertia", "friction", "interaction")
 #: The length of a leg's parameter vector (:attr:`exoleg.dynamics.model.LegModel.p`).
@@ -97,7 +98,8 @@ class TransparencySettings:
                 (1.0, 1.0, 1e3, 1.0), strict=True):
             v = _check.finite(w, name, getattr(self, name)) * scale
             if not lo <= v <= hi:
-                raise ParameterError(w, name, f"{v:g} {unit} is outside {lo:g}-{hi:g} {unit}")
+                u = f" {unit}" if unit else ""
+                raise ParameterError(w, name, f"{v:g}{u} is outside {lo:g}-{hi:g}{u}")
         for (_, hi), name in zip(_VECTORS, ("kp", "ki", "integral_limit", "wall_stiffness",
                                             "wall_damping"), strict=True):
             vec = _check.vector(w, name, list(getattr(self, name)), 3)

@@ -62,7 +62,7 @@ def _shape(dtype: np.dtype, name: str) -> tuple[int, ...]:
 #: contacts) so far and the ring of every tick's gait events (time, event bits)
 PUBLISHED = ("mode", "phase", "gait_source", "gait_fraction", "events", "safety_status",
              "q_ref", "tau", "fault", "fault_joint", "fault_value", "fault_limit", "refused",
-             "winding_temp", "gear_torque")
+             "winding_temp", "gear_torque", "support_mode", "support_level")
 READINGS = ("q", "dq", "fsr", "interaction")
 BLOCK = np.dtype([("seq", "f8"), ("t", "f8")]
                  + [(n, "f8", _shape(OUTPUT, n)) for n in PUBLISHED]
@@ -77,7 +77,7 @@ SIZE = BLOCK.itemsize // 8
 _SNAPSHOT = ("t", *PUBLISHED, *READINGS, "late_us", "late_max_us", "missed", "tick",
              "running")
 _INTS = {"mode", "phase", "gait_source", "events", "safety_status", "fault", "fault_joint",
-         "refused", "missed", "tick"}
+         "refused", "missed", "tick", "support_mode"}
 _RUNNING = ("starting", "running", "ended")
 
 

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from exoleg.entry import CONTROLLERS, DEFAULT_BODY_MASS
+from exoleg.entry import CONTROLLERS, DEFAULT_BODY_MASS, WALKING_CONTROLLERS
 from exoleg.errors import ParameterError
 from exoleg.runtime.log import MAX_LOSS_TICKS, SessionLog, check_session, read_log
 from exoleg.runtime.loop import (
@@ -74,7 +74,7 @@ def check_options(backend: str, interface: str | None = None, arm: bool = False,
     if walk_after is not None and not arm:
         raise ParameterError("exoleg run", "--walk-after", "needs --arm (no motion without "
                              "arming)")
-    if link is not None and controller != "walk" and not plan:
+    if link is not None and controller not in WALKING_CONTROLLERS and not plan:
         raise ParameterError("exoleg run", "--hmi", f"the operator interface runs the "
                              f"walking controller, not {controller!r} (but for "
                              "identification's plan)")
@@ -135,14 +135,16 @@ def make_controller(name: str, config: DeviceConfig, leg: LegModel, body_mass: f
     ``sim``'s own when there is one), or one of the paper's laws following ``reference``
     (default the paper's scenario: stance and swing postures every 3 s, section 6) on
     the leg with the actuators' reflected inertia."""
-    if name == "walk":
+    if name in WALKING_CONTROLLERS:
         if sim is not None:
             return cast("Controller", sim.controller)
+        from exoleg.control.transparency import SUPPORT_NAMES, SupportMode
         from exoleg.device.config import walk_controller
         from exoleg.device.walking import ANKLE_HEIGHT, Ground, body_weight_share
 
         depth = ANKLE_HEIGHT + Ground.default(config.folder).sole
-        return walk_controller(config, leg, body_weight_share(body_mass), depth)
+        return walk_controller(config, leg, body_weight_share(body_mass), depth,
+                               support_mode=SUPPORT_NAMES.get(name, SupportMode.IMPEDANCE))
     from exoleg.control.controllers import law_named
     from exoleg.control.tracking import TrackingController
     from exoleg.sim.scenario import paper_reference
@@ -231,6 +233,10 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
 
     check_options(backend, interface, arm, walk_after, bus_timeout, overrun, controller,
                   link, plan=reference is not None)
+    if controller == "transparent" and child is None and simulated(backend, interface):
+        raise ParameterError("exoleg run", "--controller", "transparent leaves the leg to "
+                             "the child: give --child on a simulated device (a passive leg "
+                             "in a transparent device falls)")
     folder, lock = claim_folder(out)
     try:
         return _run(backend, duration, folder, period, arm, walk_after, leg, body_mass,
@@ -256,8 +262,12 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
     leg = leg if leg is not None else exoleg.paper_leg()
     config = DeviceConfig.load(control_dt=period)
     # a simulated device only where it is what answers: on sim, or behind simulated nodes
+    from exoleg.control.transparency import SUPPORT_NAMES, SupportMode
+
+    support = SUPPORT_NAMES.get(controller, SupportMode.IMPEDANCE)
     sim = (SimBackend(leg, body_mass, period, seed=seed, config=config, child=child,
-                      step=step, model=model) if simulated(backend, interface) else None)
+                      step=step, model=model, support_mode=support)
+           if simulated(backend, interface) else None)
     ctl = make_controller(controller, config, leg if model is None else model, body_mass,
                           sim, reference)
     before = set(threading.enumerate())
@@ -321,7 +331,7 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
 
     # the page's gains are the walking controller's: another law (identification's plan)
     # publishes none, and the web side refuses a change
-    tunable = controller == "walk"
+    tunable = controller in WALKING_CONTROLLERS
     if link is not None and tunable:
         link.loop_gains(ctl.gains_now())
     try:

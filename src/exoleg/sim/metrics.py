@@ -147,3 +147,35 @@ def interaction_summary(r: Any) -> list[dict[str, Any]]:
     """Per joint, the cuffs' torque while walking (from the walk's start to its end):
     :func:`interaction_figures`."""
     return interaction_figures(r.interaction[r.t >= r.walk_start], r.body_mass)
+
+
+def support_by_stride(t: F64, level: F64, strikes: F64) -> list[float]:
+    """The support level (``level`` (n, 3), 0-1 per joint and tick at times ``t``) per
+    stride, its mean over the stride's ticks and the joints: one value per stride between
+    consecutive ``strikes`` (s, the initial contacts)."""
+    out = []
+    for a, b in zip(strikes[:-1], strikes[1:], strict=True):
+        sel = (t >= a) & (t < b)
+        if sel.any():
+            out.append(float(np.mean(level[sel])))
+    return out
+
+
+def safety_events(t: F64, status: Any, since: float = -np.inf) -> list[dict[str, Any]]:
+    """What the safety layer did from ``since`` s: per status bit that was set
+    (:class:`~exoleg.control.safety.Limited`, the disarmed bit aside), when it first was
+    (s), in how many ticks and its text; empty when it did nothing."""
+    from exoleg.control.safety import LIMITED_TEXT, Limited
+
+    sel = np.asarray(t) >= since
+    st = np.asarray(status)[sel]
+    ts = np.asarray(t)[sel]
+    out = []
+    for bit in Limited:
+        if bit == Limited.DISARMED:
+            continue
+        hit = (st & int(bit)) != 0
+        if hit.any():
+            out.append({"event": bit.name.lower(), "text": LIMITED_TEXT[bit],
+                        "first_s": float(ts[np.argmax(hit)]), "ticks": int(hit.sum())})
+    return out

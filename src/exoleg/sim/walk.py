@@ -103,7 +103,8 @@ class WalkResult(TimeSeries):
     (:class:`~exoleg.control.safety.Fault`, -1 for none); the child: ``interaction`` (the
     cuffs' torque, N m, :mod:`exoleg.child.interaction`), ``child_torque`` (their
     muscles' reflexes and effort, N m) and ``passive`` (their passive moments, N m); the
-    support mode per tick (:class:`~exoleg.control.transparency.SupportMode`) and the
+    support mode per tick (:class:`~exoleg.control.transparency.SupportMode`), the
+    support level per joint (0 transparent - 1 the impedance's full support) and the
     transparent law's torque per part (``transparent_parts`` (n, 4, 3):
     :data:`~exoleg.control.transparency.PARTS`; zero while it is not computed) and its
     wall's (``wall``), N m."""
@@ -136,6 +137,7 @@ class WalkResult(TimeSeries):
     child_torque: F64
     passive: F64
     support_mode: NDArray[np.int64]
+    support_level: F64
     transparent_parts: F64
     wall: F64
     plant: WalkingPlant = field(repr=False)
@@ -164,7 +166,7 @@ class WalkResult(TimeSeries):
         cols: dict[str, F64] = {"t": self.t, "pelvis": self.pelvis}
         for name in ("q", "dq", "q_meas", "dq_meas", "q_ref", "u_safe", "tau", "envelope",
                      "motor_speed", "power", "winding_temp", "gear_torque", "interaction",
-                     "child_torque", "passive", "wall"):
+                     "child_torque", "passive", "wall", "support_level"):
             arr = getattr(self, name)
             for i, j in enumerate(JOINTS):
                 cols[f"{name}_{j}"] = arr[:, i].astype(float)
@@ -264,7 +266,8 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                       fault_joint=OUT["fault_joint"],
                       interaction=np.vstack([SENS["interaction"][1:], SENS["interaction"][-1:]]),
                       child_torque=CH, passive=passive_moments(K[0], X[:, 1:4], X[:, 5:8]),
-                      support_mode=OUT["support_mode"], transparent_parts=PA[:, :len(PARTS)],
+                      support_mode=OUT["support_mode"], support_level=OUT["support_level"],
+                      transparent_parts=PA[:, :len(PARTS)],
                       wall=PA[:, len(PARTS)], plant=plant, actuators=dev.actuators, walk_start=standing,
                       stride_time=stride_time, body_mass=body_mass)
 

@@ -251,7 +251,8 @@ function linkState(s) {
 // the buttons a mode allows (the supervisor's own table, from the server)
 function enableButtons(s) {
   const running = s && s.running === "running";
-  const applies = running ? (VOC().applies || {})[String(s.mode)] || [] : [];
+  const applies = running ? [...((VOC().applies || {})[String(s.mode)] || []),
+    ...((VOC().support_applies || []).includes(MODE(s.mode)) ? VOC().support_commands || [] : [])] : [];
   for (const b of document.querySelectorAll("[data-command]")) b.disabled = !applies.includes(b.dataset.command);
   const live = s && (s.running === "running" || s.running === "starting");
   $("start").disabled = !!live || (S.info && S.info.fixed);
@@ -267,6 +268,9 @@ function frame() {
     $("hdr-session").textContent = known ? `session ${S.info.session || ""}: ${s.running}` : "no session";
     const mode = fresh && (running || s.running === "ended") ? MODE(s.mode) : "-";
     for (const id of ["hdr-mode", "mode", "ctl-mode"]) $(id).textContent = mode;
+    const support = fresh && (running || s.running === "ended")
+      ? ((VOC().SupportMode || {})[String(s.support_mode)] || "-").toLowerCase() : "-";
+    for (const id of ["support-mode", "ctl-support"]) $(id).textContent = support;
     $("hdr-mode").className = "mode" + (running && fresh ? " m" + s.mode : "");
     $("rate").textContent = (S.updates.length / 2).toFixed(0) + " per s";
     banner("alarm", s.alarm ? `ALARM ${new Date(s.alarm.time * 1000).toLocaleTimeString()}: ${s.alarm.text}` : "");
@@ -284,6 +288,7 @@ function frame() {
       const bits = VOC().text.Limited.filter(([b]) => s.safety_status & b).map(([, n]) => n);
       $("safety").textContent = bits.length ? bits.join("; ") : "nominal";
       $("windings").textContent = s.winding_temp.map((v, i) => `${JOINTS[i]} ${v.toFixed(0)} °C`).join(", ");
+      $("support-level").textContent = s.support_level.map((v, i) => `${JOINTS[i]} ${v === null ? "-" : v.toFixed(2)}`).join(", ");
       $("interaction").textContent = s.interaction.every((v) => v === null) ? "not measured by this device"
         : s.interaction.map((v, i) => `${JOINTS[i]} ${v === null ? "-" : v.toFixed(1)} N m`).join(", ");
       $("events").innerHTML = S.events.map((e) => `<li>${esc(e)}</li>`).join("");

@@ -1,0 +1,330 @@
+"""The transparent support mode and the switching between support modes: the law's model
+parts against Pinocchio, the wall and the blend against their formulas, the commands
+against the supervisor's modes, switching while a child walks (property test), the
+device's budget against Pinocchio's inverse dynamics."""
+
+from __future__ import annotations
+
+import math
+from functools import cache
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from exoleg.child.interaction import device_leg
+from exoleg.control.contract import Command, Mode
+from exoleg.control.transparency import (
+    PARTS,
+    SUPPORT_APPLIES,
+    SupportMode,
+    TransparencySettings,
+    new_support_state,
+    support_blend,
+    support_command,
+    transparent_torque,
+)
+from exoleg.device.actuator import friction, params_array
+from exoleg.device.config import DeviceConfig
+from exoleg.errors import ParameterError
+
+
+@cache
+def _device() -> tuple[Any, Any, Any]:
+    """The fitted 50th-percentile 10-year-old girl's device alone, its actuators' records,
+    the config."""
+    from exoleg.sizing import personalized_leg
+    from exoleg.sizing.population import population_child
+
+    c, _ = population_child(None, "female", 10.0, 50.0)
+    cfg = DeviceConfig.load()
+    return device_leg(personalized_leg(c), cfg.actuators), params_array(cfg.actuators), cfg
+
+
+def _law(settings_: TransparencySettings, q: Any, dq: Any, tau_int: Any, ticks: int = 1,
+         ddq: Any = (0.0, 0.0, 0.0)) -> tuple[Any, Any]:
+    """``ticks`` ticks of the law along q + dq t + ddq t^2 / 2 (h = 1 ms): the torque and
+    the support state after the last."""
+    dev, A, cfg = _device()
+    tp = settings_.record(dev.p)
+    ss = new_support_state(SupportMode.TRANSPARENT)
+    out = np.zeros(3)
+    lo, hi = cfg.safety.record()[0]["lower"], cfg.safety.record()[0]["upper"]
+    h = 1e-3
+    for k in range(ticks):
+        t = k * h
+        v = np.asarray(dq) + np.asarray(ddq) * t
+        x = np.asarray(q) + np.asarray(dq) * t + 0.5 * np.asarray(ddq) * t * t
+        transparent_torque(tp, A, ss, x, v, np.asarray(tau_int, float), lo, hi, dev.g, h,
+                           True, out)
+    return out, ss
+
+
+def test_the_law_holds_the_device_alone_as_pinocchio_does() -> None:
+    # reference: Pinocchio's generalized gravity of the device alone (its URDF export,
+    # the rotors as armature); at rest the law is gravity plus the friction at zero speed
+    # (0). Measured agreement 1e-13 N m.
+    pin = pytest.importorskip("pinocchio")  # noqa: F841
+    from exoleg.validate.engines import PinocchioLeg
+
+    dev, _, _ = _device()
+    ref = PinocchioLeg(dev)
+    s = TransparencySettings.default()
+    for q in np.radians([[0.0, 0.0, 0.0], [20.0, -40.0, 10.0], [-10.0, -5.0, -15.0]]):
+        u, ss = _law(s, q, np.zeros(3), np.zeros(3))
+        assert u == pytest.approx(ref.G(q), abs=1e-9)
+        assert ss[0]["parts"][0] == pytest.approx(ref.G(q), abs=1e-9)
+
+
+def test_the_inertia_part_is_the_share_of_pinocchios_M_times_the_acceleration() -> None:
+    # reference: Pinocchio's M(q) and C(q, dq) dq. A constant acceleration held 200 ticks:
+    # the estimate (the rates' difference through a 30 Hz low-pass) has settled to it
+    # (1 - exp(-2 pi 30 0.2) ~ 1 - 4e-17), so the part is C dq + share M ddq.
+    pytest.importorskip("pinocchio")
+    from exoleg.validate.engines import PinocchioLeg
+
+    dev, _, _ = _device()
+    ref = PinocchioLeg(dev)
+    s = TransparencySettings.default().with_parts("inertia")
+    q0, dq0, ddq = np.radians([10.0, -30.0, 5.0]), np.array([0.5, -1.0, 0.3]), \
+        np.array([4.0, -6.0, 3.0])
+    _, ss = _law(s, q0, dq0, np.zeros(3), ticks=200, ddq=ddq)
+    t = 0.199
+    q, dq = q0 + dq0 * t + 0.5 * ddq * t * t, dq0 + ddq * t
+    want = ref.Cdq(q, dq) + s.inertia_share * ref.M(q) @ ddq
+    # the difference of the rates is exact for a constant acceleration: the estimate
+    # settles to ddq to the filter's remaining transient
+    assert ss[0]["parts"][1] == pytest.approx(want, rel=1e-6, abs=1e-6)
+
+
+def test_friction_is_the_actuators_model_ahead_by_the_lead() -> None:
+    # reference: exoleg.device.actuator.friction (viscous + smooth Coulomb) at the rate
+    # plus lead x the acceleration estimate; at constant speed the estimate is 0
+    _, A, _ = _device()
+    s = TransparencySettings.default().with_parts("friction")
+    dq = np.array([0.8, -1.5, 0.02])
+    u, _ = _law(s, np.radians([10.0, -30.0, 5.0]), dq, np.zeros(3), ticks=3)
+    assert u == pytest.approx([friction(A[j:j + 1], dq[j]) for j in range(3)], rel=1e-12)
+
+
+def test_the_cuffs_torque_is_fed_back_and_a_missing_reading_leaves_the_model() -> None:
+    s = TransparencySettings.default().with_parts("interaction")
+    tau_int = np.array([2.0, -1.0, 0.5])
+    u, _ = _law(s, np.radians([10.0, -30.0, 5.0]), np.zeros(3), tau_int)
+    assert u == pytest.approx(-s.kp * tau_int, rel=1e-12)  # no integral in the shipped file
+    # the buses' drives have no such sensor: NaN, the feedback and its integral off
+    u, ss = _law(s, np.radians([10.0, -30.0, 5.0]), np.zeros(3), [np.nan, 1.0, np.nan])
+    assert u[0] == 0.0 and u[2] == 0.0 and np.all(ss[0]["integral"] == 0.0)
+
+
+@given(st.floats(0.0, 0.3), st.floats(-3.0, 3.0))
+@settings(max_examples=50, deadline=None)
+def test_the_wall_pushes_back_beyond_the_range_of_motion(beyond: float, rate: float) -> None:
+    # reference: the wall's formula, -k (q - upper) - d max(dq, 0) beyond the upper end
+    # (the knee's, 0 rad: the paper's Table 3), nothing within the range
+    _, _, cfg = _device()
+    s = TransparencySettings.default().with_parts()
+    upper = cfg.safety.record()[0]["upper"][1]
+    q = np.array([0.0, upper + beyond, 0.0])
+    _, ss = _law(s, q, np.array([0.0, rate, 0.0]), np.zeros(3))
+    want = 0.0 if beyond == 0.0 else (-s.wall_stiffness[1] * beyond
+                                      - s.wall_damping[1] * max(rate, 0.0))
+    assert ss[0]["wall"][1] == pytest.approx(want, abs=1e-12)
+
+
+@given(st.floats(0.0, 2.0), st.floats(0.0, 1.0))
+@settings(max_examples=100, deadline=None)
+def test_a_change_of_support_mode_blends_linearly_and_back_from_where_it_is(
+        since: float, back_at: float) -> None:
+    # reference: a linear blend over ramp s; asked back mid-blend it returns from the
+    # weight it had (continuous), over the part of the ramp it had covered
+    dev, _, _ = _device()
+    s = TransparencySettings.default()
+    tp = s.record(dev.p)
+    ss = new_support_state(SupportMode.IMPEDANCE)
+    assert support_blend(tp, ss, 0.0) == 1.0
+    ss[0]["asked"] = SupportMode.TRANSPARENT
+    w0 = support_blend(tp, ss, 1.0)
+    assert w0 == 0.0 and ss[0]["mode"] == SupportMode.TRANSPARENT
+    w = support_blend(tp, ss, 1.0 + since)
+    assert w == pytest.approx(min(since / s.ramp, 1.0), abs=1e-12)
+    t_back = 1.0 + since + 1e-9
+    ss[0]["asked"] = SupportMode.IMPEDANCE
+    w_back = support_blend(tp, ss, t_back)
+    assert w_back == pytest.approx(1.0 - w if w < 1.0 else 0.0, abs=1e-6)
+    later = support_blend(tp, ss, t_back + back_at * s.ramp)
+    assert later == pytest.approx(min(w_back + back_at, 1.0), abs=1e-6)
+
+
+def test_support_commands_apply_where_the_table_says() -> None:
+    # reference: SUPPORT_APPLIES, which the page enables its buttons by; the
+    # transparent mode needs the device's model
+    dev, _, _ = _device()
+    known = TransparencySettings.default().record(dev.p)
+    unknown = TransparencySettings.default().record(None)
+    for mode in Mode:
+        for cmd in (Command.IMPEDANCE, Command.TRANSPARENT):
+            ss = new_support_state()
+            left, refused = support_command(known, ss, int(cmd), int(mode))
+            assert left == Command.NONE
+            assert (refused == Command.NONE) == (mode in SUPPORT_APPLIES), (mode, cmd)
+    ss = new_support_state()
+    assert support_command(unknown, ss, int(Command.TRANSPARENT), int(Mode.STANDING))[1] \
+        == Command.TRANSPARENT
+    assert support_command(known, ss, int(Command.WALK), int(Mode.STANDING)) == \
+        (Command.WALK, Command.NONE)  # the supervisor's
+
+
+def test_a_law_other_than_the_walking_controller_refuses_a_support_mode() -> None:
+    from exoleg.control.controllers import PDGravity
+    from exoleg.control.tracking import TrackingController
+    from exoleg.sim.scenario import paper_reference
+
+    cfg = DeviceConfig.load()
+    import exoleg
+
+    ctl = TrackingController(PDGravity(cfg.leg(exoleg.paper_leg())), paper_reference(),
+                             cfg.safety)
+    s = {"q": np.zeros(3), "dq": np.zeros(3), "fsr": np.zeros(4)}
+    ctl.update(s, int(Command.ARM), 0.0)
+    out = ctl.update(s, int(Command.TRANSPARENT), 0.001)
+    assert out["refused"] == Command.TRANSPARENT and out["support_level"][0] == 1.0
+
+
+def test_a_bad_transparency_file_is_refused_naming_the_field(tmp_path: Any) -> None:
+    from importlib import resources
+
+    text = resources.files("exoleg").joinpath("data", "device",
+                                              "transparency.toml").read_text()
+    (tmp_path / "transparency.toml").write_text(
+        text.replace("inertia_share = 0.3", "inertia_share = 1.5"))
+    with pytest.raises(ParameterError, match=r"transparency.toml.*inertia_share.*1.5 is "
+                                             r"outside 0-1"):
+        DeviceConfig.load(tmp_path)
+    (tmp_path / "transparency.toml").write_text(text.replace("friction = true",
+                                                             "friction = 1"))
+    with pytest.raises(ParameterError, match=r"\[parts\].*friction.*true or false"):
+        DeviceConfig.load(tmp_path)
+
+
+@cache
+def _walker() -> tuple[Any, Any, float]:
+    from exoleg.child.model import ChildModel
+    from exoleg.sizing import personalized_leg
+    from exoleg.sizing.population import population_child
+
+    c, _ = population_child(None, "female", 10.0, 50.0)
+    return personalized_leg(c), ChildModel.of(c), c.mass
+
+
+@given(st.floats(0.0, 1.0), st.floats(0.05, 2.0))
+@settings(max_examples=8, deadline=None)
+def test_switching_support_modes_while_walking_never_faults(phase: float, dwell: float
+                                                            ) -> None:
+    # The issue's property: a typically developing child walking in the impedance mode;
+    # transparent from a point of the second stride, back after dwell s; no fault, the
+    # torque continuous at the switches (no step above the safety layer's own rate limit)
+    from exoleg.sim.walk import simulate_walk
+
+    leg, child, mass = _walker()
+    strides, T = 5, 1.1
+    n = int(round((1.0 + strides * T) / 1e-3)) + 1
+    cmd = np.zeros(n, np.int64)
+    cmd[0], cmd[1000] = Command.ARM, Command.WALK
+    k1 = int(round((1.0 + (1.0 + phase) * T) * 1e3))
+    k2 = k1 + int(round(dwell * 1e3))
+    cmd[k1], cmd[k2] = Command.TRANSPARENT, Command.IMPEDANCE
+    r = simulate_walk(leg, mass, strides=strides, child=child, commands=cmd)
+    assert not np.any(r.fault), (phase, dwell)
+    assert set(np.unique(r.support_mode)) == {0, 1}
+    # the blend: the transparent law's weight goes 0 -> 1 over the ramp
+    ramp = TransparencySettings.default().ramp
+    k_end = min(k1 + int(ramp * 1e3), k2)
+    assert r.support_level[k1 - 1, 0] == 1.0
+    assert r.support_level[k_end, 0] == pytest.approx(max(0.0, 1.0 - (k_end - k1) / (ramp
+                                                                                    * 1e3)),
+                                                      abs=2e-3)
+
+
+def test_the_budget_is_pinocchios_inverse_dynamics_of_the_device_alone() -> None:
+    # reference: Pinocchio's M, C dq and G of the device alone (its URDF export, the
+    # rotors as armature) plus the actuators' friction, along the same normative gait;
+    # measured agreement 1e-10 N m
+    pytest.importorskip("pinocchio")
+    from exoleg.reference.gait import SchwartzGait2008
+    from exoleg.validate.engines import PinocchioLeg
+    from exoleg.validate.transparency import budget
+
+    dev, A, cfg = _device()
+    leg, _, mass = _walker()
+    rows = budget(leg, cfg, mass, 1.1, samples=201)
+    ref = PinocchioLeg(dev)
+    t = np.linspace(0.0, 1.1, 201)
+    q, dq, ddq = SchwartzGait2008(stride_time=1.1, speed="Free", upright=True).sample(t)
+    need = np.array([ref.M(q[k]) @ ddq[k] + ref.Cdq(q[k], dq[k]) + ref.G(q[k])
+                     + [friction(A[j:j + 1], dq[k, j]) for j in range(3)]
+                     for k in range(len(t))])
+    for j, row in enumerate(rows):
+        assert row["need_rms_Nm"] == pytest.approx(math.sqrt(np.mean(need[:, j] ** 2)),
+                                                   rel=1e-9)
+        assert row["need_peak_Nm"] == pytest.approx(np.abs(need[:, j]).max(), rel=1e-9)
+        lim = row["limit_Nm"]
+        over = np.maximum(np.abs(need[:, j]) - lim, 0.0)
+        assert row["floor_Nm_per_kg"] == pytest.approx(
+            math.sqrt(np.mean(over ** 2)) / mass, rel=1e-9, abs=1e-12)
+        # the inertia that fits: with it the need stays within the limit, with 1 % more
+        # it does not (or it is 0: the links alone exceed the limit)
+        fits = row["fits_kgm2"]
+        for scale, within in ((1.0, True), (1.01, False)):
+            arm = ref.model.armature.copy()
+            arm[j] = scale * fits
+            dev_j = dev.with_armature(arm)
+            n_j = (dev_j.inverse_dynamics(q, dq, ddq)[:, j]
+                   + [friction(A[j:j + 1], w) for w in dq[:, j]])
+            assert (np.abs(n_j).max() <= lim + 1e-9) == within, (j, scale)
+
+
+def test_the_contributions_add_the_parts_left_out_to_the_cuffs_torque() -> None:
+    # reference: the definition, on a small made-up walk (no simulation): the row with
+    # n parts is RMS(tau_int + the parts after the first n)
+    from types import SimpleNamespace
+
+    from exoleg.validate.transparency import contributions
+
+    rng = np.random.default_rng(1)
+    n = 500
+    r = SimpleNamespace(t=np.arange(n) * 1e-3, walk_start=0.0, stride_time=0.1,
+                        body_mass=25.0, interaction=rng.normal(size=(n, 3)),
+                        transparent_parts=rng.normal(size=(n, len(PARTS), 3)))
+    rows = contributions(r)
+    sel = r.t >= 0.2
+    for k, row in enumerate(rows):
+        want = r.interaction[sel] + r.transparent_parts[sel][:, k:].sum(axis=1)
+        rms = np.sqrt(np.mean(want ** 2, axis=0))
+        assert list(row["rms_Nm"].values()) == pytest.approx(rms, rel=1e-12)
+        assert list(row["rms_Nm_per_kg"].values()) == pytest.approx(rms / 25.0, rel=1e-12)
+    assert rows[0]["parts"] == "none" and rows[-1]["parts"] == " + ".join(PARTS)
+
+
+def test_a_typically_developing_child_walks_in_the_transparent_mode() -> None:
+    # exoleg validate --transparency's walk: 10 strides at the free speed without a
+    # fault; each part of the law lowers what the child feels on the walk's motion but
+    # gravity alone (the swing is a pendulum's: the links' weight helps the rotors turn),
+    # all parts together by a third or more against none (measured 39 / 35 / 48 %); the
+    # goal (Lerner et al. 2018, 0.036 N m/kg) is not met: the drives cannot move their
+    # own rotors along the gait (the budget, measured 0.60 / 0.013 / 0.70 N m/kg beyond
+    # them at the hip, knee, ankle)
+    from exoleg.validate.transparency import GOAL_NM_PER_KG, evaluate
+
+    v = evaluate(strides=10)
+    assert not v.fault
+    rms = [[row["rms_Nm_per_kg"][j] for j in ("hip", "knee", "ankle")] for row in v.rows]
+    none, gravity, inertia, friction_, every = (np.array(x) for x in rms)
+    assert np.all(every <= 0.67 * none), (every, none)
+    assert np.all(inertia < gravity) and np.all(friction_ <= inertia + 1e-3)
+    assert np.all(every <= friction_ + 1e-3)
+    assert not v.met and np.all(every > GOAL_NM_PER_KG)
+    floors = [b["floor_Nm_per_kg"] for b in v.budget]
+    assert floors == pytest.approx([0.602, 0.0131, 0.702], abs=2e-3)
