@@ -21,9 +21,9 @@ def _simulate_walk(args: argparse.Namespace) -> int:
 
     import exoleg
     from exoleg.control.gait_phase import Event
-    from exoleg.errors import ParameterError
     from exoleg.control.safety import Limited
     from exoleg.control.transparency import SUPPORT_NAMES
+    from exoleg.errors import ParameterError
     from exoleg.plots.figures import walk_figure
     from exoleg.sim.metrics import detection_table, safety_events, support_by_stride, walk_peaks
     from exoleg.sim.walk import simulate_walk

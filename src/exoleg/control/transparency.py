@@ -37,8 +37,8 @@ from numpy.typing import NDArray
 
 from exoleg.control.contract import Command, Mode
 from exoleg.device.actuator import friction
-from exoleg.entry import SUPPORT_MODES
 from exoleg.dynamics.kernels import coriolis_dq, gravity, mass_matrix
+from exoleg.entry import SUPPORT_MODES
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8, new
 from exoleg.params import _check
