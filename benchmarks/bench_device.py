@@ -73,10 +73,11 @@ def _walk_ticks(ctl, n: int) -> None:  # type: ignore[no-untyped-def]
 
 @njit  # not cached: numba would keep stale code when only exoleg's kernels change
 def _walk_loop(ctl, sens, out, n):  # type: ignore[no-untyped-def]
-    cp, gq, gdq, p, d, st, lim, sst, sup, ref = ctl
+    cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss = ctl
     for k in range(n):
         sens[0].command = Command.WALK if k == 10 else Command.NONE
-        walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, sens, k * 1e-3, out)
+        walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, sens,
+                          k * 1e-3, out)
 
 
 def best(fn, repeat: int) -> float:  # type: ignore[no-untyped-def]
@@ -149,6 +150,16 @@ def main() -> None:
                Command.ARM, 0.0)
     wtick = best(lambda: _walk_ticks(ctl, 200_000), 3) / 200_000
     rows.insert(1, ("walking controller tick (full hierarchy), compiled", wtick, None))
+    from exoleg.control.transparency import SupportMode
+    from exoleg.device.config import DeviceConfig, walk_controller
+
+    tctl = walk_controller(DeviceConfig.load(), leg, 20.0, 0.073,
+                           support_mode=SupportMode.TRANSPARENT)
+    tctl.update({"q": tctl.gains.standing, "dq": np.zeros(3), "fsr": np.full(4, 1000.0),
+                 "interaction": np.zeros(3)}, Command.ARM, 0.0)
+    ttick = best(lambda: _walk_ticks(tctl, 200_000), 3) / 200_000
+    rows.insert(2, ("walking controller tick, transparent mode, compiled", ttick, None))
+    wtick = max(wtick, ttick)
     try:
         import mujoco
 

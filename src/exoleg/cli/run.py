@@ -101,6 +101,12 @@ def cmd_run(args: argparse.Namespace) -> int:
                                     (s["interaction_rms_Nm_per_kg"] or {}).values())
              + " N m/kg); peak " + ", ".join(f"{v:.0f}" for v in
                                              s["interaction_peak_Nm"].values()) + " N m")
+    if s["support_by_stride"]:
+        _say("support per stride (1: the impedance's, 0: transparent): "
+             + ", ".join(f"{v:.2f}" for v in s["support_by_stride"]))
+    _say("the safety layer: " + ("; ".join(f"{e['text']} ({e['ticks']} ticks from "
+                                          f"{e['first_s']:.3f} s)" for e in s["safety_events"])
+                                 or "nothing to do"))
     from exoleg.runtime.log import MAX_LOSS_TICKS
 
     _say(f"\nwrote {path} (crash-safe: at most {MAX_LOSS_TICKS} ticks lost if killed) and "

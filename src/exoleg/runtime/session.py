@@ -381,7 +381,25 @@ def summarize(path: str | Path) -> dict[str, Any]:
             "late_max_us": float(late.max()) if len(late) else 0.0,
             "missed_deadlines": int((late > period * 1e6).sum()),
             "cut_record_bytes": cut, **_motor_figures(cols, status),
-            **_interaction_figures(cols, float(header.get("body_mass", np.nan)))}
+            **_interaction_figures(cols, float(header.get("body_mass", np.nan))),
+            **_support_figures(cols, status)}
+
+
+def _support_figures(cols: dict[str, Any], status: Any) -> dict[str, Any]:
+    """The support per stride (between the detected initial contacts,
+    :func:`~exoleg.sim.metrics.support_by_stride`; None in a log from before its
+    columns) and what the safety layer did (:func:`~exoleg.sim.metrics.safety_events`)."""
+    from exoleg.control.gait_phase import Event
+    from exoleg.params.records import JOINTS
+    from exoleg.sim.metrics import safety_events, support_by_stride
+
+    t = cols["t"]
+    names = [f"support_level_{j}" for j in JOINTS]
+    strikes = t[(cols["events"].astype(np.int64) & Event.IC) > 0]
+    return {"support_by_stride": support_by_stride(t, np.stack([cols[n] for n in names],
+                                                               axis=1), strikes)
+            if all(n in cols for n in names) else None,
+            "safety_events": safety_events(t, status)}
 
 
 def _interaction_figures(cols: dict[str, Any], body_mass: float) -> dict[str, Any]:
