@@ -369,7 +369,8 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
         enabled = {b.get_attribute("data-command"): b.is_enabled()
                    for b in phone.find_elements("css selector", "[data-command]")}
         assert enabled == {"arm": False, "stand": False, "walk": True, "disarm": True,
-                           "reset": False, "impedance": True, "transparent": True}
+                           "reset": False, "impedance": True, "transparent": True,
+                           "aan": True}
         assert not phone.find_element("id", "start").is_enabled()
         # a command the supervisor refuses says why, in its words
         phone.execute_script("act('POST', '/api/command', {command: 'arm'}, 'arm applied')")
@@ -431,7 +432,8 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
         enabled = {b.get_attribute("data-command"): b.is_enabled()
                    for b in phone.find_elements("css selector", "[data-command]")}
         assert enabled == {"arm": False, "stand": False, "walk": False, "disarm": True,
-                           "reset": True, "impedance": False, "transparent": False}
+                           "reset": True, "impedance": False, "transparent": False,
+                           "aan": False}
         shot(phone, "phone-fault")
         press(phone, "end")
         folder = next(p for p in hmi.sessions.iterdir() if (p / "control.log").exists()

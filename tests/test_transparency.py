@@ -24,6 +24,7 @@ from exoleg.control.transparency import (
     new_support_state,
     support_blend,
     support_command,
+    track_rates,
     transparent_torque,
 )
 from exoleg.device.actuator import friction, params_array
@@ -57,6 +58,7 @@ def _law(settings_: TransparencySettings, q: Any, dq: Any, tau_int: Any, ticks: 
         t = k * h
         v = np.asarray(dq) + np.asarray(ddq) * t
         x = np.asarray(q) + np.asarray(dq) * t + 0.5 * np.asarray(ddq) * t * t
+        track_rates(tp, ss, v, h)
         transparent_torque(tp, A, ss, x, v, np.asarray(tau_int, float), lo, hi, dev.g, h,
                            True, out)
     return out, ss

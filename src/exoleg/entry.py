@@ -9,7 +9,7 @@ of imports so that the command line's parser stays fast."""
 #: its impedance mode -- starting in a support mode, or a law following a reference
 #: (:class:`exoleg.control.tracking.TrackingController`).
 LAWS = ("pd-gravity", "pd", "computed-torque")
-SUPPORT_MODES = ("impedance", "transparent")
+SUPPORT_MODES = ("impedance", "transparent", "aan")
 WALKING_CONTROLLERS = ("walk", *SUPPORT_MODES)
 CONTROLLERS = (*WALKING_CONTROLLERS, *LAWS)
 #: The hip motor's variants (``data/device/hip-variants``): the paper's 220 W EC 90 flat

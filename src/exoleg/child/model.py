@@ -98,7 +98,10 @@ class ChildModel:
     or off) with the strength of their GMFCS level, and the gait they intend
     (``crouch`` 0: the normative gait, 1-5: Rozumalski & Schwartz's crouch cluster);
     ``strength_scale`` multiplies their GMFCS level's typical strength (a child measured
-    weaker or stronger than their level's)."""
+    weaker or stronger than their level's); ``learning``: how the child adapts their
+    stance effort to the device, stride by stride (Emken et al. 2007's human model,
+    x <- f x + g e: this is their f, 0.5-0.999; 0: they do not adapt, their stance
+    effort fixed by the support the device starts with)."""
 
     name: str
     age: float
@@ -111,6 +114,7 @@ class ChildModel:
     crouch: int = 0
     sex: str = "female"
     strength_scale: float = 1.0
+    learning: float = 0.0
 
     def __post_init__(self) -> None:
         w = "child"
@@ -129,6 +133,10 @@ class ChildModel:
             raise ParameterError(w, "strength", f"{sc:g} is outside "
                                  f"{STRENGTH_SCALE[0]:g}-{STRENGTH_SCALE[1]:g} (x the GMFCS "
                                  "level's typical strength)")
+        lf = _check.finite(w, "learning", self.learning)
+        if lf != 0.0 and not 0.5 <= lf <= 0.999:
+            raise ParameterError(w, "learning", f"{lf:g}: 0 (the child does not adapt) or "
+                                 "0.5-0.999 (their effort's forgetting per stride)")
         if self.crouch not in CROUCH_CLUSTERS:
             raise ParameterError(w, "crouch", f"{self.crouch!r}: allowed 0 (none), 1-5 "
                                  "(Rozumalski & Schwartz 2009's clusters)")
@@ -193,6 +201,7 @@ class ChildModel:
             f"on = {'true' if self.effort else 'false'}",
             f"crouch = {self.crouch}   # 0 normative gait, 1-5 Rozumalski & Schwartz 2009 cluster",
             f"strength = {self.strength_scale:g}   # x the GMFCS level's strength (0.1-1.5)",
+            f"learning = {self.learning:g}   # 0: fixed; 0.5-0.999 adapts to the device (per stride)",
         ]
         return "\n".join(lines) + "\n"
 
@@ -225,7 +234,7 @@ class ChildModel:
         s = d.get("spasticity", {})
         _check.keys(f"{where} [spasticity]", s, [], ["level"])
         e = d.get("effort", {})
-        _check.keys(f"{where} [effort]", e, [], ["on", "crouch", "strength"])
+        _check.keys(f"{where} [effort]", e, [], ["on", "crouch", "strength", "learning"])
         try:
             con = Contracture.preset(str(p.get("contracture", "none")),
                                      float(p.get("contracture_level", 1.0)))
@@ -235,7 +244,7 @@ class ChildModel:
                        spasticity=Spasticity.preset(str(s.get("level", "none"))),
                        effort=_bool(where, "effort.on", e.get("on", True)),
                        crouch=_int(where, "crouch", e.get("crouch", 0)), sex=str(c["sex"]),
-                       strength_scale=e.get("strength", 1.0))
+                       strength_scale=e.get("strength", 1.0), learning=e.get("learning", 0.0))
         except ParameterError as err:
             raise ParameterError(where, err.field, err.problem) from None
         except (TypeError, ValueError) as err:
@@ -323,7 +332,7 @@ CHILD = np.dtype([("term", I8, 4), ("tone", F8, 4), ("g_f", F8, 4), ("g_df", F8,
                   ("effort_delay", I8), ("stand", F8, 3),
                   ("gait_q", F8, (GAIT_SAMPLES, 3)), ("gait_dq", F8, (GAIT_SAMPLES, 3)),
                   ("gait_tau", F8, (GAIT_SAMPLES, 3)), ("share", F8, 2), ("stride", F8),
-                  ("intrinsic", F8)])
+                  ("intrinsic", F8), ("learn_f", F8), ("learn_g", F8)])
 
 #: The child's memory (:func:`child_tick`): ticks so far, each group's force and its
 #: rate, the joint angles and rates the child felt (rings of :data:`HISTORY` ticks), the
@@ -333,7 +342,8 @@ CHILD = np.dtype([("term", I8, 4), ("tone", F8, 4), ("g_f", F8, 4), ("g_df", F8,
 CHILD_STATE = np.dtype([("k", I8), ("force", F8, (HISTORY, 4)), ("rate", F8, (HISTORY, 4)),
                         ("q", F8, (HISTORY, 3)), ("dq", F8, (HISTORY, 3)),
                         ("anchor", F8, 4), ("srs", F8, 4), ("yielded", F8, 4),
-                        ("reflex", F8, 3), ("effort", F8, 3)])
+                        ("reflex", F8, 3), ("effort", F8, 3), ("share0", F8), ("e_sq", F8),
+                        ("e_n", I8), ("x_last", F8), ("strides", I8)])
 
 
 def child_records(child: ChildModel | None, h: float, stride_time: float = 1.1,
@@ -387,6 +397,8 @@ def child_records(child: ChildModel | None, h: float, stride_time: float = 1.1,
     r["share"] = float(e["share"]) * (1.0 - device_support), float(e["share"])
     r["stride"] = stride_time
     r["intrinsic"] = float(e["intrinsic"])
+    r["learn_f"], r["learn_g"] = child.learning, float(e["learning_gain_per_rad"])
+    S[0]["share0"] = r["share"][0]
     return P, C, S
 
 
@@ -405,6 +417,26 @@ def _cycle(table, x, j):  # type: ignore[no-untyped-def]
     i0 = min(int(f), nx - 1)
     a = f - i0
     return (1 - a) * table[i0, j] + a * table[i0 + 1, j]
+
+
+@njit(cache=True)
+def _learn(c, s, xc, q, k, loaded):  # type: ignore[no-untyped-def]
+    """The learning child (Emken et al. 2007's human model): their stance share of the
+    normative moments, x <- f x + g e at each new stride (e: the stride's stance RMS of
+    the gait they mean against the one they walk, over the joints), within 0 and their
+    full share."""
+    if xc < s.x_last - 0.5 and s.e_n > 0:  # the cycle wrapped: a new stride
+        e = math.sqrt(s.e_sq / s.e_n)
+        s.share0 = min(max(c.learn_f * s.share0 + c.learn_g * e, 0.0), c.share[1])
+        s.e_sq = 0.0
+        s.e_n = 0
+        s.strides += 1
+    s.x_last = xc
+    if loaded:
+        for j in range(3):
+            d = _cycle(c.gait_q, xc, j) - q[j]
+            s.e_sq += d * d / 3.0
+        s.e_n += 1
 
 
 @njit(cache=True)
@@ -476,6 +508,8 @@ def child_tick(P, C, CS, q, dq, h, walking, xc, loaded, out):  # type: ignore[no
     if c.effort != 0.0:
         n = c.effort_delay
         row = 0 if loaded else 1
+        if c.learn_f != 0.0 and walking:
+            _learn(c, s, xc, q, k, loaded)
         # the error the child feels is the delayed one: what they felt a delay ago
         # against what they meant then (their intention at that fraction of the cycle);
         # the feedforward is the moment meant for now
@@ -487,7 +521,7 @@ def child_tick(P, C, CS, q, dq, h, walking, xc, loaded, out):  # type: ignore[no
                 x = min(max(xc, 0.0), 1.0)
                 qi, dqi = _cycle(c.gait_q, xd, j), _cycle(c.gait_dq, xd, j)
                 qn, dqn = _cycle(c.gait_q, x, j), _cycle(c.gait_dq, x, j)
-                ff = c.share[row] * _cycle(c.gait_tau, x, j)
+                ff = (s.share0 if row == 0 else c.share[1]) * _cycle(c.gait_tau, x, j)
             else:
                 qi, dqi, ff = c.stand[j], 0.0, 0.0
                 qn, dqn = qi, dqi

@@ -40,7 +40,7 @@ class Mode(IntEnum):
 
 
 class Command(IntEnum):
-    """An operator's command for a tick. IMPEDANCE and TRANSPARENT choose the walking
+    """An operator's command for a tick. IMPEDANCE, TRANSPARENT and AAN choose the walking
     controller's support mode (:class:`~exoleg.control.transparency.SupportMode`),
     blended over a ramp."""
 
@@ -53,6 +53,7 @@ class Command(IntEnum):
     RESET = 6
     IMPEDANCE = 7
     TRANSPARENT = 8
+    AAN = 9
 
 
 #: What the device reads each tick: joint angles (rad) and rates (rad/s) as measured

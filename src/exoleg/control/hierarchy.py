@@ -39,6 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from exoleg.control import gait_phase as gp
 from exoleg.control import safety as sf
+from exoleg.control.assist import AssistSettings, assist_level, assist_stride, assist_track
 from exoleg.control.contract import OUTPUT, SENSORS, Mode, TickRecords
 from exoleg.control.safety import SafetyLimits, safety_step
 from exoleg.control.supervisor import SUPERVISOR, report, settle, supervise
@@ -48,6 +49,7 @@ from exoleg.control.transparency import (
     new_support_state,
     support_blend,
     support_command,
+    track_rates,
     transparent_torque,
 )
 from exoleg.dynamics.kernels import foot_point_jacobian, gravity, links_mass, mass_matrix
@@ -204,8 +206,19 @@ def stance_gravity(p, g, q, fx, sole, counts, weight, out):  # type: ignore[no-u
         out[j] -= J[1, j] * weight
 
 
+@njit(inline="always")
+def _level(mode, aan):  # type: ignore[no-untyped-def]
+    """A support mode's share of the impedance at a joint: 1, 0, or assist-as-needed's."""
+    if mode == SupportMode.IMPEDANCE:
+        return 1.0
+    if mode == SupportMode.TRANSPARENT:
+        return 0.0
+    return aan
+
+
 @njit(cache=True)
-def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, sens, t, out):  # type: ignore[no-untyped-def]
+def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, as_, sens, t,  # type: ignore[no-untyped-def]
+                      out):
     """One control tick. ``cp``: the controller's parameters (:data:`PARAMS`); ``gq``,
     ``gdq``: the gait tables (K, 3), (K, 6) (rad, rad per cycle); ``p``: its leg model's
     parameter vector; ``d``, ``st``: the detector's settings and state
@@ -213,8 +226,9 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, sens
     safety layer's (:data:`~exoleg.control.safety.LIMITS`, ``STATE``); ``sup``: the
     supervisor's (:data:`SUPERVISOR`); ``ref``: the reference's (:data:`REFERENCE`);
     ``tp``, ``A``, ``ss``: the transparent mode's parameters, the actuators' records and
-    the support mode's state (:mod:`exoleg.control.transparency`); ``sens``: this
-    tick's readings and command (:data:`~exoleg.control.contract.SENSORS`);
+    the support mode's state (:mod:`exoleg.control.transparency`); ``ap``, ``as_``:
+    assist-as-needed's parameters and state (:mod:`exoleg.control.assist`); ``sens``:
+    this tick's readings and command (:data:`~exoleg.control.contract.SENSORS`);
     ``t`` s. Writes ``out`` (:data:`~exoleg.control.contract.OUTPUT`). Every record is a
     one-element array.
 
@@ -290,19 +304,34 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, sens
         kd = C.kd_stance[j] if stance else C.kd_swing[j]
         cmd[j] = (kp * (qr[j] - qm[j]) + kd * (dqr[j] - vm[j]) + G[j]
                   + M[j, 0] * ddqr[0] + M[j, 1] * ddqr[1] + M[j, 2] * ddqr[2])
-    # the support mode: the impedance above, or the device made transparent; a change
-    # blended over the transparent mode's ramp
+    # the support mode: each a share of the impedance above (its support level: 1
+    # impedance, 0 transparent, assist-as-needed's per joint), the rest the device made
+    # transparent; a change of mode blended over the transparent mode's ramp
     w = support_blend(tp, ss, t)
     S = ss[0]
-    a = 0.0  # the transparent law's weight
-    if S.mode == SupportMode.TRANSPARENT or S.from_mode == SupportMode.TRANSPARENT:
+    if tp[0].known:
+        track_rates(tp, ss, vm, lim[0].dt)
+    aan = np.empty(3)
+    if S.mode == SupportMode.AAN or S.from_mode == SupportMode.AAN:
+        if S.mode == SupportMode.AAN and sup[0].mode == Mode.WALKING:
+            err = np.empty(3)
+            for j in range(3):
+                err[j] = qr[j] - qm[j]
+            assist_track(as_, x, err)
+            if ev & gp.Event.IC:
+                assist_stride(ap, as_, t)
+        assist_level(ap, as_, x, t, aan)
+    level = np.empty(3)
+    for j in range(3):
+        level[j] = (w * _level(S.mode, aan[j])
+                    + (1.0 - w) * _level(S.from_mode, aan[j]))
+    if level[0] < 1.0 or level[1] < 1.0 or level[2] < 1.0:
         tr = np.empty(3)
         L = lim[0]
         transparent_torque(tp, A, ss, qm, vm, s.interaction, L.lower, L.upper, C.g, L.dt,
                            sup[0].mode != Mode.DISARMED and sup[0].mode != Mode.FAULT, tr)
-        a = w if S.mode == SupportMode.TRANSPARENT else 1.0 - w
         for j in range(3):
-            cmd[j] = a * tr[j] + (1.0 - a) * cmd[j]
+            cmd[j] = level[j] * cmd[j] + (1.0 - level[j]) * tr[j]
     status = safety_step(lim, sst, qm, vm, cmd, False, o.tau)
     settle(sup, sst)
     report(sup, sst, refused, status, out)
@@ -310,7 +339,7 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, sens
     o.gait_source = st[0].source
     o.support_mode = S.mode
     for j in range(3):
-        o.support_level[j] = 1.0 - a
+        o.support_level[j] = level[j]
     o.gait_fraction = x
     o.events = ev
     for j in range(3):
@@ -367,7 +396,8 @@ class WalkController:
                  accel_range: float = math.inf, device_p: F64 | None = None,
                  actuators: NDArray[np.void] | None = None,
                  transparency: TransparencySettings | None = None,
-                 support_mode: SupportMode = SupportMode.IMPEDANCE) -> None:
+                 support_mode: SupportMode = SupportMode.IMPEDANCE,
+                 assist: AssistSettings | None = None) -> None:
         from exoleg.device.sensors import SENSOR_X
 
         w = "WalkController"
@@ -404,6 +434,8 @@ class WalkController:
         self.tp = self.transparency.record(device_p)
         self.A = np.zeros(3, ACTUATOR) if actuators is None else actuators
         self.ss = new_support_state(support_mode)
+        self.assist = AssistSettings.default() if assist is None else assist
+        self.ap, self.as_ = self.assist.record(), self.assist.state()
         self.io = TickRecords("WalkController.update")
 
     def gains_now(self) -> dict[str, list[float]]:
@@ -435,16 +467,16 @@ class WalkController:
         """What :func:`walk_control_step` takes before the tick's readings, in its order:
         parameters, gait tables, leg model, detector settings and state, safety limits and
         state, supervisor state, reference state, the transparent mode's parameters, the
-        actuators' records, the support mode's state (the state records are this
-        controller's own)."""
+        actuators' records, the support mode's state, assist-as-needed's parameters and
+        state (the state records are this controller's own)."""
         return (self.cp, self.gq, self.gdq, self.leg.p, self.d, self.st, self.lim, self.sst,
-                self.sup, self.ref, self.tp, self.A, self.ss)
+                self.sup, self.ref, self.tp, self.A, self.ss, self.ap, self.as_)
 
     def warm_up(self) -> None:
         """Compile (or load from numba's cache) the tick on copies of the state."""
-        cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss = self.compiled()
+        cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, as_ = self.compiled()
         _tick(cp, gq, gdq, p, d, st.copy(), lim, sst.copy(), sup.copy(), ref.copy(), tp,
-              A, ss.copy(), new(SENSORS), 0.0, new(OUTPUT))
+              A, ss.copy(), ap, as_.copy(), new(SENSORS), 0.0, new(OUTPUT))
 
     def update(self, sensors: Mapping[str, Any], command: int, t: float) -> dict[str, Any]:
         """One tick on ``sensors`` with the operator's ``command`` at ``t`` s (the

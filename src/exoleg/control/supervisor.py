@@ -119,6 +119,8 @@ def refusal(command: int, mode: int) -> str:
            Command.RESET: "reset applies in FAULT, once the fault no longer holds",
            Command.IMPEDANCE: "a support mode is chosen outside FAULT",
            Command.TRANSPARENT: "a support mode is chosen outside FAULT; the transparent "
-                                "one needs the walking controller and its device's model"}
+                                "one needs the walking controller and its device's model",
+           Command.AAN: "a support mode is chosen outside FAULT; assist-as-needed needs "
+                        "the walking controller and its device's model"}
     return f"{c.name.lower()} refused in {m.name}: {why.get(c, 'not a command here')}"
 

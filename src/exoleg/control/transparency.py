@@ -52,6 +52,7 @@ class SupportMode(IntEnum):
 
     IMPEDANCE = 0
     TRANSPARENT = 1
+    AAN = 2
 
 
 #: The names people type for the support modes (:data:`exoleg.entry.SUPPORT_MODES`).
@@ -195,25 +196,36 @@ def new_support_state(mode: SupportMode = SupportMode.IMPEDANCE) -> NDArray[np.v
 
 
 @njit(cache=True)
-def transparent_torque(tp, A, ss, q, dq, tau_int, lower, upper, g, h, armed, out):  # type: ignore[no-untyped-def]
-    """The transparent law's torque (N m) into ``out`` (3,) at the measured ``q``,
-    ``dq``, the cuffs' torque ``tau_int`` read this tick (NaN: no sensor, the feedback
-    off), the range of motion ``lower``, ``upper`` (rad), a tick of ``h`` s. ``tp``:
-    :data:`TRANSPARENCY`; ``A``: the actuators' records; ``ss``: :data:`SUPPORT_STATE`
-    (its estimate and integral advance here, each part's torque is kept). The integral
-    runs only while ``armed``, within its bound. Beyond the range of motion a wall
-    (stiffness, and damping against the motion outwards) pushes back."""
+def track_rates(tp, ss, dq, h):  # type: ignore[no-untyped-def]
+    """The joint acceleration estimate of :data:`SUPPORT_STATE` ``ss``: the measured
+    rates' difference per tick of ``h`` s through the low-pass of ``tp``, every tick
+    (whether or not the transparent law acts: no stale rate when it starts)."""
     T = tp[0]
     S = ss[0]
-    P = S.parts
     b = 1.0 - math.exp(-2.0 * math.pi * T.accel_filter_hz * h)
     for j in range(3):
         if S.started:
             S.ddq[j] += b * ((dq[j] - S.dq_last[j]) / h - S.ddq[j])
         S.dq_last[j] = dq[j]
+    S.started = True
+
+
+@njit(cache=True)
+def transparent_torque(tp, A, ss, q, dq, tau_int, lower, upper, g, h, armed, out):  # type: ignore[no-untyped-def]
+    """The transparent law's torque (N m) into ``out`` (3,) at the measured ``q``,
+    ``dq``, the cuffs' torque ``tau_int`` read this tick (NaN: no sensor, the feedback
+    off), the range of motion ``lower``, ``upper`` (rad), a tick of ``h`` s. ``tp``:
+    :data:`TRANSPARENCY`; ``A``: the actuators' records; ``ss``: :data:`SUPPORT_STATE`
+    (the acceleration estimate :func:`track_rates` keeps; the integral advances here,
+    each part's torque is kept). The integral runs only while ``armed``, within its
+    bound. Beyond the range of motion a wall (stiffness, and damping against the motion
+    outwards) pushes back."""
+    T = tp[0]
+    S = ss[0]
+    P = S.parts
+    for j in range(3):
         for i in range(4):
             P[i, j] = 0.0
-    S.started = True
     pd = T.device_p
     if T.parts[0] != 0.0:
         gravity(q, pd, g, P[0])
@@ -244,7 +256,7 @@ def transparent_torque(tp, A, ss, q, dq, tau_int, lower, upper, g, h, armed, out
 
 #: The operator's commands that choose a support mode, and the mode each asks.
 SUPPORT_COMMANDS = {Command.IMPEDANCE: SupportMode.IMPEDANCE,
-                    Command.TRANSPARENT: SupportMode.TRANSPARENT}
+                    Command.TRANSPARENT: SupportMode.TRANSPARENT, Command.AAN: SupportMode.AAN}
 #: The supervisor's modes in which the walking controller takes them (the transparent
 #: one with the device's model known); the supervisor itself refuses them.
 SUPPORT_APPLIES = (Mode.DISARMED, Mode.STANDING, Mode.WALKING, Mode.STOPPING)
@@ -253,14 +265,17 @@ SUPPORT_APPLIES = (Mode.DISARMED, Mode.STANDING, Mode.WALKING, Mode.STOPPING)
 @njit(cache=True)
 def support_command(tp, ss, command, mode):  # type: ignore[no-untyped-def]
     """Take the operator's ``command`` if it chooses a support mode (in any supervisor
-    ``mode`` but FAULT; the transparent one only with the device's model known):
+    ``mode`` but FAULT; the transparent and assist-as-needed ones only with the device's
+    model known):
     returns (the command left for the supervisor -- NONE when this took it --, the
     command refused here or NONE)."""
-    if command == Command.IMPEDANCE or command == Command.TRANSPARENT:
-        if mode == Mode.FAULT or (command == Command.TRANSPARENT and not tp[0].known):
+    if command == Command.IMPEDANCE or command == Command.TRANSPARENT \
+            or command == Command.AAN:
+        if mode == Mode.FAULT or (command != Command.IMPEDANCE and not tp[0].known):
             return Command.NONE, command
         ss[0].asked = (SupportMode.IMPEDANCE if command == Command.IMPEDANCE
-                       else SupportMode.TRANSPARENT)
+                       else SupportMode.TRANSPARENT if command == Command.TRANSPARENT
+                       else SupportMode.AAN)
         return Command.NONE, Command.NONE
     return command, Command.NONE
 

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from exoleg.control.assist import AssistSettings
 from exoleg.control.gait_phase import DetectorSettings
 from exoleg.control.hierarchy import WalkController, WalkGains
 from exoleg.control.safety import SafetyLimits
@@ -41,12 +42,14 @@ class DeviceConfig:
     gains: WalkGains
     folder: Path | None = None
     transparency: TransparencySettings = field(default_factory=TransparencySettings.default)
+    assist: AssistSettings = field(default_factory=AssistSettings.default)
 
     def __post_init__(self) -> None:
         w = "DeviceConfig"
         for name, kind in (("safety", SafetyLimits), ("sensors", FootSensors),
                            ("detector", DetectorSettings), ("gains", WalkGains),
-                           ("transparency", TransparencySettings)):
+                           ("transparency", TransparencySettings),
+                           ("assist", AssistSettings)):
             if not isinstance(getattr(self, name), kind):
                 raise ParameterError(w, name, f"expected {kind.__name__}, got "
                                      f"{type(getattr(self, name)).__name__}")
@@ -71,7 +74,8 @@ class DeviceConfig:
                             else sensors),
                    detector=DetectorSettings.default(where),
                    gains=WalkGains.default(where) if gains is None else gains, folder=where,
-                   transparency=TransparencySettings.default(where))
+                   transparency=TransparencySettings.default(where),
+                   assist=AssistSettings.default(where))
 
     @property
     def fsr_floor_counts(self) -> float:
@@ -102,4 +106,4 @@ def walk_controller(config: DeviceConfig, leg: LegModel, body_mass: float,
                           config.safety, speed, stride_time, config.fsr_floor_counts, depth,
                           config.sensors.gyro_range, config.sensors.accel_range,
                           device_leg(leg, config.actuators).p, params_array(config.actuators),
-                          config.transparency, support_mode)
+                          config.transparency, support_mode, config.assist)

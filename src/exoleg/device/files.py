@@ -18,7 +18,7 @@ from exoleg.errors import ParameterError
 from exoleg.io import read_text
 
 FILES = ("safety.toml", "walking.toml", "sensors.toml", "gait_phase.toml",
-         "walking_control.toml", "transparency.toml")
+         "walking_control.toml", "transparency.toml", "assist.toml")
 ACTUATOR_FILES = ("hip.toml", "knee.toml", "ankle.toml")
 
 

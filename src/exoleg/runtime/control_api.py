@@ -14,7 +14,8 @@ block and sends into its pipe (:class:`~exoleg.runtime.link.LoopLink`). Endpoint
   control action then carries (``X-Operator``); the hold lapses after
   :data:`LEASE_S` s without a request from it; ``DELETE /operator`` gives it back;
 * ``POST /command`` ``{"command": "arm" | "stand" | "walk" | "disarm" | "estop" |
-  "reset"}``: needs ``Authorization: Bearer <token>`` (printed at start-up) and the
+  "reset" | "impedance" | "transparent" | "aan"}`` (the last three: the walking
+  controller's support mode): needs ``Authorization: Bearer <token>`` (printed at start-up) and the
   operator id -- except ``estop``, which anyone who can see the device may send; answers
   once the loop has applied it (``"applied": true``), or 409 with the supervisor's
   reason when it refused it (``"applied": false``: arm in FAULT, walk while disarmed...);

@@ -252,11 +252,13 @@ class SimulatedDevice:
         """The child's compiled records, a fresh memory, and the device alone's parameters
         (for the cuffs' torque), as :func:`device_actuate` takes them. The child leaves
         the device the stance support its controller starts with (none when
-        transparent)."""
+        transparent, assist-as-needed's starting share of it)."""
         ctl = self.controller
         q0 = ctl.gains.standing
-        support = (ctl.gains.support if ctl.ss[0]["mode"] == SupportMode.IMPEDANCE
-                   else 0.0)
+        mode = ctl.ss[0]["mode"]
+        support = ctl.gains.support * (1.0 if mode == SupportMode.IMPEDANCE else
+                                       0.0 if mode == SupportMode.TRANSPARENT else
+                                       float(np.mean(ctl.assist.start)))
         P, C, CS = child_records(self.child, h, self.stride_time, self.speed, q0,
                                  float(self.leg.lengths[0] + self.leg.lengths[1]),
                                  np.diag(self.plant.leg.M(q0)),

@@ -49,13 +49,14 @@ F64 = NDArray[np.float64]
 @njit(cache=True, error_model="numpy")
 def _run_walk(p, w, A, K, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_y, commands,  # type: ignore[no-untyped-def]
               h, sub, support, stand_support, t_walk, stride, S, X, SENS, FN, OUT, TAU, ENV,
-              SUP, CH, PA):
+              SUP, CH, PA, SH):
     """The walking run: per tick k the device's readings into ``SENS[k]``, the
     controller's tick (``ctl``: :meth:`WalkController.compiled`) into ``OUT[k]``, the
     drives, the child (``K``) and the plant; the child's muscles' torque into ``CH[k]``,
-    the transparent law's parts and wall (the controller's support state) into ``PA[k]``.
+    the transparent law's parts and wall (the controller's support state) into ``PA[k]``,
+    the child's stance share (a learning child's changes) into ``SH[k]``.
     Returns -1, or the tick whose state became non-finite."""
-    cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref, tp, cA, ss = ctl
+    cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref, tp, cA, ss, ap, as_ = ctl
     n = X.shape[0] - 1
     for k in range(n + 1):
         t = k * h
@@ -66,12 +67,13 @@ def _run_walk(p, w, A, K, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_
                      imu_bias, sk, FN[k])
         sk[0].command = commands[k]
         # 2. the controller tick (supervisor, detection, reference, impedance, safety)
-        walk_control_step(cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref, tp, cA, ss, sk, t,
-                          ok_)
+        walk_control_step(cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref, tp, cA, ss, ap, as_,
+                          sk, t, ok_)
         for i in range(3):
             for m in range(4):
                 PA[k, m, i] = ss[0].parts[m, i]
             PA[k, 4, i] = ss[0].wall[i]
+        SH[k] = K[2][0].share0
         if k == n:
             for i in range(3):
                 ENV[k, i] = drive_limit(A[i:i + 1], SENS[k].dq[i], OUT[k].tau[i])
@@ -107,7 +109,8 @@ class WalkResult(TimeSeries):
     support level per joint (0 transparent - 1 the impedance's full support) and the
     transparent law's torque per part (``transparent_parts`` (n, 4, 3):
     :data:`~exoleg.control.transparency.PARTS`; zero while it is not computed) and its
-    wall's (``wall``), N m."""
+    wall's (``wall``), N m; the child's share of the normative stance moments they drive
+    (``child_share``: a learning child's changes stride by stride)."""
 
     t: F64
     pelvis: F64
@@ -140,6 +143,7 @@ class WalkResult(TimeSeries):
     support_level: F64
     transparent_parts: F64
     wall: F64
+    child_share: F64
     plant: WalkingPlant = field(repr=False)
     actuators: tuple[ActuatorModel, ...] = field(repr=False)
     walk_start: float = 0.0
@@ -247,11 +251,12 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     SUP = np.zeros(n + 1)
     CH = np.zeros((n + 1, 3))
     PA = np.zeros((n + 1, len(PARTS) + 1, 3))
+    SH = np.zeros(n + 1)
     K = dev.child_records(control_dt)
     bad = _run_walk(plant.leg.p, plant.record(), dev.A, K, ctl.compiled(), sens.record(),
                     fsr_noise, imu_noise, bias, dev.imu_x, -dev.depth, commands, control_dt,
                     substeps, dev.support, plant.support_height, standing, stride_time,
-                    dev.state(), X, SENS, FN, OUT, TAU, ENV, SUP, CH, PA)
+                    dev.state(), X, SENS, FN, OUT, TAU, ENV, SUP, CH, PA, SH)
     if bad >= 0:
         raise SimulationError(f"walking state became non-finite at t = {bad * control_dt:.4g} s")
     t: F64 = np.arange(n + 1, dtype=np.float64) * control_dt
@@ -268,7 +273,7 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                       child_torque=CH, passive=passive_moments(K[0], X[:, 1:4], X[:, 5:8]),
                       support_mode=OUT["support_mode"], support_level=OUT["support_level"],
                       transparent_parts=PA[:, :len(PARTS)],
-                      wall=PA[:, len(PARTS)], plant=plant, actuators=dev.actuators, walk_start=standing,
+                      wall=PA[:, len(PARTS)], child_share=SH, plant=plant, actuators=dev.actuators, walk_start=standing,
                       stride_time=stride_time, body_mass=body_mass)
 
 
