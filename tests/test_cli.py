@@ -140,6 +140,33 @@ def test_simulate_walk(tmp_path):
     assert "gait-phase detection" in r.stdout
 
 
+def test_simulate_walk_with_a_child_under_assist_as_needed(tmp_path):
+    # the issue's summary fields and figures: the cuffs' torque per kg per joint, one
+    # support value per stride (0-1), the safety layer's events (a list)
+    import json
+
+    from exoleg.child.model import ChildModel
+
+    ChildModel("c", 10.0, 1.4, 32.0).save(tmp_path / "child.toml")
+    r = run("simulate", "--walk", "--child", str(tmp_path / "child.toml"), "--controller",
+            "aan", "--strides", "6", "--out", str(tmp_path / "w"))
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "w" / "support.png").exists()
+    figs = json.loads((tmp_path / "w" / "summary.json").read_text())["figures"]
+    assert figs["controller"] == "aan"
+    assert set(figs["interaction_torque_rms_per_kg"]) == {"hip", "knee", "ankle"}
+    s = figs["support_by_stride"]
+    assert len(s) >= 4 and all(0.0 <= v <= 1.0 for v in s) and s[-1] < s[0]
+    assert isinstance(figs["safety_events"], list)
+    header = (tmp_path / "w" / "timeseries.csv").read_text().splitlines()[0].split(",")
+    assert {"support_mode", "support_level_hip", "transparent_inertia_knee"} <= set(header)
+    for args, text in ((["--controller", "aan"], "does not go with the paper's scenario"),
+                       (["--walk", "--controller", "pd"], "does not go with --walk"),
+                       (["--walk", "--controller", "transparent"], "give --child")):
+        r = run("simulate", *args, "--out", str(tmp_path / "x"))
+        assert r.returncode == 2 and text in r.stderr, (args, r.stderr)
+
+
 def test_simulate_walk_bad_options(tmp_path):
     for args, text in ((["--walk", "--kp", "1,2,3"], "does not apply with --walk"),
                        (["--walk", "--reference", "gait"], "does not apply with --walk"),

@@ -202,8 +202,8 @@ def test_readings_of_the_wrong_shape_or_kind_are_refused(field: str, value: obje
     sensors[field] = value
     with pytest.raises(ParameterError, match=re.escape(says)):
         ctl.update(sensors, Command.NONE, 0.0)
-    with pytest.raises(ParameterError, match="command: 9 is not a command"):
-        ctl.update(_sensors(ctl.gains.standing.copy())[0], 9, 0.0)
+    with pytest.raises(ParameterError, match="command: 42 is not a command"):
+        ctl.update(_sensors(ctl.gains.standing.copy())[0], 42, 0.0)
     with pytest.raises(ParameterError, match=re.escape("command: [1] is not a command")):
         ctl.update(_sensors(ctl.gains.standing.copy())[0], [1], 0.0)  # was a TypeError
 

@@ -324,19 +324,22 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _write_run(args: argparse.Namespace, result: Any, figure: Any, stem: str, t0: float,
-               summary: dict[str, Any]) -> str:
+               summary: dict[str, Any], more: dict[str, Any] | None = None) -> str:
     """A run's outputs, committed together: the time series (``--format``), its figure
-    (PNG, and SVG with ``--svg``) and ``summary.json`` (the settings, ``summary``, the
-    files, the wall time). Returns the line that says what was written."""
+    (PNG, and SVG with ``--svg``) and ``more`` figures (stem -> a function of the path),
+    and ``summary.json`` (the settings, ``summary``, the files, the wall time). Returns
+    the line that says what was written."""
     from exoleg.io import OutputFolder
 
     with OutputFolder(args.out) as out:
         name = "timeseries.parquet" if args.format == "parquet" else "timeseries.csv"
         (result.to_parquet if args.format == "parquet" else result.to_csv)(out.stage(name))
         files = [name]
-        for fmt in ("png", "svg") if args.svg else ("png",):
-            figure(result, out.stage(f"{stem}.{fmt}"))
-            files.append(f"{stem}.{fmt}")
+        draw = {stem: lambda path: figure(result, path), **(more or {})}
+        for name, fn in draw.items():
+            for fmt in ("png", "svg") if args.svg else ("png",):
+                fn(out.stage(f"{name}.{fmt}"))
+                files.append(f"{name}.{fmt}")
         record = {"settings": _settings(args), **summary, "files": files,
                   "wall_time_s": time.perf_counter() - t0}
         out.stage("summary.json").write_text(json.dumps(record, indent=2, default=str))

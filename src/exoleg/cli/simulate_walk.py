@@ -71,9 +71,14 @@ def _simulate_walk(args: argparse.Namespace) -> int:
             "interaction_torque_rms_per_kg": {f["joint"]: f["rms_Nm_per_kg"] for f in inter},
             "support_by_stride": support_by_stride(r.t, r.support_level, strikes),
             "safety_events": safety_events(r.t, r.safety_status, r.walk_start)}
+    more = {}
+    if child is not None:  # the cuffs' torque, the support, the child's intended gait
+        from exoleg.plots.child import support_figure
+
+        more["support"] = lambda path: support_figure(r, child, strikes, path)
     wrote = _write_run(args, r, walk_figure, "walk", t0,
                        {"leg": leg.name, "figures": figs, "notes": notes,
-                        "actuators": [dataclasses.asdict(a) for a in r.actuators]})
+                        "actuators": [dataclasses.asdict(a) for a in r.actuators]}, more)
     _say(f"exoleg simulate --walk --controller {args.controller}: leg '{leg.name}', body "
          f"{args.body_mass:g} kg (pelvis carries "
          f"{r.plant.body_mass:.1f} kg), {args.strides} strides of {stride:g} s on a belt at "

@@ -17,6 +17,10 @@ the child's detected phase and cadence, and the safety layer -- one compiled tic
   leg's G(q) (the paper's eq 19); in stance the inverted pendulum's -- G(q) less
   ``support`` times the body weight carried at the centre of pressure the FSRs measure,
   ``G(q) - support J_cop(q)^T (0, m g)``.
+* **Support** (:mod:`exoleg.control.transparency`, :mod:`exoleg.control.assist`): the
+  impedance's share of the torque per joint, the device made transparent the rest --
+  1 in the impedance mode, 0 in the transparent one, adapted stride by stride in
+  assist-as-needed; the operator's commands change the mode, blended over a ramp.
 * **Safety layer** (:func:`exoleg.control.safety.safety_step`) last, always.
 
 :class:`WalkController` holds the explicit state (records) and offers the one contract
@@ -381,11 +385,15 @@ class WalkController:
     and ``dq`` (measured, rad, rad/s, (3,)) and ``fsr`` (four ADC counts) required;
     ``gyro`` and ``accel`` optional; ``command``: the operator's
     (:class:`~exoleg.control.contract.Command`). ``sole``: the
-    sensors' depth below the ankle joint, m (ankle height + footplate). Returns the
+    sensors' depth below the ankle joint, m (ankle height + footplate). ``device_p``,
+    ``actuators``: the device alone's parameters and the actuators' records (what the
+    transparent law compensates; without them only the impedance mode is offered),
+    ``transparency``, ``assist``: those laws' settings, ``support_mode``: the mode it
+    starts in. Returns the
     :data:`~exoleg.control.contract.OUTPUT` fields as a dict (:meth:`TickRecords.result`):
     ``tau`` (3,) N m for the drives, ``mode``, ``phase``, ``gait_fraction``, ``events``,
     ``safety_status``, ``q_ref``, ``fault``, ``fault_joint``, ``fault_value``,
-    ``fault_limit``, ``refused``.
+    ``fault_limit``, ``refused``, ``support_mode``, ``support_level``.
     """
 
     def __init__(self, leg: LegModel, body_mass: float, gains: WalkGains | None = None,

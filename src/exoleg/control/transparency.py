@@ -1,8 +1,9 @@
 """The support modes of the walking controller, and the transparent (zero-torque) one.
 
 :class:`SupportMode`: how much the device does for the child. ``IMPEDANCE`` is the
-paper's phase-scheduled impedance (:mod:`exoleg.control.hierarchy`); ``TRANSPARENT``
-lets the child move as if the device were not there: the drives deliver what the
+paper's phase-scheduled impedance (:mod:`exoleg.control.hierarchy`); ``AAN`` mixes it
+with the transparent law by a support adapted to the child (:mod:`exoleg.control.assist`);
+``TRANSPARENT`` lets the child move as if the device were not there: the drives deliver what the
 device's own links, its motors' rotors (the reflected inertia, hip 3.2 kg m^2) and its
 friction take, so that the cuffs pass (ideally) no torque::
 

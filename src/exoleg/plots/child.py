@@ -1,14 +1,17 @@
-"""Figures of the clinical tests on the simulated child (``exoleg assess``)."""
+"""Figures of the simulated child: the clinical tests (``exoleg assess``) and a walk under
+a support mode (``exoleg simulate --walk --child``)."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from exoleg.plots.figures import _title, new_figure
 
 if TYPE_CHECKING:
     from exoleg.child.assess import Pendulum, Stretch
+    from exoleg.child.model import ChildModel
+    from exoleg.sim.walk import WalkResult
 
 
 def pendulum_figure(p: Pendulum, path: str | Path) -> Path:
@@ -54,4 +57,57 @@ def stretch_figure(s: Stretch, path: str | Path) -> Path:
     _title(b, "peak resistance (N m)")
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=100, format="png")
+    return Path(path)
+
+
+def support_figure(r: WalkResult, child: ChildModel, strikes: Any, path: str | Path) -> Path:
+    """A walk with the child as an actor under a support mode: top, the cuffs' torque over
+    the gait cycle per joint (every tick of every stride after the first, N m/kg);
+    middle, the support per stride (each joint's mean over the stride, 0-1) and the
+    child's stance share; bottom, each joint's angle over the cycle against the gait the
+    child means (:func:`~exoleg.child.model.intended_gait`) and the device's reference."""
+    import numpy as np
+
+    from exoleg.child.model import intended_gait
+    from exoleg.control.contract import Mode
+    from exoleg.io import atomic_path
+    from exoleg.params.records import JOINTS
+
+    fig = new_figure(12, 9.5, left=0.06, right=0.98, top=0.94, bottom=0.06, wspace=0.28,
+                     hspace=0.45)
+    axes = fig.subplots(3, 3)
+    walking = (r.mode == Mode.WALKING) & (r.t > r.walk_start + r.stride_time)
+    x = 100 * r.gait_fraction[walking]
+    q_int, _, _ = intended_gait(child, r.stride_time)
+    pct = np.linspace(0.0, 100.0, len(q_int))
+    for i, j in enumerate(JOINTS):
+        ax = axes[0, i]
+        ax.plot(x, r.interaction[walking, i] / r.body_mass, ".", ms=0.6)
+        ax.axhline(0.0, color="0.6", lw=0.6)
+        _title(ax, f"{j}: the cuffs' torque (N m/kg) over the gait cycle (%)")
+        ax = axes[2, i]
+        ax.plot(x, np.degrees(r.q[walking, i]), ".", ms=0.6, label="walked")
+        ax.plot(x, np.degrees(r.q_ref[walking, i]), ".", ms=0.3, color="0.25",
+                label="the device's reference")
+        ax.plot(pct, np.degrees(q_int[:, i]), "k--", lw=1, label="the child's intended gait")
+        _title(ax, f"{j} angle (deg) over the gait cycle (%)")
+        ax.legend(fontsize=6, loc="best")
+    ax = axes[1, 0]
+    s = np.asarray(strikes)
+    for i, j in enumerate(JOINTS):
+        per = [float(np.mean(r.support_level[(r.t >= a) & (r.t < b), i]))
+               for a, b in zip(s[:-1], s[1:], strict=True)]
+        ax.plot(np.arange(1, len(per) + 1), per, "o-", ms=2, lw=0.8, label=j)
+    ax.set_ylim(-0.05, 1.05)
+    ax.set_xlabel("stride")
+    ax.legend(fontsize=6)
+    _title(ax, "support per stride (1: the impedance's, 0: transparent)")
+    ax = axes[1, 1]
+    ax.plot(r.t, r.child_share, lw=0.8)
+    ax.set_xlabel("time (s)")
+    _title(ax, "the child's stance share of the normative moments (a learning child's "
+               "changes)")
+    axes[1, 2].axis("off")
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=100, format=Path(path).suffix.lstrip(".") or "png")
     return Path(path)

@@ -221,8 +221,8 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     passive leg). ``commands``: the operator's command per tick (default: arm at 0, walk
     after ``standing`` s). ``model``: the leg the controller is given (default ``leg``:
     the controller knows the leg it walks). ``support_mode``: the controller's
-    (:class:`~exoleg.control.transparency.SupportMode`: the paper's impedance, or the
-    device transparent)."""
+    (:class:`~exoleg.control.transparency.SupportMode`: the paper's impedance, the
+    device transparent, or assist-as-needed)."""
     if not (isinstance(strides, int) and 1 <= strides <= 10000):
         raise ParameterError("simulate_walk", "strides", f"expected 1-10000, got {strides!r}")
     if not (isinstance(substeps, int) and 1 <= substeps <= 100):
