@@ -19,6 +19,7 @@ from exoleg.control.contract import Command, Mode
 from exoleg.control.transparency import (
     PARTS,
     SUPPORT_APPLIES,
+    SUPPORT_COMMANDS,
     SupportMode,
     TransparencySettings,
     new_support_state,
@@ -167,11 +168,13 @@ def test_support_commands_apply_where_the_table_says() -> None:
     known = TransparencySettings.default().record(dev.p)
     unknown = TransparencySettings.default().record(None)
     for mode in Mode:
-        for cmd in (Command.IMPEDANCE, Command.TRANSPARENT):
+        for cmd in SUPPORT_COMMANDS:
             ss = new_support_state()
             left, refused = support_command(known, ss, int(cmd), int(mode))
             assert left == Command.NONE
             assert (refused == Command.NONE) == (mode in SUPPORT_APPLIES), (mode, cmd)
+            if refused == Command.NONE:
+                assert ss[0]["asked"] == SUPPORT_COMMANDS[cmd]
     ss = new_support_state()
     assert support_command(unknown, ss, int(Command.TRANSPARENT), int(Mode.STANDING))[1] \
         == Command.TRANSPARENT

@@ -59,20 +59,15 @@ class AssistSettings:
     def __post_init__(self) -> None:
         w = "AssistSettings"
         for (_, unit, lo, hi), name in zip(_SCALARS, ("forgetting", "ramp"), strict=True):
-            v = _check.finite(w, name, getattr(self, name))
-            if not lo <= v <= hi or (name == "forgetting" and v >= 1.0):
-                u = f" {unit}" if unit else ""
-                raise ParameterError(w, name, f"{v:g}{u} is outside {lo:g}-{hi:g}{u}"
-                                     + (" (below 1: the support must forget)"
-                                        if name == "forgetting" else ""))
+            _check.within(w, name, getattr(self, name), lo, hi, unit)
+        if self.forgetting >= 1.0:
+            raise ParameterError(w, "forgetting", f"{self.forgetting:g} (below 1: the "
+                                 "support must forget)")
         for (_, lo, hi), name, scale in zip(
                 _VECTORS, ("gain", "deadband", "support_min", "support_max", "start"),
                 (1.0, 180.0 / np.pi, 1.0, 1.0, 1.0), strict=True):
-            vec = _check.vector(w, name, list(getattr(self, name)), 3)
-            if np.any(vec * scale < lo) or np.any(vec * scale > hi):
-                raise ParameterError(w, name, f"{(vec * scale).tolist()} is outside "
-                                     f"{lo:g}-{hi:g} per joint")
-            object.__setattr__(self, name, vec)
+            object.__setattr__(self, name, _check.vector_within(
+                w, name, list(getattr(self, name)), 3, lo, hi, scale))
         if np.any(self.support_min > self.support_max):
             raise ParameterError(w, "support_min", f"{self.support_min.tolist()} above "
                                  f"support_max {self.support_max.tolist()}")
@@ -139,9 +134,11 @@ def assist_stride(ap, as_, t):  # type: ignore[no-untyped-def]
     Emken's update within the operator's bounds; the sums start again."""
     P = ap[0]
     S = as_[0]
-    _level_now(ap, as_, t, S.before)  # where a ramp under way has got to
+    r = _ramped(ap, as_, t)
     for b in range(BINS):
         for j in range(3):
+            # from where a ramp under way has got to
+            S.before[b, j] += r * (S.support[b, j] - S.before[b, j])
             if S.n[b] > 0:
                 e = np.sqrt(S.sq[b, j] / S.n[b])
                 s = P.forgetting * S.before[b, j] + P.gain[j] * max(0.0, e - P.deadband[j])
@@ -155,15 +152,12 @@ def assist_stride(ap, as_, t):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def _level_now(ap, as_, t, out):  # type: ignore[no-untyped-def]
-    """Every bin's support at ``t`` s, the last update ramped in, into ``out`` (BINS, 3)."""
+def _ramped(ap, as_, t):  # type: ignore[no-untyped-def]
+    """How far (0-1) the last update has been ramped in at ``t`` s."""
     S = as_[0]
-    r = 1.0
     if S.t_update >= 0.0 and ap[0].ramp > 0.0:
-        r = min(max((t - S.t_update) / ap[0].ramp, 0.0), 1.0)
-    for b in range(BINS):
-        for j in range(3):
-            out[b, j] = S.before[b, j] + r * (S.support[b, j] - S.before[b, j])
+        return min(max((t - S.t_update) / ap[0].ramp, 0.0), 1.0)
+    return 1.0
 
 
 @njit(cache=True)
@@ -172,13 +166,13 @@ def assist_level(ap, as_, x, t, out):  # type: ignore[no-untyped-def]
     (3,): the bins' values ramped in, interpolated between the bins' centres along the
     cycle, within the operator's bounds."""
     S = as_[0]
-    levels = np.empty((BINS, 3))
-    _level_now(ap, as_, t, levels)
+    r = _ramped(ap, as_, t)
     f = x * BINS - 0.5
     b0 = int(np.floor(f))
     a = f - b0
     i0 = b0 % BINS
     i1 = (b0 + 1) % BINS
     for j in range(3):
-        s = (1.0 - a) * levels[i0, j] + a * levels[i1, j]
-        out[j] = min(max(s, S.lo[j]), S.hi[j])
+        s0 = S.before[i0, j] + r * (S.support[i0, j] - S.before[i0, j])
+        s1 = S.before[i1, j] + r * (S.support[i1, j] - S.before[i1, j])
+        out[j] = min(max((1.0 - a) * s0 + a * s1, S.lo[j]), S.hi[j])

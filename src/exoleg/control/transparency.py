@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 
 from exoleg.control.contract import Command, Mode
 from exoleg.device.actuator import friction
-from exoleg.dynamics.kernels import coriolis_dq, gravity, mass_matrix
+from exoleg.dynamics.kernels import N_PARAMS, coriolis_dq, gravity, mass_matrix
 from exoleg.entry import SUPPORT_MODES
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8, new
@@ -60,8 +60,6 @@ class SupportMode(IntEnum):
 SUPPORT_NAMES = {n: SupportMode[n.upper()] for n in SUPPORT_MODES}
 #: The parts of the transparent law, in the order they are added.
 PARTS = ("gravity", "inertia", "friction", "interaction")
-#: The length of a leg's parameter vector (:attr:`exoleg.dynamics.model.LegModel.p`).
-P_LENGTH = 18
 #: (field in the file, unit, lower, upper) of the transparent mode's scalar settings.
 _SCALARS = (("accel_filter_hz", "Hz", 1.0, 500.0), ("inertia_share", "", 0.0, 1.0),
             ("lead_ms", "ms", 0.0, 20.0), ("ramp_s", "s", 0.05, 5.0))
@@ -98,16 +96,12 @@ class TransparencySettings:
         for (_, unit, lo, hi), name, scale in zip(
                 _SCALARS, ("accel_filter_hz", "inertia_share", "lead", "ramp"),
                 (1.0, 1.0, 1e3, 1.0), strict=True):
-            v = _check.finite(w, name, getattr(self, name)) * scale
-            if not lo <= v <= hi:
-                u = f" {unit}" if unit else ""
-                raise ParameterError(w, name, f"{v:g}{u} is outside {lo:g}-{hi:g}{u}")
+            _check.within(w, name, _check.finite(w, name, getattr(self, name)) * scale,
+                          lo, hi, unit)
         for (_, hi), name in zip(_VECTORS, ("kp", "ki", "integral_limit", "wall_stiffness",
                                             "wall_damping"), strict=True):
-            vec = _check.vector(w, name, list(getattr(self, name)), 3)
-            if np.any(vec < 0.0) or np.any(vec > hi):
-                raise ParameterError(w, name, f"{vec.tolist()} is outside 0-{hi:g} per joint")
-            object.__setattr__(self, name, vec)
+            object.__setattr__(self, name, _check.vector_within(
+                w, name, list(getattr(self, name)), 3, 0.0, hi))
 
     @classmethod
     def default(cls, folder: str | Path | None = None) -> TransparencySettings:
@@ -155,9 +149,9 @@ class TransparencySettings:
         r = new(TRANSPARENCY)
         if device_p is None:
             return r
-        if np.shape(device_p) != (P_LENGTH,):
+        if np.shape(device_p) != (N_PARAMS,):
             raise ParameterError("TransparencySettings.record", "device_p",
-                                 f"expected a leg's {P_LENGTH} parameters, got shape "
+                                 f"expected a leg's {N_PARAMS} parameters, got shape "
                                  f"{np.shape(device_p)}")
         r["parts"] = [1.0 if b else 0.0 for b in self.parts]
         for name in ("accel_filter_hz", "inertia_share", "lead", "kp", "ki", "integral_limit",
@@ -176,7 +170,7 @@ TRANSPARENCY = np.dtype([("parts", F8, 4), ("accel_filter_hz", F8), ("inertia_sh
                          ("lead", F8), ("kp", F8, 3), ("ki", F8, 3),
                          ("integral_limit", F8, 3), ("wall_stiffness", F8, 3),
                          ("wall_damping", F8, 3), ("ramp", F8),
-                         ("device_p", F8, P_LENGTH), ("known", np.bool_)])
+                         ("device_p", F8, N_PARAMS), ("known", np.bool_)])
 #: Its state: the support mode asked (:class:`SupportMode`: by the operator's command,
 #: :func:`support_command`), the one in force and the one it blends from, when the blend
 #: started (s; negative: none under way), the rates last measured (rad/s), the
@@ -255,9 +249,9 @@ def transparent_torque(tp, A, ss, q, dq, tau_int, lower, upper, g, h, armed, out
         out[j] = P[0, j] + P[1, j] + P[2, j] + P[3, j] + w
 
 
-#: The operator's commands that choose a support mode, and the mode each asks.
-SUPPORT_COMMANDS = {Command.IMPEDANCE: SupportMode.IMPEDANCE,
-                    Command.TRANSPARENT: SupportMode.TRANSPARENT, Command.AAN: SupportMode.AAN}
+#: The operator's commands that choose a support mode, and the mode each asks: in the
+#: modes' order from IMPEDANCE on (:func:`support_command` reads it so).
+SUPPORT_COMMANDS = {Command(Command.IMPEDANCE + m): m for m in SupportMode}
 #: The supervisor's modes in which the walking controller takes them (the transparent
 #: one with the device's model known); the supervisor itself refuses them.
 SUPPORT_APPLIES = (Mode.DISARMED, Mode.STANDING, Mode.WALKING, Mode.STOPPING)
@@ -270,15 +264,13 @@ def support_command(tp, ss, command, mode):  # type: ignore[no-untyped-def]
     model known):
     returns (the command left for the supervisor -- NONE when this took it --, the
     command refused here or NONE)."""
-    if command == Command.IMPEDANCE or command == Command.TRANSPARENT \
-            or command == Command.AAN:
-        if mode == Mode.FAULT or (command != Command.IMPEDANCE and not tp[0].known):
-            return Command.NONE, command
-        ss[0].asked = (SupportMode.IMPEDANCE if command == Command.IMPEDANCE
-                       else SupportMode.TRANSPARENT if command == Command.TRANSPARENT
-                       else SupportMode.AAN)
-        return Command.NONE, Command.NONE
-    return command, Command.NONE
+    asked = command - Command.IMPEDANCE  # SUPPORT_COMMANDS
+    if asked < 0 or asked > SupportMode.AAN:
+        return command, Command.NONE
+    if mode == Mode.FAULT or (asked != SupportMode.IMPEDANCE and not tp[0].known):
+        return Command.NONE, command
+    ss[0].asked = asked
+    return Command.NONE, Command.NONE
 
 
 @njit(cache=True)

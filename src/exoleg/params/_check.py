@@ -36,6 +36,29 @@ def positive(where: str, field: str, value: Any, unit: str = "") -> float:
     return x
 
 
+def within(where: str, field: str, value: Any, lo: float, hi: float, unit: str = "",
+           why: str = "") -> float:
+    """Return ``value`` as a float; it must be finite and within ``lo``-``hi`` (the error
+    says the range in ``unit``, and ``why`` when given)."""
+    x = finite(where, field, value)
+    if not lo <= x <= hi:
+        u = f" {unit}" if unit else ""
+        raise ParameterError(where, field, f"{x:g}{u} is outside {lo:g}-{hi:g}{u}"
+                             + (f" ({why})" if why else ""))
+    return x
+
+
+def vector_within(where: str, field: str, value: Any, n: int, lo: float, hi: float,
+                  scale: float = 1.0) -> NDArray[np.float64]:
+    """Return ``value`` as a finite float vector of length ``n``, each element times
+    ``scale`` (the unit people read: degrees for radians) within ``lo``-``hi``."""
+    v = vector(where, field, value, n)
+    if np.any(v * scale < lo) or np.any(v * scale > hi):
+        raise ParameterError(where, field, f"{(v * scale).tolist()} is outside "
+                             f"{lo:g}-{hi:g} per element")
+    return v
+
+
 def vector(where: str, field: str, value: Any, n: int) -> NDArray[np.float64]:
     """Return ``value`` as a finite float vector of length ``n``."""
     if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray)):
@@ -83,11 +106,5 @@ def ranged(where: str, table: Any, spec: Mapping[str, tuple[float, float, str]],
     if not isinstance(table, Mapping):
         raise ParameterError(where, "(table)", f"expected a table of {', '.join(spec)}")
     keys(where, table, spec, optional)
-    out = {}
-    for name, (lo, hi, unit) in spec.items():
-        v = finite(where, name, table[name])
-        if not lo <= v <= hi:
-            u = f" {unit}" if unit else ""
-            raise ParameterError(where, name, f"{v:g}{u} is outside {lo:g}-{hi:g}{u}")
-        out[name] = v
-    return out
+    return {name: within(where, name, table[name], lo, hi, unit)
+            for name, (lo, hi, unit) in spec.items()}
