@@ -140,11 +140,9 @@ def _walk(group: int | None, child_options: dict[str, Any], device: Any = None,
 
 
 def _support(r: Any) -> list[float]:
-    from exoleg.control.gait_phase import Event
     from exoleg.sim.metrics import support_by_stride
 
-    strikes = r.t[((r.true_events() & Event.IC) != 0) & (r.t >= r.walk_start)]
-    return support_by_stride(r.t, r.support_level, strikes)
+    return support_by_stride(r.t, r.support_level, r.strikes())
 
 
 def test_the_support_falls_for_a_child_who_tracks_well_and_not_for_a_spastic_crouch() -> None:

@@ -201,7 +201,7 @@ class ChildModel:
             f"on = {'true' if self.effort else 'false'}",
             f"crouch = {self.crouch}   # 0 normative gait, 1-5 Rozumalski & Schwartz 2009 cluster",
             f"strength = {self.strength_scale:g}   # x the GMFCS level's strength (0.1-1.5)",
-            f"learning = {self.learning:g}   # 0: fixed; 0.5-0.999 adapts to the device (per stride)",
+            f"learning = {self.learning:g}   # 0 fixed; 0.5-0.999 adapts, per stride",
         ]
         return "\n".join(lines) + "\n"
 
@@ -420,7 +420,7 @@ def _cycle(table, x, j):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def _learn(c, s, xc, q, k, loaded):  # type: ignore[no-untyped-def]
+def _learn(c, s, xc, q, loaded):  # type: ignore[no-untyped-def]
     """The learning child (Emken et al. 2007's human model): their stance share of the
     normative moments, x <- f x + g e at each new stride (e: the stride's stance RMS of
     the gait they mean against the one they walk, over the joints), within 0 and their
@@ -509,7 +509,7 @@ def child_tick(P, C, CS, q, dq, h, walking, xc, loaded, out):  # type: ignore[no
         n = c.effort_delay
         row = 0 if loaded else 1
         if c.learn_f != 0.0 and walking:
-            _learn(c, s, xc, q, k, loaded)
+            _learn(c, s, xc, q, loaded)
         # the error the child feels is the delayed one: what they felt a delay ago
         # against what they meant then (their intention at that fraction of the cycle);
         # the feedforward is the moment meant for now

@@ -20,7 +20,6 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     import numpy as np
 
     import exoleg
-    from exoleg.control.gait_phase import Event
     from exoleg.control.safety import Limited
     from exoleg.control.transparency import SUPPORT_NAMES
     from exoleg.errors import ParameterError
@@ -60,7 +59,7 @@ def _simulate_walk(args: argparse.Namespace) -> int:
         notes.append(f"the safety layer stopped the walk at t = {r.t[k]:.3f} s; torque was off "
                      "from then on")
     inter = interaction_summary(r)
-    strikes = r.t[((r.true_events() & Event.IC) != 0) & (r.t >= r.walk_start)]
+    strikes = r.strikes()
     figs = {"strides_commanded": args.strides, "body_mass_kg": args.body_mass,
             "pelvis_mass_kg": r.plant.body_mass, "belt_speed_m_s": r.plant.belt_speed,
             "safety_fault": fault, "peaks": peaks, "gait_phase_detection": rows,

@@ -96,7 +96,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
                  "stopped by the safety layer" if r.fault else "ok"] for r in runs],
                ["child", "sensor noise", "stride", "strides", "walk"])
         _table(_detection_rows(rows), _DETECTION_HEADER,
-               title="gait-phase detection (FSRs and the foot's gyroscope) against the true contacts, all runs")
+               title="gait-phase detection (FSRs and the foot's gyroscope) against the true "
+                     "contacts, all runs")
         if rows_ok and len(rows_ok) != len(rows) or any(r.fault for r in runs):
             _table(_detection_rows(rows_ok), _DETECTION_HEADER,
                    title="the same, runs the safety layer did not stop")

@@ -44,7 +44,7 @@ from numpy.typing import ArrayLike, NDArray
 from exoleg.control import gait_phase as gp
 from exoleg.control import safety as sf
 from exoleg.control.assist import AssistSettings, assist_level, assist_stride, assist_track
-from exoleg.control.contract import OUTPUT, SENSORS, Mode, TickRecords
+from exoleg.control.contract import OUTPUT, SENSORS, Command, Mode, TickRecords
 from exoleg.control.safety import SafetyLimits, safety_step
 from exoleg.control.supervisor import SUPERVISOR, report, settle, supervise
 from exoleg.control.transparency import (
@@ -56,6 +56,7 @@ from exoleg.control.transparency import (
     track_rates,
     transparent_torque,
 )
+from exoleg.device.actuator import ACTUATOR
 from exoleg.dynamics.kernels import foot_point_jacobian, gravity, links_mass, mass_matrix
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
@@ -248,7 +249,7 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, 
     o = out[0]
     before = sup[0].mode
     command, refused = support_command(tp, ss, s.command, before)
-    if command != 0:
+    if command != Command.NONE:
         refused = supervise(sup, lim, sst, command, s.q, s.dq)
     mode = sup[0].mode
     R = ref[0]
@@ -437,8 +438,6 @@ class WalkController:
         if device_p is None and support_mode != SupportMode.IMPEDANCE:
             raise ParameterError(w, "support_mode", "the transparent mode needs the device "
                                  "alone's parameters and the actuators' records")
-        from exoleg.device.actuator import ACTUATOR
-
         self.tp = self.transparency.record(device_p)
         self.A = np.zeros(3, ACTUATOR) if actuators is None else actuators
         self.ss = new_support_state(support_mode)

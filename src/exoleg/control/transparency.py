@@ -58,6 +58,12 @@ class SupportMode(IntEnum):
 
 #: The names people type for the support modes (:data:`exoleg.entry.SUPPORT_MODES`).
 SUPPORT_NAMES = {n: SupportMode[n.upper()] for n in SUPPORT_MODES}
+
+
+def support_mode_of(controller: str) -> SupportMode:
+    """The support mode a walking controller called ``controller`` starts in
+    (:data:`exoleg.entry.WALKING_CONTROLLERS`: ``walk`` is the impedance)."""
+    return SUPPORT_NAMES.get(controller, SupportMode.IMPEDANCE)
 #: The parts of the transparent law, in the order they are added.
 PARTS = ("gravity", "inertia", "friction", "interaction")
 #: (field in the file, unit, lower, upper) of the transparent mode's scalar settings.

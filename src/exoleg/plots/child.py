@@ -72,6 +72,7 @@ def support_figure(r: WalkResult, child: ChildModel, strikes: Any, path: str | P
     from exoleg.control.contract import Mode
     from exoleg.io import atomic_path
     from exoleg.params.records import JOINTS
+    from exoleg.sim.metrics import support_per_stride
 
     fig = new_figure(12, 9.5, left=0.06, right=0.98, top=0.94, bottom=0.06, wspace=0.28,
                      hspace=0.45)
@@ -93,11 +94,9 @@ def support_figure(r: WalkResult, child: ChildModel, strikes: Any, path: str | P
         _title(ax, f"{j} angle (deg) over the gait cycle (%)")
         ax.legend(fontsize=6, loc="best")
     ax = axes[1, 0]
-    s = np.asarray(strikes)
+    per = support_per_stride(r.t, r.support_level, strikes)
     for i, j in enumerate(JOINTS):
-        per = [float(np.mean(r.support_level[(r.t >= a) & (r.t < b), i]))
-               for a, b in zip(s[:-1], s[1:], strict=True)]
-        ax.plot(np.arange(1, len(per) + 1), per, "o-", ms=2, lw=0.8, label=j)
+        ax.plot(np.arange(1, len(per) + 1), per[:, i], "o-", ms=2, lw=0.8, label=j)
     ax.set_ylim(-0.05, 1.05)
     ax.set_xlabel("stride")
     ax.legend(fontsize=6)

@@ -138,13 +138,13 @@ def make_controller(name: str, config: DeviceConfig, leg: LegModel, body_mass: f
     if name in WALKING_CONTROLLERS:
         if sim is not None:
             return cast("Controller", sim.controller)
-        from exoleg.control.transparency import SUPPORT_NAMES, SupportMode
+        from exoleg.control.transparency import support_mode_of
         from exoleg.device.config import walk_controller
         from exoleg.device.walking import ANKLE_HEIGHT, Ground, body_weight_share
 
         depth = ANKLE_HEIGHT + Ground.default(config.folder).sole
         return walk_controller(config, leg, body_weight_share(body_mass), depth,
-                               support_mode=SUPPORT_NAMES.get(name, SupportMode.IMPEDANCE))
+                               support_mode=support_mode_of(name))
     from exoleg.control.controllers import law_named
     from exoleg.control.tracking import TrackingController
     from exoleg.sim.scenario import paper_reference
@@ -255,6 +255,7 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
     """:func:`run` in the folder it holds."""
     import exoleg
     from exoleg.control.contract import WALKING_MODES, Command
+    from exoleg.control.transparency import support_mode_of
     from exoleg.device.config import DeviceConfig
     from exoleg.io import write_json
     from exoleg.runtime.sim_backend import SimBackend
@@ -262,11 +263,8 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
     leg = leg if leg is not None else exoleg.paper_leg()
     config = DeviceConfig.load(control_dt=period)
     # a simulated device only where it is what answers: on sim, or behind simulated nodes
-    from exoleg.control.transparency import SUPPORT_NAMES, SupportMode
-
-    support = SUPPORT_NAMES.get(controller, SupportMode.IMPEDANCE)
     sim = (SimBackend(leg, body_mass, period, seed=seed, config=config, child=child,
-                      step=step, model=model, support_mode=support)
+                      step=step, model=model, support_mode=support_mode_of(controller))
            if simulated(backend, interface) else None)
     ctl = make_controller(controller, config, leg if model is None else model, body_mass,
                           sim, reference)

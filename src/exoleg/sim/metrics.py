@@ -149,16 +149,17 @@ def interaction_summary(r: Any) -> list[dict[str, Any]]:
     return interaction_figures(r.interaction[r.t >= r.walk_start], r.body_mass)
 
 
-def support_by_stride(t: F64, level: F64, strikes: F64) -> list[float]:
+def support_per_stride(t: F64, level: F64, strikes: F64) -> F64:
     """The support level (``level`` (n, 3), 0-1 per joint and tick at times ``t``) per
-    stride, its mean over the stride's ticks and the joints: one value per stride between
-    consecutive ``strikes`` (s, the initial contacts)."""
-    out = []
-    for a, b in zip(strikes[:-1], strikes[1:], strict=True):
-        sel = (t >= a) & (t < b)
-        if sel.any():
-            out.append(float(np.mean(level[sel])))
-    return out
+    stride and joint, its mean over the stride's ticks: a row per stride between
+    consecutive ``strikes`` (s, the initial contacts) that holds a tick."""
+    rows = [level[(t >= a) & (t < b)] for a, b in zip(strikes[:-1], strikes[1:], strict=True)]
+    return np.array([r.mean(axis=0) for r in rows if len(r)]).reshape(-1, 3)
+
+
+def support_by_stride(t: F64, level: F64, strikes: F64) -> list[float]:
+    """:func:`support_per_stride`'s mean over the joints: one value per stride."""
+    return [float(x) for x in support_per_stride(t, level, strikes).mean(axis=1)]
 
 
 def safety_events(t: F64, status: Any, since: float = -np.inf) -> list[dict[str, Any]]:

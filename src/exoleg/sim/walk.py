@@ -166,6 +166,12 @@ class WalkResult(TimeSeries):
         ankle_x = self.plant.leg.fk(self.q)["ankle"][:, 0]
         return true_events(self.contact_force, ahead=ankle_x > 0.0)
 
+    def strikes(self) -> F64:
+        """When the foot truly struck the belt while walking (s): the strides' bounds."""
+        from exoleg.control.gait_phase import Event
+
+        return self.t[((self.true_events() & Event.IC) != 0) & (self.t >= self.walk_start)]
+
     def columns(self) -> dict[str, F64]:
         cols: dict[str, F64] = {"t": self.t, "pelvis": self.pelvis}
         for name in ("q", "dq", "q_meas", "dq_meas", "q_ref", "u_safe", "tau", "envelope",

@@ -58,10 +58,11 @@ def budget(leg: Any, config: Any, body_mass: float, stride_time: float = 1.1,
     t = np.linspace(0.0, stride_time, samples)
     q, dq, ddq = SchwartzGait2008(stride_time=stride_time, speed=speed, upright=True).sample(t)
     fr = np.array([[friction(A[j:j + 1], w) for j, w in enumerate(row)] for row in dq])
-    need = dev.inverse_dynamics(q, dq, ddq) + fr
-    inertial = np.einsum("kij,kj->ki", dev.M(q), ddq)
-    rotors = np.array([a.reflected_inertia for a in config.actuators])
+    # the rotors are the device alone's armature: their J ddq is added to the rest
+    rotors = dev.armature
     links = dev.with_armature(np.zeros(3)).inverse_dynamics(q, dq, ddq) + fr
+    need = links + rotors * ddq
+    inertial = np.einsum("kij,kj->ki", dev.M(q), ddq)
     rows = []
     for j, joint in enumerate(JOINTS):
         lim = config.actuators[j].torque_limit
