@@ -176,7 +176,6 @@ def test_run_refuses_walking_without_arming(tmp_path: Path) -> None:
     assert r.returncode == 2 and "needs --arm" in r.stderr
 
 
-@pytest.mark.device_overrun
 def test_loop_overrun_takes_torque_off(tmp_path: Path, backend_factory) -> None:  # type: ignore[no-untyped-def]
     """A stall longer than the overrun limit (injected: one tick's controller sleeps
     80 ms) stops the session with the torque off; the stalled tick is the last logged.
@@ -201,7 +200,7 @@ def test_loop_overrun_takes_torque_off(tmp_path: Path, backend_factory) -> None:
     b = backend_factory()
     res, cols = _session(tmp_path, b, Stalling(b.controller), 1.0, {0: Command.ARM})
     assert res.stopped_by.startswith("loop overrun: tick 300 started "), res.stopped_by
-    assert "(limit 50 ms)" in res.stopped_by  # the device's, not the suite's (conftest)
+    assert "(limit 50 ms)" in res.stopped_by  # the device's, not the suite's simulated one
     assert np.array_equal(b.u, np.zeros(3))  # the drives were told zero
     assert len(cols["t"]) == 300
     assert np.any(cols["u_knee"] != 0.0)  # it was applying torque before
@@ -437,3 +436,22 @@ def test_how_a_session_ended_is_said_truly(tmp_path: Path, backend_factory) -> N
                       realtime=False, on_tick=lambda k, *a: END_SESSION if k == 900 else None)
     assert res.stopped_by == ("the operator ended the session: torque off (after an E-stop "
                               "at 0.500 s)")
+
+
+def test_the_simulated_overrun_limit_is_read_checked_and_recorded(tmp_path: Path) -> None:
+    # SIM_OVERRUN_ENV on a simulated device: recorded in run.json; a bad value is refused
+    # naming the variable and its range (exit 2), never silently the default
+    env = {**os.environ, "EXOLEG_SIM_OVERRUN_MS": "120"}
+    argv = [sys.executable, "-m", "exoleg.cli", "run", "--duration", "0.2", "--arm",
+            "--no-realtime"]
+    r = subprocess.run([*argv, "--out", str(tmp_path / "a")], capture_output=True,
+                       text=True, timeout=600, env=env, check=False)
+    assert r.returncode == 0, r.stderr
+    assert json.loads((tmp_path / "a" / "run.json").read_text())["overrun_ms"] == 120.0
+    for bad, says in (("fast", "'fast' is not a number of ms"),
+                      ("5000", "5000 ms is outside 1-1000 ms")):
+        r = subprocess.run([*argv, "--out", str(tmp_path / bad)], capture_output=True,
+                           text=True, timeout=600,
+                           env={**os.environ, "EXOLEG_SIM_OVERRUN_MS": bad}, check=False)
+        assert r.returncode == 2 and "EXOLEG_SIM_OVERRUN_MS" in r.stderr and says in \
+            r.stderr, r.stderr

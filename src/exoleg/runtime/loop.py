@@ -145,7 +145,7 @@ def run_session(backend: Device, controller: Controller, duration: float, period
                 log: SessionLog, commands: dict[int, int] | None = None,
                 realtime: bool = True,
                 on_tick: Callable[[int, dict[str, Any], dict[str, Any], float], int | None]
-                | None = None, overrun: float | None = None,
+                | None = None, overrun: float = OVERRUN_S,
                 io_threads: Sequence[threading.Thread] = (),
                 scenery: Callable[[dict[str, Any]], None] | None = None) -> SessionResult:
     """Run ``duration`` s of ticks; ``commands``: tick -> operator command (arm, walk...).
@@ -156,14 +156,12 @@ def run_session(backend: Device, controller: Controller, duration: float, period
     the duration, the operator's end and a lost link are controlled stops while the child
     walks: the loop commands a stand, goes on until the supervisor stands (at most
     :data:`STOP_GRACE_S`), then takes the torque off; a signal, a fault or an E-stop is
-    immediate. A tick later than ``overrun`` s (None: :data:`OVERRUN_S`) takes the torque
-    off and stops. With ``realtime``, the loop runs at SCHED_FIFO and the ``io_threads``
+    immediate. A tick later than ``overrun`` s takes the torque off and stops. With ``realtime``, the loop runs at SCHED_FIFO and the ``io_threads``
     above it (:func:`realtime_settings`); this thread's scheduling is restored afterwards.
     ``scenery(out)``: a simulated world told each tick's output before the drives'
     command acts on it (the treadmill follows the supervisor's walking). Returns how it
     ended."""
     stop: list[str] = []
-    overrun = OVERRUN_S if overrun is None else overrun
 
     def on_signal(signum: int, frame: object) -> None:
         stop.append(f"signal {signal.Signals(signum).name}")
