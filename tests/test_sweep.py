@@ -68,6 +68,8 @@ def cli(*args: str, **kw: object) -> subprocess.CompletedProcess[str]:
     ("[study]\nsampling = \"list\"\n", "runs"),
     ("[axes]\nspasticity = [\"mild\"]\n", "axes.spasticity"),      # on a passive leg
     ("[axes]\nchild = [\"actor\"]\ncrouch = [7]\n", "axes.crouch"),  # no such cluster
+    ("[axes]\ncontroller = [\"transparent\"]\n", "axes.controller"),  # a passive leg
+    ("[axes]\ncontroller = [\"pid\"]\n", "axes.controller"),          # no such mode
 ])
 def test_a_bad_study_is_refused_naming_the_key(text: str, key: str) -> None:
     with pytest.raises(ParameterError) as e:
@@ -177,6 +179,40 @@ def test_impairments_are_axes_and_the_cuffs_torque_is_in_every_row() -> None:
     assert (child.gmfcs, child.spasticity.level, child.crouch, child.strength_scale) == (
         2, "moderate", 2, 0.5)
     assert child.strength_fraction == pytest.approx(0.65 * 0.5)  # effort.toml's GMFCS II
+
+
+def test_support_modes_are_an_axis_and_a_row_keeps_the_support_and_the_safety_events() -> None:
+    # issue 23 in a study: the controller's support mode is an axis; a row keeps the
+    # support of its first and last strides and the safety layer's events, as
+    # simulate --walk's summary.json has them (support_by_stride, safety_events)
+    from exoleg.child.model import ChildModel
+    from exoleg.control.transparency import SupportMode
+    from exoleg.sim.metrics import safety_events, support_by_stride
+    from exoleg.sim.walk import simulate_walk
+    from exoleg.sizing import personalized_leg
+    from exoleg.study.runs import _child, run_one
+
+    study = parse_study('[axes]\nchild = ["actor"]\ncontroller = ["impedance", "aan"]\n')
+    imp, aan = study.runs()
+    rows = [run_one(i, 0, run, strides=4) for i, run in enumerate((imp, aan))]
+    assert all(r["error"] == "" for r in rows)
+    # the impedance supports fully every stride (support 1); assist-as-needed's
+    # support, recomputed here from the same walk: the row's figures are its first and
+    # last strides' (a typically developing girl of 10 tracks within the deadband:
+    # measured 0.96 -> 0.80 over 4 strides)
+    assert rows[0]["support_first"] == rows[0]["support_last"] == 1.0
+    c = _child(aan)
+    r = simulate_walk(personalized_leg(c), c.mass, strides=4, child=ChildModel.of(c),
+                      support_mode=SupportMode.AAN)
+    s = support_by_stride(r.t, r.support_level, r.strikes())
+    assert (rows[1]["support_first"], rows[1]["support_last"]) == (s[0], s[-1])
+    assert rows[1]["support_last"] < rows[1]["support_first"] < 1.0
+    events = safety_events(r.t, r.safety_status, r.walk_start)
+    assert rows[1]["safety_events"] == len(events)
+    assert rows[1]["safety_event_kinds"] == ",".join(e["event"] for e in events)
+    # a listed run asking a passive leg to walk transparent is a row with its error
+    row = run_one(2, 0, {**imp, "child": "passive", "controller": "transparent"}, 1)
+    assert "transparent needs child" in row["error"] and row["safety_events"] == -1
 
 
 # ------------------------------------------------------------------ the engine

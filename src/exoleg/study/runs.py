@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from exoleg.errors import ExolegError
+from exoleg.errors import ExolegError, ParameterError
 from exoleg.params.records import JOINTS
 
 #: Per joint, the figures a row keeps (:func:`exoleg.sim.metrics.actuator_peaks`'s keys
@@ -36,6 +36,11 @@ JOINT_METRICS = ("rms_tracking_error_deg", "peak_torque_Nm", "torque_limit_Nm",
 RUN_METRICS = ("fits", "walked", "fault", "fault_time_s", "ticks", "ticks_torque_clipped",
                "ticks_derated", "ticks_gear_beyond_momentary", "steps", "stability_margin",
                "error")
+#: The support (0-1, :mod:`exoleg.control.assist`) per stride, mean over the joints: the
+#: first and the last stride, and the last stride's per joint as ``support_last_{joint}``;
+#: the safety layer's events while walking (:func:`exoleg.sim.metrics.safety_events`): how
+#: many kinds fired and their names ('' for none).
+SUPPORT_METRICS = ("support_first", "support_last", "safety_events", "safety_event_kinds")
 #: Per joint, the cuffs' torque while walking (:mod:`exoleg.child.interaction`), RMS
 #: and peak per kg of body mass, as ``interaction_{rms,peak}_Nm_per_kg_{joint}``.
 INTERACTION_METRICS = ("interaction_rms_Nm_per_kg", "interaction_peak_Nm_per_kg")
@@ -119,9 +124,11 @@ def empty_row(run_id: int, task: int, run: dict[str, Any]) -> dict[str, Any]:
     """A run's row before its figures: its id, task, axis values; NaN figures."""
     row: dict[str, Any] = {"run": run_id, "task": task, **_flat(run),
                            "height_m": np.nan, "mass_kg": np.nan}
-    for m in (*JOINT_METRICS, *INTERACTION_METRICS):
+    for m in (*JOINT_METRICS, *INTERACTION_METRICS, "support_last"):
         for j in JOINTS:
             row[f"{m}_{j}"] = np.nan
+    row.update(support_first=np.nan, support_last=np.nan, safety_events=-1,
+               safety_event_kinds="")
     row.update(fits=False, walked=False, fault="", fault_time_s=np.nan, ticks=-1,
                ticks_torque_clipped=-1, ticks_derated=-1, ticks_gear_beyond_momentary=-1,
                steps=-1, stability_margin=np.nan, error="")
@@ -134,8 +141,14 @@ def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[s
     from exoleg.control.controllers import PD
     from exoleg.control.gait_phase import Event
     from exoleg.control.safety import Fault, Limited, joint_name
+    from exoleg.control.transparency import SUPPORT_NAMES, SupportMode
     from exoleg.sim.closed_loop import sampled_stability
-    from exoleg.sim.metrics import interaction_summary, walk_peaks
+    from exoleg.sim.metrics import (
+        interaction_summary,
+        safety_events,
+        support_per_stride,
+        walk_peaks,
+    )
     from exoleg.sim.walk import simulate_walk
     from exoleg.sizing.fit import fit_device
     from exoleg.sizing.personal import personalized_leg
@@ -147,10 +160,15 @@ def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[s
         fit = fit_device(child)
         leg = personalized_leg(child, fit)
         gains = _gains(run)
+        mode = SUPPORT_NAMES[run["controller"]]
+        who = actor(run, child)
+        if mode == SupportMode.TRANSPARENT and who is None:
+            raise ParameterError("study run", "controller", "transparent needs child = "
+                                 "\"actor\" (a passive leg in a transparent device falls)")
         r = simulate_walk(leg, child.mass, strides=strides, speed=run["speed"],
                           stride_time=run["stride_time"], noise_scale=run["noise"],
                           seed=run["seed"], actuators=device_variant(run), gains=gains,
-                          child=actor(run, child))
+                          child=who, support_mode=mode)
     except (ExolegError, ValueError, ArithmeticError) as e:
         row["error"] = f"{type(e).__name__}: {e}"
         return row
@@ -162,6 +180,15 @@ def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[s
     for p in interaction_summary(r):
         row[f"interaction_rms_Nm_per_kg_{p['joint']}"] = p["rms_Nm_per_kg"]
         row[f"interaction_peak_Nm_per_kg_{p['joint']}"] = p["peak_Nm_per_kg"]
+    per_stride = support_per_stride(r.t, r.support_level, r.strikes())
+    if len(per_stride):
+        row.update(support_first=float(per_stride[0].mean()),
+                   support_last=float(per_stride[-1].mean()))
+        for x, j in zip(per_stride[-1], JOINTS, strict=True):
+            row[f"support_last_{j}"] = float(x)
+    events = safety_events(r.t, status, r.walk_start)
+    row.update(safety_events=len(events),
+               safety_event_kinds=",".join(e["event"] for e in events))
     postures = r.q[::10]
     margin = max(sampled_stability(r.plant.leg, PD(Kp=kp, Kd=kd), dt, postures)
                  for kp, kd in ((gains.kp_stance, gains.kd_stance),

@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from exoleg.child.model import CROUCH_CLUSTERS, LEVELS, STRENGTH_SCALE
-from exoleg.entry import HIP_VARIANTS
+from exoleg.entry import HIP_VARIANTS, SUPPORT_MODES
 from exoleg.errors import ParameterError
 from exoleg.io import read_text
 
@@ -97,6 +97,9 @@ AXES: dict[str, Axis] = {
     "knee_ratio": Axis("choice", choices=RATIOS, default=50.0),
     "ankle_ratio": Axis("choice", choices=RATIOS, default=120.0),
     # the controller (the walking hierarchy, data/device/walking_control.toml)
+    "controller": Axis("choice", choices=SUPPORT_MODES, default="impedance",
+                       meaning="support mode: the paper's impedance, transparent (an actor "
+                       "only) or assist-as-needed (docs/device.md)"),
     "support": Axis("number", 0.0, 1.0, default=1.0,
                     meaning="stance support level (0 none, 1 the body weight)"),
     "kp_scale": Axis("number", 0.25, 2.0, default=1.0, meaning="x the stiffness gains"),
@@ -211,6 +214,11 @@ def parse_study(text: str, where: str = "study") -> Study:
     if impaired and "actor" not in _values_named(axes.get("child", {})):
         raise ParameterError(where, f"axes.{impaired[0]}", "acts on the child as an actor "
                              "only: add child = [\"actor\"] (the default is a passive leg)")
+    if ("transparent" in _values_named(axes.get("controller", {}))
+            and _values_named(axes.get("child", {})) != ["actor"]):
+        raise ParameterError(where, "axes.controller", "transparent leaves the leg to the "
+                             "child: it needs child = [\"actor\"] alone (a passive leg in a "
+                             "transparent device falls)")
     listed = tuple(_listed(where, i, r) for i, r in enumerate(_tables(where, data, "runs")))
     if sampling == "list" and axes:
         raise ParameterError(where, "axes", "sampling = \"list\" takes [[runs]], not [axes]")

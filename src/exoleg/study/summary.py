@@ -17,7 +17,8 @@ from exoleg.params.records import JOINTS
 #: A cell's figures (:func:`summarise`).
 CELL = ("runs", "walked", "walked_fraction", "failed", "clipped_fraction",
         "tracking_error_deg", "winding_max_C", "gear_beyond_momentary_runs",
-        "stability_margin", "commonest_fault")
+        "stability_margin", "interaction_rms_Nm_per_kg", "support_first", "support_last",
+        "safety_event_runs", "commonest_fault")
 
 
 @dataclass(frozen=True)
@@ -54,7 +55,12 @@ def summarise(out: str | Path, x: str | None = None, y: str | None = None) -> Su
     clipped a joint's torque at its limit, the cell's mean; ``tracking_error_deg``: the
     largest joint's RMS tracking error, the cell's mean over the runs that walked;
     ``winding_max_C``: the hottest winding the safety layer estimated;
-    ``stability_margin``: the largest sampled-loop h lambda (stable below 2)."""
+    ``stability_margin``: the largest sampled-loop h lambda (stable below 2);
+    ``interaction_rms_Nm_per_kg``: the largest joint's RMS cuff torque per kg, the mean
+    over the runs that walked (NaN for a passive leg); ``support_first``/``_last``: the
+    support of the first and the last stride (0-1, mean over joints), the cell's mean;
+    ``safety_event_runs``: the runs in which the safety layer acted (clipped, limited,
+    derated) while walking."""
     from exoleg.study.engine import read_results
 
     table = read_results(out)
@@ -73,6 +79,10 @@ def summarise(out: str | Path, x: str | None = None, y: str | None = None) -> Su
 
     def worst(prefix: str, i: int) -> float:
         return max(cols[f"{prefix}_{j}"][i] for j in JOINTS)
+
+    def mean(values: list[float]) -> float:
+        v = [x for x in values if np.isfinite(x)]
+        return float(np.mean(v)) if v else float("nan")
 
     cells = {}
     for key, idx in groups.items():
@@ -94,6 +104,11 @@ def summarise(out: str | Path, x: str | None = None, y: str | None = None) -> Su
                                               if cols["ticks_gear_beyond_momentary"][i] > 0),
             "stability_margin": max((cols["stability_margin"][i] for i in ok),
                                     default=float("nan")),
+            "interaction_rms_Nm_per_kg": mean([worst("interaction_rms_Nm_per_kg", i)
+                                               for i in walked]),
+            "support_first": mean([cols["support_first"][i] for i in ok]),
+            "support_last": mean([cols["support_last"][i] for i in ok]),
+            "safety_event_runs": sum(1 for i in ok if cols["safety_events"][i] > 0),
             "commonest_fault": faults.most_common(1)[0][0] if faults else ""}
     xs = sorted({k[0] for k in cells}, key=_order)
     ys = sorted({k[1] for k in cells}, key=_order)
