@@ -95,11 +95,19 @@ def test_run_hmi_token_operator_gains_estop(tmp_path: Path) -> None:
             r.json()["error"]
         r = httpx.post(f"{base}/gains", json={"support": 1.5}, headers=op)
         assert r.status_code == 422 and "outside 0-1" in r.json()["error"]
+        # assist-as-needed's bounds: shares 0-1, a minimum never above its maximum
+        assert g["bounds"]["support_min"] == [[0.0, 1.0]] * 3
+        r = httpx.post(f"{base}/gains", json={"support_min": [0.5, 0.5, 0.5],
+                                              "support_max": [1.0, 0.4, 1.0]}, headers=op)
+        assert r.status_code == 422 and r.json()["error"] == \
+            "support_min[1] = 0.5 is above support_max[1] = 0.4"
         r = httpx.post(f"{base}/gains", json={"kp_swing": [kp[0], kp[1], 1.5 * kp[2]],
-                                              "support": 0.5}, headers=op)
+                                              "support": 0.5, "support_min": [0.2, 0, 0]},
+                       headers=op)
         assert r.status_code == 200
         wait_until("the gains in force", lambda: httpx.get(f"{base}/gains").json()["gains"]
                    ["support"] == [0.5], 10)
+        assert httpx.get(f"{base}/gains").json()["gains"]["support_min"] == [0.2, 0.0, 0.0]
         assert httpx.get(f"{base}/gains").json()["gains"]["kp_swing"][2] == \
             pytest.approx(1.5 * kp[2])
         # anyone may stop it: no token, no control
@@ -118,7 +126,8 @@ def test_run_hmi_token_operator_gains_estop(tmp_path: Path) -> None:
     assert [(a["command"].split(" ")[0], a["accepted"]) for a in actions
             if a["source"] not in ("loop", "hmi")] == [
         ("arm", False), ("arm", False), ("take", True), ("take", False), ("jump", False),
-        ("arm", True), ("gains", False), ("gains", False), ("gains", True), ("estop", True)]
+        ("arm", True), ("gains", False), ("gains", False), ("gains", False), ("gains", True),
+        ("estop", True)]
     applied = [a for a in actions if a["source"] == "loop"]
     assert [a["command"] for a in applied] == ["arm", "estop"]
     assert applied[1]["tick"] == k  # the loop applied the E-stop at the tick the log shows
@@ -129,7 +138,8 @@ def test_link_estop_goes_first_and_applied_commands_are_timed() -> None:
     link = LoopLink.new()
     assert LoopLink.gains(link.web_copy()) is None  # not published yet
     zero = {"kp_stance": [0.0] * 3, "kd_stance": [0.0] * 3, "kp_swing": [0.0] * 3,
-            "kd_swing": [0.0] * 3, "support": [0.0]}
+            "kd_swing": [0.0] * 3, "support": [0.0], "support_min": [0.0] * 3,
+            "support_max": [0.0] * 3}
     link.loop_gains(zero)  # all gains at their lower bound are still gains
     assert LoopLink.gains(link.web_copy()) == zero
     for c, rid in ((Command.ARM, 1), (Command.WALK, 2), (Command.ESTOP, 3)):

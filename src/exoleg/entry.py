@@ -10,6 +10,8 @@ of imports so that the command line's parser stays fast."""
 #: (:class:`exoleg.control.tracking.TrackingController`).
 LAWS = ("pd-gravity", "pd", "computed-torque")
 SUPPORT_MODES = ("impedance", "transparent", "aan")
+#: assist-as-needed's laws (:data:`exoleg.control.assist.LAWS`)
+ASSIST_LAWS = ("error", "proportional")
 WALKING_CONTROLLERS = ("walk", *SUPPORT_MODES)
 CONTROLLERS = (*WALKING_CONTROLLERS, *LAWS)
 #: The hip motor's variants (``data/device/hip-variants``): the paper's 220 W EC 90 flat

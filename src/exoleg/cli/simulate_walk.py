@@ -20,9 +20,11 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     import numpy as np
 
     import exoleg
+    from exoleg.control.assist import AssistSettings
     from exoleg.control.safety import Limited
     from exoleg.control.transparency import SUPPORT_NAMES
     from exoleg.errors import ParameterError
+    from exoleg.params.records import JOINTS
     from exoleg.plots.figures import walk_figure
     from exoleg.sim.metrics import detection_table, safety_events, support_by_stride, walk_peaks
     from exoleg.sim.walk import simulate_walk
@@ -70,6 +72,13 @@ def _simulate_walk(args: argparse.Namespace) -> int:
             "interaction_torque_rms_per_kg": {f["joint"]: f["rms_Nm_per_kg"] for f in inter},
             "support_by_stride": support_by_stride(r.t, r.support_level, strikes),
             "safety_events": safety_events(r.t, r.safety_status, r.walk_start)}
+    if args.controller == "aan":  # the law (the device folder's assist.toml) and its gain
+        law = AssistSettings.default(args.device).law
+        figs["assist_law"] = law
+        if law == "proportional":  # OpenExo's K per joint, as each stride started
+            figs["assist_gain_by_stride"] = {
+                j: [float(r.assist_gain[np.searchsorted(r.t, s), i]) for s in strikes]
+                for i, j in enumerate(JOINTS)}
     more = {}
     if child is not None:  # the cuffs' torque, the support, the child's intended gait
         from exoleg.plots.child import support_figure

@@ -16,10 +16,25 @@ the operator's bounds; the safety layer acts after, always. Between bins the sup
 interpolated along the cycle. For the device to leave the work to a child who learns,
 it must relax faster than the child adapts: 1 - f above the child's learning rate
 (Emken et al. 2007).
+
+The second law (``law = "proportional"``), OpenExo's proportional joint-moment control
+(Gasparri, Luque & Lerner 2019): the device transparent (support 0) and asked to put
+on the child, in stance, a torque proportional to the forefoot's load,
+
+    tau_set = peak m max(0, n - threshold) / (1 - threshold),   tau = K tau_set
+
+(n the forefoot's load over its running maximum; peak
+N m/kg per joint, signed as the joints are; m the body mass), the cuffs' torque fed
+back toward it (:func:`~exoleg.control.transparency.transparent_torque`). At each
+initial contact the gain K adapts to what the cuffs delivered: K <- clip(K + max tau_set
+/ max tau_meas - 1, gain_min, gain_max) over the stride just walked (no cuffs' sensor,
+or nothing delivered: K stays).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,6 +42,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from exoleg.entry import ASSIST_LAWS
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8, new
 from exoleg.params import _check
@@ -35,18 +51,26 @@ F64 = NDArray[np.float64]
 
 #: the gait-phase bins of the cycle (Emken et al. 2007 adapt per step phase)
 BINS = 20
+#: The laws (the file's ``law``): Emken's error-based one, OpenExo's proportional one.
+LAWS = ASSIST_LAWS
 #: (field in the file, unit, lower, upper) of the settings
 _SCALARS = (("forgetting", "", 0.0, 1.0), ("ramp_s", "s", 0.0, 2.0))
 _VECTORS = (("gain_per_rad", 0.0, 100.0), ("deadband_deg", 0.0, 30.0),
             ("support_min", 0.0, 1.0), ("support_max", 0.0, 1.0),
             ("start", 0.0, 1.0))
+#: The proportional law's table ``[proportional]``: (field, unit, lower, upper).
+_PROPORTIONAL = (("threshold", "", 0.0, 0.95), ("gain_min", "", 0.1, 1.0),
+                 ("gain_max", "", 1.0, 3.0))
 
 
 @dataclass(frozen=True)
 class AssistSettings:
-    """The assist-as-needed law's settings (``data/device/assist.toml``): the forgetting
-    f per stride, the error gain g (1/rad), the deadband (rad), the support's bounds and
-    its value at the start (per joint, 0-1), and the ramp of a stride's new values (s)."""
+    """The assist-as-needed law's settings (``data/device/assist.toml``): which law
+    (:data:`LAWS`); the error law's forgetting f per stride, error gain g (1/rad),
+    deadband (rad), the support's bounds (the operator's, which the walking controller
+    keeps as tunable) and its value at the start (per joint, 0-1), and the ramp of a
+    stride's new values (s); the proportional law's peak (N m/kg per joint, signed), the
+    forefoot's threshold (0-1) and the gain's clip."""
 
     forgetting: float
     gain: F64
@@ -55,6 +79,11 @@ class AssistSettings:
     support_max: F64
     start: F64
     ramp: float
+    law: str = "error"
+    peak: F64 = dataclasses.field(default_factory=lambda: np.zeros(3))
+    threshold: float = 0.25
+    gain_min: float = 0.75
+    gain_max: float = 1.25
 
     def __post_init__(self) -> None:
         w = "AssistSettings"
@@ -71,6 +100,12 @@ class AssistSettings:
         if np.any(self.support_min > self.support_max):
             raise ParameterError(w, "support_min", f"{self.support_min.tolist()} above "
                                  f"support_max {self.support_max.tolist()}")
+        if self.law not in LAWS:
+            raise ParameterError(w, "law", f"{self.law!r} (allowed: {', '.join(LAWS)})")
+        object.__setattr__(self, "peak", _check.vector_within(w, "peak", list(self.peak),
+                                                              3, -2.0, 2.0))
+        for name, unit, lo, hi in _PROPORTIONAL:
+            _check.within(w, name, _check.finite(w, name, getattr(self, name)), lo, hi, unit)
 
     @classmethod
     def default(cls, folder: str | Path | None = None) -> AssistSettings:
@@ -79,42 +114,66 @@ class AssistSettings:
         from exoleg.device.files import load
 
         where, d = load("assist.toml", folder)
-        _check.keys(where, d, [f[0] for f in (*_SCALARS, *_VECTORS)], ["source"])
+        _check.keys(where, d, ["law", *(f[0] for f in (*_SCALARS, *_VECTORS)),
+                               "proportional"], ["source"])
         x = {name: _check.finite(where, name, d[name]) for name, *_ in _SCALARS}
         v = {name: _check.vector(where, name, d[name], 3) for name, *_ in _VECTORS}
+        pt = d["proportional"]
+        if not isinstance(pt, dict):
+            raise ParameterError(where, "proportional", "expected a table (peak_Nm_per_kg, "
+                                 "threshold, gain_min, gain_max)")
+        pw = f"{where} [proportional]"
+        _check.keys(pw, pt, ["peak_Nm_per_kg", *(f[0] for f in _PROPORTIONAL)], ["source"])
+        peak = _check.vector(pw, "peak_Nm_per_kg", pt["peak_Nm_per_kg"], 3)
+        p = {n: _check.finite(pw, n, pt[n]) for n, *_ in _PROPORTIONAL}
         try:
             return cls(forgetting=x["forgetting"], gain=v["gain_per_rad"],
                        deadband=np.radians(v["deadband_deg"]), support_min=v["support_min"],
-                       support_max=v["support_max"], start=v["start"], ramp=x["ramp_s"])
+                       support_max=v["support_max"], start=v["start"], ramp=x["ramp_s"],
+                       law=str(d["law"]), peak=peak, **p)
         except ParameterError as e:  # a range checked by the record: name the file
             raise ParameterError(where, e.field, e.problem) from None
 
-    def record(self) -> NDArray[np.void]:
-        """What the compiled tick reads (:data:`ASSIST`)."""
+    def with_law(self, law: str) -> AssistSettings:
+        """These settings with the law ``law`` (:data:`LAWS`)."""
+        return dataclasses.replace(self, law=law)
+
+    def record(self, body_mass: float = 0.0) -> NDArray[np.void]:
+        """What the compiled tick reads (:data:`ASSIST`) for a child of ``body_mass`` kg
+        (the proportional law's torque is per kg)."""
         r = new(ASSIST)
-        for name in ("forgetting", "gain", "deadband", "ramp"):
+        r["mass"] = body_mass
+        for name in ("forgetting", "gain", "deadband", "ramp", "peak", "threshold",
+                     "gain_min", "gain_max"):
             r[name] = getattr(self, name)
+        r["law"] = LAWS.index(self.law)
         return r
 
     def state(self) -> NDArray[np.void]:
         """The law's state before the first stride: every bin at ``start``, within the
-        bounds."""
+        bounds; the proportional law's gain 1."""
         s = new(ASSIST_STATE)
-        s["lo"], s["hi"] = self.support_min, self.support_max
         s["support"] = s["before"] = np.clip(self.start, self.support_min, self.support_max)
         s["t_update"] = -1.0
+        s["k"] = 1.0
         return s
 
 
-#: The law's parameters (:meth:`AssistSettings.record`): f, g (1/rad), the deadband
-#: (rad) and the ramp (s).
-ASSIST = np.dtype([("forgetting", F8), ("gain", F8, 3), ("deadband", F8, 3), ("ramp", F8)])
+#: The law's parameters (:meth:`AssistSettings.record`): which (:data:`LAWS`' index); the
+#: error law's f, g (1/rad), deadband (rad) and ramp (s); the proportional law's peak
+#: (N m/kg per joint), threshold and gain clip, and the child's body mass (kg).
+ASSIST = np.dtype([("law", I8), ("forgetting", F8), ("gain", F8, 3), ("deadband", F8, 3),
+                   ("ramp", F8), ("peak", F8, 3), ("threshold", F8), ("gain_min", F8),
+                   ("gain_max", F8), ("mass", F8)])
 #: Its state: the support per bin and joint now and before the last update (0-1), the
 #: stride's squared errors and ticks per bin, when the last update came (s; negative:
-#: none), the strides adapted over, and the operator's bounds per joint (0-1).
+#: none), the strides adapted over; the proportional law's gain K per joint and the
+#: stride's peak torque asked (tau_set, unscaled) and delivered (the cuffs'), N m, along
+#: each joint's sign of peak, and the forefoot's largest load so far (counts).
 ASSIST_STATE = np.dtype([("support", F8, (BINS, 3)), ("before", F8, (BINS, 3)),
                          ("sq", F8, (BINS, 3)), ("n", I8, BINS), ("t_update", F8),
-                         ("strides", I8), ("lo", F8, 3), ("hi", F8, 3)])
+                         ("strides", I8), ("k", F8, 3), ("set_peak", F8, 3),
+                         ("meas_peak", F8, 3), ("fore_max", F8)])
 
 
 @njit(cache=True)
@@ -129,9 +188,11 @@ def assist_track(as_, x, err):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def assist_stride(ap, as_, t):  # type: ignore[no-untyped-def]
-    """A stride ended at ``t`` s (an initial contact): every bin it passed through takes
-    Emken's update within the operator's bounds; the sums start again."""
+def assist_stride(ap, as_, t, lo, hi):  # type: ignore[no-untyped-def]
+    """A stride ended at ``t`` s (an initial contact). The error law: every bin it passed
+    through takes Emken's update within the operator's bounds ``lo``, ``hi`` (3,); the
+    proportional law: each joint's gain K adapts to the stride's peaks. The sums start
+    again."""
     P = ap[0]
     S = as_[0]
     r = _ramped(ap, as_, t)
@@ -142,13 +203,45 @@ def assist_stride(ap, as_, t):  # type: ignore[no-untyped-def]
             if S.n[b] > 0:
                 e = np.sqrt(S.sq[b, j] / S.n[b])
                 s = P.forgetting * S.before[b, j] + P.gain[j] * max(0.0, e - P.deadband[j])
-                S.support[b, j] = min(max(s, S.lo[j]), S.hi[j])
+                S.support[b, j] = min(max(s, lo[j]), hi[j])
             else:
                 S.support[b, j] = S.before[b, j]
             S.sq[b, j] = 0.0
         S.n[b] = 0
+    for j in range(3):
+        # OpenExo: K <- clip(K + max tau_set / max tau_meas - 1); nothing delivered (or no
+        # sensor): K stays
+        if S.set_peak[j] > 0.0 and S.meas_peak[j] > 0.0:
+            k = S.k[j] + S.set_peak[j] / S.meas_peak[j] - 1.0
+            S.k[j] = min(max(k, P.gain_min), P.gain_max)
+        S.set_peak[j] = 0.0
+        S.meas_peak[j] = 0.0
     S.t_update = t
     S.strides += 1
+
+
+@njit(cache=True)
+def assist_moment(ap, as_, fore, stance, tau_int, out):  # type: ignore[no-untyped-def]
+    """The proportional law's torque at the cuffs (N m) into ``out`` (3,): K tau_set,
+    tau_set = peak m max(0, n - threshold) / (1 - threshold) in ``stance`` (0 else; m
+    the child's mass, the record's), n the forefoot's load ``fore``
+    (:func:`~exoleg.control.gait_phase.forefoot`) over its running maximum (OpenExo's
+    calibration of its toe sensor); the stride's peaks of tau_set and, while tau_set is
+    asked, of the cuffs' torque ``tau_int`` (NaN: no sensor) along each peak's sign, kept
+    for the gain's update."""
+    P = ap[0]
+    S = as_[0]
+    S.fore_max = max(S.fore_max, fore)
+    a = 0.0
+    if stance and S.fore_max > 0.0:
+        a = max(0.0, fore / S.fore_max - P.threshold) / (1.0 - P.threshold)
+    for j in range(3):
+        tau_set = P.peak[j] * P.mass * a
+        out[j] = S.k[j] * tau_set
+        sign = 1.0 if P.peak[j] >= 0.0 else -1.0
+        S.set_peak[j] = max(S.set_peak[j], sign * tau_set)
+        if a > 0.0 and math.isfinite(tau_int[j]):  # while it is asked
+            S.meas_peak[j] = max(S.meas_peak[j], sign * tau_int[j])
 
 
 @njit(cache=True)
@@ -161,11 +254,16 @@ def _ramped(ap, as_, t):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def assist_level(ap, as_, x, t, out):  # type: ignore[no-untyped-def]
+def assist_level(ap, as_, x, t, lo, hi, out):  # type: ignore[no-untyped-def]
     """The support per joint (0-1) at the gait fraction ``x`` and ``t`` s into ``out``
-    (3,): the bins' values ramped in, interpolated between the bins' centres along the
-    cycle, within the operator's bounds."""
+    (3,): the error law's bins' values ramped in, interpolated between the bins' centres
+    along the cycle, within the operator's bounds ``lo``, ``hi`` (3,); the proportional
+    law's 0 (the device transparent, the assist its torque), within the same bounds."""
     S = as_[0]
+    if ap[0].law != 0:
+        for j in range(3):
+            out[j] = lo[j]
+        return
     r = _ramped(ap, as_, t)
     f = x * BINS - 0.5
     b0 = int(np.floor(f))
@@ -175,4 +273,4 @@ def assist_level(ap, as_, x, t, out):  # type: ignore[no-untyped-def]
     for j in range(3):
         s0 = S.before[i0, j] + r * (S.support[i0, j] - S.before[i0, j])
         s1 = S.before[i1, j] + r * (S.support[i1, j] - S.before[i1, j])
-        out[j] = min(max((1.0 - a) * s0 + a * s1, S.lo[j]), S.hi[j])
+        out[j] = min(max((1.0 - a) * s0 + a * s1, lo[j]), hi[j])

@@ -203,6 +203,17 @@ def _normalised(D, s, counts, i):  # type: ignore[no-untyped-def]
     return max(counts[i] - s.base[i], 0.0) / max(s.max[i] - s.base[i], D.floor)
 
 
+@njit(cache=True)
+def forefoot(st, counts):  # type: ignore[no-untyped-def]
+    """The forefoot's load: the metatarsal heads' and the hallux's sensors' ``counts``
+    (ADC counts), each above its baseline (the detector's own, ``st``), summed."""
+    s = st[0]
+    load = 0.0
+    for i in range(1, 4):
+        load += max(counts[i] - s.base[i], 0.0)
+    return load
+
+
 @njit(inline="always")
 def _fsr_path(D, s, counts, gyro, gyro_ok, t):  # type: ignore[no-untyped-def]
     """The FSRs' path, the gyroscope fused when it reads: this tick's events."""

@@ -43,7 +43,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from exoleg.control import gait_phase as gp
 from exoleg.control import safety as sf
-from exoleg.control.assist import AssistSettings, assist_level, assist_stride, assist_track
+from exoleg.control.assist import (
+    AssistSettings,
+    assist_level,
+    assist_moment,
+    assist_stride,
+    assist_track,
+)
 from exoleg.control.contract import OUTPUT, SENSORS, Command, Mode, TickRecords
 from exoleg.control.safety import SafetyLimits, safety_step
 from exoleg.control.supervisor import SUPERVISOR, report, settle, supervise
@@ -141,11 +147,18 @@ STAND_BLEND_S = (0.2, 3.0)
 #: (N m/rad, N m s/rad), the standing posture (rad), the stance support (0-1), the
 #: body mass the pelvis carries (kg), where walking starts in the cycle, g (m/s^2), the
 #: FSRs' x on the foot (m) and their y in the foot frame (m, negative: below the ankle),
-#: the stand's blend (s), where in the cycle a stop stands (:func:`stop_fraction`).
+#: the stand's blend (s), where in the cycle a stop stands (:func:`stop_fraction`), the
+#: operator's bounds on assist-as-needed's support per joint (0-1, :data:`BOUNDS`).
 PARAMS = np.dtype([("kp_stance", F8, 3), ("kd_stance", F8, 3), ("kp_swing", F8, 3),
                    ("kd_swing", F8, 3), ("standing", F8, 3), ("support", F8),
                    ("body_mass", F8), ("start_fraction", F8), ("g", F8), ("fsr_x", F8, 4),
-                   ("sole", F8), ("stand_blend", F8), ("stop_fraction", F8)])
+                   ("sole", F8), ("stand_blend", F8), ("stop_fraction", F8),
+                   ("support_min", F8, 3), ("support_max", F8, 3)])
+#: The operator's bounds on assist-as-needed's support, tunable with the gains
+#: (:meth:`WalkController.set_gains`; their values at the start: ``assist.toml``).
+BOUNDS = ("support_min", "support_max")
+#: What the operator may change while the walking controller runs, in this order.
+TUNABLE = (*WalkGains.TUNABLE, *BOUNDS)
 #: The reference's state: the last tick's gait fraction; when the stop was asked (s);
 #: where the blend to the standing posture started -- its time (s; negative: none under
 #: way) and the reference's posture then (rad).
@@ -317,6 +330,7 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, 
     if tp[0].known:
         track_rates(tp, ss, vm, lim[0].dt)
     aan = np.empty(3)
+    tau_ref = np.zeros(3)  # the torque asked at the cuffs (the proportional law's)
     if S.mode == SupportMode.AAN or S.from_mode == SupportMode.AAN:
         if S.mode == SupportMode.AAN and sup[0].mode == Mode.WALKING:
             err = np.empty(3)
@@ -324,8 +338,15 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, 
                 err[j] = qr[j] - qm[j]
             assist_track(as_, x, err)
             if ev & gp.Event.IC:
-                assist_stride(ap, as_, t)
-        assist_level(ap, as_, x, t, aan)
+                assist_stride(ap, as_, t, C.support_min, C.support_max)
+        assist_level(ap, as_, x, t, C.support_min, C.support_max, aan)
+        if ap[0].law != 0 and (sup[0].mode == Mode.WALKING or sup[0].mode == Mode.STOPPING):
+            # blended in and out with the mode, as the support levels below
+            assist_moment(ap, as_, gp.forefoot(st, s.fsr), st[0].bearing,
+                          s.interaction, tau_ref)
+            wa = w if S.mode == SupportMode.AAN else 1.0 - w
+            for j in range(3):
+                tau_ref[j] *= wa
     level = np.empty(3)
     for j in range(3):
         level[j] = (w * _level(S.mode, aan[j])
@@ -333,7 +354,8 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, 
     if level[0] < 1.0 or level[1] < 1.0 or level[2] < 1.0:
         tr = np.empty(3)
         L = lim[0]
-        transparent_torque(tp, A, ss, qm, vm, s.interaction, L.lower, L.upper, C.g, L.dt,
+        transparent_torque(tp, A, ss, qm, vm, s.interaction, tau_ref, L.lower, L.upper,
+                           C.g, L.dt,
                            sup[0].mode != Mode.DISARMED and sup[0].mode != Mode.FAULT, tr)
         for j in range(3):
             cmd[j] = level[j] * cmd[j] + (1.0 - level[j]) * tr[j]
@@ -442,33 +464,46 @@ class WalkController:
         self.A = np.zeros(3, ACTUATOR) if actuators is None else actuators
         self.ss = new_support_state(support_mode)
         self.assist = AssistSettings.default() if assist is None else assist
-        self.ap, self.as_ = self.assist.record(), self.assist.state()
+        from exoleg.device.walking import LEG_FRACTION
+
+        # the child's mass: the pelvis's load is their body less both legs
+        child_mass = body_mass / (1.0 - 2.0 * LEG_FRACTION)
+        self.ap, self.as_ = self.assist.record(child_mass), self.assist.state()
+        self.cp[0]["support_min"] = self.assist.support_min
+        self.cp[0]["support_max"] = self.assist.support_max
         self.io = TickRecords("WalkController.update")
 
     def gains_now(self) -> dict[str, list[float]]:
-        """The gains in force (N m/rad, N m s/rad per joint) and the support level."""
+        """The gains in force (N m/rad, N m s/rad per joint), the support level and the
+        bounds on assist-as-needed's support (:data:`TUNABLE`)."""
         c = self.cp[0]
-        return {k: [float(x) for x in np.atleast_1d(c[k])] for k in WalkGains.TUNABLE}
+        return {k: [float(x) for x in np.atleast_1d(c[k])] for k in TUNABLE}
 
     def set_gains(self, change: dict[str, list[float]]) -> None:
         """Change gains between ticks: all of ``change`` or, if any value is unknown,
-        not finite or outside what :class:`WalkGains` allows, none (ParameterError).
-        The operator interface's tighter bounds are its own (checked before)."""
+        not finite or outside what :class:`WalkGains` and :class:`AssistSettings`
+        allow, none (ParameterError). The operator interface's tighter bounds are its
+        own (checked before)."""
+        import dataclasses
+
         where = "WalkController.set_gains"
         now = self.gains_now()
         for k in change:
             if k not in now:
                 raise ParameterError(where, k, f"unknown gain (allowed: {', '.join(now)})")
         new_: dict[str, Any] = {**now, **change}
-        try:  # WalkGains checks each vector (3 finite values) and its range
+        try:  # WalkGains and AssistSettings check each vector (3 finite values), its range
             g = WalkGains(**{k: new_[k] for k in WalkGains.TUNABLE if k != "support"},
                           standing=self.gains.standing,
                           support=_check.vector(where, "support", new_["support"], 1)[0],
                           stand_blend=self.gains.stand_blend)
+            a = dataclasses.replace(self.assist, **{k: new_[k] for k in BOUNDS})
         except ParameterError as e:
             raise ParameterError(where, e.field, e.problem) from None
         for k in WalkGains.TUNABLE:
             self.cp[0][k] = getattr(g, k)
+        for k in BOUNDS:
+            self.cp[0][k] = getattr(a, k)
 
     def compiled(self) -> tuple[Any, ...]:
         """What :func:`walk_control_step` takes before the tick's readings, in its order:

@@ -212,10 +212,12 @@ def track_rates(tp, ss, dq, h):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def transparent_torque(tp, A, ss, q, dq, tau_int, lower, upper, g, h, armed, out):  # type: ignore[no-untyped-def]
+def transparent_torque(tp, A, ss, q, dq, tau_int, tau_ref, lower, upper, g, h, armed, out):  # type: ignore[no-untyped-def]
     """The transparent law's torque (N m) into ``out`` (3,) at the measured ``q``,
     ``dq``, the cuffs' torque ``tau_int`` read this tick (NaN: no sensor, the feedback
-    off), the range of motion ``lower``, ``upper`` (rad), a tick of ``h`` s. ``tp``:
+    off) and the torque asked at the cuffs ``tau_ref`` (0: transparent; an assistance
+    law's otherwise -- added ahead, and the feedback acts on ``tau_int - tau_ref``), the
+    range of motion ``lower``, ``upper`` (rad), a tick of ``h`` s. ``tp``:
     :data:`TRANSPARENCY`; ``A``: the actuators' records; ``ss``: :data:`SUPPORT_STATE`
     (the acceleration estimate :func:`track_rates` keeps; the integral advances here,
     each part's torque is kept). The integral runs only while ``armed``, within its
@@ -240,10 +242,12 @@ def transparent_torque(tp, A, ss, q, dq, tau_int, lower, upper, g, h, armed, out
     for j in range(3):
         if T.parts[2] != 0.0:
             P[2, j] = friction(A[j:j + 1], dq[j] + T.lead * S.ddq[j])
+        P[3, j] = tau_ref[j]
         if T.parts[3] != 0.0 and armed and math.isfinite(tau_int[j]):
+            e = tau_int[j] - tau_ref[j]
             lim = T.integral_limit[j]
-            S.integral[j] = min(max(S.integral[j] + T.ki[j] * h * tau_int[j], -lim), lim)
-            P[3, j] = -(T.kp[j] * tau_int[j] + S.integral[j])
+            S.integral[j] = min(max(S.integral[j] + T.ki[j] * h * e, -lim), lim)
+            P[3, j] -= T.kp[j] * e + S.integral[j]
         else:
             S.integral[j] = 0.0
         w = 0.0

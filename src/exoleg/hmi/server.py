@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from exoleg.control.contract import vocabulary
-from exoleg.control.hierarchy import WalkGains
+from exoleg.control.hierarchy import TUNABLE
 from exoleg.entry import DEFAULT_BODY_MASS, typed_number
 from exoleg.errors import ParameterError
 from exoleg.hmi.archive import Archive
@@ -408,7 +408,7 @@ class HMI:
                        "simulated": self._simulated(),
                        "session": self.session.name if self.session else None,
                        "max_duration": MAX_DURATION, "vocabulary": VOCABULARY,
-                       "gains": [g for g in WalkGains.TUNABLE if g != "support"],
+                       "gains": [g for g in TUNABLE if g != "support"],
                        "records": records}
             if records:
                 reg = self.registry

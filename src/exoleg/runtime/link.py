@@ -35,11 +35,11 @@ import numpy as np
 
 from exoleg.control.contract import OUTPUT, SENSORS, Command
 from exoleg.control.gait_phase import Event
-from exoleg.control.hierarchy import PARAMS, WalkGains
+from exoleg.control.hierarchy import PARAMS, TUNABLE
 from exoleg.runtime.loop import END_SESSION, LINK_LOST
 
 #: gains the operator may change, in the order they sit in the shared block
-GAIN_NAMES = WalkGains.TUNABLE
+GAIN_NAMES = TUNABLE
 RING = 32
 #: A heartbeat of the web side older than this is a lost link, s. The server's event
 #: loop beats every 5 ms; its longest stall measured here under the browser tests was

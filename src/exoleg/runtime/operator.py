@@ -1,7 +1,8 @@
 """The operator rules of a session, apart from any transport: one operator holds control
 at a time (a lease that lapses after :data:`LEASE_S` s of silence), every control action
 needs the session's token and that operator (an E-stop needs neither), gain changes are
-bounded (0 to twice their value at the start, the support level 0-1), and every action,
+bounded (0 to twice their value at the start, the support level and the bounds on
+assist-as-needed's support 0-1), and every action,
 accepted or refused, and the loop's application of each command go to ``control.log``
 with their wall times. An operator's hold that lapses while the child walks is a lost
 link: the device comes to a controlled stop (stand) and an alarm goes to the log and to
@@ -20,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from exoleg.control.contract import WALKING_MODES, Command, Mode
+from exoleg.control.hierarchy import BOUNDS
 from exoleg.control.safety import fault_detail
 from exoleg.control.supervisor import refusal
 from exoleg.runtime.link import GAIN_NAMES, LoopLink
@@ -31,6 +33,8 @@ NAMES = {int(v): k for k, v in COMMANDS.items()}
 UNGUARDED = {"estop"}
 #: an operator's hold on control lapses after this long without a request from them, s
 LEASE_S = 5.0
+#: the tunables that are shares (0-1), not gains
+SHARES = ("support", *BOUNDS)
 NO_TOKEN = ("no valid token: enter the token printed when exoleg started (Control page, "
             "Token; programs send Authorization: Bearer <token>)")
 
@@ -130,7 +134,7 @@ class OperatorRules:
             return {}, {}
         with self.lock:
             if not self.bounds:
-                self.bounds = {k: [[0.0, 1.0]] * len(v) if k == "support" else
+                self.bounds = {k: [[0.0, 1.0]] * len(v) if k in SHARES else
                                [[0.0, 2.0 * x] for x in v] for k, v in g.items()}
             return g, dict(self.bounds)
 
@@ -148,6 +152,11 @@ class OperatorRules:
             for i, (x, (lo, hi)) in enumerate(zip(v, bounds[k], strict=True)):
                 if not lo <= x <= hi:
                     return f"{k}[{i}] = {x:g} is outside {lo:g}-{hi:g}"
+        now, _ = self.gains()
+        low, high = (change.get(k, now[k]) for k in BOUNDS)
+        for i, (a, b) in enumerate(zip(low, high, strict=True)):
+            if a > b:
+                return f"{BOUNDS[0]}[{i}] = {a:g} is above {BOUNDS[1]}[{i}] = {b:g}"
         return ""
 
     def poll_applied(self) -> None:

@@ -275,7 +275,8 @@ def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
                  control_dt: float = 1e-3, device: str | Path | None = None,
                  config: DeviceConfig | None = None, child: ChildModel | None = None,
                  step: float = 0.0, model: LegModel | None = None,
-                 support_mode: SupportMode = SupportMode.IMPEDANCE) -> SimulatedDevice:
+                 support_mode: SupportMode = SupportMode.IMPEDANCE,
+                 assist_law: str | None = None) -> SimulatedDevice:
     """The simulated device and its controller for ``leg`` (without actuators; theirs are
     added) and a child of ``body_mass`` kg (see :func:`exoleg.sim.walk.simulate_walk`):
     the device ``config``, or the one :meth:`DeviceConfig.load` reads from ``device``
@@ -298,6 +299,8 @@ def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
     SchwartzGait2008(stride_time=stride_time, speed=speed)  # checks both
     cfg = (DeviceConfig.load(device, control_dt, noise_scale, actuators, safety, sensors,
                              gains) if config is None else config)
+    if assist_law is not None:
+        cfg = dataclasses.replace(cfg, assist=cfg.assist.with_law(assist_law))
     share = body_weight_share(body_mass)
     gr = Ground.default(cfg.folder) if ground is None else ground
     depth = ankle_height + gr.sole

@@ -53,7 +53,8 @@ def _run_walk(p, w, A, K, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_
     """The walking run: per tick k the device's readings into ``SENS[k]``, the
     controller's tick (``ctl``: :meth:`WalkController.compiled`) into ``OUT[k]``, the
     drives, the child (``K``) and the plant; the child's muscles' torque into ``CH[k]``,
-    the transparent law's parts and wall (the controller's support state) into ``PA[k]``,
+    the transparent law's parts and wall (the controller's support state) and the
+    proportional assistance's gain (its state) into ``PA[k]``,
     the child's stance share (a learning child's changes) into ``SH[k]``.
     Returns -1, or the tick whose state became non-finite."""
     cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref, tp, cA, ss, ap, as_ = ctl
@@ -73,6 +74,7 @@ def _run_walk(p, w, A, K, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_
             for m in range(4):
                 PA[k, m, i] = ss[0].parts[m, i]
             PA[k, 4, i] = ss[0].wall[i]
+            PA[k, 5, i] = as_[0].k[i]
         SH[k] = K[2][0].share0
         if k == n:
             for i in range(3):
@@ -109,8 +111,11 @@ class WalkResult(TimeSeries):
     support level per joint (0 transparent - 1 the impedance's full support) and the
     transparent law's torque per part (``transparent_parts`` (n, 4, 3):
     :data:`~exoleg.control.transparency.PARTS`; zero while it is not computed) and its
-    wall's (``wall``), N m; the child's share of the normative stance moments they drive
-    (``child_share``: a learning child's changes stride by stride)."""
+    wall's (``wall``), N m -- its interaction part includes the torque an assistance
+    law asks at the cuffs --; the proportional assistance's gain K per joint
+    (``assist_gain``, :mod:`exoleg.control.assist`; 1 where it does not adapt); the
+    child's share of the normative stance moments they drive (``child_share``: a
+    learning child's changes stride by stride)."""
 
     t: F64
     pelvis: F64
@@ -143,6 +148,7 @@ class WalkResult(TimeSeries):
     support_level: F64
     transparent_parts: F64
     wall: F64
+    assist_gain: F64
     child_share: F64
     plant: WalkingPlant = field(repr=False)
     actuators: tuple[ActuatorModel, ...] = field(repr=False)
@@ -176,7 +182,7 @@ class WalkResult(TimeSeries):
         cols: dict[str, F64] = {"t": self.t, "pelvis": self.pelvis}
         for name in ("q", "dq", "q_meas", "dq_meas", "q_ref", "u_safe", "tau", "envelope",
                      "motor_speed", "power", "winding_temp", "gear_torque", "interaction",
-                     "child_torque", "passive", "wall", "support_level"):
+                     "child_torque", "passive", "wall", "support_level", "assist_gain"):
             arr = getattr(self, name)
             for i, j in enumerate(JOINTS):
                 cols[f"{name}_{j}"] = arr[:, i].astype(float)
@@ -216,7 +222,8 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                   substeps: int = 2, control_dt: float = 1e-3,
                   device: str | Path | None = None, child: ChildModel | None = None,
                   commands: NDArray[np.int64] | None = None, model: LegModel | None = None,
-                  support_mode: SupportMode = SupportMode.IMPEDANCE) -> WalkResult:
+                  support_mode: SupportMode = SupportMode.IMPEDANCE,
+                  assist_law: str | None = None) -> WalkResult:
     """Walk ``leg`` (without actuators; theirs are added) on the treadmill for ``strides``
     strides of ``stride_time`` s after ``standing`` s of quiet stance; ``body_mass`` is
     the child's (the pelvis carries :func:`exoleg.device.walking.body_weight_share`).
@@ -228,7 +235,8 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     after ``standing`` s). ``model``: the leg the controller is given (default ``leg``:
     the controller knows the leg it walks). ``support_mode``: the controller's
     (:class:`~exoleg.control.transparency.SupportMode`: the paper's impedance, the
-    device transparent, or assist-as-needed)."""
+    device transparent, or assist-as-needed); ``assist_law``: assist-as-needed's law
+    (:data:`~exoleg.control.assist.LAWS`; None: the device folder's ``assist.toml``)."""
     if not (isinstance(strides, int) and 1 <= strides <= 10000):
         raise ParameterError("simulate_walk", "strides", f"expected 1-10000, got {strides!r}")
     if not (isinstance(substeps, int) and 1 <= substeps <= 100):
@@ -237,7 +245,8 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
         raise ParameterError("simulate_walk", "standing", f"{standing!r} is outside 0.2-60")
     dev = prepare_walk(leg, body_mass, speed, stride_time, noise_scale, ankle_height,
                        actuators, gains, safety, ground, sensors, control_dt, device,
-                       child=child, model=model, support_mode=support_mode)
+                       child=child, model=model, support_mode=support_mode,
+                       assist_law=assist_law)
     ctl, plant, sens = dev.controller, dev.plant, dev.sensors
     check_step(plant, control_dt / substeps, dev.config.folder)
     n = int(round((standing + strides * stride_time) / control_dt))
@@ -256,7 +265,7 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     FN = np.zeros((n + 1, 4))
     SUP = np.zeros(n + 1)
     CH = np.zeros((n + 1, 3))
-    PA = np.zeros((n + 1, len(PARTS) + 1, 3))
+    PA = np.zeros((n + 1, len(PARTS) + 2, 3))
     SH = np.zeros(n + 1)
     K = dev.child_records(control_dt)
     bad = _run_walk(plant.leg.p, plant.record(), dev.A, K, ctl.compiled(), sens.record(),
@@ -279,7 +288,8 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                       child_torque=CH, passive=passive_moments(K[0], X[:, 1:4], X[:, 5:8]),
                       support_mode=OUT["support_mode"], support_level=OUT["support_level"],
                       transparent_parts=PA[:, :len(PARTS)],
-                      wall=PA[:, len(PARTS)], child_share=SH, plant=plant, actuators=dev.actuators, walk_start=standing,
+                      wall=PA[:, len(PARTS)], assist_gain=PA[:, len(PARTS) + 1],
+                      child_share=SH, plant=plant, actuators=dev.actuators, walk_start=standing,
                       stride_time=stride_time, body_mass=body_mass)
 
 

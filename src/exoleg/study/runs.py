@@ -168,7 +168,7 @@ def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[s
         r = simulate_walk(leg, child.mass, strides=strides, speed=run["speed"],
                           stride_time=run["stride_time"], noise_scale=run["noise"],
                           seed=run["seed"], actuators=device_variant(run), gains=gains,
-                          child=who, support_mode=mode)
+                          child=who, support_mode=mode, assist_law=run["assist_law"])
     except (ExolegError, ValueError, ArithmeticError) as e:
         row["error"] = f"{type(e).__name__}: {e}"
         return row

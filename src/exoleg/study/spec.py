@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from exoleg.child.model import CROUCH_CLUSTERS, LEVELS, STRENGTH_SCALE
-from exoleg.entry import HIP_VARIANTS, SUPPORT_MODES
+from exoleg.entry import ASSIST_LAWS, HIP_VARIANTS, SUPPORT_MODES
 from exoleg.errors import ParameterError
 from exoleg.io import read_text
 
@@ -100,6 +100,9 @@ AXES: dict[str, Axis] = {
     "controller": Axis("choice", choices=SUPPORT_MODES, default="impedance",
                        meaning="support mode: the paper's impedance, transparent (an actor "
                        "only) or assist-as-needed (docs/device.md)"),
+    "assist_law": Axis("choice", choices=ASSIST_LAWS, default="error",
+                       meaning="assist-as-needed's law: Emken's error-based per gait-phase "
+                       "bin, or OpenExo's proportional joint moment (assist.toml)"),
     "support": Axis("number", 0.0, 1.0, default=1.0,
                     meaning="stance support level (0 none, 1 the body weight)"),
     "kp_scale": Axis("number", 0.25, 2.0, default=1.0, meaning="x the stiffness gains"),

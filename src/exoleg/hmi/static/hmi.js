@@ -422,7 +422,7 @@ async function loadGains() {
   if (!r.ok || !r.data.gains || !r.data.gains.support) { t.innerHTML = "<tr><td class='muted'>no session running</td></tr>"; return; }
   const {gains, bounds} = r.data;
   t.innerHTML = "<tr><th></th>" + JOINTS.map((j) => `<th>${j}</th>`).join("") + "</tr>" +
-    GAINS().map((k) => `<tr><td>${k} (${k.startsWith("kp") ? "N m/rad" : "N m s/rad"})</td>` + gains[k].map((v, i) =>
+    GAINS().map((k) => `<tr><td>${k} (${k.startsWith("kp") ? "N m/rad" : k.startsWith("kd") ? "N m s/rad" : "0-1, assist as needed"})</td>` + gains[k].map((v, i) =>
       `<td><input id="g-${k}-${i}" inputmode="decimal" value="${+v.toFixed(3)}"><div class="bounds">${bounds[k][i][0]}-${+bounds[k][i][1].toFixed(3)}</div></td>`).join("") + "</tr>").join("") +
     `<tr><td>support (assistance)</td><td colspan="3"><input id="g-support-0" inputmode="decimal" value="${gains.support[0]}"><span class="bounds"> 0-1</span></td></tr>`;
 }
