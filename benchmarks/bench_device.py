@@ -169,7 +169,15 @@ def main() -> None:
                  "interaction": np.zeros(3)}, Command.ARM, 0.0)
     atick = best(lambda: _walk_ticks(actl, 200_000), 3) / 200_000
     rows.insert(3, ("walking controller tick, assist-as-needed, compiled", atick, None))
-    wtick = max(wtick, ttick, atick)
+    # OpenExo's proportional law: the transparent law and the cuffs' torque asked
+    pcfg = dataclasses.replace(cfg, assist=cfg.assist.with_law("proportional"))
+    pctl = walk_controller(pcfg, leg, 20.0, 0.073, support_mode=SupportMode.AAN)
+    pctl.update({"q": pctl.gains.standing, "dq": np.zeros(3), "fsr": np.full(4, 1000.0),
+                 "interaction": np.zeros(3)}, Command.ARM, 0.0)
+    ptick = best(lambda: _walk_ticks(pctl, 200_000), 3) / 200_000
+    rows.insert(4, ("walking controller tick, proportional assistance, compiled", ptick,
+                    None))
+    wtick = max(wtick, ttick, atick, ptick)
     try:
         import mujoco
 

@@ -187,11 +187,13 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
     assert f"kp_swing[2] = {3 * kp:g} is outside 0-{2 * kp:g}" in msg
     fill(d, "g-kp_swing-2", 1.5 * kp)
     fill(d, "g-support-0", 0.6)
+    # assist-as-needed's bounds per joint, in the same table
+    fill(d, "g-support_min-1", 0.3)
     d.find_element("id", "apply-gains").click()
     wait_until("gains in force", lambda: httpx.get(f"{hmi.url}/api/gains").json()["gains"]
              ["support"] == [0.6])
-    assert httpx.get(f"{hmi.url}/api/gains").json()["gains"]["kp_swing"][2] == \
-        pytest.approx(1.5 * kp)
+    now = httpx.get(f"{hmi.url}/api/gains").json()["gains"]
+    assert now["kp_swing"][2] == pytest.approx(1.5 * kp) and now["support_min"][1] == 0.3
 
     # A second person: no token -> refused; with the token, control is held -> view only
     v = viewer

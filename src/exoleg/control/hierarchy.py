@@ -57,8 +57,9 @@ from exoleg.control.transparency import (
     SupportMode,
     TransparencySettings,
     new_support_state,
-    support_blend,
     support_command,
+    support_mix,
+    support_switch,
     track_rates,
     transparent_torque,
 )
@@ -224,16 +225,6 @@ def stance_gravity(p, g, q, fx, sole, counts, weight, out):  # type: ignore[no-u
         out[j] -= J[1, j] * weight
 
 
-@njit(inline="always")
-def _level(mode, aan):  # type: ignore[no-untyped-def]
-    """A support mode's share of the impedance at a joint: 1, 0, or assist-as-needed's."""
-    if mode == SupportMode.IMPEDANCE:
-        return 1.0
-    if mode == SupportMode.TRANSPARENT:
-        return 0.0
-    return aan
-
-
 @njit(cache=True)
 def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, as_, sens, t,  # type: ignore[no-untyped-def]
                       out):
@@ -324,15 +315,15 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, 
                   + M[j, 0] * ddqr[0] + M[j, 1] * ddqr[1] + M[j, 2] * ddqr[2])
     # the support mode: each a share of the impedance above (its support level: 1
     # impedance, 0 transparent, assist-as-needed's per joint), the rest the device made
-    # transparent; a change of mode blended over the transparent mode's ramp
-    w = support_blend(tp, ss, t)
+    # transparent (with the proportional law's torque asked at the cuffs); a change of
+    # mode blended over the transparent mode's ramp from the mix in force
+    w = support_switch(tp, ss, t)
     S = ss[0]
     if tp[0].known:
         track_rates(tp, ss, vm, lim[0].dt)
     aan = np.empty(3)
-    tau_ref = np.zeros(3)  # the torque asked at the cuffs (the proportional law's)
-    if S.mode == SupportMode.AAN or S.from_mode == SupportMode.AAN:
-        if S.mode == SupportMode.AAN and sup[0].mode == Mode.WALKING:
+    if S.mode == SupportMode.AAN:
+        if sup[0].mode == Mode.WALKING:
             err = np.empty(3)
             for j in range(3):
                 err[j] = qr[j] - qm[j]
@@ -340,17 +331,15 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, 
             if ev & gp.Event.IC:
                 assist_stride(ap, as_, t, C.support_min, C.support_max)
         assist_level(ap, as_, x, t, C.support_min, C.support_max, aan)
-        if ap[0].law != 0 and (sup[0].mode == Mode.WALKING or sup[0].mode == Mode.STOPPING):
-            # blended in and out with the mode, as the support levels below
-            assist_moment(ap, as_, gp.forefoot(st, s.fsr), st[0].bearing,
-                          s.interaction, tau_ref)
-            wa = w if S.mode == SupportMode.AAN else 1.0 - w
-            for j in range(3):
-                tau_ref[j] *= wa
     level = np.empty(3)
-    for j in range(3):
-        level[j] = (w * _level(S.mode, aan[j])
-                    + (1.0 - w) * _level(S.from_mode, aan[j]))
+    wa = support_mix(ss, w, aan, level)
+    tau_ref = np.zeros(3)  # the torque asked at the cuffs (the proportional law's)
+    if ap[0].law != 0 and wa > 0.0 and (sup[0].mode == Mode.WALKING
+                                        or sup[0].mode == Mode.STOPPING):
+        assist_moment(ap, as_, gp.forefoot(st, s.fsr), st[0].bearing, s.interaction,
+                      tau_ref)
+        for j in range(3):
+            tau_ref[j] *= wa  # blended in and out with the mode, as the levels
     if level[0] < 1.0 or level[1] < 1.0 or level[2] < 1.0:
         tr = np.empty(3)
         L = lim[0]

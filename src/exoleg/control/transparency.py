@@ -178,21 +178,28 @@ TRANSPARENCY = np.dtype([("parts", F8, 4), ("accel_filter_hz", F8), ("inertia_sh
                          ("wall_damping", F8, 3), ("ramp", F8),
                          ("device_p", F8, N_PARAMS), ("known", np.bool_)])
 #: Its state: the support mode asked (:class:`SupportMode`: by the operator's command,
-#: :func:`support_command`), the one in force and the one it blends from, when the blend
-#: started (s; negative: none under way), the rates last measured (rad/s), the
-#: acceleration estimate (rad/s^2), the cuffs' torque integral (N m), whether a tick has
-#: run (the first has no rate before it), and the last tick's torque of each part of the
-#: transparent law (:data:`PARTS`, N m per joint) and of its wall.
-SUPPORT_STATE = np.dtype([("asked", I8), ("mode", I8), ("from_mode", I8), ("t_switch", F8),
+#: :func:`support_command`) and the one in force, when the blend started (s; negative:
+#: none under way), the mix in force (the support level per joint, 0-1, and the weight of
+#: assist-as-needed's own torque) and the one the blend started from, the rates last
+#: measured (rad/s), the acceleration estimate (rad/s^2), the cuffs' torque integral
+#: (N m), whether a tick has run (the first has no rate before it), and the last tick's
+#: torque of each part of the transparent law (:data:`PARTS`, N m per joint) and of its
+#: wall.
+SUPPORT_STATE = np.dtype([("asked", I8), ("mode", I8), ("t_switch", F8),
+                          ("level", F8, 3), ("assist", F8), ("from_level", F8, 3),
+                          ("from_assist", F8),
                           ("dq_last", F8, 3), ("ddq", F8, 3), ("integral", F8, 3),
                           ("started", np.bool_), ("parts", F8, (4, 3)), ("wall", F8, 3)])
 
 
 def new_support_state(mode: SupportMode = SupportMode.IMPEDANCE) -> NDArray[np.void]:
-    """The support state before the first tick, in ``mode``."""
+    """The support state before the first tick, in ``mode`` (its mix: the impedance's
+    and assist-as-needed's support 1 -- where the latter starts --, transparent 0)."""
     s = new(SUPPORT_STATE)
-    s["asked"] = s["mode"] = s["from_mode"] = int(mode)
+    s["asked"] = s["mode"] = int(mode)
     s["t_switch"] = -1.0
+    s["level"] = s["from_level"] = 0.0 if mode == SupportMode.TRANSPARENT else 1.0
+    s["assist"] = s["from_assist"] = 1.0 if mode == SupportMode.AAN else 0.0
     return s
 
 
@@ -284,27 +291,42 @@ def support_command(tp, ss, command, mode):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def support_blend(tp, ss, t):  # type: ignore[no-untyped-def]
-    """The weight (0-1) of the support mode in force against the one it blends from at
-    ``t`` s, a change asked (the state's ``asked``) starting a blend of ``ramp`` s
-    (asked back mid-blend: from where the blend is)."""
-    T = tp[0]
+def support_switch(tp, ss, t):  # type: ignore[no-untyped-def]
+    """The support mode asked (the state's ``asked``) put in force at ``t`` s, and the
+    blend's weight (0-1) of the mode in force against the mix it blends from: a change
+    starts a blend of ``ramp`` s from the mix in force at the tick it was asked (a change
+    asked mid-blend blends on from where the blend is: never a step)."""
     S = ss[0]
     if S.asked != S.mode:
-        w = 1.0
-        if S.t_switch >= 0.0:
-            w = min((t - S.t_switch) / T.ramp, 1.0)
-        if S.asked == S.from_mode and w < 1.0:  # back before the blend ended
-            S.t_switch = t - (1.0 - w) * T.ramp
-        else:
-            S.t_switch = t
-        S.from_mode = S.mode
+        for j in range(3):
+            S.from_level[j] = S.level[j]
+        S.from_assist = S.assist
         S.mode = S.asked
+        S.t_switch = t
     if S.t_switch < 0.0:
         return 1.0
-    w = (t - S.t_switch) / T.ramp
+    w = (t - S.t_switch) / tp[0].ramp
     if w >= 1.0:
         S.t_switch = -1.0
-        S.from_mode = S.mode
         return 1.0
     return w
+
+
+@njit(cache=True)
+def support_mix(ss, w, aan, out):  # type: ignore[no-untyped-def]
+    """The support level per joint (0-1, the impedance's share) into ``out`` (3,): the
+    mode in force's -- 1 impedance, 0 transparent, assist-as-needed's ``aan`` (3,) --
+    weighed ``w`` against the mix it blends from. Returns the weight (0-1) of
+    assist-as-needed's own torque (its proportional law's) blended the same way. Both
+    kept as the mix in force."""
+    S = ss[0]
+    for j in range(3):
+        now = aan[j]
+        if S.mode == SupportMode.IMPEDANCE:
+            now = 1.0
+        elif S.mode == SupportMode.TRANSPARENT:
+            now = 0.0
+        S.level[j] = w * now + (1.0 - w) * S.from_level[j]
+        out[j] = S.level[j]
+    S.assist = w * (1.0 if S.mode == SupportMode.AAN else 0.0) + (1.0 - w) * S.from_assist
+    return S.assist
