@@ -39,7 +39,7 @@ def test_inside_the_deadband_the_support_decays_as_f_to_the_k(k: int, frac: floa
     # reference: Emken et al. 2007, s_k = f^k s_0 when w(e) = 0 (the error within the
     # deadband); the ramp over, every bin and joint
     s = AssistSettings.default()
-    ap, as_ = s.record(), s.state()
+    ap, as_ = s.record(32.0), s.state()
     err = frac * s.deadband
     for i in range(k):
         _stride(ap, as_, err, float(i + 1))
@@ -54,7 +54,7 @@ def test_inside_the_deadband_the_support_decays_as_f_to_the_k(k: int, frac: floa
 def test_beyond_the_deadband_the_support_grows_with_the_error(e: float) -> None:
     # reference: s_1 = clip(f s_0 + g max(0, e - deadband), min, max), e the bin's RMS
     s = AssistSettings.default()
-    ap, as_ = s.record(), s.state()
+    ap, as_ = s.record(32.0), s.state()
     as_[0]["support"] = as_[0]["before"] = 0.2
     _stride(ap, as_, [e, e, e], 1.0)
     want = np.clip(s.forgetting * 0.2 + s.gain * np.maximum(0.0, e - s.deadband),
@@ -66,7 +66,7 @@ def test_beyond_the_deadband_the_support_grows_with_the_error(e: float) -> None:
 
 def test_the_bins_adapt_to_their_own_errors_and_the_cycle_interpolates() -> None:
     s = AssistSettings.default()
-    ap, as_ = s.record(), s.state()
+    ap, as_ = s.record(32.0), s.state()
     # an error in the first half of the cycle only: those bins keep support, the
     # others forget
     ticks = 1000
@@ -90,7 +90,7 @@ def test_the_bins_adapt_to_their_own_errors_and_the_cycle_interpolates() -> None
 
 def test_a_strides_new_support_is_ramped_in_and_the_bounds_hold() -> None:
     s = AssistSettings.default()
-    ap, as_ = s.record(), s.state()
+    ap, as_ = s.record(32.0), s.state()
     _stride(ap, as_, [0.0, 0.0, 0.0], 2.0)  # 1 -> f at t = 2 s over the ramp
     out = np.empty(3)
     for frac in (0.0, 0.25, 0.5, 1.0, 2.0):

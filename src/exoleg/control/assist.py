@@ -51,8 +51,10 @@ F64 = NDArray[np.float64]
 
 #: the gait-phase bins of the cycle (Emken et al. 2007 adapt per step phase)
 BINS = 20
-#: The laws (the file's ``law``): Emken's error-based one, OpenExo's proportional one.
+#: The laws (the file's ``law``): Emken's error-based one, OpenExo's proportional one
+#: (its index, which the compiled tick reads, :data:`PROPORTIONAL`).
 LAWS = ASSIST_LAWS
+PROPORTIONAL = LAWS.index("proportional")
 #: (field in the file, unit, lower, upper) of the settings
 _SCALARS = (("forgetting", "", 0.0, 1.0), ("ramp_s", "s", 0.0, 2.0))
 _VECTORS = (("gain_per_rad", 0.0, 100.0), ("deadband_deg", 0.0, 30.0),
@@ -138,11 +140,11 @@ class AssistSettings:
         """These settings with the law ``law`` (:data:`LAWS`)."""
         return dataclasses.replace(self, law=law)
 
-    def record(self, body_mass: float = 0.0) -> NDArray[np.void]:
+    def record(self, body_mass: float) -> NDArray[np.void]:
         """What the compiled tick reads (:data:`ASSIST`) for a child of ``body_mass`` kg
         (the proportional law's torque is per kg)."""
         r = new(ASSIST)
-        r["mass"] = body_mass
+        r["mass"] = _check.positive("AssistSettings.record", "body_mass", body_mass, "kg")
         for name in ("forgetting", "gain", "deadband", "ramp", "peak", "threshold",
                      "gain_min", "gain_max"):
             r[name] = getattr(self, name)
@@ -260,7 +262,7 @@ def assist_level(ap, as_, x, t, lo, hi, out):  # type: ignore[no-untyped-def]
     along the cycle, within the operator's bounds ``lo``, ``hi`` (3,); the proportional
     law's 0 (the device transparent, the assist its torque), within the same bounds."""
     S = as_[0]
-    if ap[0].law != 0:
+    if ap[0].law == PROPORTIONAL:
         for j in range(3):
             out[j] = lo[j]
         return

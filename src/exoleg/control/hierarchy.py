@@ -44,6 +44,7 @@ from numpy.typing import ArrayLike, NDArray
 from exoleg.control import gait_phase as gp
 from exoleg.control import safety as sf
 from exoleg.control.assist import (
+    PROPORTIONAL,
     AssistSettings,
     assist_level,
     assist_moment,
@@ -334,7 +335,7 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, 
     level = np.empty(3)
     wa = support_mix(ss, w, aan, level)
     tau_ref = np.zeros(3)  # the torque asked at the cuffs (the proportional law's)
-    if ap[0].law != 0 and wa > 0.0 and (sup[0].mode == Mode.WALKING
+    if ap[0].law == PROPORTIONAL and wa > 0.0 and (sup[0].mode == Mode.WALKING
                                         or sup[0].mode == Mode.STOPPING):
         assist_moment(ap, as_, gp.forefoot(st, s.fsr), st[0].bearing, s.interaction,
                       tau_ref)
