@@ -202,3 +202,23 @@ def test_files_that_are_not_recordings(tmp_path: Path) -> None:
         assert r.returncode == 2 and said in r.stderr and "Traceback" not in r.stderr, \
             (args, r.stderr)
     assert good.read_text().startswith("t,heel")  # nothing a user wrote is lost
+
+
+def test_an_event_at_the_recordings_edge_is_neither_missed_nor_false() -> None:
+    # reference: counted by hand. Initial contacts detected at 1.0 and 2.0 s (true 0.99 and
+    # 1.99) and at 2.96 s, whose true one lies after the recording's end (3.0 s): judged
+    # neither way; one at 1.5 s with no true one near: false; a true one at 2.5 s not
+    # detected: missed
+    from exoleg.control import gait_phase as gp
+    from exoleg.control.replay import event_rows
+
+    t = np.round(np.arange(0.0, 3.0001, 0.001), 6)
+    det = np.zeros(len(t), np.int64)
+    true = np.zeros(len(t), np.int64)
+    for x in (1.0, 1.5, 2.0, 2.96):
+        det[int(round(x * 1e3))] = gp.Event.IC
+    for x in (0.99, 1.99, 2.5):
+        true[int(round(x * 1e3))] = gp.Event.IC
+    row = next(r for r in event_rows([(t, det, true)]) if r["event"] == "initial contact")
+    assert (row["true"], row["detected"], row["missed"], row["false"]) == (3, 4, 1, 1)
+    assert row["median_abs_error_ms"] == pytest.approx(10.0)

@@ -261,6 +261,11 @@ def counts_of(board, forces):  # type: ignore[no-untyped-def]
     return out
 
 
+def _inside(t: F64, x: Any, window: float) -> Any:
+    """Whether the time(s) ``x`` lie more than ``window`` s inside the recording ``t``."""
+    return (x > t[0] + window) & (x < t[-1] - window)
+
+
 def event_rows(series: list[tuple[F64, NDArray[np.int64], NDArray[np.int64]]],
                window: float = 0.2) -> list[dict[str, Any]]:
     """Detected against true events over recordings ``series`` -- (t, detected bits,
@@ -269,7 +274,8 @@ def event_rows(series: list[tuple[F64, NDArray[np.int64], NDArray[np.int64]]],
     false rates, and the share of strides (true initial contact to the next) in which
     the detector reports it (initial contact: within ``window`` of the stride's). A
     detected event matches the nearest unmatched true event of its kind within
-    ``window`` s."""
+    ``window`` s; one left unmatched within ``window`` of the recording's first or last
+    sample is neither missed nor false (its partner may lie outside the recording)."""
     rows = []
     for bit, name in gp.EVENT_NAMES.items():
         errs: list[float] = []
@@ -288,12 +294,12 @@ def event_rows(series: list[tuple[F64, NDArray[np.int64], NDArray[np.int64]]],
             for x in tt:
                 cand = np.where(~used & (np.abs(td - x) <= window))[0]
                 if not len(cand):
-                    missed += 1
+                    missed += bool(_inside(t, x, window))
                     continue
                 j = cand[np.argmin(np.abs(td[cand] - x))]
                 used[j] = True
                 errs.append(float(td[j] - x))
-            false += int((~used).sum())
+            false += int((~used & _inside(t, td, window)).sum())
         e = np.array(errs)
         a = np.abs(e)
         nan = float("nan")
