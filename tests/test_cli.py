@@ -160,6 +160,22 @@ def test_simulate_walk_with_a_child_under_assist_as_needed(tmp_path):
     assert isinstance(figs["safety_events"], list)
     header = (tmp_path / "w" / "timeseries.csv").read_text().splitlines()[0].split(",")
     assert {"support_mode", "support_level_hip", "transparent_inertia_knee"} <= set(header)
+    assert figs["assist_law"] == "error" and "assist_gain_by_stride" not in figs
+    # OpenExo's law from a device folder holding only its assist.toml: K per stride, in
+    # its clip (assist.toml: 0.75-1.25), 1 where nothing is asked (hip and knee)
+    from importlib import resources
+
+    dev = tmp_path / "device"
+    dev.mkdir()
+    text = resources.files("exoleg").joinpath("data", "device", "assist.toml").read_text()
+    (dev / "assist.toml").write_text(text.replace('law = "error"', 'law = "proportional"'))
+    r = run("simulate", "--walk", "--child", str(tmp_path / "child.toml"), "--controller",
+            "aan", "--strides", "3", "--device", str(dev), "--out", str(tmp_path / "p"))
+    assert r.returncode == 0, r.stderr
+    figs = json.loads((tmp_path / "p" / "summary.json").read_text())["figures"]
+    k = figs["assist_gain_by_stride"]
+    assert figs["assist_law"] == "proportional" and k["hip"] == k["knee"] == [1.0] * len(
+        k["ankle"]) and all(0.75 <= x <= 1.25 for x in k["ankle"])
     for args, text in ((["--controller", "aan"], "does not go with the paper's scenario"),
                        (["--walk", "--controller", "pd"], "does not go with --walk"),
                        (["--walk", "--controller", "transparent"], "give --child")):

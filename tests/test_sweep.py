@@ -70,6 +70,7 @@ def cli(*args: str, **kw: object) -> subprocess.CompletedProcess[str]:
     ("[axes]\nchild = [\"actor\"]\ncrouch = [7]\n", "axes.crouch"),  # no such cluster
     ("[axes]\ncontroller = [\"transparent\"]\n", "axes.controller"),  # a passive leg
     ("[axes]\ncontroller = [\"pid\"]\n", "axes.controller"),          # no such mode
+    ("[axes]\nassist_law = [\"emken\"]\n", "axes.assist_law"),         # no such law
 ])
 def test_a_bad_study_is_refused_naming_the_key(text: str, key: str) -> None:
     with pytest.raises(ParameterError) as e:
