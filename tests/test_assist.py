@@ -267,11 +267,11 @@ def test_a_bad_proportional_table_is_refused_naming_the_field(tmp_path: Any) -> 
 
 def test_the_proportional_law_walks_and_pushes_off_with_the_child() -> None:
     # The law in the closed loop, on a device whose ankle can be made near transparent
-    # (the study's 1:50 ankle: 0.22 kg m^2 reflected, against the shipped 1:120's 1.28;
-    # the shipped ankle's slap at loading makes the foot bounce under it: docs/device.md).
-    # The typically developing girl of 10, 12 strides: no fault, K within its clip, and
-    # in late stance (heel off, forefoot loaded) the cuffs push toward plantarflexion
-    # more than in the transparent mode: measured mean +0.82 -> +0.05 N m
+    # (the study's 1:50 ankle: 0.22 kg m^2 reflected, against the shipped 1:120's 1.28:
+    # docs/device.md). The typically developing girl of 10, 12 strides: no fault, K
+    # within its clip, and in late stance (heel off, forefoot loaded) the cuffs push
+    # toward plantarflexion more than in the transparent mode: measured mean +0.82 ->
+    # -3.43 N m
     from exoleg.child.model import ChildModel
     from exoleg.control.transparency import SupportMode
     from exoleg.sim.walk import simulate_walk

@@ -151,6 +151,14 @@ class AssistSettings:
         r["law"] = LAWS.index(self.law)
         return r
 
+    def first_level(self) -> F64:
+        """The support per joint (0-1) the law gives before its first stride: the error
+        law's start, the proportional law's floor (the device transparent), within the
+        bounds."""
+        if self.law == "proportional":
+            return self.support_min.copy()
+        return np.clip(self.start, self.support_min, self.support_max)
+
     def state(self) -> NDArray[np.void]:
         """The law's state before the first stride: every bin at ``start``, within the
         bounds; the proportional law's gain 1."""

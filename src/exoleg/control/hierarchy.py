@@ -452,13 +452,11 @@ class WalkController:
                                  "alone's parameters and the actuators' records")
         self.tp = self.transparency.record(device_p)
         self.A = np.zeros(3, ACTUATOR) if actuators is None else actuators
-        self.ss = new_support_state(support_mode)
         self.assist = AssistSettings.default() if assist is None else assist
-        from exoleg.device.walking import LEG_FRACTION
+        self.ss = new_support_state(support_mode, self.assist.first_level())
+        from exoleg.device.walking import body_mass_of
 
-        # the child's mass: the pelvis's load is their body less both legs
-        child_mass = body_mass / (1.0 - 2.0 * LEG_FRACTION)
-        self.ap, self.as_ = self.assist.record(child_mass), self.assist.state()
+        self.ap, self.as_ = self.assist.record(body_mass_of(body_mass)), self.assist.state()
         self.cp[0]["support_min"] = self.assist.support_min
         self.cp[0]["support_max"] = self.assist.support_max
         self.io = TickRecords("WalkController.update")

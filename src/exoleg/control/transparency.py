@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 from numba import njit
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from exoleg.control.contract import Command, Mode
 from exoleg.device.actuator import friction
@@ -192,13 +192,16 @@ SUPPORT_STATE = np.dtype([("asked", I8), ("mode", I8), ("t_switch", F8),
                           ("started", np.bool_), ("parts", F8, (4, 3)), ("wall", F8, 3)])
 
 
-def new_support_state(mode: SupportMode = SupportMode.IMPEDANCE) -> NDArray[np.void]:
-    """The support state before the first tick, in ``mode`` (its mix: the impedance's
-    and assist-as-needed's support 1 -- where the latter starts --, transparent 0)."""
+def new_support_state(mode: SupportMode = SupportMode.IMPEDANCE,
+                      aan: ArrayLike = (1.0, 1.0, 1.0)) -> NDArray[np.void]:
+    """The support state before the first tick, in ``mode``, its mix that mode's levels:
+    the impedance's 1, transparent 0, assist-as-needed's ``aan`` (3,) (its law's first,
+    :meth:`~exoleg.control.assist.AssistSettings.first_level`)."""
     s = new(SUPPORT_STATE)
     s["asked"] = s["mode"] = int(mode)
     s["t_switch"] = -1.0
-    s["level"] = s["from_level"] = 0.0 if mode == SupportMode.TRANSPARENT else 1.0
+    s["level"] = s["from_level"] = (1.0 if mode == SupportMode.IMPEDANCE else
+                                    0.0 if mode == SupportMode.TRANSPARENT else aan)
     s["assist"] = s["from_assist"] = 1.0 if mode == SupportMode.AAN else 0.0
     return s
 

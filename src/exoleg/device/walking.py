@@ -212,6 +212,12 @@ def body_weight_share(body_mass: float) -> float:
     return body_mass * (1.0 - 2.0 * LEG_FRACTION)
 
 
+def body_mass_of(share: float) -> float:
+    """The child's body mass, kg, whose pelvis carries ``share`` kg
+    (:func:`body_weight_share`'s inverse)."""
+    return share / (1.0 - 2.0 * LEG_FRACTION)
+
+
 #: the largest |lambda| h the plant's RK4 step is let to meet (its stability region
 #: reaches 2.78 on the real axis, 2.83 on the imaginary one)
 STEP_LIMIT = 2.5

@@ -255,10 +255,8 @@ class SimulatedDevice:
         transparent, assist-as-needed's starting share of it)."""
         ctl = self.controller
         q0 = ctl.gains.standing
-        mode = ctl.ss[0]["mode"]
-        support = ctl.gains.support * (1.0 if mode == SupportMode.IMPEDANCE else
-                                       0.0 if mode == SupportMode.TRANSPARENT else
-                                       float(np.mean(ctl.assist.start)))
+        # the mode's first support level (the controller's mix before its first tick)
+        support = ctl.gains.support * float(np.mean(ctl.ss[0]["level"]))
         P, C, CS = child_records(self.child, h, self.stride_time, self.speed, q0,
                                  float(self.leg.lengths[0] + self.leg.lengths[1]),
                                  np.diag(self.plant.leg.M(q0)),
