@@ -150,31 +150,29 @@ def main() -> None:
                Command.ARM, 0.0)
     wtick = best(lambda: _walk_ticks(ctl, 200_000), 3) / 200_000
     rows.insert(1, ("walking controller tick (full hierarchy), compiled", wtick, None))
+    import dataclasses
+
     from exoleg.control.transparency import SupportMode
     from exoleg.device.config import DeviceConfig, walk_controller
 
-    tctl = walk_controller(DeviceConfig.load(), leg, 20.0, 0.073,
-                           support_mode=SupportMode.TRANSPARENT)
-    tctl.update({"q": tctl.gains.standing, "dq": np.zeros(3), "fsr": np.full(4, 1000.0),
-                 "interaction": np.zeros(3)}, Command.ARM, 0.0)
-    ttick = best(lambda: _walk_ticks(tctl, 200_000), 3) / 200_000
-    rows.insert(2, ("walking controller tick, transparent mode, compiled", ttick, None))
-    import dataclasses
+    def support_tick(cfg: DeviceConfig, mode: SupportMode) -> float:
+        """The walking controller's tick (s) in a support mode, compiled."""
+        c = walk_controller(cfg, leg, 20.0, 0.073, support_mode=mode)
+        c.update({"q": c.gains.standing, "dq": np.zeros(3), "fsr": np.full(4, 1000.0),
+                  "interaction": np.zeros(3)}, Command.ARM, 0.0)
+        return best(lambda: _walk_ticks(c, 200_000), 3) / 200_000
 
-    cfg = DeviceConfig.load()  # half the support: both laws computed every tick
-    cfg = dataclasses.replace(cfg, assist=dataclasses.replace(cfg.assist,
-                                                              start=np.full(3, 0.5)))
-    actl = walk_controller(cfg, leg, 20.0, 0.073, support_mode=SupportMode.AAN)
-    actl.update({"q": actl.gains.standing, "dq": np.zeros(3), "fsr": np.full(4, 1000.0),
-                 "interaction": np.zeros(3)}, Command.ARM, 0.0)
-    atick = best(lambda: _walk_ticks(actl, 200_000), 3) / 200_000
+    cfg = DeviceConfig.load()
+    ttick = support_tick(cfg, SupportMode.TRANSPARENT)
+    rows.insert(2, ("walking controller tick, transparent mode, compiled", ttick, None))
+    # half the support: both laws computed every tick
+    half = dataclasses.replace(cfg, assist=dataclasses.replace(cfg.assist,
+                                                               start=np.full(3, 0.5)))
+    atick = support_tick(half, SupportMode.AAN)
     rows.insert(3, ("walking controller tick, assist-as-needed, compiled", atick, None))
     # OpenExo's proportional law: the transparent law and the cuffs' torque asked
-    pcfg = dataclasses.replace(cfg, assist=cfg.assist.with_law("proportional"))
-    pctl = walk_controller(pcfg, leg, 20.0, 0.073, support_mode=SupportMode.AAN)
-    pctl.update({"q": pctl.gains.standing, "dq": np.zeros(3), "fsr": np.full(4, 1000.0),
-                 "interaction": np.zeros(3)}, Command.ARM, 0.0)
-    ptick = best(lambda: _walk_ticks(pctl, 200_000), 3) / 200_000
+    ptick = support_tick(dataclasses.replace(half, assist=half.assist.with_law(
+        "proportional")), SupportMode.AAN)
     rows.insert(4, ("walking controller tick, proportional assistance, compiled", ptick,
                     None))
     wtick = max(wtick, ttick, atick, ptick)

@@ -140,7 +140,7 @@ class OperatorRules:
 
     def check_gains(self, change: dict[str, list[float]]) -> str:
         """Why ``change`` is refused ('' when it is within bounds)."""
-        _, bounds = self.gains()
+        now, bounds = self.gains()
         if not bounds:
             return ("no session is running" if self.link is None else
                     "this session has no gains to change (identification's plan)")
@@ -152,7 +152,6 @@ class OperatorRules:
             for i, (x, (lo, hi)) in enumerate(zip(v, bounds[k], strict=True)):
                 if not lo <= x <= hi:
                     return f"{k}[{i}] = {x:g} is outside {lo:g}-{hi:g}"
-        now, _ = self.gains()
         low, high = (change.get(k, now[k]) for k in BOUNDS)
         for i, (a, b) in enumerate(zip(low, high, strict=True)):
             if a > b:
