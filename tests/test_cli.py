@@ -207,4 +207,5 @@ def test_validate_gait_phase_table():
     assert "walking slowly, strides of 4 s" in r.stdout
     assert "strides of 4 s: each source alone" in r.stdout
     assert "walking, then a controlled stop (x1 noise): both sources and each alone" in r.stdout
+    assert "sensor faults injected into the walks (closed loop" in r.stdout
     assert "Catalfamo" in r.stdout

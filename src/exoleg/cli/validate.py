@@ -14,13 +14,20 @@ def _ms(x: float) -> str:
     return "-" if x != x else f"{x:.0f}"
 
 
+def _pct(x: float) -> str:
+    """A share as a percentage; "-" when there is none (no strides to count)."""
+    return f"{100 * x:.0f} %" if x == x else "-"
+
+
 # --------------------------------------------------------------------------- validate
+
+
 def _fault_table(cases: dict[str, list[dict[str, Any]]], title: str) -> None:
     """Initial contact and toe off per replayed case (:func:`exoleg.validate.gait_phase.
     fault_cases`)."""
     _table([[case if i == 0 else "", r["event"], _ms(r["median_abs_error_ms"]),
              _ms(r["p95_abs_error_ms"]), str(r["missed"]), str(r["false"]),
-             f"{100 * r['in_strides']:.0f} %"]
+             _pct(r["in_strides"])]
             for case, table in cases.items()
             for i, r in enumerate(x for x in table if x["event"] in ("initial contact",
                                                                       "toe off"))],
@@ -110,10 +117,15 @@ def cmd_validate(args: argparse.Namespace) -> int:
                                              "replayed over the same walks")
         for label, cases in v.worst.items():
             _fault_table(cases, f"{label} (x1 noise): both sources and each alone")
+        _fault_table(v.closed, "sensor faults injected into the walks (closed loop: the "
+                               "controller walking on the faulted readings; x1 noise)")
+        for case, who in v.closed_stopped.items():
+            if who:
+                _say(f"{case}: stopped by the safety layer: {', '.join(who)}")
         _say("published, shank gyroscope: initial contact -25 ms, foot off < 75 ms, > 98 % "
              "detected (Catalfamo et al. 2010); children with CP: onset < 100 ms, > 99 % of "
              "phases (Behboodi et al. 2019)")
-        return 1 if any(r.fault for r in runs) else 0
+        return 1 if any(r.fault for r in runs) or any(v.closed_stopped.values()) else 0
     from exoleg.validate.checks import missing_engines, run_all
 
     checks = run_all(quick=args.quick)

@@ -21,6 +21,7 @@ noise-free contact forces) are kept beside the detected ones for
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -35,6 +36,7 @@ from exoleg.control.hierarchy import WalkGains, walk_control_step
 from exoleg.control.safety import SafetyLimits
 from exoleg.control.transparency import PARTS, SupportMode
 from exoleg.device.actuator import ActuatorModel, drive_limit
+from exoleg.device.faults import SensorFault, apply_faults, fault_records
 from exoleg.device.sensors import FootSensors, draw_noise
 from exoleg.device.walking import ANKLE_HEIGHT, Ground, WalkingPlant
 from exoleg.dynamics.model import LegModel
@@ -48,10 +50,11 @@ F64 = NDArray[np.float64]
 
 @njit(cache=True, error_model="numpy")
 def _run_walk(p, w, A, K, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_y, commands,  # type: ignore[no-untyped-def]
-              h, sub, support, stand_support, t_walk, stride, S, X, SENS, FN, OUT, TAU, ENV,
+              F, h, sub, support, stand_support, t_walk, stride, S, X, SENS, FN, OUT, TAU, ENV,
               SUP, CH, PA, SH):
     """The walking run: per tick k the device's readings into ``SENS[k]``, the
-    controller's tick (``ctl``: :meth:`WalkController.compiled`) into ``OUT[k]``, the
+    controller's tick (``ctl``: :meth:`WalkController.compiled`) into ``OUT[k]`` -- the
+    readings with the sensor faults ``F`` (:data:`~exoleg.device.faults.FAULT`) --, the
     drives, the child (``K``) and the plant; the child's muscles' torque into ``CH[k]``,
     the transparent law's parts and wall (the controller's support state) and the
     proportional assistance's gain (its state) into ``PA[k]``,
@@ -66,6 +69,7 @@ def _run_walk(p, w, A, K, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_
         # 1. the foot board and the encoders
         device_sense(p, w, A, sens, imu_x, imu_y, S, h, k == 0, fsr_noise[k], imu_noise[k],
                      imu_bias, sk, FN[k])
+        apply_faults(F, sk, t)
         sk[0].command = commands[k]
         # 2. the controller tick (supervisor, detection, reference, impedance, safety)
         walk_control_step(cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref, tp, cA, ss, ap, as_,
@@ -223,7 +227,8 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                   device: str | Path | None = None, child: ChildModel | None = None,
                   commands: NDArray[np.int64] | None = None, model: LegModel | None = None,
                   support_mode: SupportMode = SupportMode.IMPEDANCE,
-                  assist_law: str | None = None) -> WalkResult:
+                  assist_law: str | None = None,
+                  faults: Sequence[SensorFault] = ()) -> WalkResult:
     """Walk ``leg`` (without actuators; theirs are added) on the treadmill for ``strides``
     strides of ``stride_time`` s after ``standing`` s of quiet stance; ``body_mass`` is
     the child's (the pelvis carries :func:`exoleg.device.walking.body_weight_share`).
@@ -236,7 +241,9 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     the controller knows the leg it walks). ``support_mode``: the controller's
     (:class:`~exoleg.control.transparency.SupportMode`: the paper's impedance, the
     device transparent, or assist-as-needed); ``assist_law``: assist-as-needed's law
-    (:data:`~exoleg.control.assist.LAWS`; None: the device folder's ``assist.toml``)."""
+    (:data:`~exoleg.control.assist.LAWS`; None: the device folder's ``assist.toml``).
+    ``faults``: the foot board's sensor faults (:class:`~exoleg.device.faults.SensorFault`)
+    in what the controller reads; the result's readings are the faulted ones."""
     if not (isinstance(strides, int) and 1 <= strides <= 10000):
         raise ParameterError("simulate_walk", "strides", f"expected 1-10000, got {strides!r}")
     if not (isinstance(substeps, int) and 1 <= substeps <= 100):
@@ -269,7 +276,8 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     SH = np.zeros(n + 1)
     K = dev.child_records(control_dt)
     bad = _run_walk(plant.leg.p, plant.record(), dev.A, K, ctl.compiled(), sens.record(),
-                    fsr_noise, imu_noise, bias, dev.imu_x, -dev.depth, commands, control_dt,
+                    fsr_noise, imu_noise, bias, dev.imu_x, -dev.depth, commands,
+                    fault_records(faults, sens), control_dt,
                     substeps, dev.support, plant.support_height, standing, stride_time,
                     dev.state(), X, SENS, FN, OUT, TAU, ENV, SUP, CH, PA, SH)
     if bad >= 0:

@@ -19,6 +19,8 @@ from typing import Any
 
 import numpy as np
 
+from exoleg.device.faults import SensorFault, faulted
+
 #: (label, age, sex, GMFCS level or None)
 CHILDREN: tuple[tuple[str, float, str, int | None], ...] = (
     ("GMFCS I boy 12 y", 12.0, "male", 1),
@@ -67,8 +69,11 @@ class GaitPhaseValidation:
     stop (``rows_ok``), the walks (``runs``), the sensor faults replayed over the latter
     (``faults``, :func:`fault_cases`), and per slower stride time (s) the table of the
     children walking so (``slow``) and each single source's over the same walks
-    (``slow_sources``: :data:`SOURCES`), and per harder walker (:data:`WORST`) each
-    source's (``worst``)."""
+    (``slow_sources``: :data:`SOURCES`), per harder walker (:data:`WORST`) each
+    source's (``worst``), and per sensor fault injected into the walks (closed loop:
+    the controller walking on the faulted readings, :data:`FAULTS`) the detection table
+    over the children's walks at the datasheet noise (``closed``) and the children the
+    safety layer stopped (``closed_stopped``)."""
 
     rows: list[dict[str, Any]]
     rows_ok: list[dict[str, Any]]
@@ -77,6 +82,8 @@ class GaitPhaseValidation:
     slow: dict[float, list[dict[str, Any]]]
     slow_sources: dict[float, dict[str, list[dict[str, Any]]]]
     worst: dict[str, dict[str, list[dict[str, Any]]]]
+    closed: dict[str, list[dict[str, Any]]]
+    closed_stopped: dict[str, list[str]]
 
 
 def _walker(age: float, sex: str, gmfcs: int | None,
@@ -111,10 +118,12 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
              children: tuple[tuple[str, float, str, int | None], ...] = CHILDREN,
              seed: int = 0, slow: tuple[float, ...] = SLOW,
              worst: tuple[tuple[str, float, str, int | None, dict[str, Any], str], ...]
-             = WORST) -> GaitPhaseValidation:
+             = WORST, closed: tuple[str, ...] | None = None) -> GaitPhaseValidation:
     """Each child walks ``strides`` strides at each noise level at the expected 1.1 s
-    stride, and at the datasheet noise at each of the ``slow`` stride times (s); each of
-    the ``worst`` walkers ``strides`` strides at the datasheet noise."""
+    stride, and at the datasheet noise at each of the ``slow`` stride times (s) and with
+    each sensor fault of ``closed`` (:data:`FAULTS`' names; None: all but the first, the
+    walks' own readings); each of the ``worst`` walkers ``strides`` strides at the
+    datasheet noise."""
     from exoleg.control.safety import Limited
     from exoleg.sim.metrics import detection_table
     from exoleg.sim.walk import simulate_walk
@@ -122,8 +131,17 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
     results: list[Any] = []  # (walk, run) at the expected stride
     runs: list[DetectionRun] = []
     slow_results: dict[float, list[Any]] = {s: [] for s in slow}
+    cases = tuple(FAULTS)[1:] if closed is None else closed
+    closed_walks: dict[str, list[Any]] = {c: [] for c in cases}
+    stopped: dict[str, list[str]] = {c: [] for c in cases}
     for label, age, sex, gmfcs in children:
         leg, m, ankle, actor = _walker(age, sex, gmfcs, {"spasticity": SPASTICITY[gmfcs or 0]})
+        for case in cases:
+            r = simulate_walk(leg, m, strides=strides, seed=seed + 1, ankle_height=ankle,
+                              child=actor, faults=FAULTS[case])
+            closed_walks[case].append(r)
+            if np.any(r.safety_status & Limited.FAULT):
+                stopped[case].append(label)
         walks = [(n, 1.1, k) for k, n in enumerate(noise)] + [
             (1.0, st, len(noise) + k) for k, st in enumerate(slow)]
         for n, st, k in walks:
@@ -150,44 +168,33 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
                                runs, fault_cases(ok),
                                {st: detection_table(rs) for st, rs in slow_results.items()},
                                {st: fault_cases(rs, st, SOURCES)
-                                for st, rs in slow_results.items()}, hard)
+                                for st, rs in slow_results.items()}, hard,
+                               {c: detection_table(rs) for c, rs in closed_walks.items()},
+                               stopped)
 
 
-#: The foot board's full scale, counts (12-bit ADC).
-FULL_SCALE = 4095.0
-#: Sensor faults, replayed over the walks' readings through the controller's own
-#: detector (open loop: each walk itself ran on its clean readings): what the board reads
-#: instead of each tick's FSR counts (n, 4: heel, met1, met5, hallux) and gyroscope (n,
-#: rad/s) at times t (s).
-FAULTS = {
-    "none (the walks' own readings, replayed)": lambda c, g, t: (c, g),
-    "heel sensor failed (reads 0)": lambda c, g, t: (_set(c, 0, 0.0), g),
-    "hallux sensor failed (reads 0)": lambda c, g, t: (_set(c, 3, 0.0), g),
+#: Sensor faults (:class:`~exoleg.device.faults.SensorFault`), replayed over the walks'
+#: readings through the controller's own detector (open loop: each walk itself ran on
+#: its clean readings, :func:`fault_cases`) and injected into walks (closed loop:
+#: ``closed_faults`` of :func:`evaluate`).
+FAULTS: dict[str, tuple[SensorFault, ...]] = {
+    "none (the walks' own readings, replayed)": (),
+    "heel sensor failed (reads 0)": (SensorFault("heel", "dead"),),
+    "hallux sensor failed (reads 0)": (SensorFault("hallux", "dead"),),
     "first metatarsal preloaded by the strap (+25 % of full scale)":
-        lambda c, g, t: (_set(c, 1, np.minimum(c[:, 1] + 0.25 * FULL_SCALE, FULL_SCALE)), g),
+        (SensorFault("met1", "offset", value=0.25),),
     "every sensor drifting up, +50 % of its reading per minute":
-        lambda c, g, t: (np.minimum(c * (1.0 + 0.5 * (t - t[0]) / 60.0)[:, None],
-                                    FULL_SCALE), g),
-    "gyroscope failed (no reading: the FSRs alone)":
-        lambda c, g, t: (c, np.full_like(g, np.nan)),
-    "FSRs failed (no reading: the IMU alone)":
-        lambda c, g, t: (np.full_like(c, np.nan), g),
+        (SensorFault("fsrs", "drift", value=0.5 / 60.0),),
+    "gyroscope failed (no reading: the FSRs alone)": (SensorFault("gyro", "missing"),),
+    "FSRs failed (no reading: the IMU alone)": (SensorFault("fsrs", "missing"),),
     "FSRs reading zeros (their cable off: the IMU alone once silent)":
-        lambda c, g, t: (np.zeros_like(c), g),
+        (SensorFault("fsrs", "dead"),),
     "foot board frozen: FSRs repeating a reading from 2 s":
-        lambda c, g, t: (np.where((t >= 2.0)[:, None], c[np.argmax(t >= 2.0)], c), g),
-    "gyroscope frozen: repeating a reading from 2 s":
-        lambda c, g, t: (c, np.where(t >= 2.0, g[np.argmax(t >= 2.0)], g)),
+        (SensorFault("fsrs", "frozen", 2.0),),
+    "gyroscope frozen: repeating a reading from 2 s": (SensorFault("gyro", "frozen", 2.0),),
     "preloaded metatarsal, gyroscope failed":
-        lambda c, g, t: (_set(c, 1, np.minimum(c[:, 1] + 0.25 * FULL_SCALE, FULL_SCALE)),
-                         np.full_like(g, np.nan)),
+        (SensorFault("met1", "offset", value=0.25), SensorFault("gyro", "missing")),
 }
-
-
-def _set(c: Any, i: int, value: Any) -> Any:
-    out = c.copy()
-    out[:, i] = value
-    return out
 
 
 #: The single sources, as :data:`FAULTS` cases: both, the FSRs alone, the IMU alone.
@@ -211,12 +218,11 @@ def fault_cases(results: list[Any], stride_time: float = 1.1,
                             cfg.sensors.accel_range)
     out = {}
     for name in cases or tuple(FAULTS):
-        fault = FAULTS[name]
         series = []
         for r in results:
-            counts, gyro = fault(np.asarray(r.fsr, dtype=float), np.asarray(r.gyro), r.t)
-            bits = detect_all(d, gp.new_state(d), np.ascontiguousarray(counts),
-                              np.ascontiguousarray(gyro), np.ascontiguousarray(r.accel), r.t)
+            counts, gyro, accel = faulted(FAULTS[name], r.fsr, r.gyro, r.accel, r.t,
+                                          cfg.sensors)
+            bits = detect_all(d, gp.new_state(d), counts, gyro, accel, r.t)
             walking = r.t >= r.walk_start
             series.append((r.t[walking], bits[walking], r.true_events()[walking]))
         out[name] = event_rows(series)
