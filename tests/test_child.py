@@ -271,18 +271,29 @@ def test_with_the_child_every_walk_goes_on_and_foot_flat_and_heel_off_are_seen()
     # issue 24's goal for the FSRs and the foot's IMU together: initial contact and toe off
     # median |error| <= 20 ms, p95 <= 40 ms, missed + extra <= 1 % of the true events --
     # on these walks, with each single-sensor fault the FSRs can lose and the IMU cover
-    # (drift, a preloaded or failed hallux sensor), at 2 and 4 s strides and for the
-    # harder walkers (crouch, contracture, weak, a controlled stop). Measured: initial
-    # contact 8 / 8 ms everywhere; toe off at most 12 / 17 ms; none missed, none extra.
-    # Not met, and so not asserted: the heel's sensor failed (initial contact 54 ms: the
-    # FSRs see the contact only as the forefoot loads), the single sources alone (docs).
-    tables = [faults[c] for c in FAULTS if c.startswith(("none", "every", "first", "hallux"))]
+    # (drift, a preloaded, failed hallux or failed heel sensor) replayed over the walks and
+    # injected into them (the controller walking on the faulted readings), at 2 and 4 s
+    # strides and for the harder walkers (crouch, contracture, weak, a controlled stop).
+    # Measured: initial contact 8 / 8 ms (the heel's sensor failed: 0 / 1, the strike);
+    # toe off at most 14 / 21 ms; none missed, none extra. Not met, and so not asserted
+    # for the toe off: the single sources alone (docs: the FSRs cannot see the toes' tips;
+    # the IMU alone's is 40 ms early in the closed loop).
+    sensor = ("none", "every", "first", "hallux", "heel")
+    tables = [faults[c] for c in FAULTS if c.startswith(sensor)]
+    tables += [v.closed[c] for c in v.closed if c.startswith(sensor)]
     tables += [t[SOURCES[0]] for t in (*v.slow_sources.values(), *v.worst.values())]
-    for table in tables:
-        for r in table:
-            if r["event"] in ("initial contact", "toe off"):
-                assert r["median_abs_error_ms"] <= 20.0 and r["p95_abs_error_ms"] <= 40.0, r
-                assert r["missed"] + r["false"] <= 0.01 * r["true"], r
+    assert not any(v.closed_stopped.values()), v.closed_stopped
+    # each source alone: the initial contact (the IMU's at the strike: 0-1 ms; before it
+    # took the strike, the IMU alone's contact in the closed loop was 105 ms off, 31 toe
+    # offs of 60 missed)
+    contact = [faults[c] for c in SOURCES[1:]] + [v.closed[c] for c in SOURCES[1:]]
+    contact += [t[c] for t in v.worst.values() for c in SOURCES[1:]]
+    checked = [(r, ("initial contact", "toe off")) for table in tables for r in table]
+    checked += [(r, ("initial contact",)) for table in contact for r in table]
+    for r, events in checked:
+        if r["event"] in events:
+            assert r["median_abs_error_ms"] <= 20.0 and r["p95_abs_error_ms"] <= 40.0, r
+            assert r["missed"] + r["false"] <= 0.01 * r["true"], r
 
 
 @pytest.mark.skipif(not __import__("exoleg.validate.opensim_child", fromlist=["x"]).available(),

@@ -31,14 +31,21 @@ Catalfamo et al. 2010; in children with CP, Behboodi et al. 2019):
   slowly) for ``gyro_swing_ms`` is in swing whatever the FSRs read: a stance they hold
   on to (a sensor preloaded by the strap, drift) ends with a toe off there, and each
   sensor's reading then is its offset (its baseline; a lower reading in a later swing
-  lowers it).
+  lowers it);
+* the strike: the accelerometer's reading jumping from its mean over ``impact_ms`` by
+  more than ``impact`` and ``impact_ratio`` times the largest jump since the foot swung
+  forward (a running calibration), once the forward turn has eased below
+  ``impact_swing`` of its fastest, is the foot striking the ground: the initial contact
+  when the heel's sensor read no load last stance (failed, or a child landing on the
+  forefoot: the FSRs would see the contact only as the forefoot loads).
 
 **The IMU alone** (:func:`_imu_path`, its own phases from the gyroscope and the
-accelerometer) runs beside them and decides when the FSRs cannot: their readings missing
+accelerometer; its initial contact the strike) runs beside them and decides when the FSRs cannot: their readings missing
 (NaN), frozen (a loaded reading unchanged for ``frozen_ms``: noise always moves a live
 one) or silent (nothing loaded for ``fsr_silent_strides`` strides the IMU has walked).
 The gyroscope is not used when missing, saturated (at its range) or frozen; the FSRs then
-decide alone. The state says which source it rests on (``source``: :class:`Source`).
+decide alone. The accelerometer is not used when missing or frozen (at its range it
+reads a strike). The state says which source it rests on (``source``: :class:`Source`).
 
 The stride time is the mean of the last ``strides_averaged`` IC-to-IC intervals that lie
 within ``stride_accept`` times the expected one; the gait percentage is the time since
@@ -111,11 +118,15 @@ HISTORY = 10
 #: toe-down turn since the lift and in this stance (rad/s), the turn's rate of change and
 #: its steepest since the lift (rad/s^2), the foot's angle turned (rad; the gyroscope
 #: integrated) now and at the lift, whether the hallux's sensor read a load this stance
-#: and the last; when any region last read loaded (s). The IMU's
+#: and the last, and the heel's; when any region last read loaded (s). The IMU's
 #: path: its phase and times, whether it has seen the swing since its toe off, the
 #: fastest forward swing of this and of the last stride, the fastest toe-down turn and
-#: its steepest rate since heel off, since when the foot is still (s, -1: it is not). The
-#: sources' health: the last readings and since when they have not changed (s).
+#: its steepest rate since heel off, since when the foot is still (s, -1: it is not), the
+#: accelerometer's mean over the impact time (m/s^2), when it was last updated (s), its
+#: reading's largest jump from it in this swing (m/s^2), and the largest in the last two
+#: impact times (the newest first) and when the newer began (s). The
+#: sources' health: the last readings (FSRs, gyroscope, accelerometer) and since when they
+#: have not changed (s).
 STATE = np.dtype([("phase", I8), ("bearing", np.bool_), ("t_ic", F8),
                   ("n_stride", I8), ("history", F8, HISTORY), ("source", I8),
                   ("phase_f", I8), ("t_ic_f", F8), ("t_to_f", F8),
@@ -125,14 +136,16 @@ STATE = np.dtype([("phase", I8), ("bearing", np.bool_), ("t_ic", F8),
                   ("swing_since", F8), ("lift", np.bool_), ("unloaded", np.bool_),
                   ("lift_min", F8), ("stance_min", F8),
                   ("angle", F8), ("lift_angle", F8), ("hallux_now", np.bool_),
-                  ("hallux_last", np.bool_),
+                  ("hallux_last", np.bool_), ("heel_now", np.bool_), ("heel_last", np.bool_),
                   ("slope", F8),
                   ("steepest", F8),
                   ("t_loaded", F8),
                   ("phase_i", I8), ("t_ic_i", F8), ("t_ho_i", F8), ("t_to_i", F8),
                   ("swung", np.bool_),
                   ("peak_now", F8), ("peak", F8), ("turn_min", F8), ("steep_i", F8),
-                  ("still_since", F8),
+                  ("still_since", F8), ("acc_mean", F8, 2), ("acc_t", F8),
+                  ("acc_last", F8, 2), ("acc_same", F8), ("swing_jump", F8),
+                  ("jumps", F8, 2), ("jump_t", F8),
                   ("gyro_last", F8), ("gyro_same", F8), ("fsr_last", F8, 4),
                   ("fsr_same", F8)])
 
@@ -143,13 +156,15 @@ def new_state(settings: NDArray[np.void]) -> NDArray[np.void]:
     s = new(STATE)
     s["phase"] = s["phase_f"] = s["phase_i"] = Phase.UNKNOWN
     s["heel_since"] = s["fore_since"] = s["swing_since"] = s["still_since"] = -1.0
-    for name in ("t_ic", "t_ic_f", "t_to_f", "t_ic_i", "t_ho_i", "t_to_i", "t_loaded"):
+    for name in ("t_ic", "t_ic_f", "t_to_f", "t_ic_i", "t_ho_i", "t_to_i", "t_loaded",
+                 "acc_t"):
         s[name] = -1e9
     s["max"] = settings[0]["floor"]
     s["total_max"] = settings[0]["floor"]
     s["peak"] = 2.0 * settings[0]["gyro_swing"]  # the first swing's level: gyro_swing
-    s["gyro_last"] = s["fsr_last"] = np.nan
+    s["gyro_last"] = s["fsr_last"] = s["acc_last"] = np.nan
     s["source"] = Source.NONE
+    s["heel_last"] = True  # until a stance says otherwise
     return s
 
 
@@ -215,8 +230,11 @@ def forefoot(st, counts):  # type: ignore[no-untyped-def]
 
 
 @njit(inline="always")
-def _fsr_path(D, s, counts, gyro, gyro_ok, t):  # type: ignore[no-untyped-def]
-    """The FSRs' path, the gyroscope fused when it reads: this tick's events."""
+def _fsr_path(D, s, counts, gyro, gyro_ok, strike, t):  # type: ignore[no-untyped-def]
+    """The FSRs' path, the gyroscope fused when it reads: this tick's events. ``strike``:
+    the foot's IMU reads the foot striking the ground (:func:`detect`) -- the initial
+    contact when the heel's sensor read no load last stance (failed, or a child landing
+    on the forefoot)."""
     total = 0.0
     for i in range(4):
         if counts[i] > s.max[i]:
@@ -238,6 +256,8 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, t):  # type: ignore[no-untyped-def]
     f = s.fore
     if s.heel_raw or s.fore_raw:
         s.t_loaded = t
+    if h:
+        s.heel_now = True
     # the whole foot unloaded, too: a load spread over several sensors, each below its own
     # threshold, is still a foot on the ground
     lifted = not h and not f and \
@@ -256,12 +276,13 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, t):  # type: ignore[no-untyped-def]
                 s.base[i] = counts[i]
     ev = 0
     if phase <= Phase.SWING:  # swing or unknown
-        if (h or f) and (phase == Phase.UNKNOWN or t - s.t_to_f >= D.min_swing) \
-                and not swinging:
+        if (h or f or (strike and not s.heel_last)) and not swinging \
+                and (phase == Phase.UNKNOWN or t - s.t_to_f >= D.min_swing):
             ev |= Event.IC
             s.t_ic_f = t
             s.stance_min = 0.0
             s.hallux_now = hallux > D.contact_on
+            s.heel_now = h
             if h and f:
                 ev |= Event.FF
                 phase = Phase.FLAT
@@ -305,6 +326,7 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, t):  # type: ignore[no-untyped-def]
             ev |= Event.TO
             s.t_to_f = t
             s.hallux_last = s.hallux_now
+            s.heel_last = s.heel_now
             phase = Phase.SWING
             if rebase:  # the FSRs' readings now are their offsets
                 for i in range(4):
@@ -322,18 +344,22 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, t):  # type: ignore[no-untyped-def]
 
 
 @njit(inline="always")
-def _imu_path(D, s, gyro, acc_dev, t):  # type: ignore[no-untyped-def]
+def _imu_path(D, s, gyro, acc_dev, strike, acc_ok, t):  # type: ignore[no-untyped-def]
     """The foot IMU's path (a reading gyroscope; ``acc_dev``: the accelerometer's
-    |specific force| less g, m/s^2, 0 without one): this tick's events.
+    |specific force| less g, m/s^2, 0 without one; ``strike``: the foot striking the
+    ground, :func:`detect`; ``acc_ok``: whether the accelerometer reads): this tick's
+    events.
 
     A foot still (turning slower than ``gyro_still``, its specific force within
     ``accel_still`` of g) for ``still_time`` is flat on the ground; after a swing (the foot
-    turning forward faster than ``gyro_swing_floor``), its turning toe-down faster than
-    ``gyro_contact`` and ``contact_fraction`` of the last swing's fastest turn is an initial
-    contact; from flat, turning toe-down faster than ``gyro_heel_off`` is heel off; from
-    heel off, the toe-down turn past its steepest (as the fused toe off, :func:`detect`)
-    and still faster than ``gyro_turning`` is toe off, no sooner than ``push_ms`` after heel
-    off; a foot still again after heel off is flat (a jolt as walking starts is not a
+    turning forward faster than ``gyro_swing_floor``), the strike is an initial contact
+    (without the accelerometer: turning toe-down faster than ``gyro_contact`` and
+    ``contact_fraction`` of the last swing's fastest turn -- which a foot turned toe-down
+    in the air, a controller ahead of the foot, also does); from flat, turning toe-down
+    faster than ``gyro_heel_off`` is heel off; from heel off, the toe-down turn past its
+    steepest (as the fused toe off, :func:`detect`) and still faster than
+    ``gyro_turning`` is toe off, no sooner than ``push_ms`` after heel off; a foot still
+    again since heel off is flat (a jolt as walking starts is not a
     push-off)."""
     still = abs(gyro) < D.gyro_still and abs(acc_dev) < D.accel_still
     if still:
@@ -353,7 +379,10 @@ def _imu_path(D, s, gyro, acc_dev, t):  # type: ignore[no-untyped-def]
         if phase == Phase.UNKNOWN:
             contact = still
         elif s.swung and t - s.t_to_i >= D.min_swing:
-            contact = gyro < -max(D.gyro_contact, D.contact_fraction * s.peak)
+            if acc_ok:
+                contact = strike
+            else:
+                contact = gyro < -max(D.gyro_contact, D.contact_fraction * s.peak)
         if contact:
             ev |= Event.IC
             if phase == Phase.SWING:
@@ -373,7 +402,8 @@ def _imu_path(D, s, gyro, acc_dev, t):  # type: ignore[no-untyped-def]
             s.turn_min = gyro
             s.steep_i = 0.0
             s.t_ho_i = t
-        elif phase == Phase.PUSH and still:  # the heel down again: no push-off (a jolt)
+        elif phase == Phase.PUSH and still and s.still_since > s.t_ho_i:
+            # still again since heel off, the heel down again: no push-off (a jolt)
             phase = Phase.FLAT
         elif phase == Phase.LOADING and t - s.t_ic_i < D.min_stance:
             s.turn_min = 0.0  # the turn as the foot lands is not the push-off's
@@ -387,6 +417,7 @@ def _imu_path(D, s, gyro, acc_dev, t):  # type: ignore[no-untyped-def]
                 ev |= Event.TO
                 s.t_to_i = t
                 s.swung = False
+                s.swing_jump = s.jumps[0] = s.jumps[1] = 0.0
                 s.peak_now = gyro
                 phase = Phase.SWING
     s.phase_i = phase
@@ -429,14 +460,42 @@ def detect(d, st, counts, gyro, acc, t):  # type: ignore[no-untyped-def]
         s.fsr_same = t
     # frozen loaded: a board holding its last reading (its noise would move it)
     fsr_ok = fsr_ok and not (loaded and t - s.fsr_same >= D.frozen_time)
-    ev_f = _fsr_path(D, s, counts, gyro, gyro_ok, t) if fsr_ok else 0
+    acc_dev = 0.0  # the accelerometer's |specific force| less g (0: none reading)
+    jump = 0.0  # its reading's departure from its mean over impact_time (m/s^2)
+    # the accelerometer reads: finite and not frozen (at its range it reads an impact)
+    acc_ok = math.isfinite(acc[0]) and math.isfinite(acc[1])
+    if acc[0] != s.acc_last[0] or acc[1] != s.acc_last[1]:
+        s.acc_same = t
+        s.acc_last[0], s.acc_last[1] = acc[0], acc[1]
+    acc_ok = acc_ok and t - s.acc_same < D.frozen_time
+    if acc_ok:
+        saturated = abs(acc[0]) >= D.accel_range or abs(acc[1]) >= D.accel_range
+        acc_dev = D.accel_range if saturated else \
+            math.sqrt(acc[0] * acc[0] + acc[1] * acc[1]) - 9.80665
+        dt = t - s.acc_t
+        if dt > D.impact_time * 10.0:  # the first reading, or after a gap: the mean anew
+            s.acc_mean[0], s.acc_mean[1] = acc[0], acc[1]
+        jump = math.inf if saturated else \
+            math.hypot(acc[0] - s.acc_mean[0], acc[1] - s.acc_mean[1])
+        a = dt / (D.impact_time + dt)
+        s.acc_mean[0] += a * (acc[0] - s.acc_mean[0])
+        s.acc_mean[1] += a * (acc[1] - s.acc_mean[1])
+        s.acc_t = t
+    # the foot striking the ground: an impact -- a jump beyond impact and impact_ratio
+    # times the largest since the foot swung forward -- once its forward swing has eased
+    strike = acc_ok and gyro_ok and jump > max(D.impact, D.impact_ratio * s.swing_jump) \
+        and gyro < D.impact_swing * s.peak_now
+    if s.phase_i == Phase.SWING and s.swung and acc_ok:
+        # the jumps of the last impact_time to 2 impact_time are not yet the swing's:
+        # they may be the strike's rise
+        if t - s.jump_t >= D.impact_time:
+            s.swing_jump = max(s.swing_jump, s.jumps[1])
+            s.jumps[1], s.jumps[0], s.jump_t = s.jumps[0], 0.0, t
+        s.jumps[0] = max(s.jumps[0], jump)
+    ev_f = _fsr_path(D, s, counts, gyro, gyro_ok, strike, t) if fsr_ok else 0
     ev_i = 0
     if gyro_ok:
-        acc_dev = 0.0  # the accelerometer's |specific force| less g (0: none reading)
-        if math.isfinite(acc[0]) and math.isfinite(acc[1]) and \
-                abs(acc[0]) < D.accel_range and abs(acc[1]) < D.accel_range:
-            acc_dev = math.sqrt(acc[0] * acc[0] + acc[1] * acc[1]) - 9.80665
-        ev_i = _imu_path(D, s, gyro, acc_dev, t)
+        ev_i = _imu_path(D, s, gyro, acc_dev, strike, acc_ok, t)
     # silent: the FSRs have read nothing loaded for fsr_silent_strides strides the IMU
     # has walked (their cable off, the board reading zeros)
     if fsr_ok and gyro_ok and s.t_ic_i > s.t_loaded:
