@@ -36,7 +36,6 @@ class DetectorSettings:
     slope_floor: float = 5.0       # rad/s^2
     slope_eased: float = 0.5       # of the steepest
     gyro_rise: float = 0.7         # rad/s
-    gyro_past: float = 0.3         # rad/s
     push_depth: float = 0.85       # of the stance's fastest toe-down turn
     toe_roll: float = 0.175        # rad
     push_time: float = 0.05        # s
@@ -67,8 +66,7 @@ class DetectorSettings:
                              ("gyro_swing_time", 0.0, 0.5), ("gyro_swing_floor", 0.1, 30.0),
                              ("slope_time", 0.0, 0.1),
                              ("slope_floor", 0.0, 1e3), ("slope_eased", 0.01, 0.99),
-                             ("gyro_rise", 0.0, 5.0), ("gyro_past", 0.0, 5.0),
-                             ("push_depth", 0.1, 1.0),
+                             ("gyro_rise", 0.0, 5.0), ("push_depth", 0.1, 1.0),
                              ("toe_roll", 0.0, 1.0), ("push_time", 0.0, 0.5),
                              ("contact_fraction", 0.0, 1.0), ("gyro_contact", 0.0, 20.0),
                              ("gyro_heel_off", 0.0, 20.0), ("gyro_still", 0.0, 5.0),
@@ -103,8 +101,7 @@ class DetectorSettings:
             "gyro_swing_floor_dps": (5.0, 1800.0, "deg/s"),
             "slope_ms": (0.0, 100.0, "ms"), "slope_floor_dps2": (0.0, 6e4, "deg/s^2"),
             "slope_eased": (0.01, 0.99, ""), "contact_fraction": (0.0, 1.0, ""),
-            "gyro_rise_dps": (0.0, 300.0, "deg/s"), "gyro_past_dps": (0.0, 300.0, "deg/s"),
-            "push_depth": (0.1, 1.0, ""),
+            "gyro_rise_dps": (0.0, 300.0, "deg/s"), "push_depth": (0.1, 1.0, ""),
             "toe_roll_deg": (0.0, 45.0, "deg"), "push_ms": (0.0, 500.0, "ms"),
             "gyro_contact_dps": (0.0, 1200.0, "deg/s"), "gyro_heel_off_dps": (0.0, 1200.0, "deg/s"),
             "gyro_still_dps": (0.0, 300.0, "deg/s"), "accel_still": (0.0, 50.0, "m/s^2"),
@@ -129,8 +126,7 @@ class DetectorSettings:
                        slope_time=v["slope_ms"] / 1e3,
                        slope_floor=math.radians(v["slope_floor_dps2"]),
                        slope_eased=v["slope_eased"], contact_fraction=v["contact_fraction"],
-                       gyro_rise=math.radians(v["gyro_rise_dps"]),
-                       gyro_past=math.radians(v["gyro_past_dps"]), push_depth=v["push_depth"],
+                       gyro_rise=math.radians(v["gyro_rise_dps"]), push_depth=v["push_depth"],
                        toe_roll=math.radians(v["toe_roll_deg"]), push_time=v["push_ms"] / 1e3,
                        gyro_contact=math.radians(v["gyro_contact_dps"]),
                        gyro_heel_off=math.radians(v["gyro_heel_off_dps"]),
@@ -170,8 +166,7 @@ SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("floor", F8),
                      ("expected_stride", F8), ("gyro_turning", F8), ("gyro_swing", F8),
                      ("gyro_swing_time", F8), ("gyro_swing_floor", F8),
                      ("slope_time", F8), ("slope_floor", F8), ("slope_eased", F8),
-                     ("gyro_rise", F8), ("gyro_past", F8), ("push_depth", F8),
-                     ("toe_roll", F8),
+                     ("gyro_rise", F8), ("push_depth", F8), ("toe_roll", F8),
                      ("push_time", F8),
                      ("contact_fraction", F8),
                      ("gyro_contact", F8), ("gyro_heel_off", F8), ("gyro_still", F8),
