@@ -3,6 +3,7 @@
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 
@@ -140,6 +141,22 @@ def test_simulate_walk(tmp_path):
     assert "gait-phase detection" in r.stdout
 
 
+def test_simulate_walk_with_a_sensor_fault(tmp_path):
+    # the heel's sensor dead from 1.5 s: the controller read 0 from then (the
+    # timeseries' readings are what it read) and summary.json names the fault
+    import json
+
+    r = run("simulate", "--walk", "--strides", "2", "--sensor-fault", "heel:dead@1.5",
+            "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    assert "heel reads 0 from 1.5 s" in r.stdout
+    figs = json.loads((tmp_path / "summary.json").read_text())["figures"]
+    assert figs["sensor_faults"] == ["heel reads 0 from 1.5 s"]
+    data = np.genfromtxt(tmp_path / "timeseries.csv", delimiter=",", names=True)
+    after = data["t"] >= 1.5
+    assert np.all(data["fsr_heel"][after] == 0.0) and data["fsr_heel"][~after].max() > 100.0
+
+
 def test_simulate_walk_with_a_child_under_assist_as_needed(tmp_path):
     # the issue's summary fields and figures: the cuffs' torque per kg per joint, one
     # support value per stride (0-1), the safety layer's events (a list)
@@ -192,7 +209,12 @@ def test_simulate_walk_bad_options(tmp_path):
                        (["--walk", "--strides", "0"], "0 is outside 1-10000"),
                        (["--walk", "--strides", "many"], "expected a whole number"),
                        (["--walk", "--body-mass", "500"], "outside 10-150"),
-                       (["--strides", "3"], "goes with --walk")):
+                       (["--strides", "3"], "goes with --walk"),
+                       (["--sensor-fault", "heel:dead"], "goes with --walk"),
+                       (["--walk", "--sensor-fault", "toe:dead"], "'toe' is not one of heel"),
+                       (["--walk", "--sensor-fault", "heel:dead@soon"], "not a number"),
+                       (["--walk", "--sensor-fault", "heel:offset=2"], "2 is outside -1-1"),
+                       (["--walk", "--sensor-fault", "heel dead"], "no ':' between")):
         r = run("simulate", "--out", str(tmp_path), *args)
         assert r.returncode == 2 and text in r.stderr, (args, r.stderr)
         assert len(r.stderr.strip().splitlines()) == 1

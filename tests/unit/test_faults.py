@@ -83,3 +83,15 @@ def test_a_fault_in_a_walk_reaches_the_readings_not_the_foot() -> None:
     assert r.contact_force[after, 0].max() > 50.0
     clean = simulate_walk(leg, 30.0, strides=2, seed=1)
     assert np.array_equal(r.fsr[~after], clean.fsr[~after])
+
+
+def test_a_fault_as_typed() -> None:
+    # --sensor-fault's SPEC: CHANNEL:KIND[@START[..END]][=VALUE]
+    assert SensorFault.parse("gyro:frozen@2.5..5") == SensorFault("gyro", "frozen", 2.5,
+                                                                  end=5.0)
+    assert SensorFault.parse("met1:offset=0.25") == SensorFault("met1", "offset", value=0.25)
+    assert SensorFault.parse("accel:drift@1=-0.1") == SensorFault("accel", "drift", 1.0, -0.1)
+    for text, problem in (("heel", "no ':'"), ("heel:dead@2-5", "not a number"),
+                          ("heel:dead@-1", "0 <= start < end"), ("fsrs:gone", "kind")):
+        with pytest.raises(ParameterError, match=problem):
+            SensorFault.parse(text)

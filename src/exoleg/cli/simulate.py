@@ -54,9 +54,21 @@ APPLIES: dict[str, tuple[tuple[str, ...], str]] = {
     "device": (_DEVICE, ""),
     "hip_motor": (_DEVICE, ""),
     "child": (("walk",), ""),
+    "sensor_fault": (("walk",), ""),
 }
 _FLAG = {"scenario": "the paper's scenario (neither --actuators nor --walk)",
          "actuators": "--actuators", "walk": "--walk"}
+
+
+def _sensor_fault(text: str) -> Any:
+    """``--sensor-fault``'s SPEC (:meth:`exoleg.device.faults.SensorFault.parse`)."""
+    from exoleg.device.faults import SensorFault
+    from exoleg.errors import ParameterError
+
+    try:
+        return SensorFault.parse(text)
+    except ParameterError as e:
+        raise argparse.ArgumentTypeError(f"{text!r}: {e.problem}") from None
 
 
 def device_actuators(args: argparse.Namespace) -> Any:
@@ -414,5 +426,12 @@ def add_parser(sub: Any) -> None:
                    help="walk: the child as an actor (child.toml, written by exoleg fit): "
                         "passive joint moments, contracture, spasticity, their own effort; "
                         "its mass replaces --body-mass")
+    s.add_argument("--sensor-fault", type=_sensor_fault, action="append", default=[],
+                   metavar="SPEC", help="walk: a fault of the foot board's sensors, "
+                   "repeatable: CHANNEL:KIND[@START[..END]][=VALUE] -- channel heel, met1, "
+                   "met5, hallux, fsrs, gyro, accel or board; kind dead (reads VALUE), "
+                   "missing, frozen, offset (+VALUE) or drift (VALUE per s); times in s; an "
+                   "FSR's VALUE a fraction of full scale, the gyroscope's rad/s, the "
+                   "accelerometer's m/s^2. E.g. heel:dead@2")
     s.set_defaults(func=cmd_simulate,
                    variant_defaults={a.dest: a.default for a in s._actions if a.dest in APPLIES})

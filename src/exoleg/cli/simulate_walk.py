@@ -51,7 +51,8 @@ def _simulate_walk(args: argparse.Namespace) -> int:
                       stride_time=stride, noise_scale=args.noise, seed=args.seed,
                       ankle_height=args.ankle_height / 100, device=args.device,
                       actuators=device_actuators(args), child=child,
-                      support_mode=SUPPORT_NAMES[args.controller])
+                      support_mode=SUPPORT_NAMES[args.controller],
+                      faults=tuple(args.sensor_fault))
     rows = detection_table([r])
     peaks = walk_peaks(r)
     over = (r.safety_status & Limited.GEAR_PEAK) > 0
@@ -68,6 +69,7 @@ def _simulate_walk(args: argparse.Namespace) -> int:
             "max_contact_force_N": float(r.contact_force.sum(axis=1).max()),
             "child": None if child is None else child.name,
             "controller": args.controller,
+            "sensor_faults": [str(f) for f in args.sensor_fault],
             "interaction_torque": inter,
             "interaction_torque_rms_per_kg": {f["joint"]: f["rms_Nm_per_kg"] for f in inter},
             "support_by_stride": support_by_stride(r.t, r.support_level, strikes),
@@ -90,7 +92,8 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     _say(f"exoleg simulate --walk --controller {args.controller}: leg '{leg.name}', body "
          f"{args.body_mass:g} kg (pelvis carries "
          f"{r.plant.body_mass:.1f} kg), {args.strides} strides of {stride:g} s on a belt at "
-         f"{r.plant.belt_speed:.2f} m/s, sensor noise x{args.noise:g} (seed {args.seed})")
+         f"{r.plant.belt_speed:.2f} m/s, sensor noise x{args.noise:g} (seed {args.seed})"
+         + "".join(f"; {f}" for f in args.sensor_fault))
     _table([[p["joint"], f"{p['rms_tracking_error_deg']:.1f}",
              f"{p['peak_torque_Nm']:.1f} / {p['torque_limit_Nm']:.0f}",
              f"{p['rms_torque_Nm']:.1f} / {p['continuous_torque_Nm']:.0f}",

@@ -55,6 +55,11 @@ FAULT = np.dtype([("mask", I8), ("kind", I8), ("start", F8), ("end", F8),
                   ("value", F8, 7), ("low", F8, 7), ("high", F8, 7), ("held", F8, 7)])
 
 
+#: how a fault is written where people type it (:meth:`SensorFault.parse`)
+SPEC = ("CHANNEL:KIND[@START[..END]][=VALUE], e.g. heel:dead@2, met1:offset=0.25, "
+        "gyro:frozen@2..5")
+
+
 @dataclass(frozen=True)
 class SensorFault:
     """One fault of the foot board's sensors (see the module's text): ``channel``
@@ -86,6 +91,29 @@ class SensorFault:
             what = "per s, a drift's" if self.kind == "drift" else "of the FSRs' full scale"
             raise ParameterError(where, "value", f"{self.value:g} is outside -1-1 (a "
                                  f"fraction {what})")
+
+    @classmethod
+    def parse(cls, text: str) -> SensorFault:
+        """A fault written as :data:`SPEC` (times in s) -- as ``--sensor-fault`` takes it;
+        anything else refused naming what was wrong and how to write it."""
+        def bad(problem: str) -> ParameterError:
+            return ParameterError("sensor fault", repr(text), f"{problem}; write {SPEC}")
+
+        head, _, value = text.partition("=")
+        head, _, when = head.partition("@")
+        channel, sep, kind = head.partition(":")
+        if not sep:
+            raise bad("no ':' between the channel and the kind")
+        start, _, end = when.partition("..")
+        try:
+            numbers = [float(x) if x.strip() else d
+                       for x, d in ((start, 0.0), (end, math.inf), (value, 0.0))]
+        except ValueError:
+            raise bad("a time or value is not a number") from None
+        try:
+            return cls(channel.strip(), kind.strip(), numbers[0], numbers[2], numbers[1])
+        except ParameterError as e:
+            raise bad(f"{e.field}: {e.problem}") from None
 
     def __str__(self) -> str:
         what = {"dead": f"reads {self.value:g}", "missing": "no reading",
@@ -170,5 +198,5 @@ def faulted(faults: Sequence[SensorFault], counts: F64, gyro: F64, accel: F64, t
     return S["fsr"].copy(), S["gyro"].copy(), S["accel"].copy()
 
 
-__all__ = ["CHANNELS", "FAULT", "KINDS", "SensorFault", "apply_faults", "fault_records",
+__all__ = ["CHANNELS", "FAULT", "KINDS", "SPEC", "SensorFault", "apply_faults", "fault_records",
            "faulted"]
