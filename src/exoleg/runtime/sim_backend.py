@@ -57,7 +57,6 @@ class SimBackend:
         self.reading = new(SENSORS)
         self.fn = np.zeros(4)
         self.u, self.env, self.tau = np.zeros(3), np.zeros(3), np.zeros(3)
-        self.walk_start = -1.0
         self.walking = False
         self._written = False
 
@@ -87,7 +86,7 @@ class SimBackend:
         P, C, CS, pd = self.K
         device_actuate(self.p, w, self.dev.A, (P, C, CS.copy(), pd), S,
                        self.period, self.substeps, np.zeros(3), f,
-                       False, 0.0, 1e18, self.dev.stride_time, self.dev.support,
+                       False, 0.0, self.dev.stride_time, self.dev.support,
                        self.dev.plant.support_height, np.zeros(3), np.zeros(3))
 
     def read(self, t: float) -> dict[str, Any]:
@@ -115,12 +114,8 @@ class SimBackend:
     def _step(self) -> None:
         t = self.k * self.period
         walking = self.walking and not self.dev.step
-        if walking and self.walk_start < 0:
-            self.walk_start = t
         device_actuate(self.p, self.w, self.dev.A, self.K, self.S, self.period, self.substeps,
-                       self.u,
-                       self.fn, walking, t,
-                       self.walk_start if walking else 1e18, self.dev.stride_time,
+                       self.u, self.fn, walking, t, self.dev.stride_time,
                        self.dev.support, self.dev.plant.support_height, self.env, self.tau)
         self.k += 1
         self._written = False

@@ -67,7 +67,8 @@ def _imu_point(p, x, px, py):  # type: ignore[no-untyped-def]
 #: A simulated device's state (:func:`device_sense`, :func:`device_actuate`): the plant
 #: state x = (y, q0, q1, q2, dy, dq0, dq1, dq2), the drives' torques (N m), the encoders'
 #: last readings (rad), the filtered rates (rad/s), the IMU point's last velocity (m/s),
-#: the other leg's timing (this leg loaded, its last toe off and strike, s), the
+#: the other leg's timing (this leg loaded, its last toe off and strike, s; whether the
+#: device walked last tick and when this walk started, s), the
 #: belt's speed while walking (m/s), and the FSRs' memory (their last normalised force,
 #: hysteresis direction and creep states: :func:`~exoleg.device.sensors.fsr_response`),
 #: the child's muscles' torque over the last tick (reflexes and effort, N m; their
@@ -75,6 +76,7 @@ def _imu_point(p, x, px, py):  # type: ignore[no-untyped-def]
 #: :mod:`exoleg.child.interaction`; NaN when the device's own links are unknown).
 DEVICE = np.dtype([("x", F8, 8), ("tau", F8, 3), ("qm", F8, 3), ("vm", F8, 3),
                    ("v_imu", F8, 2), ("loaded", np.bool_), ("t_off", F8), ("t_strike", F8),
+                   ("walking", np.bool_), ("t_start", F8),
                    ("belt", F8), ("fsr_last", F8, 4), ("fsr_memory", F8, 4),
                    ("fsr_creep", F8, (4, 3)), ("child", F8, 3), ("interaction", F8, 3)])
 
@@ -135,13 +137,14 @@ def device_sense(p, w, A, sens, imu_x, imu_y, S, h, first, fsr_noise, imu_noise,
 
 
 @njit(cache=True, error_model="numpy")
-def device_actuate(p, w, A, K, S, h, sub, u, fn, walking, t, t_walk, stride, support,  # type: ignore[no-untyped-def]
+def device_actuate(p, w, A, K, S, h, sub, u, fn, walking, t, stride, support,  # type: ignore[no-untyped-def]
                    stand_support, env, tau):
     """The drives and ``sub`` plant steps over one tick of ``h`` s under the torque command
     ``u`` (3,): the envelope at the measured speed (into ``env``), the current loop (the
     mean torque delivered into ``tau``), contacts held per step. The treadmill runs and the
     other leg (an actor) keeps time with this leg's true foot strikes (from ``fn``) while
-    ``walking``. The child (``K``: :meth:`SimulatedDevice.child_records`) acts too: their
+    ``walking``; each walk's start (``walking`` again after standing) restarts their clock
+    at the controller's start fraction until this walk's first strike. The child (``K``: :meth:`SimulatedDevice.child_records`) acts too: their
     passive moments in every stage, their reflexes and effort held over the tick; the
     cuffs' torque of the tick into the state. Returns (the other leg's mean force on the
     pelvis, 1 if the state is still finite)."""
@@ -161,12 +164,15 @@ def device_actuate(p, w, A, K, S, h, sub, u, fn, walking, t, t_walk, stride, sup
         if D.t_strike > D.t_off:
             D.t_off = t
     xc = 0.0
-    if walking and t >= t_walk:
+    if walking and not D.walking:  # a walk starts (again)
+        D.t_start = t
+    D.walking = walking
+    if walking:
         W.belt_speed = D.belt
-        if D.t_strike > t_walk:
+        if D.t_strike >= D.t_start:
             xc = min((t - D.t_strike) / stride, 0.999)
         else:
-            xc = min(START_FRACTION + (t - t_walk) / stride, 0.999)
+            xc = min(START_FRACTION + (t - D.t_start) / stride, 0.999)
         W.support_height = support[min(int(xc * (support.shape[0] - 1) + 0.5),
                                        support.shape[0] - 1)]
     else:
@@ -175,7 +181,7 @@ def device_actuate(p, w, A, K, S, h, sub, u, fn, walking, t, t_walk, stride, sup
     for i in range(3):
         env[i] = drive_limit(A[i:i + 1], D.vm[i], u[i])
     x = D.x
-    child_tick(P, C, CS, x[1:4], x[5:8], h, walking and t >= t_walk, xc, D.loaded,
+    child_tick(P, C, CS, x[1:4], x[5:8], h, walking, xc, D.loaded,
                D.child)
     x0 = x.copy()
     pts = np.empty((SOLE_MAX, 4))

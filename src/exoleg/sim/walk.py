@@ -50,7 +50,7 @@ F64 = NDArray[np.float64]
 
 @njit(cache=True, error_model="numpy")
 def _run_walk(p, w, A, K, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_y, commands,  # type: ignore[no-untyped-def]
-              F, h, sub, support, stand_support, t_walk, stride, S, X, SENS, FN, OUT, TAU, ENV,
+              F, h, sub, support, stand_support, stride, S, X, SENS, FN, OUT, TAU, ENV,
               SUP, CH, PA, SH):
     """The walking run: per tick k the device's readings into ``SENS[k]``, the
     controller's tick (``ctl``: :meth:`WalkController.compiled`) into ``OUT[k]`` -- the
@@ -88,7 +88,7 @@ def _run_walk(p, w, A, K, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_
         # 3. the drives and 4. the plant
         SUP[k], ok = device_actuate(p, w, A, K, S, h, sub, OUT[k].tau, FN[k],
                                     OUT[k].mode == Mode.WALKING or OUT[k].mode == Mode.STOPPING,
-                                    t, t_walk, stride, support,
+                                    t, stride, support,
                                     stand_support, ENV[k], TAU[k])
         for i in range(8):
             X[k + 1, i] = S[0].x[i]
@@ -278,7 +278,7 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     bad = _run_walk(plant.leg.p, plant.record(), dev.A, K, ctl.compiled(), sens.record(),
                     fsr_noise, imu_noise, bias, dev.imu_x, -dev.depth, commands,
                     fault_records(faults, sens), control_dt,
-                    substeps, dev.support, plant.support_height, standing, stride_time,
+                    substeps, dev.support, plant.support_height, stride_time,
                     dev.state(), X, SENS, FN, OUT, TAU, ENV, SUP, CH, PA, SH)
     if bad >= 0:
         raise SimulationError(f"walking state became non-finite at t = {bad * control_dt:.4g} s")

@@ -35,11 +35,10 @@ SLOW = (2.0, 4.0)
 SPASTICITY = {0: "none", 1: "mild", 2: "mild", 3: "moderate", 4: "moderate"}
 #: Harder walkers, at the datasheet noise: (label, age, sex, GMFCS level, the actor's
 #: :meth:`~exoleg.child.model.ChildModel.of` options, the operator's commands: "walk" --
-#: walking from the standing start on -- or "stop": walking, then a controlled stop two
-#: thirds of the way and standing). Crouch: Rozumalski & Schwartz 2009's clusters; the
-#: contracture: Falisse et al. 2020's child with CP (``child-references.md``). Walking
-#: again after a stop is not simulated: the other leg, the simulator's actor, keeps the
-#: clock of the walk's first start.
+#: walking from the standing start on --, "stop": walking, then a controlled stop two
+#: thirds of the way and standing, or "again": a stop a third of the way, walking again 3
+#: strides later). Crouch: Rozumalski & Schwartz 2009's clusters; the contracture:
+#: Falisse et al. 2020's child with CP (``child-references.md``).
 WORST: tuple[tuple[str, float, str, int | None, dict[str, Any], str], ...] = (
     ("GMFCS III girl 10 y, crouch (cluster 5), contracture, moderate spasticity", 10.0,
      "female", 3, {"contracture": "predictcpgait", "spasticity": "moderate", "crouch": 5},
@@ -50,6 +49,8 @@ WORST: tuple[tuple[str, float, str, int | None, dict[str, Any], str], ...] = (
     ("GMFCS II boy 9 y, contracture, moderate spasticity", 9.0, "male", 2,
      {"contracture": "predictcpgait", "spasticity": "moderate"}, "walk"),
     ("TD girl 9 y, walking, then a controlled stop", 9.0, "female", None, {}, "stop"),
+    ("TD girl 9 y, walking, a controlled stop, walking again", 9.0, "female", None, {},
+     "again"),
 )
 
 
@@ -101,16 +102,21 @@ def _walker(age: float, sex: str, gmfcs: int | None,
                                                                                   **actor)
 
 
-def _stop(strides: int, stride_time: float, standing: float = 1.0, dt: float = 1e-3) -> Any:
+def _stop(strides: int, stride_time: float, again: bool = False, standing: float = 1.0,
+          dt: float = 1e-3) -> Any:
     """The operator's commands per tick for :func:`~exoleg.sim.walk.simulate_walk`: arm,
-    walk after ``standing`` s, stand after two thirds of the strides."""
+    walk after ``standing`` s, stand after two thirds of the strides -- or, ``again``,
+    stand after a third and walk again 3 strides later."""
     from exoleg.control.contract import Command
 
     n = int(round((standing + strides * stride_time) / dt))
     c = np.zeros(n + 1, dtype=np.int64)
     walk = int(round(standing / dt))
     c[0], c[walk] = Command.ARM, Command.WALK
-    c[walk + int(round(2 * strides / 3 * stride_time / dt))] = Command.STAND
+    stop = walk + int(round((1 if again else 2) * strides / 3 * stride_time / dt))
+    c[stop] = Command.STAND
+    if again:
+        c[stop + int(round(3 * stride_time / dt))] = Command.WALK
     return c
 
 
@@ -158,7 +164,8 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
     for k, (label, age, sex, gmfcs, options, how) in enumerate(worst):
         leg, m, ankle, actor = _walker(age, sex, gmfcs, options)
         r = simulate_walk(leg, m, strides=strides, seed=seed + 10 + k, ankle_height=ankle,
-                          child=actor, commands=_stop(strides, 1.1) if how == "stop" else None)
+                          child=actor, commands=None if how == "walk" else
+                          _stop(strides, 1.1, again=how == "again"))
         runs.append(DetectionRun(label, 1.0, strides,
                                  bool(np.any(r.safety_status & Limited.FAULT))))
         hard[label] = fault_cases([r], 1.1, SOURCES)
