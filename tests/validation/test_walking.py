@@ -100,6 +100,26 @@ def test_a_toe_scuffing_the_belt_in_swing_is_not_a_stride() -> None:
     assert list(np.flatnonzero(without & 1)) == [0, 450, 750]
 
 
+def test_walks_again_after_a_controlled_stop() -> None:
+    # walk at 1 s, stand at 4.3 s, walk again at 7.6 s: the leg strikes the belt again
+    # about once a stride (the other leg and the child restart their clock with the walk;
+    # keeping the first start's, the leg never struck again), every contact detected
+    from exoleg.control.gait_phase import Event
+
+    strides = 9
+    c = np.zeros(int(round((1.0 + strides * 1.1) / 1e-3)) + 1, dtype=np.int64)
+    c[0], c[1000], c[4300], c[7600] = Command.ARM, Command.WALK, Command.STAND, Command.WALK
+    r = simulate_walk(LEG, 30.0, strides=strides, seed=1, commands=c)
+    assert not np.any(r.fault >= 1)
+    assert [int(r.mode[k]) for k in (4000, 7000, 9000)] == [Mode.WALKING, Mode.STANDING,
+                                                           Mode.WALKING]
+    true = r.t[(r.true_events() & Event.IC) > 0]
+    again = true[true > 7.6]
+    assert len(again) >= 2 and np.all(np.diff(again) < 1.5 * 1.1), true
+    detected = r.t[(r.events & Event.IC) > 0]
+    assert all(np.min(np.abs(detected - x)) <= 0.02 for x in again), (again, detected)
+
+
 def test_deterministic_per_seed() -> None:
     a = simulate_walk(LEG, 30.0, strides=2, seed=5)
     b = simulate_walk(LEG, 30.0, strides=2, seed=5)
