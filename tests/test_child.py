@@ -273,7 +273,8 @@ def test_with_the_child_every_walk_goes_on_and_foot_flat_and_heel_off_are_seen()
     # on these walks, with each single-sensor fault the FSRs can lose and the IMU cover
     # (drift, a preloaded, failed hallux or failed heel sensor) replayed over the walks and
     # injected into them (the controller walking on the faulted readings), at 2 and 4 s
-    # strides and for the harder walkers (crouch, contracture, weak, a controlled stop, walking again).
+    # strides and for the harder walkers (crouch, contracture, weak, a controlled stop,
+    # walking again).
     # Measured: initial contact 8 / 8 ms (the heel's sensor failed: 0 / 1, the strike);
     # toe off at most 14 / 21 ms; none missed, none extra. Not met, and so not asserted
     # for the toe off: the single sources alone (docs: the FSRs cannot see the toes' tips;
