@@ -144,8 +144,9 @@ def device_actuate(p, w, A, K, S, h, sub, u, fn, walking, t, stride, support,  #
     mean torque delivered into ``tau``), contacts held per step. The treadmill runs and the
     other leg (an actor) keeps time with this leg's true foot strikes (from ``fn``) while
     ``walking``; each walk's start (``walking`` again after standing) restarts their clock
-    at the controller's start fraction until this walk's first strike. The child (``K``: :meth:`SimulatedDevice.child_records`) acts too: their
-    passive moments in every stage, their reflexes and effort held over the tick; the
+    at the controller's start fraction until this walk's first strike. The child
+    (``K``: :meth:`SimulatedDevice.child_records`) acts too: their passive moments in
+    every stage, their reflexes and effort held over the tick; the
     cuffs' torque of the tick into the state. Returns (the other leg's mean force on the
     pelvis, 1 if the state is still finite)."""
     P, C, CS, pd = K
