@@ -36,8 +36,8 @@ SPASTICITY = {0: "none", 1: "mild", 2: "mild", 3: "moderate", 4: "moderate"}
 #: Harder walkers, at the datasheet noise: (label, age, sex, GMFCS level, the actor's
 #: :meth:`~exoleg.child.model.ChildModel.of` options, the operator's commands: "walk" --
 #: walking from the standing start on --, "stop": walking, then a controlled stop two
-#: thirds of the way and standing, or "again": a stop a third of the way, walking again 3
-#: strides later). Crouch: Rozumalski & Schwartz 2009's clusters; the contracture:
+#: thirds of the way and standing, or "again": a stop a third of the way, walking again
+#: two thirds of the way). Crouch: Rozumalski & Schwartz 2009's clusters; the contracture:
 #: Falisse et al. 2020's child with CP (``child-references.md``).
 WORST: tuple[tuple[str, float, str, int | None, dict[str, Any], str], ...] = (
     ("GMFCS III girl 10 y, crouch (cluster 5), contracture, moderate spasticity", 10.0,
@@ -106,7 +106,7 @@ def _stop(strides: int, stride_time: float, again: bool = False, standing: float
           dt: float = 1e-3) -> Any:
     """The operator's commands per tick for :func:`~exoleg.sim.walk.simulate_walk`: arm,
     walk after ``standing`` s, stand after two thirds of the strides -- or, ``again``,
-    stand after a third and walk again 3 strides later."""
+    stand after a third and walk again after two thirds."""
     from exoleg.control.contract import Command
 
     n = int(round((standing + strides * stride_time) / dt))
@@ -116,7 +116,7 @@ def _stop(strides: int, stride_time: float, again: bool = False, standing: float
     stop = walk + int(round((1 if again else 2) * strides / 3 * stride_time / dt))
     c[stop] = Command.STAND
     if again:
-        c[stop + int(round(3 * stride_time / dt))] = Command.WALK
+        c[walk + int(round(2 * strides / 3 * stride_time / dt))] = Command.WALK
     return c
 
 
