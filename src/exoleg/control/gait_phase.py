@@ -40,9 +40,10 @@ Catalfamo et al. 2010; in children with CP, Behboodi et al. 2019):
   forefoot: the FSRs would see the contact only as the forefoot loads).
 
 **The IMU alone** (:func:`_imu_path`, its own phases from the gyroscope and the
-accelerometer; its initial contact the strike) runs beside them and decides when the FSRs cannot: their readings missing
-(NaN), frozen (a loaded reading unchanged for ``frozen_ms``: noise always moves a live
-one) or silent (nothing loaded for ``fsr_silent_strides`` strides the IMU has walked).
+accelerometer; its initial contact the strike) runs beside them and decides when the
+FSRs cannot: their readings missing (NaN), frozen (a loaded reading unchanged for
+``frozen_ms``: noise always moves a live one) or silent (nothing loaded for
+``fsr_silent_strides`` strides the IMU has walked).
 The gyroscope is not used when missing, saturated (at its range) or frozen; the FSRs then
 decide alone. The accelerometer is not used when missing or frozen (at its range it
 reads a strike). The state says which source it rests on (``source``: :class:`Source`).
@@ -491,7 +492,7 @@ def detect(d, st, counts, gyro, acc, t):  # type: ignore[no-untyped-def]
         if t - s.jump_t >= D.impact_time:
             s.swing_jump = max(s.swing_jump, s.jumps[1])
             s.jumps[1], s.jumps[0], s.jump_t = s.jumps[0], 0.0, t
-        s.jumps[0] = max(s.jumps[0], jump)
+        s.jumps[0] = max(s.jumps[0], min(jump, D.accel_range))  # a saturation: the range
     ev_f = _fsr_path(D, s, counts, gyro, gyro_ok, strike, t) if fsr_ok else 0
     ev_i = 0
     if gyro_ok:
