@@ -276,12 +276,14 @@ def test_with_the_child_every_walk_goes_on_and_foot_flat_and_heel_off_are_seen()
     # strides and for the harder walkers (crouch, contracture, weak, a controlled stop,
     # walking again).
     # Measured: initial contact 8 / 8 ms (the heel's sensor failed: 0 / 1, the strike);
-    # toe off at most 14 / 21 ms; none missed, none extra. Not met, and so not asserted
-    # for the toe off: the single sources alone (docs: the FSRs cannot see the toes' tips;
-    # the IMU alone's is 40 ms early in the closed loop).
+    # toe off at most 14 / 21 ms; none missed, none extra. The IMU alone in the loop (the
+    # FSRs failed or reading zeros): 0 / 1 and 3 / 6 ms -- 32 / 41 ms before its stance
+    # model ended as the push-off's turn passes unload_turn. Not met, and so not asserted
+    # for the toe off: the single sources replayed over walks the other source led (docs:
+    # the FSRs cannot see the toes' tips; the IMU alone at slow strides).
     sensor = ("none", "every", "first", "hallux", "heel")
     tables = [faults[c] for c in FAULTS if c.startswith(sensor)]
-    tables += [v.closed[c] for c in v.closed if c.startswith(sensor)]
+    tables += [v.closed[c] for c in v.closed if c.startswith((*sensor, "FSRs"))]
     tables += [t[SOURCES[0]] for t in (*v.slow_sources.values(), *v.worst.values())]
     assert not any(v.closed_stopped.values()), v.closed_stopped
     # each source alone: the initial contact (the IMU's at the strike: 0-1 ms; before it

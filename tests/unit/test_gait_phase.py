@@ -343,3 +343,27 @@ def test_a_heel_off_is_said_once() -> None:
     ev, _, st = _fused(np.full((len(t), 4), np.nan), g, t, np.array([0.0, 9.80665]))
     assert len(_times(ev, t, gp.Event.HO)) == 1
     assert st[0]["phase"] == gp.Phase.PUSH
+
+
+def test_the_imu_alone_lets_the_weight_off_before_the_toe_off() -> None:
+    # reference: the construction. The IMU alone (the FSRs reading NaN): from the second
+    # stride the stance model ends ("bearing", the controller's swing from there) as the
+    # push-off's turn -2 (1 - cos(pi (x - 0.5) / 0.14)) passes unload_turn (0.65) of the
+    # last push-off's fastest (its reading at the toe off, the turn's fastest so far),
+    # before its toe off -- as the fused stance model ends at the FSRs' lift. In the first
+    # stride (no push-off before) it ends at the toe off
+    counts, t = _walk(4)
+    g = _gyro(t)
+    st = gp.new_state(D)
+    bearing = np.empty(len(t), dtype=bool)
+    ev = np.empty(len(t), dtype=np.int64)
+    for k in range(len(t)):
+        ev[k] = gp.detect(D, st, np.full(4, np.nan), g[k], NO_ACC, t[k])
+        bearing[k] = st[0]["bearing"]
+    off = t[1:][bearing[:-1] & ~bearing[1:]]
+    to = _times(ev, t, gp.Event.TO)
+    fastest = g[(t > 0.5) & (t <= to[0])].min()
+    x = 0.5 + 0.14 * np.arccos(1.0 - 0.65 * -fastest / 2.0) / np.pi
+    assert off[0] == pytest.approx(to[0], abs=1.5e-3)
+    assert np.allclose(off[1:] % 1.0, x, atol=1.5e-3), (off, x)
+    assert np.all(to[1:] % 1.0 > x + 0.01)

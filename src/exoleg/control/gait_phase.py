@@ -122,7 +122,8 @@ HISTORY = 10
 #: and the last, and the heel's; when any region last read loaded (s). The IMU's
 #: path: its phase and times, whether it has seen the swing since its toe off, the
 #: fastest forward swing of this and of the last stride, the fastest toe-down turn and
-#: its steepest rate since heel off, since when the foot is still (s, -1: it is not), the
+#: its steepest rate since heel off and the last push-off's fastest (rad/s), since when
+#: the foot is still (s, -1: it is not), the
 #: accelerometer's mean over the impact time (m/s^2), when it was last updated (s), its
 #: reading's largest jump from it in this swing (m/s^2), and the largest in the last two
 #: impact times (the newest first) and when the newer began (s). The
@@ -145,7 +146,7 @@ STATE = np.dtype([("phase", I8), ("bearing", np.bool_), ("t_ic", F8),
                   ("swung", np.bool_),
                   ("peak_now", F8), ("peak", F8), ("turn_min", F8), ("steep_i", F8),
                   ("still_since", F8), ("acc_mean", F8, 2), ("acc_t", F8),
-                  ("acc_last", F8, 2), ("acc_same", F8), ("swing_jump", F8),
+                  ("acc_last", F8, 2), ("acc_same", F8), ("swing_jump", F8), ("push_last", F8),
                   ("jumps", F8, 2), ("jump_t", F8),
                   ("gyro_last", F8), ("gyro_same", F8), ("fsr_last", F8, 4),
                   ("fsr_same", F8)])
@@ -417,6 +418,7 @@ def _imu_path(D, s, gyro, acc_dev, strike, acc_ok, t):  # type: ignore[no-untype
                                                 or t - s.t_ho_i >= D.push_time):
                 ev |= Event.TO
                 s.t_to_i = t
+                s.push_last = s.turn_min
                 s.swung = False
                 s.swing_jump = s.jumps[0] = s.jumps[1] = 0.0
                 s.peak_now = gyro
@@ -513,7 +515,10 @@ def detect(d, st, counts, gyro, acc, t):  # type: ignore[no-untyped-def]
         ev = ev_i
         s.phase = s.phase_i
         s.source = Source.IMU
-        s.bearing = s.phase >= Phase.LOADING
+        # the weight off the foot (the controller's swing from here) as the push-off's
+        # toe-down turn passes unload_turn of the last push-off's fastest
+        s.bearing = s.phase >= Phase.LOADING and not (
+            s.phase == Phase.PUSH and s.push_last < 0.0 and gyro < D.unload_turn * s.push_last)
     else:
         ev = 0
         s.phase = Phase.UNKNOWN

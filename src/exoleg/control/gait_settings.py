@@ -49,6 +49,7 @@ class DetectorSettings:
     impact_ratio: float = 2.0      # of the swing's largest jump
     impact_time: float = 0.01      # s
     impact_swing: float = 0.5      # of the swing's fastest turn
+    unload_turn: float = 0.65      # of the last push-off's fastest turn
     frozen_time: float = 0.5       # s
     fsr_silent_strides: float = 2.0
 
@@ -73,7 +74,7 @@ class DetectorSettings:
                              ("accel_still", 0.0, 50.0), ("still_time", 0.0, 0.5),
                              ("impact", 0.0, 1e3), ("impact_ratio", 1.0, 100.0),
                              ("impact_time", 1e-3, 0.1),
-                             ("impact_swing", 0.0, 1.0),
+                             ("impact_swing", 0.0, 1.0), ("unload_turn", 0.05, 1.0),
                              ("frozen_time", 0.01, 10.0),
                              ("fsr_silent_strides", 1.0, 10.0)):
             v = _check.finite(w, name, getattr(self, name))
@@ -108,6 +109,7 @@ class DetectorSettings:
             "still_ms": (0.0, 500.0, "ms"), "impact": (0.0, 1e3, "m/s^2"),
             "impact_ratio": (1.0, 100.0, ""),
             "impact_ms": (1.0, 100.0, "ms"), "impact_swing": (0.0, 1.0, ""),
+            "unload_turn": (0.05, 1.0, ""),
             "frozen_ms": (10.0, 10000.0, "ms"), "fsr_silent_strides": (1.0, 10.0, "")})
         if "stride_accept" not in d:
             raise ParameterError(where, "stride_accept", "missing ([lower, upper] multiples)")
@@ -134,7 +136,7 @@ class DetectorSettings:
                        accel_still=v["accel_still"], still_time=v["still_ms"] / 1e3,
                        impact=v["impact"], impact_ratio=v["impact_ratio"],
                        impact_time=v["impact_ms"] / 1e3,
-                       impact_swing=v["impact_swing"],
+                       impact_swing=v["impact_swing"], unload_turn=v["unload_turn"],
                        frozen_time=v["frozen_ms"] / 1e3,
                        fsr_silent_strides=v["fsr_silent_strides"])
         except ParameterError as e:  # a rule across fields: name the file
@@ -172,7 +174,7 @@ SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("floor", F8),
                      ("gyro_contact", F8), ("gyro_heel_off", F8), ("gyro_still", F8),
                      ("accel_still", F8), ("still_time", F8), ("impact", F8),
                      ("impact_ratio", F8),
-                     ("impact_time", F8), ("impact_swing", F8),
+                     ("impact_time", F8), ("impact_swing", F8), ("unload_turn", F8),
                      ("frozen_time", F8), ("fsr_silent_strides", F8), ("gyro_range", F8),
                      ("accel_range", F8)])
 _RECORD_NAMES = frozenset(SETTINGS.names or ())
