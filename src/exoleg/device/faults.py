@@ -25,34 +25,54 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from enum import IntEnum
 
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from exoleg.control.contract import SENSORS
+from exoleg.control.contract import SENSOR_POINTS, SENSORS
 from exoleg.device.sensors import FootSensors
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8
 
 F64 = NDArray[np.float64]
 
-#: the board's readings a fault may touch, in the order a fault's mask holds them
-READINGS = ("heel", "met1", "met5", "hallux", "gyro", "acc_x", "acc_y")
-#: a channel's name -> the readings it covers
-CHANNELS = {"heel": (0,), "met1": (1,), "met5": (2,), "hallux": (3,), "fsrs": (0, 1, 2, 3),
-            "gyro": (4,), "accel": (5, 6), "board": (0, 1, 2, 3, 4, 5, 6)}
-KINDS = ("dead", "missing", "frozen", "offset", "drift")
-DEAD, MISSING, FROZEN, OFFSET, DRIFT = range(len(KINDS))
+#: the fields of a tick's readings (:data:`~exoleg.control.contract.SENSORS`) the foot
+#: board sends, and a fault may touch
+BOARD_FIELDS = ("fsr", "gyro", "accel")
+#: a channel's name -> the (field, slot) pairs it covers; slot None: the whole field (the
+#: four FSRs named as :data:`~exoleg.control.contract.SENSOR_POINTS` names them)
+CHANNELS: dict[str, tuple[tuple[str, int | None], ...]] = {
+    **{p: (("fsr", i),) for i, p in enumerate(SENSOR_POINTS)},
+    "fsrs": (("fsr", None),), "gyro": (("gyro", None),), "accel": (("accel", None),),
+    "board": tuple((n, None) for n in BOARD_FIELDS)}
+
+
+class Kind(IntEnum):
+    """What a fault does to a reading (see the module's text)."""
+
+    DEAD = 0
+    MISSING = 1
+    FROZEN = 2
+    OFFSET = 3
+    DRIFT = 4
+
+
+#: the kinds by name, as people write them
+KINDS = tuple(k.name.lower() for k in Kind)
 #: the most faults one run takes
 MOST = 16
 
-#: A fault as the compiled code reads it: the readings it covers (bit i: reading i of
-#: :data:`READINGS`), its kind (index in :data:`KINDS`), from and until when (s), its
-#: value per reading (counts, rad/s, m/s^2; a drift's per s), each reading's range
-#: (lowest, highest), and what a frozen reading holds (NaN until ``start``).
-FAULT = np.dtype([("mask", I8), ("kind", I8), ("start", F8), ("end", F8),
-                  ("value", F8, 7), ("low", F8, 7), ("high", F8, 7), ("held", F8, 7)])
+#: A fault as the compiled code reads it: its kind (:class:`Kind`), from and until when
+#: (s), and per board field (:data:`BOARD_FIELDS`, shaped as in ``SENSORS``) whether it
+#: covers each reading (1) or not (0), its value (counts, rad/s, m/s^2; a drift's per s),
+#: what a frozen reading holds (NaN until ``start``), and the field's range (lowest,
+#: highest).
+FAULT = np.dtype([("kind", I8), ("start", F8), ("end", F8)]
+                 + [(f"{n}_{part}", F8, SENSORS[n].shape) for n in BOARD_FIELDS
+                    for part in ("on", "value", "held")]
+                 + [(f"{n}_{end}", F8) for n in BOARD_FIELDS for end in ("low", "high")])
 
 
 #: how a fault is written where people type it (:meth:`SensorFault.parse`)
@@ -86,7 +106,7 @@ class SensorFault:
         if not (self.start >= 0.0 and self.end > self.start):
             raise ParameterError(where, "start/end", f"expected 0 <= start < end, got "
                                  f"{self.start:g}, {self.end:g}")
-        fsr = max(CHANNELS[self.channel]) < 4
+        fsr = all(field == "fsr" for field, _ in CHANNELS[self.channel])
         if not -1.0 <= self.value <= 1.0 and (self.kind == "drift" or fsr):
             what = "per s, a drift's" if self.kind == "drift" else "of the FSRs' full scale"
             raise ParameterError(where, "value", f"{self.value:g} is outside -1-1 (a "
@@ -130,19 +150,43 @@ def fault_records(faults: Sequence[SensorFault], board: FootSensors) -> NDArray[
     if len(faults) > MOST:
         raise ParameterError("faults", "count", f"{len(faults)} faults; at most {MOST}")
     adc_counts = float(2**board.adc_bits - 1)
-    gyro_range, accel_range = board.gyro_range, board.accel_range
-    scale = np.array([adc_counts] * 4 + [1.0] * 3)
-    low = np.array([0.0] * 4 + [-gyro_range] + [-accel_range] * 2)
-    high = np.array([adc_counts] * 4 + [gyro_range] + [accel_range] * 2)
+    # per field: the scale of a value (an FSR's is a fraction of full scale) and the range
+    ranges = {"fsr": (adc_counts, 0.0, adc_counts),
+              "gyro": (1.0, -board.gyro_range, board.gyro_range),
+              "accel": (1.0, -board.accel_range, board.accel_range)}
     out = np.zeros(len(faults), FAULT)
     for r, f in zip(out, faults, strict=True):
-        r["mask"] = sum(1 << i for i in CHANNELS[f.channel])
-        r["kind"] = KINDS.index(f.kind)
+        r["kind"] = Kind[f.kind.upper()]
         r["start"], r["end"] = f.start, f.end
-        r["value"] = f.value if f.kind == "drift" else f.value * scale
-        r["low"], r["high"] = low, high
-        r["held"] = np.nan
+        for n in BOARD_FIELDS:
+            scale, r[f"{n}_low"], r[f"{n}_high"] = ranges[n]
+            r[f"{n}_value"] = f.value if f.kind == "drift" else f.value * scale
+            r[f"{n}_held"] = np.nan
+        for n, slot in CHANNELS[f.channel]:
+            if slot is None:
+                r[f"{n}_on"] = 1.0
+            else:
+                r[f"{n}_on"][slot] = 1.0
     return out
+
+
+@njit(inline="always")
+def _fault(kind, x, value, held, low, high, t, start):  # type: ignore[no-untyped-def]
+    """A reading ``x`` under a fault of ``kind`` at time ``t``: (what the board sends,
+    what a frozen reading holds from now)."""
+    if kind == Kind.MISSING:
+        return np.nan, held
+    if kind == Kind.DEAD:
+        y = value
+    elif kind == Kind.FROZEN:
+        if math.isnan(held):
+            held = x
+        y = held
+    elif kind == Kind.OFFSET:
+        y = x + value
+    else:
+        y = x * (1.0 + value * (t - start))
+    return min(max(y, low), high), held
 
 
 @njit(cache=True)
@@ -155,30 +199,19 @@ def apply_faults(F, sk, t):  # type: ignore[no-untyped-def]
         f = F[j]
         if t < f.start or t >= f.end:
             continue
-        for i in range(7):
-            if not (f.mask >> i) & 1:
-                continue
-            x = o.fsr[i] if i < 4 else (o.gyro if i == 4 else o.accel[i - 5])
-            if f.kind == DEAD:
-                y = f.value[i]
-            elif f.kind == MISSING:
-                y = np.nan
-            elif f.kind == FROZEN:
-                if math.isnan(f.held[i]):
-                    f.held[i] = x
-                y = f.held[i]
-            elif f.kind == OFFSET:
-                y = x + f.value[i]
-            else:
-                y = x * (1.0 + f.value[i] * (t - f.start))
-            if f.kind != MISSING:
-                y = min(max(y, f.low[i]), f.high[i])
-            if i < 4:
-                o.fsr[i] = y
-            elif i == 4:
-                o.gyro = y
-            else:
-                o.accel[i - 5] = y
+        for i in range(f.fsr_on.shape[0]):
+            if f.fsr_on[i] > 0.0:
+                o.fsr[i], f.fsr_held[i] = _fault(f.kind, o.fsr[i], f.fsr_value[i],
+                                                 f.fsr_held[i], f.fsr_low, f.fsr_high, t,
+                                                 f.start)
+        if f.gyro_on > 0.0:
+            o.gyro, f.gyro_held = _fault(f.kind, o.gyro, f.gyro_value, f.gyro_held,
+                                         f.gyro_low, f.gyro_high, t, f.start)
+        for i in range(f.accel_on.shape[0]):
+            if f.accel_on[i] > 0.0:
+                o.accel[i], f.accel_held[i] = _fault(f.kind, o.accel[i], f.accel_value[i],
+                                                     f.accel_held[i], f.accel_low,
+                                                     f.accel_high, t, f.start)
 
 
 @njit(cache=True)
@@ -198,5 +231,5 @@ def faulted(faults: Sequence[SensorFault], counts: F64, gyro: F64, accel: F64, t
     return S["fsr"].copy(), S["gyro"].copy(), S["accel"].copy()
 
 
-__all__ = ["CHANNELS", "FAULT", "KINDS", "SPEC", "SensorFault", "apply_faults", "fault_records",
-           "faulted"]
+__all__ = ["BOARD_FIELDS", "CHANNELS", "FAULT", "KINDS", "SPEC", "Kind", "SensorFault",
+           "apply_faults", "fault_records", "faulted"]
