@@ -3,6 +3,8 @@ own construction -- where each region is loaded is known to the millisecond)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -85,9 +87,9 @@ def test_bad_settings_are_named() -> None:
     from exoleg.errors import ParameterError
 
     with pytest.raises(ParameterError, match="contact_on/contact_off"):
-        gp.DetectorSettings(0.1, 0.2, 20.0, 0.008, 0.15, 0.15, 3, (0.25, 1.75))
+        dataclasses.replace(SET, contact_on=0.1, contact_off=0.2)
     with pytest.raises(ParameterError, match="stride_accept"):
-        gp.DetectorSettings(0.25, 0.15, 20.0, 0.008, 0.15, 0.15, 3, (1.2, 1.75))
+        dataclasses.replace(SET, stride_accept=(1.2, 1.75))
 
 
 def _gyro(t: np.ndarray, T: float = 1.0) -> np.ndarray:

@@ -18,7 +18,8 @@ from exoleg.params import _check
 
 @dataclass(frozen=True)
 class DetectorSettings:
-    """The detector's thresholds (normalised), times (s) and stride rules."""
+    """The detector's thresholds (normalised), times (s) and stride rules -- their values
+    in ``gait_phase.toml`` alone (:meth:`default`)."""
 
     contact_on: float
     contact_off: float
@@ -28,30 +29,30 @@ class DetectorSettings:
     min_stance: float
     strides_averaged: int
     stride_accept: tuple[float, float]
-    gyro_turning: float = 1.0      # rad/s
-    gyro_swing: float = 3.0        # rad/s
-    gyro_swing_time: float = 0.05  # s
-    gyro_swing_floor: float = 0.8  # rad/s
-    slope_time: float = 0.006      # s
-    slope_floor: float = 5.0       # rad/s^2
-    slope_eased: float = 0.5       # of the steepest
-    gyro_rise: float = 0.7         # rad/s
-    push_depth: float = 0.85       # of the stance's fastest toe-down turn
-    toe_roll: float = 0.175        # rad
-    push_time: float = 0.05        # s
-    contact_fraction: float = 0.12  # of the last swing's fastest
-    gyro_contact: float = 0.5      # rad/s
-    gyro_heel_off: float = 0.4     # rad/s
-    gyro_still: float = 0.5        # rad/s
-    accel_still: float = 2.0       # m/s^2
-    still_time: float = 0.02       # s
-    impact: float = 10.0           # m/s^2
-    impact_ratio: float = 2.0      # of the swing's largest jump
-    impact_time: float = 0.01      # s
-    impact_swing: float = 0.5      # of the swing's fastest turn
-    unload_turn: float = 0.65      # of the last push-off's fastest turn
-    frozen_time: float = 0.5       # s
-    fsr_silent_strides: float = 2.0
+    gyro_turning: float  # rad/s
+    gyro_swing: float  # rad/s
+    gyro_swing_time: float  # s
+    gyro_swing_floor: float  # rad/s
+    slope_time: float  # s
+    slope_floor: float  # rad/s^2
+    slope_eased: float  # of the steepest
+    gyro_rise: float  # rad/s
+    push_depth: float  # of the stance's fastest toe-down turn
+    toe_roll: float  # rad
+    push_time: float  # s
+    contact_fraction: float  # of the last swing's fastest
+    gyro_contact: float  # rad/s
+    gyro_heel_off: float  # rad/s
+    gyro_still: float  # rad/s
+    accel_still: float  # m/s^2
+    still_time: float  # s
+    impact: float  # m/s^2
+    impact_ratio: float  # of the swing's largest jump
+    impact_time: float  # s
+    impact_swing: float  # of the swing's fastest turn
+    unload_turn: float  # of the last push-off's fastest turn
+    frozen_time: float  # s
+    fsr_silent_strides: float
 
     def __post_init__(self) -> None:
         w = "DetectorSettings"

@@ -61,7 +61,8 @@ class Kind(IntEnum):
 
 #: the kinds by name, as people write them
 KINDS = tuple(k.name.lower() for k in Kind)
-#: the most faults one run takes
+#: the most faults one run takes (a choice: a bound on what a run is asked, far above the
+#: two at once validate --gait-phase combines)
 MOST = 16
 
 #: A fault as the compiled code reads it: its kind (:class:`Kind`), from and until when

@@ -183,7 +183,7 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
 #: Sensor faults (:class:`~exoleg.device.faults.SensorFault`), replayed over the walks'
 #: readings through the controller's own detector (open loop: each walk itself ran on
 #: its clean readings, :func:`fault_cases`) and injected into walks (closed loop:
-#: ``closed_faults`` of :func:`evaluate`).
+#: ``closed`` of :func:`evaluate`).
 FAULTS: dict[str, tuple[SensorFault, ...]] = {
     "none (the walks' own readings, replayed)": (),
     "heel sensor failed (reads 0)": (SensorFault("heel", "dead"),),
