@@ -40,12 +40,15 @@ def _console() -> Console:
 
 
 def _table(rows: list[list[str]], header: list[str], title: str | None = None) -> None:
-    """Print a table (rich; plain columns when not on a terminal)."""
+    """Print a table (rich; plain columns when not on a terminal) under its ``title``, a
+    line of its own: a table's title is cut to the table's width (80 columns when the
+    output is not a terminal), and what it says is not to be lost."""
     from rich import box
     from rich.table import Table
 
-    t = Table(*header, title=title, box=box.SIMPLE_HEAD, title_justify="left",
-              header_style="bold", pad_edge=False)
+    if title:
+        _say(title)
+    t = Table(*header, box=box.SIMPLE_HEAD, header_style="bold", pad_edge=False)
     for r in rows:
         t.add_row(*r)
     _console().print(t)
