@@ -146,14 +146,19 @@ def test_the_gyroscope_times_the_toe_off_the_fsrs_read_early() -> None:
 
 def test_the_gyroscope_ends_a_stance_a_preloaded_sensor_holds_on_to() -> None:
     # reference: the gait's construction. A strap preloading the first metatarsal sensor
-    # by 25 % of full scale: the FSRs alone never see the foot lift; with the gyroscope,
-    # the first swing ends the stance once the foot has swung forward faster than 3 rad/s
-    # for 50 ms, the readings then become the sensors' offsets, and every later toe off
-    # is the fused one again
+    # by 25 % of full scale: the FSRs alone do not see the first swing (no toe off), but
+    # the landing after it -- the preloaded sensor alone loaded and steady for min_swing,
+    # then the heel loaded -- is a contact, the sensor's swing reading its offset, and
+    # every later event is at its constructed time; with the gyroscope, the first swing
+    # ends the stance once the foot has swung forward faster than 3 rad/s for 50 ms, the
+    # readings then become the sensors' offsets, and every later toe off is the fused one
     counts, t = _walk(5)
     counts[:, 1] = np.minimum(counts[:, 1] + 0.25 * 4095, 4095)
-    alone, _ = _run(counts, t)
-    assert not np.any(alone & gp.Event.TO)  # the FSRs alone: one endless stance
+    alone, st = _run(counts, t)
+    assert np.allclose(_times(alone, t, gp.Event.IC), np.arange(5) + SET.debounce, atol=1e-6)
+    assert np.allclose(_times(alone, t, gp.Event.TO), np.arange(1, 5) + 0.6 + SET.debounce,
+                       atol=1.5e-3)
+    assert st[0]["base"][1] == pytest.approx(0.25 * 4095)
     g = _gyro(t)
     ev, src, _ = _fused(counts, g, t)
     to = _times(ev, t, gp.Event.TO)
@@ -162,6 +167,35 @@ def test_the_gyroscope_ends_a_stance_a_preloaded_sensor_holds_on_to() -> None:
     assert len(to) == 5 and np.all((to[1:] % 1.0 >= _TO) & (to[1:] % 1.0 <= _TO + 0.012))
     assert np.all(src == gp.Source.FSR_IMU)
     assert np.allclose(_times(ev, t, gp.Event.IC)[1:] % 1.0, SET.debounce, atol=2e-3)
+
+
+def test_a_foot_resting_on_one_sensor_is_never_called_a_swing() -> None:
+    # reference: the sequence's construction. After a stride, the foot lands, goes flat,
+    # then rests on its heel alone, toes up, with a steady load for 1.2 s (as a held
+    # swing's preloaded sensor reads), then puts its forefoot down again. The FSRs alone
+    # cannot tell the two: the forefoot's load is read as a contact (an initial contact
+    # in stance), but the leg bears from the landing to the end, and no toe off is said.
+    # Noise: the datasheet's, 0.5 % of full scale (sensors.toml)
+    counts, t = _walk(2)
+    counts = counts[:1300]  # stride 2: heel strike, flat, heel off at 1.3 s ...
+    rest = np.zeros((1200, 4))
+    rest[:, 0] = 1500.0  # ... the heel alone, steady, toes up
+    down = np.tile([1500.0, 1800.0, 1440.0, 1080.0], (1000, 1))  # the forefoot down
+    seq = np.vstack([counts, rest, down])
+    seq[1100:1300, 0] = 1500.0  # flat until the forefoot lifts at 1.3 s
+    seq = np.clip(seq + np.random.default_rng(1).normal(0.0, 0.005 * 4095, seq.shape),
+                  0.0, 4095.0)
+    t = np.arange(len(seq)) * 1e-3
+    st = gp.new_state(D)
+    ev = np.empty(len(t), dtype=np.int64)
+    bearing = np.empty(len(t), dtype=bool)
+    for k in range(len(t)):
+        ev[k] = gp.detect(D, st, seq[k], np.nan, NO_ACC, t[k])
+        bearing[k] = st[0]["bearing"]
+    assert np.allclose(_times(ev, t, gp.Event.TO), [0.6 + SET.debounce], atol=1.5e-3)
+    assert np.all(bearing[t >= 1.0 + SET.debounce])
+    assert np.allclose(_times(ev, t, gp.Event.IC), [SET.debounce, 1.0 + SET.debounce,
+                                                    2.5 + SET.debounce], atol=1.5e-3)
 
 
 def test_a_still_foot_is_on_the_ground_whatever_the_fsrs_read() -> None:

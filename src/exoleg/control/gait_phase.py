@@ -13,7 +13,11 @@ the ground). A region is loaded above ``contact_on`` and unloaded below ``contac
     FF: heel unloaded, forefoot loaded --> heel off (HO)
     any stance phase: the foot lifted --> toe off (TO) --> swing
 
-An initial contact after a toe-walking approach (forefoot first) counts too.
+An initial contact after a toe-walking approach (forefoot first) counts too. A sensor
+the foot's lift leaves loaded (a strap's preload, drift) holds the stance while nothing
+else reads the swing; its landing is still seen (:func:`_held_landing`): the contact
+counts and the sensor's swing reading becomes its offset -- a contact, never a swing, so
+a foot resting on one point is not taken off the ground.
 
 **Fused with the foot's gyroscope** (its sagittal rate, rad/s; foot-gyro detection:
 Catalfamo et al. 2010; in children with CP, Behboodi et al. 2019):
@@ -57,117 +61,28 @@ the last IC over it. Thresholds, hysteresis, debounce and stride rules are data
 from __future__ import annotations
 
 import math
-from enum import IntEnum
 
 import numpy as np
 from numba import njit
-from numpy.typing import NDArray
 
 from exoleg.control.gait_settings import SETTINGS as SETTINGS  # re-exported: the record
 from exoleg.control.gait_settings import DetectorSettings as DetectorSettings
-from exoleg.layout import F8, I8, new
+from exoleg.control.gait_state import (
+    EVENT_NAMES,
+    HISTORY,
+    PHASE_NAMES,
+    SOURCE_NAMES,
+    STATE,
+    Event,
+    Phase,
+    Source,
+    new_state,
+)
 
-F64 = NDArray[np.float64]
-
-
-class Phase(IntEnum):
-    UNKNOWN = -1
-    SWING = 0
-    LOADING = 1   # initial contact to foot flat
-    FLAT = 2      # foot flat to heel off
-    PUSH = 3      # heel off to toe off
-
-
-class Event(IntEnum):
-    """Bits of a tick's events."""
-
-    IC = 1
-    FF = 2
-    HO = 4
-    TO = 8
-
-
-class Source(IntEnum):
-    """What the detector rests on."""
-
-    FSR = 0          # the FSRs alone (no gyroscope reading)
-    FSR_IMU = 1      # the FSRs, their toe off timed and confirmed by the foot's turn
-    IMU = 2          # the foot's IMU alone (the FSRs missing, frozen or silent)
-    NONE = 3         # neither reads
-
-
-EVENT_NAMES = {Event.IC: "initial contact", Event.FF: "foot flat", Event.HO: "heel off",
-               Event.TO: "toe off"}
-SOURCE_NAMES = {Source.FSR: "the FSRs alone", Source.FSR_IMU: "the FSRs and the foot's IMU",
-                Source.IMU: "the foot's IMU alone", Source.NONE: "no sensor reading"}
-PHASE_NAMES = {Phase.UNKNOWN: "unknown", Phase.SWING: "swing", Phase.LOADING: "loading",
-               Phase.FLAT: "foot flat", Phase.PUSH: "push-off"}
-
-
-#: Strides remembered (the most :attr:`DetectorSettings.strides_averaged` allows).
-HISTORY = 10
-#: The detector's state. What it says: the phase (:class:`Phase`); whether the foot bears
-#: weight (a stance phase, and the FSRs not reading it lifted and turning: from then its
-#: toes' tips alone bear until the toe off -- the controller's stance model follows
-#: this); the time of the last initial contact (s); the strides accepted and
-#: their times (newest first, s); the source it rests on (:class:`Source`). The FSRs'
-#: path: its phase and times; per region (heel, forefoot) the raw and the debounced
-#: loaded flags and since when the raw one differs (s, -1: it does not); the running
-#: maxima per sensor and of their sum (counts); each sensor's baseline (its offset,
-#: counts); since when the gyroscope has read a swing (s, -1: it does not); whether the
-#: FSRs read the foot lifted, whether it is unloaded (lifted and turning), the fastest
-#: toe-down turn since the lift and in this stance (rad/s), the turn's rate of change and
-#: its steepest since the lift (rad/s^2), the foot's angle turned (rad; the gyroscope
-#: integrated) now and at the lift, whether the hallux's sensor read a load this stance
-#: and the last, and the heel's; when any region last read loaded (s). The IMU's
-#: path: its phase and times, whether it has seen the swing since its toe off, the
-#: fastest forward swing of this and of the last stride, the fastest toe-down turn and
-#: its steepest rate since heel off and the last push-off's fastest (rad/s), since when
-#: the foot is still (s, -1: it is not), the
-#: accelerometer's mean over the impact time (m/s^2), when it was last updated (s), its
-#: reading's largest jump from it in this swing (m/s^2), and the largest in the last two
-#: impact times (the newest first) and when the newer began (s). The
-#: sources' health: the last readings (FSRs, gyroscope, accelerometer) and since when they
-#: have not changed (s).
-STATE = np.dtype([("phase", I8), ("bearing", np.bool_), ("t_ic", F8),
-                  ("n_stride", I8), ("history", F8, HISTORY), ("source", I8),
-                  ("phase_f", I8), ("t_ic_f", F8), ("t_to_f", F8),
-                  ("heel_raw", np.bool_), ("fore_raw", np.bool_),
-                  ("heel", np.bool_), ("fore", np.bool_), ("heel_since", F8),
-                  ("fore_since", F8), ("max", F8, 4), ("total_max", F8), ("base", F8, 4),
-                  ("swing_since", F8), ("lift", np.bool_), ("unloaded", np.bool_),
-                  ("lift_min", F8), ("stance_min", F8),
-                  ("angle", F8), ("lift_angle", F8), ("hallux_now", np.bool_),
-                  ("hallux_last", np.bool_), ("heel_now", np.bool_), ("heel_last", np.bool_),
-                  ("slope", F8),
-                  ("steepest", F8),
-                  ("t_loaded", F8),
-                  ("phase_i", I8), ("t_ic_i", F8), ("t_ho_i", F8), ("t_to_i", F8),
-                  ("swung", np.bool_),
-                  ("peak_now", F8), ("peak", F8), ("turn_min", F8), ("steep_i", F8),
-                  ("still_since", F8), ("acc_mean", F8, 2), ("acc_t", F8),
-                  ("acc_last", F8, 2), ("acc_same", F8), ("swing_jump", F8), ("push_last", F8),
-                  ("jumps", F8, 2), ("jump_t", F8),
-                  ("gyro_last", F8), ("gyro_same", F8), ("fsr_last", F8, 4),
-                  ("fsr_same", F8)])
-
-
-def new_state(settings: NDArray[np.void]) -> NDArray[np.void]:
-    """A detector's state before its first reading: phase unknown, running maxima at the
-    floor, no strides."""
-    s = new(STATE)
-    s["phase"] = s["phase_f"] = s["phase_i"] = Phase.UNKNOWN
-    s["heel_since"] = s["fore_since"] = s["swing_since"] = s["still_since"] = -1.0
-    for name in ("t_ic", "t_ic_f", "t_to_f", "t_ic_i", "t_ho_i", "t_to_i", "t_loaded",
-                 "acc_t"):
-        s[name] = -1e9
-    s["max"] = settings[0]["floor"]
-    s["total_max"] = settings[0]["floor"]
-    s["peak"] = 2.0 * settings[0]["gyro_swing"]  # the first swing's level: gyro_swing
-    s["gyro_last"] = s["fsr_last"] = s["acc_last"] = np.nan
-    s["source"] = Source.NONE
-    s["heel_last"] = True  # until a stance says otherwise
-    return s
+# what the detector says (its state, gait_state) and reads (its settings), re-exported
+__all__ = ["EVENT_NAMES", "HISTORY", "PHASE_NAMES", "SETTINGS", "SOURCE_NAMES", "STATE",
+           "DetectorSettings", "Event", "Phase", "Source", "detect", "forefoot",
+           "gait_fraction", "new_state", "stride_time"]
 
 
 @njit(inline="always")
@@ -232,6 +147,71 @@ def forefoot(st, counts):  # type: ignore[no-untyped-def]
 
 
 @njit(inline="always")
+def _contact(D, s, t, h, f, hallux):  # type: ignore[no-untyped-def]
+    """An initial contact read by the FSRs (the heel region ``h``, the forefoot's ``f``,
+    the hallux's normalised reading): its events and the phase it starts."""
+    s.t_ic_f = t
+    s.stance_min = 0.0
+    s.hallux_now = hallux > D.contact_on
+    s.heel_now = h
+    s.held = -1
+    s.stance_mask = 0
+    if h and f:
+        return Event.IC | Event.FF, Phase.FLAT
+    return Event.IC, Phase.LOADING
+
+
+@njit(inline="always")
+def _held_landing(D, s, counts, t):  # type: ignore[no-untyped-def]
+    """A sensor the foot's lift left loaded (a strap's preload, drift) while nothing read
+    the swing: one sensor alone loaded and steady (its reading's mean over ``held_time``
+    within ``held_band`` of its span above its lowest) for ``min_swing``, after another
+    bore this stance; then a load -- on another sensor, or on it by ``contact_on`` of its
+    span above that lowest -- held for ``debounce`` is the foot landing. Returns whether
+    it landed; its lowest is then its offset."""
+    held = s.held
+    n = 0
+    one = -1
+    other = False
+    for i in range(4):
+        x = _normalised(D, s, counts, i)
+        if x > D.contact_on:
+            s.stance_mask |= 1 << i
+            other = other or i != held
+        if x >= D.contact_off:
+            n += 1
+            one = i
+    if n == 0:  # the foot lifted off every sensor: the usual toe off
+        s.held = -1
+        return False
+    if held >= 0 and t - s.held_since >= D.min_swing - 1e-12:
+        span = max(s.max[held] - s.held_min, D.floor)
+        if other or (counts[held] - s.held_min) / span > D.contact_on:
+            if s.held_hit < 0.0:
+                s.held_hit = t
+            if t - s.held_hit >= D.debounce - 1e-12:
+                s.base[held] = s.held_min
+                s.held_hit = -1.0
+                return True
+        else:
+            s.held_hit = -1.0
+        return False
+    if n == 1 and s.stance_mask & ~(1 << one):
+        if one == held:
+            dt = t - s.held_t
+            s.held_mean += dt / (D.held_time + dt) * (counts[one] - s.held_mean)
+            s.held_t = t
+        if one != held or (s.held_mean - s.held_min) \
+                / max(s.max[one] - s.held_min, D.floor) > D.held_band:
+            s.held, s.held_since, s.held_t = one, t, t  # (again) from here
+            s.held_mean = s.held_min = counts[one]
+        s.held_min = min(s.held_min, s.held_mean)
+    else:
+        s.held = -1
+    return False
+
+
+@njit(inline="always")
 def _fsr_path(D, s, counts, gyro, gyro_ok, strike, t):  # type: ignore[no-untyped-def]
     """The FSRs' path, the gyroscope fused when it reads: this tick's events. ``strike``:
     the foot's IMU reads the foot striking the ground (:func:`detect`) -- the initial
@@ -280,16 +260,17 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, strike, t):  # type: ignore[no-untype
     if phase <= Phase.SWING:  # swing or unknown
         if (h or f or (strike and not s.heel_last)) and not swinging \
                 and (phase == Phase.UNKNOWN or t - s.t_to_f >= D.min_swing):
-            ev |= Event.IC
-            s.t_ic_f = t
-            s.stance_min = 0.0
-            s.hallux_now = hallux > D.contact_on
-            s.heel_now = h
-            if h and f:
-                ev |= Event.FF
-                phase = Phase.FLAT
-            else:
-                phase = Phase.LOADING
+            ev, phase = _contact(D, s, t, h, f, hallux)
+        s.lift = False
+        s.unloaded = False
+    elif _held_landing(D, s, counts, t):  # the stance held was a swing: a contact again
+        heel = _normalised(D, s, counts, 0)
+        hallux = _normalised(D, s, counts, 3)
+        fore = max(_normalised(D, s, counts, 1), _normalised(D, s, counts, 2), hallux)
+        s.heel = s.heel_raw = heel > D.contact_on
+        s.fore = s.fore_raw = fore > D.contact_on
+        s.heel_since = s.fore_since = -1.0
+        ev, phase = _contact(D, s, t, s.heel, s.fore, hallux)
         s.lift = False
         s.unloaded = False
     else:
