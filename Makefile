@@ -35,8 +35,9 @@ browser:
 	  else echo "make: no Chromium and no root to install it: the browser tests will skip"; fi; \
 	fi
 
+# The suite runs on every core (pytest-xdist), a file's tests on one worker in their order.
 test: setup browser
-	$(BIN)/python -m pytest $(ARGS)
+	$(BIN)/python -m pytest -n auto --dist loadfile $(ARGS)
 
 bench: setup
 	$(BIN)/python benchmarks/bench_dynamics.py
