@@ -6,7 +6,9 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 # operator interface's identification (its own process), against the device's loop-
 # overrun limit of 50 ms; both stopped. The simulated devices' sessions -- in this
 # process and in the ones it starts -- take a 250 ms limit (exoleg.runtime.session.
-# SIM_OVERRUN_ENV); the overrun's own test keeps the device's (it calls run_session).
+# SIM_OVERRUN_ENV), and the simulated nodes on a virtual bus as long a wait for each
+# other (a 27 ms stall lost a node's answer at the 20 ms default with the suite on both
+# CPUs); the overrun's own test keeps the device's (it calls run_session).
 os.environ.setdefault("EXOLEG_SIM_OVERRUN_MS", "250")
 
 import importlib.util

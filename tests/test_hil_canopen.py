@@ -196,11 +196,13 @@ def test_the_bus_holds_with_the_cpus_busy(tmp_path: Path, sched_fifo: None) -> N
     import sys
 
     from exoleg.runtime.realtime import IO_PRIORITY
+    from exoleg.runtime.session import SIMULATED_BUS_TIMEOUT_S
 
     hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"])
             for _ in range(os.cpu_count() or 2)]
     try:
-        res, _ = run("canopen", 3.0, tmp_path, arm=True, walk_after=1.0, channel="hil-load")
+        res, _ = run("canopen", 3.0, tmp_path, arm=True, walk_after=1.0, channel="hil-load",
+                     bus_timeout=SIMULATED_BUS_TIMEOUT_S)  # the default without the suite's
     finally:
         for h in hogs:
             h.kill()

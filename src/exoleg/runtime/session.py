@@ -42,8 +42,11 @@ SIMULATED_BUS_TIMEOUT_S = 20e-3
 #: The environment variable that sets the loop-overrun limit on a simulated device, ms
 #: (the sim backend, simulated nodes: their world steps with the ticks, so a late tick
 #: holds no torque stale there); for machines whose host stalls a process for longer than
-#: the device's limit (the test suite on shared VMs: tests/conftest.py). A real device
-#: always keeps :data:`~exoleg.runtime.loop.OVERRUN_S`.
+#: the device's limit (the test suite on shared VMs: tests/conftest.py). Simulated nodes
+#: on a virtual bus then wait as long for each other's answers, unless a bus timeout is
+#: given (their threads stall with the process: a 27 ms stall lost a node's answer at the
+#: 20 ms default with the suite on both CPUs). A real device always keeps
+#: :data:`~exoleg.runtime.loop.OVERRUN_S` and its bus timeout.
 SIM_OVERRUN_ENV = "EXOLEG_SIM_OVERRUN_MS"
 #: What it may be, ms.
 SIM_OVERRUN_RANGE_MS = (1.0, 1000.0)
@@ -260,6 +263,8 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
 
     if overrun is None and simulated(backend, interface):
         overrun = simulated_overrun()
+        if overrun is not None and bus_timeout is None and backend != "sim":
+            bus_timeout = overrun  # a host stalling the loop stalls the nodes' threads too
     overrun = OVERRUN_S if overrun is None else overrun
     check_options(backend, interface, arm, walk_after, bus_timeout, overrun, controller,
                   link, plan=reference is not None)
