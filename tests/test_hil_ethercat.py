@@ -16,10 +16,13 @@ import pytest
 from exoleg.errors import ParameterError
 from exoleg.hw import cia402
 from exoleg.runtime.log import read_log
-from exoleg.runtime.session import run
+from exoleg.runtime.session import run, simulated_overrun
 
 ENABLED = cia402.State.OPERATION_ENABLED.value[1]
-T = 0.05  # s, the master's wait (a slow answer on a shared machine is not under test)
+#: the master's wait for every node, s: 5 ms on a device; here, where the test machine is
+#: shared and the suite runs on both CPUs, the suite's overrun limit (conftest: 250 ms):
+#: a slow answer is not the fault under test (at 50 ms CI lost one, the suite on 2 CPUs)
+T = simulated_overrun() or 0.05
 
 
 def hil(duration: float, folder: Path, **kw):  # type: ignore[no-untyped-def]

@@ -19,11 +19,14 @@ import pytest
 from exoleg.control.contract import OUTPUT, Mode
 from exoleg.runtime.log import read_log
 from exoleg.runtime.loop import LOG_TAIL
-from exoleg.runtime.session import run
+from exoleg.runtime.session import run, simulated_overrun
 
 #: the masters' wait for every node, s: generous on a shared test machine (a slow answer
 #: is not what this test is about)
-T = 0.05
+#: the master's wait for every node, s: 5 ms on a device; here, where the test machine is
+#: shared and the suite runs on both CPUs, the suite's overrun limit (conftest: 250 ms):
+#: a slow answer is not the fault under test (at 50 ms CI lost one, the suite on 2 CPUs)
+T = simulated_overrun() or 0.05
 WALK_AT = 1000  # tick of the walk command (1 s at 1 kHz)
 
 

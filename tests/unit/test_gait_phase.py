@@ -144,6 +144,29 @@ def test_the_gyroscope_times_the_toe_off_the_fsrs_read_early() -> None:
     assert np.all(src == gp.Source.FSR_IMU)
 
 
+def test_a_toe_walker_fused() -> None:
+    # reference: the gait's construction. A toe walker (equinus: the forefoot strikes, the
+    # heel never bears): the foot turns heel-down at up to 2 rad/s as the forefoot takes
+    # the load (0-15 % of the stride; toe-up, the swing's sense) where a heel striker's
+    # slaps toe-down. One contact and one toe off a stride, at the constructed times as
+    # for the heel striker, and no foot flat
+    _, t = _walk(4)
+    x = t % 1.0
+    counts = np.outer(x < 0.6, [0.0, 1800.0, 1440.0, 1080.0])  # the forefoot, 0-60 %
+    # with the datasheet's noise (sensors.toml: 0.5 % of full scale): a reading unchanged
+    # for frozen_time is a frozen board
+    counts = np.clip(counts + np.random.default_rng(2).normal(0.0, 0.005 * 4095, counts.shape),
+                     0.0, 4095.0)
+    g = _gyro(t)
+    g = np.where(x < 0.15, 2.0 * np.sin(np.pi * x / 0.15), np.where(x < 0.5, 0.0, g))
+    ev, src, _ = _fused(counts, g, t)
+    assert np.allclose(_times(ev, t, gp.Event.IC), np.arange(4) + SET.debounce, atol=2e-3)
+    to = _times(ev, t, gp.Event.TO) % 1.0
+    assert len(to) == 4 and np.all((to >= _TO) & (to <= _TO + 2 * SET.slope_time)), to
+    assert not np.any(ev & gp.Event.FF)  # the heel never bears
+    assert np.all(src == gp.Source.FSR_IMU)
+
+
 def test_the_gyroscope_ends_a_stance_a_preloaded_sensor_holds_on_to() -> None:
     # reference: the gait's construction. A strap preloading the first metatarsal sensor
     # by 25 % of full scale: the FSRs alone do not see the first swing (no toe off), but
