@@ -65,8 +65,7 @@ import math
 import numpy as np
 from numba import njit
 
-from exoleg.control.gait_settings import SETTINGS as SETTINGS  # re-exported: the record
-from exoleg.control.gait_settings import DetectorSettings as DetectorSettings
+from exoleg.control.gait_settings import SETTINGS, DetectorSettings
 from exoleg.control.gait_state import (
     EVENT_NAMES,
     HISTORY,
@@ -133,6 +132,15 @@ def _eased(D, slope, steepest):  # type: ignore[no-untyped-def]
 def _normalised(D, s, counts, i):  # type: ignore[no-untyped-def]
     """Sensor i's reading above its baseline over its running maximum's."""
     return max(counts[i] - s.base[i], 0.0) / max(s.max[i] - s.base[i], D.floor)
+
+
+@njit(inline="always")
+def _loads(D, s, counts):  # type: ignore[no-untyped-def]
+    """The heel's, the hallux's and the forefoot's (its largest sensor's) normalised
+    loads."""
+    hallux = _normalised(D, s, counts, 3)
+    return (_normalised(D, s, counts, 0), hallux,
+            max(_normalised(D, s, counts, 1), _normalised(D, s, counts, 2), hallux))
 
 
 @njit(cache=True)
@@ -225,9 +233,7 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, strike, t):  # type: ignore[no-untype
     if total > s.total_max:
         s.total_max = total
     base = s.base[0] + s.base[1] + s.base[2] + s.base[3]
-    heel = _normalised(D, s, counts, 0)
-    hallux = _normalised(D, s, counts, 3)
-    fore = max(_normalised(D, s, counts, 1), _normalised(D, s, counts, 2), hallux)
+    heel, hallux, fore = _loads(D, s, counts)
     if hallux > D.contact_on:
         s.hallux_now = True
     s.heel_raw, s.heel, s.heel_since = _region(s.heel_raw, s.heel, s.heel_since, heel,
@@ -264,9 +270,7 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, strike, t):  # type: ignore[no-untype
         s.lift = False
         s.unloaded = False
     elif _held_landing(D, s, counts, t):  # the stance held was a swing: a contact again
-        heel = _normalised(D, s, counts, 0)
-        hallux = _normalised(D, s, counts, 3)
-        fore = max(_normalised(D, s, counts, 1), _normalised(D, s, counts, 2), hallux)
+        heel, hallux, fore = _loads(D, s, counts)  # the held sensor rebased
         s.heel = s.heel_raw = heel > D.contact_on
         s.fore = s.fore_raw = fore > D.contact_on
         s.heel_since = s.fore_since = -1.0

@@ -70,7 +70,9 @@ HISTORY = 10
 #: reading's largest jump from it in this swing (m/s^2), and the largest in the last two
 #: impact times (the newest first) and when the newer began (s). The
 #: sources' health: the last readings (FSRs, gyroscope, accelerometer) and since when they
-#: have not changed (s).
+#: have not changed (s). A held sensor (the FSRs' path): the sensors loaded this stance
+#: (bits), the one alone loaded (-1: none), since when (s), its reading's mean and lowest
+#: (counts), the mean's last update (s), and since when a landing reads (s, -1: none).
 STATE = np.dtype([("phase", I8), ("bearing", np.bool_), ("t_ic", F8),
                   ("n_stride", I8), ("history", F8, HISTORY), ("source", I8),
                   ("phase_f", I8), ("t_ic_f", F8), ("t_to_f", F8),
