@@ -16,8 +16,9 @@ the ground). A region is loaded above ``contact_on`` and unloaded below ``contac
 An initial contact after a toe-walking approach (forefoot first) counts too. A sensor
 the foot's lift leaves loaded (a strap's preload, drift) holds the stance while nothing
 else reads the swing; its landing is still seen (:func:`_held_landing`): the contact
-counts and the sensor's swing reading becomes its offset -- a contact, never a swing, so
-a foot resting on one point is not taken off the ground.
+counts and the sensor's swing reading becomes its offset. A foot resting on one point
+longer than a swing lasts is not a held swing; a shorter rest, the FSRs alone cannot
+tell from one.
 
 **Fused with the foot's gyroscope** (its sagittal rate, rad/s; foot-gyro detection:
 Catalfamo et al. 2010; in children with CP, Behboodi et al. 2019):
@@ -99,18 +100,22 @@ def _region(raw_was, loaded, since, value, on, off, t, debounce):  # type: ignor
     return raw, loaded, since
 
 
-@njit(cache=True)
-def stride_time(d, st):  # type: ignore[no-untyped-def]
-    """The current stride estimate, s: the mean of the last accepted strides, or the
-    expected one before any."""
-    s = st[0]
-    n = min(s.n_stride, d[0].strides_averaged)
+@njit(inline="always")
+def _stride(D, s):  # type: ignore[no-untyped-def]
+    n = min(s.n_stride, D.strides_averaged)
     if n == 0:
-        return d[0].expected_stride
+        return D.expected_stride
     acc = 0.0
     for i in range(n):
         acc += s.history[i]
     return acc / n
+
+
+@njit(cache=True)
+def stride_time(d, st):  # type: ignore[no-untyped-def]
+    """The current stride estimate, s: the mean of the last accepted strides, or the
+    expected one before any."""
+    return _stride(d[0], st[0])
 
 
 @njit(inline="always")
@@ -175,8 +180,9 @@ def _held_landing(D, s, counts, t):  # type: ignore[no-untyped-def]
     the swing: one sensor alone loaded and steady (its reading's mean over ``held_time``
     within ``held_band`` of its span above its lowest) for ``min_swing``, after another
     bore this stance; then a load -- on another sensor, or on it by ``contact_on`` of its
-    span above that lowest -- held for ``debounce`` is the foot landing. Returns whether
-    it landed; its lowest is then its offset."""
+    span above that lowest -- held for ``debounce`` and within ``held_swing`` of the
+    stride (a swing is shorter: held longer, the foot rests on it) is the foot landing.
+    Returns whether it landed; its lowest is then its offset."""
     held = s.held
     n = 0
     one = -1
@@ -194,7 +200,9 @@ def _held_landing(D, s, counts, t):  # type: ignore[no-untyped-def]
         return False
     if held >= 0 and t - s.held_since >= D.min_swing - 1e-12:
         span = max(s.max[held] - s.held_min, D.floor)
-        if other or (counts[held] - s.held_min) / span > D.contact_on:
+        # held longer than a swing can last, the foot rests on it: no landing until a lift
+        if t - s.held_since <= D.held_swing * _stride(D, s) and \
+                (other or (counts[held] - s.held_min) / span > D.contact_on):
             if s.held_hit < 0.0:
                 s.held_hit = t
             if t - s.held_hit >= D.debounce - 1e-12:

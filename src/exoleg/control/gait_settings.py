@@ -53,6 +53,7 @@ class DetectorSettings:
     unload_turn: float  # of the last push-off's fastest turn
     held_band: float  # of the held sensor's span
     held_time: float  # s
+    held_swing: float  # of the stride
     frozen_time: float  # s
     fsr_silent_strides: float
 
@@ -79,6 +80,7 @@ class DetectorSettings:
                              ("impact_time", 1e-3, 0.1),
                              ("impact_swing", 0.0, 1.0), ("unload_turn", 0.05, 1.0),
                              ("held_band", 0.0, 0.5), ("held_time", 1e-3, 0.5),
+                             ("held_swing", 0.1, 1.0),
                              ("frozen_time", 0.01, 10.0),
                              ("fsr_silent_strides", 1.0, 10.0)):
             v = _check.finite(w, name, getattr(self, name))
@@ -114,7 +116,7 @@ class DetectorSettings:
             "impact_ratio": (1.0, 100.0, ""),
             "impact_ms": (1.0, 100.0, "ms"), "impact_swing": (0.0, 1.0, ""),
             "unload_turn": (0.05, 1.0, ""), "held_band": (0.0, 0.5, ""),
-            "held_ms": (1.0, 500.0, "ms"),
+            "held_ms": (1.0, 500.0, "ms"), "held_swing": (0.1, 1.0, ""),
             "frozen_ms": (10.0, 10000.0, "ms"), "fsr_silent_strides": (1.0, 10.0, "")})
         if "stride_accept" not in d:
             raise ParameterError(where, "stride_accept", "missing ([lower, upper] multiples)")
@@ -143,6 +145,7 @@ class DetectorSettings:
                        impact_time=v["impact_ms"] / 1e3,
                        impact_swing=v["impact_swing"], unload_turn=v["unload_turn"],
                        held_band=v["held_band"], held_time=v["held_ms"] / 1e3,
+                       held_swing=v["held_swing"],
                        frozen_time=v["frozen_ms"] / 1e3,
                        fsr_silent_strides=v["fsr_silent_strides"])
         except ParameterError as e:  # a rule across fields: name the file
@@ -181,7 +184,7 @@ SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("floor", F8),
                      ("accel_still", F8), ("still_time", F8), ("impact", F8),
                      ("impact_ratio", F8),
                      ("impact_time", F8), ("impact_swing", F8), ("unload_turn", F8),
-                     ("held_band", F8), ("held_time", F8),
+                     ("held_band", F8), ("held_time", F8), ("held_swing", F8),
                      ("frozen_time", F8), ("fsr_silent_strides", F8), ("gyro_range", F8),
                      ("accel_range", F8)])
 _RECORD_NAMES = frozenset(SETTINGS.names or ())
