@@ -9,11 +9,21 @@ import numpy as np
 import pytest
 
 from exoleg.control import gait_phase as gp
+from exoleg.device.sensors import FootSensors
 
 SET = gp.DetectorSettings.default()
 FLOOR = 200.0
 D = SET.record(FLOOR, 1.0)
 NO_ACC = np.full(2, np.nan)  # no accelerometer reading
+_BOARD = FootSensors.default()
+TOP = float(2**_BOARD.adc_bits - 1)  # the ADC's full scale, counts
+
+
+def _noisy(counts: np.ndarray, seed: int) -> np.ndarray:
+    """``counts`` with the datasheet's FSR noise (sensors.toml), within the ADC's range: a
+    loaded reading unchanged for frozen_time is a frozen board."""
+    rng = np.random.default_rng(seed)
+    return np.clip(counts + rng.normal(0.0, _BOARD.fsr_noise * TOP, counts.shape), 0.0, TOP)
 
 
 def _walk(strides: int, T: float = 1.0, dt: float = 1e-3, noise: float = 0.0,
@@ -114,16 +124,24 @@ _LIFT = 0.6 + SET.debounce
 _TO = 0.5 + 0.14 / np.pi * (np.pi - np.arcsin(0.5 * np.sin(np.pi * (_LIFT - 0.5) / 0.14)))
 
 
-def _fused(counts: np.ndarray, gyro: np.ndarray, t: np.ndarray, acc: np.ndarray = NO_ACC,
-           d: np.ndarray = D) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Event bits and the source at each tick, and the final state (``acc``: the
-    accelerometer, one reading or one per tick)."""
+def _ticks(counts: np.ndarray, gyro: np.ndarray, t: np.ndarray, acc: np.ndarray = NO_ACC,
+           d: np.ndarray = D) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Event bits, the source and whether the leg bears at each tick, and the final state
+    (``acc``: the accelerometer, one reading or one per tick)."""
     st = gp.new_state(d)
     ev = np.empty(len(t), dtype=np.int64)
     src = np.empty(len(t), dtype=np.int64)
+    bearing = np.empty(len(t), dtype=bool)
     for k in range(len(t)):
         ev[k] = gp.detect(d, st, counts[k], gyro[k], acc[k] if acc.ndim == 2 else acc, t[k])
-        src[k] = st[0]["source"]
+        src[k], bearing[k] = st[0]["source"], st[0]["bearing"]
+    return ev, src, bearing, st
+
+
+def _fused(counts: np.ndarray, gyro: np.ndarray, t: np.ndarray, acc: np.ndarray = NO_ACC,
+           d: np.ndarray = D) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Event bits and the source at each tick, and the final state (:func:`_ticks`)."""
+    ev, src, _, st = _ticks(counts, gyro, t, acc, d)
     return ev, src, st
 
 
@@ -152,11 +170,7 @@ def test_a_toe_walker_fused() -> None:
     # for the heel striker, and no foot flat
     _, t = _walk(4)
     x = t % 1.0
-    counts = np.outer(x < 0.6, [0.0, 1800.0, 1440.0, 1080.0])  # the forefoot, 0-60 %
-    # with the datasheet's noise (sensors.toml: 0.5 % of full scale): a reading unchanged
-    # for frozen_time is a frozen board
-    counts = np.clip(counts + np.random.default_rng(2).normal(0.0, 0.005 * 4095, counts.shape),
-                     0.0, 4095.0)
+    counts = _noisy(np.outer(x < 0.6, [0.0, 1800.0, 1440.0, 1080.0]), 2)  # forefoot, 0-60 %
     g = _gyro(t)
     g = np.where(x < 0.15, 2.0 * np.sin(np.pi * x / 0.15), np.where(x < 0.5, 0.0, g))
     ev, src, _ = _fused(counts, g, t)
@@ -196,8 +210,8 @@ def _resting(rest: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The FSRs alone over a stride of :func:`_walk` (1 s), then a landing, flat, and the
     foot resting on its heel alone, toes up, with a steady load for ``rest`` s (as a held
     swing's preloaded sensor reads), the forefoot down again for 1 s, and the heel alone
-    again for 1 s; with the datasheet's noise, 0.5 % of full scale (sensors.toml). Event
-    bits, whether the leg bears, and the times."""
+    again for 1 s; with the datasheet's noise (:func:`_noisy`). Event bits, whether the
+    leg bears, and the times."""
     counts, _ = _walk(2)
     counts = counts[:1300]  # stride 2: heel strike, flat, heel off at 1.3 s ...
     n = int(round(rest * 1e3))
@@ -205,15 +219,8 @@ def _resting(rest: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     down = np.tile([1500.0, 1800.0, 1440.0, 1080.0], (1000, 1))  # the forefoot down
     seq = np.vstack([counts, heel, down, heel[:1000]])
     seq[1100:1300, 0] = 1500.0  # flat until the forefoot lifts at 1.3 s
-    seq = np.clip(seq + np.random.default_rng(1).normal(0.0, 0.005 * 4095, seq.shape),
-                  0.0, 4095.0)
     t = np.arange(len(seq)) * 1e-3
-    st = gp.new_state(D)
-    ev = np.empty(len(t), dtype=np.int64)
-    bearing = np.empty(len(t), dtype=bool)
-    for k in range(len(t)):
-        ev[k] = gp.detect(D, st, seq[k], np.nan, NO_ACC, t[k])
-        bearing[k] = st[0]["bearing"]
+    ev, _, bearing, _ = _ticks(_noisy(seq, 1), np.full(len(t), np.nan), t)
     return ev, bearing, t
 
 
@@ -425,16 +432,11 @@ def test_the_imu_alone_lets_the_weight_off_before_the_toe_off() -> None:
     # stride (no push-off before) it ends at the toe off
     counts, t = _walk(4)
     g = _gyro(t)
-    st = gp.new_state(D)
-    bearing = np.empty(len(t), dtype=bool)
-    ev = np.empty(len(t), dtype=np.int64)
-    for k in range(len(t)):
-        ev[k] = gp.detect(D, st, np.full(4, np.nan), g[k], NO_ACC, t[k])
-        bearing[k] = st[0]["bearing"]
+    ev, _, bearing, _ = _ticks(np.full_like(counts, np.nan), g, t)
     off = t[1:][bearing[:-1] & ~bearing[1:]]
     to = _times(ev, t, gp.Event.TO)
     fastest = g[(t > 0.5) & (t <= to[0])].min()
-    x = 0.5 + 0.14 * np.arccos(1.0 - 0.65 * -fastest / 2.0) / np.pi
+    x = 0.5 + 0.14 * np.arccos(1.0 - SET.unload_turn * -fastest / 2.0) / np.pi
     assert off[0] == pytest.approx(to[0], abs=1.5e-3)
     assert np.allclose(off[1:] % 1.0, x, atol=1.5e-3), (off, x)
     assert np.all(to[1:] % 1.0 > x + 0.01)
