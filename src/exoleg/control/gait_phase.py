@@ -495,7 +495,7 @@ def detect(d, st, counts, gyro, acc, t):  # type: ignore[no-untyped-def]
     # silent: the FSRs have read nothing loaded for fsr_silent_strides strides the IMU
     # has walked (their cable off, the board reading zeros)
     if fsr_ok and gyro_ok and s.t_ic_i > s.t_loaded:
-        T = stride_time(d, st)
+        T = _stride(D, s)
         if s.t_ic_i > s.t_loaded + 0.5 * T:
             fsr_ok = t - s.t_loaded < D.fsr_silent_strides * T
     s.bearing = False
@@ -518,7 +518,7 @@ def detect(d, st, counts, gyro, acc, t):  # type: ignore[no-untyped-def]
         s.source = Source.NONE
     if ev & Event.IC:
         dt = t - s.t_ic
-        expected = stride_time(d, st)
+        expected = _stride(D, s)
         if D.accept_lo * expected <= dt <= D.accept_hi * expected:
             for i in range(HISTORY - 1, 0, -1):
                 s.history[i] = s.history[i - 1]
@@ -533,5 +533,5 @@ def gait_fraction(d, st, t):  # type: ignore[no-untyped-def]
     """Fraction of the gait cycle since the last initial contact, in [0, 1)."""
     if st[0].t_ic < -1e8:
         return 0.0
-    x = (t - st[0].t_ic) / stride_time(d, st)
+    x = (t - st[0].t_ic) / _stride(d[0], st[0])
     return min(x, 0.999999)
