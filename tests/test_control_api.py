@@ -347,7 +347,8 @@ def test_a_lapsed_hold_while_walking_is_a_controlled_stop_with_an_alarm(tmp_path
                                                                         ) -> None:
     # Issue 20, point 2: when the operator's tab closed, control lapsed and the device
     # walked on to the end of the session with no alarm. Now a lapsed hold while walking
-    # stands the child and raises an alarm for every page and the control log.
+    # stands the child, then disarms the device (issue 36: never armed with nobody in
+    # control), and raises an alarm for every page and the control log.
     from exoleg.runtime.operator import LEASE_S
 
     proc, token, port, out = _walking_with_hmi(tmp_path, 40)
@@ -363,18 +364,20 @@ def test_a_lapsed_hold_while_walking_is_a_controlled_stop_with_an_alarm(tmp_path
         state = wait_until("the alarm", lambda: (s := httpx.get(f"{base}/state").json())
                            ["alarm"] and s, timeout=LEASE_S + 5)
         assert time.time() - lapsed < LEASE_S + 1.0
-        assert state["alarm"]["text"].startswith("link lost: ann's hold on control lapsed")
+        assert state["alarm"]["text"].startswith(
+            "nobody in control: link lost: ann's hold on control lapsed")
         assert state["holder"] is None
-        _wait(f"{base}/state", "mode", 1, timeout=10)  # standing, no fault
+        _wait(f"{base}/state", "mode", 0, timeout=10)  # stood, then disarmed: no fault
         assert httpx.get(f"{base}/state").json()["fault"] == 0
     finally:
         proc.terminate()
         proc.wait(timeout=60)
     actions = [json.loads(x) for x in (out / "control.log").read_text().splitlines()]
     alarm = [a for a in actions if a["command"] == "alarm"]
-    assert len(alarm) == 1 and "controlled stop to standing" in alarm[0]["why"]
-    assert any(a["source"] == "loop" and a["command"] == "stand" and a["accepted"]
-               for a in actions)
+    assert len(alarm) == 1 and "controlled stop to standing, then disarm" in alarm[0]["why"]
+    assert alarm[0]["operator"] == "ann"
+    applied = [a["command"] for a in actions if a["source"] == "loop" and a["accepted"]]
+    assert applied[-2:] == ["stand", "disarm"], applied
 
 
 def test_children_are_records_not_folders(tmp_path: Path) -> None:

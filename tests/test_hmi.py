@@ -209,9 +209,9 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
         "view only", lambda: "refused" in text(v, "message") and text(v, "message"))
     assert text(d, "ctl-mode") == "WALKING"  # nothing the viewer did changed the device
 
-    # ... but the viewer's E-stop (the Esc key) stops the device
+    # ... but the viewer's E-stop (its key, F2) stops the device
     goto(v, "live")
-    v.find_element("tag name", "body").send_keys("\ue00c")  # Escape
+    v.find_element("tag name", "body").send_keys("\ue032")  # F2
     wait_until("fault", lambda: text(d, "ctl-mode") == "FAULT")
     shot(v, "estop")
     applied = wait_until("the E-stop applied", lambda: [
@@ -414,24 +414,52 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
         assert int(text(phone, "steps")) >= 2 and text(phone, "t-session").endswith(" s")
         shot(phone, "phone-live-walking")
 
-        # the operator's page goes away mid-walk: the hold lapses, the child is stood,
-        # every open page shows the alarm
+        # the operator's page goes away mid-walk: the hold lapses, the child is stood
+        # and the device disarmed (never armed with nobody in control), every open page
+        # shows the alarm
         from exoleg.runtime.operator import LEASE_S
 
         phone.get("about:blank")
         alarm = wait_until("the alarm on the watching page", lambda: desk.find_element(
             "id", "alarm").is_displayed() and text(desk, "alarm"), timeout=LEASE_S + 5)
         assert "link lost: operator's hold on control lapsed" in alarm
-        wait_until("stood", lambda: text(desk, "hdr-mode") == "STANDING", timeout=10)
+        assert "controlled stop to standing, then disarm" in alarm
+        wait_until("stood, then disarmed", lambda: text(desk, "hdr-mode") == "DISARMED",
+                   timeout=10)
         shot(desk, "desk-alarm")
-        phone.get(hmi.page)  # back: take control again
+        phone.get(hmi.page)  # back: take control again, and arm
         goto(phone, "control")
         press(phone, "take")
         wait_until("control", lambda: "hold control" in text(phone, "hdr-operator"))
         wait_until("the alarm acknowledged", lambda: not desk.find_element(
             "id", "alarm").is_displayed())
+        # the walked session ends (the simulated leg, disarmed with no muscles of its own,
+        # folds past its range: a fault); every step and event was on the watching page
+        walked = max((p for p in hmi.sessions.iterdir() if p.name.endswith("paper-leg")),
+                     key=lambda p: p.name)
+        press(phone, "end")
+        wait_until("ended", lambda: (walked / "run.json").exists(), timeout=30)
+        time.sleep(0.5)
+        from exoleg.control.gait_phase import Event
+        from exoleg.runtime.log import read_log
 
-        # the E-stop: the fault named, with what going on needs; only Reset and Disarm
+        _, cols, _ = read_log(walked / "session.log")
+        ev = cols["events"].astype(int)
+        # reference: the session's own log, tick by tick; seen by the page that watched
+        # the whole session (the operator's page reloaded in between)
+        assert desk.execute_script("return S.hist[S.hist.length - 1].steps") == \
+            int(((ev & Event.IC) > 0).sum())
+        assert desk.execute_script("return S.eventCount") == sum(
+            int(((ev & e) > 0).sum()) for e in Event)
+
+        # the E-stop in a new session, armed at its start: the fault named, with what
+        # going on needs; only Reset and Disarm
+        wait_until("a new session offered", lambda: phone.find_element(
+            "id", "start").is_enabled(), timeout=30)
+        if not phone.find_element("id", "arm-start").is_selected():  # the page reloaded
+            press(phone, "arm-start")
+        press(phone, "start")
+        wait_until("standing", lambda: text(phone, "ctl-mode") == "STANDING", timeout=60)
         press(phone, "estop")
         banner = wait_until("the fault", lambda: phone.find_element(
             "id", "fault-banner").is_displayed() and text(phone, "fault-banner"))
@@ -444,21 +472,10 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
                            "aan": False}
         shot(phone, "phone-fault")
         press(phone, "end")
-        folder = next(p for p in hmi.sessions.iterdir() if (p / "control.log").exists()
-                      and p.name.endswith("paper-leg"))
+        folder = max((p for p in hmi.sessions.iterdir() if p.name.endswith("paper-leg")),
+                     key=lambda p: p.name)
+        assert folder != walked
         wait_until("ended", lambda: (folder / "run.json").exists(), timeout=30)
-        time.sleep(0.5)
-        from exoleg.control.gait_phase import Event
-        from exoleg.runtime.log import read_log
-
-        _, cols, _ = read_log(folder / "session.log")
-        ev = cols["events"].astype(int)
-        # reference: the session's own log, tick by tick; seen by the page that watched
-        # the whole session (the operator's page reloaded in between)
-        assert desk.execute_script("return S.hist[S.hist.length - 1].steps") == \
-            int(((ev & Event.IC) > 0).sum())
-        assert desk.execute_script("return S.eventCount") == sum(
-            int(((ev & e) > 0).sum()) for e in Event)
         run = json.loads((folder / "run.json").read_text())
         assert run["stopped_by"].startswith("the operator ended the session: torque off "
                                             "(after an E-stop at")
@@ -472,7 +489,7 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
         assert time.time() - gone < 2.0  # STALE_MS (1 s) after the last update, and a frame
         assert "cannot see the device" in text(phone, "link-lost")
         press(phone, "estop")
-        assert "COULD NOT REACH THE DEVICE" in wait_until(
+        assert "DID NOT REACH THE DEVICE" in wait_until(
             "the E-stop's failure", lambda: "REACH" in text(phone, "message") and
             text(phone, "message"))
         shot(phone, "phone-link-lost")

@@ -56,7 +56,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         link, token = LoopLink.new(), secrets.token_urlsafe(16)
         web = start_process(link, check_folder(args.out), token, args.hmi_host,
                             args.hmi_port, args.tls_cert, args.tls_key, args.backend,
-                            str(args.leg) if args.leg else None)
+                            str(args.leg) if args.leg else None,
+                            plan=(args.duration, args.body_mass))
         if warning:
             _say(warning)
         _say(f"operator interface: {_url(args.hmi_host, args.hmi_port, args.tls_cert)}"

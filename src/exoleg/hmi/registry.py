@@ -28,7 +28,7 @@ from typing import Any
 from exoleg.errors import ParameterError
 
 #: the schema this exoleg writes
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 #: the steps from each version to the next (version -> the SQL that makes it)
 MIGRATIONS: dict[int, str] = {
     1: """
@@ -51,6 +51,10 @@ MIGRATIONS: dict[int, str] = {
     CREATE TABLE kept (         -- the fit the next session runs on
         slot INTEGER PRIMARY KEY CHECK (slot = 0),
         fit_id INTEGER NOT NULL REFERENCES fits(id));
+    """,
+    2: """
+    ALTER TABLE sessions ADD COLUMN operator TEXT;  -- who started it (their name)
+    ALTER TABLE sessions ADD COLUMN note TEXT;      -- the operator's note on it
     """,
 }
 FILE = "records.sqlite"
@@ -159,10 +163,16 @@ class Registry:
             self.db.execute("INSERT OR REPLACE INTO kept VALUES (0, ?)", (fit_id,))
 
     def add_session(self, name: str, child_id: str | None, fit_id: int | None,
-                    started: float) -> None:
+                    started: float, operator: str | None = None) -> None:
         with self.lock:
-            self.db.execute("INSERT INTO sessions VALUES (?, ?, ?, ?)",
-                            (name, child_id, fit_id, started))
+            self.db.execute("INSERT INTO sessions (name, child_id, fit_id, started, "
+                            "operator) VALUES (?, ?, ?, ?, ?)",
+                            (name, child_id, fit_id, started, operator))
+
+    def note(self, name: str, text: str) -> None:
+        """The operator's note on session ``name`` (replacing an earlier one)."""
+        with self.lock:
+            self.db.execute("UPDATE sessions SET note = ? WHERE name = ?", (text, name))
 
     # ------------------------------------------------------------------ reading
     def exists(self, child_id: str) -> bool:
@@ -207,10 +217,13 @@ class Registry:
         return out
 
     def session(self, name: str) -> dict[str, Any] | None:
-        """The child and fit a session ran on (None when none is recorded)."""
+        """The child and fit a session ran on, who started it and their note (None when
+        none is recorded)."""
         with self.lock:
             row = self.db.execute(
-                "SELECT s.child_id, c.name, s.fit_id FROM sessions s LEFT JOIN children c "
-                "ON c.id = s.child_id WHERE s.name = ?", (name,)).fetchone()
+                "SELECT s.child_id, c.name, s.fit_id, s.operator, s.note FROM sessions s "
+                "LEFT JOIN children c ON c.id = s.child_id WHERE s.name = ?",
+                (name,)).fetchone()
         return None if row is None else {"child_id": row[0], "name": row[1],
-                                         "fit_id": row[2]}
+                                         "fit_id": row[2], "operator": row[3],
+                                         "note": row[4]}

@@ -17,6 +17,7 @@ the operator holding control; an E-stop needs neither.
 from __future__ import annotations
 
 import contextlib
+import json
 import multiprocessing as mp
 import threading
 import time
@@ -49,12 +50,16 @@ from exoleg.runtime.control_api import (
     loopback,
     source_of,
 )
+from exoleg.runtime.device_lock import device_name, hold_device, let_go
 from exoleg.runtime.link import LoopLink
+from exoleg.runtime.operator import REQUEST_OPERATOR
 from exoleg.runtime.session import check_options, simulated
 
 STATIC = Path(__file__).parent / "static"
 #: the longest session the HMI starts, s (a session may be ended at any time before)
 MAX_DURATION = 3600.0
+#: the longest note on a session, characters
+NOTE_LIMIT = 2000
 #: an identification's plan, s (exoleg.identify.plan.design_plan's range)
 PLAN_RANGE = (10.0, 120.0)
 #: the names and texts of the modes, phases, events, faults and safety bits, from the
@@ -74,11 +79,15 @@ def device_info(leg: Any) -> dict[str, Any]:
 
     acts = paper_actuators()
     rom = paper.range_of_motion()
+    # the child's own peak joint moments in walking, typically developing (the paper's
+    # section 2.2): what the cuffs' torque per kg is read against on the Live page
+    walking_peak = paper.sizing()["demand_per_kg"]["torque"]
     out: dict[str, Any] = {
         "leg": leg.name, "lengths": [float(x) for x in leg.lengths], "offsets": list(OFFSETS),
         "rom_lower": rom.lower.tolist(), "rom_upper": rom.upper.tolist(),
         "sensors": list(SENSOR_POINTS),
-        "sensor_x": [float(x) * float(leg.lengths[2]) for x in SENSOR_X], "actuators": []}
+        "sensor_x": [float(x) * float(leg.lengths[2]) for x in SENSOR_X], "actuators": [],
+        "cuff_reference_Nm_per_kg": [float(x) for x in walking_peak]}
     for a in acts:
         par = a.record()
         w = np.linspace(0.0, 1.05 * a.max_velocity, 60)
@@ -90,20 +99,44 @@ def device_info(leg: Any) -> dict[str, Any]:
     return out
 
 
+def ended_record(name: str, stopped_by: str, link: LoopLink) -> dict[str, Any]:
+    """How session ``name`` ended, as every page shows it until its operator acknowledges
+    it: ``stopped_by`` (the session's own words), when, the last mode and the fault
+    latched (named, with its value against its limit) from the loop's last publication."""
+    from exoleg.control.contract import Mode
+    from exoleg.control.safety import fault_detail
+
+    last = LoopLink.snapshot(link.web_copy())
+    return {"session": name, "stopped_by": stopped_by, "time": time.time(),
+            "t": last["t"], "mode": Mode(last["mode"]).name,
+            "fault_text": fault_detail(last["fault"], last["fault_joint"],
+                                       last["fault_value"], last["fault_limit"])
+            if last["fault"] else ""}
+
+
 class HMI:
     """The server's state: the session (running or not), the child kept for the next
     session, the sessions folder."""
 
     def __init__(self, root: str | Path, backend: str = "sim", interface: str | None = None,
                  token: str | None = None, fixed: tuple[LoopLink, Path] | None = None,
-                 leg: Any = None) -> None:
+                 leg: Any = None, channel: str = "exoleg",
+                 plan: tuple[float | None, float | None] = (None, None)) -> None:
+        """``fixed``: the link and folder of the one session ``exoleg run --hmi`` runs,
+        with ``plan``: its duration (s) and the child's body mass (kg). A real device
+        (``backend`` on a real ``interface`` and ``channel``) is held for as long as the
+        interface serves (:func:`~exoleg.runtime.device_lock.hold_device`): a second
+        console or run on it is refused."""
         import exoleg
 
+        self.backend, self.interface, self.channel = backend, interface, channel
+        self.device = None
+        if fixed is None and not simulated(backend, interface):
+            self.device = hold_device(device_name(backend, interface, channel), "exoleg hmi")
         self.root = Path(root)
         self.root.mkdir(parents=True, exist_ok=True)
         self.archive = Archive(self.root)
         self.api = ControlAPI(token, folder=self.root)
-        self.backend, self.interface = backend, interface
         self.fixed = fixed is not None
         self.lock = threading.RLock()
         # the children's records (not under `exoleg run --hmi`, which fits no child)
@@ -120,7 +153,7 @@ class HMI:
         self.cpus: set[int] | None = None  # the server's CPUs before keep_off_loop_cpu
         if fixed is not None:
             self.session = Path(fixed[1])
-            self.api.attach(fixed[0], self.session)
+            self.api.attach(fixed[0], self.session, *plan)
 
     # ------------------------------------------------------------------ sessions
     def start(self, duration: float, source: str, arm: bool = False,
@@ -169,22 +202,24 @@ class HMI:
                 child_file = None
             if self.registry is not None:
                 self.registry.add_session(name, kept["child_id"] if kept else None,
-                                          kept["id"] if kept else None, time.time())
+                                          kept["id"] if kept else None, time.time(),
+                                          REQUEST_OPERATOR.get())
             link = LoopLink.new()
             leg_path = str(folder / "leg.toml") if kept else None
             if identify:
                 target: Any = _identify_process
                 args: tuple[Any, ...] = (link, self.backend, self.interface, duration,
-                                         str(folder), leg_path, arm, self.cpus, child_file)
+                                         str(folder), leg_path, arm, self.cpus, child_file,
+                                         self.channel)
             else:
                 target = _session_process
                 args = (link, self.backend, self.interface, duration, str(folder), leg_path,
-                        runs_on["body_mass"], arm, self.cpus, child_file)
+                        runs_on["body_mass"], arm, self.cpus, child_file, self.channel)
             self.proc = mp.get_context("spawn").Process(target=target, name="exoleg-session",
                                                         daemon=True, args=args)
             self.proc.start()
             self.session = folder
-            self.api.attach(link, folder)
+            self.api.attach(link, folder, duration, runs_on["body_mass"])
             what = (f"identification (a plan of {duration:g} s: Arm, then Walk starts it)"
                     if identify else f"{duration:g} s")
             self.api.record(source, f"start session {name} for {runs_on['text']} "
@@ -257,9 +292,9 @@ class HMI:
             if self.api.link is not link:  # a new session started in between
                 return
             self.api.poll_applied()
-            self.api.record("session", "session ended", True,
-                            why=self.archive.summary(folder)["stopped_by"])
-            self.api.detach()
+            stopped_by = self.archive.summary(folder)["stopped_by"]
+            self.api.record("session", "session ended", True, why=stopped_by)
+            self.api.detach(ended_record(folder.name, stopped_by, link))
 
     def keep_identified(self, folder: Path) -> None:
         """After an identification session in ``folder``: the identified leg, when there
@@ -298,8 +333,33 @@ class HMI:
         self.api.record(source, "end session", True)
         return 200, {"ending": self.session.name if self.session else ""}
 
+    def note(self, text: Any, source: str) -> tuple[int, dict[str, Any]]:
+        """The operator's note on the session running now, or the last one: kept in the
+        records (replacing an earlier note) and in the session's control.log (every
+        version, nothing written lost)."""
+        if not isinstance(text, str):
+            return 422, {"error": "note: expected text"}
+        text = text.strip()
+        if len(text) > NOTE_LIMIT:
+            return 422, {"error": f"note: {len(text)} characters (at most {NOTE_LIMIT})"}
+        with self.lock:
+            session = self.session
+            if session is None:
+                return 409, {"error": "no session yet: start one, then write its note"}
+            if self.registry is not None:
+                self.registry.note(session.name, text)
+        entry = {"time": time.time(), "source": source, "command": "note", "accepted": True,
+                 "why": text}
+        operator = REQUEST_OPERATOR.get()
+        if operator:
+            entry["operator"] = operator
+        with (session / "control.log").open("a", encoding="utf-8") as f:
+            f.write(json.dumps(entry) + "\n")
+        return 200, {"session": session.name, "note": text}
+
     def close(self) -> None:
-        """Stop a running session (its process ends with the torque off)."""
+        """Stop a running session (its process ends with the torque off), then let go of
+        the device."""
         with self.lock:
             proc, link = self.proc, self.api.link
         if proc is not None and proc.is_alive():
@@ -309,6 +369,8 @@ class HMI:
             if proc.is_alive():
                 proc.terminate()
                 proc.join(timeout=5)
+        let_go(self.device)
+        self.device = None
 
     # ------------------------------------------------------------------ the child
     def fit(self, body: dict[str, Any], source: str) -> tuple[int, dict[str, Any]]:
@@ -374,6 +436,16 @@ class HMI:
         self.api.record(source, f"fit {child.name} ({cid}, fit {fit_id}): {rep.verdict}",
                         True)
         return 200, {**record, "child_id": cid, "fit_id": fit_id}
+
+    def sessions(self) -> list[dict[str, Any]]:
+        """Every recorded session's line (:meth:`Archive.sessions`) with who started it
+        and their note, from the records."""
+        rows = self.archive.sessions(self.live())
+        if self.registry is not None:
+            for r in rows:
+                rec = self.registry.session(r["name"]) or {}
+                r["operator"], r["note"] = rec.get("operator"), rec.get("note")
+        return rows
 
     def live(self) -> Path | None:
         """The folder of the session running now (None when none runs)."""
@@ -459,6 +531,14 @@ class HMI:
                 api.record(source_of(request), "start identification", False, out["error"])
             return JSONResponse(out, status)
 
+        async def session_note(request: Request) -> JSONResponse:
+            refused = api.refusal(request, "note")
+            if refused:
+                return refused
+            body = await body_of(request)
+            status, out = self.note(body.get("note"), source_of(request))
+            return JSONResponse(out, status)
+
         async def session_end(request: Request) -> JSONResponse:
             refused = api.refusal(request, "end session")
             if refused:
@@ -470,7 +550,7 @@ class HMI:
             refused = private(request)
             if refused:
                 return refused
-            return JSONResponse(await run_in_threadpool(self.archive.sessions, self.live()))
+            return JSONResponse(await run_in_threadpool(self.sessions))
 
         def recorded(request: Request) -> Path:
             folder = self.archive.folder_of(request.path_params["name"])
@@ -524,6 +604,7 @@ class HMI:
                   Route("/api/session/start", session_start, methods=["POST"]),
                   Route("/api/identify/start", identify_start, methods=["POST"]),
                   Route("/api/session/end", session_end, methods=["POST"]),
+                  Route("/api/session/note", session_note, methods=["POST"]),
                   Route("/api/sessions", sessions),
                   Route("/api/sessions/{name}", session_detail),
                   Route("/api/sessions/{name}/{kind}", session_file),

@@ -122,12 +122,13 @@ def serve(hmi: HMI, host: str = "127.0.0.1", port: int = 8780, certfile: str | N
 
 def _serve_process(link: LoopLink, folder: str, token: str, host: str, port: int,
                    certfile: str | None, keyfile: str | None, backend: str,
-                   leg_path: str | None, ready: Any) -> None:
+                   leg_path: str | None, ready: Any,
+                   plan: tuple[float | None, float | None] = (None, None)) -> None:
     import exoleg
 
     leg = exoleg.load_leg(leg_path) if leg_path else None
     hmi = HMI(Path(folder).parent, backend=backend, token=token, fixed=(link, Path(folder)),
-              leg=leg)
+              leg=leg, plan=plan)
     # it ends when its run does, however the run ended: no page goes on showing a
     # device that nothing drives, no port stays held
     when_parent_ends(lambda: os.kill(os.getpid(), signal.SIGTERM))
@@ -136,14 +137,16 @@ def _serve_process(link: LoopLink, folder: str, token: str, host: str, port: int
 
 def start_process(link: LoopLink, folder: Path, token: str, host: str, port: int,
                   certfile: str | None = None, keyfile: str | None = None,
-                  backend: str = "sim", leg_path: str | None = None) -> Any:
-    """``exoleg run --hmi``: the server in a child process for the session run here;
-    returns the process once it listens (raises with the reason if it cannot)."""
+                  backend: str = "sim", leg_path: str | None = None,
+                  plan: tuple[float | None, float | None] = (None, None)) -> Any:
+    """``exoleg run --hmi``: the server in a child process for the session run here
+    (``plan``: its duration, s, and the child's body mass, kg); returns the process once
+    it listens (raises with the reason if it cannot)."""
     ctx = mp.get_context("spawn")
     receiver, sender = ctx.Pipe(duplex=False)
     proc = ctx.Process(target=_serve_process, name="exoleg-hmi", daemon=True,
                        args=(link, str(folder), token, host, port, certfile, keyfile,
-                             backend, leg_path, sender))
+                             backend, leg_path, sender, plan))
     proc.start()
     said = receiver.recv() if receiver.poll(60) else "did not start within 60 s"
     if said != "ok":

@@ -41,6 +41,7 @@ from __future__ import annotations
 import asyncio
 import json
 import math
+import threading
 import time
 from typing import Any
 
@@ -51,6 +52,12 @@ from exoleg.runtime.operator import COMMANDS, LEASE_S, NO_TOKEN, UNGUARDED, Oper
 
 #: the WebSocket stream's rate, Hz
 STREAM_HZ = 50.0
+#: The server's event loop not turning for this long is a hung server: the heartbeat
+#: stops and the loop, after :data:`~exoleg.runtime.link.LINK_TIMEOUT_S`, brings the
+#: device to a stop. A burst of 2,000 requests delayed its turns by at most
+#: YYY s here (``server_stall_max_s``, tests/test_hmi_safety.py); a dead or frozen
+#: process stops the heartbeat at once.
+EVENT_LOOP_STALL_S = 3.0
 #: how long ``POST /command`` waits for the supervisor's answer, s (the loop applies a
 #: command at its next tick, 1 ms at 1 kHz; its answer is logged within 5 ms)
 APPLIED_WAIT_S = 0.5
@@ -181,6 +188,9 @@ class ControlAPI(OperatorRules):
     """The operator rules (:class:`~exoleg.runtime.operator.OperatorRules`) over HTTP:
     the routes, a request's refusal, the watch on applied commands."""
 
+    #: the longest the server's event loop went without turning, s (:meth:`watch`)
+    stall_max_s = 0.0
+
     def refusal(self, request: Any, what: str) -> Any:
         """None when ``request`` may do ``what`` (:meth:`authorise`); else the refusal to
         send (401 without the token, 409 without control)."""
@@ -199,7 +209,10 @@ class ControlAPI(OperatorRules):
         from starlette.websockets import WebSocket, WebSocketDisconnect
 
         async def state(request: Request) -> JSONResponse:
-            return JSONResponse(self.state())
+            # how long the event loop went without turning, at most, since the server
+            # started (s): what a burst of requests costs it
+            return JSONResponse({**self.state(), "server_stall_max_s":
+                                 round(self.stall_max_s, 4)})
 
         async def log(request: Request) -> JSONResponse:
             if not self.has_token(request.headers):  # who did what: the session's record
@@ -221,10 +234,10 @@ class ControlAPI(OperatorRules):
                 refused = self.refusal(request, "give up control")
                 if refused:
                     return refused
+                self.release(source)  # an armed device nobody controls comes to rest
                 with self.lock:
-                    self.operator = None
-                self.record(source, "give up control", True)
-                return JSONResponse({"holder": None})
+                    alarm = self.alarm
+                return JSONResponse({"holder": None, "alarm": alarm})
             body = await body_of(request)
             name = str(body.get("name", "")).strip()[:40] or "operator"
             status, out = self.take(request.headers, source, name)
@@ -245,6 +258,7 @@ class ControlAPI(OperatorRules):
         async def estop(request: Request) -> JSONResponse:
             # the E-stop goes before anything of the request is read: any body, any size
             why, rid = self.estop()
+            self.who(request.headers)  # the operator's name in the record, if theirs
             body, problem = ({}, "") if why else await read_body(request)
             return estopped(source_of(request), why, rid, body, problem)
 
@@ -254,6 +268,7 @@ class ControlAPI(OperatorRules):
             name = str(body.get("command", ""))
             if name == "estop":
                 why, rid = self.estop()
+                self.who(request.headers)
                 return estopped(source, why, rid, body, "")
             if name not in COMMANDS:
                 why = f"unknown command {name!r} (allowed: {', '.join(COMMANDS)})"
@@ -329,8 +344,27 @@ class ControlAPI(OperatorRules):
                 WebSocketRoute("/stream", stream)]
 
     async def watch(self) -> None:
-        """Runs beside the server on its event loop (:meth:`watch_once`): the heartbeat
-        stops if the event loop stalls or the process dies."""
-        while True:
-            self.watch_once()
-            await asyncio.sleep(0.005)
+        """Runs beside the server on its event loop for as long as it serves: says every
+        5 ms that the event loop turns, and runs the watch (:meth:`watch_once`: the
+        heartbeat, the commands applied, the holds) in a thread of its own, so that a
+        burst of requests, which delays the event loop's turns, never starves the
+        heartbeat; an event loop that has not turned for :data:`EVENT_LOOP_STALL_S` is
+        hung, and the heartbeat stops (a lost link, as when the process dies or freezes)."""
+        stop = threading.Event()
+        self._turned = time.monotonic()
+        self.stall_max_s = 0.0
+
+        def beat() -> None:
+            while not stop.wait(0.005):
+                self.watch_once(beat=time.monotonic() - self._turned < EVENT_LOOP_STALL_S)
+
+        watcher = threading.Thread(target=beat, name="exoleg-heartbeat", daemon=True)
+        watcher.start()
+        try:
+            while True:
+                now = time.monotonic()
+                self.stall_max_s = max(self.stall_max_s, now - self._turned)
+                self._turned = now
+                await asyncio.sleep(0.005)
+        finally:
+            stop.set()

@@ -4,14 +4,16 @@ needs the session's token and that operator (an E-stop needs neither), gain chan
 bounded (0 to twice their value at the start, the support level and the bounds on
 assist-as-needed's support 0-1), and every action,
 accepted or refused, and the loop's application of each command go to ``control.log``
-with their wall times. An operator's hold that lapses while the child walks is a lost
-link: the device comes to a controlled stop (stand) and an alarm goes to the log and to
-every page (:meth:`OperatorRules.watch_once`).
+with their wall times and the operator's name. The device is never armed with nobody in
+control: an operator's hold that is given up, or lapses, while the device is armed brings
+it to a controlled stop (stand, while walking) and then disarms it, with an alarm in the
+log and on every page (:meth:`OperatorRules.watch_once`).
 :class:`~exoleg.runtime.control_api.ControlAPI` serves them over HTTP; a script or a test
 may call them directly."""
 
 from __future__ import annotations
 
+import contextvars
 import json
 import math
 import secrets
@@ -20,7 +22,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from exoleg.control.contract import WALKING_MODES, Command, Mode
+from exoleg.control.contract import ARMED_MODES, Command, Mode
 from exoleg.control.hierarchy import BOUNDS
 from exoleg.control.safety import fault_detail
 from exoleg.control.supervisor import refusal
@@ -35,6 +37,10 @@ UNGUARDED = {"estop"}
 LEASE_S = 5.0
 #: the tunables that are shares (0-1), not gains
 SHARES = ("support", *BOUNDS)
+#: the operator holding control who sent the request being handled (their name), for
+#: the records of what it does (set by :meth:`OperatorRules.authorise`)
+REQUEST_OPERATOR: contextvars.ContextVar[str | None] = contextvars.ContextVar(
+    "exoleg_operator", default=None)
 NO_TOKEN = ("no valid token: enter the token printed when exoleg started (Control page, "
             "Token; programs send Authorization: Bearer <token>)")
 
@@ -64,6 +70,13 @@ class OperatorRules:
         self.next_id = 1
         self.seen_applied = 0
         self.alarm: dict[str, Any] | None = None  # the latest alarm, on every page
+        # nobody holds control while the device is armed: why, and the mode a command
+        # was last sent for (a controlled stop, then disarm: :meth:`_settle_unattended`)
+        self.unattended: str | None = None
+        self._unattended_sent = -1
+        self.duration: float | None = None  # the session's planned length, s
+        self.body_mass: float | None = None  # the child's, kg (the cuffs' torque per kg)
+        self.ended: dict[str, Any] | None = None  # how the last session ended
         self.outcomes: dict[int, tuple[bool, str]] = {}  # request id -> applied, why not
         self._seq, self._seq_seen = -1.0, time.monotonic()  # the loop's last publication
 
@@ -79,23 +92,34 @@ class OperatorRules:
             return folder / "control.log"
         return self.home / "interface.log"
 
-    def attach(self, link: LoopLink, folder: str | Path) -> None:
-        """A session starts: its link and its folder (control.log)."""
+    def attach(self, link: LoopLink, folder: str | Path, duration: float | None = None,
+               body_mass: float | None = None) -> None:
+        """A session starts: its link, its folder (control.log), its planned length (s)
+        and the child's body mass (kg), each None when unknown."""
         with self.lock:
             self.link, self.folder = link, Path(folder)
             self.bounds, self.actions, self.requests, self.outcomes = {}, [], {}, {}
             self.seen_applied = 0
             self.alarm = None
+            self.unattended = None
+            self.duration, self.body_mass = duration, body_mass
             self._seq, self._seq_seen = -1.0, time.monotonic()
 
-    def detach(self) -> None:
+    def detach(self, ended: dict[str, Any] | None = None) -> None:
+        """The session is over; ``ended``: how (``session``, ``stopped_by``, ``time``,
+        ``fault_text``), kept for every page until the next session starts."""
         with self.lock:
             self.link, self.folder = None, self.home
+            self.unattended = None
+            if ended is not None:
+                self.ended = ended
 
     # ------------------------------------------------------------------ bookkeeping
     def record(self, source: str, command: str, accepted: bool, why: str = "",
                **extra: Any) -> dict[str, Any]:
-        entry = {"time": time.time(), "source": source, "command": command,
+        operator = extra.pop("operator", None) or REQUEST_OPERATOR.get()
+        entry = {"time": time.time(), "source": source,
+                 **({"operator": operator} if operator else {}), "command": command,
                  "accepted": accepted, **({"why": why} if why else {}),
                  **{k: _json_safe(v) for k, v in extra.items()}}
         with self.lock:
@@ -109,15 +133,19 @@ class OperatorRules:
 
     def state(self) -> dict[str, Any]:
         """The latest tick (:meth:`LoopLink.snapshot`), how long ago the loop last
-        published (``loop_age_s``), the operator holding control and the latest alarm."""
+        published (``loop_age_s``), the operator holding control, the latest alarm, how
+        the last session ended (``ended``), the session's planned length (``duration_s``)
+        and the child's body mass (``body_mass``)."""
         with self.lock:
-            link, alarm = self.link, self.alarm
+            link, alarm, ended = self.link, self.alarm, self.ended
+            duration, mass = self.duration, self.body_mass
             age = time.monotonic() - self._seq_seen
         holder = self.public(self.holder())
         if link is None:
-            return {"running": "none", "alarm": alarm, "holder": holder}
+            return {"running": "none", "alarm": alarm, "holder": holder, "ended": ended}
         out = LoopLink.snapshot(link.web_copy())
-        out.update(loop_age_s=round(age, 3), alarm=alarm, holder=holder,
+        out.update(loop_age_s=round(age, 3), alarm=alarm, holder=holder, ended=ended,
+                   duration_s=duration, body_mass=mass,
                    fault_text=fault_detail(out["fault"], out["fault_joint"],
                                            out["fault_value"], out["fault_limit"]))
         return out
@@ -181,51 +209,108 @@ class OperatorRules:
             while len(self.outcomes) > 256:  # the pages read theirs within a second
                 self.outcomes.pop(next(iter(self.outcomes)))
 
-    def watch_once(self) -> None:
-        """The web side's watch, every few ms: the heartbeat the loop checks, the
-        commands applied, the loop's last publication, a lapsed hold."""
+    def watch_once(self, beat: bool = True) -> None:
+        """The web side's watch, every few ms: the heartbeat the loop checks (when
+        ``beat``), the commands applied, the loop's last publication, a lapsed hold, and
+        an armed device nobody controls brought to rest (:meth:`_settle_unattended`)."""
         with self.lock:
             link = self.link
         if link is not None:
-            link.web_beat()
+            if beat:
+                link.web_beat()
             self.poll_applied()
             seq = float(link.view["seq"])
             with self.lock:
                 if seq != self._seq:
                     self._seq, self._seq_seen = seq, time.monotonic()
         self.holder()
+        self._settle_unattended()
 
-    def _lapsed(self, op: dict[str, Any]) -> None:
-        """``op``'s hold lapsed (no request from their page for :data:`LEASE_S` s): while
-        the child walks, a controlled stop and an alarm; else a note in the log."""
+    def _mode_now(self) -> int | None:
+        """The supervisor's mode while the session's loop runs (None otherwise)."""
         with self.lock:
             link = self.link
-        snap = LoopLink.snapshot(link.web_copy()) if link is not None else {}
-        walking = snap.get("running") == "running" and snap["mode"] in WALKING_MODES
-        what = (f"{op['name']}'s hold on control lapsed: no word from their page for "
-                f"{LEASE_S:g} s")
-        if not walking:
-            self.record("hmi", "control lapsed", True, why=what)
+        if link is None:
+            return None
+        c = link.web_copy()
+        return int(c["mode"]) if LoopLink.running(c) == "running" else None
+
+    def _unattended_now(self, op: dict[str, Any], what: str) -> None:
+        """Nobody holds control any more (``op``'s hold ended: ``what``). While the
+        device is armed that may not stay so: a controlled stop (while walking), then
+        disarm, with an alarm on every page and in the log; else a note in the log."""
+        mode = self._mode_now()
+        if mode is None or mode not in ARMED_MODES:
+            self.record("hmi", "control ended", True, why=what, operator=op["name"])
             return
-        text = (f"link lost: {what} while {Mode(snap['mode']).name}: controlled stop to "
-                "standing; take control again to go on")
-        if snap["mode"] == Mode.WALKING:
-            self.send("stand", "hmi")
+        steps = ("controlled stop to standing, then disarm" if mode != Mode.STANDING
+                 else "disarm")
+        text = (f"nobody in control: {what} while {Mode(mode).name}: {steps}; take "
+                "control to go on")
         with self.lock:
+            self.unattended, self._unattended_sent = text, -1
             self.alarm = {"time": time.time(), "text": text}
-        self.record("hmi", "alarm", True, why=text)
+        self.record("hmi", "alarm", True, why=text, operator=op["name"])
+        self._settle_unattended()
+
+    def _settle_unattended(self) -> None:
+        """While nobody holds control of an armed device: stand it (walking), then
+        disarm it (standing); done once it is disarmed, faulted, ended, or someone takes
+        control. One command for each mode met (the loop publishes at 100 Hz)."""
+        with self.lock:
+            if self.unattended is None:
+                return
+            if self.operator is not None:
+                self.unattended = None
+                return
+        mode = self._mode_now()
+        if mode is None or mode not in ARMED_MODES:
+            with self.lock:
+                why, self.unattended = self.unattended, None
+            self.record("hmi", "nobody in control: at rest", True,
+                        why=f"{'session ended' if mode is None else Mode(mode).name}; "
+                            f"after: {why}")
+            return
+        with self.lock:
+            if self._unattended_sent == mode:
+                return
+            self._unattended_sent = mode
+        if mode == Mode.WALKING:
+            self.send("stand", "hmi")
+        elif mode == Mode.STANDING:
+            self.send("disarm", "hmi")
+
+    def release(self, source: str) -> None:
+        """The operator holding control gives it up (:meth:`authorise` first)."""
+        with self.lock:
+            op, self.operator = self.operator, None
+        self.record(source, "give up control", True)
+        if op is not None:
+            self._unattended_now(op, f"{op['name']} gave up control")
 
     # ------------------------------------------------------------------ control
     def holder(self) -> dict[str, Any] | None:
         """The operator holding control (None when nobody does; a hold that lapsed
-        goes, :meth:`_lapsed`)."""
+        goes: no word from their page for :data:`LEASE_S` s, :meth:`_unattended_now`)."""
         with self.lock:
             op = self.operator
             if op is None or time.time() - op["seen"] <= LEASE_S:
                 return op
             self.operator = None
-        self._lapsed(op)
+        self._unattended_now(op, f"link lost: {op['name']}'s hold on control lapsed (no "
+                                 f"word from their page for {LEASE_S:g} s)")
         return None
+
+    def who(self, headers: Any) -> str | None:
+        """The name of the operator holding control when ``headers`` are theirs (the
+        token and their id), for the records of what the request does; else None."""
+        with self.lock:
+            op = self.operator
+        if (op is None or not self.has_token(headers)
+                or not secrets.compare_digest(headers.get("x-operator", ""), op["id"])):
+            return None
+        REQUEST_OPERATOR.set(op["name"])
+        return str(op["name"])
 
     def has_token(self, headers: Any) -> bool:
         return secrets.compare_digest(headers.get("authorization", ""), f"Bearer {self.token}")
@@ -248,6 +333,7 @@ class OperatorRules:
             else:
                 with self.lock:
                     op["seen"] = time.time()
+                REQUEST_OPERATOR.set(op["name"])
         if why:
             self.record(source, what, False, why)
         return why
@@ -258,7 +344,8 @@ class OperatorRules:
             return 401, {"error": NO_TOKEN}
         with self.lock:
             op = self.holder()
-            if op is not None and op["id"] != headers.get("x-operator", ""):
+            if op is not None and not secrets.compare_digest(
+                    op["id"], headers.get("x-operator", "")):
                 why = (f"control is held by {op['name']} ({op['source']}) since "
                        f"{time.strftime('%H:%M:%S', time.localtime(op['since']))}; you can "
                        "view only")
@@ -268,6 +355,7 @@ class OperatorRules:
             self.operator = op = {"id": secrets.token_urlsafe(12), "name": name,
                                   "source": source, "since": now, "seen": now}
             alarm, self.alarm = self.alarm, None  # taking control again acknowledges it
+        REQUEST_OPERATOR.set(name)
         self.record(source, f"take control ({name})", True,
                     why=f"acknowledges the alarm: {alarm['text']}" if alarm else "")
         return 200, {"operator": op["id"], "holder": self.public(op)}

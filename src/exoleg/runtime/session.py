@@ -13,6 +13,7 @@ import numpy as np
 from exoleg.entry import CONTROLLERS, DEFAULT_BODY_MASS, WALKING_CONTROLLERS
 from exoleg.errors import ParameterError
 from exoleg.params import _check
+from exoleg.runtime.device_lock import device_name, hold_device, let_go
 from exoleg.runtime.log import MAX_LOSS_TICKS, SessionLog, check_session, read_log
 from exoleg.runtime.loop import (
     LOG_HEAD,
@@ -273,11 +274,16 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
                              "the child: give --child on a simulated device (a passive leg "
                              "in a transparent device falls)")
     folder, lock = claim_folder(out)
+    device = None
     try:
+        # a real device: held by this process alone, or refused before the bus is touched
+        if not simulated(backend, interface):
+            device = hold_device(device_name(backend, interface, channel))
         return _run(backend, duration, folder, period, arm, walk_after, leg, body_mass,
                     seed, realtime, interface, channel, inject, link, bus_timeout, overrun,
                     controller, child, reference, step, model)
     finally:
+        let_go(device)
         os.close(lock)
 
 

@@ -1,6 +1,8 @@
 // exoleg operator interface. Angles and torques arrive in SI units (rad, N m); the page
 // shows degrees where people read. The loop runs in another process: nothing here can
-// slow it. The E-stop is sent without a token, from any page, by anyone.
+// slow it. The E-stop is sent without a token, from any page, by anyone: its button lies
+// above every dialog and banner, and its key (F2) is one nobody presses by habit (Esc
+// cancels a question).
 "use strict";
 
 // The names of modes, phases, events and safety bits come from the server (/api/info:
@@ -15,8 +17,11 @@ const DEG = 180 / Math.PI;
 const S = {
   token: "", operator: sessionStorage.getItem("exoleg-operator") || "",
   info: null, state: null, hist: [], events: [], updates: [], lastMode: null,
-  lastMsg: 0, lastEvent: -1, eventCount: 0, estopFailed: false,
+  lastMsg: 0, lastEvent: -1, eventCount: 0, estopFailed: false, estopPending: 0,
 };
+const ESTOP_KEY = "F2";
+const ESTOP_WAIT_MS = 300;  // an E-stop unanswered this long: said at once, and sent again
+const ESTOP_RETRY_S = 10;  // ... for this long
 const STALE_MS = 1000;  // no update for this long: the page says the link is lost
 
 // ---------------------------------------------------------------- plumbing
@@ -29,10 +34,15 @@ function say(text, ok) {
   m.className = ok ? "ok" : "error";
 }
 
-async function call(method, url, body) {
+function authHeaders() {
   const headers = {"Content-Type": "application/json"};
   if (S.token) headers["Authorization"] = "Bearer " + S.token;
   if (S.operator) headers["X-Operator"] = S.operator;
+  return headers;
+}
+
+async function call(method, url, body) {
+  const headers = authHeaders();
   let r;
   try {
     r = await fetch(url, {method, headers, body: body === undefined ? undefined : JSON.stringify(body)});
@@ -54,32 +64,79 @@ async function act(method, url, body, done) {
   return r;
 }
 
-// a question before an action that takes the torque off or ends a session while moving
+// a question before an action that takes the torque off or ends a session while moving:
+// not modal (a modal dialog makes the rest of the page inert, the E-stop with it); its
+// backdrop covers the page under the E-stop; Esc or "No" goes back
+let closeQuestion = null;
 function confirmFirst(text) {
   const d = $("confirm");
   $("confirm-text").textContent = text;
   return new Promise((done) => {
-    const end = (yes) => { d.close(); $("confirm-yes").onclick = $("confirm-no").onclick = null; done(yes); };
+    const end = (yes) => {
+      closeQuestion = null; d.close(); $("backdrop").hidden = true;
+      $("confirm-yes").onclick = $("confirm-no").onclick = $("backdrop").onclick = null;
+      done(yes);
+    };
+    closeQuestion = () => end(false);
     $("confirm-yes").onclick = () => end(true);
     $("confirm-no").onclick = () => end(false);
-    d.onclose = () => done(false);
-    d.showModal();
+    $("backdrop").onclick = () => end(false);
+    $("backdrop").hidden = false;
+    d.show();
+    $("confirm-no").focus();
   });
 }
 
 // ---------------------------------------------------------------- E-stop: always there
+function estopUnreachable(why, since) {
+  if (!S.estopFailed) window.estopUnreachableMs = performance.now() - since;  // for the tests
+  S.estopFailed = true;
+  $("estop").classList.add("unreachable");
+  say("E-STOP DID NOT REACH THE DEVICE (" + why + "). Use the hardware E-stop now.", false);
+}
+
 async function estop(ev) {
   const clicked = performance.timeOrigin + (ev && ev.timeStamp ? ev.timeStamp : performance.now());
   window.lastEstopClick = clicked;
-  const r = await call("POST", "/api/estop", {clicked_at: clicked});
-  S.estopFailed = r.status === 0;
-  $("estop").classList.toggle("unreachable", S.estopFailed);
-  if (r.ok) say("E-STOP sent: torque off", true);
-  else if (r.status === 0) say("E-STOP COULD NOT REACH THE DEVICE: the server does not answer. Use the hardware E-stop now.", false);
-  else say("E-STOP: " + (r.data.error || r.status), false);
+  if (closeQuestion) closeQuestion();  // a question asked before the E-stop no longer stands
+  const id = ++S.estopPending, since = performance.now();
+  S.estopFailed = false;
+  // the page already knows it cannot see the server: said at once, sent all the same
+  if (!linkFresh()) estopUnreachable("this page has had no update from the server for " +
+    (S.lastMsg ? ((performance.now() - S.lastMsg) / 1000).toFixed(1) + " s" : "ever"), since);
+  else say("E-STOP sent...", true);
+  const until = performance.now() + ESTOP_RETRY_S * 1000;
+  for (let n = 0; id === S.estopPending && performance.now() < until; n++) {
+    const ctl = new AbortController();
+    const timer = setTimeout(() => ctl.abort(), ESTOP_WAIT_MS);
+    let r = null;
+    try {
+      r = await fetch("/api/estop", {method: "POST", signal: ctl.signal, headers: authHeaders(),
+        body: JSON.stringify(n ? {} : {clicked_at: clicked})});
+    } catch (e) {
+      r = null;  // no answer within ESTOP_WAIT_MS, or no connection
+    }
+    clearTimeout(timer);
+    if (r && r.ok) {
+      S.estopFailed = false;
+      $("estop").classList.remove("unreachable");
+      say("E-STOP applied: torque off" + (n ? ` (sent ${n + 1} times: the server answered late)` : ""), true);
+      return;
+    }
+    if (r) {  // answered, but not queued: no session is running
+      const data = await r.json().catch(() => ({}));
+      say("E-STOP: " + (data.error || r.status), false);
+      return;
+    }
+    estopUnreachable(`the server has not answered within ${ESTOP_WAIT_MS} ms; still sending it`, since);
+    await new Promise((ok) => setTimeout(ok, 200));
+  }
 }
 $("estop").addEventListener("click", estop);
-document.addEventListener("keydown", (e) => { if (e.key === "Escape") { e.preventDefault(); estop(e); } });
+document.addEventListener("keydown", (e) => {
+  if (e.key === ESTOP_KEY) { e.preventDefault(); estop(e); }
+  else if (e.key === "Escape" && closeQuestion) { e.preventDefault(); closeQuestion(); }
+});
 
 // ---------------------------------------------------------------- pages
 function show() {
@@ -230,10 +287,12 @@ function banner(id, text) {
   b.hidden = !text;
 }
 
+const linkFresh = () => S.lastMsg > 0 && performance.now() - S.lastMsg <= STALE_MS;
+
 function linkState(s) {
   // the stream's age on this page, then the loop's behind the server
   const age = S.lastMsg ? (performance.now() - S.lastMsg) / 1000 : Infinity;
-  if (age * 1000 > STALE_MS) {
+  if (!linkFresh()) {
     $("hdr-link").textContent = S.lastMsg ? `link: LOST (${age.toFixed(1)} s)` : "link: connecting";
     $("hdr-link").className = "link lost";
     banner("link-lost", S.lastMsg ? `No update from the server for ${age.toFixed(1)} s: this page cannot see the device, ` +
@@ -253,10 +312,54 @@ function enableButtons(s) {
   const running = s && s.running === "running";
   const applies = running ? [...((VOC().applies || {})[String(s.mode)] || []),
     ...((VOC().support_applies || []).includes(MODE(s.mode)) ? VOC().support_commands || [] : [])] : [];
-  for (const b of document.querySelectorAll("[data-command]")) b.disabled = !applies.includes(b.dataset.command);
+  $("save-note").onclick = async () => {
+  const r = await act("POST", "/api/session/note", {note: $("note").value}, "note kept");
+  if (r.ok) $("note-line").textContent = `Kept with session ${r.data.session} (and in its control log).`;
+};
+for (const b of document.querySelectorAll("[data-command]")) b.disabled = !applies.includes(b.dataset.command);
   const live = s && (s.running === "running" || s.running === "starting");
   $("start").disabled = !!live || (S.info && S.info.fixed);
+  $("identify").disabled = !!live || (S.info && S.info.fixed);
   $("end").disabled = !live;
+}
+
+// how the last session ended, kept on every page until this page's operator acknowledges
+// it (per session, for this tab); the banner says it in the session's own words
+const acknowledged = () => JSON.parse(sessionStorage.getItem("exoleg-acknowledged") || "[]");
+function endedBanner(s) {
+  const e = s && s.ended;
+  const show = e && !acknowledged().includes(e.session + "@" + e.time);
+  banner("ended-text", show ? `Session ${e.session} ended at ${new Date(e.time * 1000).toLocaleTimeString()} ` +
+    `(${e.t.toFixed(1)} s in, last ${e.mode}): ${e.stopped_by}` + (e.fault_text ? `. Fault: ${e.fault_text.split(" To go on:")[0]}` : "") : "");
+  $("ended-banner").hidden = !show;
+  $("ended-banner").dataset.key = show ? e.session + "@" + e.time : "";
+}
+$("ended-ack").onclick = () => {
+  const key = $("ended-banner").dataset.key;
+  if (key) sessionStorage.setItem("exoleg-acknowledged", JSON.stringify([...acknowledged(), key].slice(-50)));
+  $("ended-banner").hidden = true;
+};
+
+function clearLive() {
+  // no session ticking: nothing of an old frame stays drawn as if it were now
+  for (const id of ["leg", "angles", "torques", "fsr"]) { const c = $(id); c.getContext("2d").clearRect(0, 0, c.width, c.height); }
+  for (const id of ["t-session", "t-remaining", "steps", "support", "phase", "gait-source", "safety", "windings",
+    "interaction", "support-level", "t", "late", "late-max", "missed"]) $(id).textContent = "-";
+  for (const id of ["fault-live", "torque-table", "cuffs", "events"]) $(id).innerHTML = "";
+}
+
+const clock = (x) => `${Math.floor(x / 60)}:${String(Math.floor(x % 60)).padStart(2, "0")}`;
+
+// the cuffs' torque per kg of the child's body mass, against the child's own peak joint
+// moment in walking (the paper's section 2.2, from /api/info)
+function drawCuffs(s) {
+  const ref = S.info.device.cuff_reference_Nm_per_kg, m = s.body_mass;
+  if (s.interaction.every((v) => v === null) || !m) { $("cuffs").innerHTML = ""; return false; }
+  const per = s.interaction.map((v) => v === null ? null : Math.abs(v) / m);
+  $("cuffs").innerHTML = "<tr><th></th>" + JOINTS.map((j) => `<th>${j}</th>`).join("") + "</tr>" +
+    "<tr><td>N m/kg now</td>" + per.map((v, i) => `<td class="${v !== null && v > ref[i] ? "over" : ""}">${v === null ? "-" : v.toFixed(2)}</td>`).join("") + "</tr>" +
+    "<tr><td>the child's own walking peak (N m/kg)</td>" + ref.map((v) => `<td>${v.toFixed(1)}</td>`).join("") + "</tr>";
+  return true;
 }
 
 function frame() {
@@ -265,20 +368,27 @@ function frame() {
   if (s && S.info) {
     const running = s.running === "running";  // ticking (not starting, not ended)
     const known = s.running && s.running !== "none";
+    const ended = s.running === "ended";
     $("hdr-session").textContent = known ? `session ${S.info.session || ""}: ${s.running}` : "no session";
-    const mode = fresh && (running || s.running === "ended") ? MODE(s.mode) : "-";
+    // the mode the loop is in, and only while it ticks and this page sees it now
+    const mode = !fresh || !known ? "-" : ended ? "ENDED (torque off)" : running ? MODE(s.mode) : "-";
     for (const id of ["hdr-mode", "mode", "ctl-mode"]) $(id).textContent = mode;
-    const support = fresh && (running || s.running === "ended")
+    const support = fresh && running
       ? ((VOC().SupportMode || {})[String(s.support_mode)] || "-").toLowerCase() : "-";
     for (const id of ["support-mode", "ctl-support"]) $(id).textContent = support;
     $("hdr-mode").className = "mode" + (running && fresh ? " m" + s.mode : "");
     $("rate").textContent = (S.updates.length / 2).toFixed(0) + " per s";
     banner("alarm", s.alarm ? `ALARM ${new Date(s.alarm.time * 1000).toLocaleTimeString()}: ${s.alarm.text}` : "");
-    banner("fault-banner", known && s.fault ? "FAULT, torque off: " + s.fault_text : "");
+    banner("fault-banner", running && s.fault ? "FAULT, torque off: " + s.fault_text : "");
+    endedBanner(s);
     $("guide").hidden = running;
     enableButtons(fresh ? s : null);
-    if (running && $("page-live").classList.contains("shown")) {
+    const live = running && fresh;
+    if (!live && S.drawn) { clearLive(); S.drawn = false; }
+    if (live && $("page-live").classList.contains("shown")) {
+      S.drawn = true;
       $("t-session").textContent = s.t.toFixed(1) + " s";
+      $("t-remaining").textContent = s.duration_s ? clock(Math.max(0, s.duration_s - s.t)) + " (of " + clock(s.duration_s) + ")" : "-";
       $("steps").textContent = s.steps;
       $("support").textContent = s.support === null ? "-" : (100 * s.support).toFixed(0) + " %";
       $("fault-live").textContent = s.fault ? s.fault_text : "";
@@ -289,7 +399,7 @@ function frame() {
       $("safety").textContent = bits.length ? bits.join("; ") : "nominal";
       $("windings").textContent = s.winding_temp.map((v, i) => `${JOINTS[i]} ${v.toFixed(0)} °C`).join(", ");
       $("support-level").textContent = s.support_level.map((v, i) => `${JOINTS[i]} ${v === null ? "-" : v.toFixed(2)}`).join(", ");
-      $("interaction").textContent = s.interaction.every((v) => v === null) ? "not measured by this device"
+      $("interaction").textContent = !drawCuffs(s) ? "not measured by this device"
         : s.interaction.map((v, i) => `${JOINTS[i]} ${v === null ? "-" : v.toFixed(1)} N m`).join(", ");
       $("events").innerHTML = S.events.map((e) => `<li>${esc(e)}</li>`).join("");
       $("t").textContent = s.t.toFixed(2) + " s";
@@ -408,6 +518,10 @@ $("end").onclick = async () => {
       "The child is brought to a stand first (a controlled stop), then the torque goes off."))) { say("not ended", true); return; }
   act("POST", "/api/session/end", {}, "session ending: torque off once standing");
 };
+$("save-note").onclick = async () => {
+  const r = await act("POST", "/api/session/note", {note: $("note").value}, "note kept");
+  if (r.ok) $("note-line").textContent = `Kept with session ${r.data.session} (and in its control log).`;
+};
 for (const b of document.querySelectorAll("[data-command]"))
   b.onclick = async () => {
     const s = S.state || {};
@@ -443,7 +557,7 @@ async function loadSessions() {
   if (!r.ok) return;
   $("sessions").tBodies[0].innerHTML = r.data.map((s) => `<tr data-name="${esc(s.name)}"><td>${esc(s.name)}</td><td>${esc(s.child)}${s.child_id ? " (" + esc(s.child_id) + ")" : ""}</td>
     <td>${new Date(s.started * 1000).toLocaleString()}</td><td>${s.duration_s === null ? "-" : s.duration_s.toFixed(1) + " s"}</td>
-    <td>${esc(s.stopped_by)}</td><td class="${s.damaged.length ? "over" : ""}">${s.damaged.length ? "damaged: " + esc(s.damaged.join("; ")) : "whole"}</td></tr>`).join("");
+    <td>${esc(s.stopped_by)}</td><td>${esc(s.operator || "-")}</td><td>${esc(s.note || "")}</td><td class="${s.damaged.length ? "over" : ""}">${s.damaged.length ? "damaged: " + esc(s.damaged.join("; ")) : "whole"}</td></tr>`).join("");
   for (const tr of $("sessions").tBodies[0].rows) tr.onclick = () => openSession(tr.dataset.name);
 }
 
