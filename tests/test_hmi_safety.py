@@ -408,6 +408,34 @@ def test_a_request_burst_during_a_walk(console: Any) -> None:
     c.release()
 
 
+def test_the_heartbeat_outlives_a_busy_server_not_a_hung_one(tmp_path: Path) -> None:
+    # Issue 36: the heartbeat beat on the server's event loop, so a burst of requests
+    # that held the event loop up for a second ended a walking session as a lost link.
+    # Fault injection: the event loop held up (blocking work in it) for twice the link's
+    # timeout -- the heartbeat goes on; held up past EVENT_LOOP_STALL_S -- a hung server,
+    # the heartbeat stops and the link is lost (a dead or frozen process: at once).
+    from exoleg.runtime.control_api import EVENT_LOOP_STALL_S, ControlAPI
+    from exoleg.runtime.link import LoopLink
+
+    api, link = ControlAPI(folder=tmp_path), LoopLink.new()
+    api.attach(link, tmp_path)
+    seen: dict[str, bool] = {}
+
+    async def server() -> None:
+        watch = asyncio.create_task(api.watch())
+        await asyncio.sleep(0.05)
+        time.sleep(2 * LINK_TIMEOUT_S)  # busy: the event loop does not turn for 2 s
+        seen["busy"] = link.link_lost()
+        await asyncio.sleep(0.05)
+        time.sleep(EVENT_LOOP_STALL_S + LINK_TIMEOUT_S + 0.5)  # hung
+        seen["hung"] = link.link_lost()
+        watch.cancel()
+
+    asyncio.run(server())
+    assert seen == {"busy": False, "hung": True}
+    assert api.stall_max_s >= 2 * LINK_TIMEOUT_S  # the busy stall, measured by the watch
+
+
 def test_one_real_device_one_process(tmp_path: Path) -> None:
     # Issue 36: two `exoleg hmi` could start sessions on the same device at once. A real
     # interface is held by the first process; the second, whatever its command, is
