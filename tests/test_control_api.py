@@ -355,23 +355,29 @@ def test_a_lapsed_hold_while_walking_is_a_controlled_stop_with_an_alarm(tmp_path
     base = f"http://127.0.0.1:{port}/api"
     try:
         auth = {"Authorization": f"Bearer {token}"}
+        _wait(f"{base}/state", "mode", 2, timeout=60)  # walking
         assert httpx.post(f"{base}/operator", json={"name": "ann"},
                           headers=auth).status_code == 200
-        _wait(f"{base}/state", "mode", 2, timeout=60)  # walking; then ann's page is gone
-        # ann's last request was her take-control, before the walk: the hold lapses
-        # LEASE_S after it (the web side looks every 5 ms), so within LEASE_S of now
+        # then ann's page is gone: her last request was her take-control, so the hold
+        # lapses LEASE_S after it (the web side looks every 5 ms)
         lapsed = time.time()
         state = wait_until("the alarm", lambda: (s := httpx.get(f"{base}/state").json())
                            ["alarm"] and s, timeout=LEASE_S + 5)
-        assert time.time() - lapsed < LEASE_S + 1.0
+        assert LEASE_S - 0.5 < time.time() - lapsed < LEASE_S + 1.0
         assert state["alarm"]["text"].startswith(
             "nobody in control: link lost: ann's hold on control lapsed")
         assert state["holder"] is None
-        _wait(f"{base}/state", "mode", 0, timeout=10)  # stood, then disarmed: no fault
-        assert httpx.get(f"{base}/state").json()["fault"] == 0
+        _wait(f"{base}/state", "mode", 0, timeout=10)  # stood, then disarmed
     finally:
         proc.terminate()
         proc.wait(timeout=60)
+    # no fault on the way: walking -> stopping -> standing -> disarmed (the simulated leg,
+    # with no muscles of its own, may fold past its range after that: a fault then)
+    _, cols, _ = read_log(out / "session.log")
+    mode = cols["mode"].astype(int)
+    disarmed = int(np.argmax((mode == 0) & (np.arange(len(mode)) > np.argmax(mode == 2))))
+    assert disarmed > 0 and 4 in mode[:disarmed] and 1 in mode[:disarmed]
+    assert not np.any(mode[:disarmed] == 3)
     actions = [json.loads(x) for x in (out / "control.log").read_text().splitlines()]
     alarm = [a for a in actions if a["command"] == "alarm"]
     assert len(alarm) == 1 and "controlled stop to standing, then disarm" in alarm[0]["why"]

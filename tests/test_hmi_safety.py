@@ -326,9 +326,10 @@ def test_every_stop_is_explained_on_every_page(console: Any) -> None:
             desk.find_element("id", "estop").click()
             said = wait_until("no answer said", lambda: "DID NOT REACH" in text(
                 desk, "message") and text(desk, "message"), 5)
-            # said after the page's own wait for an answer (ESTOP_WAIT_MS, 300 ms), timed
-            # by the page's clock: its timers run late when the suite loads both CPUs
-            assert 300 <= desk.execute_script("return window.estopUnreachableMs") < 1000
+            # said within the page's own wait for an answer (ESTOP_WAIT_MS, 300 ms), or at
+            # once when the page already saw its stream stop (under the suite's load the
+            # click can come a second after the freeze); timed by the page's clock
+            assert 0 <= desk.execute_script("return window.estopUnreachableMs") < 1000
             assert "Use the hardware E-stop now" in said
         finally:
             os.kill(console.process.pid, signal.SIGCONT)

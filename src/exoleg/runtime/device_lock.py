@@ -71,12 +71,13 @@ def hold_device(name: str, what: str | None = None) -> int | None:
     let go; the process's end lets go too), or None when this process's parent holds it
     for it (a session of ``exoleg hmi``). A ParameterError naming the holder when another
     process holds it; nothing has touched the bus then."""
+    who = what or this_command()
     folder = lock_dir()
     path = folder / ("exoleg-device-" + re.sub(r"[^A-Za-z0-9_.-]", "_", name) + ".lock")
     try:
         fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
     except OSError as e:
-        raise ParameterError(what, "--interface", f"cannot hold the device {name}: its lock "
+        raise ParameterError(who, "--interface", f"cannot hold the device {name}: its lock "
                              f"file {path}: {e.strerror or e}") from None
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -88,12 +89,12 @@ def hold_device(name: str, what: str | None = None) -> int | None:
         since = holder.get("since")
         when = (time.strftime(" since %Y-%m-%d %H:%M:%S", time.localtime(float(since)))
                 if isinstance(since, (int, float)) else "")
-        raise ParameterError(what, "--interface", f"the device {name} is held by "
+        raise ParameterError(who, "--interface", f"the device {name} is held by "
                              f"{holder.get('what', 'another exoleg')} (process "
                              f"{holder.get('pid', '?')}){when}: one device, one console -- "
                              "end that one first (nothing was sent on the bus)") from None
     os.ftruncate(fd, 0)
-    os.write(fd, json.dumps({"pid": os.getpid(), "what": what, "since": time.time(),
+    os.write(fd, json.dumps({"pid": os.getpid(), "what": who, "since": time.time(),
                              "argv": sys.argv[:8]}).encode())
     return fd
 

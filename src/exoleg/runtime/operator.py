@@ -107,7 +107,8 @@ class OperatorRules:
 
     def detach(self, ended: dict[str, Any] | None = None) -> None:
         """The session is over; ``ended``: how (``session``, ``stopped_by``, ``time``,
-        ``fault_text``), kept for every page until the next session starts."""
+        ``fault_text``), kept for every page, each of which keeps showing it until its
+        operator acknowledges it (a page's own record: a newer session does not hide it)."""
         with self.lock:
             self.link, self.folder = None, self.home
             self.unattended = None
