@@ -120,7 +120,7 @@ async function estop(ev) {
     if (r && r.ok) {
       S.estopFailed = false;
       $("estop").classList.remove("unreachable");
-      say("E-STOP applied: torque off" + (n ? ` (sent ${n + 1} times: the server answered late)` : ""), true);
+      say("E-STOP reached the device: torque off" + (n ? ` (sent ${n + 1} times: the server answered late)` : ""), true);
       return;
     }
     if (r) {  // answered, but not queued: no session is running
