@@ -163,8 +163,10 @@ BOUNDS = ("support_min", "support_max")
 TUNABLE = (*WalkGains.TUNABLE, *BOUNDS)
 #: The reference's state: the last tick's gait fraction; when the stop was asked (s);
 #: where the blend to the standing posture started -- its time (s; negative: none under
-#: way) and the reference's posture then (rad).
-REFERENCE = np.dtype([("x", F8), ("t_stop", F8), ("t_stand", F8), ("q_from", F8, 3)])
+#: way) and the reference's posture then (rad); when the last walk started from standing
+#: (s; negative: none).
+REFERENCE = np.dtype([("x", F8), ("t_stop", F8), ("t_stand", F8), ("q_from", F8, 3),
+                      ("t_walk", F8)])
 #: A stop gives up waiting for mid-stance after this many strides, and stands from
 #: wherever the gait is (a child who stopped stepping never reaches it again).
 STOP_WAIT_STRIDES = 1.5
@@ -174,7 +176,26 @@ def new_reference() -> NDArray[np.void]:
     """The reference's state before the first tick: no stand under way."""
     r = new(REFERENCE)
     r[0]["t_stand"] = -1.0
+    r[0]["t_walk"] = -1.0
     return r
+
+
+@njit(inline="always")
+def standing_hold(mode, t_stand, t_walk, blend, ramp, t):  # type: ignore[no-untyped-def]
+    """How much of the impedance holds the standing posture, whatever the support mode
+    (0-1, a floor under the support level): the device stands the child. Standing, all
+    of it -- rising with the stand's blend to the posture (``blend`` s from ``t_stand``),
+    at once when armed into standing; walking, falling from it over the support modes'
+    ``ramp`` s from the walk's start (``t_walk``); stopping and otherwise, none. (A
+    transparent stand left the leg 12-32 deg from the standing posture, and a walk from
+    there faulted.)"""
+    if mode == Mode.STANDING:
+        if t_stand >= 0.0 and t - t_stand < blend:
+            return (t - t_stand) / blend
+        return 1.0
+    if mode == Mode.WALKING and t_walk >= 0.0 and t - t_walk < ramp:
+        return 1.0 - (t - t_walk) / ramp
+    return 0.0
 
 
 @njit(inline="always")
@@ -262,6 +283,7 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, 
         # walking starts from mid-stance, where the gait is nearest to standing
         st[0].t_ic = t - C.start_fraction * gp.stride_time(d, st)
         R.t_stand = -1.0
+        R.t_walk = t
     elif mode == Mode.STOPPING and before == Mode.WALKING:
         R.t_stop = t
     elif mode != Mode.STANDING and mode != Mode.STOPPING:
@@ -334,6 +356,10 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, 
         assist_level(ap, as_, x, t, C.support_min, C.support_max, aan)
     level = np.empty(3)
     wa = support_mix(ss, w, aan, level)
+    hold = standing_hold(mode, R.t_stand, R.t_walk, C.stand_blend, tp[0].ramp, t)
+    for j in range(3):
+        if level[j] < hold:
+            level[j] = hold
     tau_ref = np.zeros(3)  # the torque asked at the cuffs (the proportional law's)
     if ap[0].law == PROPORTIONAL and wa > 0.0 and (sup[0].mode == Mode.WALKING
                                         or sup[0].mode == Mode.STOPPING):
