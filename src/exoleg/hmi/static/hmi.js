@@ -132,7 +132,11 @@ async function estop(ev) {
     await new Promise((ok) => setTimeout(ok, 200));
   }
 }
-$("estop").addEventListener("click", estop);
+// on the press, not the release (a click fires when the button is let go: tens of ms
+// later for a hand, more for a finger); the click that follows a press is the same stop
+let pressedAt = -1e9;
+$("estop").addEventListener("pointerdown", (e) => { pressedAt = performance.now(); estop(e); });
+$("estop").addEventListener("click", (e) => { if (performance.now() - pressedAt > 1000) estop(e); });
 document.addEventListener("keydown", (e) => {
   if (e.key === ESTOP_KEY) { e.preventDefault(); estop(e); }
   else if (e.key === "Escape" && closeQuestion) { e.preventDefault(); closeQuestion(); }
