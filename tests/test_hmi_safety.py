@@ -376,16 +376,26 @@ def test_a_request_burst_during_a_walk(console: Any) -> None:
     c.wait_mode("WALKING")
     bad = {"Authorization": "Bearer wrong"}
 
-    async def burst() -> list[int]:
+    async def burst() -> list[tuple[int, Any]]:
         limits = httpx.Limits(max_connections=50)  # within the listen backlog (64)
         async with httpx.AsyncClient(base_url=console.url, limits=limits,
                                      timeout=httpx.Timeout(60, pool=None)) as client:
-            async def one(i: int) -> int:
+            # 50 at a time (httpx's own pool queue, given 1,500 at once, sent its first
+            # request 11.6 s late)
+            at_once = asyncio.Semaphore(50)
+
+            async def one(i: int) -> tuple[int, Any]:
+                async with at_once:
+                    return await ask(i)
+
+            async def ask(i: int) -> tuple[int, Any]:
                 if i == 1500:  # the E-stop, in the thick of it
-                    return (await client.post("/api/estop", json={})).status_code
+                    r = await client.post("/api/estop", json={})
+                    return r.status_code, r.json()
                 kind = i % 5
-                if kind == 0:
-                    r = await client.get("/api/state")
+                if kind == 0:  # the operator's page: its hold kept, the state watched
+                    r = await client.get("/api/operator" if i % 50 == 0 else "/api/state",
+                                         headers=c.op)
                 elif kind == 1:
                     r = await client.post("/api/command", json={"command": "stand"})
                 elif kind == 2:
@@ -396,22 +406,31 @@ def test_a_request_burst_during_a_walk(console: Any) -> None:
                 else:
                     r = await client.post("/api/gains", json={"support": 0.1},
                                           headers=c.auth)  # the token, not control
-                return r.status_code
+                return r.status_code, r.json()
 
-            return list(await asyncio.gather(*(one(i) for i in range(2000))))
+            # 1,500 while walking, then the E-stop with the last 499 under way
+            head = await asyncio.gather(*(one(i) for i in range(1500)))
+            tail = [asyncio.create_task(one(i)) for i in range(1501, 2000)]
+            await asyncio.sleep(0.05)
+            stop = await one(1500)
+            return [*head, stop, *await asyncio.gather(*tail)]
 
     began = time.time()
-    statuses = asyncio.run(burst())
+    answers = asyncio.run(burst())
     stall = c.state()["server_stall_max_s"]
     print(f"2,000 requests in {time.time() - began:.1f} s; the event loop's longest "
           f"stall {stall:.3f} s")
     from exoleg.runtime.control_api import EVENT_LOOP_STALL_S
 
     assert stall < EVENT_LOOP_STALL_S  # a busy server, not a hung one
-    assert len(statuses) == 2000 and statuses[1500] == 200
-    assert all(s in (200, 401, 409) for s in statuses), set(statuses)
-    # the session runs on: no lost link, no overrun; the E-stop was applied in it
+    assert len(answers) == 2000 and answers[1500] == (200, {"queued": "estop"}), answers[1500]
+    assert {s for s, _ in answers} <= {200, 401, 409}
+    # walking throughout until the E-stop: every state the burst read before it
+    modes = [a["mode"] for i, (_, a) in enumerate(answers) if i < 1500 and "mode" in a]
+    assert modes and set(modes) == {2}, set(modes)
+    # the session runs on: no lost link, no overrun, no alarm; the E-stop applied in it
     assert c.state()["running"] == "running"
+    assert not any(a["command"] == "alarm" for a in actions(folder))
     c.wait_mode("FAULT", timeout=5)
     log = actions(folder)
     assert any(a["source"] == "loop" and a["command"] == "estop" for a in log)
