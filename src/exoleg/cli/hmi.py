@@ -13,9 +13,7 @@ def cmd_hmi(args: argparse.Namespace) -> int:
     from exoleg.hmi.server import HMI
     from exoleg.hmi.serving import bind_check, listen, serve
     from exoleg.io import _writable_folder
-    from exoleg.runtime.session import SIMULATED_BUS
-
-    from exoleg.runtime.session import simulated
+    from exoleg.runtime.session import SIMULATED_BUS, simulated
 
     _bus_options("exoleg hmi", args.backend, interface=args.interface, channel=args.channel)
     if args.channel is not None and args.backend != "canopen":
@@ -34,11 +32,11 @@ def cmd_hmi(args: argparse.Namespace) -> int:
         raise
     if warning:
         _say(warning)
-    _say(("the simulated device: it runs beside any other simulated one" if
+    _say("the simulated device: it runs beside any other simulated one" if
           simulated(args.backend, interface) else
           f"the device on {interface}" + (f" channel {args.channel or 'exoleg'}" if
                                           args.backend == "canopen" else "")
-          + ": held by this interface alone while it runs"))
+          + ": held by this interface alone while it runs")
     _say(f"operator interface: {_url(args.host, args.port, args.tls_cert)}/#token="
          f"{hmi.api.token}\ntoken (for every control action): {hmi.api.token}\n"
          f"sessions are recorded in {hmi.root}; Ctrl-C stops the interface (a running "

@@ -26,7 +26,6 @@ from typing import Any
 
 import numpy as np
 
-from exoleg.control.contract import vocabulary
 from exoleg.control.hierarchy import TUNABLE
 from exoleg.entry import DEFAULT_BODY_MASS, typed_number
 from exoleg.errors import ParameterError
@@ -40,6 +39,7 @@ from exoleg.hmi.child_form import (
 from exoleg.hmi.processes import IDENTIFIED, _identify_process, _session_process
 from exoleg.hmi.registry import FILE as RECORDS
 from exoleg.hmi.registry import Registry
+from exoleg.hmi.views import VOCABULARY, device_info, ended_record
 from exoleg.io import write_json
 from exoleg.runtime.control_api import (
     BadBody,
@@ -62,58 +62,6 @@ MAX_DURATION = 3600.0
 NOTE_LIMIT = 2000
 #: an identification's plan, s (exoleg.identify.plan.design_plan's range)
 PLAN_RANGE = (10.0, 120.0)
-#: the names and texts of the modes, phases, events, faults and safety bits, from the
-#: enumerations the compiled tick uses (the page keeps no table of its own)
-VOCABULARY = vocabulary()
-
-
-def device_info(leg: Any) -> dict[str, Any]:
-    """What the live page draws with: link lengths and D-H offsets (the same kinematics
-    as :func:`exoleg.kinematics.forward_kinematics`), the range of motion, the FSR
-    positions, each actuator's torque limits and torque-speed envelope (SI units)."""
-    from exoleg.control.contract import SENSOR_POINTS
-    from exoleg.device.actuator import envelope, paper_actuators
-    from exoleg.device.sensors import SENSOR_X
-    from exoleg.dynamics._generated import OFFSETS
-    from exoleg.params import paper
-
-    acts = paper_actuators()
-    rom = paper.range_of_motion()
-    # the child's own peak joint moments in walking, typically developing (the paper's
-    # section 2.2): what the cuffs' torque per kg is read against on the Live page
-    walking_peak = paper.sizing()["demand_per_kg"]["torque"]
-    out: dict[str, Any] = {
-        "leg": leg.name, "lengths": [float(x) for x in leg.lengths], "offsets": list(OFFSETS),
-        "rom_lower": rom.lower.tolist(), "rom_upper": rom.upper.tolist(),
-        "sensors": list(SENSOR_POINTS),
-        "sensor_x": [float(x) * float(leg.lengths[2]) for x in SENSOR_X], "actuators": [],
-        "cuff_reference_Nm_per_kg": [float(x) for x in walking_peak]}
-    for a in acts:
-        par = a.record()
-        w = np.linspace(0.0, 1.05 * a.max_velocity, 60)
-        out["actuators"].append({
-            "joint": a.joint, "torque_limit": a.torque_limit,
-            "continuous_torque": a.continuous_torque, "max_velocity": a.max_velocity,
-            "envelope_speed": w.tolist(),
-            "envelope_torque": [float(envelope(par, x)) for x in w]})
-    return out
-
-
-def ended_record(name: str, stopped_by: str, link: LoopLink) -> dict[str, Any]:
-    """How session ``name`` ended, as every page shows it until its operator acknowledges
-    it: ``stopped_by`` (the session's own words), when, the last mode and the fault
-    latched (named, with its value against its limit) from the loop's last publication."""
-    from exoleg.control.contract import Mode
-    from exoleg.control.safety import fault_detail
-
-    last = LoopLink.snapshot(link.web_copy())
-    return {"session": name, "stopped_by": stopped_by, "time": time.time(),
-            "t": last["t"], "mode": Mode(last["mode"]).name,
-            "fault_text": fault_detail(last["fault"], last["fault_joint"],
-                                       last["fault_value"], last["fault_limit"])
-            if last["fault"] else ""}
-
-
 class HMI:
     """The server's state: the session (running or not), the child kept for the next
     session, the sessions folder."""
