@@ -6,11 +6,20 @@ Needs Debian's chromium and chromium-driver (``make test`` installs them as root
 
 What is timed, end to end on loopback: ``exoleg hmi`` (sim backend) serves the page to a
 real headless Chromium; per session the page starts a session armed at the start, walks,
-and the E-stop button is clicked. The page stamps the click (the event's time,
-``performance.timeOrigin + event.timeStamp``, the same wall clock as the server's); the
-loop stamps the tick at which the controller applied the E-stop, after the drives'
-command (zero torque) was written (``time.time()``); the server logs the difference
-(``control.log``: ``after_click_ms``). Goal (issue 13): <= 50 ms.
+and the E-stop button is pressed. Each part on one clock:
+
+* on the page's clock (``window.estopTrace``): from the press (the event's time) to the
+  server's answer, which it sends once the E-stop is queued for the loop;
+* on the server's: from the request's arrival to the tick at which the controller applied
+  the E-stop, after the drives' command (zero torque) was written (``control.log``:
+  ``after_request_ms``).
+
+Their sum bounds the press to the drives' command from above (the answer comes after the
+request arrived). The log's ``after_click_ms`` subtracts the page's stamp
+(``performance.timeOrigin + event.timeStamp``) from the server's wall clock: two clocks,
+which drifted apart here by about 20 ms a session (125 -> 271 ms over 8 sessions while
+the same-clock parts stayed at 14-42 ms); it is printed, not judged. Goal (issue 36):
+<= 50 ms at max over 8 sessions.
 
 Then the loop's lateness with the Live page open in Chromium (drawing at the browser's
 frame rate from the 50 Hz stream) against the same session with no interface at all
@@ -52,6 +61,9 @@ def one_session(d, url: str, walk_for: float, auth: dict) -> dict:  # type: igno
     entry = wait_until("the E-stop applied", lambda: [
         a for a in httpx.get(f"{url}/api/log", headers=auth).json()
         if a["source"] == "loop" and a["command"] == "estop"])[0]
+    trace = wait_until("the page's answer", lambda: (
+        t := d.execute_script("return window.estopTrace")) and "answered_ms" in t and t)
+    entry["page_ms"] = trace["handler_ms"] + trace["answered_ms"]
     d.find_element("id", "nav-control").click()
     d.find_element("id", "end").click()
     wait_until("the session's end", lambda: httpx.get(f"{url}/api/state").json()
@@ -77,12 +89,16 @@ def main() -> None:
                        for k in range(SESSIONS)]
         finally:
             d.quit()
-        clicks = np.array([e["after_click_ms"] for e in entries])
+        page = np.array([e["page_ms"] for e in entries])
         requests = np.array([e["after_request_ms"] for e in entries])
-        print(f"E-stop, click in Chromium -> drives' command written, {SESSIONS} sessions "
-              "(goal <= 50 ms):")
-        for name, x in (("from the click", clicks), ("from the request's arrival", requests)):
-            print(f"  {name:<28} p50 {np.median(x):6.2f} ms   max {x.max():6.2f} ms")
+        clicks = np.array([e["after_click_ms"] for e in entries])
+        print(f"E-stop, press in Chromium -> drives' command written, {SESSIONS} sessions "
+              "(goal <= 50 ms at max):")
+        for name, x in (("press -> server's answer (page)", page),
+                        ("request -> drives (server)", requests),
+                        ("press -> drives, bound (sum)", page + requests),
+                        ("page stamp vs server clock", clicks)):
+            print(f"  {name:<33} p50 {np.median(x):7.2f} ms   max {x.max():7.2f} ms")
         first = min(Path(tmp, "s").glob("2*"), key=lambda p: p.name)
         watched = summarize(first / "session.log")
     with tempfile.TemporaryDirectory() as tmp:

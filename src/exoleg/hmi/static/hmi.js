@@ -100,6 +100,9 @@ async function estop(ev) {
   window.lastEstopClick = clicked;
   if (closeQuestion) closeQuestion();  // a question asked before the E-stop no longer stands
   const id = ++S.estopPending, since = performance.now();
+  // timed on the page's own clock, for benchmarks/bench_hmi.py: from the press to this
+  // handler, and from it to the server's answer (the E-stop queued for the loop)
+  window.estopTrace = {handler_ms: ev && ev.timeStamp ? since - ev.timeStamp : 0};
   S.estopFailed = false;
   // the page already knows it cannot see the server: said at once, sent all the same
   if (!linkFresh()) estopUnreachable("this page has had no update from the server for " +
@@ -117,6 +120,7 @@ async function estop(ev) {
       r = null;  // no answer within ESTOP_WAIT_MS, or no connection
     }
     clearTimeout(timer);
+    window.estopTrace.answered_ms = performance.now() - since;
     if (r && r.ok) {
       S.estopFailed = false;
       $("estop").classList.remove("unreachable");
