@@ -243,6 +243,16 @@ def test_never_armed_with_nobody_in_control(console: Any) -> None:
     wait_until("at rest", lambda: c.mode() in ("DISARMED", "FAULT"), 5)
     c.take("tess")
     c.end(folder)
+    # the operator's note on the ended session: in the records and its own control log
+    r = httpx.post(f"{console.url}/api/session/note", headers=c.op,
+                   json={"note": "walked well; stopped for a shoe"})
+    assert r.status_code == 200 and r.json()["session"] == folder.name
+    note = actions(folder)[-1]
+    assert (note["command"], note["why"], note["operator"]) == (
+        "note", "walked well; stopped for a shoe", "tess")
+    row = next(s for s in httpx.get(f"{console.url}/api/sessions", headers=c.auth).json()
+               if s["name"] == folder.name)
+    assert (row["operator"], row["note"]) == ("tess", "walked well; stopped for a shoe")
     c.release()
 
 

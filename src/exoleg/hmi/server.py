@@ -248,7 +248,6 @@ class HMI:
         """After an identification session in ``folder``: the identified leg, when there
         is one, becomes a fit of the child (their fit's record, with what identified it)
         kept for the next sessions; said in the session's control.log either way."""
-        import json
 
         result = folder / IDENTIFIED / "identify.json"
         kept = self.kept
@@ -296,13 +295,8 @@ class HMI:
                 return 409, {"error": "no session yet: start one, then write its note"}
             if self.registry is not None:
                 self.registry.note(session.name, text)
-        entry = {"time": time.time(), "source": source, "command": "note", "accepted": True,
-                 "why": text}
-        operator = REQUEST_OPERATOR.get()
-        if operator:
-            entry["operator"] = operator
-        with (session / "control.log").open("a", encoding="utf-8") as f:
-            f.write(json.dumps(entry) + "\n")
+        # the session's own log, ended or not (an ended one's actions go elsewhere)
+        self.api.record(source, "note", True, why=text, log=session / "control.log")
         return 200, {"session": session.name, "note": text}
 
     def close(self) -> None:

@@ -55,7 +55,8 @@ STREAM_HZ = 50.0
 #: The server's event loop not turning for this long is a hung server: the heartbeat
 #: stops and the loop, after :data:`~exoleg.runtime.link.LINK_TIMEOUT_S`, brings the
 #: device to a stop. A burst of 2,000 requests on 50 connections during a walk delayed
-#: its turns by at most 0.048 s here (``server_stall_max_s``, tests/test_hmi_safety.py);
+#: its turns by at most 0.034-0.048 s here (``server_stall_max_s``,
+#: tests/test_hmi_safety.py);
 #: a dead or frozen process stops the heartbeat at once.
 EVENT_LOOP_STALL_S = 3.0
 #: how long ``POST /command`` waits for the supervisor's answer, s (the loop applies a

@@ -117,7 +117,9 @@ class OperatorRules:
 
     # ------------------------------------------------------------------ bookkeeping
     def record(self, source: str, command: str, accepted: bool, why: str = "",
-               **extra: Any) -> dict[str, Any]:
+               log: Path | None = None, **extra: Any) -> dict[str, Any]:
+        """One action in the log (``log``, default :meth:`log_path`) with its time, source
+        and the operator's name, and in :attr:`actions`."""
         operator = extra.pop("operator", None) or REQUEST_OPERATOR.get()
         entry = {"time": time.time(), "source": source,
                  **({"operator": operator} if operator else {}), "command": command,
@@ -126,7 +128,7 @@ class OperatorRules:
         with self.lock:
             self.actions.append(entry)
             try:
-                with self.log_path(source).open("a") as f:
+                with (log or self.log_path(source)).open("a") as f:
                     f.write(json.dumps(entry) + "\n")
             except OSError as e:  # the action stands; the failure is said where it is seen
                 entry["log_error"] = str(e)
