@@ -22,9 +22,9 @@ import numpy as np
 
 from exoleg.control import gait_phase as gp
 from exoleg.control.replay import Recording, detect_all, detect_events
-from exoleg.device.config import DeviceConfig
 from exoleg.sim.walk import simulate_walk
 from exoleg.sizing import Child, personalized_leg
+from exoleg.system.config import DeviceConfig
 
 TARGET_NS = 200.0
 

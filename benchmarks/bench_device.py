@@ -35,7 +35,6 @@ from numba import njit
 
 import exoleg
 from exoleg.control import PDGravity
-from exoleg.control.contract import OUTPUT, SENSORS, Command
 from exoleg.control.hierarchy import walk_control_step
 from exoleg.control.laws import law
 from exoleg.control.safety import SafetyLayer, SafetyLimits, safety_step
@@ -43,6 +42,7 @@ from exoleg.device import paper_actuators, with_actuators
 from exoleg.reference import Steps
 from exoleg.sim.device_loop import simulate_device
 from exoleg.sim.scenario import paper_reference
+from exoleg.tick import OUTPUT, SENSORS, Command
 
 DURATION = 60.0
 TICKS = 1_000_000
@@ -153,7 +153,7 @@ def main() -> None:
     import dataclasses
 
     from exoleg.control.transparency import SupportMode
-    from exoleg.device.config import DeviceConfig, walk_controller
+    from exoleg.system.config import DeviceConfig, walk_controller
 
     def support_tick(cfg: DeviceConfig, mode: SupportMode) -> float:
         """The walking controller's tick (s) in a support mode, compiled."""
@@ -179,8 +179,8 @@ def main() -> None:
     try:
         import mujoco
 
-        from exoleg.device.walking import WalkingPlant, contact_buffers, step_contacts
         from exoleg.export.writers import to_mjcf
+        from exoleg.sim.plant import WalkingPlant, contact_buffers, step_contacts
 
         plant = WalkingPlant.of(with_actuators(leg), 20.0, 0.8)
         m = mujoco.MjModel.from_xml_string(to_mjcf(plant.leg, timestep=5e-4,

@@ -14,10 +14,10 @@ import time
 
 import numpy as np
 
+from exoleg.design.demand import gait_reference
 from exoleg.params import paper
 from exoleg.sim.batch import batch_gait_peaks
 from exoleg.sizing import Child, growth, personalized_leg
-from exoleg.sizing.demand import gait_reference
 
 
 def main() -> None:

@@ -29,7 +29,7 @@ SECONDS = float(sys.argv[1]) if len(sys.argv) > 1 else 60.0
 def main() -> None:
     import numpy as np
 
-    from exoleg.runtime.log import read_log
+    from exoleg.session_log import read_log
 
     print(f"{format(SECONDS, 'g') + ' s at 1 kHz, lateness':<36} {'p50 us':>8} "
           f"{'p99 us':>8} {'p99.9 us':>9} {'max us':>9} {'missed':>7}")

@@ -113,7 +113,7 @@ def test_a_strides_new_support_is_ramped_in_and_the_bounds_hold() -> None:
 def test_a_bad_assist_file_is_refused_naming_the_field(tmp_path: Any) -> None:
     from importlib import resources
 
-    from exoleg.device.config import DeviceConfig
+    from exoleg.system.config import DeviceConfig
 
     text = resources.files("exoleg").joinpath("data", "device", "assist.toml").read_text()
     for old, new, match in (("forgetting = 0.9", "forgetting = 1.0",
@@ -135,7 +135,7 @@ def _walk(group: int | None, child_options: dict[str, Any], device: Any = None,
     from exoleg.control.transparency import SupportMode
     from exoleg.sim.walk import simulate_walk
     from exoleg.sizing import personalized_leg
-    from exoleg.sizing.population import population_child
+    from exoleg.sizing.child import population_child
 
     c, _ = population_child(group, "female", 10.0, 50.0)
     child = ChildModel.of(c, **child_options).with_(learning=learning)
@@ -253,7 +253,7 @@ def test_the_proportional_torque_follows_the_forefoot_in_stance_only() -> None:
 def test_a_bad_proportional_table_is_refused_naming_the_field(tmp_path: Any) -> None:
     from importlib import resources
 
-    from exoleg.device.config import DeviceConfig
+    from exoleg.system.config import DeviceConfig
 
     text = resources.files("exoleg").joinpath("data", "device", "assist.toml").read_text()
     for old, new, match in (('law = "error"', 'law = "pid"', r"assist.toml.*law.*'pid'"),
@@ -276,7 +276,7 @@ def test_the_proportional_law_walks_and_pushes_off_with_the_child() -> None:
     from exoleg.control.transparency import SupportMode
     from exoleg.sim.walk import simulate_walk
     from exoleg.sizing import personalized_leg
-    from exoleg.sizing.population import population_child
+    from exoleg.sizing.child import population_child
     from exoleg.study.runs import device_variant
     from exoleg.study.spec import parse_study
 

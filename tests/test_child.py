@@ -332,8 +332,8 @@ def test_opensim_integrates_the_same_pendulum() -> None:
 def test_a_session_with_the_child_logs_and_sums_up_the_cuffs_torque(tmp_path) -> None:  # type: ignore[no-untyped-def]
     # exoleg run --child on the simulated device: the child stands disarmed (the knee
     # holds), the log has the cuffs' torque and the child's, and the summary sums it up
-    from exoleg.runtime.log import read_log
     from exoleg.runtime.session import run, summarize
+    from exoleg.session_log import read_log
 
     ch = ChildModel("c", 10, 1.40, 32.0, 2, spasticity=Spasticity.preset("mild"), sex="male")
     _, path = run("sim", 2.0, tmp_path / "s", realtime=False, child=ch, body_mass=32.0)

@@ -20,12 +20,12 @@ import pytest
 pytest.importorskip("starlette", reason="starlette (exoleg[api])")
 httpx = pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
 
-from exoleg.control.contract import Command  # noqa: E402
 from exoleg.errors import ParameterError  # noqa: E402
 from exoleg.hmi.serving import bind_check  # noqa: E402
 from exoleg.hmi.testing import free_port, wait_until  # noqa: E402
 from exoleg.runtime.link import LINK_TIMEOUT_S, RING, LoopLink  # noqa: E402
-from exoleg.runtime.log import read_log  # noqa: E402
+from exoleg.session_log import read_log  # noqa: E402
+from exoleg.tick import Command  # noqa: E402
 
 EXE = str(Path(sys.executable).with_name("exoleg"))
 
@@ -547,7 +547,7 @@ def test_damaged_records_are_listed_as_damaged(tmp_path: Path) -> None:
     # whose header lists no columns broke the whole Sessions list; damaged headers gave
     # "internal error" in `exoleg log summary`.
     from exoleg.hmi.archive import Archive
-    from exoleg.runtime.log import MAGIC
+    from exoleg.session_log import MAGIC
 
     good = tmp_path / "good"
     r = subprocess.run([EXE, "run", "--duration", "0.3", "--no-realtime", "--out",

@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 import exoleg
-from exoleg.control.contract import SENSOR_POINTS
 from exoleg.control.replay import event_list
 from exoleg.sim.walk import simulate_walk
+from exoleg.tick import SENSOR_POINTS
 
 
 def _detect(*args: str) -> subprocess.CompletedProcess[str]:
@@ -126,7 +126,7 @@ def test_a_session_log_gives_the_sessions_own_events(tmp_path: Path) -> None:
     out = tmp_path / "events.csv"
     r = _detect(str(session), "--out", str(out))
     assert r.returncode == 0, r.stderr
-    from exoleg.runtime.log import read_log
+    from exoleg.session_log import read_log
 
     _, cols, _ = read_log(session / "session.log")
     logged = _events(cols["events"].astype(np.int64), cols["t"])

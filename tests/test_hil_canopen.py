@@ -13,8 +13,8 @@ import pytest
 pytest.importorskip("canopen", reason="python-canopen (exoleg[hw])")
 
 from exoleg.hw import cia402  # noqa: E402
-from exoleg.runtime.log import read_log  # noqa: E402
 from exoleg.runtime.session import run, simulated_overrun  # noqa: E402
+from exoleg.session_log import read_log  # noqa: E402
 
 ENABLED = cia402.State.OPERATION_ENABLED.value[1]
 #: the master's wait for every node, s: 5 ms on a device; here, where the test machine is
@@ -131,10 +131,10 @@ def test_heartbeat_is_counted_from_the_first_exchange() -> None:
     import time
 
     import exoleg
-    from exoleg.device.config import DeviceConfig
     from exoleg.hw.canopen_backend import HEARTBEAT_LOST, HEARTBEAT_MS, CanopenBackend
     from exoleg.hw.canopen_sim import SimulatedRig
     from exoleg.runtime.sim_backend import SimBackend
+    from exoleg.system.config import DeviceConfig
 
     config = DeviceConfig.load()
     sim = SimBackend(exoleg.paper_leg(), 30.0, 1e-3, config=config)

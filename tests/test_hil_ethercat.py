@@ -15,8 +15,8 @@ import pytest
 
 from exoleg.errors import ParameterError
 from exoleg.hw import cia402
-from exoleg.runtime.log import read_log
 from exoleg.runtime.session import run, simulated_overrun
+from exoleg.session_log import read_log
 
 ENABLED = cia402.State.OPERATION_ENABLED.value[1]
 #: the master's wait for every node, s: 5 ms on a device; here, where the test machine is

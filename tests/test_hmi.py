@@ -112,9 +112,9 @@ def test_child_page_fits_and_keeps_the_child(hmi: Any, operator: Any) -> None:
     form.find_element("name", "spasticity").send_keys("mild")  # the child as an actor
     d.find_element("id", "fit").click()
     verdict = wait_until("the fit's verdict", lambda: text(d, "verdict"), timeout=60)
-    # the same child through exoleg's own fitting (exoleg.sizing.report.fit_report)
+    # the same child through exoleg's own fitting (exoleg.design.report.fit_report)
+    from exoleg.design.report import fit_report
     from exoleg.sizing import Child
-    from exoleg.sizing.report import fit_report
 
     rep = fit_report(Child(age=8, sex="female", height=1.26, mass=25, name="Ada"))
     assert verdict == rep.verdict
@@ -228,7 +228,7 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
     wait_until("the session's summary", lambda: (folder / "run.json").exists(), timeout=30)
 
     # the runtime's log: the torque is zero from the E-stop's tick on
-    from exoleg.runtime.log import read_log
+    from exoleg.session_log import read_log
 
     head, cols, _ = read_log(folder / "session.log")
     # the session carried Ada as an actor: her child.toml, the cuffs' torque logged
@@ -264,7 +264,7 @@ def test_sessions_page_lists_plots_and_exports(hmi: Any, operator: Any) -> None:
         "i.naturalWidth > 0;"), timeout=60)
     shot(d, "sessions")
     folder = ada_folder(hmi)
-    from exoleg.runtime.log import read_log
+    from exoleg.session_log import read_log
 
     _, cols, _ = read_log(folder / "session.log")
     csv_href = hmi.url + d.find_element("id", "export-csv").get_attribute("data-file")
@@ -450,7 +450,7 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
         wait_until("ended", lambda: (walked / "run.json").exists(), timeout=30)
         time.sleep(0.5)
         from exoleg.control.gait_phase import Event
-        from exoleg.runtime.log import read_log
+        from exoleg.session_log import read_log
 
         _, cols, _ = read_log(walked / "session.log")
         ev = cols["events"].astype(int)

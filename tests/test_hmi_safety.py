@@ -86,7 +86,7 @@ class Console:
         return dict(httpx.get(f"{self.api}/state", timeout=5).json())
 
     def mode(self) -> str:
-        from exoleg.control.contract import Mode
+        from exoleg.tick import Mode
 
         s = self.state()
         return Mode(s["mode"]).name if s.get("running") == "running" else s.get("running", "")

@@ -199,7 +199,7 @@ def test_leg_for_a_child_who_does_not_fit_only_on_request(tmp_path: Path) -> Non
 
 
 def test_population_rows_and_heat_map_tell_demand_apart() -> None:
-    from exoleg.sizing.population import coverage
+    from exoleg.design.population import coverage
 
     rows = coverage(ages=[10.0], sexes=["female"], groups=[3], percentiles=[50.0],
                     simulate=True)

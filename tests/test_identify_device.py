@@ -45,12 +45,13 @@ def test_a_spastic_child_identified_in_stages_over_the_can_bus(tmp_path: Path) -
     from exoleg.child.interaction import device_leg
     from exoleg.child.model import ChildModel, Spasticity
     from exoleg.child.passive import Contracture
-    from exoleg.device.config import DeviceConfig
     from exoleg.identify.base import actuator_friction, base_parameters
     from exoleg.identify.device import estimate_from_log, identify_device
     from exoleg.identify.staged import child_share
-    from exoleg.runtime.log import read_log
+    from exoleg.plots.identify import identify_figure
+    from exoleg.session_log import read_log
     from exoleg.sizing import personalized_leg
+    from exoleg.system.config import DeviceConfig
     from exoleg.validate.identify import true_legs
 
     child = ChildModel("c", 10.0, 1.38, 32.0, gmfcs=2,
@@ -66,7 +67,7 @@ def test_a_spastic_child_identified_in_stages_over_the_can_bus(tmp_path: Path) -
     assert device.summary()["stage"] == "device alone"
     r = identify_device("canopen", tmp_path / "leg", leg=fitted, child=child, duration=10.0,
                         truth=truth, realtime=False, candidates=4, channel="identify",
-                        device=tmp_path / "device")
+                        device=tmp_path / "device", figure=identify_figure)
     grid = _grid()
     g = truth.G(grid)
     scale = np.abs(g).max()
@@ -105,7 +106,7 @@ def test_a_spastic_child_identified_in_stages_over_the_can_bus(tmp_path: Path) -
     with pytest.raises(ParameterError, match="identify the device alone with its "
                                              "telescopes set for this child"):
         identify_device("sim", tmp_path / "other", duration=10.0, realtime=False,
-                        device=tmp_path / "device")
+                        device=tmp_path / "device", figure=identify_figure)
 
 
 def test_identify_refuses_what_it_cannot_do(tmp_path: Path) -> None:

@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 
 import exoleg
-from exoleg.control.contract import Command
-from exoleg.runtime.log import MAX_LOSS_TICKS, SessionLog, read_log
 from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, run_session
 from exoleg.runtime.sim_backend import SimBackend
+from exoleg.session_log import MAX_LOSS_TICKS, SessionLog, read_log
+from exoleg.tick import Command
 
 
 def _cli(*args: str) -> subprocess.CompletedProcess[str]:
@@ -332,7 +332,7 @@ def test_the_operators_end_is_a_controlled_stop_while_walking(tmp_path: Path, ba
     def on_tick(k, out, sensors, late):  # type: ignore[no-untyped-def]
         return END_SESSION if k == end_at else None
 
-    from exoleg.control.contract import WALKING_MODES
+    from exoleg.tick import WALKING_MODES
 
     def treadmill(out):  # type: ignore[no-untyped-def]
         b.walking = out["mode"] in WALKING_MODES  # the belt runs while the child walks
@@ -368,7 +368,7 @@ def test_a_slow_disk_does_not_stall_the_loop(tmp_path: Path, backend_factory,  #
         time.sleep(0.12)
         real(fd)
 
-    monkeypatch.setattr("exoleg.runtime.log.os.fsync", slow_fsync)
+    monkeypatch.setattr("exoleg.session_log.os.fsync", slow_fsync)
     b = backend_factory()
     log = SessionLog(tmp_path / "s.log", LOG_HEAD + b.columns + LOG_TAIL, {"period": 1e-3},
                      fsync_every=5)  # an fsync every 100 ticks

@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from exoleg.control.contract import OUTPUT, Mode
-from exoleg.runtime.log import read_log
 from exoleg.runtime.loop import LOG_TAIL
 from exoleg.runtime.session import run, simulated_overrun
+from exoleg.session_log import read_log
+from exoleg.tick import OUTPUT, Mode
 
 #: the masters' wait for every node, s: generous on a shared test machine (a slow answer
 #: is not what this test is about)
@@ -89,9 +89,9 @@ def test_the_runtime_tick_is_the_simulators_to_the_bit() -> None:
     # the same readings, commands and modes to the bit (noise off: the two draw their
     # noise differently).
     import exoleg
-    from exoleg.control.contract import Command
     from exoleg.runtime.sim_backend import SimBackend
     from exoleg.sim.walk import simulate_walk
+    from exoleg.tick import Command
 
     leg = exoleg.paper_leg()
     r = simulate_walk(leg, 30.0, strides=2, noise_scale=0.0)

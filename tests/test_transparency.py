@@ -15,7 +15,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from exoleg.child.interaction import device_leg
-from exoleg.control.contract import Command, Mode
 from exoleg.control.transparency import (
     PARTS,
     SUPPORT_APPLIES,
@@ -30,8 +29,9 @@ from exoleg.control.transparency import (
     transparent_torque,
 )
 from exoleg.device.actuator import friction, params_array
-from exoleg.device.config import DeviceConfig
 from exoleg.errors import ParameterError
+from exoleg.system.config import DeviceConfig
+from exoleg.tick import Command, Mode
 
 
 @cache
@@ -39,7 +39,7 @@ def _device() -> tuple[Any, Any, Any]:
     """The fitted 50th-percentile 10-year-old girl's device alone, its actuators' records,
     the config."""
     from exoleg.sizing import personalized_leg
-    from exoleg.sizing.population import population_child
+    from exoleg.sizing.child import population_child
 
     c, _ = population_child(None, "female", 10.0, 50.0)
     cfg = DeviceConfig.load()
@@ -229,7 +229,7 @@ def test_a_bad_transparency_file_is_refused_naming_the_field(tmp_path: Any) -> N
 def _walker() -> tuple[Any, Any, float]:
     from exoleg.child.model import ChildModel
     from exoleg.sizing import personalized_leg
-    from exoleg.sizing.population import population_child
+    from exoleg.sizing.child import population_child
 
     c, _ = population_child(None, "female", 10.0, 50.0)
     return personalized_leg(c), ChildModel.of(c), c.mass

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from exoleg import checks as _check
 from exoleg.errors import ParameterError
-from exoleg.params import _check
 
 #: Relative slack allowed when a remainder's inertia comes out at rounding level.
 _REL_EPS = 1e-12

@@ -15,13 +15,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import exoleg
-from exoleg.control.contract import Command
 from exoleg.control.safety import SafetyLayer
 from exoleg.errors import ParameterError
 from exoleg.params.records import Link
 from exoleg.reference import SchwartzGait2008
 from exoleg.sim.device_loop import simulate_device
 from exoleg.sim.walk import simulate_walk
+from exoleg.tick import Command
 
 THIGH = {"mass": 2.3, "length": 0.30, "com": (0.12, 0.0), "izz": 0.02, "name": "thigh"}
 

@@ -15,8 +15,8 @@ from exoleg.control.gait_phase import DetectorSettings
 from exoleg.control.hierarchy import WalkGains
 from exoleg.control.safety import SafetyLimits
 from exoleg.device.actuator import paper_actuators
+from exoleg.device.ground import Ground
 from exoleg.device.sensors import FootSensors
-from exoleg.device.walking import Ground
 from exoleg.errors import ParameterError
 
 LOADERS = {

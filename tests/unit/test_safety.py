@@ -194,10 +194,10 @@ def test_property_commands_finite_and_within_limits(ticks: list, arm: bool) -> N
 def test_the_pages_table_of_commands_is_the_supervisors() -> None:
     # The pages enable their buttons by supervisor.APPLIES; the reference is the compiled
     # supervisor itself: every command in every mode, applied or refused.
-    from exoleg.control.contract import Command, Mode
     from exoleg.control.safety import Fault, new_state
     from exoleg.control.supervisor import APPLIES, SUPERVISOR, supervise
     from exoleg.layout import new
+    from exoleg.tick import Command, Mode
 
     lim = LIM.record()
     q, dq = np.zeros(3), np.zeros(3)  # a sane state: a reset may clear the fault

@@ -4,12 +4,12 @@ import numpy as np
 import pytest
 
 from exoleg.control import PDGravity
+from exoleg.design.demand import actuator_demand, gait_reference
+from exoleg.design.population import coverage
 from exoleg.reference import SchwartzGait2008
 from exoleg.sim.batch import batch_gait_peaks
 from exoleg.sim.closed_loop import simulate
 from exoleg.sizing import Child, personalized_leg
-from exoleg.sizing.demand import actuator_demand, gait_reference
-from exoleg.sizing.population import coverage
 
 CHILD = Child(age=9.5, sex="female", height=1.25, mass=24.0, gmfcs=3)
 LEG = personalized_leg(CHILD)
@@ -62,8 +62,8 @@ def test_device_limits_are_the_actuators_envelope():
     # where the torque cap binds there, at the cap's corner instead.
     import math
 
+    from exoleg.design.demand import device_limits
     from exoleg.device.actuator import paper_actuators
-    from exoleg.sizing.demand import device_limits
 
     lim = device_limits()
     for j, a in enumerate(paper_actuators()):

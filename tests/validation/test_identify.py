@@ -146,8 +146,8 @@ def test_an_excitation_plan_stays_within_the_safety_bounds(seed: int, child: str
     # what the device follows, moves in and out included, within the bounds too (the
     # moves within the safety layer's range itself: the standing knee is within 5 deg of
     # its end); continuous to the acceleration at the joins (finite differences)
-    from exoleg.device.config import DeviceConfig
     from exoleg.identify.plan import RANGE_MARGIN, PlanReference
+    from exoleg.system.config import DeviceConfig
 
     ref = PlanReference(plan, DeviceConfig.load().gains.standing)
     assert check_plan(ref, leg, ACTS, lim, dt=1e-3) == []

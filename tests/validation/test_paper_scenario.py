@@ -12,9 +12,10 @@ import pytest
 
 import exoleg
 from exoleg.sim import scenario
+from exoleg.validate.engines import paper_scenario
 
 pytest.importorskip("mujoco", reason="mujoco not installed (pip install exoleg[validate])")
-REPORT = scenario.paper_scenario()
+REPORT = paper_scenario()
 FIGS = REPORT.figures()
 
 
@@ -44,7 +45,7 @@ def test_lyapunov_rise_is_integration_error_of_order_4():
     # Eq 30: V is non-increasing in continuous time. It rises only in the first RK4 step
     # after each reference jump, by an amount that shrinks as h^4 (measured 3.2e-4 J,
     # 2.0e-5 J, 1.2e-6 J at h = 1, 0.5, 0.25 ms with V ~ 32 J).
-    rises = [scenario.paper_scenario(engine=None, dt=h).lyapunov_rise()
+    rises = [paper_scenario(engine=None, dt=h).lyapunov_rise()
              for h in (1e-3, 5e-4)]
     assert rises[0] < 1e-5 * REPORT.result.lyapunov.max()
     assert 3.5 < np.log2(rises[0] / rises[1]) < 4.5

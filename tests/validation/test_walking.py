@@ -15,11 +15,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import exoleg
-from exoleg.control.contract import Command, Mode
 from exoleg.control.hierarchy import WalkController
 from exoleg.device import with_actuators
 from exoleg.sim.metrics import detection_table
 from exoleg.sim.walk import simulate_walk
+from exoleg.tick import Command, Mode
 
 LEG = exoleg.paper_leg()
 
@@ -81,7 +81,7 @@ def test_a_toe_scuffing_the_belt_in_swing_is_not_a_stride() -> None:
     # The truth's definitions (exoleg.sim.metrics.true_events): a stride's contact lands
     # ahead of the hip; a forefoot touching the belt behind it in swing (a toe scuff, the
     # foot drop of a child with CP) is neither an initial contact nor, leaving, a toe off.
-    from exoleg.sim.metrics import true_events
+    from exoleg.sim.events import true_events
 
     n = 1000
     F = np.zeros((n, 4))

@@ -1,4 +1,4 @@
-"""The walking plant (exoleg.device.walking): contacts and the pelvis on the leg's model.
+"""The walking plant (exoleg.sim.plant): contacts and the pelvis on the leg's model.
 
 References: MuJoCo stepping the same leg on a vertical slider (its own equations, its
 RK4) under the same contact forces applied at the same points through its own Jacobian
@@ -15,14 +15,14 @@ import exoleg
 from exoleg.child.passive import PASSIVE
 from exoleg.device import with_actuators
 from exoleg.device.actuator import ACTUATOR
-from exoleg.device.walking import (
+from exoleg.layout import new
+from exoleg.sim.plant import (
     WalkingPlant,
     contact_buffers,
     step_contacts,
     walking_energy,
     walking_step,
 )
-from exoleg.layout import new
 
 LEG = with_actuators(exoleg.paper_leg())
 NO_FRICTION = np.zeros(0, ACTUATOR)

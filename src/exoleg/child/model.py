@@ -15,6 +15,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from exoleg import checks as _check
 from exoleg.child.passive import (
     GROUPS,
     PASSIVE,
@@ -28,7 +29,6 @@ from exoleg.child.passive import (
 )
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8, new
-from exoleg.params import _check
 
 F64 = NDArray[np.float64]
 

@@ -29,9 +29,9 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from exoleg import checks as _check
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, new
-from exoleg.params import _check
 from exoleg.params.records import JOINTS
 
 F64 = NDArray[np.float64]

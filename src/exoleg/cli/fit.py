@@ -18,10 +18,10 @@ def cmd_fit(args: argparse.Namespace) -> int:
 
     import numpy as np
 
+    from exoleg.design.demand import DISPLAY
+    from exoleg.design.report import fit_report
     from exoleg.io import OutputFolder
     from exoleg.sizing import Child
-    from exoleg.sizing.demand import DISPLAY
-    from exoleg.sizing.report import fit_report
 
     measured = {k: (getattr(args, k) / 100 if getattr(args, k) is not None else None)
                 for k in MEASURED}
@@ -68,7 +68,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
             rows.append([r["source"], f"{r['quantity']} ({u})"] + [
                 f"{r[j] * k:.1f} ({r[j + '_margin']:.2f})" + ("" if r[j + "_margin"] >= 1 else " !")
                 for j in ("hip", "knee", "ankle")])
-        from exoleg.sizing.demand import table2_limits
+        from exoleg.design.demand import table2_limits
 
         for name, lim in (("device limits (datasheets)", demand.limits),
                           ("Table 2 (paper, for reference)", table2_limits())):

@@ -13,6 +13,7 @@ from exoleg.cli._common import _bus_options, _count, _read_leg, _say, _table, _w
 def cmd_identify(args: argparse.Namespace) -> int:
     from exoleg.errors import ParameterError
     from exoleg.identify.device import identify_device
+    from exoleg.plots.identify import identify_figure
     from exoleg.runtime.session import simulated
 
     _bus_options("exoleg identify", args.backend, interface=args.interface,
@@ -34,7 +35,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
                         duration=args.duration, seed=args.seed, interface=args.interface,
                         channel=args.channel or "exoleg",
                         realtime=not args.no_realtime, truth=truth,
-                        device_alone=args.device_alone, device=args.device)
+                        device_alone=args.device_alone, device=args.device,
+                        figure=identify_figure)
     s = r.summary()
     _say(f"exoleg identify --backend {args.backend}: a plan of {s['plan']['periods']} x "
          f"{s['plan']['period_s']:g} s (condition number {s['plan']['condition_number']:.1f}"

@@ -14,8 +14,9 @@ from exoleg.cli._common import STRIDE_TIME_RANGE, _ages, _percentiles, _say, _ta
 def cmd_population(args: argparse.Namespace) -> int:
     import collections
 
+    from exoleg.design.population import PERCENTILES, coverage, write_csv
     from exoleg.io import OutputFolder
-    from exoleg.sizing.population import PERCENTILES, coverage, heatmap, write_csv
+    from exoleg.plots.population import heatmap
 
     t0 = time.perf_counter()
     rows = coverage(ages=args.ages, percentiles=args.percentiles or PERCENTILES,

@@ -82,7 +82,7 @@ def cmd_run(args: argparse.Namespace) -> int:
              f"{t.get('p999_us', 0):.1f}", f"{t.get('max_us', 0):.1f}",
              str(t.get("missed", 0))]],
            ["late p50 us", "p99 us", "p99.9 us", "max us", "deadlines missed (> 1 period)"])
-    from exoleg.control.contract import Mode, name_of
+    from exoleg.tick import Mode, name_of
 
     _say("ticks per mode: " + ", ".join(f"{name_of(Mode, m)} {n}"
                                         for m, n in s["ticks_per_mode"].items())
@@ -108,7 +108,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     _say("the safety layer: " + ("; ".join(f"{e['text']} ({e['ticks']} ticks from "
                                           f"{e['first_s']:.3f} s)" for e in s["safety_events"])
                                  or "nothing to do"))
-    from exoleg.runtime.log import MAX_LOSS_TICKS
+    from exoleg.session_log import MAX_LOSS_TICKS
 
     _say(f"\nwrote {path} (crash-safe: at most {MAX_LOSS_TICKS} ticks lost if killed) and "
          f"{Path(args.out) / 'run.json'}")

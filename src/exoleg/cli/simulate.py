@@ -29,6 +29,7 @@ from exoleg.cli._common import (
     _three,
     _within,
 )
+from exoleg.cli._runs import settings
 from exoleg.entry import DEFAULT_BODY_MASS, LAWS, SUPPORT_MODES
 
 #: simulate --walk options' defaults
@@ -71,17 +72,6 @@ def _sensor_fault(text: str) -> Any:
         raise argparse.ArgumentTypeError(f"{text!r}: {e.problem}") from None
 
 
-def device_actuators(args: argparse.Namespace) -> Any:
-    """The actuators ``--hip-motor`` asks for (the device folder's, or the shipped, knee and
-    ankle), or None: the device folder's or the shipped ones."""
-    if args.hip_motor is None:
-        return None
-    from exoleg.device.actuator import hip_variant, paper_actuators
-
-    _, knee, ankle = paper_actuators(args.device)
-    return hip_variant(args.hip_motor), knee, ankle
-
-
 def check_variant(args: argparse.Namespace) -> str:
     """The variant the options ask for; an option set away from its default that does
     not go with it is refused (ParameterError naming it and what it goes with)."""
@@ -112,6 +102,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     from exoleg.io import OutputFolder
     from exoleg.sim.scenario import run_scenario
+    from exoleg.validate.engines import scenario_engine
 
     t0 = time.perf_counter()
     variant = check_variant(args)
@@ -139,11 +130,15 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context(method),
                                      initializer=_ignore_sigint) as pool:
                 prepared = pool.submit(_prepare_worker)
+                engine, skipped = ((None, None) if args.no_engine
+                                   else scenario_engine(cfg["leg"], args.dt))
                 report = run_scenario(
                     cfg["leg"], cfg["controller"], cfg["reference"], args.duration, dt=args.dt,
                     control_dt=1.0 / args.control_rate, q0=cfg["q0"], detailed=cfg["detailed"],
-                    engine=None if args.no_engine else "mujoco", changes=cfg["changes"],
+                    engine=engine, changes=cfg["changes"],
                     progress=progress, beyond_range_of_motion=args.beyond_rom)
+                if skipped:
+                    report.notes.append(skipped)
                 # figures() reads the diagnostics, computed on first access: before the
                 # report is pickled for the worker (in a feeder thread), not during it
                 figs = report.figures()
@@ -171,7 +166,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             progress.stop()
         notes = [*cfg["warnings"], *report.notes]
         summary = {
-            "settings": _settings(args),
+            "settings": settings(args),
             "paper_scenario": paper,
             "leg": cfg["leg"].name,
             "figures": figs,
@@ -325,39 +320,6 @@ def _save_figures(report: Any, folder: Path, formats: tuple[str, ...]) -> list[s
     paths = save_figures(report, folder, formats)
     gc.freeze()  # this worker's last task: let it exit without a final collection (see run)
     return [p.name for p in paths]
-
-
-def _settings(args: argparse.Namespace) -> dict[str, Any]:
-    """The options a run was given, for its summary (paths and arrays as text)."""
-    import numpy as np
-
-    return {k: (str(v) if isinstance(v, (Path, np.ndarray)) else v)
-            for k, v in vars(args).items() if k != "func"}
-
-
-def _write_run(args: argparse.Namespace, result: Any, figure: Any, stem: str, t0: float,
-               summary: dict[str, Any], more: dict[str, Any] | None = None) -> str:
-    """A run's outputs, committed together: the time series (``--format``), its figure
-    (PNG, and SVG with ``--svg``) and ``more`` figures (stem -> a function of the path),
-    and ``summary.json`` (the settings, ``summary``, the files, the wall time). Returns
-    the line that says what was written."""
-    from exoleg.io import OutputFolder
-
-    with OutputFolder(args.out) as out:
-        name = "timeseries.parquet" if args.format == "parquet" else "timeseries.csv"
-        (result.to_parquet if args.format == "parquet" else result.to_csv)(out.stage(name))
-        files = [name]
-        draw = {stem: lambda path: figure(result, path), **(more or {})}
-        for name, fn in draw.items():
-            for fmt in ("png", "svg") if args.svg else ("png",):
-                fn(out.stage(f"{name}.{fmt}"))
-                files.append(f"{name}.{fmt}")
-        record = {"settings": _settings(args), **summary, "files": files,
-                  "wall_time_s": time.perf_counter() - t0}
-        out.stage("summary.json").write_text(json.dumps(record, indent=2, default=str))
-        out.commit(last="summary.json")
-    return (f"\nwrote {out.folder}/: " + ", ".join(["summary.json", *files])
-            + f"  ({record['wall_time_s']:.1f} s)")
 
 
 def add_parser(sub: Any) -> None:

@@ -9,7 +9,7 @@ import time
 from typing import Any
 
 from exoleg.cli._common import _say, _table
-from exoleg.cli.simulate import _write_run, device_actuators
+from exoleg.cli._runs import device_actuators, write_run
 
 
 def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
@@ -70,7 +70,7 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
                                                        .sum()),
         "peaks": peaks,
     }
-    wrote = _write_run(args, r, device_figure, "actuators", t0,
+    wrote = write_run(args, r, device_figure, "actuators", t0,
                        {"leg": cfg["leg"].name, "figures": figs, "notes": cfg["warnings"],
                         "actuators": [dataclasses.asdict(a) for a in acts]})
     _say(f"exoleg simulate --actuators: {args.reference} reference, {args.controller} "

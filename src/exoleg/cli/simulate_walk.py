@@ -8,7 +8,7 @@ import time
 from typing import Any
 
 from exoleg.cli._common import _read_leg, _say, _table
-from exoleg.cli.simulate import _write_run, device_actuators
+from exoleg.cli._runs import device_actuators, write_run
 from exoleg.sim.metrics import interaction_summary
 
 
@@ -86,7 +86,7 @@ def _simulate_walk(args: argparse.Namespace) -> int:
         from exoleg.plots.child import support_figure
 
         more["support"] = lambda path: support_figure(r, child, strikes, path)
-    wrote = _write_run(args, r, walk_figure, "walk", t0,
+    wrote = write_run(args, r, walk_figure, "walk", t0,
                        {"leg": leg.name, "figures": figs, "notes": notes,
                         "actuators": [dataclasses.asdict(a) for a in r.actuators]}, more)
     _say(f"exoleg simulate --walk --controller {args.controller}: leg '{leg.name}', body "

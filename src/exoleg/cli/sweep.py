@@ -88,7 +88,8 @@ def _summary(args: argparse.Namespace) -> int:
     import csv
 
     from exoleg.io import OutputFolder
-    from exoleg.study.summary import CELL, heatmap, summarise
+    from exoleg.plots.sweep import heatmap
+    from exoleg.study.summary import CELL, summarise
 
     s = summarise(args.summary, args.x, args.y)
     rows = s.rows()

@@ -42,10 +42,10 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from exoleg import checks as _check
 from exoleg.entry import ASSIST_LAWS
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8, new
-from exoleg.params import _check
 
 F64 = NDArray[np.float64]
 

@@ -1,192 +1,42 @@
-"""The tick contract: what a device's sensors give a controller each tick and what a
-controller gives back, each declared once as a record (:mod:`exoleg.layout`).
-
-Every layer reads these declarations instead of keeping its own list: the compiled
-walking loop fills one :data:`SENSORS` and one :data:`OUTPUT` record per tick, the
-Python controllers take a :data:`SENSORS` mapping and return the :data:`OUTPUT` fields,
-and the session log, the result series and the operator page take their columns and
-names from here and from the enumerations below.
-
-Joint vectors are (hip, knee, ankle); the FSRs (heel, met1, met5, hallux).
+"""The tick contract as the controllers see it: the records and enumerations are declared
+in :mod:`exoleg.tick` (a leaf every floor may import) and re-exported here for one
+release; what is the controllers' own is the page's vocabulary (:func:`vocabulary`):
+which commands apply in each mode and which support modes the walking controller has.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from enum import IntEnum
-from typing import Any, Protocol
+from typing import Any
 
-import numpy as np
-from numpy.typing import NDArray
-
-from exoleg.errors import ParameterError
-from exoleg.layout import F8, I8, column_names, enum_table
-from exoleg.params import _check
+from exoleg.control.supervisor import APPLIES
+from exoleg.control.transparency import SUPPORT_APPLIES, SUPPORT_COMMANDS
+from exoleg.layout import enum_table
 from exoleg.params.records import JOINTS
-
-#: The four FlexiForce A201 points under the footplate (see :mod:`exoleg.device.walking`).
-SENSOR_POINTS = ("heel", "met1", "met5", "hallux")
-
-
-class Mode(IntEnum):
-    """The supervisor's mode. STOPPING: a stand asked while walking, the walk going on to
-    the controller's stopping point (the walking hierarchy: the next mid-stance)."""
-
-    DISARMED = 0
-    STANDING = 1
-    WALKING = 2
-    FAULT = 3
-    STOPPING = 4
-
-
-class Command(IntEnum):
-    """An operator's command for a tick. IMPEDANCE, TRANSPARENT and AAN choose the walking
-    controller's support mode (:class:`~exoleg.control.transparency.SupportMode`),
-    blended over a ramp."""
-
-    NONE = 0
-    ARM = 1
-    STAND = 2
-    WALK = 3
-    DISARM = 4
-    ESTOP = 5
-    RESET = 6
-    IMPEDANCE = 7
-    TRANSPARENT = 8
-    AAN = 9
-
-
-#: What the device reads each tick: joint angles (rad) and rates (rad/s) as measured
-#: (encoders and their filter), the four FSRs (ADC counts), the foot IMU's gyro (rad/s)
-#: and accelerations (m/s^2, foot frame), the operator's command (:class:`Command`),
-#: and the torque the cuffs transmit to the child per joint (N m,
-#: :mod:`exoleg.child.interaction`: the simulated device's own; NaN where a device has
-#: no cuff or joint-torque sensor, as the drives on the buses have not).
-SENSORS = np.dtype([("q", F8, 3), ("dq", F8, 3), ("fsr", F8, 4), ("gyro", F8),
-                    ("accel", F8, 2), ("command", I8), ("interaction", F8, 3)])
-
-#: What a controller gives each tick: the torque to the drives (N m), the supervisor's
-#: mode (:class:`Mode`), the gait phase (:class:`~exoleg.control.gait_phase.Phase`), the
-#: what the detector rests on (:class:`~exoleg.control.gait_phase.Source`), the
-#: gait fraction, the tick's events (bits of :class:`~exoleg.control.gait_phase.Event`),
-#: the safety layer's status bits (:class:`~exoleg.control.safety.Limited`), the
-#: reference (rad), the fault latched (:class:`~exoleg.control.safety.Fault`), its
-#: joint (-1: none), the value that latched it and the limit it crossed (rad, rad/s: the
-#: safety layer's STATE), and the command refused this tick (:class:`Command`; NONE if
-#: none was, e.g. a reset while a fault still holds), per joint the safety layer's
-#: estimates: the motor's winding temperature (degC) and the gear's transmitted torque
-#: (N m), the support mode in force (:class:`~exoleg.control.transparency.SupportMode`;
-#: a law that is not the walking controller's: IMPEDANCE) and the support level per joint
-#: (0: transparent, 1: the impedance's full support; between while a change blends).
-OUTPUT = np.dtype([("tau", F8, 3), ("mode", I8), ("phase", I8), ("gait_source", I8),
-                   ("gait_fraction", F8),
-                   ("events", I8), ("safety_status", I8), ("q_ref", F8, 3), ("fault", I8),
-                   ("fault_joint", I8), ("fault_value", F8), ("fault_limit", F8),
-                   ("refused", I8), ("winding_temp", F8, 3), ("gear_torque", F8, 3),
-                   ("support_mode", I8), ("support_level", F8, 3)])
-
-LABELS = {3: JOINTS, 4: SENSOR_POINTS}
-#: The modes in which the drives are enabled (torque may flow), and those in which the
-#: child walks (the treadmill runs).
-ARMED_MODES = frozenset((Mode.STANDING, Mode.WALKING, Mode.STOPPING))
-WALKING_MODES = frozenset((Mode.WALKING, Mode.STOPPING))
-_COMMANDS = frozenset(int(m) for m in Command)
-
-
-class Controller(Protocol):
-    """What every controller offers the loop, in simulation and on every device."""
-
-    def update(self, sensors: Mapping[str, Any], command: int, t: float) -> dict[str, Any]:
-        """One tick: the :data:`SENSORS` fields read this tick, the operator's command
-        (:class:`Command`) and the time (s) -> the :data:`OUTPUT` fields."""
-        ...
-
-    def warm_up(self) -> None:
-        """Compile (or load from the cache) before the clock starts."""
-        ...
-
-    def gains_now(self) -> dict[str, list[float]]:
-        """The gains an operator may change, in force now."""
-        ...
-
-    def set_gains(self, change: dict[str, list[float]]) -> None:
-        """Change gains between ticks, all or none."""
-        ...
-
-
-class TickRecords:
-    """One tick's :data:`SENSORS` and :data:`OUTPUT` records (one-element arrays, what the
-    compiled ticks take) with views of their fields, so that a controller fills the one
-    and reads the other from Python in a few microseconds."""
-
-    def __init__(self, where: str) -> None:
-        self.where = where
-        self.sens = np.zeros(1, SENSORS)
-        self.out = np.zeros(1, OUTPUT)
-        self._in = {n: self.sens[n][0] if SENSORS[n].shape else self.sens[n]
-                    for n in SENSORS.names or ()}
-        self._out = {n: self.out[n][0] if OUTPUT[n].shape else self.out[n]
-                     for n in OUTPUT.names or ()}
-        kinds = output_kinds()
-        self._conv: list[tuple[str, NDArray[Any], Any]] = []
-        for n, v in self._out.items():
-            conv = (None if OUTPUT[n].shape else kinds[n].__getitem__ if n in kinds
-                    else int if OUTPUT[n].kind == "i" else float)
-            self._conv.append((n, v, conv))
-
-    def read(self, sensors: Mapping[str, Any], command: Any) -> None:
-        """Check one tick's readings and command and put them into :attr:`sens`: ``q``,
-        ``dq`` (3) and ``fsr`` (4) required, ``gyro`` and ``accel`` optional (0); a wrong
-        shape or kind, or an unknown command, is a ParameterError naming the field."""
-        w, v = self.where, self._in
-        if not isinstance(sensors, Mapping):
-            raise ParameterError(w, "sensors", f"expected a mapping of readings, got "
-                                 f"{type(sensors).__name__}")
-        v["q"][:] = _check.reading(w, "q", sensors.get("q"), 3)
-        v["dq"][:] = _check.reading(w, "dq", sensors.get("dq"), 3)
-        v["fsr"][:] = _check.reading(w, "fsr", sensors.get("fsr"), 4)
-        if "accel" in sensors:
-            v["accel"][:] = _check.reading(w, "accel", sensors["accel"], 2)
-        it = sensors.get("interaction")
-        v["interaction"][:] = np.nan if it is None else _check.reading(
-            w, "interaction", it, 3)
-        g = sensors.get("gyro", 0.0)
-        v["gyro"][0] = g if type(g) is float else _check.reading(w, "gyro", [g], 1)[0]
-        if isinstance(command, bool) or not isinstance(command, (int, np.integer)) \
-                or int(command) not in _COMMANDS:
-            raise ParameterError(w, "command", f"{command!r} is not a command (allowed: "
-                                 + ", ".join(f"{m.value} {m.name}" for m in Command) + ")")
-        v["command"][:] = command
-
-    def result(self) -> dict[str, Any]:
-        """:attr:`out` as a mapping: vectors as arrays (copies), modes, phases, faults and
-        commands as their enumerations (:func:`output_kinds`), the rest as numbers."""
-        return {n: (v.copy() if conv is None else conv(v[0])) for n, v, conv in self._conv}
-
-
-def output_kinds() -> dict[str, dict[int, IntEnum]]:
-    """The output fields that hold an enumeration, each as value -> member."""
-    from exoleg.control.gait_phase import Phase, Source
-    from exoleg.control.safety import Fault
-    from exoleg.control.transparency import SupportMode
-
-    return {name: {int(m): m for m in kind} for name, kind in
-            (("mode", Mode), ("phase", Phase), ("gait_source", Source), ("fault", Fault),
-             ("refused", Command), ("support_mode", SupportMode))}
-
-
-def output_columns() -> list[str]:
-    """The flat names of :data:`OUTPUT` (``tau_hip`` ... ``refused``)."""
-    return column_names(OUTPUT, LABELS)
-
-
-def name_of(kind: type[IntEnum], value: int) -> str:
-    """A logged value of an enumeration as people read it (``walking``), or the number
-    itself when it names no member."""
-    try:
-        return kind(int(value)).name.lower()
-    except ValueError:
-        return str(value)
+from exoleg.tick import (  # noqa: F401  (the old import path, for one release)
+    ARMED_MODES,
+    EVENT_NAMES,
+    LABELS,
+    LIMITED_TEXT,
+    OUTPUT,
+    PHASE_NAMES,
+    SENSOR_POINTS,
+    SENSORS,
+    SOURCE_NAMES,
+    WALKING_MODES,
+    Command,
+    Controller,
+    Event,
+    Fault,
+    Limited,
+    Mode,
+    Phase,
+    Source,
+    SupportMode,
+    TickRecords,
+    name_of,
+    output_columns,
+    output_kinds,
+)
 
 
 def vocabulary() -> dict[str, Any]:
@@ -195,10 +45,6 @@ def vocabulary() -> dict[str, Any]:
     names by value, the texts of the phases, events and safety bits, the joints and the
     FSR points, the commands that apply in each mode (``applies``) and the modes in
     which the drives are enabled (``armed``)."""
-    from exoleg.control.gait_phase import EVENT_NAMES, PHASE_NAMES, SOURCE_NAMES, Event, Phase
-    from exoleg.control.safety import LIMITED_TEXT, Fault, Limited
-    from exoleg.control.transparency import SupportMode
-
     out: dict[str, Any] = {k: {str(v): n for n, v in t.items()}
                            for k, t in enum_table(Mode, Command, Phase, Event, Fault,
                                                   Limited, SupportMode).items()}
@@ -207,9 +53,6 @@ def vocabulary() -> dict[str, Any]:
                    "Source": {str(int(k)): v for k, v in SOURCE_NAMES.items()},
                    "Limited": [[int(k), v] for k, v in LIMITED_TEXT.items()]}
     out["joints"], out["sensors"] = list(JOINTS), list(SENSOR_POINTS)
-    from exoleg.control.supervisor import APPLIES
-    from exoleg.control.transparency import SUPPORT_APPLIES, SUPPORT_COMMANDS
-
     out["applies"] = {str(int(m)): [c.name.lower() for c in cs] for m, cs in APPLIES.items()}
     # the walking controller's support modes (a law other than its refuses them)
     out["support_applies"] = [m.name for m in SUPPORT_APPLIES]

@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from exoleg import checks as _check
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8, new
-from exoleg.params import _check
 
 
 @dataclass(frozen=True)

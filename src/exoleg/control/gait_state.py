@@ -4,47 +4,18 @@ its phases, events and sources, and the state record the compiled detector updat
 
 from __future__ import annotations
 
-from enum import IntEnum
-
 import numpy as np
 from numpy.typing import NDArray
 
 from exoleg.layout import F8, I8, new
-
-
-class Phase(IntEnum):
-    UNKNOWN = -1
-    SWING = 0
-    LOADING = 1   # initial contact to foot flat
-    FLAT = 2      # foot flat to heel off
-    PUSH = 3      # heel off to toe off
-
-
-class Event(IntEnum):
-    """Bits of a tick's events."""
-
-    IC = 1
-    FF = 2
-    HO = 4
-    TO = 8
-
-
-class Source(IntEnum):
-    """What the detector rests on."""
-
-    FSR = 0          # the FSRs alone (no gyroscope reading)
-    FSR_IMU = 1      # the FSRs, their toe off timed and confirmed by the foot's turn
-    IMU = 2          # the foot's IMU alone (the FSRs missing, frozen or silent)
-    NONE = 3         # neither reads
-
-
-EVENT_NAMES = {Event.IC: "initial contact", Event.FF: "foot flat", Event.HO: "heel off",
-               Event.TO: "toe off"}
-SOURCE_NAMES = {Source.FSR: "the FSRs alone", Source.FSR_IMU: "the FSRs and the foot's IMU",
-                Source.IMU: "the foot's IMU alone", Source.NONE: "no sensor reading"}
-PHASE_NAMES = {Phase.UNKNOWN: "unknown", Phase.SWING: "swing", Phase.LOADING: "loading",
-               Phase.FLAT: "foot flat", Phase.PUSH: "push-off"}
-
+from exoleg.tick import (  # noqa: F401  (the detector's vocabulary, declared with the contract)
+    EVENT_NAMES,
+    PHASE_NAMES,
+    SOURCE_NAMES,
+    Event,
+    Phase,
+    Source,
+)
 
 #: Strides remembered (the most :attr:`DetectorSettings.strides_averaged` allows).
 HISTORY = 10

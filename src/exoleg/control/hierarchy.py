@@ -41,6 +41,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
+from exoleg import checks as _check
 from exoleg.control import gait_phase as gp
 from exoleg.control import safety as sf
 from exoleg.control.assist import (
@@ -51,7 +52,6 @@ from exoleg.control.assist import (
     assist_stride,
     assist_track,
 )
-from exoleg.control.contract import OUTPUT, SENSORS, Command, Mode, TickRecords
 from exoleg.control.safety import SafetyLimits, safety_step
 from exoleg.control.supervisor import SUPERVISOR, report, settle, supervise
 from exoleg.control.transparency import (
@@ -69,7 +69,7 @@ from exoleg.dynamics.kernels import foot_point_jacobian, gravity, links_mass, ma
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, new
-from exoleg.params import _check
+from exoleg.tick import OUTPUT, SENSORS, Command, Mode, TickRecords
 
 F64 = NDArray[np.float64]
 
@@ -480,7 +480,7 @@ class WalkController:
         self.A = np.zeros(3, ACTUATOR) if actuators is None else actuators
         self.assist = AssistSettings.default() if assist is None else assist
         self.ss = new_support_state(support_mode, self.assist.first_level())
-        from exoleg.device.walking import body_mass_of
+        from exoleg.sizing.anthropometry import body_mass_of
 
         self.ap, self.as_ = self.assist.record(body_mass_of(body_mass)), self.assist.state()
         self.cp[0]["support_min"] = self.assist.support_min

@@ -171,7 +171,7 @@ def _imu_columns(cols: Any, n: int) -> tuple[F64, F64]:
 
 def _read_log(path: Path) -> tuple[F64, F64, F64, F64]:
     """(t, FSR counts (N, 4), gyro, accelerometer (N, 2)) of a session log."""
-    from exoleg.runtime.log import read_log
+    from exoleg.session_log import read_log
 
     _, cols, _ = read_log(path)
     where = str(path)
@@ -186,7 +186,7 @@ def _read_log(path: Path) -> tuple[F64, F64, F64, F64]:
 
 
 def is_session_log(path: Path) -> bool:
-    from exoleg.runtime.log import MAGIC
+    from exoleg.session_log import MAGIC
 
     try:
         with (path / "session.log" if path.is_dir() else path).open("rb") as f:
@@ -229,8 +229,7 @@ def detect_events(rec: Recording, expected_stride: float = 1.1,
                   device: str | Path | None = None) -> NDArray[np.int64]:
     """The detector's event bits per tick over the recording (its state fresh at the
     start: the running maxima at the calibration floor, no stride yet)."""
-    from exoleg.device.config import FSR_FLOOR_N
-    from exoleg.device.sensors import FootSensors
+    from exoleg.device.sensors import FSR_FLOOR_N, FootSensors
 
     board = FootSensors.default(0.0, device)
     d = gp.DetectorSettings.default(device).record(board.counts(FSR_FLOOR_N), expected_stride,

@@ -38,7 +38,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from enum import IntEnum
 from pathlib import Path
 from typing import Any
 
@@ -46,47 +45,15 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
+from exoleg import checks as _check
 from exoleg.control.motor_watch import gear_check, motors_tick, watch_limits
 from exoleg.device.actuator import paper_actuators, params_array
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8, new
-from exoleg.params import _check
 from exoleg.params.records import JOINTS
+from exoleg.tick import LIMITED_TEXT, Fault, Limited  # noqa: F401  (declared with the contract)
 
 F64 = NDArray[np.float64]
-
-
-class Fault(IntEnum):
-    """Why the torque is off (latched until :meth:`SafetyLayer.reset`)."""
-
-    NONE = 0
-    ESTOP = 1
-    NONFINITE = 2
-    OVERSPEED = 3
-    HARD_LIMIT = 4
-    OVERTEMPERATURE = 5     # a motor's estimated winding temperature beyond its limit
-    GEAR_OVERLOAD = 6       # a gear's estimated torque beyond its momentary peak ("fault")
-
-
-class Limited(IntEnum):
-    """Bits of a tick's status: what the layer changed in the command this tick."""
-
-    DISARMED = 1        # torque zero: not armed
-    FAULT = 2           # torque zero: a latched fault (see Fault)
-    SOFT_LIMIT = 4      # a joint beyond its range of motion had its outward torque removed
-    TORQUE = 8          # clipped to the maximum torque
-    RATE = 16           # limited by the torque rate
-    DERATED = 32        # a motor's winding is hot: its torque limit derated
-    GEAR_PEAK = 64      # a gear's estimated torque beyond its momentary peak
-
-
-#: What each status bit means, as the operator reads it.
-LIMITED_TEXT = {Limited.DISARMED: "disarmed: torque zero",
-                Limited.FAULT: "FAULT: torque off (latched)",
-                Limited.SOFT_LIMIT: "beyond the soft range-of-motion limit",
-                Limited.TORQUE: "torque clipped", Limited.RATE: "torque rate limited",
-                Limited.DERATED: "motor hot: torque derated",
-                Limited.GEAR_PEAK: "gear beyond its momentary peak torque"}
 
 
 #: The largest torque-rate limit a device file may set, N m/s: Table 2's largest torque

@@ -19,8 +19,8 @@ import numpy as np
 from numba import njit
 
 from exoleg.control import safety as sf
-from exoleg.control.contract import Command, Mode
 from exoleg.layout import I8
+from exoleg.tick import Command, Mode
 
 #: The supervisor's state: its mode (:class:`~exoleg.control.contract.Mode`).
 SUPERVISOR = np.dtype([("mode", I8)])

@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from exoleg import checks as _check
 from exoleg.control import safety as sf
-from exoleg.control.contract import OUTPUT, SENSORS, Mode, TickRecords
 from exoleg.control.controllers import Controller as LawRecord
 from exoleg.control.gait_phase import Phase, Source
 from exoleg.control.laws import control_law
@@ -28,8 +28,8 @@ from exoleg.control.safety import SafetyLimits, safety_step
 from exoleg.control.supervisor import SUPERVISOR, report, settle, supervise
 from exoleg.errors import ParameterError
 from exoleg.layout import new
-from exoleg.params import _check
 from exoleg.reference.steps import Reference
+from exoleg.tick import OUTPUT, SENSORS, Mode, TickRecords
 
 
 @njit(cache=True)

@@ -29,31 +29,21 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from enum import IntEnum
 from pathlib import Path
 
 import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from exoleg.control.contract import Command, Mode
+from exoleg import checks as _check
 from exoleg.device.actuator import friction
 from exoleg.dynamics.kernels import N_PARAMS, coriolis_dq, gravity, mass_matrix
 from exoleg.entry import SUPPORT_MODES
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8, new
-from exoleg.params import _check
+from exoleg.tick import Command, Mode, SupportMode
 
 F64 = NDArray[np.float64]
-
-
-class SupportMode(IntEnum):
-    """How the walking controller supports the child (``exoleg simulate --walk
-    --controller``, ``exoleg run --controller``)."""
-
-    IMPEDANCE = 0
-    TRANSPARENT = 1
-    AAN = 2
 
 
 #: The names people type for the support modes (:data:`exoleg.entry.SUPPORT_MODES`).

@@ -46,12 +46,12 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from exoleg import checks as _check
 from exoleg.dynamics.model import LegModel
 from exoleg.entry import HIP_VARIANTS
 from exoleg.errors import ParameterError
 from exoleg.io import read_text
 from exoleg.layout import F8, new
-from exoleg.params import _check
 from exoleg.params.records import JOINTS
 
 F64 = NDArray[np.float64]

@@ -31,10 +31,10 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from exoleg.control.contract import SENSOR_POINTS, SENSORS
 from exoleg.device.sensors import FootSensors
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8
+from exoleg.tick import SENSOR_POINTS, SENSORS
 
 F64 = NDArray[np.float64]
 

@@ -1,6 +1,6 @@
 """The foot board's sensors as the board would send them (paper section 2.3).
 
-* **FSRs** (four FlexiForce A201 at :data:`exoleg.device.walking.SENSOR_POINTS`): the
+* **FSRs** (four FlexiForce A201 at :data:`exoleg.sim.plant.SENSOR_POINTS`): the
   normal force at each point -> the sheet's **hysteresis** (:func:`fsr_response`: the
   unloading curve above the loading one by up to ``hysteresis`` of full scale, at half
   scale, meeting it at no load and at full scale) and **drift** (creep: under a
@@ -29,11 +29,16 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from exoleg import checks as _check
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, new
-from exoleg.params import _check
 
 F64 = NDArray[np.float64]
+
+#: The FSR load the detector's calibration floor starts from, N (each sensor's running
+#: maximum starts at its reading of this load: an unloaded start divides by nothing).
+FSR_FLOOR_N = 20.0
+
 
 #: The four FlexiForce A201 points under the footplate, as fractions of the foot link's
 #: length (the footplate's, Table 1: 23.5 cm) from the ankle: the heel behind it, the

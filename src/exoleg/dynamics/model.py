@@ -8,6 +8,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from exoleg import checks as _check
 from exoleg import kinematics
 from exoleg.dynamics import kernels as K
 from exoleg.dynamics.single import ADDRESS as _A
@@ -16,7 +17,6 @@ from exoleg.dynamics.single import POINTS as _PTS
 from exoleg.dynamics.single import VECTOR as _VEC
 from exoleg.dynamics.single import call as _call
 from exoleg.errors import ParameterError
-from exoleg.params import _check
 from exoleg.params.records import JOINTS, Link
 
 F64 = NDArray[np.float64]

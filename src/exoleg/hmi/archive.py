@@ -33,7 +33,7 @@ class Archive:
     def summary(self, folder: Path, live: Path | None = None) -> dict[str, Any]:
         """One recorded session's line: child, start, duration, how it ended (``live``:
         the folder of the session running now)."""
-        from exoleg.runtime.log import check_session, read_header
+        from exoleg.session_log import check_session, read_header
 
         damaged: list[str] = []
 

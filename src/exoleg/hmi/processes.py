@@ -43,11 +43,12 @@ def _identify_process(link: LoopLink, backend: str, interface: str | None, plan:
     through the operator's link): the session in ``folder``, the identified leg and its
     report in ``folder``/:data:`IDENTIFIED`; ``plan``: its length, s."""
     from exoleg.identify.device import identify_device
+    from exoleg.plots.identify import identify_figure
 
     def identification(leg: Any, child: Any) -> None:
         identify_device(backend, Path(folder) / IDENTIFIED, leg=leg, child=child,
                         duration=plan, interface=interface, link=link, arm=arm,
-                        session=folder, channel=channel)
+                        session=folder, channel=channel, figure=identify_figure)
 
     _in_own_process(link, folder, cpus, leg_path, child_path, identification)
 

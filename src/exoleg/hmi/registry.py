@@ -41,7 +41,7 @@ MIGRATIONS: dict[int, str] = {
         id INTEGER PRIMARY KEY AUTOINCREMENT,
         child_id TEXT NOT NULL REFERENCES children(id),
         time REAL NOT NULL,
-        record TEXT NOT NULL,   -- the fit record (JSON, exoleg.sizing.report)
+        record TEXT NOT NULL,   -- the fit record (JSON, exoleg.design.report)
         leg TEXT NOT NULL);     -- the leg file it made (TOML)
     CREATE TABLE sessions (
         name TEXT PRIMARY KEY,  -- the session's folder in the sessions folder

@@ -320,9 +320,9 @@ class HMI:
         measured dimensions cm) and keep the fit for the next session."""
         import warnings
 
+        from exoleg.design.report import fit_report
         from exoleg.entry import CHILD_ENTRY, MEASURED
         from exoleg.sizing import Child
-        from exoleg.sizing.report import fit_report
 
         def typed(k: str, v: Any, kind: str) -> float:
             lo, hi, unit = CHILD_ENTRY[kind]

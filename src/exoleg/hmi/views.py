@@ -21,11 +21,11 @@ def device_info(leg: Any) -> dict[str, Any]:
     """What the live page draws with: link lengths and D-H offsets (the same kinematics
     as :func:`exoleg.kinematics.forward_kinematics`), the range of motion, the FSR
     positions, each actuator's torque limits and torque-speed envelope (SI units)."""
-    from exoleg.control.contract import SENSOR_POINTS
     from exoleg.device.actuator import envelope, paper_actuators
     from exoleg.device.sensors import SENSOR_X
     from exoleg.dynamics._generated import OFFSETS
     from exoleg.params import paper
+    from exoleg.tick import SENSOR_POINTS
 
     acts = paper_actuators()
     rom = paper.range_of_motion()
@@ -53,8 +53,8 @@ def ended_record(name: str, stopped_by: str, link: LoopLink) -> dict[str, Any]:
     """How session ``name`` ended, as every page shows it until its operator acknowledges
     it: ``stopped_by`` (the session's own words), when, the last mode and the fault
     latched (named, with its value against its limit) from the loop's last publication."""
-    from exoleg.control.contract import Mode
     from exoleg.control.safety import fault_detail
+    from exoleg.tick import Mode
 
     last = LoopLink.snapshot(link.web_copy())
     return {"session": name, "stopped_by": stopped_by, "time": time.time(),

@@ -24,6 +24,7 @@ predicts torque it was not fitted to.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -124,16 +125,16 @@ def estimate_from_log(cols: dict[str, F64], period: float, reference: PlanRefere
                       prior: LegModel, friction_smoothing: F64,
                       child: ChildModel | None = None, prior_sds: F64 | None = None
                       ) -> tuple[Measured, Identified]:
-    """The leg identified from a session log's columns (:func:`~exoleg.runtime.log.read_log`)
+    """The leg identified from a session log's columns (:func:`~exoleg.session_log.read_log`)
     of ``reference`` played at ``period`` s: the plan's clock from the first WALKING tick
     (the tracking controller's reference runs from there), its last period held out;
     ``child``: the relaxed child's own torques at their model (:func:`child_torques`, on
     the encoders' angles and the drives' filtered rates) added to the drives' torque
     (the drives work against them); ``prior_sds``: the prior's SDs (default
     :func:`~exoleg.identify.estimate.prior_sd`)."""
-    from exoleg.control.contract import Mode
     from exoleg.identify.estimate import identify_leg
     from exoleg.identify.signals import HALF_WINDOW, derivatives
+    from exoleg.tick import Mode
 
     where = "exoleg identify"
     walking = np.flatnonzero(cols["mode"] == Mode.WALKING)
@@ -219,13 +220,15 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
                     channel: str = "exoleg", realtime: bool = True,
                     truth: LegModel | None = None, candidates: int = 20,
                     device_alone: bool = False, device: str | Path | None = None,
-                    link: Any = None, arm: bool = True, session: str | Path | None = None
+                    link: Any = None, arm: bool = True, session: str | Path | None = None,
+                    figure: Callable[[DeviceIdentification, Path], Any] | None = None
                     ) -> DeviceIdentification:
     """Design a plan for the fitted ``leg`` (the child + device model, without the
     actuators: the device file's are added), play it on ``backend`` in a session under
     ``out``/session, identify the leg from the log and write into ``out``: the
     identified leg file (``leg.toml``), the parameters with their 95 % intervals
-    (``parameters.csv``), ``identify.json`` and the held-out torque figure
+    (``parameters.csv``), ``identify.json`` and, given ``figure`` (the faces give
+    :func:`exoleg.plots.identify.identify_figure`), the held-out torque figure
     (``identify.png``). ``child``: the :class:`~exoleg.child.model.ChildModel` in the
     device (relaxed: their effort off; their passive moments held at their model);
     ``truth``: on a simulated device, the leg it carries when not the model's (what a
@@ -238,13 +241,13 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
     holds the child's share of the base parameters."""
     import exoleg
     from exoleg.child.interaction import device_leg
-    from exoleg.device.config import DeviceConfig
     from exoleg.identify.base import actuator_friction
     from exoleg.identify.plan import check_plan, condition, design_plan, plan_limits
     from exoleg.io import OutputFolder, write_json
-    from exoleg.runtime.log import read_log
     from exoleg.runtime.loop import ENDS, REFERENCE_PLAYED
     from exoleg.runtime.session import DEFAULT_BODY_MASS, check_folder, run, simulated
+    from exoleg.session_log import read_log
+    from exoleg.system.config import DeviceConfig
 
     where = "exoleg identify"
     if link is None and not simulated(backend, interface):
@@ -324,13 +327,12 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
                                  condition=condition(plan, fitted), held_out_rms=rms,
                                  held_out_pct=held, measured=m, predicted=pred,
                                  details=extra)
-    from exoleg.plots.identify import identify_figure
-
     with OutputFolder(folder) as o:
         exoleg.save_leg(r.leg, o.stage("leg.toml"), header=f"identified on the device "
                         f"({backend}, {stage}) from {r.samples} samples; prior: {leg.name}")
         _write_parameters(r, o.stage("parameters.csv"))
-        identify_figure(ident, o.stage("identify.png"))
+        if figure is not None:
+            figure(ident, o.stage("identify.png"))
         write_json(o.stage("identify.json"), {**ident.summary(), "backend": backend,
                                               "session": str(path), "prior": leg.name})
         o.commit(last="identify.json")

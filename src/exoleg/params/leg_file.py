@@ -38,10 +38,10 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+from exoleg import checks as _check
 from exoleg.errors import ParameterError
 from exoleg.inertia import RigidBody, compose
 from exoleg.io import read_text
-from exoleg.params import _check
 from exoleg.params.records import LINKS, Link, com_offset
 
 #: What a leg file may hold, SI units. A link of a child's leg with the device on it:

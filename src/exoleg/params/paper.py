@@ -15,9 +15,9 @@ from typing import Any, Literal
 
 import numpy as np
 
+from exoleg import checks as _check
 from exoleg.errors import ParameterError
 from exoleg.inertia import RigidBody, remainder
-from exoleg.params import _check
 from exoleg.params.records import JOINTS, LINKS, Actuator, Gains, Link, RangeOfMotion
 
 Variant = Literal["simplified", "detailed"]

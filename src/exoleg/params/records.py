@@ -12,9 +12,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from exoleg import checks as _check
 from exoleg.errors import ParameterError
 from exoleg.inertia import RigidBody, compose
-from exoleg.params import _check
 
 #: Joint names, in the order of every joint vector (q is hip, knee, ankle).
 JOINTS = ("hip", "knee", "ankle")

@@ -69,10 +69,10 @@ def support_figure(r: WalkResult, child: ChildModel, strikes: Any, path: str | P
     import numpy as np
 
     from exoleg.child.model import intended_gait
-    from exoleg.control.contract import Mode
     from exoleg.io import atomic_path
     from exoleg.params.records import JOINTS
     from exoleg.sim.metrics import support_per_stride
+    from exoleg.tick import Mode
 
     fig = new_figure(12, 9.5, left=0.06, right=0.98, top=0.94, bottom=0.06, wspace=0.28,
                      hspace=0.45)

@@ -204,9 +204,9 @@ def walk_figure(result: WalkResult, path: str | Path) -> Path:
     +- 1 SD); middle, the last three strides' FSR readings, the detected phase against
     the true contacts, the foot gyroscope; bottom, each joint's delivered torque against
     its speed over the actuator's envelope."""
-    from exoleg.control.contract import SENSOR_POINTS, Mode
     from exoleg.control.gait_phase import Phase
     from exoleg.reference.gait import gait_angles
+    from exoleg.tick import SENSOR_POINTS, Mode
 
     r = result
     fig = new_figure(12, 9.5, left=0.06, right=0.98, top=0.94, bottom=0.06, wspace=0.28,
@@ -260,11 +260,11 @@ def session_figure(log_path: str | Path, path: str | Path) -> Path:
     measured angle (deg) with the supervisor's mode shaded; middle, each joint's commanded
     torque against its speed over the actuator's envelope; bottom, the FSR readings, the
     detected gait phase, and the loop's lateness per tick."""
-    from exoleg.control.contract import Mode
     from exoleg.control.gait_phase import Phase
     from exoleg.device.actuator import paper_actuators
     from exoleg.io import atomic_path
-    from exoleg.runtime.log import read_log
+    from exoleg.session_log import read_log
+    from exoleg.tick import Mode
 
     header, c, _ = read_log(log_path)
     t = c["t"]

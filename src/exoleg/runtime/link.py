@@ -33,10 +33,10 @@ from typing import Any
 
 import numpy as np
 
-from exoleg.control.contract import OUTPUT, SENSORS, Command
 from exoleg.control.gait_phase import Event
 from exoleg.control.hierarchy import PARAMS, TUNABLE
 from exoleg.runtime.loop import END_SESSION, LINK_LOST
+from exoleg.tick import OUTPUT, SENSORS, Command
 
 #: gains the operator may change, in the order they sit in the shared block
 GAIN_NAMES = TUNABLE

@@ -32,7 +32,12 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from exoleg.control.contract import (
+from exoleg.control.safety import fault_event
+from exoleg.runtime.clock import RateClock
+from exoleg.runtime.realtime import realtime_settings, saved_scheduling
+from exoleg.runtime.watch import SensorWatch
+from exoleg.session_log import SessionLog
+from exoleg.tick import (
     ARMED_MODES,
     OUTPUT,
     WALKING_MODES,
@@ -40,14 +45,9 @@ from exoleg.control.contract import (
     Mode,
     output_columns,
 )
-from exoleg.control.safety import fault_event
-from exoleg.runtime.clock import RateClock
-from exoleg.runtime.log import SessionLog
-from exoleg.runtime.realtime import realtime_settings, saved_scheduling
-from exoleg.runtime.watch import SensorWatch
 
 if TYPE_CHECKING:
-    from exoleg.control.contract import Controller
+    from exoleg.tick import Controller
 
 F64 = NDArray[np.float64]
 

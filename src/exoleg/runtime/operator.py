@@ -22,11 +22,11 @@ import time
 from pathlib import Path
 from typing import Any
 
-from exoleg.control.contract import ARMED_MODES, Command, Mode
 from exoleg.control.hierarchy import BOUNDS
 from exoleg.control.safety import fault_detail
 from exoleg.control.supervisor import refusal
 from exoleg.runtime.link import GAIN_NAMES, LoopLink
+from exoleg.tick import ARMED_MODES, Command, Mode
 
 #: the operator's commands by the names the API takes, from the enumeration
 COMMANDS = {m.name.lower(): m for m in Command if m != Command.NONE}

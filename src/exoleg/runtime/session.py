@@ -10,11 +10,10 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from exoleg import checks as _check
 from exoleg.entry import CONTROLLERS, DEFAULT_BODY_MASS, WALKING_CONTROLLERS
 from exoleg.errors import ParameterError
-from exoleg.params import _check
 from exoleg.runtime.device_lock import device_name, hold_device, let_go
-from exoleg.runtime.log import MAX_LOSS_TICKS, SessionLog, check_session, read_log
 from exoleg.runtime.loop import (
     LOG_HEAD,
     LOG_TAIL,
@@ -24,11 +23,12 @@ from exoleg.runtime.loop import (
     SessionResult,
     run_session,
 )
+from exoleg.session_log import MAX_LOSS_TICKS, SessionLog, check_session, read_log
 
 if TYPE_CHECKING:
-    from exoleg.control.contract import Controller
-    from exoleg.device.config import DeviceConfig
     from exoleg.dynamics.model import LegModel
+    from exoleg.system.config import DeviceConfig
+    from exoleg.tick import Controller
 
 BACKENDS = ("sim", "canopen", "ethercat")
 #: the --interface that puts simulated nodes on the bus (hardware in the loop)
@@ -170,8 +170,9 @@ def make_controller(name: str, config: DeviceConfig, leg: LegModel, body_mass: f
         if sim is not None:
             return cast("Controller", sim.controller)
         from exoleg.control.transparency import support_mode_of
-        from exoleg.device.config import walk_controller
-        from exoleg.device.walking import ANKLE_HEIGHT, Ground, body_weight_share
+        from exoleg.device.ground import ANKLE_HEIGHT, Ground
+        from exoleg.sizing.anthropometry import body_weight_share
+        from exoleg.system.config import walk_controller
 
         depth = ANKLE_HEIGHT + Ground.default(config.folder).sole
         return walk_controller(config, leg, body_weight_share(body_mass), depth,
@@ -295,11 +296,11 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
          ) -> tuple[SessionResult, Path]:
     """:func:`run` in the folder it holds."""
     import exoleg
-    from exoleg.control.contract import WALKING_MODES, Command
     from exoleg.control.transparency import support_mode_of
-    from exoleg.device.config import DeviceConfig
     from exoleg.io import write_json
     from exoleg.runtime.sim_backend import SimBackend
+    from exoleg.system.config import DeviceConfig
+    from exoleg.tick import WALKING_MODES, Command
 
     leg = leg if leg is not None else exoleg.paper_leg()
     config = DeviceConfig.load(control_dt=period)

@@ -9,11 +9,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from exoleg.control.contract import SENSORS
 from exoleg.dynamics.model import LegModel
 from exoleg.layout import new
 from exoleg.params.records import JOINTS
 from exoleg.sim.device import SimulatedDevice, device_actuate, device_sense, prepare_walk
+from exoleg.tick import SENSORS
 
 F64 = NDArray[np.float64]
 _CHUNK = 4096  # ticks of noise drawn at once

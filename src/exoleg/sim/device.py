@@ -4,7 +4,7 @@ the velocity filter), its drives and the plant stepped under a command
 (:func:`device_actuate`: the envelope, the current loop, ``substeps`` RK4 steps with the
 contact and support forces of each step's start, the actuators' friction in every
 stage), and how it is made for a leg and a child (:func:`prepare_walk`) from a
-:class:`~exoleg.device.config.DeviceConfig` and the treadmill's scenery
+:class:`~exoleg.system.config.DeviceConfig` and the treadmill's scenery
 (:mod:`exoleg.sim.treadmill`). ``exoleg simulate --walk`` loops over these in one
 compiled run (:mod:`exoleg.sim.walk`); the runtime's ``sim`` backend calls them each
 tick (:mod:`exoleg.runtime.sim_backend`)."""
@@ -34,12 +34,13 @@ from exoleg.device.actuator import (
     filter_gain,
     params_array,
 )
-from exoleg.device.config import DeviceConfig, walk_controller
+from exoleg.device.ground import ANKLE_HEIGHT, SOLE_MAX, Ground
 from exoleg.device.sensors import FootSensors, fsr_counts, fsr_response, imu
-from exoleg.device.walking import (
-    ANKLE_HEIGHT,
-    SOLE_MAX,
-    Ground,
+from exoleg.dynamics.kernels import foot_point
+from exoleg.dynamics.model import LegModel
+from exoleg.errors import ParameterError
+from exoleg.layout import F8, new
+from exoleg.sim.plant import (
     WalkingPlant,
     contact_forces,
     contact_points,
@@ -47,11 +48,8 @@ from exoleg.device.walking import (
     step_contacts,
     walking_step,
 )
-from exoleg.dynamics.kernels import foot_point
-from exoleg.dynamics.model import LegModel
-from exoleg.errors import ParameterError
-from exoleg.layout import F8, new
 from exoleg.sim.treadmill import belt_speed_for, other_leg_support
+from exoleg.system.config import DeviceConfig, walk_controller
 
 F64 = NDArray[np.float64]
 
@@ -289,10 +287,10 @@ def prepare_walk(leg: LegModel, body_mass: float, speed: str = "Free",
     (:class:`~exoleg.child.model.ChildModel`; None: a passive leg, as the paper's).
     ``step`` > 0 (m): the child stands on a step this high beside the belt, on the other
     leg, the device's leg hanging free above the belt (identification's setting)."""
-    from exoleg.device.walking import body_weight_share
     from exoleg.entry import BODY_MASS
     from exoleg.reference.gait import SchwartzGait2008
     from exoleg.sim.closed_loop import check_inputs
+    from exoleg.sizing.anthropometry import body_weight_share
 
     check_inputs("simulate_walk", leg)
 

@@ -1,7 +1,6 @@
-"""What a run is judged by: the true contact events (from the noise-free contact forces,
-the detector's definitions without its thresholds on counts or its debounce), the table
-of detected against true events (:func:`detection_table`), and what a run asked of each
-actuator against its limits (:func:`actuator_peaks`)."""
+"""What a run is judged by: the table of detected against the true contact events
+(:func:`detection_table`; the true events: :func:`exoleg.sim.events.true_events`), and
+what a run asked of each actuator against its limits (:func:`actuator_peaks`)."""
 
 from __future__ import annotations
 
@@ -11,55 +10,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from exoleg.params.records import JOINTS
+from exoleg.sim.events import true_events  # noqa: F401  (its old home, for one release)
 
 if TYPE_CHECKING:
     from exoleg.sim.walk import WalkResult
 
 F64 = NDArray[np.float64]
-
-#: A region of the foot is loaded, for the true events, above this normal force, N.
-TRUE_CONTACT_N = 5.0
-
-
-def true_events(force: F64, threshold: float = TRUE_CONTACT_N, dt: float = 1e-3,
-                min_swing: float = 0.15, min_stance: float = 0.15,
-                ahead: NDArray[np.bool_] | None = None) -> NDArray[np.int64]:
-    """Event bits (IC 1, FF 2, HO 4, TO 8) per sample from contact forces (N, 4), sampled
-    every ``dt`` s: the detector's definitions on the true forces, without noise,
-    normalisation or debounce; a stride's contact (IC) needs ``min_swing`` s without one
-    before it, its toe off ``min_stance`` s after its IC (a toe tapping the belt in early
-    swing is not a stride); with ``ahead`` (per sample: the ankle ahead of the hip), a
-    stride's contact is the foot landing ahead of the hip -- a toe scuffing the belt
-    behind it in swing is not one."""
-    heel = force[:, 0] > threshold
-    fore = force[:, 1:].max(axis=1) > threshold
-    land = np.ones(len(force), dtype=bool) if ahead is None else ahead
-    out = np.zeros(len(force), dtype=np.int64)
-    phase = 0  # swing
-    k_ic = k_to = -10**9
-    for k in range(len(force)):
-        h, f = heel[k], fore[k]
-        if phase == 0:
-            if (h or f) and land[k] and (k - k_to) * dt >= min_swing:
-                k_ic = k
-                out[k] |= 1
-                phase = 1
-                if h and f:
-                    out[k] |= 2
-                    phase = 2
-        elif not h and not f:
-            if (k - k_ic) * dt >= min_stance:
-                out[k] |= 8
-                phase = 0
-                k_to = k
-        elif phase == 1 and h and f:
-            out[k] |= 2
-            phase = 2
-        elif phase == 2 and f and not h:
-            out[k] |= 4
-            phase = 3
-    return out
-
 
 
 def detection_table(results: list[WalkResult], window: float = 0.2) -> list[dict[str, Any]]:

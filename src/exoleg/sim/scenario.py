@@ -13,12 +13,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from exoleg.control.controllers import Controller, PDGravity
+from exoleg.control.controllers import Controller
 from exoleg.dynamics.model import LegModel
 from exoleg.params import paper
 from exoleg.params.records import JOINTS
@@ -31,6 +31,18 @@ F64 = NDArray[np.float64]
 STANCE_FRACTION = 0.30  # mid-stance, fraction of the gait cycle (Schwartz 2008)
 SWING_FRACTION = 0.73   # mid-swing: largest knee flexion
 SEGMENT = 3.0           # s between reference changes (paper section 6)
+
+
+class Engine(Protocol):
+    """An independent engine that steps a leg under a sampled controller
+    (:class:`exoleg.validate.engines.MujocoLeg`)."""
+
+    name: str
+
+    def closed_loop(self, controller: Any, q_ref: F64, dq_ref: F64, ddq_ref: F64, hold: int,
+                    q0: F64, dq0: F64) -> F64:
+        """q (N, 3) at every step under ``controller`` sampled every ``hold`` steps."""
+        ...
 
 
 def paper_postures() -> tuple[F64, F64]:
@@ -141,15 +153,16 @@ def run_scenario(leg: LegModel, controller: Controller, reference: Reference, du
                  dt: float = 1e-3, control_dt: float | None = None,
                  q0: ArrayLike | None = None, dq0: ArrayLike | None = None,
                  detailed: LegModel | None = None, detailed_scale: float = 2.0,
-                 engine: str | None = "mujoco", changes: ArrayLike | None = None,
+                 engine: Engine | None = None, changes: ArrayLike | None = None,
                  progress: Callable[[str, float], None] | None = None,
                  beyond_range_of_motion: bool = False) -> ScenarioReport:
     """Simulate ``leg`` under ``controller`` and compare as the paper did.
 
     ``detailed``: a second plant (e.g. the welded detailed model) driven by the same
     controller with its torque times ``detailed_scale`` (paper Fig. 13D).
-    ``engine``: ``"mujoco"`` steps the exported MJCF with its own RK4 under the same
-    sampled controller (Fig. 13E); None skips it. ``changes``: times at which the
+    ``engine``: an independent engine stepping the same leg under the same sampled
+    controller (Fig. 13E: MuJoCo's own RK4 on the exported MJCF,
+    :func:`exoleg.validate.engines.scenario_engine`); None skips it. ``changes``: times at which the
     reference jumps (for the per-segment figures); defaults to the Steps' times.
     ``beyond_range_of_motion``: see :func:`~exoleg.sim.closed_loop.simulate`.
     """
@@ -169,32 +182,13 @@ def run_scenario(leg: LegModel, controller: Controller, reference: Reference, du
                        duration, dt, res.q[0], res.dq[0], control_dt, progress=tick("detailed"),
                        beyond_range_of_motion=beyond_range_of_motion)
     eq, ename = None, ""
-    if engine == "mujoco":
-        from exoleg.validate.engines import MujocoLeg, have
-
-        if have("mujoco"):
-            if progress is not None:
-                progress("MuJoCo", 0.0)
-            eng = MujocoLeg(leg, timestep=dt)
-            _, dqr, ddqr = reference.sample(res.t)
-            eq = eng.closed_loop(controller, res.q_ref, dqr, ddqr, hold, res.q[0], res.dq[0])
-            ename = "MuJoCo"
-            if progress is not None:
-                progress("MuJoCo", 1.0)
-        else:
-            notes.append("MuJoCo not installed: engine comparison skipped "
-                         "(pip install exoleg[validate])")
+    if engine is not None:
+        if progress is not None:
+            progress(engine.name, 0.0)
+        _, dqr, ddqr = reference.sample(res.t)
+        eq = engine.closed_loop(controller, res.q_ref, dqr, ddqr, hold, res.q[0], res.dq[0])
+        ename = engine.name
+        if progress is not None:
+            progress(engine.name, 1.0)
     return ScenarioReport(result=res, controller=controller, reference_changes=ch, detailed=det,
                           engine_q=eq, engine_name=ename, notes=notes)
-
-
-def paper_scenario(engine: str | None = "mujoco", dt: float = 1e-3,
-                   progress: Callable[[str, float], None] | None = None) -> ScenarioReport:
-    """The paper's section 6 scenario on Table 5's simplified leg, the detailed (welded)
-    leg driven with doubled torques, and MuJoCo."""
-    from exoleg import paper_leg
-
-    leg = paper_leg("simplified")
-    return run_scenario(leg, PDGravity(leg), paper_reference(), duration=4 * SEGMENT, dt=dt,
-                        q0=np.zeros(3), detailed=paper_leg("detailed"), engine=engine,
-                        progress=progress)

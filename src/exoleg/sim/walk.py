@@ -9,7 +9,7 @@ Every control tick (1 kHz):
    detection, supervisor, reference at the detected phase, phase-scheduled impedance
    with the current pendulum's gravity model, safety layer;
 3. the drives: envelope at the measured speed, current loop;
-4. the plant (:mod:`exoleg.device.walking`): ``substeps`` RK4 steps per tick with the
+4. the plant (:mod:`exoleg.sim.plant`): ``substeps`` RK4 steps per tick with the
    contact and support forces of each step's start, the actuators' friction in every
    stage.
 
@@ -31,20 +31,21 @@ from numpy.typing import NDArray
 
 from exoleg.child.model import ChildModel
 from exoleg.child.passive import passive_moments
-from exoleg.control.contract import OUTPUT, SENSOR_POINTS, SENSORS, Command, Mode
 from exoleg.control.hierarchy import WalkGains, walk_control_step
 from exoleg.control.safety import SafetyLimits
 from exoleg.control.transparency import PARTS, SupportMode
 from exoleg.device.actuator import ActuatorModel, drive_limit
 from exoleg.device.faults import SensorFault, apply_faults, fault_records
+from exoleg.device.ground import ANKLE_HEIGHT, Ground
 from exoleg.device.sensors import FootSensors, draw_noise
-from exoleg.device.walking import ANKLE_HEIGHT, Ground, WalkingPlant
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError, SimulationError
 from exoleg.params.records import JOINTS
 from exoleg.sim.device import device_actuate, device_sense, prepare_walk
-from exoleg.sim.metrics import true_events
+from exoleg.sim.events import true_events
+from exoleg.sim.plant import WalkingPlant
 from exoleg.sim.series import TimeSeries
+from exoleg.tick import OUTPUT, SENSOR_POINTS, SENSORS, Command, Mode
 
 F64 = NDArray[np.float64]
 
@@ -210,7 +211,7 @@ class WalkResult(TimeSeries):
 def check_step(plant: WalkingPlant, h: float, folder: Path | None) -> None:
     """Refuses (ParameterError naming the ground's file and field) a contact the plant's
     RK4 step of ``h`` s would integrate into divergence
-    (:meth:`~exoleg.device.walking.WalkingPlant.step_problem`)."""
+    (:meth:`~exoleg.sim.plant.WalkingPlant.step_problem`)."""
     why = plant.step_problem(h)
     if why:
         where = "walking.toml" if folder is None else f"{folder}/walking.toml"
@@ -231,7 +232,7 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                   faults: Sequence[SensorFault] = ()) -> WalkResult:
     """Walk ``leg`` (without actuators; theirs are added) on the treadmill for ``strides``
     strides of ``stride_time`` s after ``standing`` s of quiet stance; ``body_mass`` is
-    the child's (the pelvis carries :func:`exoleg.device.walking.body_weight_share`).
+    the child's (the pelvis carries :func:`exoleg.sim.plant.body_weight_share`).
     ``noise_scale`` multiplies the sensors' noise (0: ideal); ``seed`` fixes it.
     ``device``: a device folder (:mod:`exoleg.device.files`) whose files replace the
     shipped actuators, sensors, detector settings, gains, safety limits and ground.

@@ -213,3 +213,20 @@ def estimate_dimensions(child: Child, leg_length_method: LegLengthMethod = "line
         foot_length=pick("foot_length", DRILLIS["foot_length"] * H,
                          "Drillis & Contini 1966 proportion of height"),
         leg_length=ll, sources=src)
+
+
+#: A whole leg's share of body mass: thigh 0.100 + shank 0.0465 + foot 0.0145 (Dempster's
+#: fractions as tabulated by Winter, Biomechanics and Motor Control of Human Movement).
+LEG_FRACTION = 0.161
+
+
+def body_weight_share(body_mass: float) -> float:
+    """Mass the pelvis carries, kg: the child's body less both legs (:data:`LEG_FRACTION`
+    each; this leg and the device are the leg model's, the other leg is the actor's)."""
+    return body_mass * (1.0 - 2.0 * LEG_FRACTION)
+
+
+def body_mass_of(share: float) -> float:
+    """The child's body mass, kg, whose pelvis carries ``share`` kg
+    (:func:`body_weight_share`'s inverse)."""
+    return share / (1.0 - 2.0 * LEG_FRACTION)

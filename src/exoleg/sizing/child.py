@@ -8,8 +8,8 @@ from typing import Literal
 
 import numpy as np
 
+from exoleg import checks as _check
 from exoleg.errors import ParameterError
-from exoleg.params import _check
 from exoleg.sizing import growth
 
 #: The device was designed for these children (paper section 2).
@@ -117,3 +117,27 @@ class Child:
         """The chart used for each measure at this age (``{"height": ..., "weight": ...}``):
         for a typically developing child CDC 2000 where WHO 2007 has no row."""
         return {m: growth.chart_for(self.gmfcs, m, self.age) for m in ("height", "weight")}
+
+
+def group_name(g: int | None) -> str:
+    return "TD" if g is None else f"GMFCS {'I II III IV V'.split()[g - 1]}"
+
+
+def _mass(group: int | None, sex: str, age: float, pct: float) -> tuple[float, str]:
+    chart = growth.chart_for(group, "weight", age)
+    note = "" if chart == growth.chart_for(group) else (
+        f"mass from {chart} ({growth.chart_for(group)} has no weight at {age:g} y)")
+    return growth.value_at(chart, sex, "weight", age, pct), note
+
+
+def population_child(group: int | None, sex: str, age: float, pct: float) -> tuple[Child, str]:
+    """The child of a growth chart: height and mass at the same percentile ``pct`` of its
+    group's chart (GMFCS 1-4: Brooks 2011; None: WHO 2007, CDC 2000 where WHO has no row)
+    at ``age``, and a note when the mass came from another chart."""
+    h = growth.value_at(growth.chart_for(group), sex, "height", age, pct)
+    m, note = _mass(group, sex, age, pct)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DesignRangeWarning)
+        c = Child(age=age, sex=sex, height=h, mass=m, gmfcs=group,  # type: ignore[arg-type]
+                  name=f"{group_name(group)} {sex} {age:g} y P{pct:g}")
+    return c, note

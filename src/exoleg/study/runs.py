@@ -48,8 +48,7 @@ INTERACTION_METRICS = ("interaction_rms_Nm_per_kg", "interaction_peak_Nm_per_kg"
 
 def _child(run: dict[str, Any]) -> Any:
     from exoleg.sizing import Child
-    from exoleg.sizing.child import DesignRangeWarning
-    from exoleg.sizing.population import population_child
+    from exoleg.sizing.child import DesignRangeWarning, population_child
 
     prof = run.get("profile")
     if prof is not None:

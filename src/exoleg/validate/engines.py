@@ -8,13 +8,17 @@ time: ``M(q)``, ``Cdq(q, dq)``, ``G(q)``, ``forward_dynamics(q, dq, tau)``.
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from exoleg.dynamics.model import LegModel
 from exoleg.export.writers import Mode, to_mjcf, to_urdf
+
+if TYPE_CHECKING:
+    from exoleg.sim.scenario import ScenarioReport
 
 F64 = NDArray[np.float64]
 
@@ -127,3 +131,30 @@ class MujocoLeg:
             mj.mj_step(m, d)
             out[k + 1] = qpos
         return out
+
+
+def scenario_engine(leg: LegModel, dt: float) -> tuple[MujocoLeg | None, str | None]:
+    """MuJoCo for the scenario's engine comparison (Fig. 13E) at the simulator's step
+    ``dt``, or None and why not (MuJoCo not installed)."""
+    if not have("mujoco"):
+        return None, ("MuJoCo not installed: engine comparison skipped "
+                      "(pip install exoleg[validate])")
+    return MujocoLeg(leg, timestep=dt), None
+
+
+def paper_scenario(engine: str | None = "mujoco", dt: float = 1e-3,
+                   progress: Callable[[str, float], None] | None = None) -> ScenarioReport:
+    """The paper's section 6 scenario on Table 5's simplified leg, the detailed (welded)
+    leg driven with doubled torques, and (``engine="mujoco"``) MuJoCo."""
+    from exoleg import paper_leg
+    from exoleg.control.controllers import PDGravity
+    from exoleg.sim.scenario import SEGMENT, paper_reference, run_scenario
+
+    leg = paper_leg("simplified")
+    eng, note = scenario_engine(leg, dt) if engine == "mujoco" else (None, None)
+    report = run_scenario(leg, PDGravity(leg), paper_reference(), duration=4 * SEGMENT,
+                          dt=dt, q0=np.zeros(3), detailed=paper_leg("detailed"),
+                          engine=eng, progress=progress)
+    if note:
+        report.notes.append(note)
+    return report

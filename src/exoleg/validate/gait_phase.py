@@ -91,10 +91,10 @@ def _walker(age: float, sex: str, gmfcs: int | None,
             actor: dict[str, Any]) -> tuple[Any, float, float, Any]:
     """(personalized leg, body mass kg, ankle height m, the child as an actor) of a child
     at the 50th percentile of their growth charts
-    (:func:`~exoleg.sizing.population.population_child`)."""
+    (:func:`~exoleg.sizing.child.population_child`)."""
     from exoleg.child.model import ChildModel
     from exoleg.sizing import estimate_dimensions, fit_device, personalized_leg
-    from exoleg.sizing.population import population_child
+    from exoleg.sizing.child import population_child
 
     child, _ = population_child(gmfcs, sex, age, 50.0)
     leg = personalized_leg(child, fit_device(child))
@@ -107,7 +107,7 @@ def _stop(strides: int, stride_time: float, again: bool = False, standing: float
     """The operator's commands per tick for :func:`~exoleg.sim.walk.simulate_walk`: arm,
     walk after ``standing`` s, stand after two thirds of the strides -- or, ``again``,
     stand after a third and walk again after two thirds."""
-    from exoleg.control.contract import Command
+    from exoleg.tick import Command
 
     n = int(round((standing + strides * stride_time) / dt))
     c = np.zeros(n + 1, dtype=np.int64)
@@ -218,7 +218,7 @@ def fault_cases(results: list[Any], stride_time: float = 1.1,
     events."""
     from exoleg.control import gait_phase as gp
     from exoleg.control.replay import detect_all, event_rows
-    from exoleg.device.config import DeviceConfig
+    from exoleg.system.config import DeviceConfig
 
     cfg = DeviceConfig.load()
     d = cfg.detector.record(cfg.fsr_floor_counts, stride_time, cfg.sensors.gyro_range,

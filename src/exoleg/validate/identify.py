@@ -271,8 +271,8 @@ def walking_tracking(c: ChildIdentification, strides: int = 10) -> dict[str, F64
     the tracking error's RMS per joint (rad) over the strides after the first two; {}
     when the walk with the true leg faults or tracks worse than :data:`CARRIED_DEG` at
     a joint (the device does not carry this child)."""
-    from exoleg.control.contract import Mode
     from exoleg.sim.walk import simulate_walk
+    from exoleg.tick import Mode
 
     bare, models = _models(c)
     out = {}
@@ -316,7 +316,7 @@ def posture_errors(c: ChildIdentification) -> dict[str, float]:
 def children(n: int, seed: int = 0) -> list[Any]:
     """``n`` children of the design range: ages 8-12, both sexes, typically developing
     and GMFCS I-IV, percentiles 10-90, drawn with ``seed``."""
-    from exoleg.sizing.population import population_child
+    from exoleg.sizing.child import population_child
 
     rng = np.random.default_rng(seed)
     out: list[Any] = []

@@ -9,7 +9,7 @@ deliver (the gear's working limit). Whatever is beyond the drives the child move
 controller takes it away, so its RMS is the floor of the transparent mode's residual.
 
 **The walk**: a typically developing child (the 50th percentile 10-year-old girl of
-the WHO / CDC charts, :func:`~exoleg.sizing.population.population_child`) walking in the
+the WHO / CDC charts, :func:`~exoleg.sizing.child.population_child`) walking in the
 device in the transparent mode. Each part of the transparent law is logged
 (:attr:`~exoleg.sim.walk.WalkResult.transparent_parts`), so the one run shows what the
 child would feel on this motion without each: the cuffs' torque plus the parts left out,
@@ -133,10 +133,10 @@ def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0) -> Tran
     from exoleg.child.model import ChildModel
     from exoleg.control.safety import Limited
     from exoleg.control.transparency import SupportMode
-    from exoleg.device.config import DeviceConfig
     from exoleg.sim.walk import simulate_walk
     from exoleg.sizing import personalized_leg
-    from exoleg.sizing.population import population_child
+    from exoleg.sizing.child import population_child
+    from exoleg.system.config import DeviceConfig
 
     c, _ = population_child(None, "female", 10.0, 50.0)
     child = ChildModel.of(c)

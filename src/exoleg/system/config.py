@@ -22,13 +22,9 @@ from exoleg.control.hierarchy import WalkController, WalkGains
 from exoleg.control.safety import SafetyLimits
 from exoleg.control.transparency import SupportMode, TransparencySettings
 from exoleg.device.actuator import ActuatorModel, paper_actuators, params_array, with_actuators
-from exoleg.device.sensors import FootSensors
+from exoleg.device.sensors import FSR_FLOOR_N, FootSensors
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
-
-#: The FSR load the detector's calibration floor starts from, N (each sensor's running
-#: maximum starts at its reading of this load: an unloaded start divides by nothing).
-FSR_FLOOR_N = 20.0
 
 
 @dataclass(frozen=True)

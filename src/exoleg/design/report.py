@@ -14,10 +14,10 @@ from typing import Any
 
 import numpy as np
 
+from exoleg.design.demand import Demand, Exceedance, actuator_demand, table2_limits
 from exoleg.dynamics.model import LegModel
 from exoleg.sizing.anthropometry import LegLengthMethod
 from exoleg.sizing.child import Child
-from exoleg.sizing.demand import Demand, Exceedance, actuator_demand, table2_limits
 from exoleg.sizing.fit import DeviceFit, fit_device
 from exoleg.sizing.personal import personalized_leg
 

@@ -1,0 +1,55 @@
+"""The true contact events of a walk: the gait-phase detector's definitions (initial
+contact, foot flat, heel off, toe off) applied to the noise-free contact forces, without
+its thresholds on counts or its debounce -- what the detected events are judged against
+(:func:`exoleg.sim.metrics.detection_table`)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+F64 = NDArray[np.float64]
+
+
+#: A region of the foot is loaded, for the true events, above this normal force, N.
+TRUE_CONTACT_N = 5.0
+
+
+def true_events(force: F64, threshold: float = TRUE_CONTACT_N, dt: float = 1e-3,
+                min_swing: float = 0.15, min_stance: float = 0.15,
+                ahead: NDArray[np.bool_] | None = None) -> NDArray[np.int64]:
+    """Event bits (IC 1, FF 2, HO 4, TO 8) per sample from contact forces (N, 4), sampled
+    every ``dt`` s: the detector's definitions on the true forces, without noise,
+    normalisation or debounce; a stride's contact (IC) needs ``min_swing`` s without one
+    before it, its toe off ``min_stance`` s after its IC (a toe tapping the belt in early
+    swing is not a stride); with ``ahead`` (per sample: the ankle ahead of the hip), a
+    stride's contact is the foot landing ahead of the hip -- a toe scuffing the belt
+    behind it in swing is not one."""
+    heel = force[:, 0] > threshold
+    fore = force[:, 1:].max(axis=1) > threshold
+    land = np.ones(len(force), dtype=bool) if ahead is None else ahead
+    out = np.zeros(len(force), dtype=np.int64)
+    phase = 0  # swing
+    k_ic = k_to = -10**9
+    for k in range(len(force)):
+        h, f = heel[k], fore[k]
+        if phase == 0:
+            if (h or f) and land[k] and (k - k_to) * dt >= min_swing:
+                k_ic = k
+                out[k] |= 1
+                phase = 1
+                if h and f:
+                    out[k] |= 2
+                    phase = 2
+        elif not h and not f:
+            if (k - k_ic) * dt >= min_stance:
+                out[k] |= 8
+                phase = 0
+                k_to = k
+        elif phase == 1 and h and f:
+            out[k] |= 2
+            phase = 2
+        elif phase == 2 and f and not h:
+            out[k] |= 4
+            phase = 3
+    return out
