@@ -40,8 +40,8 @@ from exoleg.control.laws import law
 from exoleg.control.safety import SafetyLayer, SafetyLimits, safety_step
 from exoleg.device import paper_actuators, with_actuators
 from exoleg.reference import Steps
+from exoleg.reference.paper import paper_reference
 from exoleg.sim.device_loop import simulate_device
-from exoleg.sim.scenario import paper_reference
 from exoleg.tick import OUTPUT, SENSORS, Command
 
 DURATION = 60.0
@@ -153,7 +153,8 @@ def main() -> None:
     import dataclasses
 
     from exoleg.control.transparency import SupportMode
-    from exoleg.system.config import DeviceConfig, walk_controller
+    from exoleg.system.build import walk_controller
+    from exoleg.system.config import DeviceConfig
 
     def support_tick(cfg: DeviceConfig, mode: SupportMode) -> float:
         """The walking controller's tick (s) in a support mode, compiled."""
@@ -180,7 +181,7 @@ def main() -> None:
         import mujoco
 
         from exoleg.export.writers import to_mjcf
-        from exoleg.sim.plant import WalkingPlant, contact_buffers, step_contacts
+        from exoleg.world.plant import WalkingPlant, contact_buffers, step_contacts
 
         plant = WalkingPlant.of(with_actuators(leg), 20.0, 0.8)
         m = mujoco.MjModel.from_xml_string(to_mjcf(plant.leg, timestep=5e-4,

@@ -26,8 +26,8 @@ import numpy as np
 
 import exoleg
 from exoleg.control import PDGravity
+from exoleg.reference.paper import paper_reference
 from exoleg.sim.closed_loop import _run
-from exoleg.sim.scenario import paper_reference
 
 N = 12_000
 DT = 1e-3

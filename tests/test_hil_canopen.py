@@ -137,7 +137,7 @@ def test_heartbeat_is_counted_from_the_first_exchange() -> None:
     from exoleg.system.config import DeviceConfig
 
     config = DeviceConfig.load()
-    sim = SimBackend(exoleg.paper_leg(), 30.0, 1e-3, config=config)
+    sim = SimBackend.built(exoleg.paper_leg(), 30.0, 1e-3, config=config)
     sim.configure(config.safety)
     rig = SimulatedRig(sim, "virtual", "hil-first")
     master = CanopenBackend(config.actuators, 1e-3, "virtual", "hil-first", T)

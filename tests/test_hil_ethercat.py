@@ -135,8 +135,9 @@ def test_a_wrong_pdo_mapping_stops_at_safe_op() -> None:
     from exoleg.hw.ethercat_backend import EthercatBackend
     from exoleg.hw.ethercat_sim import SimulatedSegment
     from exoleg.runtime.sim_backend import SimBackend
+    from exoleg.system.config import DeviceConfig
 
-    sim = SimBackend(exoleg.paper_leg(), 30.0)
+    sim = SimBackend.built(exoleg.paper_leg(), 30.0)
     seg = SimulatedSegment(sim)
     b = EthercatBackend(sim.dev.actuators, master=seg)
     real = b._mapper
@@ -145,7 +146,7 @@ def test_a_wrong_pdo_mapping_stops_at_safe_op() -> None:
         config = real(slave)
         return lambda pos: (config(pos), slave.sdo_log.pop())  # the last write is lost
     b._mapper = short_mapper  # type: ignore[method-assign]
-    s = sim.dev.safety
+    s = DeviceConfig.load().safety
     with pytest.raises(ParameterError, match=r"did not reach SAFE-OP: slave 1 in state 2 "
                                              r"\(AL status 0x001D\)"):
         b.start_up(s.lower, s.upper, s.hard_margin)

@@ -33,7 +33,7 @@ def _cli(*args: str) -> subprocess.CompletedProcess[str]:
 @pytest.fixture(scope="module")
 def backend_factory():  # type: ignore[no-untyped-def]
     leg = exoleg.paper_leg()
-    return lambda: SimBackend(leg, 30.0)
+    return lambda: SimBackend.built(leg, 30.0)
 
 
 def _session(tmp_path: Path, backend: SimBackend, controller, duration: float,  # type: ignore[no-untyped-def]
@@ -246,7 +246,7 @@ def test_realtime_settings_raise_the_bus_threads_and_are_undone(tmp_path: Path,
                 seen["bus_policy"] = os.sched_getscheduler(bus.native_id)
             return super().read(t)
 
-    b = Watching(exoleg.paper_leg(), 30.0, 1e-3)
+    b = Watching.built(exoleg.paper_leg(), 30.0, 1e-3)
     log = SessionLog(tmp_path / "s.log", LOG_HEAD + b.columns + LOG_TAIL, {"period": 1e-3})
     res = run_session(b, b.controller, 0.05, 1e-3, log, realtime=True, io_threads=[bus])
     release.set()

@@ -95,7 +95,7 @@ def test_the_runtime_tick_is_the_simulators_to_the_bit() -> None:
 
     leg = exoleg.paper_leg()
     r = simulate_walk(leg, 30.0, strides=2, noise_scale=0.0)
-    b = SimBackend(leg, 30.0, noise_scale=0.0)
+    b = SimBackend.built(leg, 30.0, noise_scale=0.0)
     ctl = b.controller
     n = len(r.t)
     q, u, mode = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n, dtype=int)
@@ -123,11 +123,13 @@ def test_a_real_bus_is_configured_without_a_simulator(tmp_path: Path, backend: s
                         reason="the bus's library (exoleg[hw])")
     from exoleg.errors import ParameterError
     from exoleg.runtime import sim_backend
+    from exoleg.world.device import SimulatedDevice
 
     def no_simulator(*a: object, **k: object) -> None:
         raise AssertionError("a simulated device was built for a real bus")
 
     monkeypatch.setattr(sim_backend.SimBackend, "__init__", no_simulator)
+    monkeypatch.setattr(SimulatedDevice, "of", no_simulator)
     with pytest.raises(ParameterError, match=f"cannot open '{interface}'"):
         run(backend, 1.0, tmp_path, interface=interface, channel="can-none",
             realtime=False)

@@ -196,7 +196,7 @@ def test_support_commands_apply_where_the_table_says() -> None:
 def test_a_law_other_than_the_walking_controller_refuses_a_support_mode() -> None:
     from exoleg.control.controllers import PDGravity
     from exoleg.control.tracking import TrackingController
-    from exoleg.sim.scenario import paper_reference
+    from exoleg.reference.paper import paper_reference
 
     cfg = DeviceConfig.load()
     import exoleg

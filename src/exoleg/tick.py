@@ -27,7 +27,7 @@ from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8, column_names
 from exoleg.params.records import JOINTS
 
-#: The four FlexiForce A201 points under the footplate (see :mod:`exoleg.sim.plant`).
+#: The four FlexiForce A201 points under the footplate (see :mod:`exoleg.world.plant`).
 SENSOR_POINTS = ("heel", "met1", "met5", "hallux")
 
 

@@ -18,9 +18,9 @@ import exoleg
 from exoleg.control import PDGravity
 from exoleg.control.safety import SafetyLimits
 from exoleg.device import paper_actuators, with_actuators
+from exoleg.reference.paper import paper_reference
 from exoleg.sim.closed_loop import sampled_stability
 from exoleg.sim.device_loop import simulate_device
-from exoleg.sim.scenario import paper_reference
 
 LEG = exoleg.paper_leg()
 CTRL = PDGravity(LEG)

@@ -250,7 +250,7 @@ def _stand_from_walking(leg: exoleg.LegModel, body_mass: float, t_stand: float,
     from exoleg.runtime.sim_backend import SimBackend
 
     lim = SafetyLimits.paper()
-    b = SimBackend(leg, body_mass, seed=seed)
+    b = SimBackend.built(leg, body_mass, seed=seed)
     ctl = b.controller
     ks = int(round(t_stand / 1e-3))
     worst, stood = -np.inf, np.inf

@@ -1,4 +1,4 @@
-"""The walking plant (exoleg.sim.plant): contacts and the pelvis on the leg's model.
+"""The walking plant (exoleg.world.plant): contacts and the pelvis on the leg's model.
 
 References: MuJoCo stepping the same leg on a vertical slider (its own equations, its
 RK4) under the same contact forces applied at the same points through its own Jacobian
@@ -16,7 +16,7 @@ from exoleg.child.passive import PASSIVE
 from exoleg.device import with_actuators
 from exoleg.device.actuator import ACTUATOR
 from exoleg.layout import new
-from exoleg.sim.plant import (
+from exoleg.world.plant import (
     WalkingPlant,
     contact_buffers,
     step_contacts,

@@ -7,7 +7,7 @@ motors' rotors (the reflected inertia) and its friction take:
 
 with M_d, C_d, G_d the device alone (its links with the rotors as armature) and
 p_d ddy what the pelvis's vertical acceleration asks of them (the walking plant's
-coupling, :mod:`exoleg.sim.plant`). The ground's reaction passes through the
+coupling, :mod:`exoleg.world.plant`). The ground's reaction passes through the
 footplate to the child's foot, so it is the child's, not the cuffs'. Positive moves the
 child's joint towards positive q (hip flexion, knee extension, dorsiflexion).
 """

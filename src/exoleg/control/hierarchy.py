@@ -69,6 +69,8 @@ from exoleg.dynamics.kernels import foot_point_jacobian, gravity, links_mass, ma
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, new
+from exoleg.reference.gait import MID_STANCE
+from exoleg.sizing.anthropometry import body_weight_share
 from exoleg.tick import OUTPUT, SENSORS, Command, Mode, TickRecords
 
 F64 = NDArray[np.float64]
@@ -141,7 +143,7 @@ class WalkGains:
 
 
 #: Walking starts at this fraction of the cycle (mid-stance: the gait nearest to standing).
-START_FRACTION = 0.3
+START_FRACTION = MID_STANCE
 #: The range a stand's blend may take, s: long enough for the knee to follow without
 #: overshoot, short enough to be a stop (a few strides at most).
 STAND_BLEND_S = (0.2, 3.0)
@@ -418,7 +420,10 @@ def gait_tables(speed: str = "Free", sd: float = 0.0, samples: int = 201) -> tup
 
 
 class WalkController:
-    """The hierarchy with its state, behind ``update(sensors, command, t) -> output``.
+    """The hierarchy with its state, behind ``update(sensors, command, t) -> output``,
+    for the child + device ``leg`` and a child of ``body_mass`` kg (its stance support
+    carries their body-weight share at the pelvis, assist-as-needed measures in N m/kg of
+    it).
 
     ``sensors``: a mapping of :data:`~exoleg.control.contract.SENSORS` fields -- ``q``
     and ``dq`` (measured, rad, rad/s, (3,)) and ``fsr`` (four ADC counts) required;
@@ -459,7 +464,9 @@ class WalkController:
         self.gains = WalkGains.default() if gains is None else gains
         self.detector = gp.DetectorSettings.default() if detector is None else detector
         self.safety = SafetyLimits.paper() if safety is None else safety
-        self.cp = self.gains.record(body_mass, leg.g, np.array(SENSOR_X) * float(leg.lengths[2]),
+        # the stance support carries the pelvis: the child's body less both legs
+        self.cp = self.gains.record(body_weight_share(body_mass), leg.g,
+                                    np.array(SENSOR_X) * float(leg.lengths[2]),
                                     -float(sole))  # the sensors' y in the foot frame
         self.gq, self.gdq = gait_tables(speed)
         self.cp[0]["stop_fraction"] = stop_fraction(leg, self.gq)
@@ -480,12 +487,15 @@ class WalkController:
         self.A = np.zeros(3, ACTUATOR) if actuators is None else actuators
         self.assist = AssistSettings.default() if assist is None else assist
         self.ss = new_support_state(support_mode, self.assist.first_level())
-        from exoleg.sizing.anthropometry import body_mass_of
-
-        self.ap, self.as_ = self.assist.record(body_mass_of(body_mass)), self.assist.state()
+        self.ap, self.as_ = self.assist.record(body_mass), self.assist.state()
         self.cp[0]["support_min"] = self.assist.support_min
         self.cp[0]["support_max"] = self.assist.support_max
         self.io = TickRecords("WalkController.update")
+
+    def starting_support(self) -> float:
+        """The share of the child's stance the device carries before the first tick: its
+        stance support times the support mode's first level (none when transparent)."""
+        return float(self.gains.support * np.mean(self.ss[0]["level"]))
 
     def gains_now(self) -> dict[str, list[float]]:
         """The gains in force (N m/rad, N m s/rad per joint), the support level and the

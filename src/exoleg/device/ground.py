@@ -2,7 +2,7 @@
 belt's contact and the other leg's support under the pelvis, the footplate's height and the
 sole's compliant elements from heel to toe, each sensor's on its own element. Read and
 checked here (the parts floor); the walking plant that steps them is
-:mod:`exoleg.sim.plant`."""
+:mod:`exoleg.world.plant`."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """The foot board's sensors as the board would send them (paper section 2.3).
 
-* **FSRs** (four FlexiForce A201 at :data:`exoleg.sim.plant.SENSOR_POINTS`): the
+* **FSRs** (four FlexiForce A201 at :data:`exoleg.world.plant.SENSOR_POINTS`): the
   normal force at each point -> the sheet's **hysteresis** (:func:`fsr_response`: the
   unloading curve above the loading one by up to ``hysteresis`` of full scale, at half
   scale, meeting it at no load and at full scale) and **drift** (creep: under a
@@ -139,7 +139,7 @@ def fsr_response(s, last, memory, creep, i, force, h):  # type: ignore[no-untype
     its hysteresis and drift, ``h`` s after the last call; updates its memory: per
     sensor the last normalised force ``last`` (4,), the hysteresis's direction memory
     ``memory`` (4,: -1 loading .. +1 unloading) and the creep states ``creep`` (4, 3)
-    (a device's :data:`~exoleg.sim.device.DEVICE` holds them). Hysteresis: reading = f + 2 H f (1 - f) m, the direction memory
+    (a device's :data:`~exoleg.world.device.DEVICE` holds them). Hysteresis: reading = f + 2 H f (1 - f) m, the direction memory
     m moving towards -1 while loading and +1 while unloading, all the way over a change
     of H in f -- so the two curves are 2 x H/2 = H apart at half scale (the sheet's
     figure) and meet at no load and full scale. Drift: creep states c_k relaxing to

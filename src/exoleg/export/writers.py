@@ -187,7 +187,7 @@ def to_mjcf(leg: LegModel, mode: Mode = "lumped", timestep: float = 1e-3,
     """MJCF text of ``leg``: joint ranges, torque ranges and motor actuators, armature,
     geometry; contacts off (see the module docstring). ``pelvis_mass`` (kg): the walking
     plant's pelvis -- a body at the hip carrying that mass on a vertical slide joint
-    ``pelvis_y`` (:mod:`exoleg.sim.plant`)."""
+    ``pelvis_y`` (:mod:`exoleg.world.plant`)."""
     bodies = _bodies(leg, mode)
     _frame(leg, frame)
     arm = _armature(leg, armature)

@@ -56,6 +56,10 @@ def schwartz2008(variable: str, speed: str = "Free") -> tuple[F64, F64, F64]:
 #: covers both with room. A stride of 1e308 s is a frozen reference, not a gait.
 STRIDE_TIME_RANGE = (0.4, 4.0)
 
+#: Mid-stance as a fraction of the gait cycle (Schwartz 2008): the posture nearest to
+#: standing, where a walk starts and the paper's scenario takes its stance posture.
+MID_STANCE = 0.30
+
 
 def pelvic_tilt(speed: str = "Free") -> float:
     """The pelvis's mean anterior tilt over the gait cycle (Schwartz 2008), rad: the hip

@@ -6,7 +6,7 @@ import math
 import threading
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -26,9 +26,7 @@ from exoleg.runtime.loop import (
 from exoleg.session_log import MAX_LOSS_TICKS, SessionLog, check_session, read_log
 
 if TYPE_CHECKING:
-    from exoleg.dynamics.model import LegModel
     from exoleg.system.config import DeviceConfig
-    from exoleg.tick import Controller
 
 BACKENDS = ("sim", "canopen", "ethercat")
 #: the --interface that puts simulated nodes on the bus (hardware in the loop)
@@ -159,33 +157,6 @@ def claim_folder(out: str | Path) -> tuple[Path, int]:
     return folder, fd
 
 
-def make_controller(name: str, config: DeviceConfig, leg: LegModel, body_mass: float,
-                    sim: Any = None, reference: Any = None) -> Controller:
-    """The controller called ``name`` (:data:`~exoleg.entry.CONTROLLERS`) for the device
-    ``config`` and the child's ``leg``: the walking hierarchy (the simulated device
-    ``sim``'s own when there is one), or one of the paper's laws following ``reference``
-    (default the paper's scenario: stance and swing postures every 3 s, section 6) on
-    the leg with the actuators' reflected inertia."""
-    if name in WALKING_CONTROLLERS:
-        if sim is not None:
-            return cast("Controller", sim.controller)
-        from exoleg.control.transparency import support_mode_of
-        from exoleg.device.ground import ANKLE_HEIGHT, Ground
-        from exoleg.sizing.anthropometry import body_weight_share
-        from exoleg.system.config import walk_controller
-
-        depth = ANKLE_HEIGHT + Ground.default(config.folder).sole
-        return walk_controller(config, leg, body_weight_share(body_mass), depth,
-                               support_mode=support_mode_of(name))
-    from exoleg.control.controllers import law_named
-    from exoleg.control.tracking import TrackingController
-    from exoleg.sim.scenario import paper_reference
-
-    return TrackingController(law_named(name, config.leg(leg)),
-                              paper_reference() if reference is None else reference,
-                              config.safety)
-
-
 def open_device(backend: str, config: DeviceConfig, sim: Any, period: float,
                 interface: str | None, channel: str, bus_timeout: float | None,
                 inject: Any) -> tuple[Device, Any, float | None]:
@@ -240,10 +211,12 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         interface: str | None = None, channel: str = "exoleg",
         inject: Any = None, link: Any = None, bus_timeout: float | None = None,
         overrun: float | None = None, controller: str = "walk", child: Any = None,
-        reference: Any = None, step: float = 0.0, model: Any = None
-        ) -> tuple[SessionResult, Path]:
+        reference: Any = None, step: float = 0.0, model: Any = None,
+        device: str | Path | None = None) -> tuple[SessionResult, Path]:
     """One session: the device (``backend``) under ``controller`` (the walking hierarchy,
-    or one of the paper's laws on the paper's scenario: :func:`make_controller`) for
+    or one of the paper's laws on the paper's scenario, as
+    :func:`~exoleg.system.build.build` makes them from ``device``, a device folder whose
+    files replace the shipped ones) for
     ``duration`` s, logged to ``out``/session.log. On ``sim`` the operator's arming may
     be given here (``arm``), and walking from ``walk_after`` s. ``link``: a
     :class:`~exoleg.runtime.link.LoopLink` to the operator's side (the HMI and its
@@ -258,7 +231,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     child (:class:`~exoleg.child.model.ChildModel`) on a simulated device; ``reference``:
     what a law other than the walking hierarchy follows (default the paper's scenario);
     ``step``: on a simulated device, the child on a step that high (m), the leg hanging
-    (:func:`~exoleg.sim.device.prepare_walk`); ``model``: the leg a law is given, when it
+    (:meth:`~exoleg.world.device.SimulatedDevice.of`); ``model``: the leg a law is given, when it
     is not the one a simulated device carries (``leg``: the truth identification
     measures)."""
     import os
@@ -275,16 +248,16 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
                              "the child: give --child on a simulated device (a passive leg "
                              "in a transparent device falls)")
     folder, lock = claim_folder(out)
-    device = None
+    held = None
     try:
         # a real device: held by this process alone, or refused before the bus is touched
         if not simulated(backend, interface):
-            device = hold_device(device_name(backend, interface, channel))
+            held = hold_device(device_name(backend, interface, channel))
         return _run(backend, duration, folder, period, arm, walk_after, leg, body_mass,
                     seed, realtime, interface, channel, inject, link, bus_timeout, overrun,
-                    controller, child, reference, step, model)
+                    controller, child, reference, step, model, device)
     finally:
-        let_go(device)
+        let_go(held)
         os.close(lock)
 
 
@@ -292,24 +265,25 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
          walk_after: float | None, leg: Any, body_mass: float, seed: int, realtime: bool,
          interface: str | None, channel: str, inject: Any, link: Any,
          bus_timeout: float | None, overrun: float, controller: str, child: Any = None,
-         reference: Any = None, step: float = 0.0, model: Any = None
-         ) -> tuple[SessionResult, Path]:
+         reference: Any = None, step: float = 0.0, model: Any = None,
+         device_folder: str | Path | None = None) -> tuple[SessionResult, Path]:
     """:func:`run` in the folder it holds."""
     import exoleg
-    from exoleg.control.transparency import support_mode_of
     from exoleg.io import write_json
     from exoleg.runtime.sim_backend import SimBackend
+    from exoleg.system.build import build
     from exoleg.system.config import DeviceConfig
     from exoleg.tick import WALKING_MODES, Command
 
     leg = leg if leg is not None else exoleg.paper_leg()
-    config = DeviceConfig.load(control_dt=period)
+    config = DeviceConfig.load(device_folder, control_dt=period)
     # a simulated device only where it is what answers: on sim, or behind simulated nodes
-    sim = (SimBackend(leg, body_mass, period, seed=seed, config=config, child=child,
-                      step=step, model=model, support_mode=support_mode_of(controller))
-           if simulated(backend, interface) else None)
-    ctl = make_controller(controller, config, leg if model is None else model, body_mass,
-                          sim, reference)
+    system = build(config, leg, body_mass, controller,
+                   simulated=simulated(backend, interface), child=child, model=model,
+                   step=step, reference=reference)
+    ctl = system.controller
+    sim = (None if system.device is None
+           else SimBackend(system.device, period, seed=seed, controller=ctl))
     before = set(threading.enumerate())
     b, rig, bus_timeout = open_device(backend, config, sim, period, interface, channel,
                                       bus_timeout, inject)

@@ -1,4 +1,4 @@
-"""The ``sim`` backend: the simulated walking device (:mod:`exoleg.sim.device`) stepped in
+"""The ``sim`` backend: the simulated walking device (:mod:`exoleg.world.device`) stepped in
 real time in this process -- the same plant, drives and sensors ``exoleg simulate
 --walk`` runs, one tick at a time, so ``exoleg run`` works on any machine."""
 
@@ -12,8 +12,10 @@ from numpy.typing import NDArray
 from exoleg.dynamics.model import LegModel
 from exoleg.layout import new
 from exoleg.params.records import JOINTS
-from exoleg.sim.device import SimulatedDevice, device_actuate, device_sense, prepare_walk
+from exoleg.system.build import build
+from exoleg.system.config import DeviceConfig
 from exoleg.tick import SENSORS
+from exoleg.world.device import SimulatedDevice, device_actuate, device_sense
 
 F64 = NDArray[np.float64]
 _CHUNK = 4096  # ticks of noise drawn at once
@@ -26,21 +28,23 @@ class SimBackend:
     the next cycle); ``record()`` what the log keeps of the device per tick. ``walking``
     is the scenery's: while the child walks the treadmill runs and the other leg steps
     (the session sets it from the supervisor's mode) -- unless the child stands on a step
-    (``step`` of :func:`~exoleg.sim.device.prepare_walk`), the leg hanging."""
+    (``step`` of :meth:`~exoleg.world.device.SimulatedDevice.of`), the leg hanging."""
 
     columns = ([f"q_meas_{j}" for j in JOINTS] + [f"dq_meas_{j}" for j in JOINTS]
                + ["fsr_heel", "fsr_met1", "fsr_met5", "fsr_hallux", "gyro", "acc_x", "acc_y"]
                + [f"q_{j}" for j in JOINTS] + ["pelvis"] + [f"tau_{j}" for j in JOINTS]
                + [f"interaction_{j}" for j in JOINTS] + [f"child_{j}" for j in JOINTS])
 
-    def __init__(self, leg: LegModel, body_mass: float, period: float = 1e-3,
-                 substeps: int = 2, seed: int = 0, **walk: Any) -> None:
-        """The walking device of :func:`~exoleg.sim.device.prepare_walk` (``walk``: its
-        options, ``config`` among them) at a tick of ``period`` s."""
+    def __init__(self, device: SimulatedDevice, period: float = 1e-3, substeps: int = 2,
+                 seed: int = 0, controller: Any = None) -> None:
+        """The simulated ``device`` (:class:`~exoleg.world.device.SimulatedDevice`, as
+        :func:`~exoleg.system.build.build` makes it) at a tick of ``period`` s;
+        ``controller``: the one built with it, kept for the caller (:attr:`controller`)."""
         from exoleg.sim.walk import check_step
 
-        self.dev: SimulatedDevice = prepare_walk(leg, body_mass, control_dt=period, **walk)
-        check_step(self.dev.plant, period / substeps, self.dev.config.folder)
+        self.dev = device
+        self.controller = controller
+        check_step(self.dev.plant, period / substeps, self.dev.folder)
         self.period = period
         self.substeps = substeps
         self.S = self.dev.state()
@@ -60,10 +64,20 @@ class SimBackend:
         self.walking = False
         self._written = False
 
-    @property
-    def controller(self) -> Any:
-        """The walking controller made for this device (:class:`WalkController`)."""
-        return self.dev.controller
+    @classmethod
+    def built(cls, leg: LegModel, body_mass: float, period: float = 1e-3,
+              substeps: int = 2, seed: int = 0, *, config: DeviceConfig | None = None,
+              noise_scale: float = 1.0, controller: str = "impedance",
+              **scene: Any) -> SimBackend:
+        """The device :func:`~exoleg.system.build.build` makes for ``leg`` and a child of
+        ``body_mass`` kg with ``controller`` (kept as :attr:`controller`) from ``config``
+        (default the shipped files' at this tick, the foot board's noise times
+        ``noise_scale``); ``scene``: build's other options (``child``, ``step``...)."""
+        cfg = DeviceConfig.load(control_dt=period, noise_scale=noise_scale) \
+            if config is None else config
+        system = build(cfg, leg, body_mass, controller, **scene)
+        assert system.device is not None  # simulated
+        return cls(system.device, period, substeps, seed, system.controller)
 
     def configure(self, limits: Any = None) -> list[str]:
         """Nothing to bring up: the simulated drives are the plant's."""

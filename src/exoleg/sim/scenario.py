@@ -22,15 +22,18 @@ from exoleg.control.controllers import Controller
 from exoleg.dynamics.model import LegModel
 from exoleg.params import paper
 from exoleg.params.records import JOINTS
-from exoleg.reference.gait import SchwartzGait2008
-from exoleg.reference.steps import Reference, Steps
+from exoleg.reference.paper import (  # noqa: F401  (their old home, for one release)
+    SEGMENT,
+    STANCE_FRACTION,
+    SWING_FRACTION,
+    paper_postures,
+    paper_reference,
+)
+from exoleg.reference.steps import Reference
 from exoleg.sim.closed_loop import SimResult, simulate
 
 F64 = NDArray[np.float64]
 
-STANCE_FRACTION = 0.30  # mid-stance, fraction of the gait cycle (Schwartz 2008)
-SWING_FRACTION = 0.73   # mid-swing: largest knee flexion
-SEGMENT = 3.0           # s between reference changes (paper section 6)
 
 
 class Engine(Protocol):
@@ -43,19 +46,6 @@ class Engine(Protocol):
                     q0: F64, dq0: F64) -> F64:
         """q (N, 3) at every step under ``controller`` sampled every ``hold`` steps."""
         ...
-
-
-def paper_postures() -> tuple[F64, F64]:
-    """(stance, swing) postures (3,) rad, from Schwartz 2008 free-speed mean gait."""
-    g = SchwartzGait2008()
-    return g.posture_at(STANCE_FRACTION), g.posture_at(SWING_FRACTION)
-
-
-def paper_reference() -> Steps:
-    """Stance, swing, stance, swing, changing every 3 s from t = 0."""
-    stance, swing = paper_postures()
-    times = np.arange(4, dtype=np.float64) * SEGMENT
-    return Steps(times=times, postures=np.stack([stance, swing, stance, swing]))
 
 
 @dataclass(frozen=True)

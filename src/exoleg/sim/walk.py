@@ -9,7 +9,7 @@ Every control tick (1 kHz):
    detection, supervisor, reference at the detected phase, phase-scheduled impedance
    with the current pendulum's gravity model, safety layer;
 3. the drives: envelope at the measured speed, current loop;
-4. the plant (:mod:`exoleg.sim.plant`): ``substeps`` RK4 steps per tick with the
+4. the plant (:mod:`exoleg.world.plant`): ``substeps`` RK4 steps per tick with the
    contact and support forces of each step's start, the actuators' friction in every
    stage.
 
@@ -21,6 +21,7 @@ noise-free contact forces) are kept beside the detected ones for
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,11 +42,13 @@ from exoleg.device.sensors import FootSensors, draw_noise
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError, SimulationError
 from exoleg.params.records import JOINTS
-from exoleg.sim.device import device_actuate, device_sense, prepare_walk
 from exoleg.sim.events import true_events
-from exoleg.sim.plant import WalkingPlant
 from exoleg.sim.series import TimeSeries
+from exoleg.system.build import build
+from exoleg.system.config import DeviceConfig
 from exoleg.tick import OUTPUT, SENSOR_POINTS, SENSORS, Command, Mode
+from exoleg.world.device import device_actuate, device_sense
+from exoleg.world.plant import WalkingPlant
 
 F64 = NDArray[np.float64]
 
@@ -211,7 +214,7 @@ class WalkResult(TimeSeries):
 def check_step(plant: WalkingPlant, h: float, folder: Path | None) -> None:
     """Refuses (ParameterError naming the ground's file and field) a contact the plant's
     RK4 step of ``h`` s would integrate into divergence
-    (:meth:`~exoleg.sim.plant.WalkingPlant.step_problem`)."""
+    (:meth:`~exoleg.world.plant.WalkingPlant.step_problem`)."""
     why = plant.step_problem(h)
     if why:
         where = "walking.toml" if folder is None else f"{folder}/walking.toml"
@@ -232,7 +235,7 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                   faults: Sequence[SensorFault] = ()) -> WalkResult:
     """Walk ``leg`` (without actuators; theirs are added) on the treadmill for ``strides``
     strides of ``stride_time`` s after ``standing`` s of quiet stance; ``body_mass`` is
-    the child's (the pelvis carries :func:`exoleg.sim.plant.body_weight_share`).
+    the child's (the pelvis carries :func:`exoleg.world.plant.body_weight_share`).
     ``noise_scale`` multiplies the sensors' noise (0: ideal); ``seed`` fixes it.
     ``device``: a device folder (:mod:`exoleg.device.files`) whose files replace the
     shipped actuators, sensors, detector settings, gains, safety limits and ground.
@@ -251,12 +254,19 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
         raise ParameterError("simulate_walk", "substeps", f"expected 1-100, got {substeps!r}")
     if not (np.isfinite(standing) and 0.2 <= standing <= 60.0):
         raise ParameterError("simulate_walk", "standing", f"{standing!r} is outside 0.2-60")
-    dev = prepare_walk(leg, body_mass, speed, stride_time, noise_scale, ankle_height,
-                       actuators, gains, safety, ground, sensors, control_dt, device,
-                       child=child, model=model, support_mode=support_mode,
-                       assist_law=assist_law)
-    ctl, plant, sens = dev.controller, dev.plant, dev.sensors
-    check_step(plant, control_dt / substeps, dev.config.folder)
+    if not isinstance(leg, LegModel):  # before the device files are read
+        raise ParameterError("simulate_walk", "leg", "expected a LegModel (exoleg.paper_leg(), "
+                             f"exoleg.load_leg(...)), got {type(leg).__name__}")
+    cfg = DeviceConfig.load(device, control_dt, noise_scale, actuators, safety, sensors, gains)
+    if assist_law is not None:
+        cfg = dataclasses.replace(cfg, assist=cfg.assist.with_law(assist_law))
+    system = build(cfg, leg, body_mass, SupportMode(support_mode).name.lower(), child=child,
+                   model=model, speed=speed, stride_time=stride_time,
+                   ankle_height=ankle_height, ground=ground)
+    ctl, dev = system.controller, system.device
+    assert dev is not None  # simulated
+    plant, sens = dev.plant, dev.sensors
+    check_step(plant, control_dt / substeps, dev.folder)
     n = int(round((standing + strides * stride_time) / control_dt))
     if commands is None:
         commands = np.zeros(n + 1, dtype=np.int64)

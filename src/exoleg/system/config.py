@@ -3,10 +3,10 @@ limits, foot board, gait-phase detector and walking gains, read once from the pa
 ``data/device`` files or a user's device folder (:mod:`exoleg.device.files`), each file
 checked by its own loader.
 
-One :class:`DeviceConfig` is handed to the simulated device
-(:func:`exoleg.sim.device.prepare_walk`), to the drive masters (their actuators'
-scaling and the start-up check against the range of motion) and to the controller
-(:func:`walk_controller`), so configuring real drives never builds a simulator.
+One :class:`DeviceConfig` is what the assembly builds from
+(:func:`exoleg.system.build.build`: the controller and, simulated, the device), and what
+the drive masters are configured with (their actuators' scaling and the start-up check
+against the range of motion), so configuring real drives never builds a simulator.
 """
 
 from __future__ import annotations
@@ -14,13 +14,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
 from exoleg.control.assist import AssistSettings
 from exoleg.control.gait_phase import DetectorSettings
-from exoleg.control.hierarchy import WalkController, WalkGains
+from exoleg.control.hierarchy import WalkGains
 from exoleg.control.safety import SafetyLimits
-from exoleg.control.transparency import SupportMode, TransparencySettings
+from exoleg.control.transparency import TransparencySettings
 from exoleg.device.actuator import ActuatorModel, paper_actuators, params_array, with_actuators
 from exoleg.device.sensors import FSR_FLOOR_N, FootSensors
 from exoleg.dynamics.model import LegModel
@@ -61,6 +59,9 @@ class DeviceConfig:
         multiplies the foot board's noise figures (0: ideal; a simulation's choice)."""
         from exoleg.device.files import check_folder
 
+        if not (isinstance(control_dt, (int, float)) and 1e-4 <= control_dt <= 1e-2):
+            raise ParameterError("DeviceConfig", "control_dt",
+                                 f"{control_dt!r} s is outside 1e-4-0.01 s")
         where = None if folder is None else check_folder(folder)
         acts = paper_actuators(where) if actuators is None else tuple(actuators)
         return cls(actuators=acts,
@@ -81,25 +82,3 @@ class DeviceConfig:
     def leg(self, leg: LegModel) -> LegModel:
         """``leg`` with the actuators' reflected inertia (the device's leg model)."""
         return with_actuators(leg, self.actuators)
-
-
-def walk_controller(config: DeviceConfig, leg: LegModel, body_mass: float,
-                    depth: float, speed: str = "Free", stride_time: float = 1.1,
-                    support_mode: SupportMode = SupportMode.IMPEDANCE) -> WalkController:
-    """The walking hierarchy for the child + device ``leg`` (without actuators: theirs
-    are added) carrying ``body_mass`` kg at the pelvis, its FSRs ``depth`` m below the
-    ankle joint, expecting strides of ``stride_time`` s of the ``speed`` gait, starting
-    in ``support_mode`` (the transparent mode's model: the device alone at ``leg``'s
-    telescope settings, :func:`~exoleg.child.interaction.device_leg`)."""
-    from exoleg.child.interaction import device_leg
-
-    if not isinstance(config, DeviceConfig):
-        raise ParameterError("walk_controller", "config",
-                             f"expected DeviceConfig, got {type(config).__name__}")
-    if not (np.isfinite(depth) and 0.0 <= depth <= 0.3):
-        raise ParameterError("walk_controller", "depth", f"{depth!r} m is outside 0-0.3 m")
-    return WalkController(config.leg(leg), body_mass, config.gains, config.detector,
-                          config.safety, speed, stride_time, config.fsr_floor_counts, depth,
-                          config.sensors.gyro_range, config.sensors.accel_range,
-                          device_leg(leg, config.actuators).p, params_array(config.actuators),
-                          config.transparency, support_mode, config.assist)

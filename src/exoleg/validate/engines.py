@@ -148,7 +148,8 @@ def paper_scenario(engine: str | None = "mujoco", dt: float = 1e-3,
     leg driven with doubled torques, and (``engine="mujoco"``) MuJoCo."""
     from exoleg import paper_leg
     from exoleg.control.controllers import PDGravity
-    from exoleg.sim.scenario import SEGMENT, paper_reference, run_scenario
+    from exoleg.reference.paper import SEGMENT, paper_reference
+    from exoleg.sim.scenario import run_scenario
 
     leg = paper_leg("simplified")
     eng, note = scenario_engine(leg, dt) if engine == "mujoco" else (None, None)

@@ -296,8 +296,8 @@ def posture_errors(c: ChildIdentification) -> dict[str, float]:
     of its 3 s): K_p^-1 times the model's error in G."""
     from exoleg.control.controllers import law_named
     from exoleg.device import with_actuators
+    from exoleg.reference.paper import SEGMENT, paper_reference
     from exoleg.sim.closed_loop import simulate
-    from exoleg.sim.scenario import SEGMENT, paper_reference
 
     bare, models = _models(c)
     plant = with_actuators(bare)
