@@ -67,7 +67,7 @@ def test_a_spastic_child_identified_in_stages_over_the_can_bus(tmp_path: Path) -
     assert device.summary()["stage"] == "device alone"
     r = identify_device("canopen", tmp_path / "leg", leg=fitted, child=child, duration=10.0,
                         truth=truth, realtime=False, candidates=4, channel="identify",
-                        device=tmp_path / "device", figure=identify_figure)
+                        identified_device=tmp_path / "device", figure=identify_figure)
     grid = _grid()
     g = truth.G(grid)
     scale = np.abs(g).max()
@@ -106,7 +106,7 @@ def test_a_spastic_child_identified_in_stages_over_the_can_bus(tmp_path: Path) -
     with pytest.raises(ParameterError, match="identify the device alone with its "
                                              "telescopes set for this child"):
         identify_device("sim", tmp_path / "other", duration=10.0, realtime=False,
-                        device=tmp_path / "device", figure=identify_figure)
+                        identified_device=tmp_path / "device", figure=identify_figure)
 
 
 def test_identify_refuses_what_it_cannot_do(tmp_path: Path) -> None:

@@ -178,6 +178,15 @@ class _Progress:
             self.bar.stop()
 
 
+def _device_option(p: argparse.ArgumentParser, uses: str) -> None:
+    """``--device DIR``: a folder of device files replacing the shipped ones, for what the
+    command ``uses`` of them (checked when the command reads it)."""
+    p.add_argument("--device", type=Path, metavar="DIR",
+                   help="a folder of device files (actuators/{hip,knee,ankle}.toml, "
+                        "safety.toml, sensors.toml, gait_phase.toml, walking_control.toml, "
+                        f"walking.toml, ...) replacing the shipped ones: {uses}")
+
+
 def _read_leg(path: Path, refuse_unfit: str = "") -> tuple[Any, str]:
     """A leg file as a :class:`~exoleg.LegModel`, and a warning ('' if none) when it is a
     leg for a child the device does not fit (its ``[fit]`` record) -- refused instead

@@ -76,7 +76,8 @@ def add_parser(sub: Any) -> None:
     d.add_argument("--stride", type=_within(*STRIDE_TIME_RANGE, " s"), default=1.1,
                    help="the stride time expected before the first is measured, s "
                         "(default 1.1)")
-    d.add_argument("--device", type=Path, help="a device folder whose gait_phase.toml and "
+    d.add_argument("--device", type=Path, metavar="DIR",
+                   help="a device folder whose gait_phase.toml and "
                    "sensors.toml replace the shipped ones")
     d.set_defaults(func=cmd_detect)
 

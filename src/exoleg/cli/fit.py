@@ -8,7 +8,14 @@ import json
 from pathlib import Path
 from typing import Any
 
-from exoleg.cli._common import STRIDE_TIME_RANGE, _percentile, _say, _table, _within
+from exoleg.cli._common import (
+    STRIDE_TIME_RANGE,
+    _device_option,
+    _percentile,
+    _say,
+    _table,
+    _within,
+)
 from exoleg.entry import CHILD_ENTRY, MEASURED
 
 
@@ -20,6 +27,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
 
     from exoleg.design.demand import DISPLAY
     from exoleg.design.report import fit_report
+    from exoleg.device.actuator import paper_actuators
     from exoleg.io import OutputFolder
     from exoleg.sizing import Child
 
@@ -32,10 +40,11 @@ def cmd_fit(args: argparse.Namespace) -> int:
                       accept_unusual=args.accept_unusual, **measured)
     for w in caught:
         _say(f"warning: {w.message}")
+    acts = None if args.device is None else paper_actuators(args.device)
     with OutputFolder(args.out) as out:
         rep = fit_report(child, args.leg_length_method, percentile=args.percentile,
                          speed=args.speed, stride_time=args.stride_time,
-                         simulate=not args.no_simulate)
+                         simulate=not args.no_simulate, actuators=acts)
         fit, demand, over = rep.fit, rep.demand, rep.over
         d = fit.dimensions
         charts = child.charts
@@ -151,4 +160,5 @@ def add_parser(sub: Any) -> None:
                         "predictcpgait child's (Falisse et al. 2020)")
     f.add_argument("--name", default="child")
     f.add_argument("--out", type=Path, default=Path("exoleg-fit"))
+    _device_option(f, "the actuators the child's demand is judged against")
     f.set_defaults(func=cmd_fit)

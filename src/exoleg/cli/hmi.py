@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from exoleg.cli._common import _bus_options, _say, _url, _web_options
+from exoleg.cli._common import _bus_options, _device_option, _say, _url, _web_options
 
 
 def cmd_hmi(args: argparse.Namespace) -> int:
@@ -24,7 +24,7 @@ def cmd_hmi(args: argparse.Namespace) -> int:
     interface = args.interface or SIMULATED_BUS.get(args.backend)
     # a real device is held from here on (refused when another process holds it)
     hmi = HMI(_writable_folder(args.sessions), backend=args.backend, interface=interface,
-              channel=args.channel or "exoleg")
+              channel=args.channel or "exoleg", device_dir=args.device)
     try:
         sock = listen(args.host, args.port)  # a port in use is said now, in one line
     except BaseException:
@@ -58,4 +58,6 @@ def add_parser(sub: Any) -> None:
     _web_options(h, "--host", "--port")
     h.add_argument("--sessions", type=Path, default=Path("exoleg-sessions"),
                    help="folder of recorded sessions and fitted children")
+    _device_option(h, "what the sessions and identifications drive with, what a fit is "
+                      "judged against and what the Live page draws")
     h.set_defaults(func=cmd_hmi)

@@ -7,7 +7,15 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from exoleg.cli._common import _bus_options, _count, _read_leg, _say, _table, _within
+from exoleg.cli._common import (
+    _bus_options,
+    _count,
+    _device_option,
+    _read_leg,
+    _say,
+    _table,
+    _within,
+)
 
 
 def cmd_identify(args: argparse.Namespace) -> int:
@@ -35,8 +43,9 @@ def cmd_identify(args: argparse.Namespace) -> int:
                         duration=args.duration, seed=args.seed, interface=args.interface,
                         channel=args.channel or "exoleg",
                         realtime=not args.no_realtime, truth=truth,
-                        device_alone=args.device_alone, device=args.device,
-                        figure=identify_figure)
+                        device_alone=args.device_alone,
+                        identified_device=args.identified_device, figure=identify_figure,
+                        device=args.device)
     s = r.summary()
     _say(f"exoleg identify --backend {args.backend}: a plan of {s['plan']['periods']} x "
          f"{s['plan']['period_s']:g} s (condition number {s['plan']['condition_number']:.1f}"
@@ -86,8 +95,9 @@ def add_parser(sub: Any) -> None:
                         "child as an actor, relaxed")
     d.add_argument("--device-alone", action="store_true",
                    help="the first stage: the device with no child in it, its telescopes "
-                        "set for --leg (identify a device once; then --device)")
-    d.add_argument("--device", type=Path, metavar="DIR",
+                        "set for --leg (identify a device once; then "
+                        "--identified-device)")
+    d.add_argument("--identified-device", type=Path, metavar="DIR",
                    help="the folder of an identification of the device alone: its result "
                         "is the device's share of the prior, and the child's share of the "
                         "base parameters is reported (Li et al. 2022's stages)")
@@ -102,4 +112,6 @@ def add_parser(sub: Any) -> None:
     d.add_argument("--no-realtime", action="store_true",
                    help="do not ask for SCHED_FIFO")
     d.add_argument("--out", type=Path, default=Path("exoleg-identify"))
+    _device_option(d, "the actuators the plan is designed for, the safety limits and "
+                      "controller it runs under and, simulated, the device itself")
     d.set_defaults(func=cmd_identify)

@@ -8,19 +8,29 @@ import time
 from pathlib import Path
 from typing import Any
 
-from exoleg.cli._common import STRIDE_TIME_RANGE, _ages, _percentiles, _say, _table, _within
+from exoleg.cli._common import (
+    STRIDE_TIME_RANGE,
+    _ages,
+    _device_option,
+    _percentiles,
+    _say,
+    _table,
+    _within,
+)
 
 
 def cmd_population(args: argparse.Namespace) -> int:
     import collections
 
     from exoleg.design.population import PERCENTILES, coverage, write_csv
+    from exoleg.device.actuator import paper_actuators
     from exoleg.io import OutputFolder
     from exoleg.plots.population import heatmap
 
     t0 = time.perf_counter()
     rows = coverage(ages=args.ages, percentiles=args.percentiles or PERCENTILES,
-                    stride_time=args.stride_time, simulate=not args.no_simulate)
+                    stride_time=args.stride_time, simulate=not args.no_simulate,
+                    actuators=None if args.device is None else paper_actuators(args.device))
     with OutputFolder(args.out) as out:
         write_csv(rows, out.stage("coverage.csv"))
         heatmap(rows, out.stage("coverage.png"))
@@ -67,4 +77,5 @@ def add_parser(sub: Any) -> None:
     pop.add_argument("--stride-time", type=_within(*STRIDE_TIME_RANGE, " s"), default=1.1)
     pop.add_argument("--no-simulate", action="store_true")
     pop.add_argument("--out", type=Path, default=Path("exoleg-population"))
+    _device_option(pop, "the actuators every child's demand is judged against")
     pop.set_defaults(func=cmd_population)

@@ -13,6 +13,7 @@ from exoleg.cli._common import (
     _body_mass,
     _bus_options,
     _count,
+    _device_option,
     _read_leg,
     _say,
     _table,
@@ -68,7 +69,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                         body_mass=args.body_mass, seed=args.seed,
                         realtime=not args.no_realtime, interface=args.interface,
                         channel=args.channel, link=link, bus_timeout=bus_timeout,
-                        controller=args.controller, child=child)
+                        controller=args.controller, child=child, device=args.device)
     finally:
         if web is not None:
             web.terminate()
@@ -187,4 +188,6 @@ def add_parser(sub: Any) -> None:
                    help="do not ask for SCHED_FIFO (nor an isolated CPU, nor the bus threads' "
                         "priority)")
     r.add_argument("--out", type=Path, default=Path("exoleg-session"))
+    _device_option(r, "the actuators' scaling and limits, the safety limits, the "
+                      "controller's settings and, simulated, the device itself")
     r.set_defaults(func=cmd_run)

@@ -376,7 +376,8 @@ def add_parser(sub: Any) -> None:
                    help="walk: sensor noise, times the datasheets' (0: ideal)")
     s.add_argument("--seed", type=_count(0, 2**31 - 1), default=_WALK_DEFAULTS["seed"],
                    help="walk: noise seed")
-    s.add_argument("--device", type=Path, help="with --walk or --actuators: a folder of device "
+    s.add_argument("--device", type=Path, metavar="DIR",
+                   help="with --walk or --actuators: a folder of device "
                    "files (actuators/*.toml, sensors.toml, gait_phase.toml, "
                    "walking_control.toml, safety.toml, walking.toml) replacing the shipped ones")
     from exoleg.entry import HIP_VARIANTS

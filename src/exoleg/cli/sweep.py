@@ -5,13 +5,14 @@ summary over any two axes."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import signal
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
-from exoleg.cli._common import _count, _say, _table
+from exoleg.cli._common import _count, _device_option, _say, _table
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -41,6 +42,10 @@ def _run(args: argparse.Namespace) -> int:
     from exoleg.study.spec import count_runs, load_study
 
     study = load_study(args.study)
+    if args.device is not None:
+        from exoleg.device.files import check_folder
+
+        study = dataclasses.replace(study, device=str(check_folder(args.device).resolve()))
     n_tasks = task_count(study)
     before = len(done_tasks(args.out)) if (Path(args.out) / "study.toml").exists() else 0
     where = args.scheduler or f"a local Dask cluster ({args.workers or 'one worker per core'})"
@@ -127,4 +132,6 @@ def add_parser(sub: Any) -> None:
                    "over two axes (--x, --y; default its first two swept axes)")
     s.add_argument("--x", help="with --summary: the axis across")
     s.add_argument("--y", help="with --summary: the axis up")
+    _device_option(s, "every run's actuators, gains, sensors, safety limits and ground (the "
+                      "folder must be readable where the workers run)")
     s.set_defaults(func=cmd_sweep)

@@ -74,9 +74,11 @@ def _binding(fit: Any) -> tuple[str, float]:
 def coverage(ages: Sequence[float] = AGES, sexes: Sequence[str] = ("female", "male"),
              groups: Sequence[int | None] = GROUPS,
              percentiles: Sequence[float] = PERCENTILES, stride_time: float = 1.1,
-             speed: str = "Free", simulate: bool = True) -> list[Row]:
-    """The coverage grid. With ``simulate`` each child's normative gait is simulated
-    (all children in one parallel batch) and counts among the demands."""
+             speed: str = "Free", simulate: bool = True,
+             actuators: tuple[Any, ...] | None = None) -> list[Row]:
+    """The coverage grid against ``actuators`` (None: the shipped ones). With
+    ``simulate`` each child's normative gait is simulated (all children in one parallel
+    batch) and counts among the demands."""
     children, fits, legs, notes = [], [], [], []
     for group in groups:
         for sex in sexes:
@@ -88,7 +90,7 @@ def coverage(ages: Sequence[float] = AGES, sexes: Sequence[str] = ("female", "ma
                     fits.append(f)
                     legs.append(personalized_leg(c, f))
                     notes.append(note)
-    acts = paper_actuators()
+    acts = paper_actuators() if actuators is None else tuple(actuators)
     limits = device_limits(acts)
     peaks = None
     if simulate:  # one batch: every child, with the actuators' reflected inertia, follows

@@ -90,12 +90,14 @@ class FitReport:
 
 def fit_report(child: Child, leg_length_method: LegLengthMethod = "linear",
                percentile: float = 50.0, speed: str = "Free", stride_time: float = 1.1,
-               simulate: bool = True) -> FitReport:
-    """Fit the device to ``child``; the demand is this gait percentile's at ``speed``."""
+               simulate: bool = True, actuators: tuple[Any, ...] | None = None) -> FitReport:
+    """Fit the device to ``child``; the demand is this gait percentile's at ``speed``,
+    against ``actuators`` (None: the shipped ones; a device folder's:
+    :func:`~exoleg.device.actuator.paper_actuators`)."""
     fit = fit_device(child, leg_length_method)
     leg = personalized_leg(child, fit)
     demand = actuator_demand(child, leg, percentile=percentile, speed=speed,
-                             stride_time=stride_time, simulate=simulate)
+                             stride_time=stride_time, simulate=simulate, actuators=actuators)
     return FitReport(child, fit, leg, demand, demand.exceedances())
 
 

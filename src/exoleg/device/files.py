@@ -43,7 +43,11 @@ def check_folder(folder: str | Path) -> Path:
 
 def load(name: str, folder: str | Path | None = None) -> tuple[str, dict[str, Any]]:
     """(where, parsed TOML) of device file ``name`` (e.g. ``"sensors.toml"`` or
-    ``"actuators/hip.toml"``): the folder's when it has one, else the package's."""
+    ``"actuators/hip.toml"``): the folder's when it has one, else the package's. A
+    folder that is not a device folder is refused (:func:`check_folder`), whichever of
+    its files is asked."""
+    if folder is not None:
+        check_folder(folder)
     if folder is not None and (Path(folder) / name).exists():
         path = Path(folder) / name
         where, text = str(path), read_text(path, f"device file {name} (TOML)")

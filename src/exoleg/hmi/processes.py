@@ -20,25 +20,27 @@ IDENTIFIED = "identified"
 def _session_process(link: LoopLink, backend: str, interface: str | None, duration: float,
                      folder: str, leg_path: str | None, body_mass: float, arm: bool,
                      cpus: set[int] | None, child_path: str | None = None,
-                     channel: str = "exoleg") -> None:
+                     channel: str = "exoleg", device: str | None = None) -> None:
     """A session's own process (``exoleg hmi``): runs the loop until its duration, an
     E-stop fault, the operator's end, a signal, or a lost link (the server's heartbeat:
     :class:`~exoleg.runtime.link.LoopLink`) -- then nobody could stop it from the page.
     ``cpus``: the CPUs the server had before it kept off the loop's
     (:func:`keep_off_loop_cpu`). ``child_path``: the fitted child's ``child.toml`` (the
-    simulated child, on a simulated device)."""
+    simulated child, on a simulated device); ``device``: the device folder (None:
+    the shipped device)."""
     from exoleg.runtime.session import run
 
     def session(leg: Any, child: Any) -> None:
         run(backend, duration, folder, leg=leg, body_mass=body_mass, arm=arm,
-            interface=interface, link=link, child=child, channel=channel)
+            interface=interface, link=link, child=child, channel=channel, device=device)
 
     _in_own_process(link, folder, cpus, leg_path, child_path, session)
 
 
 def _identify_process(link: LoopLink, backend: str, interface: str | None, plan: float,
                       folder: str, leg_path: str | None, arm: bool, cpus: set[int] | None,
-                      child_path: str | None = None, channel: str = "exoleg") -> None:
+                      child_path: str | None = None, channel: str = "exoleg",
+                      device: str | None = None) -> None:
     """An identification's own process (:func:`exoleg.identify.device.identify_device`
     through the operator's link): the session in ``folder``, the identified leg and its
     report in ``folder``/:data:`IDENTIFIED`; ``plan``: its length, s."""
@@ -48,7 +50,8 @@ def _identify_process(link: LoopLink, backend: str, interface: str | None, plan:
     def identification(leg: Any, child: Any) -> None:
         identify_device(backend, Path(folder) / IDENTIFIED, leg=leg, child=child,
                         duration=plan, interface=interface, link=link, arm=arm,
-                        session=folder, channel=channel, figure=identify_figure)
+                        session=folder, channel=channel, figure=identify_figure,
+                        device=device)
 
     _in_own_process(link, folder, cpus, leg_path, child_path, identification)
 

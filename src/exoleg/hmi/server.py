@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from exoleg.control.hierarchy import TUNABLE
+from exoleg.device import files as device_files
 from exoleg.entry import DEFAULT_BODY_MASS, typed_number
 from exoleg.errors import ParameterError
 from exoleg.hmi.archive import Archive
@@ -69,15 +70,20 @@ class HMI:
     def __init__(self, root: str | Path, backend: str = "sim", interface: str | None = None,
                  token: str | None = None, fixed: tuple[LoopLink, Path] | None = None,
                  leg: Any = None, channel: str = "exoleg",
-                 plan: tuple[float | None, float | None] = (None, None)) -> None:
+                 plan: tuple[float | None, float | None] = (None, None),
+                 device_dir: str | Path | None = None) -> None:
         """``fixed``: the link and folder of the one session ``exoleg run --hmi`` runs,
-        with ``plan``: its duration (s) and the child's body mass (kg). A real device
+        with ``plan``: its duration (s) and the child's body mass (kg). ``device_dir``: a
+        folder of device files replacing the shipped ones, for every session,
+        identification and fit (:mod:`exoleg.device.files`). A real device
         (``backend`` on a real ``interface`` and ``channel``) is held for as long as the
         interface serves (:func:`~exoleg.runtime.device_lock.hold_device`): a second
         console or run on it is refused."""
         import exoleg
 
         self.backend, self.interface, self.channel = backend, interface, channel
+        self.device_dir = (None if device_dir is None
+                           else str(device_files.check_folder(device_dir)))
         self.device = None
         if fixed is None and not simulated(backend, interface):
             self.device = hold_device(device_name(backend, interface, channel), "exoleg hmi")
@@ -96,7 +102,7 @@ class HMI:
         self.leg = leg if leg is not None else exoleg.paper_leg()
         if self.registry is not None and leg is None:
             self._keep(self.registry.kept())
-        self.info = device_info(self.leg)
+        self.info = device_info(self.leg, self.device_dir)
         self.host = "127.0.0.1"  # where it listens (set by serve)
         self.cpus: set[int] | None = None  # the server's CPUs before keep_off_loop_cpu
         if fixed is not None:
@@ -158,11 +164,12 @@ class HMI:
                 target: Any = _identify_process
                 args: tuple[Any, ...] = (link, self.backend, self.interface, duration,
                                          str(folder), leg_path, arm, self.cpus, child_file,
-                                         self.channel)
+                                         self.channel, self.device_dir)
             else:
                 target = _session_process
                 args = (link, self.backend, self.interface, duration, str(folder), leg_path,
-                        runs_on["body_mass"], arm, self.cpus, child_file, self.channel)
+                        runs_on["body_mass"], arm, self.cpus, child_file, self.channel,
+                        self.device_dir)
             self.proc = mp.get_context("spawn").Process(target=target, name="exoleg-session",
                                                         daemon=True, args=args)
             self.proc.start()
@@ -321,6 +328,7 @@ class HMI:
         import warnings
 
         from exoleg.design.report import fit_report
+        from exoleg.device.actuator import paper_actuators
         from exoleg.entry import CHILD_ENTRY, MEASURED
         from exoleg.sizing import Child
 
@@ -357,7 +365,8 @@ class HMI:
                               affected_side=str(body.get("side", "right")),  # type: ignore[arg-type]
                               name=str(body.get("name", "child"))[:60] or "child",
                               **values)  # Child checks sex and side and names what is allowed
-            rep = fit_report(child)
+            rep = fit_report(child, actuators=None if self.device_dir is None
+                             else paper_actuators(self.device_dir))
             actor = actor_settings(body)
         except (ParameterError, ValueError, TypeError) as e:
             self.api.record(source, "fit", False, str(e))

@@ -17,17 +17,18 @@ from exoleg.runtime.link import LoopLink
 VOCABULARY = vocabulary()
 
 
-def device_info(leg: Any) -> dict[str, Any]:
+def device_info(leg: Any, folder: str | None = None) -> dict[str, Any]:
     """What the live page draws with: link lengths and D-H offsets (the same kinematics
     as :func:`exoleg.kinematics.forward_kinematics`), the range of motion, the FSR
-    positions, each actuator's torque limits and torque-speed envelope (SI units)."""
+    positions, each actuator's torque limits and torque-speed envelope (SI units) -- of
+    the device folder ``folder``'s actuators (None: the shipped ones)."""
     from exoleg.device.actuator import envelope, paper_actuators
     from exoleg.device.sensors import SENSOR_X
     from exoleg.dynamics._generated import OFFSETS
     from exoleg.params import paper
     from exoleg.tick import SENSOR_POINTS
 
-    acts = paper_actuators()
+    acts = paper_actuators(folder)
     rom = paper.range_of_motion()
     # the child's own peak joint moments in walking, typically developing (the paper's
     # section 2.2): what the cuffs' torque per kg is read against on the Live page
@@ -37,7 +38,8 @@ def device_info(leg: Any) -> dict[str, Any]:
         "rom_lower": rom.lower.tolist(), "rom_upper": rom.upper.tolist(),
         "sensors": list(SENSOR_POINTS),
         "sensor_x": [float(x) * float(leg.lengths[2]) for x in SENSOR_X], "actuators": [],
-        "cuff_reference_Nm_per_kg": [float(x) for x in walking_peak]}
+        "cuff_reference_Nm_per_kg": [float(x) for x in walking_peak],
+        "device_folder": folder}
     for a in acts:
         par = a.record()
         w = np.linspace(0.0, 1.05 * a.max_velocity, 60)

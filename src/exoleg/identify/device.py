@@ -197,7 +197,7 @@ def load_device(folder: str | Path) -> tuple[LegModel, F64]:
     from exoleg.dynamics.kernels import N_INERTIAL
     from exoleg.io import read_text
 
-    where = "exoleg identify --device"
+    where = "exoleg identify --identified-device"
     d = Path(folder)
     text = read_text(d / "identify.json", where)
     try:
@@ -219,10 +219,11 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
                     duration: float = 120.0, seed: int = 0, interface: str | None = None,
                     channel: str = "exoleg", realtime: bool = True,
                     truth: LegModel | None = None, candidates: int = 20,
-                    device_alone: bool = False, device: str | Path | None = None,
+                    device_alone: bool = False,
+                    identified_device: str | Path | None = None,
                     link: Any = None, arm: bool = True, session: str | Path | None = None,
-                    figure: Callable[[DeviceIdentification, Path], Any] | None = None
-                    ) -> DeviceIdentification:
+                    figure: Callable[[DeviceIdentification, Path], Any] | None = None,
+                    device: str | Path | None = None) -> DeviceIdentification:
     """Design a plan for the fitted ``leg`` (the child + device model, without the
     actuators: the device file's are added), play it on ``backend`` in a session under
     ``out``/session, identify the leg from the log and write into ``out``: the
@@ -236,9 +237,11 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
 
     Staged (:mod:`exoleg.identify.staged`): ``device_alone`` identifies the device with
     no child in it, at ``leg``'s telescope settings (the prior its model,
-    :func:`~exoleg.child.interaction.device_leg`); ``device``, the folder of such an
-    identification, makes it the device's share of the prior, and ``identify.json`` then
-    holds the child's share of the base parameters."""
+    :func:`~exoleg.child.interaction.device_leg`); ``identified_device``, the folder of
+    such an identification, makes it the device's share of the prior, and
+    ``identify.json`` then holds the child's share of the base parameters. ``device``: a
+    folder of device files replacing the shipped ones (the actuators the plan is designed
+    for and the session drives with)."""
     import exoleg
     from exoleg.child.interaction import device_leg
     from exoleg.identify.base import actuator_friction
@@ -256,14 +259,15 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
                              "interface (exoleg hmi), or here on the sim backend or "
                              "simulated nodes (canopen --interface virtual, ethercat "
                              "--interface fake)")
-    if device_alone and (child is not None or device is not None):
+    if device_alone and (child is not None or identified_device is not None):
         raise ParameterError(where, "--device-alone", "no child is in the device alone (no "
-                             "--child), and it is the first stage (no --device)")
+                             "--child), and it is the first stage (no "
+                             "--identified-device)")
     folder = Path(out)
     session = folder / "session" if session is None else Path(session)
     check_folder(session)  # before the plan: a recorded session is kept
     leg = exoleg.paper_leg() if leg is None else leg
-    config = DeviceConfig.load()
+    config = DeviceConfig.load(device)
     acts = config.actuators
     fitted = config.leg(leg)
     stage = DEVICE_ALONE if device_alone else "leg"
@@ -271,10 +275,10 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
     if device_alone:
         fitted = device_leg(fitted, acts)
         leg = LegModel(fitted.links, g=fitted.g, name=f"{fitted.name} ({leg.name})")
-    elif device is not None:
+    elif identified_device is not None:
         from exoleg.identify.staged import staged_prior
 
-        dev, dev_sd = load_device(device)
+        dev, dev_sd = load_device(identified_device)
         fitted, prior_sds = staged_prior(fitted, device_leg(fitted, acts), dev, dev_sd)
         stage = "leg on the identified device"
     mass = (child.mass if child is not None else DEFAULT_BODY_MASS) if body_mass is None \
@@ -293,7 +297,7 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
                     leg=leg if truth is None else truth, body_mass=mass, seed=seed,
                     realtime=realtime, interface=interface, channel=channel,
                     controller="pd-gravity", child=relaxed, reference=ref, step=STEP_M,
-                    model=None if truth is None else leg, link=link)
+                    model=None if truth is None else leg, link=link, device=device)
     if not res.stopped_by.startswith(ENDS[REFERENCE_PLAYED]):
         raise SimulationError(f"{where}: the session stopped before the plan's end: "
                               f"{res.stopped_by} (its log: {path})")
@@ -312,15 +316,16 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
     err = (pred - m.tau)[m.held_out]
     rms = np.sqrt(np.mean(err**2, axis=0))
     held = 100 * rms / np.sqrt(np.mean(m.tau[m.held_out] ** 2, axis=0))
-    extra: dict[str, Any] = {"stage": stage}
+    extra: dict[str, Any] = {"stage": stage,
+                             "device_folder": None if device is None else str(device)}
     if device_alone:
         extra["inertial_sd"] = np.asarray(r.inertial_sd).tolist()
-    elif device is not None:
+    elif identified_device is not None:
         from exoleg.identify.base import base_parameters
         from exoleg.identify.staged import child_share
 
         b = base_parameters(fitted)
-        extra["device"] = str(device)
+        extra["identified_device"] = str(identified_device)
         extra["child_share"] = dict(zip(b.names, b.of(child_share(r.leg, dev)).tolist(),
                                         strict=True))
     ident = DeviceIdentification(identified=r, reference=ref,

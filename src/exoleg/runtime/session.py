@@ -310,6 +310,7 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
                       "leg": leg.name, "body_mass": body_mass,
                       "child": None if child is None else child.name,
                       "started": started, "controller": controller,
+                      "device": config.summary(),
                       "interface": None if rig is None and backend == "sim" else
                       (interface or SIMULATED_BUS[backend])})
     commands: dict[int, int] = {}
@@ -358,7 +359,8 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
         b.deactivate()
         if rig is not None:
             rig.close()
-    summary = {"backend": backend, "controller": controller, "started": started,
+    summary = {"backend": backend, "controller": controller, "device": config.summary(),
+               "started": started,
                "period": period, "duration_s": res.ticks * period, "leg": leg.name,
                "ticks": res.ticks, "stopped_by": res.stopped_by,
                "bus_timeout_ms": None if bus_timeout is None else bus_timeout * 1e3,

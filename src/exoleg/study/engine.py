@@ -96,6 +96,15 @@ def check_folder(study: Study, out: str | Path) -> bool:
             raise ParameterError(str(folder), "--out", "holds another study (its "
                                  "study.toml differs): name another folder (nothing was "
                                  "written)")
+        try:
+            was = json.loads((folder / "study.json").read_text()).get("device", "")
+        except (OSError, ValueError):  # unreadable: the shipped device's, as before
+            was = ""
+        if was != study.device:
+            raise ParameterError(str(folder), "--device", "the study in this folder ran "
+                                 f"on {was or 'the shipped device'}, not "
+                                 f"{study.device or 'the shipped device'}: name another "
+                                 "folder (nothing was written)")
         return True
     if folder.exists() and any(folder.iterdir()):
         raise ParameterError(str(folder), "--out", "is not empty and holds no study: name "
@@ -122,6 +131,7 @@ def prepare(study: Study, out: str | Path) -> Path:
             "runs": count_runs(study), "tasks": task_count(study),
             "sampling": study.sampling, "strides": study.strides,
             "partition_by": study.partition_by, "swept": study.swept,
+            "device": study.device,
             "exoleg_version": __version__}, indent=2))
     with atomic_path(held) as tmp:  # last: a folder with study.toml is a study's
         tmp.write_text(study.text, encoding="utf-8")
@@ -271,7 +281,8 @@ def _compute(client: Any, study: Study, folder: Path, tasks: list[Any], todo: li
         t = next(queue, None)
         if t is None:
             return None
-        f = client.submit(run_task, t, tasks[t], study.strides, key=_key(study, t),
+        f = client.submit(run_task, t, tasks[t], study.strides, study.device or None,
+                          key=_key(study, t),
                           pure=False, retries=1)
         which[f] = t
         return f

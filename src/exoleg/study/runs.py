@@ -63,18 +63,19 @@ def _child(run: dict[str, Any]) -> Any:
 
 
 @functools.lru_cache(maxsize=8)
-def _units(hip_motor: str) -> tuple[Any, ...]:
-    """The shipped units with the hip's motor variant (read once per process)."""
+def _units(hip_motor: str, device: str | None = None) -> tuple[Any, ...]:
+    """The units of the device folder ``device`` (None: the shipped ones) with the hip's
+    motor variant (read once per process)."""
     from exoleg.device.actuator import hip_variant, paper_actuators
 
-    return (hip_variant(hip_motor), *paper_actuators())
+    return (hip_variant(hip_motor), *paper_actuators(device))
 
 
-def device_variant(run: dict[str, Any]) -> tuple[Any, ...]:
+def device_variant(run: dict[str, Any], device: str | None = None) -> tuple[Any, ...]:
     """The three actuation units a run names: the hip's motor variant, each joint's gear
     ratio (the ratings of the shipped gear of that ratio: 50 the knee's CSF-17-50, 100
     the hip's CSF-17-100, 120 the ankle's), the bus voltage."""
-    hip, *shipped = _units(run["hip_motor"])
+    hip, *shipped = _units(run["hip_motor"], device)
     by_ratio = {a.ratio: a for a in shipped}
     gear = ("gear", "ratio", "efficiency", "gear_input_inertia", "gear_rated_torque",
             "repeated_peak_torque", "momentary_peak_torque", "max_input_speed_rpm",
@@ -100,10 +101,10 @@ def actor(run: dict[str, Any], child: Any) -> Any:
                          float(run["strength"]))
 
 
-def _gains(run: dict[str, Any]) -> Any:
+def _gains(run: dict[str, Any], device: str | None = None) -> Any:
     from exoleg.control.hierarchy import WalkGains
 
-    g = WalkGains.default()
+    g = WalkGains.default(device)
     return dataclasses.replace(g, kp_stance=g.kp_stance * run["kp_scale"],
                                kp_swing=g.kp_swing * run["kp_scale"],
                                kd_stance=g.kd_stance * run["kd_scale"],
@@ -134,9 +135,10 @@ def empty_row(run_id: int, task: int, run: dict[str, Any]) -> dict[str, Any]:
     return row
 
 
-def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[str, Any]:
-    """Walk one run (``strides`` strides after 1 s of standing) and judge it; a failure is
-    the row's ``error``."""
+def run_one(run_id: int, task: int, run: dict[str, Any], strides: int,
+            device: str | None = None) -> dict[str, Any]:
+    """Walk one run (``strides`` strides after 1 s of standing) on the device of the folder
+    ``device`` (None: the shipped one) and judge it; a failure is the row's ``error``."""
     from exoleg.control.controllers import PD
     from exoleg.control.gait_phase import Event
     from exoleg.control.safety import Fault, Limited, joint_name
@@ -158,7 +160,7 @@ def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[s
         row.update(height_m=child.height, mass_kg=child.mass)
         fit = fit_device(child)
         leg = personalized_leg(child, fit)
-        gains = _gains(run)
+        gains = _gains(run, device)
         mode = SUPPORT_NAMES[run["controller"]]
         who = actor(run, child)
         if mode == SupportMode.TRANSPARENT and who is None:
@@ -166,8 +168,9 @@ def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[s
                                  "\"actor\" (a passive leg in a transparent device falls)")
         r = simulate_walk(leg, child.mass, strides=strides, speed=run["speed"],
                           stride_time=run["stride_time"], noise_scale=run["noise"],
-                          seed=run["seed"], actuators=device_variant(run), gains=gains,
-                          child=who, support_mode=mode, assist_law=run["assist_law"])
+                          seed=run["seed"], actuators=device_variant(run, device),
+                          gains=gains, child=who, support_mode=mode,
+                          assist_law=run["assist_law"], device=device)
     except (ExolegError, ValueError, ArithmeticError) as e:
         row["error"] = f"{type(e).__name__}: {e}"
         return row
@@ -206,8 +209,9 @@ def run_one(run_id: int, task: int, run: dict[str, Any], strides: int) -> dict[s
     return row
 
 
-def run_task(task: int, runs: list[tuple[int, dict[str, Any]]], strides: int
-             ) -> list[dict[str, Any]]:
+def run_task(task: int, runs: list[tuple[int, dict[str, Any]]], strides: int,
+             device: str | None = None) -> list[dict[str, Any]]:
     """A task: its runs, each (run id, axis values), one after the other in this process
-    (each walk one compiled loop); one row per run, failures included."""
-    return [run_one(i, task, run, strides) for i, run in runs]
+    (each walk one compiled loop) on the device of the folder ``device``; one row per run,
+    failures included."""
+    return [run_one(i, task, run, strides, device) for i, run in runs]

@@ -133,7 +133,8 @@ class Study:
     """A parsed study: ``name``, ``sampling``, the axes given (name -> list of values or
     a (min, max) range), profiles (children measured, or empty), the list's runs, and
     ``samples``, ``seed``, ``strides``, ``runs_per_task``, ``partition_by``; ``text`` is
-    the file as written (kept with the results)."""
+    the file as written (kept with the results); ``device``: the device folder whose files
+    replace the shipped ones in every run (``exoleg sweep --device``)."""
 
     name: str
     sampling: str
@@ -147,6 +148,7 @@ class Study:
     partition_by: str = ""
     description: str = ""
     text: str = field(default="", compare=False)
+    device: str = ""  # a device folder every run uses (exoleg sweep --device; "": shipped)
 
     def runs(self) -> list[dict[str, Any]]:
         """Every run's axis values, in the study's order (its id is the index)."""

@@ -79,6 +79,14 @@ class DeviceConfig:
         """The detector's calibration floor in ADC counts (:data:`FSR_FLOOR_N`)."""
         return self.sensors.counts(FSR_FLOOR_N)
 
+    def summary(self) -> dict[str, object]:
+        """What a run's record says of the device it ran on: its folder (None: the shipped
+        files) and each actuation unit's motor, gear, ratio and torque limit (N m)."""
+        return {"folder": None if self.folder is None else str(self.folder),
+                "actuators": [{"joint": a.joint, "motor": a.motor, "gear": a.gear,
+                               "ratio": a.ratio, "torque_limit_Nm": a.torque_limit}
+                              for a in self.actuators]}
+
     def leg(self, leg: LegModel) -> LegModel:
         """``leg`` with the actuators' reflected inertia (the device's leg model)."""
         return with_actuators(leg, self.actuators)
