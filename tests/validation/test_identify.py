@@ -118,6 +118,7 @@ def test_what_cannot_identify_is_refused() -> None:
 @settings(max_examples=6, deadline=None)
 @given(seed=st.integers(0, 10_000), child=st.sampled_from(["8 y girl", "10 y boy",
                                                            "12 y boy"]))
+@example(seed=2464, child="10 y boy")  # its move in from standing beyond the hip's torque
 @example(seed=1015, child="12 y boy")  # checked every 5 ms, its hip torque peaked between
 def test_an_excitation_plan_stays_within_the_safety_bounds(seed: int, child: str) -> None:
     # the issue: the plan never leaves the safety bounds, and takes <= 2 min of device
@@ -133,7 +134,10 @@ def test_an_excitation_plan_stays_within_the_safety_bounds(seed: int, child: str
            "12 y boy": Child(age=12, sex="male", height=1.52, mass=40.0)}[child]
     leg = with_actuators(personalized_leg(who))
     lim = plan_limits(SafetyLimits.paper(), ACTS)
-    plan = design_plan(leg, ACTS, lim, candidates=4, seed=seed)
+    from exoleg.system.config import DeviceConfig
+
+    standing = DeviceConfig.load().gains.standing
+    plan = design_plan(leg, ACTS, lim, candidates=4, seed=seed, start=standing)
     assert plan.duration <= 120.0
     assert check_plan(plan, leg, ACTS, lim, dt=1e-3) == []
     _, q, dq, ddq = plan.sample(1e-3)
@@ -147,9 +151,8 @@ def test_an_excitation_plan_stays_within_the_safety_bounds(seed: int, child: str
     # moves within the safety layer's range itself: the standing knee is within 5 deg of
     # its end); continuous to the acceleration at the joins (finite differences)
     from exoleg.identify.plan import RANGE_MARGIN, PlanReference
-    from exoleg.system.config import DeviceConfig
 
-    ref = PlanReference(plan, DeviceConfig.load().gains.standing)
+    ref = PlanReference(plan, standing)
     assert check_plan(ref, leg, ACTS, lim, dt=1e-3) == []
     t = np.arange(0.0, ref.duration, 1e-3)
     rq, rdq, rddq = ref.sample(t)

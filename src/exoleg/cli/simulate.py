@@ -102,7 +102,6 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     from exoleg.io import OutputFolder
     from exoleg.sim.scenario import run_scenario
-    from exoleg.validate.engines import scenario_engine
 
     t0 = time.perf_counter()
     variant = check_variant(args)
@@ -130,8 +129,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context(method),
                                      initializer=_ignore_sigint) as pool:
                 prepared = pool.submit(_prepare_worker)
-                engine, skipped = ((None, None) if args.no_engine
-                                   else scenario_engine(cfg["leg"], args.dt))
+                engine, skipped = None, None
+                if not args.no_engine:
+                    from exoleg.validate.engines import scenario_engine
+
+                    engine, skipped = scenario_engine(cfg["leg"], args.dt)
                 report = run_scenario(
                     cfg["leg"], cfg["controller"], cfg["reference"], args.duration, dt=args.dt,
                     control_dt=1.0 / args.control_rate, q0=cfg["q0"], detailed=cfg["detailed"],

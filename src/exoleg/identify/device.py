@@ -285,7 +285,7 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
         else body_mass
     limits = plan_limits(config.safety, acts)
     plan: Plan = design_plan(fitted, acts, limits, duration=duration, candidates=candidates,
-                             seed=seed)
+                             seed=seed, start=config.gains.standing)
     ref = PlanReference(plan, config.gains.standing)
     problems = check_plan(ref, fitted, acts, limits)
     if problems:

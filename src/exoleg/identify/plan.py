@@ -247,10 +247,12 @@ def _fit(plan: Plan, leg: LegModel, actuators: tuple[ActuatorModel, ...], limits
 
 def design_plan(leg: LegModel, actuators: tuple[ActuatorModel, ...], limits: Limits,
                 duration: float = 120.0, harmonics: int = 5, candidates: int = 40,
-                seed: int = 0) -> Plan:
+                seed: int = 0, start: F64 | None = None) -> Plan:
     """The best-conditioned of ``candidates`` random plans within ``limits``, ``duration``
     s long (at most 2 minutes of device time: the issue's bound), ``harmonics`` per
-    joint, the period a fifth of the duration."""
+    joint, the period a fifth of the duration; given ``start`` (the device's standing
+    posture, rad), the moves into the plan and back from it within ``limits`` too
+    (:class:`PlanReference`)."""
     if not (np.isfinite(duration) and 10.0 <= duration <= 120.0):
         raise ParameterError("design_plan", "duration", f"{duration!r} s is outside 10-120 s")
     if not (isinstance(harmonics, int) and 1 <= harmonics <= 10):
@@ -281,7 +283,9 @@ def design_plan(leg: LegModel, actuators: tuple[ActuatorModel, ...], limits: Lim
     # two coarse samples scales the plan down a little more
     plan = best[1]
     for _ in range(50):
-        if not check_plan(plan, leg, actuators, limits, dt=1e-3):
+        if not (check_plan(plan, leg, actuators, limits, dt=1e-3)
+                or (start is not None and check_plan(PlanReference(plan, start), leg,
+                                                      actuators, limits, dt=1e-3))):
             return plan
         plan = Plan(plan.period, plan.periods, plan.centre, plan.a * 0.99, plan.b * 0.99)
     raise ParameterError("design_plan", "limits", "no plan fits within these limits")

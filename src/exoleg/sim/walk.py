@@ -25,6 +25,7 @@ import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 from numba import njit
@@ -32,7 +33,7 @@ from numpy.typing import NDArray
 
 from exoleg.child.model import ChildModel
 from exoleg.child.passive import passive_moments
-from exoleg.control.hierarchy import WalkGains, walk_control_step
+from exoleg.control.hierarchy import WalkController, WalkGains, walk_control_step
 from exoleg.control.safety import SafetyLimits
 from exoleg.control.transparency import PARTS, SupportMode
 from exoleg.device.actuator import ActuatorModel, drive_limit
@@ -263,7 +264,7 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     system = build(cfg, leg, body_mass, SupportMode(support_mode).name.lower(), child=child,
                    model=model, speed=speed, stride_time=stride_time,
                    ankle_height=ankle_height, ground=ground)
-    ctl, dev = system.controller, system.device
+    ctl, dev = cast(WalkController, system.controller), system.device
     assert dev is not None  # simulated
     plant, sens = dev.plant, dev.sensors
     check_step(plant, control_dt / substeps, dev.folder)
