@@ -185,23 +185,23 @@ def device_actuate(p, w, A, K, S, h, sub, u, fn, walking, t, stride, support,  #
     pts = np.empty((SOLE_MAX, 4))
     F = np.empty((SOLE_MAX, 2))
     gen = np.empty(4)
-    mean = np.empty(3)
-    joint = np.empty(3)
-    acc = np.zeros(3)
+    # by row: the joints' torque in a substep, its sum over the tick, the tick's mean
+    # posture, rates and accelerations (one allocation: this runs every tick)
+    V = np.zeros((5, 3))
+    joint, acc, qm, dqm, ddq = V[0], V[1], V[2], V[3], V[4]
     supp = 0.0
     hs = h / sub
     for _ in range(sub):
         for i in range(3):
             tc = min(max(u[i], -env[i]), env[i])
-            D.tau[i], mean[i] = current_loop(A[i:i + 1], D.tau[i], tc, hs)
-            acc[i] += mean[i]
-            joint[i] = mean[i] + D.child[i]
+            D.tau[i], mean = current_loop(A[i:i + 1], D.tau[i], tc, hs)
+            acc[i] += mean
+            joint[i] = mean + D.child[i]
         supp += step_contacts(p, w, x, pts, F, gen)
         walking_step(p, w, A, P, x, joint, gen, hs)
     for i in range(3):
         tau[i] = acc[i] / sub
     if pd.shape[0] > 0:  # the cuffs' torque over the tick, from its mean accelerations
-        qm, dqm, ddq = np.empty(3), np.empty(3), np.empty(3)
         for i in range(3):
             qm[i] = 0.5 * (x0[1 + i] + x[1 + i])
             dqm[i] = 0.5 * (x0[5 + i] + x[5 + i])

@@ -179,7 +179,7 @@ PLANT = np.dtype([("body_mass", F8), ("g", F8),
                   ("sensed", I8, SOLE_MAX)])
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", inline="always")
 def contact_points(p, w, y, q, dq, dy, out):  # type: ignore[no-untyped-def]
     """Positions and velocities of the sole's elements: out (:data:`SOLE_MAX`, 4) rows (x,
     y, dx, dy), world frame (hip at (0, y)), the first ``n`` filled; the leg's kinematics
@@ -190,7 +190,7 @@ def contact_points(p, w, y, q, dq, dy, out):  # type: ignore[no-untyped-def]
         out[k, 0], out[k, 1], out[k, 2], out[k, 3] = x, y + yy, vx, dy + vy
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", inline="always")
 def contact_forces(w, pts, F):  # type: ignore[no-untyped-def]
     """Forces F (:data:`SOLE_MAX`, 2) (tangential x, normal y) of the belt on the sole's
     elements from their state ``pts`` (:func:`contact_points`): spring-damper normal
@@ -212,41 +212,39 @@ def contact_forces(w, pts, F):  # type: ignore[no-untyped-def]
     return total
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", inline="always")
 def support_force(w, y, dy):  # type: ignore[no-untyped-def]
     """The other leg under the pelvis: one-sided spring-damper, N (>= 0)."""
     W = w[0]
     return max(0.0, W.support_stiffness * (W.support_height - y) - W.support_damping * dy)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", inline="always")
 def _solve4(A, r):  # type: ignore[no-untyped-def]
-    """Solve the 4 x 4 system A x = r (Gaussian elimination with partial pivoting)."""
-    M = A.copy()
-    x = r.copy()
+    """Solve the 4 x 4 system A x = r in place (Gaussian elimination with partial
+    pivoting): ``A`` is overwritten, ``r`` becomes x."""
     for c in range(4):
         piv = c
         for i in range(c + 1, 4):
-            if abs(M[i, c]) > abs(M[piv, c]):
+            if abs(A[i, c]) > abs(A[piv, c]):
                 piv = i
         if piv != c:
             for j in range(4):
-                M[c, j], M[piv, j] = M[piv, j], M[c, j]
-            x[c], x[piv] = x[piv], x[c]
+                A[c, j], A[piv, j] = A[piv, j], A[c, j]
+            r[c], r[piv] = r[piv], r[c]
         for i in range(c + 1, 4):
-            f = M[i, c] / M[c, c]
+            f = A[i, c] / A[c, c]
             for j in range(c, 4):
-                M[i, j] -= f * M[c, j]
-            x[i] -= f * x[c]
+                A[i, j] -= f * A[c, j]
+            r[i] -= f * r[c]
     for i in range(3, -1, -1):
-        s = x[i]
+        t = r[i]
         for j in range(i + 1, 4):
-            s -= M[i, j] * x[j]
-        x[i] = s / M[i, i]
-    return x
+            t -= A[i, j] * r[j]
+        r[i] = t / A[i, i]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", inline="always")
 def generalized_contact(p, w, y, q, F, out):  # type: ignore[no-untyped-def]
     """Generalized forces (4,) of the elements' forces F (:data:`SOLE_MAX`, 2): on y the
     sum of the normal forces, on the joints sum J_i^T F_i (the generated
@@ -261,21 +259,28 @@ def generalized_contact(p, w, y, q, F, out):  # type: ignore[no-untyped-def]
             out[1 + j] += J[0, j] * F[k, 0] + J[1, j] * F[k, 1]
 
 
-@njit(cache=True)
-def walking_accel(p, w, y, dy, q, dq, tau, gen, out):  # type: ignore[no-untyped-def]
-    """(ddy, ddq) into out (4,) under joint torques tau (3,) and the generalized external
-    forces ``gen`` (4,) (contacts and support), gravity included."""
-    M = np.empty((3, 3))
+@njit(cache=True, error_model="numpy")
+def scratch():  # type: ignore[no-untyped-def]
+    """The plant's work arrays for one step (:func:`walking_accel`'s ``wk``): the leg's
+    mass matrix (3, 3); its Coriolis, gravity and joint torques (3, 3) by row; the 4 x 4
+    system and its right-hand side, which becomes (ddy, ddq)."""
+    return np.empty((3, 3)), np.empty((3, 3)), np.empty((4, 4)), np.empty(4)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def walking_accel(p, w, x, tau, gen, wk):  # type: ignore[no-untyped-def]
+    """(ddy, ddq) at the state x (8,) under joint torques tau (3,) and the generalized
+    external forces ``gen`` (4,) (contacts and support), gravity included, into
+    ``wk[3]`` (``wk``: :func:`scratch`, the work arrays: no allocation per call)."""
+    M, V, A, r = wk
+    q, dq = x[1:4], x[5:8]
     mass_matrix(q, p, M)
-    Cq = np.empty(3)
+    Cq, G = V[0], V[1]
     coriolis_dq(q, dq, p, Cq)
-    G = np.empty(3)
     gravity(q, p, w[0].g, G)
     y0, y1, y2, b, m_leg = mass_height_terms(q, dq, p)
     pv = (y0, y1, y2)
     mt = w[0].body_mass + m_leg
-    A = np.empty((4, 4))
-    r = np.empty(4)
     A[0, 0] = mt
     for j in range(3):
         A[0, 1 + j] = pv[j]
@@ -284,12 +289,10 @@ def walking_accel(p, w, y, dy, q, dq, tau, gen, out):  # type: ignore[no-untyped
             A[1 + j, 1 + k] = M[j, k]
         r[1 + j] = tau[j] - Cq[j] - G[j] + gen[1 + j]
     r[0] = gen[0] - mt * w[0].g - b
-    x = _solve4(A, r)
-    for i in range(4):
-        out[i] = x[i]
+    _solve4(A, r)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def walking_energy(p, w, y, dy, q, dq):  # type: ignore[no-untyped-def]
     """Kinetic + potential energy of leg and pelvis, J (potential zero at y = 0)."""
     M = np.empty((3, 3))
@@ -305,19 +308,20 @@ def walking_energy(p, w, y, dy, q, dq):  # type: ignore[no-untyped-def]
     return T + w[0].g * ((w[0].body_mass + m_leg) * y + mass_height(q, p))
 
 
-@njit(cache=True)
-def _deriv(p, w, A, P, y, dy, q, dq, tau, gen, out):  # type: ignore[no-untyped-def]
-    """(ddy, ddq) with the actuators' friction (A: (3,) of
+@njit(cache=True, error_model="numpy", inline="always")
+def _deriv(p, w, A, P, x, tau, gen, wk):  # type: ignore[no-untyped-def]
+    """(ddy, ddq) at x into ``wk[3]`` with the actuators' friction (A: (3,) of
     :data:`~exoleg.device.actuator.ACTUATOR`, or an empty one for none) and the child's
     passive joint moments (P: :data:`~exoleg.child.passive.PASSIVE`, off for none)."""
-    t = np.empty(3)
-    passive_torque(P, q, dq, t)
+    t = wk[1][2]
+    dq = x[5:8]
+    passive_torque(P, x[1:4], dq, t)
     for i in range(3):
         t[i] += tau[i] - (friction(A[i:i + 1], dq[i]) if A.shape[0] == 3 else 0.0)
-    walking_accel(p, w, y, dy, q, dq, t, gen, out)
+    walking_accel(p, w, x, t, gen, wk)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def walking_step(p, w, A, P, x, tau, gen, h):  # type: ignore[no-untyped-def]
     """One RK4 step of the state x (8,) = (y, q0, q1, q2, dy, dq0, dq1, dq2), in place, with
     the joint torques ``tau`` and generalized external forces ``gen`` held (the contact
@@ -325,13 +329,14 @@ def walking_step(p, w, A, P, x, tau, gen, h):  # type: ignore[no-untyped-def]
     (``P``) in every stage."""
     k = np.empty((4, 8))
     s = x.copy()
-    a = np.empty(4)
+    wk = scratch()
+    a = wk[3]
     for stage in range(4):
         c = 0.0 if stage == 0 else (0.5 if stage < 3 else 1.0)
         if stage > 0:
             for i in range(8):
                 s[i] = x[i] + c * h * k[stage - 1, i]
-        _deriv(p, w, A, P, s[0], s[4], s[1:4], s[5:8], tau, gen, a)
+        _deriv(p, w, A, P, s, tau, gen, wk)
         for i in range(4):
             k[stage, i] = s[4 + i]
             k[stage, 4 + i] = a[i]
@@ -339,7 +344,7 @@ def walking_step(p, w, A, P, x, tau, gen, h):  # type: ignore[no-untyped-def]
         x[i] += h / 6.0 * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def step_contacts(p, w, x, pts, F, gen):  # type: ignore[no-untyped-def]
     """The contact and support forces at state x: the sole's points into pts
     (:data:`SOLE_MAX`, 4), their forces into F (:data:`SOLE_MAX`, 2), the generalized
@@ -352,7 +357,7 @@ def step_contacts(p, w, x, pts, F, gen):  # type: ignore[no-untyped-def]
     return fc
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def sole_loads(w, F, region, sensor):  # type: ignore[no-untyped-def]
     """The sole's normal forces F (:data:`SOLE_MAX`, 2) per sensor region into ``region``
     (4,: the whole region's load, N; the midfoot's in none) and what each FSR carries into
