@@ -25,7 +25,7 @@ import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import cast
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 from numba import njit
@@ -53,18 +53,70 @@ from exoleg.world.plant import WalkingPlant
 
 F64 = NDArray[np.float64]
 
+class World(NamedTuple):
+    """The simulated device as the compiled run reads it (:func:`_run_walk`): the plant's
+    leg parameters and record, the actuators' records, the child's records
+    (:meth:`~exoleg.world.device.SimulatedDevice.child_records`), the foot board's, where
+    the IMU sits on the foot (m), the other leg's support table and standing height, the
+    expected stride (s)."""
+
+    p: F64
+    w: NDArray[np.void]
+    A: NDArray[np.void]
+    K: tuple[Any, ...]
+    sens: NDArray[np.void]
+    imu_x: float
+    imu_y: float
+    support: F64
+    stand_support: float
+    stride: float
+
+
+class Plan(NamedTuple):
+    """What a walk is given tick by tick: the operator's command per tick, the sensor
+    faults (:data:`~exoleg.device.faults.FAULT`), the sensors' noise per tick and the
+    IMU's bias, the tick (s) and the plant's substeps per tick."""
+
+    commands: NDArray[np.int64]
+    faults: NDArray[np.void]
+    fsr_noise: F64
+    imu_noise: F64
+    imu_bias: F64
+    h: float
+    sub: int
+
+
+class Series(NamedTuple):
+    """What a walk records per tick (:class:`WalkResult` is made of it): the plant's state
+    ``X`` (n+1, 8), the readings ``SENS`` (:data:`SENSORS`), the true normal force under
+    each sensor's region ``FN``, the controller's ``OUT`` (:data:`OUTPUT`), the torque
+    delivered ``TAU`` and the drives' envelope ``ENV``, the other leg's support ``SUP``,
+    the child's muscles' torque ``CH``, the transparent law's parts and wall and the
+    proportional assistance's gain ``PA`` (n+1, 6, 3), the child's stance share ``SH``."""
+
+    X: F64
+    SENS: NDArray[np.void]
+    FN: F64
+    OUT: NDArray[np.void]
+    TAU: F64
+    ENV: F64
+    SUP: F64
+    CH: F64
+    PA: F64
+    SH: F64
+
+
 @njit(cache=True, error_model="numpy")
-def _run_walk(p, w, A, K, ctl, sens, fsr_noise, imu_noise, imu_bias, imu_x, imu_y, commands,  # type: ignore[no-untyped-def]
-              F, h, sub, support, stand_support, stride, S, X, SENS, FN, OUT, TAU, ENV,
-              SUP, CH, PA, SH):
-    """The walking run: per tick k the device's readings into ``SENS[k]``, the
-    controller's tick (``ctl``: :meth:`WalkController.compiled`) into ``OUT[k]`` -- the
-    readings with the sensor faults ``F`` (:data:`~exoleg.device.faults.FAULT`) --, the
-    drives, the child (``K``) and the plant; the child's muscles' torque into ``CH[k]``,
-    the transparent law's parts and wall (the controller's support state) and the
-    proportional assistance's gain (its state) into ``PA[k]``,
-    the child's stance share (a learning child's changes) into ``SH[k]``.
+def _run_walk(world, ctl, plan, S, series):  # type: ignore[no-untyped-def]
+    """The walking run (``world``: :class:`World`, ``plan``: :class:`Plan`, ``series``:
+    :class:`Series`, ``S``: the simulated device's state): per tick k the device's
+    readings into ``SENS[k]``, the controller's tick (``ctl``:
+    :meth:`WalkController.compiled`) into ``OUT[k]`` -- the readings with the sensor
+    faults --, the drives, the child and the plant, and what the series keep of them.
     Returns -1, or the tick whose state became non-finite."""
+    p, w, A, K, sens, imu_x, imu_y, support, stand_support, stride = world
+    commands, F, fsr_noise, imu_noise, imu_bias, h, sub = plan
+    X, SENS, FN, OUT, TAU, ENV, SUP, CH, PA, SH = series
     cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref, tp, cA, ss, ap, as_ = ctl
     n = X.shape[0] - 1
     for k in range(n + 1):
@@ -287,11 +339,12 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     PA = np.zeros((n + 1, len(PARTS) + 2, 3))
     SH = np.zeros(n + 1)
     K = dev.child_records(control_dt)
-    bad = _run_walk(plant.leg.p, plant.record(), dev.A, K, ctl.compiled(), sens.record(),
-                    fsr_noise, imu_noise, bias, dev.imu_x, -dev.depth, commands,
-                    fault_records(faults, sens), control_dt,
-                    substeps, dev.support, plant.support_height, stride_time,
-                    dev.state(), X, SENS, FN, OUT, TAU, ENV, SUP, CH, PA, SH)
+    world = World(plant.leg.p, plant.record(), dev.A, K, sens.record(), dev.imu_x, -dev.depth,
+                  dev.support, plant.support_height, stride_time)
+    plan = Plan(commands, fault_records(faults, sens), fsr_noise, imu_noise, bias,
+                control_dt, substeps)
+    bad = _run_walk(world, ctl.compiled(), plan, dev.state(),
+                    Series(X, SENS, FN, OUT, TAU, ENV, SUP, CH, PA, SH))
     if bad >= 0:
         raise SimulationError(f"walking state became non-finite at t = {bad * control_dt:.4g} s")
     t: F64 = np.arange(n + 1, dtype=np.float64) * control_dt
