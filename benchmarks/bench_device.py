@@ -55,10 +55,11 @@ def _ticks(kind, kp, kd, kc, scale, limit, lim, state, Q, V, R, out):  # type: i
     acc = 0.0
     for k in range(Q.shape[0]):
         q0, q1, q2 = Q[k, 0], Q[k, 1], Q[k, 2]
-        u[0], u[1], u[2], _ = law(kind, kp, kd, kc, scale, limit, np.sin(q0), np.cos(q0),
-                                  np.sin(q1), np.cos(q1), np.sin(q2), np.cos(q2), q0, q1, q2,
-                                  V[k, 0], V[k, 1], V[k, 2], R[k, 0], R[k, 1], R[k, 2],
-                                  0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        u[0], u[1], u[2], _ = law((kind, kp, kd, kc, scale, limit),
+                                  (np.sin(q0), np.cos(q0), np.sin(q1), np.cos(q1), np.sin(q2),
+                                   np.cos(q2)), (q0, q1, q2), (V[k, 0], V[k, 1], V[k, 2]),
+                                  (R[k, 0], R[k, 1], R[k, 2]), (0.0, 0.0, 0.0),
+                                  (0.0, 0.0, 0.0))
         safety_step(lim, state, Q[k], V[k], u, False, us)
         acc += us[0] + us[1] + us[2]
     out[0] = acc

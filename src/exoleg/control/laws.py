@@ -39,13 +39,22 @@ def _clip(u, limit):  # type: ignore[no-untyped-def]
 
 
 @njit(inline="always", cache=True)
-def law(kind, kp, kd, kc, scale, limit, s0, c0, s1, c1, s2, c2,  # type: ignore[no-untyped-def]
-        q0, q1, q2, v0, v1, v2, r0, r1, r2, w0, w1, w2, a0, a1, a2):
-    """Any law on scalars: state q, v (s_i, c_i = sin, cos of q_i); reference r, its
-    rate w and acceleration a. Returns (u0, u1, u2, mask).
+def law(c, sc, q, v, r, w, a):  # type: ignore[no-untyped-def]
+    """Any law on scalars (each argument a tuple, inlined: nothing is built at run time):
+    ``c`` the law (kind, Kp, Kd, model coefficients, scale, saturation: a controller's
+    ``kind`` and :meth:`~exoleg.control.controllers.Controller.law_args`); the state q, v
+    (3 each) with ``sc`` = (s0, c0, s1, c1, s2, c2), the sines and cosines of q; the
+    reference r, its rate w and acceleration a (3 each). Returns (u0, u1, u2, mask).
 
     PD: Kp (r - q) + Kd (w - v); PD + gravity compensation adds G(q); computed torque
     is M(q) (a + Kp (r - q) + Kd (w - v)) + C(q, v) v + G(q)."""
+    kind, kp, kd, kc, scale, limit = c
+    s0, c0, s1, c1, s2, c2 = sc
+    q0, q1, q2 = q
+    v0, v1, v2 = v
+    r0, r1, r2 = r
+    w0, w1, w2 = w
+    a0, a1, a2 = a
     u0 = kp[0] * (r0 - q0) + kd[0] * (w0 - v0)
     u1 = kp[1] * (r1 - q1) + kd[1] * (w1 - v1)
     u2 = kp[2] * (r2 - q2) + kd[2] * (w2 - v2)
@@ -67,8 +76,9 @@ def law(kind, kp, kd, kc, scale, limit, s0, c0, s1, c1, s2, c2,  # type: ignore[
 def control_law(kind, kp, kd, kc, scale, limit, q, dq, q_ref, dq_ref, ddq_ref, u):  # type: ignore[no-untyped-def]
     """:func:`law` on arrays (3,): writes the torque into ``u``; returns the saturation mask."""
     u[0], u[1], u[2], mask = law(
-        kind, kp, kd, kc, scale, limit, math.sin(q[0]), math.cos(q[0]), math.sin(q[1]),
-        math.cos(q[1]), math.sin(q[2]), math.cos(q[2]), q[0], q[1], q[2], dq[0], dq[1], dq[2],
-        q_ref[0], q_ref[1], q_ref[2], dq_ref[0], dq_ref[1], dq_ref[2],
-        ddq_ref[0], ddq_ref[1], ddq_ref[2])
+        (kind, kp, kd, kc, scale, limit),
+        (math.sin(q[0]), math.cos(q[0]), math.sin(q[1]), math.cos(q[1]), math.sin(q[2]),
+         math.cos(q[2])), (q[0], q[1], q[2]), (dq[0], dq[1], dq[2]),
+        (q_ref[0], q_ref[1], q_ref[2]), (dq_ref[0], dq_ref[1], dq_ref[2]),
+        (ddq_ref[0], ddq_ref[1], ddq_ref[2]))
     return mask

@@ -29,9 +29,10 @@ def _one(p, g, kp, kd, Qr, DQr, dt, q_init, dq_init, start, out, limit):  # type
     # peaks in locals (stores into ``out`` at every step would be kept in memory)
     t0 = t1 = t2 = w0 = w1 = w2 = e0 = e1 = e2 = 0.0
     for k in range(Qr.shape[0] - 1):
-        u0, u1, u2, _ = law(Law.PD_GRAVITY, kp, kd, k_leg, 1.0, limit, s0, c0, s1, c1, s2, c2,
-                            q0, q1, q2, v0, v1, v2, Qr[k, 0], Qr[k, 1], Qr[k, 2],
-                            DQr[k, 0], DQr[k, 1], DQr[k, 2], 0.0, 0.0, 0.0)
+        u0, u1, u2, _ = law((Law.PD_GRAVITY, kp, kd, k_leg, 1.0, limit),
+                            (s0, c0, s1, c1, s2, c2), (q0, q1, q2), (v0, v1, v2),
+                            (Qr[k, 0], Qr[k, 1], Qr[k, 2]), (DQr[k, 0], DQr[k, 1], DQr[k, 2]),
+                            (0.0, 0.0, 0.0))
         if k >= start:
             t0, t1, t2 = max(t0, abs(u0)), max(t1, abs(u1)), max(t2, abs(u2))
             w0, w1, w2 = max(w0, abs(v0)), max(w1, abs(v1)), max(w2, abs(v2))

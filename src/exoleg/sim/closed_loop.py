@@ -78,9 +78,9 @@ def _run(p, g, kind, kp, kd, kc, scale, limit, Qr, DQr, DDQr, dt, hold,  # type:
         held += 1
         if held == 1:
             u[0], u[1], u[2], mask[0] = law(
-                kind, kp, kd, kc, scale, limit, s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2,
-                Qr[k, 0], Qr[k, 1], Qr[k, 2], DQr[k, 0], DQr[k, 1], DQr[k, 2],
-                DDQr[k, 0], DDQr[k, 1], DDQr[k, 2])
+                (kind, kp, kd, kc, scale, limit), (s0, c0, s1, c1, s2, c2), (q0, q1, q2),
+                (v0, v1, v2), (Qr[k, 0], Qr[k, 1], Qr[k, 2]),
+                (DQr[k, 0], DQr[k, 1], DQr[k, 2]), (DDQr[k, 0], DDQr[k, 1], DDQr[k, 2]))
         U[k, 0], U[k, 1], U[k, 2] = u[0], u[1], u[2]
         SAT[k] = mask[0]
         qn, vn, a = rk4_sc(s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2, u[0], u[1], u[2],

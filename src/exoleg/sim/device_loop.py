@@ -119,10 +119,11 @@ def _run_device(p, g, kind, kp, kd, kc, scale, limit, A, lim, state, Qr, DQr, DD
         # 2. the controller on the measured state
         q0, q1, q2 = QM[k, 0], QM[k, 1], QM[k, 2]
         u_cmd[0], u_cmd[1], u_cmd[2], _ = law(
-            kind, kp, kd, kc, scale, limit, math.sin(q0), math.cos(q0), math.sin(q1),
-            math.cos(q1), math.sin(q2), math.cos(q2), q0, q1, q2, vm[0], vm[1], vm[2],
-            Qr[k, 0], Qr[k, 1], Qr[k, 2], DQr[k, 0], DQr[k, 1], DQr[k, 2],
-            DDQr[k, 0], DDQr[k, 1], DDQr[k, 2])
+            (kind, kp, kd, kc, scale, limit),
+            (math.sin(q0), math.cos(q0), math.sin(q1), math.cos(q1), math.sin(q2),
+             math.cos(q2)), (q0, q1, q2), (vm[0], vm[1], vm[2]),
+            (Qr[k, 0], Qr[k, 1], Qr[k, 2]), (DQr[k, 0], DQr[k, 1], DQr[k, 2]),
+            (DDQr[k, 0], DDQr[k, 1], DDQr[k, 2]))
         # 3. the safety layer
         STATUS[k] = safety_step(lim, state, QM[k], vm, u_cmd, False, u_safe)
         # 4. the drive: the torque-speed envelope at the measured speed (braking: the
