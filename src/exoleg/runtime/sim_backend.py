@@ -10,15 +10,23 @@ import numpy as np
 from numpy.typing import NDArray
 
 from exoleg.dynamics.model import LegModel
-from exoleg.layout import new
-from exoleg.params.records import JOINTS
+from exoleg.layout import F8, column_names, new
 from exoleg.system.build import build
 from exoleg.system.config import DeviceConfig
-from exoleg.tick import SENSORS
+from exoleg.tick import LABELS, SENSORS
 from exoleg.world.device import SimulatedDevice, device_actuate, device_sense
 
 F64 = NDArray[np.float64]
 _CHUNK = 4096  # ticks of noise drawn at once
+
+#: What the log keeps of the simulated device each tick besides the tick's own records:
+#: its readings (the encoders' angles and rates, rad, rad/s; the FSRs, counts; the foot's
+#: gyro, rad/s, and accelerations, m/s^2), the plant's true joint angles (rad) and pelvis
+#: height (m), the torque the drives delivered, the cuffs' torque and the child's
+#: muscles' torque (N m). Its flat columns are :attr:`SimBackend.columns`.
+RECORD = np.dtype([("q_meas", F8, 3), ("dq_meas", F8, 3), ("fsr", F8, 4), ("gyro", F8),
+                   ("acc", F8, 2), ("q", F8, 3), ("pelvis", F8), ("tau", F8, 3),
+                   ("interaction", F8, 3), ("child", F8, 3)])
 
 
 class SimBackend:
@@ -30,10 +38,7 @@ class SimBackend:
     (the session sets it from the supervisor's mode) -- unless the child stands on a step
     (``step`` of :meth:`~exoleg.world.device.SimulatedDevice.of`), the leg hanging."""
 
-    columns = ([f"q_meas_{j}" for j in JOINTS] + [f"dq_meas_{j}" for j in JOINTS]
-               + ["fsr_heel", "fsr_met1", "fsr_met5", "fsr_hallux", "gyro", "acc_x", "acc_y"]
-               + [f"q_{j}" for j in JOINTS] + ["pelvis"] + [f"tau_{j}" for j in JOINTS]
-               + [f"interaction_{j}" for j in JOINTS] + [f"child_{j}" for j in JOINTS])
+    columns = column_names(RECORD, {**LABELS, 2: ("x", "y")})
 
     def __init__(self, device: SimulatedDevice, period: float = 1e-3, substeps: int = 2,
                  seed: int = 0, controller: Any = None) -> None:
@@ -63,6 +68,7 @@ class SimBackend:
         self.u, self.env, self.tau = np.zeros(3), np.zeros(3), np.zeros(3)
         self.walking = False
         self._written = False
+        self._record = np.zeros(1, RECORD)
 
     @classmethod
     def built(cls, leg: LegModel, body_mass: float, period: float = 1e-3,
@@ -135,7 +141,10 @@ class SimBackend:
         self._written = False
 
     def record(self) -> F64:
-        r, x = self.reading[0], self.S[0]["x"]
-        return np.concatenate([r["q"], r["dq"], r["fsr"], [r["gyro"]], r["accel"], x[1:4],
-                               x[:1],
-                               self.tau, r["interaction"], self.S[0]["child"]])
+        """What the log keeps of the device this tick (:data:`RECORD`, flat)."""
+        r, x, o = self.reading[0], self.S[0]["x"], self._record[0]
+        o["q_meas"], o["dq_meas"], o["fsr"] = r["q"], r["dq"], r["fsr"]
+        o["gyro"], o["acc"] = r["gyro"], r["accel"]
+        o["q"], o["pelvis"] = x[1:4], x[0]
+        o["tau"], o["interaction"], o["child"] = self.tau, r["interaction"], self.S[0]["child"]
+        return self._record.view(np.float64).copy()
