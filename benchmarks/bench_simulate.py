@@ -54,8 +54,8 @@ def main() -> None:
 
     def exo_loop() -> None:
         Q[0], DQ[0] = 0.0, 0.0
-        _run(leg.p, leg.g, ctrl.kind, *ctrl.law_args(), Qr, DQr,
-             DDQr, DT, 1, Q, DQ, DDQ, U, SAT, 0, N, np.zeros(3), np.zeros(1, np.int64))
+        _run(leg.p, leg.g, (ctrl.kind, *ctrl.law_args()), (Qr, DQr, DDQr), (DT, 1, 0, N),
+             (Q, DQ, DDQ, U, SAT), (np.zeros(3), np.zeros(1, np.int64)))
 
     rows = [("exoleg compiled loop", best(exo_loop, 15))]
     rows.append(("exoleg simulate() end to end", best(

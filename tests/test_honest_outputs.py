@@ -99,8 +99,8 @@ def _ct_error_growth(kd_h: float) -> float:
     DQ[0] = [0.01, 0.01, 0.01]
     R = np.tile(Q[0], (n + 1, 1))
     Z = np.zeros((n + 1, 3))
-    bad = _run(LEG.p, LEG.g, ctrl.kind, *ctrl.law_args(), R, Z, Z, h, 1, Q, DQ, DDQ, U,
-               np.zeros(n + 1, np.int64), 0, n, np.zeros(3), np.zeros(1, np.int64))
+    bad = _run(LEG.p, LEG.g, (ctrl.kind, *ctrl.law_args()), (R, Z, Z), (h, 1, 0, n),
+               (Q, DQ, DDQ, U, np.zeros(n + 1, np.int64)), (np.zeros(3), np.zeros(1, np.int64)))
     assert bad == -1
     return float(np.abs(DQ[-1]).max() / 0.01)
 

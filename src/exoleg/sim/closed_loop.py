@@ -59,14 +59,20 @@ def warm_up() -> None:
 
 
 @njit(cache=True, error_model="numpy")
-def _run(p, g, kind, kp, kd, kc, scale, limit, Qr, DQr, DDQr, dt, hold,  # type: ignore[no-untyped-def]
-         Q, DQ, DDQ, U, SAT, k0, k1, u, mask):
-    """Integrate steps k0 .. k1-1 from the state in Q[k0], DQ[k0].
-
-    ``kp``, ``kd``, ``limit`` and ``kc`` are tuples (passed by value). ``u`` (3,) and
-    ``mask`` (1,) carry the held torque and saturation flags between calls (so a run can
-    be done in chunks). Returns the index of the first non-finite state, or -1.
+def _run(p, g, c, ref, span, series, carry):  # type: ignore[no-untyped-def]
+    """Integrate steps k0 .. k1-1 from the state in Q[k0], DQ[k0]: the leg ``p`` under
+    gravity ``g``, the law ``c`` (kind, Kp, Kd, model coefficients, scale, saturation:
+    :func:`~exoleg.control.laws.law`'s; tuples, passed by value), the reference ``ref``
+    (Qr, DQr, DDQr), ``span`` (dt, the steps a control sample is held, k0, k1), the
+    ``series`` written (Q, DQ, DDQ, U, SAT). ``carry`` (u (3,), mask (1,)) holds the
+    torque and saturation flags between calls (so a run can be done in chunks). Returns
+    the index of the first non-finite state, or -1.
     """
+    kind, kp, kd, kc, scale, limit = c
+    Qr, DQr, DDQr = ref
+    dt, hold, k0, k1 = span
+    Q, DQ, DDQ, U, SAT = series
+    u, mask = carry
     coef = coefficients(p, g)
     q0, q1, q2 = Q[k0, 0], Q[k0, 1], Q[k0, 2]
     v0, v1, v2 = DQ[k0, 0], DQ[k0, 1], DQ[k0, 2]
@@ -417,8 +423,8 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
     bad = -1
     for k0 in range(0, n, chunk):
         k1 = min(n, k0 + chunk)
-        bad = _run(leg.p, leg.g, controller.kind, *controller.law_args(), Qr, DQr, DDQr, dt,
-                   hold, Q, DQ, DDQ, U, SAT, k0, k1, u, mask)
+        bad = _run(leg.p, leg.g, (controller.kind, *controller.law_args()), (Qr, DQr, DDQr),
+                   (dt, hold, k0, k1), (Q, DQ, DDQ, U, SAT), (u, mask))
         if progress is not None:
             progress(k1 / n)
         if bad >= 0:

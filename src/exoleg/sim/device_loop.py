@@ -88,10 +88,18 @@ def _rk4(coef, A, q0, q1, q2, v0, v1, v2, t0, t1, t2, h):  # type: ignore[no-unt
 
 
 @njit(cache=True, error_model="numpy")
-def _run_device(p, g, kind, kp, kd, kc, scale, limit, A, lim, state, Qr, DQr, DDQr, h, sub,  # type: ignore[no-untyped-def]
-                Q, DQ, QM, DQM, UC, US, TAU, FR, STATUS, ENV):
-    """Run every tick; arrays (n+1, 3) but STATUS (n+1,). Returns the first tick with a
-    non-finite plant state, or -1."""
+def _run_device(p, g, c, A, safety, ref, span, series):  # type: ignore[no-untyped-def]
+    """Run every tick: the leg ``p`` under gravity ``g``, the law ``c`` (kind, Kp, Kd,
+    model coefficients, scale, saturation: :func:`~exoleg.control.laws.law`'s), the
+    actuators' records ``A``, the safety layer's (limits, state), the reference ``ref``
+    (Qr, DQr, DDQr), ``span`` (the tick, the plant's substeps) and the ``series`` written
+    (Q, DQ, QM, DQM, UC, US, TAU, FR, STATUS, ENV: arrays (n+1, 3) but STATUS (n+1,)).
+    Returns the first tick with a non-finite plant state, or -1."""
+    kind, kp, kd, kc, scale, limit = c
+    lim, state = safety
+    Qr, DQr, DDQr = ref
+    h, sub = span
+    Q, DQ, QM, DQM, UC, US, TAU, FR, STATUS, ENV = series
     coef = coefficients(p, g)
     n = Q.shape[0] - 1
     hs = h / sub
@@ -275,9 +283,9 @@ def simulate_device(leg: LegModel, controller: Controller, reference: Reference,
     Q[0], DQ[0] = q_init, dq_init
     layer = SafetyLayer(lim)
     layer.arm()
-    bad = _run_device(plant.p, plant.g, controller.kind, *controller.law_args(), A,
-                      lim.record(), layer.state, Qr, DQr, DDQr, control_dt, substeps,
-                      Q, DQ, QM, DQM, UC, US, TAU, FR, STATUS, ENV)
+    bad = _run_device(plant.p, plant.g, (controller.kind, *controller.law_args()), A,
+                      (lim.record(), layer.state), (Qr, DQr, DDQr), (control_dt, substeps),
+                      (Q, DQ, QM, DQM, UC, US, TAU, FR, STATUS, ENV))
     if bad >= 0:
         raise SimulationError(f"state became non-finite at t = {t[bad]:.6g} s")
     fault = layer.fault
