@@ -34,10 +34,36 @@ if TYPE_CHECKING:
 MAX_PARAMETER_FILE = 1 << 20
 
 
+def check_regular(path: str | Path, what: str = "file") -> None:
+    """``path`` is a regular file (or a link to one), or a ParameterError naming what it is:
+    a named pipe, a device or a socket would block a reader or never end (a folder, a
+    missing or an unreadable file are left to the reader to name)."""
+    import stat
+
+    try:
+        mode = Path(path).stat().st_mode
+    except OSError:
+        return
+    if stat.S_ISDIR(mode) or stat.S_ISREG(mode):
+        return
+    kind = ("a named pipe" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode)
+            else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "a special file")
+    raise ParameterError(str(path), "(file)", f"is {kind}, not a {what}: give a regular file")
+
+
+def toml_string(s: str) -> str:
+    """A TOML basic string holding ``s`` exactly: quotes, backslashes and every control
+    character escaped (JSON's escapes are TOML's; DEL, which JSON leaves as it is, too)."""
+    import json
+
+    return json.dumps(s, ensure_ascii=False).replace(chr(0x7F), "\\u007F")
+
+
 def read_text(path: str | Path, what: str = "file", limit: int = MAX_PARAMETER_FILE) -> str:
     """The text of a small UTF-8 file, or a ParameterError naming the file and the problem."""
     p = Path(path)
     where = str(p)
+    check_regular(p, what)
     try:
         if p.is_dir():
             raise ParameterError(where, "(file)", f"is a folder; expected a {what}")

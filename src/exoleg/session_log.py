@@ -106,9 +106,12 @@ class SessionLog:
 
 
 def _open(path: str | Path) -> tuple[Path, Any]:
+    from exoleg.io import check_regular
+
     p = Path(path)
     if p.is_dir():
         p = p / "session.log"
+    check_regular(p, "session log")
     try:
         return p, p.open("rb")
     except FileNotFoundError:

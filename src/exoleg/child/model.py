@@ -178,12 +178,14 @@ class ChildModel:
 
     # ---------------------------------------------------------------- child.toml
     def to_toml(self) -> str:
+        from exoleg.io import toml_string
+
         sp = self.spasticity
         lines = [
             "# A child as exoleg's simulated device carries them (docs/child.md).",
             "# Edit by hand: every key is checked when the file is read.",
             "[child]",
-            f'name = "{self.name}"',
+            f"name = {toml_string(self.name)}",
             f"age_years = {self.age:g}",
             f"height_m = {self.height:g}",
             f"mass_kg = {self.mass:g}",

@@ -181,15 +181,26 @@ def _read_log(path: Path) -> tuple[F64, F64, F64, F64]:
     t = cols["t"]
     if len(t) < 2:
         raise ParameterError(where, "t", f"{len(t)} ticks recorded; a walk needs at least two")
+    bad = ~np.isfinite(t) | np.r_[False, np.diff(t) <= 0]
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise ParameterError(where, "t", f"tick {k}: {t[k]:.6g} s does not follow "
+                             f"{t[k - 1]:.6g} s; a log's times are finite and increase"
+                             if k else f"tick 0: {t[0]:.6g} s is not a finite time")
     counts = np.stack([cols[f"fsr_{s}"] for s in SENSOR_COLUMNS], axis=1)
     return t, counts, *_imu_columns(cols, len(t))
 
 
 def is_session_log(path: Path) -> bool:
+    import stat
+
     from exoleg.session_log import MAGIC
 
-    try:
-        with (path / "session.log" if path.is_dir() else path).open("rb") as f:
+    p = path / "session.log" if path.is_dir() else path
+    try:  # a pipe, device or socket is no log (its reader says what it is)
+        if not stat.S_ISREG(p.stat().st_mode):
+            return False
+        with p.open("rb") as f:
             return f.read(len(MAGIC)) == MAGIC
     except OSError:
         return False
@@ -228,7 +239,8 @@ def read_recording(path: str | Path, counts: bool = False, control_dt: float = 1
 def detect_events(rec: Recording, expected_stride: float = 1.1,
                   device: str | Path | None = None) -> NDArray[np.int64]:
     """The detector's event bits per tick over the recording (its state fresh at the
-    start: the running maxima at the calibration floor, no stride yet)."""
+    start: the running maxima at the calibration floor, no stride yet; its clock the
+    time since the recording's start, as the controller's from a session's)."""
     from exoleg.device.sensors import FSR_FLOOR_N, FootSensors
 
     board = FootSensors.default(0.0, device)
@@ -236,7 +248,7 @@ def detect_events(rec: Recording, expected_stride: float = 1.1,
                                                    board.gyro_range, board.accel_range)
     out: NDArray[np.int64] = detect_all(d, gp.new_state(d), np.ascontiguousarray(rec.counts),
                                         np.ascontiguousarray(rec.gyro),
-                                        np.ascontiguousarray(rec.accel), rec.t)
+                                        np.ascontiguousarray(rec.accel), rec.t - rec.t[0])
     return out
 
 

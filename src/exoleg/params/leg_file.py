@@ -33,7 +33,6 @@ a file with a 1e300 kg thigh or a centre of mass metres off its link is refused.
 
 from __future__ import annotations
 
-import json
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -41,7 +40,7 @@ from typing import Any
 from exoleg import checks as _check
 from exoleg.errors import ParameterError
 from exoleg.inertia import RigidBody, compose
-from exoleg.io import read_text
+from exoleg.io import read_text, toml_string
 from exoleg.params.records import LINKS, Link, com_offset
 
 #: What a leg file may hold, SI units. A link of a child's leg with the device on it:
@@ -184,9 +183,11 @@ def parse_leg_text(text: str, where: str) -> tuple[list[Link], float, str, dict[
     return links, g, name, meta
 
 
-def _toml_string(s: str) -> str:
-    """A TOML basic string holding ``s`` exactly (JSON's escapes are valid TOML ones)."""
-    return json.dumps(s, ensure_ascii=False)
+def _printable(text: str) -> str:
+    """``text`` with its control characters (but tab) as ``\\uXXXX``: a TOML comment
+    may hold none."""
+    return "".join(f"\\u{ord(c):04X}" if (c < " " and c != "\t") or c == "\x7f" else c
+                   for c in text)
 
 
 def format_leg(links: list[Link] | tuple[Link, ...], g: float, name: str,
@@ -194,22 +195,23 @@ def format_leg(links: list[Link] | tuple[Link, ...], g: float, name: str,
                armature: Any = None) -> str:
     """TOML text of a leg (full float precision, so a round trip is exact); ``fit``: the
     optional ``[fit]`` table (``{"fits": bool, "note": str}``)."""
-    out = [f"# {ln}" for ln in header.splitlines()] if header else []
+    # a comment holds no control character (TOML): those of a name are written escaped
+    out = [f"# {_printable(ln)}" for ln in header.splitlines()] if header else []
     out += ["# exoleg leg parameters; SI units (kg, m, kg m^2). COM in the link frame,",
             "# from the proximal joint; izz about the COM.",
-            f"name = {_toml_string(name)}", f"g = {g!r}"]
+            f"name = {toml_string(name)}", f"g = {g!r}"]
     if armature is not None and any(float(a) for a in armature):
         out.append("armature = [" + ", ".join(repr(float(a)) for a in armature)
                    + "]  # kg m^2, reflected actuator inertia per joint")
     out.append("")
     if fit:
         out += ["[fit]", f"fits = {'true' if fit['fits'] else 'false'}",
-                f"note = {_toml_string(str(fit.get('note', '')))}", ""]
+                f"note = {toml_string(str(fit.get('note', '')))}", ""]
     for lk in links:
-        out += ["[[link]]", f"name = {_toml_string(lk.name)}", f"length = {lk.length!r}"]
+        out += ["[[link]]", f"name = {toml_string(lk.name)}", f"length = {lk.length!r}"]
         if lk.parts:
             for b in lk.parts:
-                out += ["", "[[link.part]]", f"name = {_toml_string(b.name)}", f"mass = {b.mass!r}",
+                out += ["", "[[link.part]]", f"name = {toml_string(b.name)}", f"mass = {b.mass!r}",
                         f"com = [{b.com[0]!r}, {b.com[1]!r}]", f"izz = {b.izz!r}"]
         else:
             out += [f"mass = {lk.mass!r}", f"com = [{lk.com[0]!r}, {lk.com[1]!r}]",

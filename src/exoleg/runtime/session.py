@@ -243,6 +243,9 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     overrun = OVERRUN_S if overrun is None else overrun
     check_options(backend, interface, arm, walk_after, bus_timeout, overrun, controller,
                   link, plan=reference is not None)
+    if walk_after is not None and walk_after >= duration:
+        raise ParameterError("exoleg run", "--walk-after", f"{walk_after:g} s is not before "
+                             f"the session's end ({duration:g} s): the walk would never come")
     if controller == "transparent" and child is None and simulated(backend, interface):
         raise ParameterError("exoleg run", "--controller", "transparent leaves the leg to "
                              "the child: give --child on a simulated device (a passive leg "

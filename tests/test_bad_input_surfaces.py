@@ -1,0 +1,119 @@
+"""Bad input on the newer surfaces (issue 44, the first cases): special files refused
+before they are read, a walk that would never come refused, a recording's clock checked,
+names that survive their own file.
+
+Reference: the issue's audit -- a named pipe given as ``--child``, to ``detect`` or to
+``log summary`` blocked forever; ``--walk-after`` later than ``--duration`` was accepted
+and the walk never came; ``detect`` found 0 events, exit 0, on a recording whose times
+are negative or run backwards; ``fit --name`` with a quote, a backslash, a control
+character or a newline wrote a ``child.toml`` no command loads.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import exoleg
+from exoleg.cli import main
+
+
+def _exoleg(*args: str, timeout: float = 60) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "exoleg.cli", *args], capture_output=True,
+                          text=True, check=False, timeout=timeout)
+
+
+@pytest.mark.parametrize("argv", [
+    ["simulate", "--walk", "--strides", "1", "--child", "{fifo}", "--out", "{tmp}/o"],
+    ["detect", "{fifo}", "--out", "{tmp}/e.csv"],
+    ["log", "summary", "{fifo}"],
+    ["fit", "--age", "10", "--sex", "male", "--height", "140", "--mass", "32",
+     "--no-simulate", "--device", "{tmp}/dev", "--out", "{tmp}/o"],
+])
+def test_a_named_pipe_is_refused_before_it_is_read(tmp_path: Path, argv: list[str]) -> None:
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    (tmp_path / "dev" / "actuators").mkdir(parents=True)
+    os.mkfifo(tmp_path / "dev" / "actuators" / "hip.toml")
+    args = [a.format(fifo=fifo, tmp=tmp_path) for a in argv]
+    r = _exoleg(*args, timeout=60)  # before: blocked until the timeout
+    assert r.returncode == 2, r.stderr
+    assert "is a named pipe" in r.stderr and "give a regular file" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
+
+
+def test_a_walk_after_the_session_ends_is_refused(tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["run", "--backend", "sim", "--duration", "1", "--arm", "--walk-after", "2",
+                 "--no-realtime", "--out", str(tmp_path / "s")]) == 2
+    err = capsys.readouterr().err
+    assert "--walk-after: 2 s is not before the session's end (1 s)" in err
+    assert not (tmp_path / "s" / "session.log").exists()
+
+
+@pytest.fixture(scope="module")
+def walk() -> exoleg.sim.walk.WalkResult:
+    from exoleg.sim.walk import simulate_walk
+
+    return simulate_walk(exoleg.paper_leg(), 30.0, strides=3, seed=3)
+
+
+def _csv(path: Path, t: np.ndarray, fsr: np.ndarray) -> Path:
+    from exoleg.tick import SENSOR_POINTS
+
+    cols = {"t": t, **{s: fsr[:, i] for i, s in enumerate(SENSOR_POINTS)}}
+    with path.open("w") as f:
+        f.write(",".join(cols) + "\n")
+        for k in range(len(t)):
+            f.write(",".join(format(cols[n][k], ".9g") for n in cols) + "\n")
+    return path
+
+
+def test_a_recording_that_starts_at_any_time_gives_the_same_events(walk, tmp_path: Path  # type: ignore[no-untyped-def]
+                                                                    ) -> None:
+    # the detector's clock is the time since the recording's start: a clock that reads
+    # -5 s at the start (a logger's own epoch) shifts the events, it does not lose them
+    times = {}
+    for shift in (0.0, -5.0, 1000.0):
+        rec = _csv(tmp_path / f"r{shift:g}.csv", walk.t + shift, walk.fsr)
+        out = tmp_path / f"e{shift:g}.csv"
+        assert main(["detect", str(rec), "--counts", "--out", str(out)]) == 0
+        rows = [ln.split(",") for ln in out.read_text().splitlines()[1:]]
+        times[shift] = np.array([float(t) for t, _ in rows]) - shift
+    assert len(times[0.0]) >= 12
+    for shift in (-5.0, 1000.0):
+        assert np.allclose(times[shift], times[0.0], atol=1e-6)
+
+
+def test_a_session_log_whose_clock_runs_backwards_is_refused(tmp_path: Path,
+                                                            capsys: pytest.CaptureFixture[str]
+                                                            ) -> None:
+    from exoleg.session_log import SessionLog
+
+    cols = ["t"] + [f"fsr_{s}" for s in ("heel", "met1", "met5", "hallux")]
+    log = SessionLog(tmp_path / "session.log", cols, {"period": 1e-3})
+    for k, t in enumerate([0.0, 0.001, 0.002, 0.0015, 0.004]):
+        log.append(np.array([t, 100.0 + k, 0.0, 0.0, 0.0]))
+    log.close()
+    assert main(["detect", str(tmp_path), "--out", str(tmp_path / "e.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "t: tick 3: 0.0015 s does not follow 0.002 s" in err
+    assert not (tmp_path / "e.csv").exists()
+
+
+@pytest.mark.parametrize("name", ['Ada "A." Lovelace', "back\\slash", "line\nbreak = 1",
+                                  "bell\x07", "del\x7f", "tab\tand é"])
+def test_a_childs_name_survives_its_own_file(tmp_path: Path, name: str) -> None:
+    from exoleg.child.model import ChildModel
+
+    assert main(["fit", "--age", "10", "--sex", "male", "--height", "140", "--mass", "32",
+                 "--no-simulate", "--name", name, "--out", str(tmp_path / "f")]) == 0
+    child = ChildModel.load(tmp_path / "f" / "child.toml")
+    assert child.name == name
+    leg = exoleg.load_leg(tmp_path / "f" / "leg.toml")
+    assert name in leg.name
