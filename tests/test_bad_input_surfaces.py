@@ -117,3 +117,33 @@ def test_a_childs_name_survives_its_own_file(tmp_path: Path, name: str) -> None:
     assert child.name == name
     leg = exoleg.load_leg(tmp_path / "f" / "leg.toml")
     assert name in leg.name
+
+
+@pytest.mark.parametrize("command", [["run", "--backend", "sim", "--duration", "0.1",
+                                      "--no-realtime"], ["simulate", "--walk", "--strides", "1"]])
+def test_a_body_mass_beside_a_child_file_that_says_otherwise_is_refused(
+        tmp_path: Path, command: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["fit", "--age", "10", "--sex", "male", "--height", "140", "--mass", "32",
+                 "--no-simulate", "--out", str(tmp_path / "f")]) == 0
+    capsys.readouterr()
+    assert main([*command, "--child", str(tmp_path / "f" / "child.toml"), "--body-mass", "45",
+                 "--out", str(tmp_path / "o")]) == 2
+    assert "--body-mass: 45 kg, but the child file says 32 kg" in capsys.readouterr().err
+
+
+def test_a_log_whose_records_do_not_hold_what_its_header_names_is_not_summarised(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL
+    from exoleg.session_log import SessionLog
+
+    cols = LOG_HEAD + LOG_TAIL
+    log = SessionLog(tmp_path / "session.log", cols, {"period": 1e-3})
+    for k in range(5):
+        row = np.zeros(len(cols))
+        row[0] = k * 1e-3
+        if k == 3:
+            row[cols.index("mode")] = np.nan
+        log.append(row)
+    log.close()
+    assert main(["log", "summary", str(tmp_path)]) == 2
+    assert "mode: tick 3 holds nan: the log is damaged" in capsys.readouterr().err

@@ -148,6 +148,20 @@ def check_session(path: str | Path, header: dict[str, Any]) -> None:
                              f"{', '.join(SESSION_COLUMNS)})")
 
 
+def check_records(path: str | Path, cols: dict[str, F64]) -> None:
+    """Refuses (ParameterError naming ``path``, the column and the tick) a session log
+    whose records do not hold what its header names: a time, a lateness, a mode, a safety
+    status or an event word that is not a finite number (its records and its header
+    disagree: a damaged log is not summarised as data)."""
+    for c in SESSION_COLUMNS:
+        bad = ~np.isfinite(cols[c])
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise ParameterError(str(path), c, f"tick {k} holds {float(cols[c][k])!r}: the "
+                                 "log is damaged (its records do not hold what its header "
+                                 "names)")
+
+
 def header_problem(header: Any) -> str:
     """What is wrong with a log's header ('' when nothing): not an object; no columns, or
     columns that are not distinct names; a period, start or body mass that is not a

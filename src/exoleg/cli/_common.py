@@ -187,6 +187,17 @@ def _device_option(p: argparse.ArgumentParser, uses: str) -> None:
                         f"walking.toml, ...) replacing the shipped ones: {uses}")
 
 
+def _mass_of(child: Any, given: float | None, where: str) -> float:
+    """The body mass a child file gives, refusing a ``--body-mass`` that says otherwise
+    (a mass given beside a child was silently replaced by theirs)."""
+    if given is not None and abs(given - child.mass) > 1e-9:
+        from exoleg.errors import ParameterError
+
+        raise ParameterError(where, "--body-mass", f"{given:g} kg, but the child file says "
+                             f"{child.mass:g} kg: give one of the two")
+    return float(child.mass)
+
+
 def _read_leg(path: Path, refuse_unfit: str = "") -> tuple[Any, str]:
     """A leg file as a :class:`~exoleg.LegModel`, and a warning ('' if none) when it is a
     leg for a child the device does not fit (its ``[fit]`` record) -- refused instead

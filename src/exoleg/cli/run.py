@@ -14,6 +14,7 @@ from exoleg.cli._common import (
     _bus_options,
     _count,
     _device_option,
+    _mass_of,
     _read_leg,
     _say,
     _table,
@@ -32,6 +33,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     _refuse_unapplied(args)
     args.channel = args.channel or "exoleg"
     args.seed = args.seed or 0
+    if not args.child and args.body_mass is None:
+        args.body_mass = DEFAULT_BODY_MASS
     args.hmi_host = args.hmi_host or WEB_HOST
     args.hmi_port = args.hmi_port or WEB_PORT
     bus_timeout = None if args.bus_timeout is None else args.bus_timeout * 1e-3
@@ -44,7 +47,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         from exoleg.child.model import ChildModel
 
         child = ChildModel.load(args.child)
-        args.body_mass = child.mass
+        args.body_mass = _mass_of(child, args.body_mass, "exoleg run")
     link = web = None
     if args.hmi:
         import secrets
@@ -172,8 +175,8 @@ def add_parser(sub: Any) -> None:
     r.add_argument("--walk-after", type=_within(0.0, 86400.0, " s"),
                    help="sim: the operator's walk command this many seconds in (needs --arm)")
     r.add_argument("--leg", type=Path, help="leg file (from exoleg fit); default the paper's")
-    r.add_argument("--body-mass", type=_body_mass, default=DEFAULT_BODY_MASS,
-                   help="the simulated child's mass, kg")
+    r.add_argument("--body-mass", type=_body_mass,
+                   help="the simulated child's mass, kg (default 30; with --child: theirs)")
     r.add_argument("--child", type=Path, metavar="FILE",
                    help="simulated device: the child as an actor (child.toml, written by "
                         "exoleg fit): passive moments, spasticity, their own effort -- a "

@@ -7,7 +7,7 @@ import argparse
 import time
 from typing import Any
 
-from exoleg.cli._common import _read_leg, _say, _table
+from exoleg.cli._common import _mass_of, _read_leg, _say, _table
 from exoleg.cli._runs import device_actuators, write_run
 from exoleg.sim.metrics import interaction_summary
 
@@ -46,7 +46,8 @@ def _simulate_walk(args: argparse.Namespace) -> int:
         from exoleg.child.model import ChildModel
 
         child = ChildModel.load(args.child)
-        args.body_mass = child.mass
+        given = args.body_mass if args.body_mass != args.variant_defaults["body_mass"] else None
+        args.body_mass = _mass_of(child, given, "exoleg simulate --walk")
     r = simulate_walk(leg, args.body_mass, strides=args.strides, speed=args.speed or "Free",
                       stride_time=stride, noise_scale=args.noise, seed=args.seed,
                       ankle_height=args.ankle_height / 100, device=args.device,

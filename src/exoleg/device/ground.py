@@ -82,8 +82,9 @@ SOLE_MAX = 12
 class SoleElement:
     """One compliant element of the sole: its ``region`` (:data:`REGIONS`), where it sits
     along the foot (``x``: a fraction of the foot link's length forward of the ankle), how
-    far it is raised above the flat sole (``lift``, m: the arch, the toes' spring), its ``share`` of the sole's stiffness and damping, and whether the
-    region's FSR sits on it (``sensor``)."""
+    far it is raised above the flat sole (``lift``, m: the arch, the toes' spring), its
+    ``share`` of the sole's stiffness and damping, and whether the region's FSR sits on it
+    (``sensor``)."""
 
     region: str
     x: float

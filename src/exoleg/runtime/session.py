@@ -23,7 +23,13 @@ from exoleg.runtime.loop import (
     SessionResult,
     run_session,
 )
-from exoleg.session_log import MAX_LOSS_TICKS, SessionLog, check_session, read_log
+from exoleg.session_log import (
+    MAX_LOSS_TICKS,
+    SessionLog,
+    check_records,
+    check_session,
+    read_log,
+)
 
 if TYPE_CHECKING:
     from exoleg.system.config import DeviceConfig
@@ -385,6 +391,7 @@ def summarize(path: str | Path) -> dict[str, Any]:
 
     header, cols, cut = read_log(path)
     check_session(path, header)
+    check_records(path, cols)
     n = len(cols["t"])
     period = float(header.get("period", 1e-3))
     late = cols["late"][1:] * 1e6 if n > 1 else np.zeros(0)

@@ -5,9 +5,9 @@ the velocity filter), its drives and the plant stepped under a command
 contact and support forces of each step's start, the actuators' friction in every
 stage), and how it is made for a leg and a child (:meth:`SimulatedDevice.of`) from the
 device's parts and the treadmill's scenery (:mod:`exoleg.world.treadmill`); the
-controller it is driven by is the assembly's (:func:`exoleg.system.build.build`). ``exoleg simulate --walk`` loops over these in one
-compiled run (:mod:`exoleg.sim.walk`); the runtime's ``sim`` backend calls them each
-tick (:mod:`exoleg.runtime.sim_backend`)."""
+controller it is driven by is the assembly's (:func:`exoleg.system.build.build`).
+``exoleg simulate --walk`` loops over these in one compiled run (:mod:`exoleg.sim.walk`);
+the runtime's ``sim`` backend calls them each tick (:mod:`exoleg.runtime.sim_backend`)."""
 
 from __future__ import annotations
 

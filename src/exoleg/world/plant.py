@@ -19,9 +19,10 @@ Model (one set of equations; stance and swing differ only in which contacts act)
   ``max(0, k_i d - c_i dy_p)`` for a penetration d > 0, and friction
   ``-mu F_n tanh((dx_p - v_belt) / v_s)`` against the belt's speed. A soft sole is what
   lets the foot *roll*: the load moves from the heel to the forefoot and the toes as the
-  foot turns over stance, instead of jumping between four hard points. Each element belongs to a region of the foot (the
-  four sensors' -- heel, first and fifth metatarsal heads, hallux -- or the midfoot);
-  four of them carry the footplate's FSRs, which read their own element's load only
+  foot turns over stance, instead of jumping between four hard points. Each element
+  belongs to a region of the foot (the four sensors' -- heel, first and fifth metatarsal
+  heads, hallux -- or the midfoot); four of them carry the footplate's FSRs, which read
+  their own element's load only
   (:func:`sole_loads`): load under the midfoot, between the sensors, is not sensed.
 
 Equations of motion, from the leg's own M, C, G (the generated kernels, with the
