@@ -147,3 +147,23 @@ def test_a_log_whose_records_do_not_hold_what_its_header_names_is_not_summarised
     log.close()
     assert main(["log", "summary", str(tmp_path)]) == 2
     assert "mode: tick 3 holds nan: the log is damaged" in capsys.readouterr().err
+
+
+def test_a_diverged_pendulum_test_is_refused_not_written(tmp_path: Path,
+                                                         capsys: pytest.CaptureFixture[str]
+                                                         ) -> None:
+    # the audit's case: severe spasticity with the predictcpgait contracture at its top
+    # level (1.5) reported a resting angle of -5.3e32 deg, exit 0
+    assert main(["fit", "--age", "10", "--sex", "male", "--height", "140", "--mass", "32",
+                 "--gmfcs", "2", "--spasticity", "severe", "--contracture", "predictcpgait",
+                 "--no-simulate", "--out", str(tmp_path / "f")]) == 0
+    child = tmp_path / "f" / "child.toml"
+    child.write_text(child.read_text().replace("contracture_level = 1 ",
+                                               "contracture_level = 1.5 "))
+    capsys.readouterr()
+    assert main(["assess", "--child", str(child), "--test", "pendulum", "--out",
+                 str(tmp_path / "p")]) == 1  # a run that failed (exit 1), not a bad option
+    err = capsys.readouterr().err
+    assert err.startswith("exoleg: failed: the pendulum test of") and "diverged" in err
+    assert "level 1.5" in err
+    assert not (tmp_path / "p").exists()

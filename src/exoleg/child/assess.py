@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 
 from exoleg.child.model import ChildModel, child_records, child_tick
 from exoleg.child.passive import passive_torque
+from exoleg.errors import SimulationError
 
 F64 = NDArray[np.float64]
 
@@ -137,6 +138,15 @@ def pendulum(child: ChildModel, duration: float = 10.0, h: float = 1e-3,
         dq += h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v)
     t: F64 = np.arange(n + 1, dtype=np.float64) * h
     knee, rate = -np.degrees(Q), -np.degrees(V)  # flexion positive
+    beyond = ~np.isfinite(knee) | (np.abs(knee) > 180.0)
+    if beyond.any():  # a knee swings within +-180 deg: the run diverged, no result
+        k = int(np.argmax(beyond))
+        raise SimulationError(
+            f"the pendulum test of {child.name or 'the child'} diverged: the knee reached "
+            f"{knee[k]:.3g} deg at {t[k]:.2f} s (a knee swings within +-180 deg); the "
+            f"model does not hold {child.spasticity.level} spasticity with contracture "
+            f"'{child.contracture.name}' at level {child.contracture.level:g} stable: "
+            "lower the level or the spasticity (nothing was written)")
     rev = np.nonzero((rate[1:] <= 0.0) & (rate[:-1] > 0.0))[0]
     end = int(rev[0]) + 1 if rev.size else n
     kp = int(np.argmax(rate[:end + 1]))
