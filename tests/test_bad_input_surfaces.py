@@ -167,3 +167,60 @@ def test_a_diverged_pendulum_test_is_refused_not_written(tmp_path: Path,
     assert err.startswith("exoleg: failed: the pendulum test of") and "diverged" in err
     assert "level 1.5" in err
     assert not (tmp_path / "p").exists()
+
+
+@pytest.mark.parametrize("command", [["hmi"], ["run", "--backend", "sim", "--duration", "1",
+                                                "--hmi"]])
+def test_a_certificate_the_server_cannot_use_is_said_at_once(tmp_path: Path,
+                                                             command: list[str]) -> None:
+    # before: "did not start within 60 s" (exoleg run --hmi) -- the child process died
+    pem = tmp_path / "cert.pem"
+    pem.write_text("-----BEGIN CERTIFICATE-----\nnot a certificate\n-----END CERTIFICATE-----\n")
+    r = _exoleg(*command, "--tls-cert", str(pem), "--tls-key", str(pem), "--out" if
+                command[0] == "run" else "--sessions", str(tmp_path / "o"), timeout=30)
+    assert r.returncode == 2, r.stderr
+    assert "cannot serve https" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("as_file", [False, True])
+def test_a_scheduler_that_is_not_dasks_is_said_within_its_bound(
+        tmp_path: Path, as_file: bool, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    # before: a server that accepts the connection and says nothing held the sweep forever
+    import json
+    import socket
+    import threading
+    import time
+
+    from exoleg.study import engine
+
+    monkeypatch.setattr(engine, "SCHEDULER_ANSWER_S", 1.0)
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+    held: list[socket.socket] = []
+    threading.Thread(target=lambda: held.append(server.accept()[0]), daemon=True).start()
+    address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    where = address
+    if as_file:
+        where = str(tmp_path / "scheduler.json")
+        Path(where).write_text(json.dumps({"address": address}))
+    t0 = time.monotonic()
+    study = Path(__file__).parents[1] / "examples" / "sweep-small.toml"
+    assert main(["sweep", str(study), "--out", str(tmp_path / "s"), "--scheduler", where]) == 2
+    assert time.monotonic() - t0 < 10.0
+    err = capsys.readouterr().err
+    assert "said nothing as Dask within 1 s" in err
+    assert not (tmp_path / "s").exists()
+    server.close()
+
+
+def test_a_file_that_is_not_a_scheduler_file_is_said(tmp_path: Path,
+                                                     capsys: pytest.CaptureFixture[str]
+                                                     ) -> None:
+    bad = tmp_path / "scheduler.json"
+    bad.write_text("[1, 2]")
+    study = Path(__file__).parents[1] / "examples" / "sweep-small.toml"
+    assert main(["sweep", str(study), "--out", str(tmp_path / "s"), "--scheduler",
+                 str(bad)]) == 2
+    assert "not a Dask scheduler file" in capsys.readouterr().err

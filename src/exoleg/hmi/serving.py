@@ -48,6 +48,17 @@ def bind_check(host: str, certfile: str | None, keyfile: str | None) -> str:
     for f in (certfile, keyfile):
         if f is not None and not Path(f).is_file():
             raise ParameterError("exoleg hmi", "--tls-cert/--tls-key", f"{f}: no such file")
+    if certfile is not None:  # loaded now: a pair the server cannot use is said here,
+        import ssl  # not as a server that never starts
+
+        try:
+            ssl.create_default_context(ssl.Purpose.CLIENT_AUTH).load_cert_chain(certfile,
+                                                                                keyfile)
+        except (ssl.SSLError, OSError) as e:
+            raise ParameterError("exoleg hmi", "--tls-cert/--tls-key",
+                                 f"{certfile} and {keyfile} cannot serve https: "
+                                 f"{getattr(e, 'reason', None) or e.strerror or e} (a PEM "
+                                 "certificate and its private key)") from None
     if loopback(host) or certfile:
         return ""
     return (f"warning: the operator interface listens on {host} without TLS: anyone on "

@@ -175,7 +175,8 @@ def _key(study: Study, task: int) -> str:
 
 def _reachable(scheduler: str) -> None:
     """A ``tcp://host:port`` that refuses connections fails at once (OSError), not after
-    Dask's handshake timeout."""
+    Dask's handshake timeout; one that accepts but does not answer as Dask's scheduler
+    fails within :data:`SCHEDULER_ANSWER_S` (:func:`_answers_as_dask`)."""
     import socket
     from urllib.parse import urlsplit
 
@@ -184,6 +185,34 @@ def _reachable(scheduler: str) -> None:
         if u.hostname is None or u.port is None:
             raise ValueError("expected tcp://HOST:PORT")
         socket.create_connection((u.hostname, u.port), timeout=5.0).close()
+        _answers_as_dask(scheduler)
+
+
+#: How long a scheduler has to say who it is (s): a server that accepts the connection
+#: and then says nothing (not Dask's) made Client wait forever.
+SCHEDULER_ANSWER_S = 10.0
+
+
+def _answers_as_dask(address: str) -> None:
+    """The server at ``address`` answers Dask's identity call as a scheduler within
+    :data:`SCHEDULER_ANSWER_S`, or a TimeoutError / ValueError saying what it did."""
+    import asyncio
+
+    from distributed.core import rpc
+
+    async def identity() -> dict[str, Any]:
+        async with rpc(address, timeout=SCHEDULER_ANSWER_S) as r:
+            return dict(await r.identity())
+
+    try:
+        who = asyncio.run(asyncio.wait_for(identity(), SCHEDULER_ANSWER_S))
+    except asyncio.TimeoutError:
+        raise TimeoutError(f"the server accepted the connection but said nothing as Dask "
+                           f"within {SCHEDULER_ANSWER_S:g} s") from None
+    except Exception as e:  # the other end is not Dask's: what it did, in one line
+        raise ValueError(f"it does not answer as Dask ({type(e).__name__})") from None
+    if who.get("type") != "Scheduler":
+        raise ValueError(f"it answers as a Dask {who.get('type', '?')}, not a scheduler")
 
 
 @contextlib.contextmanager
@@ -199,6 +228,12 @@ def dask_client(scheduler: str | None = None, workers: int | None = None,
         try:
             _reachable(scheduler)
             if Path(scheduler).is_file():
+                try:
+                    address = json.loads(Path(scheduler).read_text())["address"]
+                except (OSError, ValueError, KeyError, TypeError):
+                    raise ValueError("not a Dask scheduler file (JSON naming the "
+                                     "scheduler's address)") from None
+                _reachable(str(address))
                 client = Client(scheduler_file=scheduler, timeout="10s")
             else:
                 client = Client(scheduler, timeout="10s")
