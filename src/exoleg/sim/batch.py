@@ -20,8 +20,12 @@ F64 = NDArray[np.float64]
 
 
 @njit(cache=True, error_model="numpy")
-def _one(p, g, kp, kd, Qr, DQr, dt, q_init, dq_init, start, out, limit):  # type: ignore[no-untyped-def]
-    """One leg: writes its peaks into out (3, 3); NaN if the state became non-finite."""
+def _one(p, g, gains, ref, dt, start, out, limit):  # type: ignore[no-untyped-def]
+    """One leg ``p``: the paper's PD + gravity of ``gains`` (Kp, Kd) following ``ref``
+    (Qr, DQr, from its first state (q_init, dq_init)); writes its peaks from step
+    ``start`` into out (3, 3); NaN if the state became non-finite."""
+    kp, kd = gains
+    Qr, DQr, q_init, dq_init = ref
     k_leg = coefficients(p, g)
     q0, q1, q2 = q_init[0], q_init[1], q_init[2]
     v0, v1, v2 = dq_init[0], dq_init[1], dq_init[2]
@@ -37,8 +41,9 @@ def _one(p, g, kp, kd, Qr, DQr, dt, q_init, dq_init, start, out, limit):  # type
             t0, t1, t2 = max(t0, abs(u0)), max(t1, abs(u1)), max(t2, abs(u2))
             w0, w1, w2 = max(w0, abs(v0)), max(w1, abs(v1)), max(w2, abs(v2))
             e0, e1, e2 = max(e0, abs(u0 * v0)), max(e1, abs(u1 * v1)), max(e2, abs(u2 * v2))
-        qn, vn, _ = rk4_sc(s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2, u0, u1, u2, k_leg, dt)
-        s0, c0, s1, c1, s2, c2 = next_sincos(s0, c0, s1, c1, s2, c2, q0, q1, q2, qn, k + 1)
+        qn, vn, _ = rk4_sc((s0, c0, s1, c1, s2, c2), (q0, q1, q2), (v0, v1, v2), (u0, u1, u2),
+                           k_leg, dt)
+        s0, c0, s1, c1, s2, c2 = next_sincos((s0, c0, s1, c1, s2, c2), (q0, q1, q2), qn, k + 1)
         q0, q1, q2 = qn
         v0, v1, v2 = vn
         if not (np.isfinite(q0) and np.isfinite(q1) and np.isfinite(q2)):
@@ -51,11 +56,13 @@ def _one(p, g, kp, kd, Qr, DQr, dt, q_init, dq_init, start, out, limit):  # type
 
 @njit(parallel=True, cache=True)
 def _batch(P, g, kp, kd, Qr, DQr, dt, q_init, dq_init, start):  # type: ignore[no-untyped-def]
+    """Every leg of ``P`` (n, 18) as :func:`_one`, in parallel: peaks (n, 3, 3). (Its
+    arguments stay apart: numba's parallel loop takes no tuple of arrays.)"""
     n = P.shape[0]
     out = np.zeros((n, 3, 3))  # [leg, (torque, speed, power), joint]
     limit = (np.inf, np.inf, np.inf)
     for c in prange(n):
-        _one(P[c], g, kp, kd, Qr, DQr, dt, q_init, dq_init, start, out[c], limit)
+        _one(P[c], g, (kp, kd), (Qr, DQr, q_init, dq_init), dt, start, out[c], limit)
     return out
 
 

@@ -89,9 +89,9 @@ def _run(p, g, c, ref, span, series, carry):  # type: ignore[no-untyped-def]
                 (DQr[k, 0], DQr[k, 1], DQr[k, 2]), (DDQr[k, 0], DDQr[k, 1], DDQr[k, 2]))
         U[k, 0], U[k, 1], U[k, 2] = u[0], u[1], u[2]
         SAT[k] = mask[0]
-        qn, vn, a = rk4_sc(s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2, u[0], u[1], u[2],
-                           coef, dt)
-        s0, c0, s1, c1, s2, c2 = next_sincos(s0, c0, s1, c1, s2, c2, q0, q1, q2, qn, k + 1)
+        qn, vn, a = rk4_sc((s0, c0, s1, c1, s2, c2), (q0, q1, q2), (v0, v1, v2),
+                           (u[0], u[1], u[2]), coef, dt)
+        s0, c0, s1, c1, s2, c2 = next_sincos((s0, c0, s1, c1, s2, c2), (q0, q1, q2), qn, k + 1)
         q0, q1, q2 = qn
         v0, v1, v2 = vn
         Q[k + 1, 0], Q[k + 1, 1], Q[k + 1, 2] = qn

@@ -56,8 +56,12 @@ F64 = NDArray[np.float64]
 
 
 @njit(inline="always")
-def _accel(coef, A, q0, q1, q2, v0, v1, v2, t0, t1, t2):  # type: ignore[no-untyped-def]
-    """Joint accelerations under motor torques t minus the actuators' friction at v."""
+def _accel(coef, A, q, v, t):  # type: ignore[no-untyped-def]
+    """Joint accelerations at the angles q and rates v under motor torques t (3-tuples)
+    minus the actuators' friction at v."""
+    q0, q1, q2 = q
+    v0, v1, v2 = v
+    t0, t1, t2 = t
     return forward_dynamics_sc(math.sin(q0), math.cos(q0), math.sin(q1), math.cos(q1),
                                math.sin(q2), math.cos(q2), v0, v1, v2,
                                t0 - friction(A[0:1], v0), t1 - friction(A[1:2], v1),
@@ -65,18 +69,21 @@ def _accel(coef, A, q0, q1, q2, v0, v1, v2, t0, t1, t2):  # type: ignore[no-unty
 
 
 @njit(inline="always")
-def _rk4(coef, A, q0, q1, q2, v0, v1, v2, t0, t1, t2, h):  # type: ignore[no-untyped-def]
-    """One RK4 step with the motor torques held and friction evaluated in every stage."""
-    a0, a1, a2 = _accel(coef, A, q0, q1, q2, v0, v1, v2, t0, t1, t2)
+def _rk4(coef, A, q, v, t, h):  # type: ignore[no-untyped-def]
+    """One RK4 step from the angles q and rates v (3-tuples) with the motor torques t held
+    and friction evaluated in every stage."""
+    q0, q1, q2 = q
+    v0, v1, v2 = v
+    a0, a1, a2 = _accel(coef, A, q, v, t)
     hh = 0.5 * h
-    b0, b1, b2 = _accel(coef, A, q0 + hh * v0, q1 + hh * v1, q2 + hh * v2,
-                        v0 + hh * a0, v1 + hh * a1, v2 + hh * a2, t0, t1, t2)
-    c0, c1, c2 = _accel(coef, A, q0 + hh * (v0 + hh * a0), q1 + hh * (v1 + hh * a1),
-                        q2 + hh * (v2 + hh * a2), v0 + hh * b0, v1 + hh * b1, v2 + hh * b2,
-                        t0, t1, t2)
-    d0, d1, d2 = _accel(coef, A, q0 + h * (v0 + hh * b0), q1 + h * (v1 + hh * b1),
-                        q2 + h * (v2 + hh * b2), v0 + h * c0, v1 + h * c1, v2 + h * c2,
-                        t0, t1, t2)
+    b0, b1, b2 = _accel(coef, A, (q0 + hh * v0, q1 + hh * v1, q2 + hh * v2),
+                        (v0 + hh * a0, v1 + hh * a1, v2 + hh * a2), t)
+    c0, c1, c2 = _accel(coef, A, (q0 + hh * (v0 + hh * a0), q1 + hh * (v1 + hh * a1),
+                                  q2 + hh * (v2 + hh * a2)),
+                        (v0 + hh * b0, v1 + hh * b1, v2 + hh * b2), t)
+    d0, d1, d2 = _accel(coef, A, (q0 + h * (v0 + hh * b0), q1 + h * (v1 + hh * b1),
+                                  q2 + h * (v2 + hh * b2)),
+                        (v0 + h * c0, v1 + h * c1, v2 + h * c2), t)
     s = h / 6.0
     nq0 = q0 + s * (v0 + 2 * (v0 + hh * a0) + 2 * (v0 + hh * b0) + (v0 + h * c0))
     nq1 = q1 + s * (v1 + 2 * (v1 + hh * a1) + 2 * (v1 + hh * b1) + (v1 + h * c1))
@@ -161,8 +168,8 @@ def _run_device(p, g, c, A, safety, ref, span, series):  # type: ignore[no-untyp
             acc0 += mean[0]
             acc1 += mean[1]
             acc2 += mean[2]
-            x0, x1, x2, v0, v1, v2 = _rk4(coef, A, x0, x1, x2, v0, v1, v2,
-                                          mean[0], mean[1], mean[2], hs)
+            x0, x1, x2, v0, v1, v2 = _rk4(coef, A, (x0, x1, x2), (v0, v1, v2),
+                                          (mean[0], mean[1], mean[2]), hs)
         TAU[k, 0], TAU[k, 1], TAU[k, 2] = acc0 / sub, acc1 / sub, acc2 / sub
         FR[k, 0], FR[k, 1], FR[k, 2] = fr0 / sub, fr1 / sub, fr2 / sub
         Q[k + 1, 0], Q[k + 1, 1], Q[k + 1, 2] = x0, x1, x2

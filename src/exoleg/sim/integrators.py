@@ -63,11 +63,13 @@ def sincos3(q0, q1, q2):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def next_sincos(s0, c0, s1, c1, s2, c2, q0, q1, q2, qn, k):  # type: ignore[no-untyped-def]
-    """:func:`sincos3` of the joint angles ``qn`` (a 3-tuple) after step k, given s_i, c_i
-    = sin, cos of q_i before it: by angle addition of the increments qn_i - q_i (a few
-    roundings, no libm call), except at every :data:`RESYNC`-th step, where libm
-    re-anchors them."""
+def next_sincos(sc, q, qn, k):  # type: ignore[no-untyped-def]
+    """:func:`sincos3` of the joint angles ``qn`` (a 3-tuple) after step k, given ``sc`` =
+    (s0, c0, s1, c1, s2, c2), the sin, cos of ``q`` (a 3-tuple) before it: by angle
+    addition of the increments qn_i - q_i (a few roundings, no libm call), except at every
+    :data:`RESYNC`-th step, where libm re-anchors them."""
+    s0, c0, s1, c1, s2, c2 = sc
+    q0, q1, q2 = q
     if k % RESYNC == 0:
         return sincos3(qn[0], qn[1], qn[2])
     u0, w0 = _shift(s0, c0, qn[0] - q0)
@@ -77,12 +79,13 @@ def next_sincos(s0, c0, s1, c1, s2, c2, q0, q1, q2, qn, k):  # type: ignore[no-u
 
 
 @njit(inline="always", cache=True, error_model="numpy")
-def rk4_sc(s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2, t0, t1, t2, k, h):  # type: ignore[no-untyped-def]
+def rk4_sc(sc, q, v, t, k, h):  # type: ignore[no-untyped-def]
     """One RK4 step on scalars; returns (q', dq', ddq at the start), each a 3-tuple.
 
-    s_i, c_i = sin, cos of q_i (a caller that needs them too, e.g. for G in the control
-    law, computes them once, or carries them by :func:`next_sincos`); t_i the torque held
-    over the step; ``k`` the leg's coefficients
+    ``q``, ``v``, ``t``: the angles, rates and the torque held over the step (3-tuples);
+    ``sc`` = (s0, c0, s1, c1, s2, c2), sin, cos of q_i (a caller that needs them too, e.g.
+    for G in the control law, computes them once, or carries them by
+    :func:`next_sincos`); ``k`` the leg's coefficients
     (:func:`exoleg.dynamics.kernels.coefficients`, a tuple).
 
     Scalars and tuples only, so nothing is allocated or reference-counted. Stages 2-4
@@ -90,6 +93,10 @@ def rk4_sc(s0, c0, s1, c1, s2, c2, q0, q1, q2, v0, v1, v2, t0, t1, t2, k, h):  #
     sin/cos follow by angle addition from sin/cos of the small increment, so libm is not
     called. The stages are a loop, so the compiler inlines the dynamics once, not thrice.
     """
+    s0, c0, s1, c1, s2, c2 = sc
+    q0, q1, q2 = q
+    v0, v1, v2 = v
+    t0, t1, t2 = t
     a0, a1, a2 = forward_dynamics_sc(s0, c0, s1, c1, s2, c2, v0, v1, v2, t0, t1, t2, k)
     x0, x1, x2 = v0, v1, v2  # the previous stage's velocity (x) and acceleration (y)
     y0, y1, y2 = a0, a1, a2
@@ -123,9 +130,10 @@ def rollout(p, g, q0, dq0, tau, h, n_steps):  # type: ignore[no-untyped-def]
     coef = coefficients(p, g)
     s0, c0, s1, c1, s2, c2 = sincos3(q0_, q1_, q2_)
     for k in range(n_steps):
-        qn, vn, _ = rk4_sc(s0, c0, s1, c1, s2, c2, q0_, q1_, q2_, v0_, v1_, v2_, t0_, t1_, t2_,
-                           coef, h)
-        s0, c0, s1, c1, s2, c2 = next_sincos(s0, c0, s1, c1, s2, c2, q0_, q1_, q2_, qn, k + 1)
+        qn, vn, _ = rk4_sc((s0, c0, s1, c1, s2, c2), (q0_, q1_, q2_), (v0_, v1_, v2_),
+                           (t0_, t1_, t2_), coef, h)
+        s0, c0, s1, c1, s2, c2 = next_sincos((s0, c0, s1, c1, s2, c2), (q0_, q1_, q2_), qn,
+                                             k + 1)
         q0_, q1_, q2_ = qn
         v0_, v1_, v2_ = vn
         Q[k + 1, 0], Q[k + 1, 1], Q[k + 1, 2] = qn
