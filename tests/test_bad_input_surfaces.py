@@ -224,3 +224,24 @@ def test_a_file_that_is_not_a_scheduler_file_is_said(tmp_path: Path,
     assert main(["sweep", str(study), "--out", str(tmp_path / "s"), "--scheduler",
                  str(bad)]) == 2
     assert "not a Dask scheduler file" in capsys.readouterr().err
+
+
+def test_a_log_summary_reads_as_people_read(tmp_path: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    # before: raw dictionaries, mode numbers and unrounded floats
+    # ("late_p50_us 0.028016...")
+    assert main(["run", "--backend", "sim", "--duration", "3", "--arm", "--walk-after", "1",
+                 "--no-realtime", "--out", str(tmp_path / "s")]) == 0
+    capsys.readouterr()
+    assert main(["log", "summary", str(tmp_path / "s")]) == 0
+    out = capsys.readouterr().out
+    import re
+
+    rows = dict(m.groups() for ln in out.splitlines()
+                if (m := re.match(r"\s*(\w+)\s{2,}(\S.*?)\s*$", ln)))
+    assert "standing" in rows["ticks_per_mode"] and "walking" in rows["ticks_per_mode"]
+    assert "{" not in out and "}" not in out
+    assert rows["winding_max_C"].startswith("hip ")
+
+    for number in re.findall(r"\d+\.\d+", out):
+        assert len(number.replace(".", "").lstrip("0")) <= 4, number

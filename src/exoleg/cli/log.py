@@ -14,7 +14,7 @@ def cmd_log_summary(args: argparse.Namespace) -> int:
     from exoleg.runtime.session import summarize, to_table
 
     s = summarize(args.log)
-    _table([[k, str(v)] for k, v in s.items()], ["", "value"],
+    _table([[k, _shown(k, v)] for k, v in s.items()], ["", "value"],
            title=f"session log {args.log}")
     if args.csv or args.parquet:
         from exoleg.errors import ParameterError
@@ -37,6 +37,30 @@ def cmd_log_summary(args: argparse.Namespace) -> int:
             out.commit()
         _say(f"wrote {target}")
     return 0
+
+
+def _shown(key: str, value: Any) -> str:
+    """A summary's value as people read it: numbers to four significant figures, the
+    modes by name, per-joint figures as ``hip 25, knee 25, ankle 25``, the safety
+    layer's events as their texts, nothing as ``-``."""
+    from exoleg.tick import Mode, name_of
+
+    if value is None:
+        return "-"
+    if isinstance(value, bool) or isinstance(value, (int, str)):
+        return str(value)
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    if isinstance(value, dict):
+        named = ((name_of(Mode, k) if key == "ticks_per_mode" else str(k), v)
+                 for k, v in value.items())
+        return ", ".join(f"{k} {_shown('', v)}" for k, v in named) or "-"
+    if isinstance(value, (list, tuple)):
+        if value and all(isinstance(v, dict) and "text" in v for v in value):
+            return "; ".join(f"{v['text']} (from {v['first_s']:.3f} s, {v['ticks']} ticks)"
+                             for v in value)
+        return ", ".join(_shown("", v) for v in value) or "-"
+    return str(value)
 
 
 def add_parser(sub: Any) -> None:
