@@ -39,10 +39,10 @@ LEVEL = {pkg: i for i, (_, pkgs) in enumerate(FLOORS) for pkg in pkgs}
 APART = frozenset({("control", "world"), ("world", "control")})
 
 
-def _modules() -> dict[str, Path]:
+def _modules(root: Path = ROOT) -> dict[str, Path]:
     mods = {}
-    for p in ROOT.rglob("*.py"):
-        parts = list(p.relative_to(ROOT).with_suffix("").parts)
+    for p in root.rglob("*.py"):
+        parts = list(p.relative_to(root).with_suffix("").parts)
         if parts[-1] == "__init__":
             parts = parts[:-1]
         mods[".".join(["exoleg", *parts])] = p
@@ -164,13 +164,7 @@ def test_the_check_sees_an_upward_import(tmp_path: Path) -> None:
         "def f():\n    from exoleg.cli.main import g\n")
     (tmp_path / "exoleg" / "cli" / "main.py").write_text("from exoleg.errors import f\n")
     (tmp_path / "exoleg" / "cli" / "__init__.py").write_text("")
-    global ROOT
-    saved = ROOT
-    try:
-        ROOT = tmp_path / "exoleg"
-        imports = _imports(_modules())
-    finally:
-        ROOT = saved
+    imports = _imports(_modules(tmp_path / "exoleg"))
     assert imports["exoleg.errors"] == {"exoleg.cli.main": 2}
     graph = {m: set(t) for m, t in imports.items()}
     assert _circles(graph) == [["exoleg.cli.main", "exoleg.errors"]]

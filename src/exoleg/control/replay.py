@@ -192,14 +192,15 @@ def _read_log(path: Path) -> tuple[F64, F64, F64, F64]:
 
 
 def is_session_log(path: Path) -> bool:
-    import stat
-
+    from exoleg.io import check_regular
     from exoleg.session_log import MAGIC
 
     p = path / "session.log" if path.is_dir() else path
     try:  # a pipe, device or socket is no log (its reader says what it is)
-        if not stat.S_ISREG(p.stat().st_mode):
-            return False
+        check_regular(p, "session log")
+    except ParameterError:
+        return False
+    try:
         with p.open("rb") as f:
             return f.read(len(MAGIC)) == MAGIC
     except OSError:
