@@ -402,7 +402,14 @@ def test_a_request_burst_during_a_walk(console: Any) -> None:
 
             async def one(i: int) -> tuple[int, Any]:
                 async with at_once:
-                    return await ask(i)
+                    try:
+                        return await ask(i)
+                    except (httpx.ReadError, httpx.RemoteProtocolError):
+                        # a kept-alive connection the server closed as the request went
+                        # out (the kernel answers it with a reset): a browser sends such a
+                        # request again on a new connection, and so does the test
+                        resent.append(i)
+                        return await ask(i)
 
             async def ask(i: int) -> tuple[int, Any]:
                 if i == 1500:  # the E-stop, in the thick of it
@@ -431,14 +438,18 @@ def test_a_request_burst_during_a_walk(console: Any) -> None:
             stop = await one(1500)
             return [*head, stop, *await asyncio.gather(*tail)]
 
+    resent: list[int] = []
     began = time.time()
     answers = asyncio.run(burst())
     stall = c.state()["server_stall_max_s"]
     print(f"2,000 requests in {time.time() - began:.1f} s; the event loop's longest "
-          f"stall {stall:.3f} s")
+          f"stall {stall:.3f} s; {len(resent)} sent again after a connection reset")
     from exoleg.runtime.control_api import EVENT_LOOP_STALL_S
 
     assert stall < EVENT_LOOP_STALL_S  # a busy server, not a hung one
+    # connections reset: 0 in 5 runs here (2 of them beside two busy cores), 1 in one CI
+    # run; a server that dropped connections under load would reset many
+    assert len(resent) <= 10, resent
     assert len(answers) == 2000 and answers[1500] == (200, {"queued": "estop"}), answers[1500]
     assert {s for s, _ in answers} <= {200, 401, 409}
     # walking throughout until the E-stop: every state the burst read before it

@@ -82,6 +82,11 @@ def listen(host: str, port: int, what: str = "exoleg hmi") -> Any:
     return sock
 
 
+#: how long an idle connection is kept, s: longer than the clients keep theirs (httpx 5 s,
+#: uvicorn's own default, the same: a request sent as the server closes is reset)
+KEEP_ALIVE_S = 30
+
+
 def serve(hmi: HMI, host: str = "127.0.0.1", port: int = 8780, certfile: str | None = None,
           keyfile: str | None = None, ready: Any = None, sock: Any = None) -> str:
     """Serve ``hmi`` in this process until SIGINT or SIGTERM (then a running session
@@ -105,7 +110,8 @@ def serve(hmi: HMI, host: str = "127.0.0.1", port: int = 8780, certfile: str | N
         ready.send(str(e))
         return ""
     config = uvicorn.Config(hmi.app(), log_level="warning", ssl_certfile=certfile,
-                            ssl_keyfile=keyfile, lifespan="on")
+                            ssl_keyfile=keyfile, lifespan="on",
+                            timeout_keep_alive=KEEP_ALIVE_S)
     server = Server(config)
     got: list[str] = []
 
