@@ -173,3 +173,28 @@ def test_detect_reads_the_folders_gait_phase_settings(device: Path, tmp_path: Pa
     n = len(b)
     assert n >= 12 and len(a) - n in (0, 1) and np.all(a[n:] > w.t[-1] - 0.032)
     assert np.allclose(b - a[:n], 0.032, atol=1.5e-3)
+
+
+def test_a_faster_ankle_unit_walks_a_one_second_stride_without_overspeed(
+        tmp_path: Path) -> None:
+    # Issue 38: the overspeed check took Table 2's joint speed times 1.2 whatever the
+    # actuator, so a 1:50 ankle (its motor's 6,000 rpm through 1:50: 720 deg/s) faulted
+    # at 360 deg/s, which normative gait reaches at 1.0 s strides. Reference: the
+    # actuator file's max_speed_rpm / ratio (ActuatorModel.permissible_speed) times
+    # safety.toml's overspeed_factor.
+    folder = tmp_path / "device"
+    (folder / "actuators").mkdir(parents=True)
+    shipped = resources.files("exoleg") / "data" / "device" / "actuators" / "ankle.toml"
+    ankle = shipped.read_text()
+    assert "\nratio = 120.0 " in ankle
+    (folder / "actuators" / "ankle.toml").write_text(ankle.replace("\nratio = 120.0 ",
+                                                                   "\nratio = 50.0 "))
+    out = tmp_path / "walk"
+    assert main(["simulate", "--walk", "--stride-time", "1.0", "--strides", "6", "--noise",
+                 "0", "--device", str(folder), "--out", str(out)]) == 0
+    figures = json.loads((out / "summary.json").read_text())["figures"]
+    ankle_peak = figures["peaks"][2]["peak_speed_deg_s"]
+    old_threshold = 1.2 * 300.0  # Table 2's ankle, 300 deg/s, times overspeed_factor
+    assert ankle_peak > old_threshold, ankle_peak  # measured 385 deg/s: the old rule faults
+    assert not figures["safety_fault"]
+    assert ankle_peak < 1.2 * 6000.0 * 6.0 / 50.0  # within the unit's own limit, deg/s

@@ -7,8 +7,9 @@ command (N m) and the E-stop input, and gives the torque the drives may apply:
 * **E-stop**: torque zero the same tick, latched; only :meth:`SafetyLayer.reset` (with
   the E-stop input released) and then :meth:`SafetyLayer.arm` bring torque back;
 * **non-finite** state or command: torque zero, latched fault;
-* **overspeed**: |dq| above Table 2's maximum velocity times ``overspeed_factor``:
-  torque zero, latched fault;
+* **overspeed**: |dq| above each actuation unit's own speed limit (its motor's maximum
+  permissible speed through its gear's ratio) times ``overspeed_factor``: torque zero,
+  latched fault;
 * **range of motion**: beyond the device's range of motion (soft limit) no torque that
   pushes further out; beyond it by ``hard_margin``: torque zero, latched fault;
 * **torque** clipped to Table 2's maximum per joint, within each actuation unit's
@@ -215,7 +216,7 @@ class SafetyLimits:
                            [a.max_torque for a in table2]), working),
                        max_torque_rate=rate,
                        max_speed=v["overspeed_factor"] * np.array(
-                           [a.max_velocity for a in table2]),
+                           [a.permissible_speed for a in acts]),
                        dt=dt, source=str(d.get("source", where)), actuators=acts,
                        ambient=v["ambient_temperature"], derate_band=v["derate_band"],
                        gear_fault=response == "fault")

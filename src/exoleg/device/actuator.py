@@ -194,10 +194,16 @@ class ActuatorModel:
         return self.bus_voltage / self.torque_constant / self.ratio
 
     @property
+    def permissible_speed(self) -> float:
+        """The motor's maximum permissible speed through the gear, rad/s at the joint (a
+        mechanical limit: a backdriven joint may turn faster than the no-load speed)."""
+        return self.max_speed_rpm * RPM / self.ratio
+
+    @property
     def max_velocity(self) -> float:
         """The fastest the joint turns, rad/s: the no-load speed at the bus voltage or the
         motor's maximum permissible speed through the gear, the lower."""
-        return min(self.no_load_speed, self.max_speed_rpm * RPM / self.ratio)
+        return min(self.no_load_speed, self.permissible_speed)
 
     @property
     def coulomb_friction(self) -> float:
@@ -221,7 +227,7 @@ class ActuatorModel:
         r = new(ACTUATOR)
         r[0] = (self.torque_limit, self.joint_torque_constant, self.peak_current,
                 self.bus_voltage, self.torque_constant * self.ratio, self.terminal_resistance,
-                self.max_speed_rpm * RPM / self.ratio, self.coulomb_friction,
+                self.permissible_speed, self.coulomb_friction,
                 self.viscous_friction, self.friction_smoothing, self.current_loop_bandwidth,
                 self.encoder_resolution, self.velocity_filter_hz)
         return r
