@@ -116,9 +116,10 @@ class Limited(IntEnum):
     FAULT = 2           # torque zero: a latched fault (see Fault)
     SOFT_LIMIT = 4      # a joint beyond its range of motion had its outward torque removed
     TORQUE = 8          # clipped to the maximum torque
-    RATE = 16           # limited by the torque rate
+    RATE = 16           # the torque the gear carries limited by the torque rate
     DERATED = 32        # a motor's winding is hot: its torque limit derated
     GEAR_PEAK = 64      # a gear's estimated torque beyond its momentary peak
+    GEAR = 128          # the torque the gear carries held at its repeated peak
 
 
 #: What each status bit means, as the operator reads it.
@@ -127,7 +128,8 @@ LIMITED_TEXT = {Limited.DISARMED: "disarmed: torque zero",
                 Limited.SOFT_LIMIT: "beyond the soft range-of-motion limit",
                 Limited.TORQUE: "torque clipped", Limited.RATE: "torque rate limited",
                 Limited.DERATED: "motor hot: torque derated",
-                Limited.GEAR_PEAK: "gear beyond its momentary peak torque"}
+                Limited.GEAR_PEAK: "gear beyond its momentary peak torque",
+                Limited.GEAR: "gear's torque held at its repeated peak"}
 
 
 # -- the walking controller's support modes (:mod:`exoleg.control.transparency`)

@@ -26,6 +26,9 @@ ROM = paper.range_of_motion()
 # current limit (50 x 0.8 x 0.0525 N m/A x 14.5 A = 30.45 N m)
 TMAX = np.minimum(np.array([a.max_torque for a in paper.actuators()]),
                   [54.0, 50.0 * 0.8 * 0.0525 * 14.5, 54.0])
+# What the gears carry: their repeated peak torques (CSF-17-100 and CPU-17A-120: 54 N m;
+# CSF-17-50: 34 N m; device-datasheets.md S10)
+REPEATED = np.array([54.0, 34.0, 54.0])
 Q = np.array([0.3, -0.6, 0.1])  # inside the range of motion
 Z = np.zeros(3)
 
@@ -71,6 +74,32 @@ def test_torque_clipped_to_the_working_limit() -> None:
     s = armed()
     u = ramp_to(s, np.array([1e6, -1e6, 1e6]))
     assert np.array_equal(u, [TMAX[0], -TMAX[1], TMAX[2]])
+
+
+def test_what_a_decelerating_rotor_loads_the_gear_with_is_held_at_its_repeated_peak() -> None:
+    # Issue 38: the torque clip acted on the command alone, not on what the gear
+    # carries. A rotor slowing down passes its inertia torque through the gear on top of
+    # the command. Fault injection: the hip's measured rate falls at a steady 3.08 rad/s^2
+    # from 1 rad/s to 0.08 (its rotor's inertia torque 3.249 kg m^2 x 3.08 = 10 N m; the motor's
+    # drag N k_t I_0 = 100 x 0.0712 N m/A x 0.544 A, turning forward: tanh(w / 0.01) = 1):
+    # the gear would carry 54 + 10 - drag; the command is held so that it carries 54.
+    hip = LIM.actuators[0]
+    acc = 10.0 / hip.reflected_inertia
+    drag = hip.ratio * hip.torque_constant * hip.no_load_current
+    s = armed()
+    for k in range(300):
+        u, status = s.step(Q, np.array([1.0 - acc * k * 1e-3, 0.0, 0.0]), [1e6, 0.0, 0.0])
+    assert s.state[0]["acc"][0] == pytest.approx(-acc, rel=1e-9)  # the low-pass settled
+    w = 1.0 - acc * 0.299  # the last tick's rate
+    assert u[0] == pytest.approx(REPEATED[0] - 10.0 + drag * math.tanh(
+        w / hip.friction_smoothing), rel=1e-9)
+    assert status & Limited.GEAR
+    # accelerating, the rotor takes its share of the command: the gear carries less than
+    # the command, which stays at the drive's working limit
+    s = armed()
+    for k in range(300):
+        u, status = s.step(Q, np.array([0.5 + acc * k * 1e-3, 0.0, 0.0]), [1e6, 0.0, 0.0])
+    assert u[0] == TMAX[0] and not status & Limited.GEAR
 
 
 def test_estop_torque_off_same_tick_latched_rearm_only_explicit() -> None:
@@ -171,8 +200,9 @@ _any = st.floats(allow_nan=True, allow_infinity=True, width=64)
                       min_size=1, max_size=12), arm=st.booleans())
 def test_property_commands_finite_and_within_limits(ticks: list, arm: bool) -> None:
     """For any sequence of sensor values, commands and E-stop inputs: every torque is
-    finite, within Table 2, changes by at most the torque rate per tick, and is zero
-    when disarmed or after a fault."""
+    finite, within Table 2 and the drives' limits, changes by at most the torque rate
+    per tick unless the gear's protection unloads it (then the gear carries its repeated
+    peak), and is zero when disarmed or after a fault."""
     s = SafetyLayer(LIM)
     if arm:
         s.arm()
@@ -185,7 +215,14 @@ def test_property_commands_finite_and_within_limits(ticks: list, arm: bool) -> N
         if faulted:
             assert np.array_equal(out, Z)
         else:
-            assert np.all(np.abs(out - prev) <= LIM.max_torque_rate * LIM.dt * (1 + 1e-12))
+            st_ = s.state[0]
+            side = np.array(LIM.record()["inertia"][0]) * st_["acc"] + np.array(
+                [a.ratio * a.torque_constant * a.no_load_current for a in LIM.actuators]
+            ) * np.tanh(np.asarray(dq) / [a.friction_smoothing for a in LIM.actuators])
+            ramped = np.abs(out - prev) <= LIM.max_torque_rate * LIM.dt * (1 + 1e-12)
+            unloaded = np.isclose(np.abs(out - side), REPEATED, rtol=1e-9) | (
+                np.abs(out) == LIM.max_torque)
+            assert np.all(ramped | (unloaded & bool(status & Limited.GEAR))), (out, prev)
         prev = out
     if not arm:
         assert np.array_equal(prev, Z)

@@ -64,6 +64,7 @@ def _simulate_device(args: argparse.Namespace, cfg: dict[str, Any]) -> int:
         "safety_fault": r.fault,
         "safety_ticks_rate_limited": int(((r.status & Limited.RATE) > 0).sum()),
         "safety_ticks_torque_clipped": int(((r.status & Limited.TORQUE) > 0).sum()),
+        "safety_ticks_gear_limited": int(((r.status & Limited.GEAR) > 0).sum()),
         "safety_ticks_soft_limit": int(((r.status & Limited.SOFT_LIMIT) > 0).sum()),
         "safety_ticks_derated": int(((r.status & Limited.DERATED) > 0).sum()),
         "safety_ticks_gear_beyond_momentary_peak": int(((r.status & Limited.GEAR_PEAK) > 0)

@@ -12,7 +12,9 @@ keeps).
 * **Gears**: the torque a gear transmits is the torque allowed last tick less the
   rotor's inertia torque, the reflected inertia N^2 (J_rotor + J_gear) times the
   measured acceleration (the rates' difference over the tick); its peak is kept and
-  each time it goes beyond the gear's momentary peak is counted.
+  each time it goes beyond the gear's momentary peak is counted. The acceleration is
+  also kept low-passed (``acc``): the layer's limit on what the gear carries
+  (:func:`exoleg.control.safety.safety_step`) rests on it, not on a tick's spike.
 """
 
 from __future__ import annotations
@@ -33,7 +35,9 @@ def watch_limits(r: NDArray[np.void], actuators: tuple[Any, ...], dt: float,
     ``actuators`` at a tick of ``dt`` s: each motor's step matrix over one tick, joint
     torque per ampere, resistance at 25 degC, thermal resistances, winding limit and
     where derating starts (``derate_band`` K below), the continuous torque it derates to
-    (within ``max_torque``); each gear's momentary peak and the reflected inertia."""
+    (within ``max_torque``); each gear's momentary and repeated peaks, the reflected
+    inertia and the motor's drag at the joint (N k_t I_0, smoothed as the actuator's
+    Coulomb friction)."""
     for i, a in enumerate(actuators):
         thermal_matrix(a.thermal(), dt, r["phi"][0, i])
         r["kt_joint"][0, i] = a.joint_torque_constant
@@ -44,7 +48,10 @@ def watch_limits(r: NDArray[np.void], actuators: tuple[Any, ...], dt: float,
         r["derate_from"][0, i] = a.max_winding_temperature - derate_band
         r["continuous"][0, i] = min(a.continuous_torque, max_torque[i])
         r["momentary"][0, i] = a.momentary_peak_torque
+        r["repeated"][0, i] = a.repeated_peak_torque
         r["inertia"][0, i] = a.reflected_inertia
+        r["drag"][0, i] = a.ratio * a.torque_constant * a.no_load_current
+        r["smoothing"][0, i] = a.friction_smoothing
     r["dt"] = dt
 
 
@@ -79,9 +86,12 @@ def gear_check(lim, state, dq):  # type: ignore[no-untyped-def]
     if not s.started:
         return over
     for i in range(3):
-        g = s.prev[i] - L.inertia[i] * (dq[i] - s.dq_prev[i]) / L.dt
+        a = (dq[i] - s.dq_prev[i]) / L.dt
+        if math.isfinite(a):  # a non-finite rate is the NONFINITE check's
+            s.acc[i] = L.acc_keep * s.acc[i] + (1.0 - L.acc_keep) * a
+        g = s.prev[i] - L.inertia[i] * a
         if not math.isfinite(g):
-            g = 0.0  # a non-finite rate is the NONFINITE check's
+            g = 0.0
         if abs(g) > L.momentary[i]:
             if abs(s.gear[i]) <= L.momentary[i]:
                 s.gear_events[i] += 1

@@ -12,9 +12,15 @@ command (N m) and the E-stop input, and gives the torque the drives may apply:
   latched fault;
 * **range of motion**: beyond the device's range of motion (soft limit) no torque that
   pushes further out; beyond it by ``hard_margin``: torque zero, latched fault;
-* **torque** clipped to Table 2's maximum per joint, within each actuation unit's
-  working limit (its gear's repeated peak or its drive's current limit), and **torque
-  rate** to ``max_torque_rate`` (so a step in the command reaches the drives as a ramp);
+* **what each part carries**, each limit on the quantity the part is rated for: the
+  command, what the motor and drive give, within Table 2's maximum per joint and each
+  unit's working limit (its drive set at its gear's repeated peak or its current limit,
+  the lower), its **rate** within ``max_torque_rate`` (a step of the command reaches
+  the gear and the child before the rotor moves: it comes as a ramp); the torque the
+  gear carries -- the command less the rotor's inertia torque (reflected inertia x the
+  measured acceleration, low-passed at ``accel_filter_hz``) and the motor's drag --
+  within the gear's repeated peak torque (a rotor slowing down loads its gear beyond
+  the command; unloading it is never held back by the rate);
 * **motor temperature**: each motor's winding and housing temperatures estimated from
   the torque the layer allows (the current it draws, copper losses with the winding's
   resistance at its temperature, maxon's two-node model, exact per tick); above
@@ -71,13 +77,17 @@ MAX_TORQUE_RATE = 5e5
 #: which derating starts and the winding's limit (degC), the continuous torque it derates
 #: to (N m) -- and the ambient temperature (degC); per gear its momentary peak (N m) and
 #: the reflected inertia behind it (kg m^2); the tick (s); whether a gear overload is a
-#: fault.
+#: fault; per gear its repeated peak (N m: the limit on the torque it carries), the
+#: motor's drag at the joint N k_t I_0 (N m) and its smoothing speed (rad/s); the share
+#: of the acceleration estimate kept each tick (its first-order low-pass).
 LIMITS = np.dtype([("lower", F8, 3), ("upper", F8, 3), ("max_torque", F8, 3),
                    ("max_step", F8, 3), ("max_speed", F8, 3), ("hard_margin", F8),
                    ("kt_joint", F8, 3), ("r25", F8, 3), ("r_wh", F8, 3), ("r_ha", F8, 3),
                    ("phi", F8, (3, 4)), ("derate_from", F8, 3), ("winding_limit", F8, 3),
                    ("continuous", F8, 3), ("ambient", F8), ("momentary", F8, 3),
-                   ("inertia", F8, 3), ("dt", F8), ("gear_fault", np.bool_)])
+                   ("inertia", F8, 3), ("dt", F8), ("gear_fault", np.bool_),
+                   ("repeated", F8, 3), ("drag", F8, 3), ("smoothing", F8, 3),
+                   ("acc_keep", F8)])
 #: The safety layer's state: armed, the latched fault (:class:`Fault`), its joint (-1
 #: for none or an E-stop), the value that latched it and the limit it crossed (rad for
 #: HARD_LIMIT, rad/s for OVERSPEED, degC for OVERTEMPERATURE, N m for GEAR_OVERLOAD; 0
@@ -85,12 +95,13 @@ LIMITS = np.dtype([("lower", F8, 3), ("upper", F8, 3), ("max_torque", F8, 3),
 #: and housing temperatures (degC); per gear the estimated transmitted torque this tick,
 #: the largest |value| so far (N m) and how many times it went beyond the momentary peak;
 #: the measured rates of the last tick (rad/s); whether the layer has ticked (the
-#: estimates start then: temperatures at ambient).
+#: estimates start then: temperatures at ambient); per joint the low-passed measured
+#: acceleration (rad/s^2).
 STATE = np.dtype([("armed", np.bool_), ("fault", I8), ("fault_joint", I8),
                   ("fault_value", F8), ("fault_limit", F8), ("prev", F8, 3),
                   ("winding", F8, 3), ("housing", F8, 3), ("gear", F8, 3),
                   ("gear_peak", F8, 3), ("gear_events", I8, 3), ("dq_prev", F8, 3),
-                  ("started", np.bool_)])
+                  ("started", np.bool_), ("acc", F8, 3)])
 
 
 def new_state() -> NDArray[np.void]:
@@ -115,7 +126,9 @@ class SafetyLimits:
     whose motors' temperatures and gears' loads the layer watches (None: the shipped
     ones); ``ambient`` degC, the air around the motors; ``derate_band`` K, how far below
     the winding limit derating starts; ``gear_fault``: a gear beyond its momentary peak
-    is a fault (True) or marked and counted (False).
+    is a fault (True) or marked and counted (False); ``accel_filter_hz``: the cut-off of
+    the measured acceleration's low-pass, from which the layer estimates the rotor's
+    inertia torque (and so what the gear carries).
     """
 
     lower: F64
@@ -130,6 +143,7 @@ class SafetyLimits:
     ambient: float = 25.0
     derate_band: float = 15.0
     gear_fault: bool = False
+    accel_filter_hz: float = 30.0
 
     def __post_init__(self) -> None:
         w = "SafetyLimits"
@@ -158,7 +172,8 @@ class SafetyLimits:
         params_array(acts)  # hip, knee, ankle actuators, in that order
         object.__setattr__(self, "actuators", acts)
         for name, lo_, hi_, unit in (("ambient", -20.0, 60.0, "degC"),
-                                     ("derate_band", 1.0, 60.0, "K")):
+                                     ("derate_band", 1.0, 60.0, "K"),
+                                     ("accel_filter_hz", 1.0, 0.5 / dt, "Hz")):
             x = _check.finite(w, name, getattr(self, name))
             if not lo_ <= x <= hi_:
                 raise ParameterError(w, name, f"{x:g} {unit} is outside {lo_:g}-{hi_:g} {unit}")
@@ -187,7 +202,7 @@ class SafetyLimits:
         numbers = {"hard_margin_deg": (0.0, 45.0, "deg"), "torque_fraction": (0.01, 1.0, ""),
                    "overspeed_factor": (0.1, 3.0, ""),
                    "ambient_temperature": (-20.0, 60.0, "degC"),
-                   "derate_band": (1.0, 60.0, "K")}
+                   "derate_band": (1.0, 60.0, "K"), "accel_filter_hz": (1.0, 500.0, "Hz")}
         v = _check.ranged(where, {k: x for k, x in d.items()
                                   if k not in ("max_torque_rate", "gear_overload")}, numbers)
         if "max_torque_rate" not in d:
@@ -205,9 +220,9 @@ class SafetyLimits:
         rom = paper.range_of_motion()
         table2 = paper.actuators()
         acts = paper_actuators(folder) if actuators is None else tuple(actuators)
-        # Table 2's torque, within what each actuation unit may work at: its gear's
-        # repeated peak torque, or its drive's current limit (the momentary peak is for
-        # collisions, never commanded)
+        # the command: Table 2's torque within what each drive gives at its current
+        # limit (the gear's repeated peak limits the torque the gear carries, below; its
+        # momentary peak is for collisions, never commanded)
         working = np.array([a.torque_limit for a in acts])
         try:
             return cls(lower=rom.lower, upper=rom.upper,
@@ -219,7 +234,7 @@ class SafetyLimits:
                            [a.permissible_speed for a in acts]),
                        dt=dt, source=str(d.get("source", where)), actuators=acts,
                        ambient=v["ambient_temperature"], derate_band=v["derate_band"],
-                       gear_fault=response == "fault")
+                       gear_fault=response == "fault", accel_filter_hz=v["accel_filter_hz"])
         except ParameterError as e:  # a range checked by the record: name the file
             raise ParameterError(where, e.field, e.problem) from None
 
@@ -231,6 +246,7 @@ class SafetyLimits:
         r["max_speed"], r["hard_margin"] = self.max_speed, self.hard_margin
         watch_limits(r, self.actuators or (), self.dt, self.derate_band, self.max_torque)
         r["ambient"], r["gear_fault"] = self.ambient, self.gear_fault
+        r["acc_keep"] = math.exp(-2.0 * math.pi * self.accel_filter_hz * self.dt)
         return r
 
 
@@ -369,14 +385,23 @@ def safety_step(lim, state, q, dq, u_cmd, estop_input, u):  # type: ignore[no-un
         elif v < -tmax:
             v = -tmax
             status |= Limited.TORQUE
-        step = L.max_step[i]
-        prev = s.prev[i]
-        if v > prev + step:
-            v = prev + step
+        step = L.max_step[i]  # a step of the command reaches the gear before the rotor moves
+        if v > s.prev[i] + step:
+            v = s.prev[i] + step
             status |= Limited.RATE
-        elif v < prev - step:
-            v = prev - step
+        elif v < s.prev[i] - step:
+            v = s.prev[i] - step
             status |= Limited.RATE
+        # what the motor side takes of the command: the rotor's inertia torque and the
+        # motor's drag; the rest the gear carries to the joint (its protection after the
+        # rate: unloading a gear is never held back; within the drive's limit still)
+        side = L.inertia[i] * s.acc[i] + L.drag[i] * math.tanh(dq[i] / L.smoothing[i])
+        if v - side > L.repeated[i]:
+            v = max(side + L.repeated[i], -tmax)
+            status |= Limited.GEAR
+        elif v - side < -L.repeated[i]:
+            v = min(side - L.repeated[i], tmax)
+            status |= Limited.GEAR
         u[i] = v
         s.prev[i] = v
     motors_tick(lim, state, dq, u)
