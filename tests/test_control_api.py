@@ -152,7 +152,8 @@ def test_link_estop_goes_first_and_applied_commands_are_timed() -> None:
            "fault_joint": -1, "fault_value": 0.0, "fault_limit": 0.0, "refused": 0,
            "winding_temp": np.array([40.0, 35.0, 30.0]),
            "gear_torque": np.zeros(3), "support_mode": 0,
-           "support_level": np.ones(3)}  # every field of the output record (contract.OUTPUT)
+           "support_level": np.ones(3),
+           "cuff": np.full(3, np.nan)}  # every field of the output record (contract.OUTPUT)
     sensors = {"command": int(Command.ESTOP), "q": np.zeros(3), "dq": np.zeros(3),
                "fsr": np.zeros(4)}
     before = time.time()

@@ -107,6 +107,7 @@ class Fault(IntEnum):
     HARD_LIMIT = 4
     OVERTEMPERATURE = 5     # a motor's estimated winding temperature beyond its limit
     GEAR_OVERLOAD = 6       # a gear's estimated torque beyond its momentary peak ("fault")
+    CUFF_TORQUE = 7         # the cuffs' torque beyond its torque-off level
 
 
 class Limited(IntEnum):
@@ -120,6 +121,8 @@ class Limited(IntEnum):
     DERATED = 32        # a motor's winding is hot: its torque limit derated
     GEAR_PEAK = 64      # a gear's estimated torque beyond its momentary peak
     GEAR = 128          # the torque the gear carries held at its repeated peak
+    CUFF = 256          # the cuffs' torque beyond its limit: the support falls
+    CUFF_STOP = 512     # the cuffs' torque beyond its stop level: a controlled stop
 
 
 #: What each status bit means, as the operator reads it.
@@ -129,7 +132,9 @@ LIMITED_TEXT = {Limited.DISARMED: "disarmed: torque zero",
                 Limited.TORQUE: "torque clipped", Limited.RATE: "torque rate limited",
                 Limited.DERATED: "motor hot: torque derated",
                 Limited.GEAR_PEAK: "gear beyond its momentary peak torque",
-                Limited.GEAR: "gear's torque held at its repeated peak"}
+                Limited.GEAR: "gear's torque held at its repeated peak",
+                Limited.CUFF: "cuffs' torque beyond its limit: support reduced",
+                Limited.CUFF_STOP: "cuffs' torque beyond its stop level: controlled stop"}
 
 
 # -- the walking controller's support modes (:mod:`exoleg.control.transparency`)
@@ -164,13 +169,15 @@ SENSORS = np.dtype([("q", F8, 3), ("dq", F8, 3), ("fsr", F8, 4), ("gyro", F8),
 #: estimates: the motor's winding temperature (degC) and the gear's transmitted torque
 #: (N m), the support mode in force (:class:`SupportMode`;
 #: a law that is not the walking controller's: IMPEDANCE) and the support level per joint
-#: (0: transparent, 1: the impedance's full support; between while a change blends).
+#: (0: transparent, 1: the impedance's full support; between while a change blends), and
+#: the cuffs' torque as the safety layer checks it (N m: the interaction reading through
+#: the cuffs' low-pass; NaN where not measured).
 OUTPUT = np.dtype([("tau", F8, 3), ("mode", I8), ("phase", I8), ("gait_source", I8),
                    ("gait_fraction", F8),
                    ("events", I8), ("safety_status", I8), ("q_ref", F8, 3), ("fault", I8),
                    ("fault_joint", I8), ("fault_value", F8), ("fault_limit", F8),
                    ("refused", I8), ("winding_temp", F8, 3), ("gear_torque", F8, 3),
-                   ("support_mode", I8), ("support_level", F8, 3)])
+                   ("support_mode", I8), ("support_level", F8, 3), ("cuff", F8, 3)])
 
 LABELS = {3: JOINTS, 4: SENSOR_POINTS}
 #: The modes in which the drives are enabled (torque may flow), and those in which the

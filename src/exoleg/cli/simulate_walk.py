@@ -21,7 +21,7 @@ def _simulate_walk(args: argparse.Namespace) -> int:
 
     import exoleg
     from exoleg.control.assist import AssistSettings
-    from exoleg.control.safety import Limited
+    from exoleg.control.safety import Limited, fault_event
     from exoleg.control.transparency import SUPPORT_NAMES
     from exoleg.errors import ParameterError
     from exoleg.params.records import JOINTS
@@ -60,9 +60,22 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     fault = bool(np.any(r.safety_status & Limited.FAULT))
     if fault:
         k = int(np.argmax(r.safety_status & Limited.FAULT))
-        notes.append(f"the safety layer stopped the walk at t = {r.t[k]:.3f} s; torque was off "
-                     "from then on")
+        notes.append(f"the safety layer stopped the walk at t = {r.t[k]:.3f} s "
+                     f"({fault_event(r.fault[k], r.fault_joint[k])}); torque was off from "
+                     "then on")
+    for e in safety_events(r.t, r.safety_status):
+        if e["event"] in ("cuff", "cuff_stop"):  # the cuffs' limit (safety.toml [cuffs])
+            notes.append(f"the {e['text']}: from t = {e['first_s']:.3f} s, {e['ticks']} "
+                         "ticks")
     inter = interaction_summary(r)
+    from exoleg.control.safety import SafetyLimits
+
+    per_kg = SafetyLimits.paper(folder=args.device).cuff_limit
+    walking = r.t >= r.walk_start
+    cuffs = [{"joint": j, "peak_Nm": float(np.nanmax(np.abs(r.cuff[walking, i]), initial=0.0)),
+              "peak_Nm_per_kg": float(np.nanmax(np.abs(r.cuff[walking, i]), initial=0.0)
+                                      / args.body_mass),
+              "limit_Nm_per_kg": float(per_kg[i])} for i, j in enumerate(JOINTS)]
     strikes = r.strikes()
     figs = {"strides_commanded": args.strides, "body_mass_kg": args.body_mass,
             "pelvis_mass_kg": r.plant.body_mass, "belt_speed_m_s": r.plant.belt_speed,
@@ -72,6 +85,7 @@ def _simulate_walk(args: argparse.Namespace) -> int:
             "controller": args.controller,
             "sensor_faults": [str(f) for f in args.sensor_fault],
             "interaction_torque": inter,
+            "cuffs": cuffs,
             "interaction_torque_rms_per_kg": {f["joint"]: f["rms_Nm_per_kg"] for f in inter},
             "support_by_stride": support_by_stride(r.t, r.support_level, strikes),
             "safety_events": safety_events(r.t, r.safety_status, r.walk_start)}

@@ -70,7 +70,7 @@ from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, new
 from exoleg.reference.gait import MID_STANCE
-from exoleg.sizing.anthropometry import body_weight_share
+from exoleg.sizing.anthropometry import body_mass_of, body_weight_share
 from exoleg.tick import OUTPUT, SENSORS, Command, Mode, TickRecords
 
 F64 = NDArray[np.float64]
@@ -138,6 +138,7 @@ class WalkGains:
         for name in (*self.TUNABLE, "standing", "stand_blend"):
             r[name] = getattr(self, name)
         r["body_mass"], r["start_fraction"], r["g"] = body_mass, START_FRACTION, g
+        r["child_mass"] = body_mass_of(body_mass)
         r["fsr_x"], r["sole"] = fsr_x, sole
         return r
 
@@ -152,12 +153,13 @@ STAND_BLEND_S = (0.2, 3.0)
 #: body mass the pelvis carries (kg), where walking starts in the cycle, g (m/s^2), the
 #: FSRs' x on the foot (m) and their y in the foot frame (m, negative: below the ankle),
 #: the stand's blend (s), where in the cycle a stop stands (:func:`stop_fraction`), the
-#: operator's bounds on assist-as-needed's support per joint (0-1, :data:`BOUNDS`).
+#: operator's bounds on assist-as-needed's support per joint (0-1, :data:`BOUNDS`), the
+#: child's whole mass (kg: what the cuffs' limit per kg is of).
 PARAMS = np.dtype([("kp_stance", F8, 3), ("kd_stance", F8, 3), ("kp_swing", F8, 3),
                    ("kd_swing", F8, 3), ("standing", F8, 3), ("support", F8),
                    ("body_mass", F8), ("start_fraction", F8), ("g", F8), ("fsr_x", F8, 4),
                    ("sole", F8), ("stand_blend", F8), ("stop_fraction", F8),
-                   ("support_min", F8, 3), ("support_max", F8, 3)])
+                   ("support_min", F8, 3), ("support_max", F8, 3), ("child_mass", F8)])
 #: The operator's bounds on assist-as-needed's support, tunable with the gains
 #: (:meth:`WalkController.set_gains`; their values at the start: ``assist.toml``).
 BOUNDS = ("support_min", "support_max")
@@ -279,6 +281,13 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, 
     command, refused = support_command(tp, ss, s.command, before)
     if command != Command.NONE:
         refused = supervise(sup, lim, sst, command, s.q, s.dq)
+    # the cuffs' torque: beyond its limit the support falls; beyond the stop level a
+    # controlled stop (a walk stands at its next stopping point); beyond torque off, the
+    # safety layer's fault
+    cuffs = sf.cuff_check(lim, sst, s.interaction, C.child_mass,
+                          sup[0].mode == Mode.WALKING or sup[0].mode == Mode.STOPPING)
+    if cuffs >= 2 and sup[0].mode == Mode.WALKING:
+        supervise(sup, lim, sst, Command.STAND, s.q, s.dq)
     mode = sup[0].mode
     R = ref[0]
     if mode == Mode.WALKING and before == Mode.STANDING:
@@ -359,16 +368,18 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, 
     level = np.empty(3)
     wa = support_mix(ss, w, aan, level)
     hold = standing_hold(mode, R.t_stand, R.t_walk, C.stand_blend, tp[0].ramp, t)
+    share = sst[0].cuff_share
     for j in range(3):
         if level[j] < hold:
             level[j] = hold
+        level[j] *= share[j]
     tau_ref = np.zeros(3)  # the torque asked at the cuffs (the proportional law's)
     if ap[0].law == PROPORTIONAL and wa > 0.0 and (sup[0].mode == Mode.WALKING
                                         or sup[0].mode == Mode.STOPPING):
         assist_moment(ap, as_, gp.forefoot(st, s.fsr), st[0].bearing, s.interaction,
                       tau_ref)
         for j in range(3):
-            tau_ref[j] *= wa  # blended in and out with the mode, as the levels
+            tau_ref[j] *= wa * share[j]  # blended with the mode, as the levels
     if level[0] < 1.0 or level[1] < 1.0 or level[2] < 1.0:
         tr = np.empty(3)
         L = lim[0]
@@ -378,6 +389,10 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, 
         for j in range(3):
             cmd[j] = level[j] * cmd[j] + (1.0 - level[j]) * tr[j]
     status = safety_step(lim, sst, qm, vm, cmd, False, o.tau)
+    if cuffs >= 1:
+        status |= sf.Limited.CUFF
+    if cuffs >= 2:
+        status |= sf.Limited.CUFF_STOP
     settle(sup, sst)
     report(sup, sst, refused, status, out)
     o.phase = phase

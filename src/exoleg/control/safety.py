@@ -21,6 +21,15 @@ command (N m) and the E-stop input, and gives the torque the drives may apply:
   measured acceleration, low-passed at ``accel_filter_hz``) and the motor's drag --
   within the gear's repeated peak torque (a rotor slowing down loads its gear beyond
   the command; unloading it is never held back by the rate);
+* **the cuffs' torque** (:func:`cuff_check`, called by the walking controller, which
+  knows the child's mass and what a support is): the interaction reading through a
+  cuff's own low-pass (``cuff_bandwidth``: a strap on soft tissue passes no impact
+  spike of the rigid model's estimate), per joint against ``cuff_limit`` N m per kg of
+  the child; beyond it the support falls towards transparent (``cuff_share``, over
+  ``cuff_ramp`` s); beyond it for longer than ``cuff_stop`` s (a quasi-static push, not
+  relieved by the support's fall) a controlled stop; beyond ``cuff_off`` x the limit
+  torque off, latched (CUFF_TORQUE); a device without a cuff sensor (NaN) is not
+  watched;
 * **motor temperature**: each motor's winding and housing temperatures estimated from
   the torque the layer allows (the current it draws, copper losses with the winding's
   resistance at its temperature, maxon's two-node model, exact per tick); above
@@ -79,7 +88,11 @@ MAX_TORQUE_RATE = 5e5
 #: the reflected inertia behind it (kg m^2); the tick (s); whether a gear overload is a
 #: fault; per gear its repeated peak (N m: the limit on the torque it carries), the
 #: motor's drag at the joint N k_t I_0 (N m) and its smoothing speed (rad/s); the share
-#: of the acceleration estimate kept each tick (its first-order low-pass).
+#: of the acceleration estimate kept each tick (its first-order low-pass); the cuffs'
+#: torque limit per joint (N m/kg), the support's change per tick while beyond it or
+#: below (a fraction of 1), how long beyond it stops a walk (s), the torque-off level
+#: (a multiple of the limit) and the share each of the cuff reading's two low-pass
+#: stages keeps per tick.
 LIMITS = np.dtype([("lower", F8, 3), ("upper", F8, 3), ("max_torque", F8, 3),
                    ("max_step", F8, 3), ("max_speed", F8, 3), ("hard_margin", F8),
                    ("kt_joint", F8, 3), ("r25", F8, 3), ("r_wh", F8, 3), ("r_ha", F8, 3),
@@ -87,7 +100,8 @@ LIMITS = np.dtype([("lower", F8, 3), ("upper", F8, 3), ("max_torque", F8, 3),
                    ("continuous", F8, 3), ("ambient", F8), ("momentary", F8, 3),
                    ("inertia", F8, 3), ("dt", F8), ("gear_fault", np.bool_),
                    ("repeated", F8, 3), ("drag", F8, 3), ("smoothing", F8, 3),
-                   ("acc_keep", F8)])
+                   ("acc_keep", F8), ("cuff_limit", F8, 3), ("cuff_rate", F8),
+                   ("cuff_stop", F8), ("cuff_off", F8), ("cuff_keep", F8)])
 #: The safety layer's state: armed, the latched fault (:class:`Fault`), its joint (-1
 #: for none or an E-stop), the value that latched it and the limit it crossed (rad for
 #: HARD_LIMIT, rad/s for OVERSPEED, degC for OVERTEMPERATURE, N m for GEAR_OVERLOAD; 0
@@ -96,12 +110,16 @@ LIMITS = np.dtype([("lower", F8, 3), ("upper", F8, 3), ("max_torque", F8, 3),
 #: the largest |value| so far (N m) and how many times it went beyond the momentary peak;
 #: the measured rates of the last tick (rad/s); whether the layer has ticked (the
 #: estimates start then: temperatures at ambient); per joint the low-passed measured
-#: acceleration (rad/s^2).
+#: acceleration (rad/s^2), the share of the support the cuffs' torque leaves (1: all,
+#: falling while beyond its limit), how long it has been beyond its limit (s) and the
+#: cuffs' torque through the two stages of the cuffs' low-pass (N m; the second is the
+#: reading the limit is checked on; NaN until a reading is a number).
 STATE = np.dtype([("armed", np.bool_), ("fault", I8), ("fault_joint", I8),
                   ("fault_value", F8), ("fault_limit", F8), ("prev", F8, 3),
                   ("winding", F8, 3), ("housing", F8, 3), ("gear", F8, 3),
                   ("gear_peak", F8, 3), ("gear_events", I8, 3), ("dq_prev", F8, 3),
-                  ("started", np.bool_), ("acc", F8, 3)])
+                  ("started", np.bool_), ("acc", F8, 3), ("cuff_share", F8, 3),
+                  ("cuff_over", F8, 3), ("cuff_read", F8, (2, 3))])
 
 
 def new_state() -> NDArray[np.void]:
@@ -109,6 +127,8 @@ def new_state() -> NDArray[np.void]:
     temperatures start at the ambient on the first tick)."""
     s = new(STATE)
     s[0]["fault_joint"] = -1
+    s[0]["cuff_share"] = 1.0
+    s[0]["cuff_read"] = np.nan
     return s
 
 
@@ -128,7 +148,10 @@ class SafetyLimits:
     the winding limit derating starts; ``gear_fault``: a gear beyond its momentary peak
     is a fault (True) or marked and counted (False); ``accel_filter_hz``: the cut-off of
     the measured acceleration's low-pass, from which the layer estimates the rotor's
-    inertia torque (and so what the gear carries).
+    inertia torque (and so what the gear carries); ``cuff_limit`` N m per kg of the
+    child per joint (infinite: not watched), ``cuff_ramp`` s, ``cuff_stop`` s,
+    ``cuff_off`` (a multiple of the limit) and ``cuff_bandwidth`` Hz: the cuffs' torque's
+    limit, the responses and the reading's low-pass (:func:`cuff_check`).
     """
 
     lower: F64
@@ -144,6 +167,11 @@ class SafetyLimits:
     derate_band: float = 15.0
     gear_fault: bool = False
     accel_filter_hz: float = 30.0
+    cuff_limit: F64 = field(default_factory=lambda: np.full(3, np.inf))
+    cuff_ramp: float = 0.5
+    cuff_stop: float = 0.5
+    cuff_off: float = 3.0
+    cuff_bandwidth: float = 20.0
 
     def __post_init__(self) -> None:
         w = "SafetyLimits"
@@ -184,6 +212,20 @@ class SafetyLimits:
             raise ParameterError(w, "ambient/derate_band", f"the {hot[0]} motor would derate "
                                  f"at the ambient {self.ambient:g} degC: its winding limit "
                                  "less the band must lie above it")
+        cl = _check.vector(w, "cuff_limit", list(np.nan_to_num(
+            np.asarray(self.cuff_limit, dtype=float), posinf=1e300)), 3)
+        if np.any(cl <= 0.0):
+            raise ParameterError(w, "cuff_limit", f"{cl.tolist()} N m/kg: must be > 0 per "
+                                 "joint (infinite: not watched)")
+        object.__setattr__(self, "cuff_limit", np.where(cl >= 1e300, np.inf, cl))
+        for name, lo_, hi_, unit in (("cuff_ramp", dt, 60.0, "s"),
+                                     ("cuff_stop", dt, 60.0, "s"),
+                                     ("cuff_off", 1.0, 10.0, "x the limit"),
+                                     ("cuff_bandwidth", 1.0, 0.5 / dt, "Hz")):
+            x = _check.finite(w, name, getattr(self, name))
+            if not lo_ <= x <= hi_:
+                raise ParameterError(w, name, f"{x:g} {unit} is outside {lo_:g}-{hi_:g}")
+            object.__setattr__(self, name, x)
         if not isinstance(self.gear_fault, bool | np.bool_):
             raise ParameterError(w, "gear_fault", f"expected True or False, got "
                                  f"{self.gear_fault!r}")
@@ -203,10 +245,22 @@ class SafetyLimits:
                    "overspeed_factor": (0.1, 3.0, ""),
                    "ambient_temperature": (-20.0, 60.0, "degC"),
                    "derate_band": (1.0, 60.0, "K"), "accel_filter_hz": (1.0, 500.0, "Hz")}
-        v = _check.ranged(where, {k: x for k, x in d.items()
-                                  if k not in ("max_torque_rate", "gear_overload")}, numbers)
-        if "max_torque_rate" not in d:
-            raise ParameterError(where, "max_torque_rate", "missing (3 rates, N m/s)")
+        others = ("max_torque_rate", "gear_overload", "cuffs")
+        _check.keys(where, d, [*numbers, *others], ["source"])
+        v = _check.ranged(where, {k: x for k, x in d.items() if k not in others}, numbers)
+        cuffs = d["cuffs"]
+        if not isinstance(cuffs, dict):
+            raise ParameterError(where, "cuffs", "expected a table [cuffs] (limit_Nm_per_kg, "
+                                 "ramp_s, stop_after_s, off_at)")
+        c = _check.ranged(f"{where} [cuffs]", {k: x for k, x in cuffs.items()
+                                               if k != "limit_Nm_per_kg"},
+                          {"ramp_s": (1e-3, 60.0, "s"), "stop_after_s": (1e-3, 60.0, "s"),
+                           "off_at": (1.0, 10.0, ""), "bandwidth_hz": (1.0, 500.0, "Hz")})
+        per_kg = _check.vector(f"{where} [cuffs]", "limit_Nm_per_kg",
+                               cuffs.get("limit_Nm_per_kg"), 3)
+        if not np.all((per_kg > 0.0) & (per_kg <= 20.0)):
+            raise ParameterError(f"{where} [cuffs]", "limit_Nm_per_kg",
+                                 f"{per_kg.tolist()}: each 0-20 N m/kg")
         rate = _check.vector(where, "max_torque_rate", d["max_torque_rate"], 3)
         if not np.all((rate >= 1.0) & (rate <= MAX_TORQUE_RATE)):
             raise ParameterError(where, "max_torque_rate", f"{rate.tolist()} N m/s: each "
@@ -234,7 +288,10 @@ class SafetyLimits:
                            [a.permissible_speed for a in acts]),
                        dt=dt, source=str(d.get("source", where)), actuators=acts,
                        ambient=v["ambient_temperature"], derate_band=v["derate_band"],
-                       gear_fault=response == "fault", accel_filter_hz=v["accel_filter_hz"])
+                       gear_fault=response == "fault", accel_filter_hz=v["accel_filter_hz"],
+                       cuff_limit=per_kg, cuff_ramp=c["ramp_s"],
+                       cuff_stop=c["stop_after_s"], cuff_off=c["off_at"],
+                       cuff_bandwidth=c["bandwidth_hz"])
         except ParameterError as e:  # a range checked by the record: name the file
             raise ParameterError(where, e.field, e.problem) from None
 
@@ -247,6 +304,9 @@ class SafetyLimits:
         watch_limits(r, self.actuators or (), self.dt, self.derate_band, self.max_torque)
         r["ambient"], r["gear_fault"] = self.ambient, self.gear_fault
         r["acc_keep"] = math.exp(-2.0 * math.pi * self.accel_filter_hz * self.dt)
+        r["cuff_limit"], r["cuff_rate"] = self.cuff_limit, self.dt / self.cuff_ramp
+        r["cuff_stop"], r["cuff_off"] = self.cuff_stop, self.cuff_off
+        r["cuff_keep"] = math.exp(-2.0 * math.pi * self.cuff_bandwidth * self.dt)
         return r
 
 
@@ -408,6 +468,51 @@ def safety_step(lim, state, q, dq, u_cmd, estop_input, u):  # type: ignore[no-un
     return status
 
 
+@njit(cache=True)
+def cuff_check(lim, state, cuff, mass, walking):  # type: ignore[no-untyped-def]
+    """The cuffs' torque ``cuff`` (3,) N m (the interaction reading), through the cuffs'
+    critically damped second-order low-pass (``cuff_read``: two first-order stages, each
+    exact over a tick for a held input, from the first finite reading), against each
+    joint's limit (``cuff_limit`` x the child's ``mass`` kg), while armed: beyond it,
+    ``walking``, the joint's support share (``cuff_share``) falls by ``cuff_rate`` a tick
+    (standing, the support holds the child up: it stays), else it comes back as fast;
+    beyond it for longer than ``cuff_stop`` s the walking controller stops; beyond
+    ``cuff_off`` x the limit torque off, latched (CUFF_TORQUE, with the reading and the
+    level it crossed). NaN (no cuff sensor) is not watched. Returns the stage reached:
+    0 within, 1 beyond the limit, 2 beyond it for too long, 3 torque off."""
+    L = lim[0]
+    s = state[0]
+    stage = 0
+    for i in range(3):
+        if math.isfinite(cuff[i]):
+            if not math.isfinite(s.cuff_read[1, i]):
+                s.cuff_read[0, i] = s.cuff_read[1, i] = cuff[i]
+            s.cuff_read[0, i] += (1.0 - L.cuff_keep) * (cuff[i] - s.cuff_read[0, i])
+            s.cuff_read[1, i] += (1.0 - L.cuff_keep) * (s.cuff_read[0, i] - s.cuff_read[1, i])
+        else:
+            s.cuff_read[0, i] = s.cuff_read[1, i] = cuff[i]  # no sensor: not watched
+        limit = L.cuff_limit[i] * mass
+        c = abs(s.cuff_read[1, i])
+        if s.armed and s.fault == Fault.NONE and c > limit:  # NaN is never beyond
+            if walking:
+                s.cuff_share[i] = max(0.0, s.cuff_share[i] - L.cuff_rate)
+            s.cuff_over[i] += L.dt
+            stage = max(stage, 1)
+            if s.cuff_over[i] > L.cuff_stop - 0.5 * L.dt:  # so many ticks, whatever rounding
+                stage = max(stage, 2)
+            if c > L.cuff_off * limit:
+                s.fault = Fault.CUFF_TORQUE
+                s.fault_joint = i
+                s.fault_value = s.cuff_read[1, i]
+                s.fault_limit = math.copysign(L.cuff_off * limit, s.cuff_read[1, i])
+                s.armed = False
+                stage = 3
+        else:
+            s.cuff_share[i] = min(1.0, s.cuff_share[i] + L.cuff_rate)
+            s.cuff_over[i] = 0.0
+    return stage
+
+
 class SafetyLayer:
     """The safety layer with its state: arm, disarm, E-stop, reset, and one :meth:`step`
     per control tick (compiled, :func:`safety_step`). Starts disarmed."""
@@ -519,6 +624,11 @@ def fault_detail(fault: int, joint: int, value: float, limit: float) -> str:
         return (f"OVERTEMPERATURE{at}: the motor's winding at {value:.0f} degC (estimated) "
                 f"beyond its limit of {limit:.0f} degC. To go on: let it cool (Reset is "
                 "refused until it is below where derating starts), then Arm.")
+    if f == Fault.CUFF_TORQUE:
+        return (f"CUFF_TORQUE{at}: the cuffs' torque at {abs(value):.0f} N m beyond its "
+                f"torque-off level of {abs(limit):.0f} N m (the child pushing against the "
+                "device, or the device against the child). To go on: check the child and "
+                "the straps, then Reset and Arm.")
     if f == Fault.GEAR_OVERLOAD:
         return (f"GEAR_OVERLOAD{at}: {abs(value):.0f} N m through the gear (estimated) "
                 f"beyond its momentary peak of {abs(limit):.0f} N m. To go on: have the gear "

@@ -94,6 +94,7 @@ def report(sup, sst, refused, status, out):  # type: ignore[no-untyped-def]
     for j in range(3):
         o.winding_temp[j] = sst[0].winding[j]
         o.gear_torque[j] = sst[0].gear[j]
+        o.cuff[j] = sst[0].cuff_read[1, j]
 
 
 #: The commands that apply in each mode (:func:`supervise` refuses the others; a reset

@@ -62,7 +62,7 @@ def _shape(dtype: np.dtype, name: str) -> tuple[int, ...]:
 #: contacts) so far and the ring of every tick's gait events (time, event bits)
 PUBLISHED = ("mode", "phase", "gait_source", "gait_fraction", "events", "safety_status",
              "q_ref", "tau", "fault", "fault_joint", "fault_value", "fault_limit", "refused",
-             "winding_temp", "gear_torque", "support_mode", "support_level")
+             "winding_temp", "gear_torque", "support_mode", "support_level", "cuff")
 READINGS = ("q", "dq", "fsr", "interaction")
 BLOCK = np.dtype([("seq", "f8"), ("t", "f8")]
                  + [(n, "f8", _shape(OUTPUT, n)) for n in PUBLISHED]

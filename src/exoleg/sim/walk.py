@@ -166,7 +166,9 @@ class WalkResult(TimeSeries):
     other leg's force on the pelvis, N); the safety layer's estimates per joint:
     winding_temp (degC) and gear_torque (N m); the fault latched and its joint per tick
     (:class:`~exoleg.control.safety.Fault`, -1 for none); the child: ``interaction`` (the
-    cuffs' torque, N m, :mod:`exoleg.child.interaction`), ``child_torque`` (their
+    cuffs' torque, N m, :mod:`exoleg.child.interaction`: the rigid model's, impacts and
+    all), ``cuff`` (that reading through the cuffs' low-pass, as the safety layer checks
+    it against its limit, N m), ``child_torque`` (their
     muscles' reflexes and effort, N m) and ``passive`` (their passive moments, N m); the
     support mode per tick (:class:`~exoleg.control.transparency.SupportMode`), the
     support level per joint (0 transparent - 1 the impedance's full support) and the
@@ -203,6 +205,7 @@ class WalkResult(TimeSeries):
     fault: NDArray[np.int64]
     fault_joint: NDArray[np.int64]
     interaction: F64
+    cuff: F64
     child_torque: F64
     passive: F64
     support_mode: NDArray[np.int64]
@@ -243,7 +246,7 @@ class WalkResult(TimeSeries):
         cols: dict[str, F64] = {"t": self.t, "pelvis": self.pelvis}
         for name in ("q", "dq", "q_meas", "dq_meas", "q_ref", "u_safe", "tau", "envelope",
                      "motor_speed", "power", "winding_temp", "gear_torque", "interaction",
-                     "child_torque", "passive", "wall", "support_level", "assist_gain"):
+                     "cuff", "child_torque", "passive", "wall", "support_level", "assist_gain"):
             arr = getattr(self, name)
             for i, j in enumerate(JOINTS):
                 cols[f"{name}_{j}"] = arr[:, i].astype(float)
@@ -358,6 +361,7 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                       gear_torque=OUT["gear_torque"], fault=OUT["fault"],
                       fault_joint=OUT["fault_joint"],
                       interaction=np.vstack([SENS["interaction"][1:], SENS["interaction"][-1:]]),
+                      cuff=OUT["cuff"],
                       child_torque=CH, passive=passive_moments(K[0], X[:, 1:4], X[:, 5:8]),
                       support_mode=OUT["support_mode"], support_level=OUT["support_level"],
                       transparent_parts=PA[:, :len(PARTS)],
