@@ -245,3 +245,44 @@ def test_a_log_summary_reads_as_people_read(tmp_path: Path,
 
     for number in re.findall(r"\d+\.\d+", out):
         assert len(number.replace(".", "").lstrip("0")) <= 4, number
+
+
+def test_a_walk_asked_at_once_waits_for_the_foots_contact(tmp_path: Path,
+                                                          capsys: pytest.CaptureFixture[str]
+                                                          ) -> None:
+    # Issue 44: `run --arm --walk-after 0` (or 0.001) faulted the ankle 0.655 s in
+    # (HARD_LIMIT): the gait started before the detector knew the foot's contact (the
+    # FSRs' 8 ms debounce), from an unknown phase. The walk now waits for it: through the
+    # CLI no fault; by fault injection into the controller the mode stays STANDING until
+    # the detector has a phase, then walks, and a foot board that never says is refused.
+    from exoleg.control.hierarchy import WALK_WAIT, WalkController
+    from exoleg.device import with_actuators
+    from exoleg.tick import Command, Fault, Mode, Phase
+
+    assert main(["run", "--backend", "sim", "--arm", "--walk-after", "0", "--duration", "2",
+                 "--no-realtime", "--out", str(tmp_path / "run")]) == 0
+    assert "FAULT" not in capsys.readouterr().out
+    ctl = WalkController(with_actuators(exoleg.paper_leg()), 20.0)
+    q = ctl.gains.standing.copy()
+    loaded = {"q": q, "dq": np.zeros(3), "fsr": np.array([1500.0, 800, 600, 300])}
+    out = ctl.update(loaded, Command.ARM, 0.0)
+    out = ctl.update(loaded, Command.WALK, 0.001)
+    assert out["mode"] == Mode.STANDING and out["phase"] == Phase.UNKNOWN
+    k = 2
+    while out["mode"] == Mode.STANDING:
+        out = ctl.update(loaded, Command.NONE, k * 1e-3)
+        k += 1
+    assert out["mode"] == Mode.WALKING and out["phase"] != Phase.UNKNOWN
+    assert k * 1e-3 <= 0.012 and out["fault"] == Fault.NONE  # the 8 ms debounce, and a tick
+    # a board that never reads a contact either way: the walk waits WALK_WAIT, then is
+    # refused, and the device stands
+    ctl = WalkController(with_actuators(exoleg.paper_leg()), 20.0)
+    ctl.st[0]["phase"] = Phase.UNKNOWN
+    ctl.update(loaded, Command.ARM, 0.0)
+    refused = None
+    for k in range(1, int(WALK_WAIT * 1e3) + 5):
+        ctl.st[0]["phase"] = Phase.UNKNOWN  # fault injection: the detector never knows
+        out = ctl.update(loaded, Command.WALK if k == 1 else Command.NONE, k * 1e-3)
+        assert out["mode"] == Mode.STANDING
+        refused = refused or (out["refused"] == Command.WALK and k)
+    assert refused and 0.0 < (refused - 1) * 1e-3 - WALK_WAIT <= 0.0015  # asked at k = 1

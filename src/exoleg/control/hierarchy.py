@@ -168,12 +168,16 @@ TUNABLE = (*WalkGains.TUNABLE, *BOUNDS)
 #: The reference's state: the last tick's gait fraction; when the stop was asked (s);
 #: where the blend to the standing posture started -- its time (s; negative: none under
 #: way) and the reference's posture then (rad); when the last walk started from standing
-#: (s; negative: none).
+#: (s; negative: none); when a walk was asked that waits for the foot's contact to be
+#: known (s; negative: none waiting).
 REFERENCE = np.dtype([("x", F8), ("t_stop", F8), ("t_stand", F8), ("q_from", F8, 3),
-                      ("t_walk", F8)])
+                      ("t_walk", F8), ("t_asked", F8)])
 #: A stop gives up waiting for mid-stance after this many strides, and stands from
 #: wherever the gait is (a child who stopped stepping never reaches it again).
 STOP_WAIT_STRIDES = 1.5
+#: A walk asked before the foot's contact is known waits this long for it, s, then is
+#: refused (the FSRs' debounce is 8 ms: gait_phase.toml).
+WALK_WAIT = 0.5
 
 
 def new_reference() -> NDArray[np.void]:
@@ -181,6 +185,7 @@ def new_reference() -> NDArray[np.void]:
     r = new(REFERENCE)
     r[0]["t_stand"] = -1.0
     r[0]["t_walk"] = -1.0
+    r[0]["t_asked"] = -1.0
     return r
 
 
@@ -290,6 +295,22 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, 
         supervise(sup, lim, sst, Command.STAND, s.q, s.dq)
     mode = sup[0].mode
     R = ref[0]
+    # a walk asked before the detector knows the foot's contact (the FSRs' debounce after
+    # arming) waits for it: a gait begun from an unknown phase took the swing's model
+    # with the foot loaded and faulted the ankle (issue 44: walk-after 0 -> HARD_LIMIT);
+    # after WALK_WAIT s of not knowing, the walk is refused
+    if mode == Mode.WALKING and before == Mode.STANDING and st[0].phase == gp.Phase.UNKNOWN:
+        sup[0].mode = mode = Mode.STANDING
+        R.t_asked = t
+    elif R.t_asked >= 0.0:
+        if mode != Mode.STANDING or command != Command.NONE:
+            R.t_asked = -1.0  # another command, or the mode left: the wait is over
+        elif st[0].phase != gp.Phase.UNKNOWN:
+            sup[0].mode = mode = Mode.WALKING
+            R.t_asked = -1.0
+        elif t - R.t_asked > WALK_WAIT:
+            refused = Command.WALK
+            R.t_asked = -1.0
     if mode == Mode.WALKING and before == Mode.STANDING:
         # walking starts from mid-stance, where the gait is nearest to standing
         st[0].t_ic = t - C.start_fraction * gp.stride_time(d, st)

@@ -113,7 +113,8 @@ def refusal(command: int, mode: int) -> str:
     """Why the supervisor refused ``command`` in ``mode``, as the operator reads it."""
     c, m = Command(int(command)), Mode(int(mode))
     why = {Command.ARM: "arming needs DISARMED (after a fault: reset first)",
-           Command.WALK: "walking starts from STANDING",
+           Command.WALK: "walking starts from STANDING, once the foot's contact is known "
+                         "(the foot board reads nothing: check its sensors)",
            Command.STAND: "stand applies while walking",
            Command.DISARM: "disarm is refused while walking: stand first (a controlled "
                            "stop), or E-stop",
