@@ -286,3 +286,49 @@ def test_a_walk_asked_at_once_waits_for_the_foots_contact(tmp_path: Path,
         assert out["mode"] == Mode.STANDING
         refused = refused or (out["refused"] == Command.WALK and k)
     assert refused and 0.0 < (refused - 1) * 1e-3 - WALK_WAIT <= 0.0015  # asked at k = 1
+
+
+def test_no_command_writes_over_a_file_it_did_not_write(tmp_path: Path,
+                                                        capsys: pytest.CaptureFixture[str]
+                                                        ) -> None:
+    # Issue 44: `identify --out FITDIR` replaced the fit's leg.toml; `assess --out WALKDIR`
+    # a walk's summary.json. An output folder records which command wrote each file
+    # (.exoleg-outputs.json): a file another command -- or the user -- put there is never
+    # written over, and the refusal comes before any work (identification: before the
+    # plan moves the child); a command's own files from its last run it replaces, and
+    # removes those it no longer writes.
+    from exoleg.io import OUTPUTS
+
+    fit = tmp_path / "fit"
+    child = ["--age", "10", "--sex", "female", "--height", "138", "--mass", "32"]
+    assert main(["fit", *child, "--no-simulate", "--out", str(fit)]) == 0
+    leg = (fit / "leg.toml").read_text()
+    assert main(["identify", "--backend", "sim", "--leg", str(fit / "leg.toml"),
+                 "--out", str(fit)]) == 2
+    err = capsys.readouterr().err
+    assert "leg.toml is there already (written by exoleg fit): exoleg identify does not " \
+           "write over it -- name another folder with --out" in err
+    assert (fit / "leg.toml").read_text() == leg and not (fit / "session").exists()
+    walk = tmp_path / "walk"
+    assert main(["simulate", "--walk", "--strides", "1", "--out", str(walk)]) == 0
+    summary = (walk / "summary.json").read_text()
+    assert main(["assess", "--child", str(fit / "child.toml"), "--test", "pendulum",
+                 "--out", str(walk)]) == 2
+    assert "summary.json is there already (written by exoleg simulate)" in \
+        capsys.readouterr().err
+    assert (walk / "summary.json").read_text() == summary
+    # the user's own file, never recorded: refused too
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "fit.json").write_text("my notes")
+    assert main(["fit", *child, "--no-simulate", "--out", str(mine)]) == 2
+    assert "fit.json is there already (not written by exoleg)" in capsys.readouterr().err
+    assert (mine / "fit.json").read_text() == "my notes"
+    # the same command again: its own files replaced; an assessment's figure of another
+    # test, no longer described by the new summary, removed
+    out = tmp_path / "assess"
+    for test in ("pendulum", "stretch"):
+        assert main(["assess", "--child", str(fit / "child.toml"), "--test", test,
+                     "--out", str(out)]) == 0
+    assert (out / "stretch.png").exists() and not (out / "pendulum.png").exists()
+    assert '"stretch.png": "exoleg assess"' in (out / OUTPUTS).read_text()

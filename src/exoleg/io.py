@@ -189,20 +189,64 @@ def remove_staging() -> None:
         _STAGING.discard(p)
 
 
+#: The hidden record in an output folder of which file each exoleg command wrote there.
+OUTPUTS = ".exoleg-outputs.json"
+
+
+def _outputs(folder: Path) -> dict[str, str]:
+    """The folder's record of its files' writers (file name -> command); {} when none or
+    unreadable (then every file in it is taken for the user's)."""
+    import json
+
+    try:
+        d = json.loads((folder / OUTPUTS).read_text())
+    except (OSError, ValueError):
+        return {}
+    return {str(k): str(v) for k, v in d.items()} if isinstance(d, dict) else {}
+
+
+def refuse_overwrite(folder: str | Path, owner: str, names: Any) -> None:
+    """A ParameterError when a file of ``names`` is in ``folder`` already and ``owner``
+    (the command, ``"exoleg identify"``) did not write it there: the user's own file, or
+    another command's (:data:`OUTPUTS`). Nothing is written."""
+    folder = Path(folder)
+    record = _outputs(folder)
+    for n in names:
+        if (folder / n).exists() and record.get(n) != owner:
+            by = f"written by {record[n]}" if n in record else "not written by exoleg"
+            raise ParameterError(str(folder), "(output)", f"{n} is there already ({by}): "
+                                 f"{owner} does not write over it -- name another folder "
+                                 "with --out")
+
+
 class OutputFolder:
-    """A run's output folder, written whole or not at all.
+    """A run's output folder, written whole or not at all, never over another's files.
 
     ``stage(name)`` gives the path to write ``name`` to (in a hidden staging folder);
     ``commit(last=...)`` moves every staged file into the folder (``last`` after the
     others) with interrupts held off; leaving the ``with`` block without a commit (an
     error, Ctrl-C) removes the staging folder and leaves the folder as it was.
+
+    ``owner`` (the command, ``"exoleg fit"``): the folder keeps a record of which command
+    wrote each file (:data:`OUTPUTS`). A file already there that this command did not
+    write -- the user's own, another command's -- is never written over: the commit is
+    refused naming it (``will_write``: names checked at once, before any work). Files
+    this command wrote last time and does not write now are removed (a re-fit leaves no
+    previous child's file beside the new one).
     """
 
-    def __init__(self, folder: str | Path) -> None:
+    def __init__(self, folder: str | Path, owner: str = "",
+                 will_write: tuple[str, ...] = ()) -> None:
         self.folder = _writable_folder(Path(folder))
+        self.owner = owner
+        self._check(will_write)
         self._staging = Path(tempfile.mkdtemp(prefix=".exoleg-staging-", dir=self.folder))
         _STAGING.add(self._staging)
         self._names: list[str] = []
+
+    def _check(self, names: Any) -> None:
+        if self.owner:
+            refuse_overwrite(self.folder, self.owner, names)
 
     @property
     def staging(self) -> Path:
@@ -221,15 +265,31 @@ class OutputFolder:
     def commit(self, last: str | None = None) -> list[Path]:
         """Move the staged files into the folder; returns their final paths."""
         order = [n for n in self._names if n != last] + ([last] if last in self._names else [])
+        written = [n for n in order if (self._staging / n).exists()]
+        self._check(written)
+        record = _outputs(self.folder)
+        stale = [n for n, by in record.items() if by == self.owner and n not in written]
         done = []
         with signals_held():
-            for n in order:
-                src = self._staging / n
-                if src.exists():
-                    os.replace(src, self.folder / n)
-                    done.append(self.folder / n)
+            for n in written:
+                os.replace(self._staging / n, self.folder / n)
+                done.append(self.folder / n)
+            if self.owner:
+                for n in stale:
+                    with contextlib.suppress(OSError):
+                        (self.folder / n).unlink()
+                    record.pop(n, None)
+                record.update({n: self.owner for n in written})
+                self._record(record)
             self.discard()
         return done
+
+    def _record(self, record: dict[str, str]) -> None:
+        import json
+
+        tmp = self._staging / OUTPUTS
+        tmp.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
+        os.replace(tmp, self.folder / OUTPUTS)
 
     def discard(self) -> None:
         shutil.rmtree(self._staging, ignore_errors=True)

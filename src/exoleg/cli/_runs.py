@@ -37,7 +37,7 @@ def write_run(args: argparse.Namespace, result: Any, figure: Any, stem: str, t0:
     (PNG, and SVG with ``--svg``) and ``more`` figures (stem -> a function of the path),
     and ``summary.json`` (the settings, ``summary``, the files, the wall time). Returns
     the line that says what was written."""
-    with OutputFolder(args.out) as out:
+    with OutputFolder(args.out, owner="exoleg simulate") as out:
         name = "timeseries.parquet" if args.format == "parquet" else "timeseries.csv"
         (result.to_parquet if args.format == "parquet" else result.to_csv)(out.stage(name))
         files = [name]

@@ -26,7 +26,8 @@ def cmd_assess(args: argparse.Namespace) -> int:
     summary = {"test": args.test, "child": child.name, "gmfcs": child.gmfcs,
                "spasticity": child.spasticity.level, "contracture": child.contracture.name,
                "contracture_level": child.contracture.level, **result.summary()}
-    with OutputFolder(args.out) as out:
+    with OutputFolder(args.out, owner="exoleg assess",
+                      will_write=("summary.json", f"{args.test}.png")) as out:
         if args.test == "pendulum":
             pendulum_figure(result, out.stage("pendulum.png"))
             figure = "pendulum.png"

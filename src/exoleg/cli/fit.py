@@ -41,7 +41,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     for w in caught:
         _say(f"warning: {w.message}")
     acts = None if args.device is None else paper_actuators(args.device)
-    with OutputFolder(args.out) as out:
+    with OutputFolder(args.out, owner="exoleg fit") as out:
         rep = fit_report(child, args.leg_length_method, percentile=args.percentile,
                          speed=args.speed, stride_time=args.stride_time,
                          simulate=not args.no_simulate, actuators=acts)

@@ -31,7 +31,7 @@ def cmd_population(args: argparse.Namespace) -> int:
     rows = coverage(ages=args.ages, percentiles=args.percentiles or PERCENTILES,
                     stride_time=args.stride_time, simulate=not args.no_simulate,
                     actuators=None if args.device is None else paper_actuators(args.device))
-    with OutputFolder(args.out) as out:
+    with OutputFolder(args.out, owner="exoleg population") as out:
         write_csv(rows, out.stage("coverage.csv"))
         heatmap(rows, out.stage("coverage.png"))
         out.commit()

@@ -117,7 +117,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
         return _simulate_device(args, cfg)
     paper = _paper_scenario(args)
-    with OutputFolder(args.out) as out:
+    with OutputFolder(args.out, owner="exoleg simulate") as out:
         progress = _Progress()
         # A second process compiles the kernels the scenario needs besides the stepper and
         # imports matplotlib while this one compiles the stepper and simulates, then draws

@@ -101,7 +101,7 @@ def _summary(args: argparse.Namespace) -> int:
     _table([[str(r[s.x]), str(r[s.y])] + [_fmt(r[c]) for c in CELL] for r in rows],
            [s.x, s.y, *CELL], title=f"study {args.summary}: over {s.x} and {s.y}")
     stem = f"summary-{s.x}-{s.y}"
-    with OutputFolder(args.summary) as out:
+    with OutputFolder(args.summary, owner="exoleg sweep") as out:
         with out.stage(f"{stem}.csv").open("w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=list(rows[0]))
             w.writeheader()

@@ -214,6 +214,10 @@ def load_device(folder: str | Path) -> tuple[LegModel, F64]:
     return exoleg.load_leg(d / "leg.toml"), sd
 
 
+#: What an identification writes into its folder.
+IDENTIFY_FILES = ("leg.toml", "parameters.csv", "identify.png", "identify.json")
+
+
 def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
                     child: Any = None, body_mass: float | None = None,
                     duration: float = 120.0, seed: int = 0, interface: str | None = None,
@@ -246,7 +250,7 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
     from exoleg.child.interaction import device_leg
     from exoleg.identify.base import actuator_friction
     from exoleg.identify.plan import check_plan, condition, design_plan, plan_limits
-    from exoleg.io import OutputFolder, write_json
+    from exoleg.io import OutputFolder, refuse_overwrite, write_json
     from exoleg.runtime.loop import ENDS, REFERENCE_PLAYED
     from exoleg.runtime.session import DEFAULT_BODY_MASS, check_folder, run, simulated
     from exoleg.session_log import read_log
@@ -264,8 +268,11 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
                              "--child), and it is the first stage (no "
                              "--identified-device)")
     folder = Path(out)
+    # before the plan: a fit's leg.toml, or any file of the user's, in the folder asked
+    # is kept, and so is a recorded session
+    refuse_overwrite(folder, "exoleg identify", IDENTIFY_FILES)
     session = folder / "session" if session is None else Path(session)
-    check_folder(session)  # before the plan: a recorded session is kept
+    check_folder(session)
     leg = exoleg.paper_leg() if leg is None else leg
     config = DeviceConfig.load(device)
     acts = config.actuators
@@ -332,7 +339,7 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
                                  condition=condition(plan, fitted), held_out_rms=rms,
                                  held_out_pct=held, measured=m, predicted=pred,
                                  details=extra)
-    with OutputFolder(folder) as o:
+    with OutputFolder(folder, owner="exoleg identify", will_write=IDENTIFY_FILES) as o:
         exoleg.save_leg(r.leg, o.stage("leg.toml"), header=f"identified on the device "
                         f"({backend}, {stage}) from {r.samples} samples; prior: {leg.name}")
         _write_parameters(r, o.stage("parameters.csv"))
