@@ -332,3 +332,27 @@ def test_no_command_writes_over_a_file_it_did_not_write(tmp_path: Path,
                      "--out", str(out)]) == 0
     assert (out / "stretch.png").exists() and not (out / "pendulum.png").exists()
     assert '"stretch.png": "exoleg assess"' in (out / OUTPUTS).read_text()
+
+
+def test_a_dead_foot_board_stops_the_walk_as_on_the_device(tmp_path: Path,
+                                                            capsys: pytest.CaptureFixture[str]
+                                                            ) -> None:
+    # Issue 44: `simulate --walk --sensor-fault board:dead` walked on blind (every gait
+    # event missed, the knee 53 deg RMS off, no fault, no note). The simulated walk now
+    # watches the foot board as the runtime does (runtime.watch.SensorWatch: its four
+    # FSRs and the gyro repeating bit for bit for FROZEN_S) and takes the torque off.
+    from exoleg.device.sensors import FROZEN_S
+
+    out = tmp_path / "dead"
+    assert main(["simulate", "--walk", "--strides", "3", "--sensor-fault", "board:dead@2",
+                 "--out", str(out)]) == 1
+    said = capsys.readouterr().out
+    assert f"the foot board's readings froze -- every sensor repeating bit for bit for " \
+           f"{FROZEN_S:g} s -- at t = {2 + FROZEN_S:.3f} s" in said
+    import json
+
+    figures = json.loads((out / "summary.json").read_text())["figures"]
+    assert figures["safety_fault"] and figures["board_frozen_s"] == pytest.approx(2.25)
+    # ideal sensors (no noise) repeat while standing: not watched, no false stop
+    assert main(["simulate", "--walk", "--strides", "2", "--noise", "0", "--out",
+                 str(tmp_path / "ideal")]) == 0

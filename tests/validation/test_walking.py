@@ -200,8 +200,12 @@ def test_a_command_that_does_not_apply_is_reported_refused() -> None:
         assert out["mode"] == Mode.DISARMED and out["refused"] == cmd
     out = ctl.update(*_sensors(q, Command.ARM), 0.001)
     assert out["refused"] == Command.NONE
-    ctl.update(*_sensors(q, Command.WALK), 0.002)
-    out = ctl.update(*_sensors(q, Command.DISARM), 0.003)  # no torque off mid-stride
+    out = ctl.update(*_sensors(q, Command.WALK), 0.002)
+    k = 3
+    while out["mode"] != Mode.WALKING:  # the walk waits for the foot's contact (8 ms)
+        out = ctl.update(*_sensors(q), k * 1e-3)
+        k += 1
+    out = ctl.update(*_sensors(q, Command.DISARM), k * 1e-3)  # no torque off mid-stride
     assert out["mode"] == Mode.WALKING and out["refused"] == Command.DISARM
     from exoleg.control.supervisor import refusal
 

@@ -22,6 +22,7 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     import exoleg
     from exoleg.control.assist import AssistSettings
     from exoleg.control.safety import Limited, fault_event
+    from exoleg.device.sensors import FROZEN_S
     from exoleg.control.transparency import SUPPORT_NAMES
     from exoleg.errors import ParameterError
     from exoleg.params.records import JOINTS
@@ -60,9 +61,13 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     fault = bool(np.any(r.safety_status & Limited.FAULT))
     if fault:
         k = int(np.argmax(r.safety_status & Limited.FAULT))
-        notes.append(f"the safety layer stopped the walk at t = {r.t[k]:.3f} s "
-                     f"({fault_event(r.fault[k], r.fault_joint[k])}); torque was off from "
-                     "then on")
+        why = fault_event(r.fault[k], r.fault_joint[k])
+        if r.board_frozen >= 0:  # the watch's E-stop
+            why = (f"the foot board's readings froze -- every sensor repeating bit for bit "
+                   f"for {FROZEN_S:g} s -- at t = {r.board_frozen:.3f} s: the sensor watch's "
+                   "E-stop, as on the device")
+        notes.append(f"the safety layer stopped the walk at t = {r.t[k]:.3f} s ({why}); "
+                     "torque was off from then on")
     for e in safety_events(r.t, r.safety_status):
         if e["event"] in ("cuff", "cuff_stop"):  # the cuffs' limit (safety.toml [cuffs])
             notes.append(f"the {e['text']}: from t = {e['first_s']:.3f} s, {e['ticks']} "
@@ -79,7 +84,8 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     strikes = r.strikes()
     figs = {"strides_commanded": args.strides, "body_mass_kg": args.body_mass,
             "pelvis_mass_kg": r.plant.body_mass, "belt_speed_m_s": r.plant.belt_speed,
-            "safety_fault": fault, "peaks": peaks, "gait_phase_detection": rows,
+            "safety_fault": fault, "peaks": peaks,
+            "board_frozen_s": None if r.board_frozen < 0 else r.board_frozen, "gait_phase_detection": rows,
             "max_contact_force_N": float(r.contact_force.sum(axis=1).max()),
             "child": None if child is None else child.name,
             "controller": args.controller,

@@ -121,6 +121,12 @@ class FootSensors:
         return r
 
 
+#: The foot board is frozen when its readings (four FSRs and the gyro, noisy in every
+#: real sample) repeat bit for bit this long, s: the runtime's watch
+#: (:class:`~exoleg.runtime.watch.SensorWatch`) and the simulated walk's take the torque
+#: off.
+FROZEN_S = 0.25
+
 #: The foot board as the compiled functions read it (:meth:`FootSensors.record`): the
 #: FSR's full scale (N), linearity error and noise (fractions of full scale), the ADC's
 #: top count and reference (V), the FSR's full-scale voltage (V), the IMU's ranges

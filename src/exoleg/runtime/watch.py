@@ -8,14 +8,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from exoleg.device.sensors import FROZEN_S
+
 F64 = NDArray[np.float64]
 
 
-#: A sensor is frozen when the foot board's readings (four FSRs and the gyro, noisy in
-#: every real sample) repeat bit for bit this long, s; a joint reading is implausible
-#: when it moves more than this far in one tick, rad (0.1 rad in 1 ms is 5700 deg/s,
-#: eight times the fastest joint of Table 2).
-FROZEN_S = 0.25
+#: A joint reading is implausible when it moves more than this far in one tick, rad (0.1
+#: rad in 1 ms is 5700 deg/s, eight times the fastest joint of Table 2). (A frozen foot
+#: board: :data:`~exoleg.device.sensors.FROZEN_S`.)
 JUMP_RAD = 0.1
 class SensorWatch:
     """Faults the safety layer cannot see in the values themselves: a frozen sensor and

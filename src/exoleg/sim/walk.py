@@ -39,7 +39,7 @@ from exoleg.control.transparency import PARTS, SupportMode
 from exoleg.device.actuator import ActuatorModel, drive_limit
 from exoleg.device.faults import SensorFault, apply_faults, fault_records
 from exoleg.device.ground import ANKLE_HEIGHT, Ground
-from exoleg.device.sensors import FootSensors, draw_noise
+from exoleg.device.sensors import FROZEN_S, FootSensors, draw_noise
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError, SimulationError
 from exoleg.params.records import JOINTS
@@ -75,7 +75,9 @@ class World(NamedTuple):
 class Plan(NamedTuple):
     """What a walk is given tick by tick: the operator's command per tick, the sensor
     faults (:data:`~exoleg.device.faults.FAULT`), the sensors' noise per tick and the
-    IMU's bias, the tick (s) and the plant's substeps per tick."""
+    IMU's bias, the tick (s), the plant's substeps per tick, and after how many ticks of
+    foot-board readings repeated bit for bit the board is frozen (0: not watched -- ideal,
+    noise-free sensors repeat)."""
 
     commands: NDArray[np.int64]
     faults: NDArray[np.void]
@@ -84,6 +86,7 @@ class Plan(NamedTuple):
     imu_bias: F64
     h: float
     sub: int
+    frozen: int
 
 
 class Series(NamedTuple):
@@ -113,9 +116,14 @@ def _run_walk(world, ctl, plan, S, series):  # type: ignore[no-untyped-def]
     readings into ``SENS[k]``, the controller's tick (``ctl``:
     :meth:`WalkController.compiled`) into ``OUT[k]`` -- the readings with the sensor
     faults --, the drives, the child and the plant, and what the series keep of them.
-    Returns -1, or the tick whose state became non-finite."""
+    The foot board is watched as the runtime watches it
+    (:class:`~exoleg.runtime.watch.SensorWatch`): frozen, the torque goes off (an E-stop
+    from that tick on). Returns (-1, or the tick whose state became non-finite; -1, or
+    the tick the board was found frozen)."""
     p, w, A, K, sens, imu_x, imu_y, support, stand_support, stride = world
-    commands, F, fsr_noise, imu_noise, imu_bias, h, sub = plan
+    commands, F, fsr_noise, imu_noise, imu_bias, h, sub, frozen = plan
+    same = 0
+    froze = -1
     X, SENS, FN, OUT, TAU, ENV, SUP, CH, PA, SH = series
     cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref, tp, cA, ss, ap, as_ = ctl
     n = X.shape[0] - 1
@@ -127,7 +135,14 @@ def _run_walk(world, ctl, plan, S, series):  # type: ignore[no-untyped-def]
         device_sense(p, w, A, sens, imu_x, imu_y, S, h, k == 0, fsr_noise[k], imu_noise[k],
                      imu_bias, sk, FN[k])
         apply_faults(F, sk, t)
-        sk[0].command = commands[k]
+        if frozen > 0 and froze < 0:
+            alike = k > 0 and SENS[k].gyro == SENS[k - 1].gyro
+            for i in range(4):
+                alike = alike and SENS[k].fsr[i] == SENS[k - 1].fsr[i]
+            same = same + 1 if alike else 0
+            if same >= frozen:
+                froze = k
+        sk[0].command = commands[k] if froze < 0 else Command.ESTOP
         # 2. the controller tick (supervisor, detection, reference, impedance, safety)
         walk_control_step(cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref, tp, cA, ss, ap, as_,
                           sk, t, ok_)
@@ -152,8 +167,8 @@ def _run_walk(world, ctl, plan, S, series):  # type: ignore[no-untyped-def]
         for i in range(3):
             CH[k, i] = S[0].child[i]
         if not ok:
-            return k + 1
-    return -1
+            return k + 1, froze
+    return -1, froze
 
 
 @dataclass(frozen=True)
@@ -219,6 +234,9 @@ class WalkResult(TimeSeries):
     walk_start: float = 0.0
     stride_time: float = 1.1
     body_mass: float = 30.0
+    #: when the foot board's readings were found frozen (s; the torque off from then,
+    #: as the runtime's watch does), -1 for never
+    board_frozen: float = -1.0
 
     @property
     def motor_speed(self) -> F64:
@@ -344,10 +362,11 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     K = dev.child_records(control_dt)
     world = World(plant.leg.p, plant.record(), dev.A, K, sens.record(), dev.imu_x, -dev.depth,
                   dev.support, plant.support_height, stride_time)
+    frozen = max(1, int(round(FROZEN_S / control_dt))) if noise_scale > 0.0 else 0
     plan = Plan(commands, fault_records(faults, sens), fsr_noise, imu_noise, bias,
-                control_dt, substeps)
-    bad = _run_walk(world, ctl.compiled(), plan, dev.state(),
-                    Series(X, SENS, FN, OUT, TAU, ENV, SUP, CH, PA, SH))
+                control_dt, substeps, frozen)
+    bad, froze = _run_walk(world, ctl.compiled(), plan, dev.state(),
+                           Series(X, SENS, FN, OUT, TAU, ENV, SUP, CH, PA, SH))
     if bad >= 0:
         raise SimulationError(f"walking state became non-finite at t = {bad * control_dt:.4g} s")
     t: F64 = np.arange(n + 1, dtype=np.float64) * control_dt
@@ -367,7 +386,8 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                       transparent_parts=PA[:, :len(PARTS)],
                       wall=PA[:, len(PARTS)], assist_gain=PA[:, len(PARTS) + 1],
                       child_share=SH, plant=plant, actuators=dev.actuators, walk_start=standing,
-                      stride_time=stride_time, body_mass=body_mass)
+                      stride_time=stride_time, body_mass=body_mass,
+                      board_frozen=froze * control_dt if froze >= 0 else -1.0)
 
 
 
