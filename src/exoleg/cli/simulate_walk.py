@@ -22,8 +22,8 @@ def _simulate_walk(args: argparse.Namespace) -> int:
     import exoleg
     from exoleg.control.assist import AssistSettings
     from exoleg.control.safety import Limited, fault_event
-    from exoleg.device.sensors import FROZEN_S
     from exoleg.control.transparency import SUPPORT_NAMES
+    from exoleg.device.sensors import FROZEN_S
     from exoleg.errors import ParameterError
     from exoleg.params.records import JOINTS
     from exoleg.plots.figures import walk_figure
