@@ -356,3 +356,44 @@ def test_a_dead_foot_board_stops_the_walk_as_on_the_device(tmp_path: Path,
     # ideal sensors (no noise) repeat while standing: not watched, no false stop
     assert main(["simulate", "--walk", "--strides", "2", "--noise", "0", "--out",
                  str(tmp_path / "ideal")]) == 0
+
+
+def test_a_child_file_beside_another_childs_leg_is_refused(tmp_path: Path,
+                                                           capsys: pytest.CaptureFixture[str]
+                                                           ) -> None:
+    # Issue 44: a 1.80 m / 70 kg child.toml walked, ran and was identified on a leg fitted
+    # for 1.40 m / 32 kg. exoleg fit now writes the child's height and mass into the leg's
+    # [fit] record, and every command that takes both compares them.
+    small, big = tmp_path / "small", tmp_path / "big"
+    assert main(["fit", "--age", "10", "--sex", "female", "--height", "140", "--mass", "32",
+                 "--no-simulate", "--out", str(small)]) == 0
+    assert main(["fit", "--age", "12", "--sex", "male", "--height", "150", "--mass", "45",
+                 "--no-simulate", "--out", str(big)]) == 0
+    capsys.readouterr()
+    says = (f"the child file is for a 1.50 m, 45 kg child; {small / 'leg.toml'} was fitted "
+            "for 1.40 m, 32 kg")
+    for argv in (["simulate", "--walk", "--strides", "1", "--out", str(tmp_path / "w")],
+                 ["run", "--backend", "sim", "--duration", "0.2", "--no-realtime", "--out",
+                  str(tmp_path / "r")],
+                 ["identify", "--backend", "sim", "--out", str(tmp_path / "i")]):
+        assert main([*argv, "--leg", str(small / "leg.toml"), "--child",
+                     str(big / "child.toml")]) == 2, argv
+        assert says in capsys.readouterr().err, argv
+    assert not any((tmp_path / n).exists() for n in ("w", "r", "i"))
+
+
+@pytest.mark.parametrize(("height", "mass", "z"), [(0.70, 150.0, "+50.8"), (1.40, 15.0, "-7.3")])
+def test_a_height_and_mass_no_child_has_together_are_refused(tmp_path: Path,
+                                                             capsys: pytest.CaptureFixture[str],
+                                                             height: float, mass: float,
+                                                             z: str) -> None:
+    # Issue 44: a 150 kg child of 0.70 m was accepted. Reference: the WHO 2007 BMI-for-age
+    # reference shipped (data/growth), and the WHO's flag for implausible values, |z| > 5.
+    child = tmp_path / "child.toml"
+    child.write_text(f'[child]\nname = "x"\nage_years = 10\nheight_m = {height}\n'
+                     f'mass_kg = {mass}\nsex = "female"\n')
+    assert main(["assess", "--child", str(child), "--test", "pendulum", "--out",
+                 str(tmp_path / "a")]) == 2
+    err = capsys.readouterr().err
+    assert f"{z} SD from the WHO 2007 reference at 10 y: not a child's" in err
+    assert not (tmp_path / "a").exists()

@@ -125,6 +125,9 @@ class ChildModel:
             v = _check.finite(w, name, getattr(self, name))
             if not lo <= v <= hi:
                 raise ParameterError(w, name, f"{v:g} {unit} is outside {lo:g}-{hi:g} {unit}")
+        from exoleg.sizing.growth import check_bmi
+
+        check_bmi(w, self.sex, self.age, self.height, self.mass)
         if self.gmfcs not in (0, 1, 2, 3, 4):
             raise ParameterError(w, "gmfcs", f"{self.gmfcs!r}: allowed 0 (typically "
                                  "developing), 1-4 (the device's users)")

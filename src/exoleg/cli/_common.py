@@ -198,6 +198,26 @@ def _mass_of(child: Any, given: float | None, where: str) -> float:
     return float(child.mass)
 
 
+def _child_on_leg(child: Any, leg_path: Path | None, where: str) -> None:
+    """Refuse a child file beside a leg fitted for another child: the leg's ``[fit]``
+    record (``exoleg fit`` writes the child's height and mass into it) against the child
+    file's, within 1 mm and 1 g (both come from the same fit). A leg without them (the
+    paper's, an older fit) is not compared."""
+    if leg_path is None:
+        return
+    from exoleg.errors import ParameterError
+    from exoleg.params.leg_file import read_leg_file
+
+    meta = read_leg_file(leg_path)[3]
+    if "height_m" not in meta or "mass_kg" not in meta:
+        return
+    if abs(meta["height_m"] - child.height) > 1e-3 or abs(meta["mass_kg"] - child.mass) > 1e-3:
+        raise ParameterError(where, "--child", f"the child file is for a {child.height:.2f} m, "
+                             f"{child.mass:g} kg child; {leg_path} was fitted for "
+                             f"{meta['height_m']:.2f} m, {meta['mass_kg']:g} kg: give the leg "
+                             "fitted for this child (exoleg fit writes both)")
+
+
 def _read_leg(path: Path, refuse_unfit: str = "") -> tuple[Any, str]:
     """A leg file as a :class:`~exoleg.LegModel`, and a warning ('' if none) when it is a
     leg for a child the device does not fit (its ``[fit]`` record) -- refused instead

@@ -9,6 +9,7 @@ from typing import Any
 
 from exoleg.cli._common import (
     _bus_options,
+    _child_on_leg,
     _count,
     _device_option,
     _read_leg,
@@ -39,6 +40,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
         from exoleg.child.model import ChildModel
 
         child = ChildModel.load(args.child)
+        _child_on_leg(child, args.leg, "exoleg identify")
     r = identify_device(args.backend, args.out, leg=leg, child=child,
                         duration=args.duration, seed=args.seed, interface=args.interface,
                         channel=args.channel or "exoleg",

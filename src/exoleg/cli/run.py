@@ -12,6 +12,7 @@ from exoleg.cli._common import (
     WEB_PORT,
     _body_mass,
     _bus_options,
+    _child_on_leg,
     _count,
     _device_option,
     _mass_of,
@@ -47,6 +48,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         from exoleg.child.model import ChildModel
 
         child = ChildModel.load(args.child)
+        _child_on_leg(child, args.leg, "exoleg run")
         args.body_mass = _mass_of(child, args.body_mass, "exoleg run")
     link = web = None
     if args.hmi:

@@ -7,7 +7,7 @@ import argparse
 import time
 from typing import Any
 
-from exoleg.cli._common import _mass_of, _read_leg, _say, _table
+from exoleg.cli._common import _child_on_leg, _mass_of, _read_leg, _say, _table
 from exoleg.cli._runs import device_actuators, write_run
 from exoleg.sim.metrics import interaction_summary
 
@@ -47,6 +47,7 @@ def _simulate_walk(args: argparse.Namespace) -> int:
         from exoleg.child.model import ChildModel
 
         child = ChildModel.load(args.child)
+        _child_on_leg(child, args.leg, "exoleg simulate --walk")
         given = args.body_mass if args.body_mass != args.variant_defaults["body_mass"] else None
         args.body_mass = _mass_of(child, given, "exoleg simulate --walk")
     r = simulate_walk(leg, args.body_mass, strides=args.strides, speed=args.speed or "Free",

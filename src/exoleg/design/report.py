@@ -76,7 +76,8 @@ class FitReport:
             header += ("\nTHE DEVICE DOES NOT FIT THIS CHILD: written on request "
                        "(--write-leg); telescope settings clamped to the device's range")
         return format_leg(self.leg.links, self.leg.g, self.leg.name, header=header,
-                          fit={"fits": self.fit.fits, "note": "; ".join(self.notes)},
+                          fit={"fits": self.fit.fits, "note": "; ".join(self.notes),
+                               "height_m": c.height, "mass_kg": c.mass},
                           armature=self.leg.armature)
 
     def save_leg(self, path: str | Path) -> Path:

@@ -26,6 +26,8 @@ An optional ``[fit]`` table records how the leg was made for a child (``exoleg f
     [fit]
     fits = false                  # the device does not fit this child
     note = "upper telescope (hip-knee): child 41.2 cm, allowed 27.0-40.0 cm"
+    height_m = 1.52               # the child it was fitted for (optional)
+    mass_kg = 41.0
 
 Values must be plausible for a child's leg with the device on it (:data:`PLAUSIBLE`):
 a file with a 1e300 kg thigh or a centre of mass metres off its link is refused.
@@ -136,18 +138,22 @@ def _plausible(where: str, mass: float, length: float, com: tuple[float, float],
 
 
 def parse_fit(data: dict[str, Any], where: str) -> dict[str, Any]:
-    """The optional ``[fit]`` table: ``{"fits": bool, "note": str}`` or {}."""
+    """The optional ``[fit]`` table: ``{"fits": bool, "note": str}`` with the fitted
+    child's ``height_m`` and ``mass_kg`` when it gives them, or {}."""
     fit = data.get("fit")
     if fit is None:
         return {}
     if not isinstance(fit, dict):
         raise ParameterError(where, "fit", "must be a table: [fit] fits = true/false, note = '...'")
-    _check.keys(f"{where} [fit]", fit, ["fits"], ["note"])
+    _check.keys(f"{where} [fit]", fit, ["fits"], ["note", "height_m", "mass_kg"])
     if not isinstance(fit["fits"], bool):
         raise ParameterError(where, "fit.fits", f"expected true or false, got {fit['fits']!r}")
     if not isinstance(fit.get("note", ""), str):
         raise ParameterError(where, "fit.note", "expected a string")
-    return {"fits": fit["fits"], "note": fit.get("note", "")}
+    child = {name: _check.within(f"{where} [fit]", name, fit[name], lo, hi, unit)
+             for name, (lo, hi, unit) in (("height_m", (0.7, 2.0, "m")),
+                                          ("mass_kg", (8.0, 150.0, "kg"))) if name in fit}
+    return {"fits": fit["fits"], "note": fit.get("note", ""), **child}
 
 
 def parse_armature(data: dict[str, Any], where: str) -> list[float]:
@@ -206,7 +212,9 @@ def format_leg(links: list[Link] | tuple[Link, ...], g: float, name: str,
     out.append("")
     if fit:
         out += ["[fit]", f"fits = {'true' if fit['fits'] else 'false'}",
-                f"note = {toml_string(str(fit.get('note', '')))}", ""]
+                f"note = {toml_string(str(fit.get('note', '')))}"]
+        out += [f"{k} = {float(fit[k])!r}" for k in ("height_m", "mass_kg") if k in fit]
+        out.append("")
     for lk in links:
         out += ["[[link]]", f"name = {toml_string(lk.name)}", f"length = {lk.length!r}"]
         if lk.parts:

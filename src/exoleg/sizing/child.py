@@ -100,6 +100,7 @@ class Child:
                 raise ParameterError(w, field, f"{value:g} {unit} is {z:+.1f} SD from the {chart} "
                                      f"chart for a {age:g}-year-old {self.sex}; allowed within "
                                      f"+-{MAX_ABS_Z:g} SD: {lo:.3g}-{hi:.3g} {unit}")
+        growth.check_bmi(w, self.sex, age, self.height, self.mass)
         if not DESIGN_AGES[0] <= age <= DESIGN_AGES[1]:
             warnings.warn(f"{w}: age {age:g} years is outside 8-12, the ages the device was "
                           "designed for", DesignRangeWarning, stacklevel=3)

@@ -67,7 +67,7 @@ def _tables() -> dict[tuple[str, str, str], tuple[F64, F64]]:
             (years, float(r["L"]), float(r["M"]) * scale, float(r["S"])))
     who = list(csv.reader(_text("rcpch_WHO2007_5-19y_LMS.csv").splitlines()))[4:]
     cols = {("height", "male"): 2, ("height", "female"): 5, ("weight", "male"): 8,
-            ("weight", "female"): 11}
+            ("weight", "female"): 11, ("bmi", "male"): 14, ("bmi", "female"): 17}
     for (measure, sex), c in cols.items():
         scale = 0.01 if measure == "height" else 1.0
         for w in who:
@@ -134,3 +134,25 @@ def zscore(chart: str, sex: str, measure: str, age: float, value: float) -> floa
     k = math.copysign(1.0, z)
     sd3, sd2 = _lms_value(L, M, S, 3.0 * k), _lms_value(L, M, S, 2.0 * k)
     return k * (3.0 + (value - sd3) / (sd3 - sd2))
+
+
+#: A body mass index this many SD from the WHO 2007 BMI-for-age reference is implausible
+#: (the WHO's own flag for biologically implausible values, |BAZ| > 5: WHO AnthroPlus
+#: manual, 2009).
+BMI_Z_IMPLAUSIBLE = 5.0
+
+
+def check_bmi(where: str, sex: str, age: float, height: float, mass: float) -> None:
+    """A ParameterError for a height and mass no child has together: a BMI beyond
+    :data:`BMI_Z_IMPLAUSIBLE` SD of the WHO 2007 BMI-for-age reference (5-19 y; outside
+    those ages not checked)."""
+    bmi = mass / height**2
+    try:
+        z = zscore("WHO2007", sex, "bmi", age, bmi)
+    except ParameterError:  # outside the reference's ages
+        return
+    if abs(z) > BMI_Z_IMPLAUSIBLE:
+        raise ParameterError(where, "mass/height", f"{mass:g} kg at {height:g} m is a BMI of "
+                             f"{bmi:.1f} kg/m^2, {z:+.1f} SD from the WHO 2007 reference at "
+                             f"{age:g} y: not a child's (implausible beyond "
+                             f"+-{BMI_Z_IMPLAUSIBLE:g} SD)")
