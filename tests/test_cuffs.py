@@ -124,8 +124,12 @@ def test_the_ladder_support_then_a_controlled_stop_then_torque_off() -> None:
 
     tick(0, 0.0, Command.ARM)
     out = tick(1, 0.0, Command.WALK)
-    assert out["mode"] == Mode.WALKING
-    for n in range(2, 400):
+    n = 2
+    while out["mode"] != Mode.WALKING:  # the walk waits for the foot's contact (8 ms)
+        out = tick(n, 0.0)
+        n += 1
+    assert n < 20
+    for n in range(n, 400):
         out = tick(n, 0.99 * limit)  # within: nothing
         assert not out["safety_status"] & (Limited.CUFF | Limited.CUFF_STOP)
     first = 400 - 1 + crossing(0.99 * limit, 1.2 * limit, limit)
@@ -156,7 +160,7 @@ def test_the_ladder_support_then_a_controlled_stop_then_torque_off() -> None:
     ctl = ctl2
     tick(0, np.nan, Command.ARM)
     for k in range(1, 800):
-        out = tick(k, np.nan, Command.WALK if k == 1 else Command.NONE)
+        out = tick(k, np.nan, Command.WALK if k == 20 else Command.NONE)
     assert not out["safety_status"] & Limited.CUFF and out["mode"] == Mode.WALKING
 
 
