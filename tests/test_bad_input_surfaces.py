@@ -397,3 +397,42 @@ def test_a_height_and_mass_no_child_has_together_are_refused(tmp_path: Path,
     err = capsys.readouterr().err
     assert f"{z} SD from the WHO 2007 reference at 10 y: not a child's" in err
     assert not (tmp_path / "a").exists()
+
+
+def test_a_number_where_a_table_belongs_is_named(tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    # Issue 44: internal errors (a TypeError, no field) when a file held a number where a
+    # table or list belongs: a leg file's `part = 5`, a child.toml whose table is an
+    # integer. Each is one line naming the file, the field and what is allowed.
+    leg = tmp_path / "leg.toml"
+    leg.write_text('name = "x"\n[[link]]\nname = "thigh"\nlength = 0.3\npart = 5\n'
+                   + "".join(f'[[link]]\nname = "{n}"\nlength = 0.3\nmass = 1.0\n'
+                             'com = [0.1, 0.0]\nizz = 0.01\n' for n in ("shank", "foot")))
+    assert main(["export", "--leg", str(leg), "--out", str(tmp_path / "x.urdf")]) == 2
+    assert "link[0]: part: expected [[link.part]] tables (each with mass, com, izz), got " \
+           "int '5'" in capsys.readouterr().err
+    child = tmp_path / "child.toml"
+    for text, says in (("child = 5\n", "[child]: (table): expected a table of age_years"),
+                       ('effort = 5\n[child]\nage_years = 10\nheight_m = 1.38\nmass_kg = 32\n'
+                        'sex = "female"\n', "[effort]: (table): expected a table of on")):
+        child.write_text(text)
+        assert main(["assess", "--child", str(child), "--test", "pendulum", "--out",
+                     str(tmp_path / "a")]) == 2
+        assert says in capsys.readouterr().err
+
+
+def test_a_centre_of_mass_outside_its_segment_is_refused(tmp_path: Path,
+                                                         capsys: pytest.CaptureFixture[str]
+                                                         ) -> None:
+    # Issue 44: a child's thigh whose centre of mass lay 0.29 m off the axis of its 0.31 m
+    # link was accepted (the rule allowed one link length from it). A segment's mass lies
+    # within it: at most half the link's length off its axis (leg_file.AXIS_SHARE).
+    from exoleg.params.leg_file import parse_leg_text
+
+    text = ('name = "x"\n' + "".join(
+        f'[[link]]\nname = "{n}"\nlength = 0.31\nmass = 2.0\ncom = [0.12, {y}]\nizz = 0.02\n'
+        for n, y in (("thigh", 0.29), ("shank", 0.0), ("foot", 0.0))))
+    with pytest.raises(exoleg.ParameterError, match=r"lies 0.29 m off the 0.31 m link's axis; "
+                       r"allowed at most 0.5 of its length \(0.155 m\)"):
+        parse_leg_text(text, "leg.toml")
+    parse_leg_text(text.replace("0.29", "0.15"), "leg.toml")  # within: accepted

@@ -86,8 +86,12 @@ def reading(where: str, field: str, value: Any, n: int) -> NDArray[np.float64]:
 
 def keys(where: str, table: Mapping[str, Any], required: Iterable[str],
          optional: Iterable[str] = ()) -> None:
-    """Check a table has every required key and no unknown one."""
+    """Check a table has every required key and no unknown one (and is a table)."""
     req = list(required)
+    if not isinstance(table, Mapping):
+        raise ParameterError(where, "(table)", f"expected a table of "
+                             f"{', '.join(req + list(optional)) or 'fields'}, got "
+                             f"{type(table).__name__} {str(table)[:40]!r}")
     allowed = set(req) | set(optional)
     for k in req:
         if k not in table:

@@ -56,6 +56,11 @@ from exoleg.params.records import LINKS, Link, com_offset
 #: Armature: a rotor of at most 1e-3 kg m^2 (the largest flat motors) through 200:1 is 40.
 PLAUSIBLE = {"mass_kg": (0.0, 25.0), "length_m": (0.03, 1.2), "g": (0.0, 30.0),
              "armature_kg_m2": (0.0, 40.0)}
+#: How far off its link's axis a COM may lie, as a share of the link's length: a
+#: segment's mass lies within it, and no leg segment is wider than half its length (a
+#: thigh of 50 cm girth -- an obese adolescent's -- has a radius of 8 cm on its 35 cm;
+#: the shipped legs' largest offset is the foot's 3 cm on 23.5 cm, 0.13).
+AXIS_SHARE = 0.5
 
 _LINK_KEYS = ("name", "length", "mass", "com", "izz", "part")
 _PART_KEYS = ("name", "mass", "com", "izz")
@@ -93,6 +98,10 @@ def parse_leg(data: dict[str, Any], where: str) -> tuple[list[Link], float, str]
             _check.keys(w, t, ["length", "part"], ["name"])
             parts = []
             length = _check.positive(w, "length", t["length"], "m")
+            if not isinstance(t["part"], list):
+                raise ParameterError(w, "part", f"expected [[link.part]] tables (each with "
+                                     f"mass, com, izz), got {type(t['part']).__name__} "
+                                     f"{str(t['part'])[:40]!r}")
             for j, pt in enumerate(t["part"]):
                 wp = f"{w} part[{j}]"
                 _check.keys(wp, pt, ["mass", "com", "izz"], ["name"])
@@ -131,6 +140,12 @@ def _plausible(where: str, mass: float, length: float, com: tuple[float, float],
     if off > length:
         raise ParameterError(where, "com", f"({x:g}, {y:g}) m is {off:.3g} m from its "
                                            f"{length:g} m link; allowed at most one link length")
+    if abs(y) > AXIS_SHARE * length:
+        raise ParameterError(where, "com", f"({x:g}, {y:g}) m lies {abs(y):.3g} m off the "
+                                           f"{length:g} m link's axis; allowed at most "
+                                           f"{AXIS_SHARE:g} of its length "
+                                           f"({AXIS_SHARE * length:.3g} m): a segment's mass "
+                                           "lies within it")
     if izz > mass * length * length:
         raise ParameterError(where, "izz", f"{izz:g} kg m^2 is more than m a^2 = "
                                            f"{mass * length * length:.3g} kg m^2 (allowed 0 to "
