@@ -1,0 +1,169 @@
+"""The analytic screen of actuation candidates over a population (issue 39's first
+stage): closed forms for one joint's actuation unit -- a motor through a rigid gear --
+along a child's periodic gait, vectorised over candidates and children.
+
+A joint asks, at each instant of the stride, the share ``alpha`` of the child's joint
+moment ``tau`` (N m) while it moves with acceleration ``qdd`` (rad/s^2) and rate ``qd``
+(rad/s). Through a gear of ratio N and efficiency eta (on the delivered torque), a motor
+of rotor inertia J (rotor and gear input, kg m^2) and torque constant k_t gives
+
+    tau_m = J N qdd + alpha tau / (N eta)                      motor torque, N m
+    i     = tau_m / k_t                                        winding current, A
+    V     = R i + k_t N qd                                     terminal voltage, V
+
+and, in the zero-torque (transparent) mode with the rotor not compensated, leaves the
+child the reflected inertia's torque J N^2 qdd. Closed forms (Pasch and Seering's
+optimal ratio, as applied to a periodic task -- ASME J Dyn Sys Meas Control 139(10):
+101013, 2017; ``shared/design/actuation-design.md``):
+
+* the ratio that minimises the RMS motor torque (and current):
+  ``N* = sqrt(alpha rms(tau) / (eta J rms(qdd)))`` -- where the inertial RMS
+  ``J N*^2 rms(qdd)`` equals ``alpha rms(tau) / eta`` exactly;
+* the largest ratio a transparency goal allows: ``N_max = sqrt(goal / (J rms(qdd)))``,
+  goal the residual RMS in N m (N m/kg x the child's mass);
+* the winding's steady temperature at an RMS current I, through the motor's two thermal
+  resistances R_th with copper's resistance R(T) = R_25 (1 + a (T - 25)):
+  ``T = (T_a + R_th R_25 I^2 (1 - 25 a)) / (1 - R_th R_25 a I^2)`` (infinite when the
+  denominator is not positive: no steady state, the winding runs away).
+
+Every function takes numpy arrays that broadcast: candidates along some axes, children
+along others, the gait's samples along the last.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from exoleg.device.actuator import COPPER_ALPHA
+
+F64 = NDArray[np.float64]
+
+
+def rms(x: ArrayLike, axis: int = -1) -> F64:
+    """Root mean square along ``axis`` (a periodic signal's uniform samples over a
+    period, the endpoint left out)."""
+    a = np.asarray(x, dtype=float)
+    return np.sqrt(np.mean(a * a, axis=axis))
+
+
+def optimal_ratio(inertia: ArrayLike, alpha: ArrayLike, tau: ArrayLike, qdd: ArrayLike,
+                  efficiency: ArrayLike = 1.0) -> F64:
+    """N* = sqrt(alpha rms(tau) / (eta J rms(qdd))): the ratio that minimises the RMS
+    motor torque along the gait (``tau``, ``qdd``: samples on the last axis)."""
+    return np.sqrt(np.asarray(alpha) * rms(tau)
+                   / (np.asarray(efficiency) * np.asarray(inertia) * rms(qdd)))
+
+
+def transparency_ratio(inertia: ArrayLike, goal: ArrayLike, qdd: ArrayLike) -> F64:
+    """N_max = sqrt(goal / (J rms(qdd))): the largest ratio whose reflected inertia leaves
+    at most ``goal`` N m RMS to the child in the zero-torque mode (rotor uncompensated)."""
+    return np.sqrt(np.asarray(goal) / (np.asarray(inertia) * rms(qdd)))
+
+
+def motor_torque(inertia: ArrayLike, ratio: ArrayLike, alpha: ArrayLike, tau: ArrayLike,
+                 qdd: ArrayLike, efficiency: ArrayLike = 1.0) -> F64:
+    """tau_m = J N qdd + alpha tau / (N eta) at each sample, N m (the last axis: the
+    gait's samples; the others broadcast)."""
+    J, N = np.asarray(inertia)[..., None], np.asarray(ratio)[..., None]
+    a, eta = np.asarray(alpha)[..., None], np.asarray(efficiency)[..., None]
+    return J * N * np.asarray(qdd) + a * np.asarray(tau) / (N * eta)
+
+
+def residual(inertia: ArrayLike, ratio: ArrayLike, qdd: ArrayLike) -> F64:
+    """RMS of the reflected inertia's torque J N^2 qdd, N m: what the zero-torque mode
+    leaves the child with the rotor uncompensated."""
+    return np.asarray(inertia) * np.asarray(ratio) ** 2 * rms(qdd)
+
+
+def winding_temperature(current_rms: ArrayLike, r25: ArrayLike, r_th: ArrayLike,
+                        ambient: ArrayLike = 25.0, alpha_cu: float = COPPER_ALPHA) -> F64:
+    """The winding's steady temperature, degC, at an RMS current (A) through the motor's
+    winding-to-ambient thermal resistance ``r_th`` (K/W, the two in series), its
+    resistance at 25 degC ``r25`` (ohm) rising with copper's ``alpha_cu`` (1/K); inf
+    where no steady state exists."""
+    k = np.asarray(r_th) * np.asarray(r25) * np.asarray(current_rms) ** 2
+    den = 1.0 - k * alpha_cu
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (np.asarray(ambient) + k * (1.0 - 25.0 * alpha_cu)) / den
+    return np.where(den > 0.0, t, np.inf)
+
+
+def terminal_voltage(current: ArrayLike, resistance: ArrayLike, kt: ArrayLike,
+                     ratio: ArrayLike, qd: ArrayLike) -> F64:
+    """V = R i + k_t N qd at each sample, V (inductance left out: a walking gait's
+    current changes over tens of milliseconds, the windings' L/R is under 1 ms)."""
+    R, k, N = (np.asarray(x)[..., None] for x in (resistance, kt, ratio))
+    return R * np.asarray(current) + k * N * np.asarray(qd)
+
+
+def population_gait(masses: ArrayLike, joint: int, stride_time: float = 1.1,
+                    speed: str = "Free", samples: int = 100) -> tuple[F64, F64, F64]:
+    """One joint's demand over a stride for children of ``masses`` kg (C,): the child's
+    joint moment (C, samples) -- Schwartz et al. 2008's mean sagittal moment per kg at
+    ``speed``, times the mass -- and the normative gait's rate and acceleration at that
+    joint (samples,), at ``stride_time`` s. ``joint``: 0 hip, 1 knee, 2 ankle."""
+    from exoleg.params.records import JOINTS
+    from exoleg.reference.gait import SchwartzGait2008, schwartz2008
+
+    x = np.arange(samples) / samples
+    pct, moment, _ = schwartz2008(f"{JOINTS[joint]}_moment_sagittal", speed)
+    per_kg = np.interp(x * 100.0, pct, moment, period=100.0)
+    _, qd, qdd = SchwartzGait2008(stride_time=stride_time, speed=speed).sample(
+        x * stride_time)
+    return (np.asarray(masses, dtype=float)[:, None] * per_kg[None, :], qd[:, joint],
+            qdd[:, joint])
+
+
+def screen(motor: dict[str, F64], ratio: ArrayLike, efficiency: ArrayLike,
+           gear_inertia: ArrayLike, tau: F64, qd: F64, qdd: F64, alpha: float,
+           masses: ArrayLike, bus_voltage: ArrayLike, peak_current: ArrayLike,
+           ambient: float = 25.0) -> dict[str, F64]:
+    """Every candidate with every child, one joint: ``motor``'s figures as arrays that
+    broadcast over the candidates (``kt`` N m/A, ``rotor_inertia`` kg m^2, ``r25`` ohm,
+    ``r_th`` K/W winding to ambient, ``max_speed`` rad/s at the motor), the gear's
+    ``ratio``, ``efficiency`` and ``gear_inertia`` (kg m^2 at its input) likewise;
+    ``tau`` (C, S) the children's joint moments, ``qd``, ``qdd`` (S,) the gait's rate
+    and acceleration, ``alpha`` the share of the moment the device gives, ``masses``
+    (C,) kg. Candidate axes first, children next: each result has the candidates' shape
+    plus (C,). Returns the RMS and peak current (A), the winding's steady temperature
+    (degC), the peak terminal voltage (V), the motor's peak speed (rad/s), the gear's peak
+    output torque (N m), the zero-torque residual (N m/kg), and ``fits``: within the
+    drive's ``peak_current``, the ``bus_voltage``, the motor's speed and winding limit
+    (``max_winding_temperature`` in ``motor``)."""
+    J = np.asarray(motor["rotor_inertia"]) + np.asarray(gear_inertia)
+    N = np.asarray(ratio, dtype=float)
+    shape = np.broadcast_shapes(J.shape, N.shape, np.shape(efficiency),
+                                np.shape(motor["kt"]), np.shape(bus_voltage),
+                                np.shape(peak_current))
+    c = (slice(None),) * len(shape) + (None,)  # a candidate axis's value per child
+    Jc, Nc = np.broadcast_to(J, shape)[c], np.broadcast_to(N, shape)[c]
+    eta = np.broadcast_to(np.asarray(efficiency, dtype=float), shape)[c]
+    kt = np.broadcast_to(np.asarray(motor["kt"], dtype=float), shape)[c]
+    r25 = np.broadcast_to(np.asarray(motor["r25"], dtype=float), shape)[c]
+    Jc, Nc = np.broadcast_to(Jc, (*shape, 1)), np.broadcast_to(Nc, (*shape, 1))
+    tau_m = motor_torque(Jc, Nc, alpha, tau, qdd, eta)      # (*shape, C, S)
+    i = tau_m / kt[..., None]
+    i_rms = rms(i)
+    volts = terminal_voltage(i, r25, kt, Nc, qd)
+    m = np.asarray(masses, dtype=float)
+    out = {
+        "current_rms": i_rms,
+        "current_peak": np.max(np.abs(i), axis=-1),
+        "winding": winding_temperature(i_rms, r25, np.broadcast_to(
+            np.asarray(motor["r_th"], dtype=float), shape)[c], ambient),
+        "voltage_peak": np.max(np.abs(volts), axis=-1),
+        "motor_speed_peak": np.broadcast_to(Nc * np.max(np.abs(qd)), i_rms.shape),
+        "gear_torque_peak": np.broadcast_to(alpha * np.max(np.abs(tau), axis=-1),
+                                            i_rms.shape),
+        "residual_per_kg": np.broadcast_to(residual(Jc, Nc, qdd), i_rms.shape) / m,
+    }
+    limit_speed = np.broadcast_to(np.asarray(motor["max_speed"], dtype=float), shape)[c]
+    limit_temp = np.broadcast_to(np.asarray(motor["max_winding_temperature"], dtype=float),
+                                 shape)[c]
+    bus = np.broadcast_to(np.asarray(bus_voltage, dtype=float), shape)[c]
+    drive = np.broadcast_to(np.asarray(peak_current, dtype=float), shape)[c]
+    out["fits"] = ((out["current_peak"] <= drive) & (out["voltage_peak"] <= bus)
+                   & (out["motor_speed_peak"] <= limit_speed)
+                   & (out["winding"] <= limit_temp))
+    return out
