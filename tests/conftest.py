@@ -49,10 +49,11 @@ def terminal_ctrl_c():  # type: ignore[no-untyped-def]
 
 
 #: The longest test files, first (make test --durations=40, 2026-12-03: 150, 81, 57,
-#: 84, 64, 54, 41, 36 s ...; the two browser files apart, as their timings are judged). pytest-xdist hands each worker a
-#: whole file (--dist loadfile) in collection order: a long file collected last keeps one
-#: worker busy while the other idles (the suite waited 80 s on the README's file at
-#: 98 %). Started first, they finish while the short files fill the other worker.
+#: 84, 64, 54, 41, 36 s ...; the two browser files apart, as their timings are judged).
+#: pytest-xdist hands each worker a whole file (--dist loadfile) in collection order: a
+#: long file collected last keeps one worker busy while the other idles (the suite waited
+#: 80 s on the README's file at 98 %). Started first, they finish while the short files
+#: fill the other worker.
 LONG_FIRST = ("test_hmi_safety.py", "test_readme.py", "test_identify_device.py",
               "test_hmi.py", "test_sweep.py", "validation/test_identify.py", "test_runtime.py",
               "test_tick_contract.py", "test_control_api.py", "test_device_folder.py",

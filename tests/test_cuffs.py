@@ -1,6 +1,7 @@
 """The cuffs' torque as a safety quantity (issue 38): read as a cuff passes it (a
-low-pass on the rigid model's estimate), a limit per joint per kg of the child, and the safety layer's response -- the support
-falls, then a controlled stop, then torque off -- each logged with its value.
+low-pass on the rigid model's estimate), a limit per joint per kg of the child, and the
+safety layer's response -- the support falls, then a controlled stop, then torque off --
+each logged with its value.
 
 References: the limits are Schwartz et al. 2008's very fast group's sagittal joint
 moments (mean + 2 SD peak, the package's gait data); the sensor's response is the exact
@@ -129,8 +130,8 @@ def test_the_ladder_support_then_a_controlled_stop_then_torque_off() -> None:
         out = tick(n, 0.0)
         n += 1
     assert n < 20
-    for n in range(n, 400):
-        out = tick(n, 0.99 * limit)  # within: nothing
+    for k in range(n, 400):
+        out = tick(k, 0.99 * limit)  # within: nothing
         assert not out["safety_status"] & (Limited.CUFF | Limited.CUFF_STOP)
     first = 400 - 1 + crossing(0.99 * limit, 1.2 * limit, limit)
     levels = []

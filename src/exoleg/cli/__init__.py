@@ -20,6 +20,7 @@ from collections.abc import Sequence
 
 from exoleg.cli import (
     assess,
+    design,
     detect,
     export,
     fit,
@@ -35,8 +36,8 @@ from exoleg.cli import (
 from exoleg.cli._common import _negative_values, _Parser
 
 #: the commands, one module each, in the order of the help
-COMMANDS = (validate, simulate, fit, assess, population, sweep, run, hmi, log, detect,
-            identify, export)
+COMMANDS = (validate, simulate, fit, assess, population, design, sweep, run, hmi, log,
+            detect, identify, export)
 
 
 def build_parser() -> argparse.ArgumentParser:

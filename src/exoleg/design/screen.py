@@ -32,6 +32,8 @@ along others, the gait's samples along the last.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -115,10 +117,10 @@ def population_gait(masses: ArrayLike, joint: int, stride_time: float = 1.1,
             qdd[:, joint])
 
 
-def screen(motor: dict[str, F64], ratio: ArrayLike, efficiency: ArrayLike,
+def screen(motor: dict[str, ArrayLike], ratio: ArrayLike, efficiency: ArrayLike,
            gear_inertia: ArrayLike, tau: F64, qd: F64, qdd: F64, alpha: float,
            masses: ArrayLike, bus_voltage: ArrayLike, peak_current: ArrayLike,
-           ambient: float = 25.0) -> dict[str, F64]:
+           ambient: float = 25.0) -> dict[str, NDArray[Any]]:
     """Every candidate with every child, one joint: ``motor``'s figures as arrays that
     broadcast over the candidates (``kt`` N m/A, ``rotor_inertia`` kg m^2, ``r25`` ohm,
     ``r_th`` K/W winding to ambient, ``max_speed`` rad/s at the motor), the gear's

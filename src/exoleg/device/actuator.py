@@ -311,6 +311,23 @@ def parse_actuator(data: dict[str, Any], where: str) -> ActuatorModel:
     return ActuatorModel(sources={k: str(v) for k, v in sources.items()}, **vals)
 
 
+def actuator_text(a: ActuatorModel, header: str = "") -> str:
+    """An actuator file's TOML text (:func:`parse_actuator` reads it back exactly): the
+    names, every figure of :data:`FIELDS` at full precision with its unit, and the
+    ``[sources]`` table. ``header``: comment lines above."""
+    from exoleg.io import toml_string
+
+    out = [f"# {ln}" for ln in header.splitlines()]
+    out += [f"{k} = {toml_string(str(getattr(a, k)))}" for k in _NAMES]
+    for name, unit, _, _ in FIELDS:
+        v = getattr(a, name)
+        text = str(int(v)) if name in WHOLE else repr(float(v))
+        out.append(f"{name} = {text}" + (f"  # {unit}" if unit else ""))
+    out += ["", "[sources]"]
+    out += [f"{k} = {toml_string(a.sources.get(k, ''))}" for k, *_ in FIELDS]
+    return "\n".join(out) + "\n"
+
+
 def load_actuator(path: str | Path) -> ActuatorModel:
     """Read an actuator file (format: ``data/device/actuators/hip.toml``)."""
     text = read_text(path, "actuator file (TOML)")

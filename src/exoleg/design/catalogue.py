@@ -1,0 +1,83 @@
+"""The parts ``exoleg design`` chooses from, as data, each figure with its source.
+
+The catalogue is read from the actuation units the package ships
+(``data/device/actuators/*.toml`` and ``data/device/hip-variants/*.toml``): each unit's
+motor (the motor's figures, :data:`MOTOR`) and gear (:data:`GEAR`) are parts, with the
+sources those files give figure by figure. A motor whose defining figures -- torque
+constant, rotor inertia, nominal current, terminal resistance -- come from no datasheet
+(a "choice" or an unverified derivation) is left out: the hip variant "260 W class" is
+not in the catalogue. A candidate joint is the shipped unit of that joint with a
+catalogue motor and gear in place (its drive, encoder and friction kept), its drive's
+current limit set at 2 x the motor's nominal current as maxon configures it (S3), on a
+chosen bus voltage (the EPOS4 50/15 takes 10-50 V: its sheet).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from importlib import resources
+from typing import Any
+
+from exoleg.device.actuator import FIELDS, ActuatorModel, load_actuator, paper_actuators
+from exoleg.errors import ParameterError
+
+_NAMES = [f[0] for f in FIELDS]
+#: The figures of an actuation unit that are its motor's, and its gear's.
+MOTOR = tuple(_NAMES[:_NAMES.index("ratio")])
+GEAR = tuple(_NAMES[_NAMES.index("ratio"):_NAMES.index("continuous_current")])
+#: A motor's figures that must come from a sheet for it to be in the catalogue.
+DEFINING = ("torque_constant", "rotor_inertia", "nominal_current", "terminal_resistance")
+#: The bus voltages the drive (maxon EPOS4 50/15) takes, V: its supply range.
+BUS_RANGE = (10.0, 50.0)
+
+
+@dataclass(frozen=True)
+class Part:
+    """A catalogue motor or gear: its name, figures (as :data:`FIELDS`) and sources."""
+
+    kind: str                   # "motor" or "gear"
+    name: str
+    figures: dict[str, float]
+    sources: dict[str, str]
+
+
+def _sheet(source: str) -> bool:
+    s = source.strip().lower()
+    return not (s.startswith("choice") or "unverified" in s)
+
+
+def catalogue() -> tuple[tuple[Part, ...], tuple[Part, ...]]:
+    """(motors, gears) of the shipped actuation units, each once, sources kept."""
+    root = resources.files("exoleg") / "data" / "device"
+    units = list(paper_actuators())
+    for f in sorted((root / "hip-variants").iterdir(), key=lambda p: p.name):
+        if f.name.endswith(".toml"):
+            units.append(load_actuator(str(f)))
+    motors: dict[str, Part] = {}
+    gears: dict[str, Part] = {}
+    for a in units:
+        m = Part("motor", a.motor, {k: float(getattr(a, k)) for k in MOTOR},
+                 {k: a.sources.get(k, "") for k in MOTOR})
+        if all(_sheet(m.sources[k]) for k in DEFINING):
+            motors.setdefault(a.motor, m)
+        gears.setdefault(a.gear, Part("gear", a.gear, {k: float(getattr(a, k)) for k in GEAR},
+                                      {k: a.sources.get(k, "") for k in GEAR}))
+    return tuple(motors.values()), tuple(gears.values())
+
+
+def candidate(joint: str, motor: Part, gear: Part, bus_voltage: float) -> ActuatorModel:
+    """The shipped ``joint`` unit with ``motor`` and ``gear`` in place, its drive's
+    current limit at 2 x the motor's nominal current, on ``bus_voltage`` V."""
+    if not BUS_RANGE[0] <= bus_voltage <= BUS_RANGE[1]:
+        raise ParameterError("exoleg design", "bus_voltage", f"{bus_voltage:g} V is outside "
+                             f"the drive's {BUS_RANGE[0]:g}-{BUS_RANGE[1]:g} V")
+    base = {a.joint: a for a in paper_actuators()}[joint]
+    figures: dict[str, Any] = {**motor.figures, **gear.figures}
+    figures["pole_pairs"] = int(round(figures["pole_pairs"]))
+    peak = 2.0 * motor.figures["nominal_current"]
+    sources = {**base.sources, **motor.sources, **gear.sources,
+               "peak_current": "S3 (maxon's own configuration sets 2 x I_N)",
+               "bus_voltage": "exoleg design: the bus chosen (the EPOS4 50/15: 10-50 V)"}
+    return dataclasses.replace(base, motor=motor.name, gear=gear.name, peak_current=peak,
+                               bus_voltage=float(bus_voltage), sources=sources, **figures)

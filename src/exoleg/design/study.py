@@ -1,0 +1,228 @@
+"""``exoleg design``: the actuation chosen for a population of children (issue 39).
+
+A design file (``examples/design-population.toml``) names the population (ages, sexes,
+groups -- typically developing or a GMFCS level --, height percentiles: each child the
+growth charts' mass at the same percentile, :func:`~exoleg.sizing.child.population_child`),
+the assistance asked (``alpha``: the share of the child's joint moment the device gives,
+per joint), the constraints (bus voltages, the zero-torque goal in N m/kg, the ambient)
+and the held-out children walked on the chosen device. Per joint, every catalogue motor
+and gear on every bus (:mod:`exoleg.design.catalogue`) is screened with every child
+(:mod:`exoleg.design.screen`: the closed forms along the normative gait at the stride
+time asked; the device's own links and friction left to the walking loop); a candidate
+serves a child when the drive's current, the bus voltage, the motor's speed and its
+winding's steady temperature all hold, and the gear's repeated peak carries the
+assistance. The Pareto set over (children served, the worst zero-torque residual, the
+thermal margin) is kept; on the one bus the drives share, the candidate serving the most
+children at each joint, then leaving the least residual, is chosen, and written as a device folder
+every command takes (``--device DIR``). The held-out children then walk on it and on the
+shipped device in the full loop (:func:`~exoleg.sim.walk.simulate_walk`).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from exoleg import checks as _check
+from exoleg.design import screen as sc
+from exoleg.design.catalogue import BUS_RANGE, candidate, catalogue
+from exoleg.errors import ParameterError
+from exoleg.params.records import JOINTS
+
+#: The design file's tables and their fields (required, optional).
+TABLES = {"population": (["ages", "sexes", "groups", "percentiles"], ["speed", "stride_time"]),
+          "assistance": (["alpha"], []),
+          "constraints": (["bus_voltage", "transparency_Nm_per_kg"], ["ambient"]),
+          "verify": (["held_out"], ["strides"])}
+
+
+@dataclass(frozen=True)
+class Design:
+    """A design file's contents (SI units; groups 0 for typically developing)."""
+
+    ages: tuple[float, ...]
+    sexes: tuple[str, ...]
+    groups: tuple[int, ...]
+    percentiles: tuple[float, ...]
+    alpha: tuple[float, float, float]
+    buses: tuple[float, ...]
+    goal: float
+    held_out: tuple[dict[str, Any], ...]
+    speed: str = "Free"
+    stride_time: float = 1.1
+    ambient: float = 25.0
+    strides: int = 10
+    source: str = ""
+
+    @classmethod
+    def load(cls, path: str | Path) -> Design:
+        import tomllib
+
+        from exoleg.io import read_text
+
+        where = str(path)
+        try:
+            d = tomllib.loads(read_text(path, "design file (TOML)"))
+        except tomllib.TOMLDecodeError as e:
+            raise ParameterError(where, "(syntax)", f"not valid TOML: {e}") from None
+        _check.keys(where, d, list(TABLES), ["description"])
+        for name, (req, opt) in TABLES.items():
+            _check.keys(f"{where} [{name}]", d[name], req, opt)
+        p, a, c, v = (d[k] for k in TABLES)
+
+        def numbers(table: str, key: str, lo: float, hi: float, unit: str) -> tuple[float, ...]:
+            raw = d[table][key]
+            vals = raw if isinstance(raw, list) else [raw]
+            if not vals:
+                raise ParameterError(f"{where} [{table}]", key, "needs at least one value")
+            return tuple(_check.within(f"{where} [{table}]", key, x, lo, hi, unit) for x in vals)
+
+        sexes = tuple(p["sexes"]) if isinstance(p["sexes"], list) else (p["sexes"],)
+        if not sexes or any(s not in ("female", "male") for s in sexes):
+            raise ParameterError(f"{where} [population]", "sexes", f"{p['sexes']!r}: "
+                                 "allowed female, male")
+        groups = numbers("population", "groups", 0, 4, "(0: typically developing, 1-4 GMFCS)")
+        if any(g != int(g) for g in groups):
+            raise ParameterError(f"{where} [population]", "groups", "whole numbers 0-4")
+        alpha = numbers("assistance", "alpha", 0.0, 1.0, "")
+        if len(alpha) != 3:
+            raise ParameterError(f"{where} [assistance]", "alpha", "3 shares (hip, knee, "
+                                 "ankle), each 0-1")
+        held = v["held_out"]
+        if not isinstance(held, list) or not held or not all(isinstance(h, dict)
+                                                            for h in held):
+            raise ParameterError(f"{where} [verify]", "held_out", "a list of children: "
+                                 "{age, sex, group, percentile}")
+        for i, h in enumerate(held):
+            _check.keys(f"{where} [verify] held_out[{i}]", h,
+                        ["age", "sex", "group", "percentile"])
+        return cls(ages=numbers("population", "ages", 5.0, 18.0, "y"), sexes=sexes,
+                   groups=tuple(int(g) for g in groups),
+                   percentiles=numbers("population", "percentiles", 1.0, 99.0, ""),
+                   alpha=(alpha[0], alpha[1], alpha[2]),
+                   buses=numbers("constraints", "bus_voltage", *BUS_RANGE, "V"),
+                   goal=numbers("constraints", "transparency_Nm_per_kg", 0.001, 1.0,
+                                "N m/kg")[0],
+                   held_out=tuple(held), speed=str(p.get("speed", "Free")),
+                   stride_time=numbers("population", "stride_time", 0.6, 2.0, "s")[0]
+                   if "stride_time" in p else 1.1,
+                   ambient=numbers("constraints", "ambient", -20.0, 60.0, "degC")[0]
+                   if "ambient" in c else 25.0,
+                   strides=int(numbers("verify", "strides", 1, 100, "")[0])
+                   if "strides" in v else 10, source=where)
+
+    def children(self) -> list[Any]:
+        """The population, each child from the growth charts."""
+        from exoleg.sizing.child import population_child
+
+        return [population_child(g or None, s, a, p)[0] for g in self.groups
+                for s in self.sexes for a in self.ages for p in self.percentiles]
+
+
+def screen_joint(design: Design, joint: int, masses: np.ndarray) -> list[dict[str, Any]]:
+    """Every catalogue candidate at ``joint`` with every child of ``masses``: one row per
+    candidate (motor, gear, bus) with the share of children it serves and its worst
+    figures over them."""
+    motors, gears = catalogue()
+    tau, qd, qdd = sc.population_gait(masses, joint, design.stride_time, design.speed)
+    rows = []
+    for m, g, bus in itertools.product(motors, gears, design.buses):
+        f = m.figures
+        r = sc.screen({"kt": f["torque_constant"], "rotor_inertia": f["rotor_inertia"],
+                       "r25": f["terminal_resistance"],
+                       "r_th": f["thermal_resistance_winding"] + f["thermal_resistance_housing"],
+                       "max_speed": f["max_speed_rpm"] * math.pi / 30,
+                       "max_winding_temperature": f["max_winding_temperature"]},
+                      g.figures["ratio"], g.figures["efficiency"],
+                      g.figures["gear_input_inertia"], tau, qd, qdd, design.alpha[joint],
+                      masses, bus, 2.0 * f["nominal_current"], design.ambient)
+        transparent = r["residual_per_kg"] <= design.goal
+        serves = r["fits"] & (r["gear_torque_peak"] <= g.figures["repeated_peak_torque"])
+        rows.append({"joint": JOINTS[joint], "motor": m.name, "gear": g.name,
+                     "ratio": g.figures["ratio"], "bus_V": bus,
+                     "served": float(np.mean(serves)),
+                     "transparent": float(np.mean(transparent)),
+                     "residual_worst_Nm_per_kg": float(np.max(r["residual_per_kg"])),
+                     "winding_worst_C": float(np.max(r["winding"])),
+                     "thermal_margin_K": float(f["max_winding_temperature"]
+                                               - np.max(r["winding"])),
+                     "current_peak_A": float(np.max(r["current_peak"])),
+                     "voltage_peak_V": float(np.max(r["voltage_peak"])),
+                     "motor_speed_peak_rpm": float(np.max(r["motor_speed_peak"]) * 30 / math.pi),
+                     "gear_torque_peak_Nm": float(np.max(r["gear_torque_peak"])),
+                     "_parts": (m, g)})
+    _pareto(rows)
+    return rows
+
+
+def _pareto(rows: list[dict[str, Any]]) -> None:
+    """Mark each row on the Pareto front of (served up, worst residual down, thermal
+    margin up)."""
+    def key(r: dict[str, Any]) -> tuple[float, float, float]:
+        return (r["served"], -r["residual_worst_Nm_per_kg"], r["thermal_margin_K"])
+
+    for r in rows:
+        k = key(r)
+        r["pareto"] = not any(all(a >= b for a, b in zip(key(o), k, strict=True))
+                              and key(o) != k for o in rows)
+
+
+def verify(design: Design, device: Path | None) -> list[dict[str, Any]]:
+    """The held-out children walked ``design.strides`` strides in the impedance mode on
+    ``device`` (None: the shipped one): fault, tracking and the windings."""
+    from exoleg.sim.walk import simulate_walk
+    from exoleg.sizing import personalized_leg
+    from exoleg.sizing.child import population_child
+    from exoleg.tick import Fault
+
+    out = []
+    for h in design.held_out:
+        c, _ = population_child(int(h["group"]) or None, str(h["sex"]), float(h["age"]),
+                                float(h["percentile"]))
+        r = simulate_walk(personalized_leg(c), c.mass, strides=design.strides,
+                          stride_time=design.stride_time, device=device)
+        walking = r.t >= r.walk_start
+        faults = sorted({Fault(int(f)).name for f in r.fault[r.fault != 0]})
+        err = np.degrees(np.sqrt(np.mean((r.q - r.q_ref)[walking] ** 2, axis=0)))
+        out.append({"device": "designed" if device is not None else "shipped",
+                    "age": c.age, "sex": c.sex, "group": int(h["group"]),
+                    "percentile": float(h["percentile"]), "mass_kg": c.mass,
+                    "fault": ", ".join(faults), "walked": not faults,
+                    **{f"tracking_rms_deg_{j}": float(err[i]) for i, j in enumerate(JOINTS)},
+                    **{f"winding_max_C_{j}": float(np.max(r.winding_temp[:, i]))
+                       for i, j in enumerate(JOINTS)}})
+    return out
+
+
+def run_design(design: Design, out: Path) -> dict[str, Any]:
+    """Screen, choose, write the device folder and verify; returns what was found (the
+    CLI writes it)."""
+    from exoleg.device.actuator import actuator_text
+
+    children = design.children()
+    masses = np.array([c.mass for c in children])
+    rows = [r for j in range(3) for r in screen_joint(design, j, masses)]
+    # one bus for the device (its drives share it): the bus whose best candidates serve
+    # the most children at the joint that serves fewest, then the lower voltage
+    best: dict[float, dict[str, dict[str, Any]]] = {}
+    for bus in design.buses:
+        for j in JOINTS:
+            at = [r for r in rows if r["joint"] == j and r["bus_V"] == bus]
+            best.setdefault(bus, {})[j] = max(at, key=lambda r: (
+                r["served"], -r["residual_worst_Nm_per_kg"], r["thermal_margin_K"]))
+    bus = max(design.buses, key=lambda b: (min(r["served"] for r in best[b].values()), -b))
+    chosen = best[bus]
+    for r in rows:
+        r["chosen"] = any(r is c for c in chosen.values())
+    units = {}
+    for j in JOINTS:
+        m, g = chosen[j]["_parts"]
+        units[j] = candidate(j, m, g, chosen[j]["bus_V"])
+    return {"rows": rows, "chosen": chosen, "units": units, "children": len(children),
+            "text": {j: actuator_text(a, f"exoleg design ({design.source}): the {j}'s unit "
+                                         "chosen for the population") for j, a in units.items()}}
