@@ -130,8 +130,8 @@ def test_the_ladder_support_then_a_controlled_stop_then_torque_off() -> None:
         out = tick(n, 0.0)
         n += 1
     assert n < 20
-    for k in range(n, 400):
-        out = tick(k, 0.99 * limit)  # within: nothing
+    for m in range(n, 400):
+        out = tick(m, 0.99 * limit)  # within: nothing
         assert not out["safety_status"] & (Limited.CUFF | Limited.CUFF_STOP)
     first = 400 - 1 + crossing(0.99 * limit, 1.2 * limit, limit)
     levels = []
