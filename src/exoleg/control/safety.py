@@ -201,7 +201,11 @@ class SafetyLimits:
         object.__setattr__(self, "actuators", acts)
         for name, lo_, hi_, unit in (("ambient", -20.0, 60.0, "degC"),
                                      ("derate_band", 1.0, 60.0, "K"),
-                                     ("accel_filter_hz", 1.0, 0.5 / dt, "Hz")):
+                                     ("accel_filter_hz", 1.0, 0.5 / dt, "Hz"),
+                                     ("cuff_ramp", dt, 60.0, "s"),
+                                     ("cuff_stop", dt, 60.0, "s"),
+                                     ("cuff_off", 1.0, 10.0, "x the limit"),
+                                     ("cuff_bandwidth", 1.0, 0.5 / dt, "Hz")):
             x = _check.finite(w, name, getattr(self, name))
             if not lo_ <= x <= hi_:
                 raise ParameterError(w, name, f"{x:g} {unit} is outside {lo_:g}-{hi_:g} {unit}")
@@ -218,14 +222,6 @@ class SafetyLimits:
             raise ParameterError(w, "cuff_limit", f"{cl.tolist()} N m/kg: must be > 0 per "
                                  "joint (infinite: not watched)")
         object.__setattr__(self, "cuff_limit", np.where(cl >= 1e300, np.inf, cl))
-        for name, lo_, hi_, unit in (("cuff_ramp", dt, 60.0, "s"),
-                                     ("cuff_stop", dt, 60.0, "s"),
-                                     ("cuff_off", 1.0, 10.0, "x the limit"),
-                                     ("cuff_bandwidth", 1.0, 0.5 / dt, "Hz")):
-            x = _check.finite(w, name, getattr(self, name))
-            if not lo_ <= x <= hi_:
-                raise ParameterError(w, name, f"{x:g} {unit} is outside {lo_:g}-{hi_:g}")
-            object.__setattr__(self, name, x)
         if not isinstance(self.gear_fault, bool | np.bool_):
             raise ParameterError(w, "gear_fault", f"expected True or False, got "
                                  f"{self.gear_fault!r}")
