@@ -322,7 +322,8 @@ def test_no_command_writes_over_a_file_it_did_not_write(tmp_path: Path,
     mine.mkdir()
     (mine / "fit.json").write_text("my notes")
     assert main(["fit", *child, "--no-simulate", "--out", str(mine)]) == 2
-    assert "fit.json is there already (not written by exoleg)" in capsys.readouterr().err
+    assert "fit.json is there already (not recorded as exoleg's: yours, or an older " \
+           "exoleg's)" in capsys.readouterr().err
     assert (mine / "fit.json").read_text() == "my notes"
     # the same command again: its own files replaced; an assessment's figure of another
     # test, no longer described by the new summary, removed

@@ -213,7 +213,8 @@ def refuse_overwrite(folder: str | Path, owner: str, names: Any) -> None:
     record = _outputs(folder)
     for n in names:
         if (folder / n).exists() and record.get(n) != owner:
-            by = f"written by {record[n]}" if n in record else "not written by exoleg"
+            by = (f"written by {record[n]}" if n in record
+                  else "not recorded as exoleg's: yours, or an older exoleg's")
             raise ParameterError(str(folder), "(output)", f"{n} is there already ({by}): "
                                  f"{owner} does not write over it -- name another folder "
                                  "with --out")
