@@ -31,7 +31,7 @@ import logging
 import os
 import signal
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -39,7 +39,7 @@ from urllib.parse import quote
 
 from exoleg.errors import ParameterError
 from exoleg.study.runs import empty_row, run_task
-from exoleg.study.spec import Study, check_room, count_runs
+from exoleg.study.spec import Runs, Study, check_room, count_runs
 
 #: Tasks kept in flight per worker (the rest wait on this side: a study of a million
 #: runs does not put a million futures on the scheduler).
@@ -64,11 +64,28 @@ def task_count(study: Study) -> int:
     return -(-count_runs(study) // study.runs_per_task)
 
 
-def tasks_of(study: Study) -> list[list[tuple[int, dict[str, Any]]]]:
-    """The study's runs (run id, values) in tasks of ``runs_per_task``, in order."""
-    runs = list(enumerate(study.runs()))
-    k = study.runs_per_task
-    return [runs[i:i + k] for i in range(0, len(runs), k)]
+class Tasks(Sequence[list[tuple[int, dict[str, Any]]]]):
+    """The study's runs (run id, values) in tasks of ``runs_per_task``, in order, each
+    task's runs built when the task is asked for (:class:`~exoleg.study.spec.Runs`): the
+    first task of a study of millions of runs starts at once."""
+
+    def __init__(self, study: Study) -> None:
+        self.runs = Runs(study)
+        self.k = study.runs_per_task
+
+    def __len__(self) -> int:
+        return -(-len(self.runs) // self.k)
+
+    def __getitem__(self, t: int) -> list[tuple[int, dict[str, Any]]]:  # type: ignore[override]
+        if not 0 <= t < len(self):
+            raise IndexError(t)
+        return [(i, self.runs[i]) for i in range(t * self.k,
+                                                 min(len(self.runs), (t + 1) * self.k))]
+
+
+def tasks_of(study: Study) -> Tasks:
+    """The study's runs in tasks (:class:`Tasks`)."""
+    return Tasks(study)
 
 
 def _marker(out: Path, task: int) -> Path:
@@ -303,7 +320,7 @@ def execute(study: Study, out: str | Path, scheduler: str | None = None, *,
                    runs=count_runs(study), failed_runs=failed, dashboard=link)
 
 
-def _compute(client: Any, study: Study, folder: Path, tasks: list[Any], todo: list[int],
+def _compute(client: Any, study: Study, folder: Path, tasks: Tasks, todo: list[int],
              done: int, on_progress: Callable[[int, int], None] | None) -> int:
     from distributed import as_completed
 

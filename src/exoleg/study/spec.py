@@ -26,7 +26,6 @@ place in the expanded study, the same on every machine.
 
 from __future__ import annotations
 
-import itertools
 import math
 import os
 import shutil
@@ -394,27 +393,49 @@ def _defaults(study: Study) -> dict[str, Any]:
     return out
 
 
+class Runs(Sequence[dict[str, Any]]):
+    """A study's runs by index, each built when asked (its id is the index): the
+    defaults, then the study's axes -- a grid in the file's order, the last axis fastest
+    (decoded from the index: a study of millions of runs holds none of them); a list; or
+    the sample drawn from the study's seed -- for each profile in turn."""
+
+    def __init__(self, study: Study) -> None:
+        self.study = study
+        self.base = _defaults(study)
+        self.profiles: Sequence[dict[str, Any] | None] = study.profiles or (None,)
+        self.names = list(study.axes)
+        self.combos: list[dict[str, Any]] | None = None
+        if study.sampling == "list":
+            self.combos = [dict(r) for r in study.listed]
+        elif study.sampling != "grid":
+            self.combos = _sample(study)
+        self.n = len(self.combos) if self.combos is not None else int(np.prod(
+            [len(study.axes[k]) for k in self.names], dtype=np.int64))
+
+    def __len__(self) -> int:
+        return len(self.profiles) * self.n
+
+    def _grid(self, c: int) -> dict[str, Any]:
+        picked: dict[str, Any] = {}
+        for name in reversed(self.names):
+            c, r = divmod(c, len(self.study.axes[name]))
+            picked[name] = self.study.axes[name][r]
+        return {k: picked[k] for k in self.names}
+
+    def __getitem__(self, i: int) -> dict[str, Any]:  # type: ignore[override]
+        if not 0 <= i < len(self):
+            raise IndexError(i)
+        p, c = divmod(i, self.n)
+        combo = self.combos[c] if self.combos is not None else self._grid(c)
+        run = {**self.base, **combo}
+        if self.profiles[p] is not None:
+            run["profile"] = self.profiles[p]
+        return run
+
+
 def expand(study: Study) -> list[dict[str, Any]]:
-    """Every run's values: the defaults, then the study's axes (a grid in the file's
-    order, the last axis fastest; or the sample drawn from the study's seed)."""
-    base = _defaults(study)
-    profiles: Sequence[dict[str, Any] | None] = study.profiles or (None,)
-    if study.sampling == "list":
-        combos = [dict(r) for r in study.listed]
-    elif study.sampling == "grid":
-        names = list(study.axes)
-        combos = [dict(zip(names, vals, strict=True))
-                  for vals in itertools.product(*(study.axes[n] for n in names))]
-    else:
-        combos = _sample(study)
-    runs = []
-    for prof in profiles:
-        for c in combos:
-            run = {**base, **c}
-            if prof is not None:
-                run["profile"] = prof
-            runs.append(run)
-    return runs
+    """Every run's values, in the study's order (:class:`Runs`, all of them)."""
+    return list(Runs(study))
 
 
 def _sample(study: Study) -> list[dict[str, Any]]:
