@@ -21,11 +21,12 @@ def cmd_design(args: argparse.Namespace) -> int:
     out = Path(args.out)
     actuators = out / "device" / "actuators"
     files = ("hip.toml", "knee.toml", "ankle.toml")
+    # before the screen and the walks: none of the user's files is written over
     refuse_overwrite(out, "exoleg design", ("screen.csv", "verify.csv", "design.json"))
     refuse_overwrite(actuators, "exoleg design", files)
-    found = run_design(design, out)
+    found = run_design(design)
     rows = found["rows"]
-    with OutputFolder(actuators, owner="exoleg design", will_write=files) as dev:
+    with OutputFolder(actuators, owner="exoleg design") as dev:
         for j, text in found["text"].items():
             dev.stage(f"{j}.toml").write_text(text)
         dev.commit()

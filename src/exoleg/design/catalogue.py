@@ -28,6 +28,8 @@ MOTOR = tuple(_NAMES[:_NAMES.index("ratio")])
 GEAR = tuple(_NAMES[_NAMES.index("ratio"):_NAMES.index("continuous_current")])
 #: A motor's figures that must come from a sheet for it to be in the catalogue.
 DEFINING = ("torque_constant", "rotor_inertia", "nominal_current", "terminal_resistance")
+#: The drive's current limit, x the motor's nominal current, as maxon configures it (S3).
+CURRENT_LIMIT = 2.0
 #: The bus voltages the drive (maxon EPOS4 50/15) takes, V: its supply range.
 BUS_RANGE = (10.0, 50.0)
 
@@ -75,7 +77,7 @@ def candidate(joint: str, motor: Part, gear: Part, bus_voltage: float) -> Actuat
     base = {a.joint: a for a in paper_actuators()}[joint]
     figures: dict[str, Any] = {**motor.figures, **gear.figures}
     figures["pole_pairs"] = int(round(figures["pole_pairs"]))
-    peak = 2.0 * motor.figures["nominal_current"]
+    peak = CURRENT_LIMIT * motor.figures["nominal_current"]
     sources = {**base.sources, **motor.sources, **gear.sources,
                "peak_current": "S3 (maxon's own configuration sets 2 x I_N)",
                "bus_voltage": "exoleg design: the bus chosen (the EPOS4 50/15: 10-50 V)"}

@@ -139,11 +139,12 @@ def screen(motor: dict[str, ArrayLike], ratio: ArrayLike, efficiency: ArrayLike,
                                 np.shape(motor["kt"]), np.shape(bus_voltage),
                                 np.shape(peak_current))
     c = (slice(None),) * len(shape) + (None,)  # a candidate axis's value per child
-    Jc, Nc = np.broadcast_to(J, shape)[c], np.broadcast_to(N, shape)[c]
-    eta = np.broadcast_to(np.asarray(efficiency, dtype=float), shape)[c]
-    kt = np.broadcast_to(np.asarray(motor["kt"], dtype=float), shape)[c]
-    r25 = np.broadcast_to(np.asarray(motor["r25"], dtype=float), shape)[c]
-    Jc, Nc = np.broadcast_to(Jc, (*shape, 1)), np.broadcast_to(Nc, (*shape, 1))
+
+    def per(x: Any) -> F64:
+        """``x`` on the candidates' axes, with one for the children."""
+        return np.broadcast_to(np.asarray(x, dtype=float), shape)[c]
+
+    Jc, Nc, eta, kt, r25 = per(J), per(N), per(efficiency), per(motor["kt"]), per(motor["r25"])
     tau_m = motor_torque(Jc, Nc, alpha, tau, qdd, eta)      # (*shape, C, S)
     i = tau_m / kt[..., None]
     i_rms = rms(i)
@@ -152,19 +153,15 @@ def screen(motor: dict[str, ArrayLike], ratio: ArrayLike, efficiency: ArrayLike,
     out = {
         "current_rms": i_rms,
         "current_peak": np.max(np.abs(i), axis=-1),
-        "winding": winding_temperature(i_rms, r25, np.broadcast_to(
-            np.asarray(motor["r_th"], dtype=float), shape)[c], ambient),
+        "winding": winding_temperature(i_rms, r25, per(motor["r_th"]), ambient),
         "voltage_peak": np.max(np.abs(volts), axis=-1),
         "motor_speed_peak": np.broadcast_to(Nc * np.max(np.abs(qd)), i_rms.shape),
         "gear_torque_peak": np.broadcast_to(alpha * np.max(np.abs(tau), axis=-1),
                                             i_rms.shape),
         "residual_per_kg": np.broadcast_to(residual(Jc, Nc, qdd), i_rms.shape) / m,
     }
-    limit_speed = np.broadcast_to(np.asarray(motor["max_speed"], dtype=float), shape)[c]
-    limit_temp = np.broadcast_to(np.asarray(motor["max_winding_temperature"], dtype=float),
-                                 shape)[c]
-    bus = np.broadcast_to(np.asarray(bus_voltage, dtype=float), shape)[c]
-    drive = np.broadcast_to(np.asarray(peak_current, dtype=float), shape)[c]
+    limit_speed, limit_temp = per(motor["max_speed"]), per(motor["max_winding_temperature"])
+    bus, drive = per(bus_voltage), per(peak_current)
     out["fits"] = ((out["current_peak"] <= drive) & (out["voltage_peak"] <= bus)
                    & (out["motor_speed_peak"] <= limit_speed)
                    & (out["winding"] <= limit_temp))

@@ -30,7 +30,7 @@ import numpy as np
 
 from exoleg import checks as _check
 from exoleg.design import screen as sc
-from exoleg.design.catalogue import BUS_RANGE, candidate, catalogue
+from exoleg.design.catalogue import BUS_RANGE, CURRENT_LIMIT, candidate, catalogue
 from exoleg.errors import ParameterError
 from exoleg.params.records import JOINTS
 
@@ -140,7 +140,7 @@ def screen_joint(design: Design, joint: int, masses: np.ndarray) -> list[dict[st
                        "max_winding_temperature": f["max_winding_temperature"]},
                       g.figures["ratio"], g.figures["efficiency"],
                       g.figures["gear_input_inertia"], tau, qd, qdd, design.alpha[joint],
-                      masses, bus, 2.0 * f["nominal_current"], design.ambient)
+                      masses, bus, CURRENT_LIMIT * f["nominal_current"], design.ambient)
         transparent = r["residual_per_kg"] <= design.goal
         serves = r["fits"] & (r["gear_torque_peak"] <= g.figures["repeated_peak_torque"])
         rows.append({"joint": JOINTS[joint], "motor": m.name, "gear": g.name,
@@ -160,16 +160,18 @@ def screen_joint(design: Design, joint: int, masses: np.ndarray) -> list[dict[st
     return rows
 
 
-def _pareto(rows: list[dict[str, Any]]) -> None:
-    """Mark each row on the Pareto front of (served up, worst residual down, thermal
-    margin up)."""
-    def key(r: dict[str, Any]) -> tuple[float, float, float]:
-        return (r["served"], -r["residual_worst_Nm_per_kg"], r["thermal_margin_K"])
+def _rank(r: dict[str, Any]) -> tuple[float, float, float]:
+    """A candidate's merit, larger better: children served, then the least worst
+    residual, then the largest thermal margin."""
+    return (r["served"], -r["residual_worst_Nm_per_kg"], r["thermal_margin_K"])
 
+
+def _pareto(rows: list[dict[str, Any]]) -> None:
+    """Mark each row on the Pareto front of :func:`_rank`'s three figures."""
     for r in rows:
-        k = key(r)
-        r["pareto"] = not any(all(a >= b for a, b in zip(key(o), k, strict=True))
-                              and key(o) != k for o in rows)
+        k = _rank(r)
+        r["pareto"] = not any(all(a >= b for a, b in zip(_rank(o), k, strict=True))
+                              and _rank(o) != k for o in rows)
 
 
 def verify(design: Design, device: Path | None) -> list[dict[str, Any]]:
@@ -199,9 +201,9 @@ def verify(design: Design, device: Path | None) -> list[dict[str, Any]]:
     return out
 
 
-def run_design(design: Design, out: Path) -> dict[str, Any]:
-    """Screen, choose, write the device folder and verify; returns what was found (the
-    CLI writes it)."""
+def run_design(design: Design) -> dict[str, Any]:
+    """Screen and choose: the rows, the chosen unit per joint and its actuator file's
+    text (the CLI writes them, and verifies the choice)."""
     from exoleg.device.actuator import actuator_text
 
     children = design.children()
@@ -213,8 +215,7 @@ def run_design(design: Design, out: Path) -> dict[str, Any]:
     for bus in design.buses:
         for j in JOINTS:
             at = [r for r in rows if r["joint"] == j and r["bus_V"] == bus]
-            best.setdefault(bus, {})[j] = max(at, key=lambda r: (
-                r["served"], -r["residual_worst_Nm_per_kg"], r["thermal_margin_K"]))
+            best.setdefault(bus, {})[j] = max(at, key=_rank)
     bus = max(design.buses, key=lambda b: (min(r["served"] for r in best[b].values()), -b))
     chosen = best[bus]
     for r in rows:
