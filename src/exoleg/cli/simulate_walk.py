@@ -74,9 +74,7 @@ def _simulate_walk(args: argparse.Namespace) -> int:
             notes.append(f"the {e['text']}: from t = {e['first_s']:.3f} s, {e['ticks']} "
                          "ticks")
     inter = interaction_summary(r)
-    from exoleg.control.safety import SafetyLimits
-
-    per_kg = SafetyLimits.paper(folder=args.device).cuff_limit
+    per_kg = r.cuff_limit
     walking = r.t >= r.walk_start
     cuffs = [{"joint": j, "peak_Nm": float(np.nanmax(np.abs(r.cuff[walking, i]), initial=0.0)),
               "peak_Nm_per_kg": float(np.nanmax(np.abs(r.cuff[walking, i]), initial=0.0)

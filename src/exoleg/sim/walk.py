@@ -237,6 +237,8 @@ class WalkResult(TimeSeries):
     #: when the foot board's readings were found frozen (s; the torque off from then,
     #: as the runtime's watch does), -1 for never
     board_frozen: float = -1.0
+    #: the cuffs' torque limit the safety layer held them to, N m per kg of the child
+    cuff_limit: F64 = field(default_factory=lambda: np.full(3, np.inf), repr=False)
 
     @property
     def motor_speed(self) -> F64:
@@ -387,7 +389,8 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                       wall=PA[:, len(PARTS)], assist_gain=PA[:, len(PARTS) + 1],
                       child_share=SH, plant=plant, actuators=dev.actuators, walk_start=standing,
                       stride_time=stride_time, body_mass=body_mass,
-                      board_frozen=froze * control_dt if froze >= 0 else -1.0)
+                      board_frozen=froze * control_dt if froze >= 0 else -1.0,
+                      cuff_limit=cfg.safety.cuff_limit)
 
 
 
