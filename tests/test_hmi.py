@@ -175,6 +175,19 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
     assert text(d, "phase") in ("swing", "loading", "foot flat", "push-off")
     # the simulated foot board sends its FSRs and IMU: the detector says it rests on both
     assert text(d, "gait-source") == "the FSRs and the foot's IMU"
+    # the cuffs' torque per kg against the limit the safety layer enforces: the shipped
+    # safety.toml [cuffs] (Schwartz et al. 2008, very fast walkers' peak moment + 2 SD)
+    rows = d.execute_script(  # at once: the table is drawn anew at every frame
+        "return [...document.querySelectorAll('#cuffs tr')].slice(1).map("
+        "(r) => [...r.cells].map((c) => c.textContent))")
+    assert rows[1] == ["limit (N m/kg)", "2.5", "1.3", "1.9"]
+    cuff, mass = d.execute_script("return [S.state.cuff, S.state.body_mass]")
+    assert mass == pytest.approx(25.0)  # Ada, as the Child page fitted her
+    now = [float(x) for x in rows[0][1:]]
+    assert all(0.0 <= x < 2.5 * 3 for x in now)  # read, not torque off (3 x the limit)
+    assert len(rows[2]) == 4 and all(x.endswith("%") for x in rows[2][1:])
+    assert "torque off" in text(d, "cuff-rule")
+    assert cuff is not None and len(cuff) == 3
     shot(d, "live")
 
     # Gains: outside the bounds refused with the reason, inside accepted

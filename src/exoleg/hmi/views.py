@@ -22,6 +22,7 @@ def device_info(leg: Any, folder: str | None = None) -> dict[str, Any]:
     as :func:`exoleg.kinematics.forward_kinematics`), the range of motion, the FSR
     positions, each actuator's torque limits and torque-speed envelope (SI units) -- of
     the device folder ``folder``'s actuators (None: the shipped ones)."""
+    from exoleg.control.safety import SafetyLimits
     from exoleg.device.actuator import envelope, paper_actuators
     from exoleg.device.sensors import SENSOR_X
     from exoleg.dynamics._generated import OFFSETS
@@ -30,15 +31,17 @@ def device_info(leg: Any, folder: str | None = None) -> dict[str, Any]:
 
     acts = paper_actuators(folder)
     rom = paper.range_of_motion()
-    # the child's own peak joint moments in walking, typically developing (the paper's
-    # section 2.2): what the cuffs' torque per kg is read against on the Live page
-    walking_peak = paper.sizing()["demand_per_kg"]["torque"]
+    # the cuffs' limit the safety layer enforces (the device's safety.toml [cuffs]), N m
+    # per kg of the child; None where a joint is not watched
+    safety = SafetyLimits.paper(folder=folder, actuators=tuple(acts))
+    cuff_limit = [float(x) if np.isfinite(x) else None for x in safety.cuff_limit]
     out: dict[str, Any] = {
         "leg": leg.name, "lengths": [float(x) for x in leg.lengths], "offsets": list(OFFSETS),
         "rom_lower": rom.lower.tolist(), "rom_upper": rom.upper.tolist(),
         "sensors": list(SENSOR_POINTS),
         "sensor_x": [float(x) * float(leg.lengths[2]) for x in SENSOR_X], "actuators": [],
-        "cuff_reference_Nm_per_kg": [float(x) for x in walking_peak],
+        "cuff_limit_Nm_per_kg": cuff_limit, "cuff_off_at": float(safety.cuff_off),
+        "cuff_stop_after_s": float(safety.cuff_stop),
         "device_folder": folder}
     for a in acts:
         par = a.record()

@@ -96,7 +96,10 @@ function estopUnreachable(why, since) {
 }
 
 async function estop(ev) {
-  const clicked = performance.timeOrigin + (ev && ev.timeStamp ? ev.timeStamp : performance.now());
+  // the press on the system's wall clock (the one the server reads): now, less the time
+  // since the event on the page's monotonic clock (performance.timeOrigin + timeStamp
+  // drifts from the wall clock by tens of ms over minutes)
+  const clicked = Date.now() - (ev && ev.timeStamp ? performance.now() - ev.timeStamp : 0);
   window.lastEstopClick = clicked;
   if (closeQuestion) closeQuestion();  // a question asked before the E-stop no longer stands
   const id = ++S.estopPending, since = performance.now();
@@ -353,20 +356,27 @@ function clearLive() {
   for (const id of ["leg", "angles", "torques", "fsr"]) { const c = $(id); c.getContext("2d").clearRect(0, 0, c.width, c.height); }
   for (const id of ["t-session", "t-remaining", "steps", "support", "phase", "gait-source", "safety", "windings",
     "interaction", "support-level", "t", "late", "late-max", "missed"]) $(id).textContent = "-";
-  for (const id of ["fault-live", "torque-table", "cuffs", "events"]) $(id).innerHTML = "";
+  for (const id of ["fault-live", "torque-table", "cuffs", "cuff-rule", "events"]) $(id).innerHTML = "";
 }
 
 const clock = (x) => `${Math.floor(x / 60)}:${String(Math.floor(x % 60)).padStart(2, "0")}`;
 
-// the cuffs' torque per kg of the child's body mass, against the child's own peak joint
-// moment in walking (the paper's section 2.2, from /api/info)
+// the cuffs' torque per kg of the child's body mass as the safety layer judges it (the
+// reading through the cuffs' low-pass), against the limit it enforces (the device's
+// safety.toml [cuffs], from /api/info): beyond it the support falls, beyond it for
+// longer a controlled stop, beyond cuff_off_at x it torque off
 function drawCuffs(s) {
-  const ref = S.info.device.cuff_reference_Nm_per_kg, m = s.body_mass;
+  const D = S.info.device, lim = D.cuff_limit_Nm_per_kg, m = s.body_mass;
   if (s.interaction.every((v) => v === null) || !m) { $("cuffs").innerHTML = ""; return false; }
-  const per = s.interaction.map((v) => v === null ? null : Math.abs(v) / m);
+  const per = s.cuff.map((v) => v === null ? null : Math.abs(v) / m);
+  const over = per.map((v, i) => v !== null && lim[i] !== null && v > lim[i]);
+  const cell = (v, i) => `<td class="${over[i] ? "over" : ""}">${v === null ? "-" : v.toFixed(2)}</td>`;
   $("cuffs").innerHTML = "<tr><th></th>" + JOINTS.map((j) => `<th>${j}</th>`).join("") + "</tr>" +
-    "<tr><td>N m/kg now</td>" + per.map((v, i) => `<td class="${v !== null && v > ref[i] ? "over" : ""}">${v === null ? "-" : v.toFixed(2)}</td>`).join("") + "</tr>" +
-    "<tr><td>the child's own walking peak (N m/kg)</td>" + ref.map((v) => `<td>${v.toFixed(1)}</td>`).join("") + "</tr>";
+    "<tr><td>N m/kg now</td>" + per.map(cell).join("") + "</tr>" +
+    "<tr><td>limit (N m/kg)</td>" + lim.map((v) => `<td>${v === null ? "not watched" : v.toFixed(1)}</td>`).join("") + "</tr>" +
+    "<tr><td>share of the limit</td>" + per.map((v, i) => `<td class="${over[i] ? "over" : ""}">${v === null || lim[i] === null ? "-" : (100 * v / lim[i]).toFixed(0) + " %"}</td>`).join("") + "</tr>";
+  $("cuff-rule").textContent = `beyond the limit the support falls; beyond it for ${D.cuff_stop_after_s} s a ` +
+    `controlled stop; beyond ${D.cuff_off_at} x the limit torque off`;
   return true;
 }
 
