@@ -162,13 +162,16 @@ def add_parser(sub: Any) -> None:
                    help="canopen/ethercat: how long the master waits for every node's answer "
                         "before it is a fault, ms (default 5; 20 on simulated nodes, threads "
                         "of this computer)")
-    r.add_argument("--controller", choices=CONTROLLERS, default="walk",
+    r.add_argument("--controller", default="walk", metavar="{" + ",".join(CONTROLLERS)
+                   + "} or FILE.py:NAME",
                    help="walk: the walking hierarchy (default), in its impedance mode; "
                         "impedance, transparent: the same starting in that support mode "
                         "(the operator may switch); pd-gravity, pd, "
                         "computed-torque: the paper's law following its scenario (stance "
                         "and swing postures every 3 s from the walk command; held at rest "
-                        "while standing)")
+                        "while standing); FILE.py:NAME or MODULE:NAME: a law of your own "
+                        "on the same scenario, behind the same supervisor and safety layer "
+                        "(docs/extending/controller.md)")
     r.add_argument("--duration", type=_within(0.01, 86400.0, " s"), required=True, help="s")
     r.add_argument("--rate", type=_within(10.0, 10000.0, " Hz"), default=1000.0,
                    help="control rate, Hz (default 1000)")

@@ -14,10 +14,11 @@ command makes the reference jump.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numba import njit
+from numpy.typing import ArrayLike, NDArray
 
 from exoleg import checks as _check
 from exoleg.control import safety as sf
@@ -33,15 +34,12 @@ from exoleg.tick import OUTPUT, SENSORS, Mode, TickRecords
 
 
 @njit(cache=True)
-def track_step(kind, kp, kd, kc, scale, limit, lim, sst, sup, sens, refused, qr, dqr, ddqr,  # type: ignore[no-untyped-def]
-               out):
-    """The law at the reference ``qr``, ``dqr``, ``ddqr`` (3,) on the readings ``sens``
-    (:data:`~exoleg.control.contract.SENSORS`), then the safety layer; the supervisor
-    (already told this tick's command, ``refused`` what it refused) settles on a fault.
-    Writes ``out`` (:data:`~exoleg.control.contract.OUTPUT`)."""
+def guard_step(lim, sst, sup, sens, refused, u, qr, out):  # type: ignore[no-untyped-def]
+    """What every law's torque ``u`` (3,) N m goes through: the safety layer on the
+    readings ``sens`` (:data:`~exoleg.tick.SENSORS`), the supervisor (already told this
+    tick's command, ``refused`` what it refused) settling on a fault, its report, and the
+    reference ``qr`` (3,) followed. Writes ``out`` (:data:`~exoleg.tick.OUTPUT`)."""
     s = sens[0]
-    u = np.empty(3)
-    control_law(kind, kp, kd, kc, scale, limit, s.q, s.dq, qr, dqr, ddqr, u)
     o = out[0]
     status = safety_step(lim, sst, s.q, s.dq, u, False, o.tau)
     settle(sup, sst)
@@ -55,22 +53,87 @@ def track_step(kind, kp, kd, kc, scale, limit, lim, sst, sup, sens, refused, qr,
         o.support_level[j] = 1.0  # the law carries the leg along its reference
 
 
+@njit(cache=True)
+def track_step(kind, kp, kd, kc, scale, limit, lim, sst, sup, sens, refused, qr, dqr, ddqr,  # type: ignore[no-untyped-def]
+               out):
+    """A compiled law (``kind``, :func:`~exoleg.control.laws.control_law`) at the
+    reference ``qr``, ``dqr``, ``ddqr`` (3,) on the readings ``sens``, then
+    :func:`guard_step`."""
+    s = sens[0]
+    u = np.empty(3)
+    control_law(kind, kp, kd, kc, scale, limit, s.q, s.dq, qr, dqr, ddqr, u)
+    guard_step(lim, sst, sup, sens, refused, u, qr, out)
+
+
 #: The ticks as Python calls them (numba's dispatcher has no signature for a type checker).
 _supervise: Callable[..., int] = supervise
 _track: Callable[..., None] = track_step
+_guard: Callable[..., None] = guard_step
+
+
+class Law(Protocol):
+    """A control law of your own (``docs/extending/controller.md``): the torque (3,) N m
+    for the joints' state and the reference, each (3,) -- angles rad, rates rad/s,
+    accelerations rad/s^2, ordered hip, knee, ankle. It may also offer the
+    ``gains_now`` and ``set_gains`` of :class:`~exoleg.tick.Controller`."""
+
+    def torque(self, q: NDArray[np.float64], dq: NDArray[np.float64],
+               q_ref: NDArray[np.float64], dq_ref: NDArray[np.float64],
+               ddq_ref: NDArray[np.float64]) -> ArrayLike: ...
+
+
+def law_factory(spec: str) -> Callable[[Any], Law]:
+    """The factory named by ``spec``: ``FILE.py:NAME`` (a Python file, relative to the
+    current folder or absolute) or ``MODULE:NAME`` (an importable module), whose NAME is
+    called with the leg model the law may use (the child + device leg with the actuators'
+    reflected inertia) and returns a :class:`Law`. A ParameterError names what was
+    missing or wrong."""
+    import importlib
+    import importlib.util
+    from pathlib import Path
+
+    w, what = "controller", "--controller"
+    where, _, name = str(spec).rpartition(":")
+    if not where or not name.isidentifier():
+        raise ParameterError(w, what, f"{spec!r}: expected FILE.py:NAME or MODULE:NAME "
+                             "(a law of your own) or one of the controllers' names")
+    if where.endswith(".py"):
+        path = Path(where).expanduser().resolve()
+        if not path.is_file():
+            raise ParameterError(w, what, f"{spec!r}: no file {path}")
+        mod_spec = importlib.util.spec_from_file_location(f"exoleg_law_{path.stem}", path)
+        assert mod_spec is not None and mod_spec.loader is not None
+        module = importlib.util.module_from_spec(mod_spec)
+        try:
+            mod_spec.loader.exec_module(module)
+        except Exception as e:  # the user's file: say what failed in it, in one line
+            raise ParameterError(w, what, f"{spec!r}: {path.name} failed to load: "
+                                 f"{type(e).__name__}: {e}") from None
+    else:
+        try:
+            module = importlib.import_module(where)
+        except ImportError as e:
+            raise ParameterError(w, what, f"{spec!r}: cannot import {where!r} ({e})") from None
+    factory = getattr(module, name, None)
+    if not callable(factory):
+        raise ParameterError(w, what, f"{spec!r}: {where} has no callable {name!r}")
+    return factory
 
 
 class TrackingController:
-    """``law`` (a :class:`~exoleg.control.controllers.Controller` record: PDGravity, PD,
-    ComputedTorque) following ``reference`` on the device, with the supervisor and the
-    safety layer (``safety``, default :meth:`SafetyLimits.paper`)."""
+    """``law`` following ``reference`` on the device, with the supervisor and the safety
+    layer (``safety``, default :meth:`SafetyLimits.paper`): one of the paper's (a
+    :class:`~exoleg.control.controllers.Controller` record: PDGravity, PD, ComputedTorque;
+    compiled) or a :class:`Law` of your own (its ``torque`` called from Python each tick,
+    then the same compiled supervisor and safety layer)."""
 
-    def __init__(self, law: LawRecord, reference: Reference,
+    def __init__(self, law: LawRecord | Law, reference: Reference,
                  safety: SafetyLimits | None = None) -> None:
         w = "TrackingController"
-        if not isinstance(law, LawRecord):
+        if not isinstance(law, LawRecord) and not callable(getattr(law, "torque", None)):
             raise ParameterError(w, "law", "expected a controller record (PDGravity, PD, "
-                                 f"ComputedTorque), got {type(law).__name__}")
+                                 "ComputedTorque) or a law with torque(q, dq, q_ref, dq_ref, "
+                                 f"ddq_ref), got {type(law).__name__}")
         if not callable(getattr(reference, "sample", None)):
             raise ParameterError(w, "reference", "expected a reference with sample(t) "
                                  f"(Steps, MinJerk, SchwartzGait2008), got "
@@ -86,18 +149,35 @@ class TrackingController:
         self.clock = 0.0       # the reference's own time, s: runs only while walking
         self._since = 0.0      # the session time the reference's clock last started from
         self._held: tuple[float, Any, Any, Any] | None = None  # the reference at rest
-        # the law's gains, model coefficients and limits as arrays: a tuple of floats
-        # costs numba microseconds to type at every call from Python
-        kp, kd, kc, scale, limit = law.law_args()
-        self._args = (int(law.kind), np.array(kp), np.array(kd), np.array(kc), float(scale),
-                      np.array(limit))
+        self._own = None if isinstance(law, LawRecord) else law
+        if isinstance(law, LawRecord):
+            # the law's gains, model coefficients and limits as arrays: a tuple of floats
+            # costs numba microseconds to type at every call from Python
+            kp, kd, kc, scale, limit = law.law_args()
+            self._args = (int(law.kind), np.array(kp), np.array(kd), np.array(kc),
+                          float(scale), np.array(limit))
 
     def warm_up(self) -> None:
         """Compile (or load from numba's cache) on copies of the state."""
         sst, sup, z = self.sst.copy(), self.sup.copy(), np.zeros(3)
         refused = _supervise(sup, self.lim, sst, 0, z, z)
-        _track(*self._args, self.lim, sst, sup, new(SENSORS), refused, z, z, z, new(OUTPUT))
+        if self._own is None:
+            _track(*self._args, self.lim, sst, sup, new(SENSORS), refused, z, z, z,
+                   new(OUTPUT))
+        else:  # a law of one's own fails here, before the clock starts, if it must
+            _guard(self.lim, sst, sup, new(SENSORS), refused,
+                   self._torque(z, z, z, z, z), z, new(OUTPUT))
         self.reference.sample(np.zeros(1))
+
+    def _torque(self, *state: NDArray[np.float64]) -> NDArray[np.float64]:
+        """A law of one's own's torque: 3 numbers (NaN or infinite ones the safety layer
+        takes the torque off for), else a ParameterError (a controller error)."""
+        assert self._own is not None
+        u = np.asarray(self._own.torque(*(x.copy() for x in state)), dtype=float)
+        if u.shape != (3,):
+            raise ParameterError(type(self._own).__name__, "torque",
+                                 f"expected 3 torques (hip, knee, ankle), got shape {u.shape}")
+        return u
 
     def update(self, sensors: Mapping[str, Any], command: int, t: float) -> dict[str, Any]:
         """One tick (the :class:`~exoleg.control.contract.Controller` contract)."""
@@ -120,18 +200,32 @@ class TrackingController:
                 self._held = (self.clock, q, dq, ddq)  # sampled once while it stands
         else:
             _, q, dq, ddq = self._held
-        _track(*self._args, self.lim, self.sst, self.sup, self.io.sens, refused, q, dq, ddq,
-               self.io.out)
+        if self._own is None:
+            _track(*self._args, self.lim, self.sst, self.sup, self.io.sens, refused, q, dq,
+                   ddq, self.io.out)
+        else:
+            _guard(self.lim, self.sst, self.sup, self.io.sens, refused,
+                   self._torque(r["q"], r["dq"], q, dq, ddq), q, self.io.out)
         return self.io.result()
 
     def gains_now(self) -> dict[str, list[float]]:
         """Kp and Kd per joint (the law's units: N m/rad and N m s/rad; computed torque
-        1/s^2 and 1/s)."""
+        1/s^2 and 1/s); a law of one's own: its ``gains_now()``, if it has one."""
+        if self._own is not None:
+            own = getattr(self._own, "gains_now", None)
+            return dict(own()) if callable(own) else {}
         return {"Kp": [float(x) for x in self._args[1]], "Kd": [float(x) for x in self._args[2]]}
 
     def set_gains(self, change: dict[str, list[float]]) -> None:
         """Change Kp and/or Kd between ticks: all of ``change`` or, if any value is unknown,
         not finite or outside 0-1e4, none (ParameterError)."""
+        if self._own is not None:
+            own = getattr(self._own, "set_gains", None)
+            if not callable(own):
+                raise ParameterError("TrackingController.set_gains", "law",
+                                     f"{type(self._own).__name__} has no gains to change")
+            own(change)
+            return
         where = "TrackingController.set_gains"
         now = self.gains_now()
         new_ = dict(now)

@@ -95,8 +95,13 @@ def check_options(backend: str, interface: str | None = None, arm: bool = False,
         raise ParameterError("exoleg run", "--backend", f"unknown {backend!r} (allowed: "
                              + ", ".join(BACKENDS) + ")")
     if controller not in CONTROLLERS:
-        raise ParameterError("exoleg run", "--controller", f"unknown {controller!r} "
-                             "(allowed: " + ", ".join(CONTROLLERS) + ")")
+        if ":" not in controller:
+            raise ParameterError("exoleg run", "--controller", f"unknown {controller!r} "
+                                 "(allowed: " + ", ".join(CONTROLLERS) + ", or FILE.py:NAME "
+                                 "or MODULE:NAME for a law of your own)")
+        from exoleg.control.tracking import law_factory
+
+        law_factory(controller)  # a law of one's own: found, before a bus is touched
     if arm and not simulated(backend, interface):
         raise ParameterError("exoleg run", "--arm", "only on the sim backend or simulated "
                              "nodes (canopen --interface virtual, ethercat --interface "

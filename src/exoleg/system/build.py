@@ -63,9 +63,12 @@ def build(config: DeviceConfig, leg: LegModel, body_mass: float,
           speed: str = "Free", stride_time: float = 1.1,
           ankle_height: float = ANKLE_HEIGHT, ground: Ground | None = None,
           step: float = 0.0, reference: Any = None) -> System:
-    """The controller called ``controller`` (:data:`~exoleg.entry.CONTROLLERS`) for the
-    device ``config`` and the child + device ``leg`` (without actuators: theirs are
-    added) of a child of ``body_mass`` kg, and, ``simulated``, the device it drives.
+    """The controller called ``controller`` (:data:`~exoleg.entry.CONTROLLERS`, or
+    ``FILE.py:NAME`` / ``MODULE:NAME``: a law of your own,
+    :func:`~exoleg.control.tracking.law_factory`, behind the same supervisor and safety
+    layer as the paper's laws) for the device ``config`` and the child + device ``leg``
+    (without actuators: theirs are added) of a child of ``body_mass`` kg, and,
+    ``simulated``, the device it drives.
 
     The walking hierarchy expects strides of ``stride_time`` s of the ``speed`` gait; a
     law of the paper follows ``reference`` (default the paper's scenario, section 6) on
@@ -78,9 +81,15 @@ def build(config: DeviceConfig, leg: LegModel, body_mass: float,
     w = "build"
     if not isinstance(config, DeviceConfig):
         raise ParameterError(w, "config", f"expected DeviceConfig, got {type(config).__name__}")
+    own = None
     if controller not in CONTROLLERS:
-        raise ParameterError(w, "controller", f"unknown {controller!r} (allowed: "
-                             + ", ".join(CONTROLLERS) + ")")
+        if ":" not in str(controller):
+            raise ParameterError(w, "controller", f"unknown {controller!r} (allowed: "
+                                 + ", ".join(CONTROLLERS) + ", or FILE.py:NAME or "
+                                 "MODULE:NAME for a law of your own)")
+        from exoleg.control.tracking import law_factory
+
+        own = law_factory(controller)  # before the device is made: a bad name says so
     gr = Ground.default(config.folder) if ground is None else ground
     dev = None
     if simulated:  # first: it checks the child's and the treadmill's figures
@@ -99,8 +108,17 @@ def build(config: DeviceConfig, leg: LegModel, body_mass: float,
         from exoleg.control.tracking import TrackingController
         from exoleg.reference.paper import paper_reference
 
-        ctl = TrackingController(law_named(controller, config.leg(leg if model is None
-                                                                  else model)),
+        believed = config.leg(leg if model is None else model)
+        law: Any
+        if own is None:
+            law = law_named(controller, believed)
+        else:
+            try:
+                law = own(believed)
+            except Exception as e:  # the user's code: what failed, in one line
+                raise ParameterError(w, "controller", f"{controller!r}: making the law "
+                                     f"failed: {type(e).__name__}: {e}") from None
+        ctl = TrackingController(law,
                                  paper_reference() if reference is None else reference,
                                  config.safety)
         support = config.gains.support  # what the impedance holds a child standing with
