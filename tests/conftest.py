@@ -54,7 +54,7 @@ def terminal_ctrl_c():  # type: ignore[no-untyped-def]
 #: long file collected last keeps one worker busy while the other idles (the suite waited
 #: 80 s on the README's file at 98 %). Started first, they finish while the short files
 #: fill the other worker.
-LONG_FIRST = ("test_hmi_safety.py", "test_readme.py", "test_identify_device.py",
+LONG_FIRST = ("test_hmi_safety.py", "test_docs.py", "test_identify_device.py",
               "test_hmi.py", "test_sweep.py", "validation/test_identify.py", "test_runtime.py",
               "test_tick_contract.py", "test_control_api.py", "test_device_folder.py",
               "test_typing.py", "test_child.py")

@@ -113,7 +113,7 @@ def inverse_kinematics(x: ArrayLike, y: ArrayLike, phi: ArrayLike, lengths: Arra
     eqs 5-6, see ``docs/conventions.md``). ``branch="flexed"`` returns the knee
     flexed (q2 <= 0, the paper's root of eq 10); ``"extended"`` the other root.
     Angles are wrapped into (-pi, pi]. Raises :class:`UnreachableError` when the
-    ankle is farther from the hip than a1 + a2 or nearer than |a1 - a2|.
+    ankle is farther from the hip than a1 + a2 or nearer than abs(a1 - a2).
     """
     if branch not in ("flexed", "extended"):
         raise ParameterError("inverse_kinematics", "branch",

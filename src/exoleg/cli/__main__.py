@@ -2,4 +2,5 @@
 
 from exoleg.cli import console
 
-raise SystemExit(console())
+if __name__ == "__main__":  # not on import (the API reference imports every module)
+    raise SystemExit(console())

@@ -7,7 +7,7 @@ command (N m) and the E-stop input, and gives the torque the drives may apply:
 * **E-stop**: torque zero the same tick, latched; only :meth:`SafetyLayer.reset` (with
   the E-stop input released) and then :meth:`SafetyLayer.arm` bring torque back;
 * **non-finite** state or command: torque zero, latched fault;
-* **overspeed**: |dq| above each actuation unit's own speed limit (its motor's maximum
+* **overspeed**: abs(dq) above each actuation unit's own speed limit (its motor's maximum
   permissible speed through its gear's ratio) times ``overspeed_factor``: torque zero,
   latched fault;
 * **range of motion**: beyond the device's range of motion (soft limit) no torque that
@@ -108,7 +108,7 @@ LIMITS = np.dtype([("lower", F8, 3), ("upper", F8, 3), ("max_torque", F8, 3),
 #: HARD_LIMIT, rad/s for OVERSPEED, degC for OVERTEMPERATURE, N m for GEAR_OVERLOAD; 0
 #: for the others), the torque allowed last tick (N m); per motor the estimated winding
 #: and housing temperatures (degC); per gear the estimated transmitted torque this tick,
-#: the largest |value| so far (N m) and how many times it went beyond the momentary peak;
+#: the largest abs(value) so far (N m) and how many times it went beyond the momentary peak;
 #: the measured rates of the last tick (rad/s); whether the layer has ticked (the
 #: estimates start then: temperatures at ambient); per joint the low-passed measured
 #: acceleration (rad/s^2), the share of the support the cuffs' torque leaves (1: all,
@@ -551,17 +551,17 @@ def fault_text(fault: Fault, joint: str = "") -> str:
 
 
 def fault_event(fault: int, joint: int) -> str:
-    """A latched fault as an event of a session: ``an E-stop``, ``a fault: OVERSPEED
-    (knee)``."""
+    """A latched fault as an event of a session: "an E-stop", or "a fault: OVERSPEED
+    (knee)"."""
     f = Fault(int(fault))
     return "an E-stop" if f == Fault.ESTOP else \
         f"a fault: {fault_text(f, joint_name(f, int(joint)))}"
 
 
 def fault_detail(fault: int, joint: int, value: float, limit: float) -> str:
-    """A latched fault as the operator reads it: its kind, joint, the value against its
-    limit, and what going on needs -- ``OVERSPEED at the knee: 5.21 rad/s (299 deg/s)
-    against its limit of 4.00 rad/s (229 deg/s). To go on: ...`` ('' for none)."""
+    """A latched fault as the operator reads it ('' for none): its kind, joint, the value
+    against its limit, and what going on needs, e.g. "OVERSPEED at the knee: 5.21 rad/s
+    (299 deg/s) against its limit of 4.00 rad/s (229 deg/s). To go on: ..."."""
     f = Fault(int(fault))
     if f == Fault.NONE:
         return ""

@@ -7,10 +7,10 @@ source says nothing):
 
 * ``paper per-kg``: the paper's figures for typically developing children walking
   (section 2.2: 0.7, 0.5, 1.2 N m/kg and 0.8, 0.7, 3 W/kg) times body mass;
-* ``Schwartz 2008``: peak |moment| and |power| over the gait cycle of the chosen speed
-  group at mean + z SD (z from the percentile) times body mass, and peak |angular
-  speed| of the same percentile's joint angles played at the chosen stride time;
-* ``gravity compensation``: the largest |G_i(q)| of the personalized model over the
+* ``Schwartz 2008``: peak abs(moment) and abs(power) over the gait cycle of the chosen speed
+  group at mean + z SD (z from the percentile) times body mass, and peak abs(angular
+  speed) of the same percentile's joint angles played at the chosen stride time;
+* ``gravity compensation``: the largest abs(G_i(q)) of the personalized model over the
   device's range of motion (a 13^3 grid);
 * ``simulated gait``: peaks of the personalized leg, with the actuators' reflected
   inertia, tracking the normative gait under the paper's controller (PD + gravity
@@ -152,7 +152,7 @@ def schwartz_demand(mass: float, speed: str, z: float, stride_time: float) -> F6
 
 
 def gravity_demand(leg: LegModel, n: int = 13) -> F64:
-    """Largest |G_i(q)| (3,) over an n^3 grid of the device's range of motion, N m."""
+    """Largest abs(G_i(q)) (3,) over an n^3 grid of the device's range of motion, N m."""
     rom = paper.range_of_motion()
     axes = [np.linspace(rom.lower[i], rom.upper[i], n) for i in range(3)]
     Q = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)

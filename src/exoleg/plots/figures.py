@@ -1,8 +1,8 @@
 """The paper's Figs 13-15 drawn from a :class:`~exoleg.sim.scenario.ScenarioReport`.
 
-Fig. 13: A-C joint angles (reference, exoleg, engine), D |detailed - simplified|,
-E |exoleg - engine|, F |reference - exoleg|, all in degrees, errors on log axes.
-Error panels show the largest |error| per time bin (an envelope). Fig. 14: the
+Fig. 13: A-C joint angles (reference, exoleg, engine), D abs(detailed - simplified),
+E abs(exoleg - engine), F abs(reference - exoleg), all in degrees, errors on log axes.
+Error panels show the largest abs(error) per time bin (an envelope). Fig. 14: the
 verification signal dq^T (Mdot - 2C) dq. Fig. 15: control torques.
 """
 

@@ -132,7 +132,7 @@ class SchwartzGait2008:
         return F[0].real, 2 * F[1:K + 1].real, -2 * F[1:K + 1].imag
 
     def fit_residual(self) -> float:
-        """Largest |fit - printed sample| over the cycle, rad."""
+        """Largest abs(fit - printed sample) over the cycle, rad."""
         pct, q = gait_angles(self.speed, self.sd, self.upright)
         fq, _, _ = self._eval(pct / 100.0)
         return float(np.max(np.abs(fq - q)))

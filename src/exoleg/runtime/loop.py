@@ -27,7 +27,7 @@ import signal
 import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,12 +42,10 @@ from exoleg.tick import (
     OUTPUT,
     WALKING_MODES,
     Command,
+    Controller,
     Mode,
     output_columns,
 )
-
-if TYPE_CHECKING:
-    from exoleg.tick import Controller
 
 F64 = NDArray[np.float64]
 

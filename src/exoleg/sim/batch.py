@@ -68,7 +68,7 @@ def _batch(P, g, kp, kd, Qr, DQr, dt, q_init, dq_init, start):  # type: ignore[n
 
 def batch_gait_peaks(P: F64, g: float, kp: F64, kd: F64, q_ref: F64, dq_ref: F64, dt: float,
                      start: int = 0) -> F64:
-    """Peaks (n, 3, 3): [leg, (|torque| N m, |speed| rad/s, |power| W), joint] of n legs
+    """Peaks (n, 3, 3): [leg, (abs(torque) N m, abs(speed) rad/s, abs(power) W), joint] of n legs
     (parameter vectors ``P`` (n, 18)) tracking ``q_ref``, ``dq_ref`` (N, 3) sampled every
     ``dt`` s, from the reference's first state; peaks from step ``start`` on."""
     P = np.ascontiguousarray(P, dtype=np.float64)

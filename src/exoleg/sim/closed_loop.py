@@ -220,7 +220,7 @@ class SimResult(TimeSeries):
 
     Computed on first access (one compiled pass over the run, then kept): error =
     q_ref - q; kinetic, potential J; lyapunov V of eq 26 (J); verification
-    dq^T (Mdot - 2C) dq (W) and verification_scale |dq^T Mdot dq| (W), the size of
+    dq^T (Mdot - 2C) dq (W) and verification_scale abs(dq^T Mdot dq) (W), the size of
     what cancels in it.
     """
 

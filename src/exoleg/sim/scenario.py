@@ -98,7 +98,7 @@ class ScenarioReport:
         return Peaks.of(self.result)
 
     def segment_end_errors(self) -> F64:
-        """Max |q_ref - q| over joints (deg) just before each reference change and at the end."""
+        """Max abs(q_ref - q) over joints (deg) just before each reference change and at the end."""
         t = self.result.t
         ends = [c for c in self.reference_changes if t[0] < c <= t[-1]] + [t[-1] + 1e-12]
         idx = [int(np.searchsorted(t, c - 1e-9)) - 1 for c in ends]
@@ -113,7 +113,7 @@ class ScenarioReport:
         return float(max(0.0, dV.max())) if len(dV) else 0.0
 
     def verification_relative(self) -> float:
-        """max |dq^T (Mdot - 2C) dq| / max |dq^T Mdot dq| over the run (machine precision
+        """max abs(dq^T (Mdot - 2C) dq) / max abs(dq^T Mdot dq) over the run (machine precision
         when the model is right)."""
         r = self.result
         return float(np.max(np.abs(r.verification)) / max(np.max(r.verification_scale), 1e-300))

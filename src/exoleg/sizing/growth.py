@@ -137,7 +137,7 @@ def zscore(chart: str, sex: str, measure: str, age: float, value: float) -> floa
 
 
 #: A body mass index this many SD from the WHO 2007 BMI-for-age reference is implausible
-#: (the WHO's own flag for biologically implausible values, |BAZ| > 5: WHO AnthroPlus
+#: (the WHO's own flag for biologically implausible values, abs(BAZ) > 5: WHO AnthroPlus
 #: manual, 2009).
 BMI_Z_IMPLAUSIBLE = 5.0
 

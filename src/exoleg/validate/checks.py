@@ -112,7 +112,7 @@ def engine_checks(engine_cls: Callable[..., object], n_legs: int = 5, n_states: 
 
 
 def skew_check(leg: LegModel, n: int = 2000, seed: int = 2) -> Check:
-    """dq^T (Mdot - 2C) dq = 0 (paper Fig. 14), relative to |dq^T Mdot dq|."""
+    """dq^T (Mdot - 2C) dq = 0 (paper Fig. 14), relative to abs(dq^T Mdot dq)."""
     Q, DQ, _ = random_states(n, seed)
     N = leg.Mdot(Q, DQ) - 2 * leg.C(Q, DQ)
     v = np.einsum("ni,nij,nj->n", DQ, N, DQ)

@@ -30,7 +30,7 @@ Identified in one stage (the fitted leg the prior) and staged (the device alone 
 its plan of its own; then the device with the child, the identified device its share of
 the prior: :mod:`exoleg.identify.staged`). Measured: G of the identified leg against the
 true one over a grid of the plan's range of motion (9 x 9 x 9), RMS and largest as a
-share of the largest |G|; the base parameters' relative errors (median); the fitted
+share of the largest abs(G); the base parameters' relative errors (median); the fitted
 leg's G error beside them; the child's share of the base parameters, one stage and
 staged; and, given each model, the walking controller on the true leg and the paper's
 PD + gravity holding its postures. Offline: ``exoleg identify`` plays a plan through the
@@ -67,7 +67,7 @@ CARRIED_DEG = 10.0
 
 @dataclass(frozen=True)
 class IdentifyRun:
-    """One child's measures: G's error (RMS and largest, % of max |G|), the fitted leg's,
+    """One child's measures: G's error (RMS and largest, % of max abs(G)), the fitted leg's,
     the base parameters' (median, %), the plan's condition number; the child's share of
     the base parameters' error (median, %: the leg's less the device's model, one stage;
     less the device identified, staged) and G's largest error staged; and the controllers

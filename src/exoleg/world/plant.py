@@ -67,7 +67,7 @@ from exoleg.layout import F8, I8, new
 F64 = NDArray[np.float64]
 
 
-#: the largest |lambda| h the plant's RK4 step is let to meet (its stability region
+#: the largest abs(lambda) h the plant's RK4 step is let to meet (its stability region
 #: reaches 2.78 on the real axis, 2.83 on the imaginary one)
 STEP_LIMIT = 2.5
 
@@ -114,7 +114,7 @@ class WalkingPlant:
         """Why the plant's RK4 step of ``h`` s would diverge ('' when it would not): the
         stiffest mode it meets, the pelvis on the whole sole and the other leg's
         support (mass: the pelvis's share and the leg; stiffness and damping: the
-        ground's), has eigenvalues lambda; RK4 is stable for |lambda| h below 2.78 on the
+        ground's), has eigenvalues lambda; RK4 is stable for abs(lambda) h below 2.78 on the
         real axis and 2.83 on the imaginary one (its stability region), taken as 2.5."""
         g = self.ground
         m = self.body_mass + float(sum(link.mass for link in self.leg.links))
