@@ -68,7 +68,18 @@ def paper_leg(variant: Literal["simplified", "detailed"] = "simplified",
     ``"simplified"``: Table 5's simplified column (one body per link, a3 = 0.235 m,
     see ``exoleg/data/paper/table5.toml``). ``"detailed"``: each link a human and an
     SLE body welded together (Table 4 masses), composing to Table 5's detailed
-    column (twice the simplified masses and inertias). g defaults to the paper's 9.81.
+    column (twice the simplified masses and inertias).
+
+    Parameters
+    ----------
+    variant : {"simplified", "detailed"}, default "simplified"
+        Which of Table 5's columns.
+    g : float, optional
+        Gravitational acceleration, m/s^2; default the paper's 9.81.
+
+    Returns
+    -------
+    LegModel
     """
     from exoleg.dynamics.model import LegModel
     from exoleg.params import paper as _paper
@@ -83,7 +94,18 @@ def paper_leg(variant: Literal["simplified", "detailed"] = "simplified",
 
 
 def load_leg(path: str | Path) -> LegModel:
-    """Read a leg parameter file (format: :mod:`exoleg.params.leg_file`)."""
+    """Read a leg parameter file (format: :mod:`exoleg.params.leg_file`).
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML file (``exoleg fit`` and :func:`save_leg` write them).
+
+    Returns
+    -------
+    LegModel
+        A ParameterError names the key of anything missing or implausible.
+    """
     from exoleg.dynamics.model import LegModel
     from exoleg.params.leg_file import read_leg_file
 
@@ -94,8 +116,25 @@ def load_leg(path: str | Path) -> LegModel:
 def save_leg(leg: LegModel, path: str | Path, header: str = "",
              fit: dict[str, object] | None = None) -> Path:
     """Write ``leg`` as a leg parameter file that :func:`load_leg` reads back exactly
-    (written whole or not at all). ``fit``: the optional ``[fit]`` record,
-    ``{"fits": bool, "note": str}`` (see :mod:`exoleg.params.leg_file`)."""
+    (written whole or not at all).
+
+    Parameters
+    ----------
+    leg : LegModel
+        The leg.
+    path : str or Path
+        The TOML file to write.
+    header : str, default ""
+        A comment at the file's top.
+    fit : dict, optional
+        The optional ``[fit]`` record, ``{"fits": bool, "note": str}`` (see
+        :mod:`exoleg.params.leg_file`).
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     from exoleg.io import atomic_path
     from exoleg.params.leg_file import format_leg
 

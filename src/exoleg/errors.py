@@ -10,7 +10,14 @@ class ExolegError(Exception):
 class ParameterError(ExolegError, ValueError):
     """A parameter (from a file, a record or an argument) is missing or invalid.
 
-    ``where`` names the file or record, ``field`` the offending field.
+    Parameters
+    ----------
+    where : str
+        The file or record.
+    field : str
+        The offending field.
+    problem : str
+        What is wrong and what is allowed.
     """
 
     def __init__(self, where: str, field: str, problem: str) -> None:

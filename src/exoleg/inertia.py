@@ -29,11 +29,16 @@ _REL_EPS = 1e-12
 class RigidBody:
     """One rigid body on a link.
 
-    Attributes:
-        mass: kg, > 0.
-        com: (x, y) of the centre of mass in the link frame, from the proximal joint, m.
-        izz: moment of inertia about the z axis through the COM, kg m^2, > 0.
-        name: a label (e.g. ``"human"``, ``"sle"``, ``"hip actuator"``).
+    Parameters
+    ----------
+    mass : float
+        kg, > 0.
+    com : (float, float)
+        The centre of mass in the link frame, from the proximal joint, m.
+    izz : float
+        Moment of inertia about the z axis through the COM, kg m^2, > 0.
+    name : str, default "body"
+        A label (e.g. ``"human"``, ``"sle"``, ``"hip actuator"``).
     """
 
     mass: float
@@ -57,7 +62,23 @@ class RigidBody:
     @classmethod
     def from_radius_of_gyration(cls, mass: float, com: tuple[float, float], radius: float,
                                 name: str = "body") -> RigidBody:
-        """A body with centroidal inertia ``mass * radius**2``."""
+        """A body with centroidal inertia ``mass * radius**2``.
+
+        Parameters
+        ----------
+        mass : float
+            kg.
+        com : (float, float)
+            m, in the link frame.
+        radius : float
+            The radius of gyration about the COM, m.
+        name : str, default "body"
+            A label.
+
+        Returns
+        -------
+        RigidBody
+        """
         r = _check.positive(f"RigidBody {name!r}", "radius_of_gyration", radius, "m")
         return cls(mass=mass, com=com, izz=mass * r * r, name=name)
 
@@ -67,6 +88,17 @@ def compose(bodies: Iterable[RigidBody], name: str = "composite") -> RigidBody:
 
     Mass is the sum, the COM the mass-weighted mean, and ``izz`` is taken about
     the new COM by the parallel-axis theorem.
+
+    Parameters
+    ----------
+    bodies : iterable of RigidBody
+        The welded bodies.
+    name : str, default "composite"
+        The result's label.
+
+    Returns
+    -------
+    RigidBody
     """
     parts = list(bodies)
     if not parts:
@@ -83,7 +115,19 @@ def compose(bodies: Iterable[RigidBody], name: str = "composite") -> RigidBody:
 def remainder(total: RigidBody, part: RigidBody, name: str = "remainder") -> RigidBody:
     """The body that, welded to ``part``, composes to ``total`` (inverse of :func:`compose`).
 
-    Raises :class:`ParameterError` if no physical body remains (mass or inertia <= 0).
+    Parameters
+    ----------
+    total : RigidBody
+        The composite.
+    part : RigidBody
+        The part known.
+    name : str, default "remainder"
+        The result's label.
+
+    Returns
+    -------
+    RigidBody
+        A ParameterError if no physical body remains (mass or inertia <= 0).
     """
     mass = total.mass - part.mass
     if mass <= 0.0:

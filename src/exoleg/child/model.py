@@ -50,10 +50,30 @@ PASSIVE_DAMPING = (1.0, 0.5, 0.5)
 
 @dataclass(frozen=True)
 class Spasticity:
-    """Per group (:data:`SPASTIC_GROUPS`) tone (N m at the reference height), force and
-    force-rate reflex gains (-, s); the reflex delay (s) and the short-range stiffness
-    (fraction of tone per degree, over ``srs_range`` degrees, fading with ``srs_decay``
-    s). ``level`` names the preset it came from."""
+    """A child's reflexes, per spastic muscle group (:data:`SPASTIC_GROUPS`).
+
+    Parameters
+    ----------
+    level : str
+        The preset it came from (none, mild, moderate, severe).
+    tone : tuple of float
+        Per group, the tone, N m at the reference height.
+    g_f, g_df : tuple of float
+        Per group, the force and force-rate reflex gains (-, s).
+    delay : float
+        The reflex delay, s.
+    srs_per_deg : float
+        Short-range stiffness, a fraction of tone per degree.
+    srs_range : float
+        Degrees over which the short-range stiffness acts.
+    srs_decay : float
+        s over which it fades.
+    eccentric : float, default 0.8
+        The tonically active muscles' eccentric gain: their force times 1 +
+        eccentric tanh(v / fv_speed) while lengthening at v deg/s.
+    fv_speed : float, default 30.0
+        That force-velocity relation's speed, deg/s.
+    """
 
     level: str
     tone: tuple[float, ...]
@@ -78,6 +98,17 @@ class Spasticity:
 
     @classmethod
     def preset(cls, level: str) -> Spasticity:
+        """A shipped preset (``data/child/spasticity.toml``).
+
+        Parameters
+        ----------
+        level : str
+            none, mild, moderate or severe.
+
+        Returns
+        -------
+        Spasticity
+        """
         d = child_data("spasticity.toml")
         if level not in d["levels"]:
             raise ParameterError("spasticity", "level", f"unknown {level!r} (allowed: "
@@ -91,17 +122,40 @@ class Spasticity:
 
 @dataclass(frozen=True)
 class ChildModel:
-    """A child as the simulated device carries them: who (``name``, ``age`` y,
-    ``height`` m, ``mass`` kg, ``gmfcs`` 0 for typically developing, 1-4, ``sex``: the
-    growth charts' and segment tables' group), their passive
-    joints (``contracture``), their reflexes (``spasticity``), their own ``effort`` (on
-    or off) with the strength of their GMFCS level, and the gait they intend
-    (``crouch`` 0: the normative gait, 1-5: Rozumalski & Schwartz's crouch cluster);
-    ``strength_scale`` multiplies their GMFCS level's typical strength (a child measured
-    weaker or stronger than their level's); ``learning``: how the child adapts their
-    stance effort to the device, stride by stride (Emken et al. 2007's human model,
-    x <- f x + g e: this is their f, 0.5-0.999; 0: they do not adapt, their stance
-    effort fixed by the support the device starts with)."""
+    """A child as the simulated device carries them: who they are, their passive joints,
+    their reflexes, their own effort and the gait they intend.
+
+    Parameters
+    ----------
+    name : str
+        A label (a pseudonym in a clinic's records).
+    age : float
+        Years.
+    height : float
+        m.
+    mass : float
+        Body mass, kg.
+    gmfcs : int, default 0
+        GMFCS level 1-4; 0 for a typically developing child.
+    contracture : Contracture
+        Their passive joints (shortened muscles); default none.
+    spasticity : Spasticity
+        Their reflexes; default none.
+    effort : bool, default True
+        Whether they walk with their own muscles (with their GMFCS level's strength).
+    crouch : int, default 0
+        The gait they intend: 0 the normative gait, 1-5 Rozumalski & Schwartz's crouch
+        cluster.
+    sex : str, default "female"
+        The growth charts' and segment tables' group ("female" or "male").
+    strength_scale : float, default 1.0
+        Multiplies their GMFCS level's typical strength (a child measured weaker or
+        stronger than their level's).
+    learning : float, default 0.0
+        How they adapt their stance effort to the device stride by stride (Emken et
+        al. 2007's human model, x <- f x + g e: this is their f, 0.5-0.999); 0: they do
+        not adapt, their stance effort fixed by the support the device starts with.
+    """
 
     name: str
     age: float
@@ -147,21 +201,61 @@ class ChildModel:
     @classmethod
     def typical(cls, name: str, age: float, height: float, mass: float,
                 sex: str = "female") -> ChildModel:
-        """A typically developing child: no contracture, no spasticity, full strength."""
+        """A typically developing child: no contracture, no spasticity, full strength.
+
+        Parameters
+        ----------
+        name : str
+            A label.
+        age : float
+            Years.
+        height : float
+            m.
+        mass : float
+            kg.
+        sex : str, default "female"
+            "female" or "male".
+
+        Returns
+        -------
+        ChildModel
+        """
         return cls(name, age, height, mass, sex=sex)
 
     @classmethod
     def of(cls, child: Any, contracture: str = "none", spasticity: str = "none",
            crouch: int = 0, strength: float = 1.0) -> ChildModel:
-        """A fitted child (:class:`exoleg.sizing.Child`: who they are, their GMFCS level)
-        as an actor, with these presets (their effort on)."""
+        """A fitted child as an actor, with these presets (their effort on).
+
+        Parameters
+        ----------
+        child : exoleg.sizing.Child
+            Who they are (age, sex, height, mass, GMFCS level).
+        contracture : str, default "none"
+            A shipped contracture preset (:meth:`Contracture.preset`).
+        spasticity : str, default "none"
+            A spasticity preset: none, mild, moderate or severe.
+        crouch : int, default 0
+            0 the normative gait, 1-5 a crouch cluster.
+        strength : float, default 1.0
+            Their strength against their GMFCS level's typical.
+
+        Returns
+        -------
+        ChildModel
+        """
         return cls(child.name, child.age, child.height, child.mass, child.gmfcs or 0,
                    Contracture.preset(contracture), Spasticity.preset(spasticity), True,
                    crouch, child.sex, strength)
 
     def sizing_child(self) -> Any:
         """This child for :mod:`exoleg.sizing` (dimensions estimated from age, sex and
-        height)."""
+        height).
+
+        Returns
+        -------
+        exoleg.sizing.Child
+        """
         from exoleg.sizing import Child
 
         return Child(age=self.age, sex=self.sex, height=self.height, mass=self.mass,  # type: ignore[arg-type]
@@ -175,12 +269,25 @@ class ChildModel:
         return float(typical) * self.strength_scale
 
     def strength(self) -> F64:
-        """The largest torque the child's muscles give at each joint, N m."""
+        """The largest torque the child's muscles give at each joint.
+
+        Returns
+        -------
+        ndarray
+            Shape ``(3,)``, N m (hip, knee, ankle).
+        """
         d = child_data("effort.toml")
         return np.array(d["strength_Nm_per_kg"]) * self.mass * self.strength_fraction
 
     # ---------------------------------------------------------------- child.toml
     def to_toml(self) -> str:
+        """This child as a child file's text.
+
+        Returns
+        -------
+        str
+            TOML that :meth:`load` reads back to this child.
+        """
         from exoleg.io import toml_string
 
         sp = self.spasticity
@@ -211,6 +318,13 @@ class ChildModel:
         return "\n".join(lines) + "\n"
 
     def save(self, path: str | Path) -> None:
+        """Write this child as a child file (whole or not at all).
+
+        Parameters
+        ----------
+        path : str or Path
+            The TOML file to write.
+        """
         from exoleg.io import atomic_path
 
         with atomic_path(path) as tmp:
@@ -218,6 +332,17 @@ class ChildModel:
 
     @classmethod
     def load(cls, path: str | Path) -> ChildModel:
+        """Read a child file (``exoleg fit`` writes one; ``--child`` of every command).
+
+        Parameters
+        ----------
+        path : str or Path
+            The TOML file.
+
+        Returns
+        -------
+        ChildModel
+        """
         from exoleg.io import read_text
 
         where = str(path)
@@ -230,6 +355,19 @@ class ChildModel:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any], where: str = "child.toml") -> ChildModel:
+        """A child from the tables of a child file (as :meth:`to_toml` writes them).
+
+        Parameters
+        ----------
+        d : dict
+            The file's tables.
+        where : str, default "child.toml"
+            The file's name, for the errors (a ParameterError naming the key).
+
+        Returns
+        -------
+        ChildModel
+        """
         _check.keys(where, d, ["child"], ["passive", "spasticity", "effort"])
         c = d["child"]
         _check.keys(f"{where} [child]", c, ["age_years", "height_m", "mass_kg", "sex"],
@@ -256,6 +394,17 @@ class ChildModel:
             raise ParameterError(where, "(value)", str(err)) from None
 
     def with_(self, **changes: Any) -> ChildModel:
+        """A copy with some fields changed (their values checked as when made).
+
+        Parameters
+        ----------
+        **changes
+            Field names and their new values.
+
+        Returns
+        -------
+        ChildModel
+        """
         return replace(self, **changes)
 
 

@@ -95,10 +95,24 @@ class RienerModel:
 
 @dataclass(frozen=True)
 class Contracture:
-    """Shortened muscles: per group (:data:`GROUPS` but "limit") the shortening ``da``
-    (added to the term's exponent) and the steepening of its own (``f_own``) and coupled
-    (``f_cpl``) coordinates, and the change of each joint's constant moment (Riener's
-    units, N m at the reference height), at ``level`` 1; level 0 is none."""
+    """Shortened muscles, at ``level`` 1 (0 is none).
+
+    Parameters
+    ----------
+    name : str
+        The preset's name.
+    groups : dict of str to (float, float, float)
+        Per muscle group (:data:`GROUPS` but "limit"): the shortening ``da`` (added to
+        the term's exponent) and the steepening of its own (``f_own``) and coupled
+        (``f_cpl``) coordinates.
+    level : float, default 1.0
+        How much of it: 0 none, 1 as measured.
+    constant : (float, float, float), default (0, 0, 0)
+        The change of each joint's constant moment (Riener's units, N m at the reference
+        height).
+    source : str, default ""
+        Where the numbers come from.
+    """
 
     name: str
     groups: dict[str, tuple[float, float, float]]
@@ -123,12 +137,29 @@ class Contracture:
 
     @classmethod
     def none(cls) -> Contracture:
+        """No contracture.
+
+        Returns
+        -------
+        Contracture
+        """
         return cls("none", {}, 0.0)
 
     @classmethod
     def preset(cls, name: str, level: float = 1.0) -> Contracture:
-        """A shipped preset (``data/child/contracture.toml``): ``none`` or a measured
-        child's."""
+        """A shipped preset (``data/child/contracture.toml``).
+
+        Parameters
+        ----------
+        name : str
+            ``none`` or a measured child's (``predictcpgait``).
+        level : float, default 1.0
+            How much of it: 0 none, 1 as measured.
+
+        Returns
+        -------
+        Contracture
+        """
         if name == "none":
             return cls.none()
         d = child_data("contracture.toml")
@@ -155,7 +186,24 @@ def height_scale(height: float, model: RienerModel | None = None) -> float:
 def passive_record(height: float, contracture: Contracture | None = None,
                    damping: tuple[float, float, float] = (0.0, 0.0, 0.0),
                    model: RienerModel | None = None) -> NDArray[np.void]:
-    """The compiled model (:data:`PASSIVE`) for a child of ``height`` m."""
+    """The compiled passive-moment model (:data:`PASSIVE`) for a child of ``height`` m.
+
+    Parameters
+    ----------
+    height : float
+        m (Riener & Edrich's moments scale with height^5).
+    contracture : Contracture, optional
+        Shortened muscles; default none.
+    damping : (float, float, float), default (0, 0, 0)
+        Joint damping, N m s/rad.
+    model : RienerModel, optional
+        The passive model's coefficients; default the shipped ones.
+
+    Returns
+    -------
+    ndarray
+        A one-element :data:`PASSIVE` record.
+    """
     m = RienerModel.shipped() if model is None else model
     c = Contracture.none() if contracture is None else contracture
     h = _check.finite("passive", "height", height)
@@ -241,8 +289,22 @@ def _passive_rows(P, q, dq, out):  # type: ignore[no-untyped-def]
 
 
 def passive_moments(P: NDArray[np.void], q: Any, dq: Any = None) -> F64:
-    """The passive torques at joint angles ``q`` (3,) or (n, 3), rad (rates ``dq`` for
-    the damping, default 0); exoleg's signs. One compiled loop over the rows."""
+    """The passive joint torques (exoleg's signs), one compiled loop over the rows.
+
+    Parameters
+    ----------
+    P : ndarray
+        The compiled model (:func:`passive_record`).
+    q : array_like
+        Joint angles, rad, ``(3,)`` or ``(n, 3)``.
+    dq : array_like, optional
+        Joint rates for the damping, rad/s; default 0.
+
+    Returns
+    -------
+    ndarray
+        N m, the shape of ``q``.
+    """
     qa = np.ascontiguousarray(np.atleast_2d(np.asarray(q, dtype=float)))
     da = (np.zeros_like(qa) if dq is None
           else np.ascontiguousarray(np.atleast_2d(np.asarray(dq, dtype=float))))

@@ -40,7 +40,24 @@ def _limits(name: str, value: ArrayLike | bool | None) -> F64:
 
 @dataclass(frozen=True)
 class Controller:
-    """Base record. ``model``: the leg model the controller believes in (None for plain PD)."""
+    """A control law as a record: its gains, the model it believes in, its limits.
+
+    Parameters
+    ----------
+    Kp, Kd : ndarray
+        Per joint stiffness and damping (PD laws: N m/rad, N m s/rad; computed torque:
+        1/s^2, 1/s).
+    model : LegModel, optional
+        The leg model the law believes in (None for plain PD).
+    saturation : ndarray
+        Torque limits per joint, N m (infinite: none).
+    kind : exoleg.control.laws.Law
+        Which compiled law (:class:`exoleg.control.laws.Law`).
+    name : str
+        A label.
+    scale : float, default 1.0
+        The torque's factor before saturation (:meth:`scaled`).
+    """
 
     Kp: F64
     Kd: F64
@@ -51,14 +68,41 @@ class Controller:
     scale: float = 1.0
 
     def scaled(self, factor: float) -> Controller:
-        """The same controller with its torque multiplied by ``factor`` (before saturation)."""
+        """The same controller with its torque multiplied by ``factor`` (before saturation).
+
+        Parameters
+        ----------
+        factor : float
+            > 0.
+
+        Returns
+        -------
+        Controller
+        """
         if not (np.isfinite(factor) and factor > 0):
             raise ParameterError(self.name, "scale", f"must be > 0, got {factor!r}")
         return replace(self, scale=float(factor))
 
     def torque(self, q: ArrayLike, dq: ArrayLike, q_ref: ArrayLike, dq_ref: ArrayLike | None = None,
                ddq_ref: ArrayLike | None = None) -> tuple[F64, int]:
-        """Joint torques (3,) N m and the saturation bit mask, for one state."""
+        """The law's torque for one state.
+
+        Parameters
+        ----------
+        q, dq : array_like
+            Joint angles (rad) and rates (rad/s), (3,).
+        q_ref : array_like
+            The reference's angles, rad, (3,).
+        dq_ref, ddq_ref : array_like, optional
+            Its rates and accelerations; default 0.
+
+        Returns
+        -------
+        tau : ndarray
+            Joint torques (3,), N m.
+        saturated : int
+            Bit i set where joint i's torque was saturated.
+        """
         z = np.zeros(3)
         args = [np.asarray(v, dtype=float) if v is not None else z
                 for v in (q, dq, q_ref, dq_ref, ddq_ref)]
@@ -71,8 +115,14 @@ class Controller:
 
     def law_args(self) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...], float,
                                 tuple[float, ...]]:
-        """(Kp, Kd, model coefficients, scale, saturation) as the compiled laws take them
-        (:func:`exoleg.control.laws.law`; tuples are passed by value)."""
+        """The record as the compiled laws take it (:func:`exoleg.control.laws.law`;
+        tuples are passed by value).
+
+        Returns
+        -------
+        tuple
+            (Kp, Kd, model coefficients, scale, saturation).
+        """
         return (tuple(map(float, self.Kp)), tuple(map(float, self.Kd)), self.coefficients,
                 self.scale, tuple(map(float, self.saturation)))
 
@@ -89,7 +139,23 @@ def PDGravity(model: LegModel, Kp: ArrayLike | None = None, Kd: ArrayLike | None
               saturation: ArrayLike | bool | None = None) -> Controller:
     """PD impedance control with gravity compensation (paper eq 23):
     u = Kp (q_ref - q) + Kd (dq_ref - dq) + G(q), G from ``model``.
-    Defaults: the paper's Kp = diag(80, 80, 50), Kd = diag(12, 12, 2)."""
+
+    Parameters
+    ----------
+    model : LegModel
+        The leg whose G(q) is compensated.
+    Kp : array_like, optional
+        N m/rad per joint; default the paper's diag(80, 80, 50).
+    Kd : array_like, optional
+        N m s/rad per joint; default the paper's diag(12, 12, 2).
+    saturation : array_like or bool, optional
+        Torque limits per joint, N m; True: the paper's Table 2; default none.
+
+    Returns
+    -------
+    Controller
+        A frozen record; :meth:`Controller.torque` evaluates it.
+    """
     g = paper.controller_gains()
     return Controller(_gains("PDGravity", "Kp", Kp, g.kp), _gains("PDGravity", "Kd", Kd, g.kd),
                       model, _limits("PDGravity", saturation), laws.Law.PD_GRAVITY, "PDGravity")
@@ -97,7 +163,22 @@ def PDGravity(model: LegModel, Kp: ArrayLike | None = None, Kd: ArrayLike | None
 
 def PD(Kp: ArrayLike | None = None, Kd: ArrayLike | None = None,  # noqa: N802
        saturation: ArrayLike | bool | None = None) -> Controller:
-    """Plain PD without gravity compensation: the baseline that shows what G buys."""
+    """Plain PD without gravity compensation: the baseline that shows what G buys.
+
+    Parameters
+    ----------
+    Kp : array_like, optional
+        N m/rad per joint; default the paper's.
+    Kd : array_like, optional
+        N m s/rad per joint; default the paper's.
+    saturation : array_like or bool, optional
+        Torque limits per joint, N m; True: the paper's Table 2; default none.
+
+    Returns
+    -------
+    Controller
+        A frozen record; :meth:`Controller.torque` evaluates it.
+    """
     g = paper.controller_gains()
     return Controller(_gains("PD", "Kp", Kp, g.kp), _gains("PD", "Kd", Kd, g.kd), None,
                       _limits("PD", saturation), laws.Law.PD, "PD")
@@ -106,7 +187,23 @@ def PD(Kp: ArrayLike | None = None, Kd: ArrayLike | None = None,  # noqa: N802
 def ComputedTorque(model: LegModel, Kp: ArrayLike, Kd: ArrayLike,  # noqa: N802
                    saturation: ArrayLike | bool | None = None) -> Controller:
     """Computed torque: u = M(q)(ddq_ref + Kp e + Kd de) + C dq + G, from ``model``.
-    Gains here are in 1/s^2 and 1/s (they shape the error dynamics directly)."""
+
+    Parameters
+    ----------
+    model : LegModel
+        The leg whose dynamics are inverted.
+    Kp : array_like
+        1/s^2 per joint (the error dynamics' stiffness).
+    Kd : array_like
+        1/s per joint.
+    saturation : array_like or bool, optional
+        Torque limits per joint, N m; True: the paper's Table 2; default none.
+
+    Returns
+    -------
+    Controller
+        A frozen record; :meth:`Controller.torque` evaluates it.
+    """
     return Controller(_gains("ComputedTorque", "Kp", Kp, np.zeros(3)),
                       _gains("ComputedTorque", "Kd", Kd, np.zeros(3)), model,
                       _limits("ComputedTorque", saturation), laws.Law.COMPUTED_TORQUE,

@@ -71,7 +71,7 @@ _track: Callable[..., None] = track_step
 _guard: Callable[..., None] = guard_step
 
 
-class Law(Protocol):
+class CustomLaw(Protocol):
     """A control law of your own (``docs/extending/controller.md``): the torque (3,) N m
     for the joints' state and the reference, each (3,) -- angles rad, rates rad/s,
     accelerations rad/s^2, ordered hip, knee, ankle. It may also offer the
@@ -82,12 +82,12 @@ class Law(Protocol):
                ddq_ref: NDArray[np.float64]) -> ArrayLike: ...
 
 
-def law_factory(spec: str) -> Callable[[Any], Law]:
+def law_factory(spec: str) -> Callable[[Any], CustomLaw]:
     """The factory named by ``spec``: ``FILE.py:NAME`` (a Python file, relative to the
     current folder or absolute) or ``MODULE:NAME`` (an importable module), whose NAME is
     called with the leg model the law may use (the child + device leg with the actuators'
-    reflected inertia) and returns a :class:`Law`. A ParameterError names what was
-    missing or wrong."""
+    reflected inertia) and returns a :class:`CustomLaw`. A ParameterError names what
+    was missing or wrong."""
     import importlib
     import importlib.util
     from pathlib import Path
@@ -124,10 +124,10 @@ class TrackingController:
     """``law`` following ``reference`` on the device, with the supervisor and the safety
     layer (``safety``, default :meth:`SafetyLimits.paper`): one of the paper's (a
     :class:`~exoleg.control.controllers.Controller` record: PDGravity, PD, ComputedTorque;
-    compiled) or a :class:`Law` of your own (its ``torque`` called from Python each tick,
-    then the same compiled supervisor and safety layer)."""
+    compiled) or a :class:`CustomLaw` of your own (its ``torque`` called from Python each
+    tick, then the same compiled supervisor and safety layer)."""
 
-    def __init__(self, law: LawRecord | Law, reference: Reference,
+    def __init__(self, law: LawRecord | CustomLaw, reference: Reference,
                  safety: SafetyLimits | None = None) -> None:
         w = "TrackingController"
         if not isinstance(law, LawRecord) and not callable(getattr(law, "torque", None)):

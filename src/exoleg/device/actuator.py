@@ -223,7 +223,13 @@ class ActuatorModel:
         return 2 * math.pi / 2**self.encoder_bits
 
     def record(self) -> NDArray[np.void]:
-        """The figures the compiled functions take (:data:`ACTUATOR`)."""
+        """The figures the compiled functions take.
+
+        Returns
+        -------
+        ndarray
+            A one-element :data:`ACTUATOR` record.
+        """
         r = new(ACTUATOR)
         r[0] = (self.torque_limit, self.joint_torque_constant, self.peak_current,
                 self.bus_voltage, self.torque_constant * self.ratio, self.terminal_resistance,
@@ -233,7 +239,13 @@ class ActuatorModel:
         return r
 
     def thermal(self) -> NDArray[np.void]:
-        """The two-node thermal model's figures (:data:`THERMAL`)."""
+        """The two-node thermal model's figures.
+
+        Returns
+        -------
+        ndarray
+            A one-element :data:`THERMAL` record.
+        """
         r = new(THERMAL)
         rw, rh = self.thermal_resistance_winding, self.thermal_resistance_housing
         r[0] = (rw, rh, self.thermal_time_constant_winding / rw,
@@ -258,6 +270,20 @@ ACTUATOR = np.dtype([("torque", F8), ("kt_joint", F8), ("current", F8), ("voltag
 THERMAL = np.dtype([("r_wh", F8), ("r_ha", F8), ("c_w", F8), ("c_h", F8),
                     ("resistance", F8)])
 
+
+
+def _parameters() -> str:
+    """ActuatorModel's numpydoc Parameters section, from :data:`FIELDS` (one table of
+    the figures, their units and plausible ranges)."""
+    rows = ["joint, motor, gear, drive : str", "    The joint and the parts' names."]
+    for name, unit, lo, hi in FIELDS:
+        kind = "int" if name in WHOLE else "float"
+        rows += [f"{name} : {kind}", f"    {unit or 'dimensionless'}; {lo:g} to {hi:g}."]
+    rows += ["sources : dict of str to str", "    Per figure, the datasheet it comes from."]
+    return "\n".join(f"    {r}" for r in ["", "Parameters", "----------", *rows, ""])
+
+
+ActuatorModel.__doc__ = (ActuatorModel.__doc__ or "").rstrip() + "\n" + _parameters()
 
 def parse_actuator(data: dict[str, Any], where: str) -> ActuatorModel:
     """An actuator from a parsed file; errors name the file, the field and the range."""
@@ -329,7 +355,18 @@ def actuator_text(a: ActuatorModel, header: str = "") -> str:
 
 
 def load_actuator(path: str | Path) -> ActuatorModel:
-    """Read an actuator file (format: ``data/device/actuators/hip.toml``)."""
+    """Read an actuator file (format: ``data/device/actuators/hip.toml``).
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML file: every figure of :data:`FIELDS` within its range, with its source.
+
+    Returns
+    -------
+    ActuatorModel
+        A ParameterError names the key of anything missing, implausible or unsourced.
+    """
     text = read_text(path, "actuator file (TOML)")
     try:
         data = tomllib.loads(text)
@@ -340,8 +377,19 @@ def load_actuator(path: str | Path) -> ActuatorModel:
 
 def paper_actuators(folder: str | Path | None = None
                     ) -> tuple[ActuatorModel, ActuatorModel, ActuatorModel]:
-    """The three actuation units (hip, knee, ankle): a device folder's ``actuators/*.toml``
-    where it has them (:mod:`exoleg.device.files`), else the paper's shipped files."""
+    """The three actuation units (hip, knee, ankle).
+
+    Parameters
+    ----------
+    folder : str or Path, optional
+        A device folder (:mod:`exoleg.device.files`): its ``actuators/*.toml`` where it
+        has them; default (and for the others) the shipped files.
+
+    Returns
+    -------
+    tuple of ActuatorModel
+        Hip, knee, ankle.
+    """
     from exoleg.device.files import load
 
     out = []
@@ -368,7 +416,20 @@ def hip_variant(name: str) -> ActuatorModel:
 
 
 def with_actuators(leg: LegModel, actuators: tuple[ActuatorModel, ...] | None = None) -> LegModel:
-    """``leg`` with each actuator's reflected inertia as its joint's armature."""
+    """``leg`` with each actuator's reflected inertia as its joint's armature.
+
+    Parameters
+    ----------
+    leg : LegModel
+        The child + device leg.
+    actuators : tuple of ActuatorModel, optional
+        Hip, knee, ankle; default the shipped ones.
+
+    Returns
+    -------
+    LegModel
+        A new model, N^2 (J_rotor + J_gear) on M's diagonal.
+    """
     acts = paper_actuators() if actuators is None else actuators
     return leg.with_armature([a.reflected_inertia for a in acts])
 

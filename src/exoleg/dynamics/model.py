@@ -54,17 +54,22 @@ def _link_value(link: Link, name: str) -> float:
 class LegModel:
     """The coupled child + exoskeleton leg: three links on the paper's D-H chain (Table 3).
 
-    Args:
-        links: thigh, shank, foot (each a :class:`~exoleg.params.records.Link`).
-        g: gravitational acceleration, m/s^2 (gravity along -y).
-        name: a label used in reports.
-        armature: per joint, the actuator's rotor inertia reflected through its gear,
-            N^2 J (kg m^2), added to M's diagonal; default none (the paper's model).
-
     Every method takes joint vectors ordered (hip, knee, ankle) in rad (rad/s,
     rad/s^2, N m) of shape ``(3,)`` or ``(N, 3)``; results broadcast the same way.
     Equations: M (eq 17), C in Christoffel form (eq 18), G (eq 19), forward
     dynamics (eq 20), inverse dynamics (eq 16).
+
+    Parameters
+    ----------
+    links : sequence of Link
+        Thigh, shank, foot (each a :class:`~exoleg.params.records.Link`).
+    g : float, default 9.81
+        Gravitational acceleration, m/s^2 (gravity along -y).
+    name : str, default "leg"
+        A label used in reports.
+    armature : array_like, optional
+        Per joint, the actuator's rotor inertia reflected through its gear, N^2 J
+        (kg m^2), added to M's diagonal; default none (the paper's model).
     """
 
     __slots__ = ("_k", "_p", "g", "links", "name")
@@ -133,7 +138,18 @@ class LegModel:
         return self._p[_LINKS:].copy()
 
     def with_armature(self, armature: ArrayLike) -> LegModel:
-        """The same leg with this armature (kg m^2 per joint)."""
+        """The same leg with this armature.
+
+        Parameters
+        ----------
+        armature : array_like
+            Per joint, kg m^2 (N^2 J of each actuator).
+
+        Returns
+        -------
+        LegModel
+            A new model; this one is unchanged.
+        """
         return LegModel(self.links, g=self.g, name=self.name, armature=armature)
 
     @property
@@ -147,12 +163,30 @@ class LegModel:
         return all(lk.parts for lk in self.links)
 
     def lumped(self) -> LegModel:
-        """The same leg with each link as one body (the paper's simplified form)."""
+        """The same leg with each link as one body (the paper's simplified form).
+
+        Returns
+        -------
+        LegModel
+            A new model: each welded link composed into one body.
+        """
         return LegModel([lk.lumped() for lk in self.links], g=self.g, name=self.name,
                         armature=self.armature)
 
     def with_links(self, **changes: Link) -> LegModel:
-        """A copy with some links replaced, by name: ``leg.with_links(foot=new_foot)``."""
+        """A copy with some links replaced, by name: ``leg.with_links(foot=new_foot)``.
+
+        Parameters
+        ----------
+        **changes : Link
+            The new links by their names (thigh, shank, foot); an unknown name is a
+            ParameterError naming the links there are.
+
+        Returns
+        -------
+        LegModel
+            A new model; this one is unchanged.
+        """
         names = [lk.name for lk in self.links]
         for k in changes:
             if k not in names:
@@ -214,42 +248,118 @@ class LegModel:
 
     # -------------------------------------------------------------- dynamics
     def M(self, q: ArrayLike) -> F64:
-        """Inertia matrix M(q) (..., 3, 3), kg m^2 (eq 17)."""
+        """Inertia matrix M(q) (eq 17).
+
+        Parameters
+        ----------
+        q : array_like
+            Joint angles (hip, knee, ankle), rad, shape ``(3,)`` or ``(N, 3)``.
+
+        Returns
+        -------
+        ndarray
+            Shape ``(..., 3, 3)``, kg m^2.
+        """
         out = None if _call is None else _call(_A.mass_matrix, _MAT, self.g, self._p, q)
         if out is not None:  # else not one float64 state, or not finite: the general path
             return out
         return self._run("mass_matrix", (q,))
 
     def C(self, q: ArrayLike, dq: ArrayLike) -> F64:
-        """Coriolis/centripetal matrix in Christoffel form (eq 18), (..., 3, 3)."""
+        """Coriolis/centripetal matrix in Christoffel form (eq 18).
+
+        Parameters
+        ----------
+        q : array_like
+            Joint angles (hip, knee, ankle), rad, shape ``(3,)`` or ``(N, 3)``.
+        dq : array_like
+            Joint rates, rad/s, the shape of ``q``.
+
+        Returns
+        -------
+        ndarray
+            Shape ``(..., 3, 3)``, N m s/rad.
+        """
         out = None if _call is None else _call(_A.coriolis_matrix, _MAT, self.g, self._p, q, dq)
         if out is not None:  # else not one float64 state, or not finite: the general path
             return out
         return self._run("coriolis_matrix", (q, dq))
 
     def Cdq(self, q: ArrayLike, dq: ArrayLike) -> F64:
-        """C(q, dq) dq (..., 3), N m."""
+        """The Coriolis and centripetal torques C(q, dq) dq.
+
+        Parameters
+        ----------
+        q : array_like
+            Joint angles (hip, knee, ankle), rad, shape ``(3,)`` or ``(N, 3)``.
+        dq : array_like
+            Joint rates, rad/s, the shape of ``q``.
+
+        Returns
+        -------
+        ndarray
+            Shape ``(..., 3)``, N m.
+        """
         out = None if _call is None else _call(_A.coriolis_dq, _VEC, self.g, self._p, q, dq)
         if out is not None:  # else not one float64 state, or not finite: the general path
             return out
         return self._run("coriolis_dq", (q, dq))
 
     def G(self, q: ArrayLike) -> F64:
-        """Gravity torque vector G(q) (..., 3), N m (eq 19)."""
+        """Gravity torque vector G(q) (eq 19).
+
+        Parameters
+        ----------
+        q : array_like
+            Joint angles (hip, knee, ankle), rad, shape ``(3,)`` or ``(N, 3)``.
+
+        Returns
+        -------
+        ndarray
+            Shape ``(..., 3)``, N m.
+        """
         out = None if _call is None else _call(_A.gravity, _VEC, self.g, self._p, q)
         if out is not None:  # else not one float64 state, or not finite: the general path
             return out
         return self._run("gravity", (q,))
 
     def Mdot(self, q: ArrayLike, dq: ArrayLike) -> F64:
-        """Time derivative of M along (q, dq), (..., 3, 3)."""
+        """Time derivative of M along (q, dq).
+
+        Parameters
+        ----------
+        q : array_like
+            Joint angles (hip, knee, ankle), rad, shape ``(3,)`` or ``(N, 3)``.
+        dq : array_like
+            Joint rates, rad/s, the shape of ``q``.
+
+        Returns
+        -------
+        ndarray
+            Shape ``(..., 3, 3)``, kg m^2/s.
+        """
         out = None if _call is None else _call(_A.mass_matrix_dot, _MAT, self.g, self._p, q, dq)
         if out is not None:  # else not one float64 state, or not finite: the general path
             return out
         return self._run("mass_matrix_dot", (q, dq))
 
     def forward_dynamics(self, q: ArrayLike, dq: ArrayLike, tau: ArrayLike) -> F64:
-        """Joint accelerations M^-1 (tau - C dq - G) (eq 20), (..., 3), rad/s^2."""
+        """Joint accelerations M^-1 (tau - C dq - G) (eq 20).
+
+        Parameters
+        ----------
+        q : array_like
+            Joint angles (hip, knee, ankle), rad, shape ``(3,)`` or ``(N, 3)``.
+        dq : array_like
+            Joint rates, rad/s, the shape of ``q``.
+        tau : array_like
+            Joint torques, N m, the shape of ``q``.
+
+        Returns
+        -------
+        ndarray
+            Shape ``(..., 3)``, rad/s^2.
+        """
         out = None if _call is None else _call(_A.forward_dynamics, _VEC, self.g, self._p,
                                                q, dq, tau)
         if out is not None:  # else not one float64 state, or not finite: the general path
@@ -257,7 +367,22 @@ class LegModel:
         return self._run("forward_dynamics", (q, dq, tau))
 
     def inverse_dynamics(self, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike) -> F64:
-        """Joint torques M ddq + C dq + G (eq 16), (..., 3), N m."""
+        """Joint torques M ddq + C dq + G (eq 16).
+
+        Parameters
+        ----------
+        q : array_like
+            Joint angles (hip, knee, ankle), rad, shape ``(3,)`` or ``(N, 3)``.
+        dq : array_like
+            Joint rates, rad/s, the shape of ``q``.
+        ddq : array_like
+            Joint accelerations, rad/s^2, the shape of ``q``.
+
+        Returns
+        -------
+        ndarray
+            Shape ``(..., 3)``, N m.
+        """
         out = None if _call is None else _call(_A.inverse_dynamics, _VEC, self.g, self._p,
                                                q, dq, ddq)
         if out is not None:  # else not one float64 state, or not finite: the general path
@@ -265,15 +390,36 @@ class LegModel:
         return self._run("inverse_dynamics", (q, dq, ddq))
 
     def regressor(self, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike) -> F64:
-        """Y (..., 3, 15): the joint torques M ddq + C dq + G = Y :meth:`inertial` -- linear
-        in the inertial parameters, the geometry (the links' lengths) inside Y
-        (:func:`exoleg.dynamics.derive.regressor`)."""
+        """The regressor Y: the joint torques M ddq + C dq + G = Y :meth:`inertial`,
+        linear in the inertial parameters, the geometry (the links' lengths) inside Y
+        (:func:`exoleg.dynamics.derive.regressor`).
+
+        Parameters
+        ----------
+        q : array_like
+            Joint angles (hip, knee, ankle), rad, shape ``(3,)`` or ``(N, 3)``.
+        dq : array_like
+            Joint rates, rad/s, the shape of ``q``.
+        ddq : array_like
+            Joint accelerations, rad/s^2, the shape of ``q``.
+
+        Returns
+        -------
+        ndarray
+            Shape ``(..., 3, 15)``.
+        """
         return self._run("regressor", (q, dq, ddq))
 
     def inertial(self) -> F64:
-        """The inertial parameters (15,) the regressor multiplies: per link m, m cx, m cy
+        """The inertial parameters the regressor multiplies: per link m, m cx, m cy
         and the inertia about its proximal joint I + m (cx^2 + cy^2)
-        (:data:`~exoleg.dynamics.kernels.BARYCENTRIC`), then the joints' armatures."""
+        (:data:`~exoleg.dynamics.kernels.BARYCENTRIC`), then the joints' armatures.
+
+        Returns
+        -------
+        ndarray
+            Shape ``(15,)``: kg, kg m, kg m, kg m^2 per link, then kg m^2 per joint.
+        """
         out = []
         for link in self.links:
             m, cx, cy = link.mass, link.com[0], link.com[1]
@@ -281,17 +427,52 @@ class LegModel:
         return np.array(out + list(self.armature), dtype=np.float64)
 
     def kinetic_energy(self, q: ArrayLike, dq: ArrayLike) -> F64:
-        """Kinetic energy (...), J."""
+        """Kinetic energy.
+
+        Parameters
+        ----------
+        q : array_like
+            Joint angles (hip, knee, ankle), rad, shape ``(3,)`` or ``(N, 3)``.
+        dq : array_like
+            Joint rates, rad/s, the shape of ``q``.
+
+        Returns
+        -------
+        ndarray
+            Shape ``(...)``, J.
+        """
         return self._run("kinetic_energy", (q, dq))
 
     def potential_energy(self, q: ArrayLike) -> F64:
-        """Gravitational potential energy (...), J, zero at the hip's height."""
+        """Gravitational potential energy, zero at the hip's height.
+
+        Parameters
+        ----------
+        q : array_like
+            Joint angles (hip, knee, ankle), rad, shape ``(3,)`` or ``(N, 3)``.
+
+        Returns
+        -------
+        ndarray
+            Shape ``(...)``, J.
+        """
         return self._run("potential_energy", (q,))
 
     # ------------------------------------------------------------ kinematics
     def fk(self, q: ArrayLike) -> dict[str, F64]:
-        """Named positions (..., 2) in m: hip, knee, ankle, toe, com_thigh, com_shank,
-        com_foot; and ``phi``, the foot orientation (rad). Paper eqs 5-6."""
+        """Forward kinematics (paper eqs 5-6).
+
+        Parameters
+        ----------
+        q : array_like
+            Joint angles (hip, knee, ankle), rad, shape ``(3,)`` or ``(N, 3)``.
+
+        Returns
+        -------
+        dict of str to ndarray
+            Named positions ``(..., 2)`` in m -- hip, knee, ankle, toe, com_thigh,
+            com_shank, com_foot -- and ``phi``, the foot orientation (rad).
+        """
         out = None if _call is None else _call(_A.forward_kinematics, _PTS, self.g, self._p, q)
         if out is not None:
             fk = dict(zip(kinematics.POINTS, out, strict=False))  # row 7 is (phi, 0)
@@ -303,7 +484,18 @@ class LegModel:
         return kinematics.forward_kinematics(qa, self.lengths, self.coms, K.OFFSETS)
 
     def jacobians(self, q: ArrayLike) -> dict[str, F64]:
-        """Linear Jacobians (..., 2, 3) of the toe and each COM."""
+        """Linear Jacobians of the toe and each link's centre of mass.
+
+        Parameters
+        ----------
+        q : array_like
+            Joint angles (hip, knee, ankle), rad, shape ``(3,)`` or ``(N, 3)``.
+
+        Returns
+        -------
+        dict of str to ndarray
+            Shape ``(..., 2, 3)`` each, m/rad, by point name.
+        """
         return kinematics.jacobians(self._vec("q", q, "rad"), self.lengths, self.coms, K.OFFSETS)
 
     def ik(
@@ -313,8 +505,21 @@ class LegModel:
         phi: ArrayLike,
         branch: Literal["flexed", "extended"] = "flexed",
     ) -> F64:
-        """Joint angles (..., 3) putting the toe at (x, y) m with foot orientation phi rad.
+        """Joint angles putting the toe at (x, y) with the foot's orientation phi (exact,
+        paper eqs 8-14; :func:`exoleg.kinematics.inverse_kinematics`).
 
-        Knee flexed (q2 <= 0) by default; see :func:`exoleg.kinematics.inverse_kinematics`.
+        Parameters
+        ----------
+        x, y : array_like
+            The toe's position in the hip frame, m (scalars or ``(N,)``).
+        phi : array_like
+            The foot's orientation, rad.
+        branch : {"flexed", "extended"}, default "flexed"
+            The knee's solution: flexed (q2 <= 0) or extended.
+
+        Returns
+        -------
+        ndarray
+            Joint angles ``(..., 3)``, rad; an unreachable toe is an UnreachableError.
         """
         return kinematics.inverse_kinematics(x, y, phi, self.lengths, branch=branch)

@@ -125,7 +125,24 @@ def paper_footplate_height() -> float:
 
 def to_urdf(leg: LegModel, mode: Mode = "lumped", frame: Frame = "y-up",
             armature: Sequence[float] | None = None) -> str:
-    """URDF text of ``leg`` (see the module docstring for frames, limits and geometry)."""
+    """URDF text of ``leg`` (see the module docstring for frames, limits and geometry).
+
+    Parameters
+    ----------
+    leg : LegModel
+        The leg.
+    mode : {"lumped", "welded"}, default "lumped"
+        One body per link, or each link's welded parts (human, SLE) as bodies.
+    frame : {"y-up", "z-up"}, default "y-up"
+        The exported frame (exoleg's, or z up for ROS tools).
+    armature : sequence of float, optional
+        Per joint rotor inertia reflected through the gear, kg m^2.
+
+    Returns
+    -------
+    str
+        The URDF document.
+    """
     bodies = _bodies(leg, mode)
     _frame(leg, frame)
     _armature(leg, armature)  # URDF has no armature; checked for a consistent API
@@ -185,9 +202,31 @@ def to_mjcf(leg: LegModel, mode: Mode = "lumped", timestep: float = 1e-3,
             integrator: str = "RK4", frame: Frame = "y-up",
             armature: Sequence[float] | None = None, pelvis_mass: float | None = None) -> str:
     """MJCF text of ``leg``: joint ranges, torque ranges and motor actuators, armature,
-    geometry; contacts off (see the module docstring). ``pelvis_mass`` (kg): the walking
-    plant's pelvis -- a body at the hip carrying that mass on a vertical slide joint
-    ``pelvis_y`` (:mod:`exoleg.world.plant`)."""
+    geometry; contacts off (see the module docstring).
+
+    Parameters
+    ----------
+    leg : LegModel
+        The leg.
+    mode : {"lumped", "welded"}, default "lumped"
+        One body per link, or each link's welded parts (human, SLE) as bodies.
+    timestep : float, default 0.001
+        MuJoCo's step, s.
+    integrator : str, default "RK4"
+        MuJoCo's integrator.
+    frame : {"y-up", "z-up"}, default "y-up"
+        The exported frame (exoleg's, or z up for ROS tools).
+    armature : sequence of float, optional
+        Per joint rotor inertia reflected through the gear, kg m^2.
+    pelvis_mass : float, optional
+        The walking plant's pelvis: a body at the hip carrying that mass (kg) on a
+        vertical slide joint ``pelvis_y`` (:mod:`exoleg.world.plant`).
+
+    Returns
+    -------
+    str
+        The MJCF document.
+    """
     bodies = _bodies(leg, mode)
     _frame(leg, frame)
     arm = _armature(leg, armature)
@@ -261,11 +300,49 @@ def _write(text: str, path: str | Path) -> Path:
 
 def write_urdf(leg: LegModel, path: str | Path, mode: Mode = "lumped", frame: Frame = "y-up",
                armature: Sequence[float] | None = None) -> Path:
-    """Write :func:`to_urdf` to ``path`` (whole or not at all)."""
+    """Write :func:`to_urdf` to ``path`` (whole or not at all).
+
+    Parameters
+    ----------
+    leg : LegModel
+        The leg.
+    mode : {"lumped", "welded"}, default "lumped"
+        One body per link, or each link's welded parts (human, SLE) as bodies.
+    path : str or Path
+        The file to write.
+    frame : {"y-up", "z-up"}, default "y-up"
+        The exported frame (exoleg's, or z up for ROS tools).
+    armature : sequence of float, optional
+        Per joint rotor inertia reflected through the gear, kg m^2.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     return _write(to_urdf(leg, mode, frame, armature), path)
 
 
 def write_mjcf(leg: LegModel, path: str | Path, mode: Mode = "lumped", frame: Frame = "y-up",
                armature: Sequence[float] | None = None) -> Path:
-    """Write :func:`to_mjcf` to ``path`` (whole or not at all)."""
+    """Write :func:`to_mjcf` to ``path`` (whole or not at all).
+
+    Parameters
+    ----------
+    leg : LegModel
+        The leg.
+    mode : {"lumped", "welded"}, default "lumped"
+        One body per link, or each link's welded parts (human, SLE) as bodies.
+    path : str or Path
+        The file to write.
+    frame : {"y-up", "z-up"}, default "y-up"
+        The exported frame (exoleg's, or z up for ROS tools).
+    armature : sequence of float, optional
+        Per joint rotor inertia reflected through the gear, kg m^2.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     return _write(to_mjcf(leg, mode, frame=frame, armature=armature), path)

@@ -59,15 +59,22 @@ def _plausible(where: str, m: float, a: float, com: tuple[float, float], izz: fl
 class Link:
     """One link of the leg, lumped into a single rigid body.
 
-    Attributes:
-        mass: kg, > 0.
-        length: joint-to-joint length a_i, m, > 0 (for the foot: ankle to toe).
-        com: (x, y) of the COM in the link frame, from the proximal joint, m. The link
-            frame's x axis points along the link, y is x turned +90 deg.
-        izz: centroidal moment of inertia about z, kg m^2, > 0.
-        name: label, e.g. ``"thigh"``.
-        parts: the welded bodies this link is made of (e.g. human and SLE), if known.
-            When given, mass, com and izz must be their composition (see :meth:`from_parts`).
+    Parameters
+    ----------
+    mass : float
+        kg, > 0.
+    length : float
+        Joint-to-joint length a_i, m, > 0 (for the foot: ankle to toe).
+    com : (float, float)
+        The COM in the link frame, from the proximal joint, m; the link frame's x axis
+        points along the link, y is x turned +90 deg.
+    izz : float
+        Centroidal moment of inertia about z, kg m^2, > 0.
+    name : str, default "link"
+        A label, e.g. ``"thigh"``.
+    parts : tuple of RigidBody, default ()
+        The welded bodies this link is made of (e.g. human and SLE), if known; when given,
+        mass, com and izz must be their composition (see :meth:`from_parts`).
     """
 
     mass: float
@@ -104,7 +111,21 @@ class Link:
     @classmethod
     def from_parts(cls, length: float, parts: tuple[RigidBody, ...] | list[RigidBody],
                    name: str = "link") -> Link:
-        """A link whose mass properties are the SMS composition of ``parts``."""
+        """A link whose mass properties are the SMS composition of ``parts``.
+
+        Parameters
+        ----------
+        length : float
+            m.
+        parts : sequence of RigidBody
+            The welded bodies.
+        name : str, default "link"
+            A label.
+
+        Returns
+        -------
+        Link
+        """
         c = compose(parts, name=name)
         return cls(mass=c.mass, length=length, com=c.com, izz=c.izz, name=name,
                    parts=tuple(parts))
@@ -115,7 +136,12 @@ class Link:
         return RigidBody(mass=self.mass, com=self.com, izz=self.izz, name=self.name)
 
     def lumped(self) -> Link:
-        """This link without its parts (the paper's simplified, single-body form)."""
+        """This link without its parts (the paper's simplified, single-body form).
+
+        Returns
+        -------
+        Link
+        """
         return Link(mass=self.mass, length=self.length, com=self.com, izz=self.izz, name=self.name)
 
 
@@ -123,8 +149,22 @@ class Link:
 class Actuator:
     """One joint's actuation unit (paper Table 2).
 
-    Attributes: mass kg, power W, gear_ratio (output:input, e.g. 100 for 100:1),
-    max_torque N m, max_velocity rad/s, motor and gear model names.
+    Parameters
+    ----------
+    joint : str
+        hip, knee or ankle.
+    mass : float
+        kg.
+    power : float
+        W.
+    gear_ratio : float
+        Output:input, e.g. 100 for 100:1.
+    max_torque : float
+        N m.
+    max_velocity : float
+        rad/s.
+    motor, gear : str, default ""
+        The models' names.
     """
 
     joint: str
@@ -144,7 +184,13 @@ class Actuator:
 
 @dataclass(frozen=True)
 class RangeOfMotion:
-    """Joint limits, rad, ordered (hip, knee, ankle); ``lower < upper`` per joint."""
+    """Joint limits, ordered (hip, knee, ankle); ``lower < upper`` per joint.
+
+    Parameters
+    ----------
+    lower, upper : ndarray
+        rad, (3,).
+    """
 
     lower: NDArray[np.float64]
     upper: NDArray[np.float64]
@@ -160,14 +206,35 @@ class RangeOfMotion:
         object.__setattr__(self, "upper", hi)
 
     def contains(self, q: NDArray[np.float64]) -> NDArray[np.bool_]:
-        """Whether each configuration (..., 3) lies within the limits."""
+        """Whether each configuration lies within the limits.
+
+        Parameters
+        ----------
+        q : ndarray
+            Joint angles, rad, ``(..., 3)``.
+
+        Returns
+        -------
+        ndarray of bool
+            Shape ``(...)``.
+        """
         q = np.asarray(q, dtype=float)
         return np.all((q >= self.lower) & (q <= self.upper), axis=-1)
 
 
 @dataclass(frozen=True)
 class Gains:
-    """Diagonal PD gains: kp N m/rad, kd N m s/rad (hip, knee, ankle), control rate Hz."""
+    """Diagonal PD gains.
+
+    Parameters
+    ----------
+    kp : ndarray
+        N m/rad (hip, knee, ankle).
+    kd : ndarray
+        N m s/rad.
+    rate_hz : float, default 1000.0
+        The control rate, Hz.
+    """
 
     kp: NDArray[np.float64]
     kd: NDArray[np.float64]

@@ -22,10 +22,30 @@ _EXO_OFFSET = 0.025  # m, drawing offset of the exoskeleton's links behind the l
 
 def animate(leg: LegModel, t: np.ndarray, q: np.ndarray, path: str | Path, fps: int = 25,
             q_ref: np.ndarray | None = None) -> Path:
-    """Write an animation of ``q`` (N, 3) rad over ``t`` (N,) s at ``fps`` frames per second.
+    """Write an animation of a run.
 
     The suffix of ``path`` picks the format: ``.gif`` or ``.mp4`` (needs ffmpeg; without
     it a GIF is written next to it and its path returned).
+
+    Parameters
+    ----------
+    leg : LegModel
+        The leg drawn.
+    t : ndarray
+        Times, s, (N,).
+    q : ndarray
+        Joint angles, rad, (N, 3).
+    path : str or Path
+        The file to write.
+    fps : int, default 25
+        Frames per second.
+    q_ref : ndarray, optional
+        The reference, drawn behind, (N, 3).
+
+    Returns
+    -------
+    Path
+        The file written.
     """
     p = Path(path)
     if p.suffix == ".mp4" and shutil.which("ffmpeg") is None:

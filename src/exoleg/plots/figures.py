@@ -71,7 +71,17 @@ def _log_error(ax: Axes, t: np.ndarray, err: np.ndarray, title: str) -> None:
 
 
 def fig13(report: ScenarioReport) -> Figure:
-    """Paper Fig. 13 A-F."""
+    """Paper Fig. 13 A-F.
+
+    Parameters
+    ----------
+    report : ScenarioReport
+        The run and its figures (:func:`exoleg.sim.scenario.run_scenario`).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     r = report.result
     fig = new_figure(13, 7, left=0.06, right=0.98, top=0.95, bottom=0.08, wspace=0.28,
                      hspace=0.35)
@@ -103,7 +113,17 @@ def fig13(report: ScenarioReport) -> Figure:
 
 
 def fig14(report: ScenarioReport) -> Figure:
-    """Paper Fig. 14: the verification signal."""
+    """Paper Fig. 14: the verification signal.
+
+    Parameters
+    ----------
+    report : ScenarioReport
+        The run and its figures (:func:`exoleg.sim.scenario.run_scenario`).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     r = report.result
     fig = new_figure(7, 3.5, left=0.14, right=0.97, top=0.9, bottom=0.14)
     ax = fig.subplots()
@@ -117,7 +137,17 @@ def fig14(report: ScenarioReport) -> Figure:
 
 
 def fig15(report: ScenarioReport) -> Figure:
-    """Paper Fig. 15: control torques (non-zero at rest: G(q))."""
+    """Paper Fig. 15: control torques (non-zero at rest: G(q)).
+
+    Parameters
+    ----------
+    report : ScenarioReport
+        The run and its figures (:func:`exoleg.sim.scenario.run_scenario`).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     r = report.result
     fig = new_figure(7, 3.5, left=0.12, right=0.97, top=0.9, bottom=0.14)
     ax = fig.subplots()
@@ -133,7 +163,22 @@ def fig15(report: ScenarioReport) -> Figure:
 
 def save_figures(report: ScenarioReport, folder: str | Path,
                  formats: tuple[str, ...] = ("png",)) -> list[Path]:
-    """Write Figs 13, 14 and 15 in each format; returns the paths."""
+    """Write Figs 13, 14 and 15 in each format.
+
+    Parameters
+    ----------
+    report : ScenarioReport
+        The run and its figures (:func:`exoleg.sim.scenario.run_scenario`).
+    folder : str or Path
+        Where (made if missing).
+    formats : tuple of str, default ("png",)
+        File formats (png, svg, pdf).
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
     paths = []

@@ -39,7 +39,20 @@ def _table() -> dict[tuple[str, str], tuple[F64, F64, F64]]:
 
 
 def schwartz2008(variable: str, speed: str = "Free") -> tuple[F64, F64, F64]:
-    """(% gait cycle, mean, SD) of a Schwartz 2008 variable for a speed group, as printed."""
+    """A Schwartz 2008 variable for a speed group, as printed.
+
+    Parameters
+    ----------
+    variable : str
+        The variable's name in the data file (e.g. a joint's angle or moment).
+    speed : str, default "Free"
+        The speed group.
+
+    Returns
+    -------
+    percent, mean, sd : ndarray
+        % of the gait cycle, the mean and the SD, in the printed units.
+    """
     if speed not in SPEED_GROUPS:
         raise ParameterError("schwartz2008", "speed",
                              f"unknown {speed!r} (allowed: {', '.join(SPEED_GROUPS)})")
@@ -70,10 +83,26 @@ def pelvic_tilt(speed: str = "Free") -> float:
 
 def gait_angles(speed: str = "Free", sd: float = 0.0, upright: bool = False
                 ) -> tuple[F64, F64]:
-    """(% cycle (51,), q (51, 3) rad) of mean + sd * SD, in exoleg's signs. ``upright``:
-    the hip angle from an upright pelvis -- the printed hip flexion less the pelvis's mean
-    anterior tilt (:func:`pelvic_tilt`), as a device whose hip is zeroed with the child
-    standing reads it, and as the walking plant's upright pelvis turns the thigh."""
+    """The gait's joint angles over the cycle, mean + sd * SD, in exoleg's signs.
+
+    Parameters
+    ----------
+    speed : str, default "Free"
+        The speed group.
+    sd : float, default 0.0
+        How many SD from the mean.
+    upright : bool, default False
+        The hip angle from an upright pelvis: the printed hip flexion less the pelvis's
+        mean anterior tilt (:func:`pelvic_tilt`), as a device whose hip is zeroed with the
+        child standing reads it.
+
+    Returns
+    -------
+    percent : ndarray
+        % of the cycle, (51,).
+    q : ndarray
+        (51, 3), rad.
+    """
     cols = []
     pct = np.zeros(0)
     for var, sign in _ANGLES:
@@ -87,18 +116,25 @@ def gait_angles(speed: str = "Free", sd: float = 0.0, upright: bool = False
 
 @dataclass(frozen=True)
 class SchwartzGait2008:
-    """Periodic normative gait reference.
+    """Periodic normative gait reference (Schwartz, Rozumalski & Trost 2008).
 
-    Args:
-        stride_time: s per gait cycle, within :data:`STRIDE_TIME_RANGE`.
-        speed: Schwartz 2008 speed group (VerySlow, Slow, Free, Fast, VeryFast).
-        sd: mean + sd * SD (e.g. -1, 0, 1).
-        harmonics: Fourier harmonics kept (1-24). The default 10 keeps the fit within
-            0.25 deg of every printed sample (Free, mean); the residual floor is the 100 %
-            sample, which does not close exactly onto the 0 % one.
-        phase: fraction of the cycle at t = 0 (0 = heel strike).
-        upright: the hip from an upright pelvis (:func:`gait_angles`): the gait the
-            walking plant walks and its device tracks.
+    Parameters
+    ----------
+    stride_time : float, default 1.0
+        s per gait cycle, within :data:`STRIDE_TIME_RANGE`.
+    speed : str, default "Free"
+        The speed group (VerySlow, Slow, Free, Fast, VeryFast).
+    sd : float, default 0.0
+        mean + sd * SD (e.g. -1, 0, 1).
+    harmonics : int, default 10
+        Fourier harmonics kept (1-24); 10 keeps the fit within 0.25 deg of every printed
+        sample (Free, mean); the residual floor is the 100 % sample, which does not close
+        exactly onto the 0 % one.
+    phase : float, default 0.0
+        The fraction of the cycle at t = 0 (0 = heel strike).
+    upright : bool, default False
+        The hip from an upright pelvis (:func:`gait_angles`): the gait the walking plant
+        walks and its device tracks.
     """
 
     stride_time: float = 1.0
@@ -132,7 +168,13 @@ class SchwartzGait2008:
         return F[0].real, 2 * F[1:K + 1].real, -2 * F[1:K + 1].imag
 
     def fit_residual(self) -> float:
-        """Largest abs(fit - printed sample) over the cycle, rad."""
+        """The Fourier fit's largest departure from the printed samples.
+
+        Returns
+        -------
+        float
+            rad.
+        """
         pct, q = gait_angles(self.speed, self.sd, self.upright)
         fq, _, _ = self._eval(pct / 100.0)
         return float(np.max(np.abs(fq - q)))
@@ -148,12 +190,35 @@ class SchwartzGait2008:
         return q, dq, ddq
 
     def sample(self, t: ArrayLike) -> tuple[F64, F64, F64]:
+        """The reference at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times, s, ``(N,)``.
+
+        Returns
+        -------
+        q_ref, dq_ref, ddq_ref : ndarray
+            Each ``(N, 3)``: rad, rad/s, rad/s^2.
+        """
         tt = np.atleast_1d(np.asarray(t, dtype=float))
         q, dx, ddx = self._eval(tt / self.stride_time + self.phase)
         w = 2 * np.pi / self.stride_time
         return q, dx * w, ddx * w * w
 
     def posture_at(self, fraction: float) -> F64:
-        """Joint angles (3,) rad at a fraction of the gait cycle (0 = heel strike)."""
+        """Joint angles at a fraction of the gait cycle.
+
+        Parameters
+        ----------
+        fraction : float
+            0 = heel strike, 1 the next.
+
+        Returns
+        -------
+        ndarray
+            (3,), rad.
+        """
         q, _, _ = self._eval(np.array([fraction]))
         return q[0]

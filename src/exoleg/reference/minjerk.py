@@ -14,9 +14,17 @@ F64 = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class MinJerk:
-    """Moves from ``postures[i]`` at ``times[i]`` to ``postures[i+1]`` at ``times[i+1]`` along a
-    minimum-jerk path (zero velocity and acceleration at both ends); holds the first posture
-    before ``times[0]`` and the last after ``times[-1]``. Times s, postures rad (n, 3)."""
+    """Minimum-jerk moves between postures: from ``postures[i]`` at ``times[i]`` to
+    ``postures[i+1]`` at ``times[i+1]`` (zero velocity and acceleration at both ends);
+    the first posture holds before ``times[0]``, the last after ``times[-1]``.
+
+    Parameters
+    ----------
+    times : ndarray
+        s, increasing, (n,).
+    postures : ndarray
+        rad, (n, 3).
+    """
 
     times: F64
     postures: F64
@@ -27,6 +35,18 @@ class MinJerk:
         object.__setattr__(self, "postures", s.postures)
 
     def sample(self, t: ArrayLike) -> tuple[F64, F64, F64]:
+        """The reference at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times, s, ``(N,)``.
+
+        Returns
+        -------
+        q_ref, dq_ref, ddq_ref : ndarray
+            Each ``(N, 3)``: rad, rad/s, rad/s^2.
+        """
         tt = np.atleast_1d(np.asarray(t, dtype=float))
         T, P = self.times, self.postures
         i = np.clip(np.searchsorted(T, tt, side="right") - 1, 0, len(T) - 1)

@@ -14,19 +14,35 @@ F64 = NDArray[np.float64]
 
 
 class Reference(Protocol):
-    """What the simulator needs of a reference."""
+    """What the simulator needs of a reference: :meth:`sample`."""
 
     def sample(self, t: ArrayLike) -> tuple[F64, F64, F64]:
-        """q_ref, dq_ref, ddq_ref at times t (N,): each (N, 3), rad, rad/s, rad/s^2."""
+        """q_ref, dq_ref, ddq_ref at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times, s, ``(N,)``.
+
+        Returns
+        -------
+        q_ref, dq_ref, ddq_ref : ndarray
+            Each ``(N, 3)``: rad, rad/s, rad/s^2.
+        """
         ...
 
 
 @dataclass(frozen=True)
 class Steps:
-    """Piecewise-constant postures: ``postures[i]`` (rad) holds from ``times[i]`` (s) on.
+    """Piecewise-constant postures: ``postures[i]`` holds from ``times[i]`` on; the first
+    before ``times[0]``; dq_ref = ddq_ref = 0 (paper section 5: q_ref is a step input).
 
-    Before ``times[0]`` the first posture holds. dq_ref = ddq_ref = 0 (paper
-    section 5: q_ref is a step input).
+    Parameters
+    ----------
+    times : ndarray
+        s, increasing, (n,).
+    postures : ndarray
+        rad, (n, 3).
     """
 
     times: F64
@@ -46,6 +62,18 @@ class Steps:
         object.__setattr__(self, "postures", p)
 
     def sample(self, t: ArrayLike) -> tuple[F64, F64, F64]:
+        """The reference at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times, s, ``(N,)``.
+
+        Returns
+        -------
+        q_ref, dq_ref, ddq_ref : ndarray
+            Each ``(N, 3)``: rad, rad/s, rad/s^2.
+        """
         tt = np.asarray(t, dtype=float)
         idx = np.clip(np.searchsorted(self.times, tt, side="right") - 1, 0, len(self.times) - 1)
         q = self.postures[idx]

@@ -213,15 +213,33 @@ def available_memory() -> int | None:
 class SimResult(TimeSeries):
     """Named time series of a run; arrays (N,) or (N, 3), joints ordered (hip, knee, ankle).
 
-    t s; q rad; dq rad/s; ddq rad/s^2; u N m (held torque); q_ref rad; saturated (N, 3);
-    stability_margin: the largest h * lambda of the velocity feedback checked before the
-    run (< 2 stable, see :func:`sampled_stability`); notes: what the caller should know
-    (e.g. a run outside the device's range of motion, on request).
-
     Computed on first access (one compiled pass over the run, then kept): error =
     q_ref - q; kinetic, potential J; lyapunov V of eq 26 (J); verification
     dq^T (Mdot - 2C) dq (W) and verification_scale abs(dq^T Mdot dq) (W), the size of
     what cancels in it.
+
+    Parameters
+    ----------
+    t : ndarray
+        s.
+    q, dq, ddq : ndarray
+        rad, rad/s, rad/s^2.
+    u : ndarray
+        The held torque, N m.
+    q_ref : ndarray
+        rad.
+    saturated : ndarray of bool
+        (N, 3): where the torque was saturated.
+    stability_margin : float
+        The largest h * lambda of the velocity feedback checked before the run (< 2
+        stable, see :func:`sampled_stability`).
+    notes : tuple of str
+        What the caller should know (e.g. a run outside the device's range of motion, on
+        request).
+    leg : LegModel, optional
+        The leg simulated (for the diagnostics).
+    kp_effective : ndarray, optional
+        The stiffness the V of eq 26 is built with.
     """
 
     t: F64
@@ -271,7 +289,13 @@ class SimResult(TimeSeries):
         return np.abs(self._diagnostics[:, 4])
 
     def columns(self) -> dict[str, F64]:
-        """Every series as named 1-D columns (``q_hip``, ``u_ankle``, ...), SI units, rad."""
+        """Every series as named 1-D columns (``q_hip``, ``u_ankle``, ...).
+
+        Returns
+        -------
+        dict of str to ndarray
+            SI units, rad.
+        """
         cols: dict[str, F64] = {"t": self.t}
         for name in ("q", "dq", "ddq", "u", "q_ref", "error", "saturated"):
             arr = getattr(self, name)
@@ -375,20 +399,42 @@ def simulate(leg: LegModel, controller: Controller, reference: Reference, durati
              beyond_range_of_motion: bool = False) -> SimResult:
     """Simulate the closed loop for ``duration`` s with RK4 steps of ``dt`` s.
 
-    The controller runs every ``control_dt`` s (default ``dt``, i.e. 1 kHz at 1 ms; it
-    must be a whole multiple of ``dt``) and its torque is held in between. q0, dq0
-    default to the reference's first posture at rest. ``progress``, if given, is called
-    with the fraction done (the run is then done in about 100 chunks; the result is the
-    same bit for bit).
-
     Refused before the run (:class:`~exoleg.errors.ParameterError`, naming the input and
     what is allowed): fewer than one step; more steps than the memory available holds;
     gains the sampled loop cannot keep stable (:func:`sampled_stability` >= 2); a start
-    posture or reference outside ``range_of_motion`` (default: the device's, paper
-    section 2.1) unless ``beyond_range_of_motion`` -- then the result's ``notes`` say so.
+    posture or reference outside ``range_of_motion`` unless ``beyond_range_of_motion``.
     Raises :class:`~exoleg.errors.SimulationError` naming the time and joint if the state
-    stops being finite. Diagnostics (energies, V, verification signal) are computed
-    when first read.
+    stops being finite.
+
+    Parameters
+    ----------
+    leg : LegModel
+        The plant.
+    controller : exoleg.control.controllers.Controller
+        The law (:func:`~exoleg.control.PDGravity`, ...).
+    reference : Reference
+        What it follows (:mod:`exoleg.reference`).
+    duration : float
+        s.
+    dt : float, default 0.001
+        The RK4 step, s.
+    q0, dq0 : array_like, optional
+        The start; default the reference's first posture at rest.
+    control_dt : float, optional
+        The controller's period, a whole multiple of ``dt`` (its torque held in between);
+        default ``dt``.
+    progress : callable, optional
+        Called with the fraction done (the run is then done in about 100 chunks; the
+        result is the same bit for bit).
+    range_of_motion : RangeOfMotion, optional
+        Default the device's (paper section 2.1).
+    beyond_range_of_motion : bool, default False
+        Run outside it all the same; the result's ``notes`` say so.
+
+    Returns
+    -------
+    SimResult
+        Diagnostics (energies, V, verification signal) are computed when first read.
     """
     check_inputs("simulate", leg, controller, reference)
     t, Qr, DQr, DDQr, q_init, dq_init, notes = check_run(

@@ -42,13 +42,41 @@ DRILLIS = {"thigh": 0.245, "shank": 0.246, "ankle_height": 0.039, "foot_length":
 
 
 def table1_rule(height: float, td_height: float, td_value: float) -> float:
-    """Paper Table 1: scale a typically developing child's dimension by height ratio."""
+    """Paper Table 1: scale a typically developing child's dimension by the height ratio.
+
+    Parameters
+    ----------
+    height : float
+        The child's height, m.
+    td_height : float
+        The reference child's height, m.
+    td_value : float
+        The reference child's dimension.
+
+    Returns
+    -------
+    float
+        ``td_value * height / td_height``.
+    """
     return height * td_value / td_height
 
 
 def table1_estimate(height: float, sex: str) -> tuple[float, float]:
-    """(leg length, foot length) in m by the paper's Table 1 rule, from the paper's
-    typically developing reference child of the same sex (Whitley 2008)."""
+    """Leg and foot length by the paper's Table 1 rule, from the paper's typically
+    developing reference child of the same sex (Whitley 2008).
+
+    Parameters
+    ----------
+    height : float
+        m.
+    sex : str
+        "female" or "male".
+
+    Returns
+    -------
+    leg_length, foot_length : float
+        m.
+    """
     t = paper.sizing()
     td = t["td_min"] if sex == "female" else t["td_max"]
     h_td = td["height_cm"] / 100
@@ -94,7 +122,19 @@ def leg_length(height: float, sex: str = "female",
 
 @dataclass(frozen=True)
 class EstimatorError:
-    """Error of an estimator on the measured children (estimate - measured), m."""
+    """Error of an estimator on the measured children (estimate - measured).
+
+    Parameters
+    ----------
+    name : str
+        The estimator.
+    source : str
+        Its reference.
+    bias, rmse, max_abs : float
+        m.
+    n : int
+        Children measured.
+    """
 
     name: str
     source: str
@@ -105,7 +145,13 @@ class EstimatorError:
 
 
 def estimator_errors() -> list[EstimatorError]:
-    """Each leg-length estimator on the 31 measured children, best (smallest RMSE) first."""
+    """Each leg-length estimator on the 31 measured children (Pinzone et al. 2014).
+
+    Returns
+    -------
+    list of EstimatorError
+        Best (smallest RMSE) first.
+    """
     _, _, h, ll = measured_children()
     loo = np.empty_like(h)
     for i in range(len(h)):
@@ -171,7 +217,21 @@ def check_measured(child: Child) -> list[str]:
 
 @dataclass(frozen=True)
 class Dimensions:
-    """A child's dimensions, m, and where each came from (``"measured"`` or the estimator)."""
+    """A child's dimensions and where each came from.
+
+    Parameters
+    ----------
+    thigh, shank : float
+        Hip-knee and knee-ankle joint-centre distances, m.
+    ankle_height : float
+        Ankle joint centre above the sole, m.
+    foot_length : float
+        Heel to longest toe, m.
+    leg_length : float
+        Clinical leg length (ASIS to medial malleolus), m.
+    sources : dict of str to str
+        Per dimension, ``"measured"`` or the estimator.
+    """
 
     thigh: float
     shank: float
@@ -185,9 +245,19 @@ def estimate_dimensions(child: Child, leg_length_method: LegLengthMethod = "line
                         ) -> Dimensions:
     """The joint-centre lengths the device must align with, foot and clinical leg length.
 
-    Measured values in ``child`` are used as given. A measured clinical leg length
-    scales the height-based thigh and shank estimates by measured / estimated leg
-    length (the child's own proportions of leg to height).
+    A measured clinical leg length scales the height-based thigh and shank estimates by
+    measured / estimated leg length (the child's own proportions of leg to height).
+
+    Parameters
+    ----------
+    child : Child
+        The child (measured values used as given).
+    leg_length_method : {"linear", "drillis", "table1"}, default "linear"
+        How the clinical leg length is estimated when not measured.
+
+    Returns
+    -------
+    Dimensions
     """
     unusual = check_measured(child)
     H = child.height

@@ -27,23 +27,39 @@ class DesignRangeWarning(UserWarning):
 class Child:
     """A child to fit.
 
-    Attributes:
-        age: years (2-20, the growth charts' span; the device targets 8-12).
-        sex: ``"female"`` or ``"male"``.
-        height: m. mass: body mass, kg.
-        gmfcs: GMFCS level, an integer 1-5; None (or 0) for a typically developing child.
-        affected_side: ``"left"`` or ``"right"`` (the leg the device is worn on).
-        thigh, shank: measured hip-knee and knee-ankle joint-centre distances, m.
-        leg_length: measured clinical leg length (ASIS to medial malleolus), m.
-        foot_length: heel to longest toe, m. ankle_height: ankle joint centre above the
-            sole, m. Each measured value overrides its estimate, and must be plausible
-            for the child's height (:func:`exoleg.sizing.anthropometry.plausible_range`)
-            unless ``accept_unusual``.
-        accept_unusual: accept measured dimensions outside the plausible range (a child
-            who really is out of the ordinary); reports say so.
-
     Height and mass are checked against the growth chart of the child's group at its
-    age (within +-5 SD); :attr:`charts` names the chart used for each.
+    age (within +-5 SD, BMI within 5 SD of WHO 2007); :attr:`charts` names the chart used
+    for each.
+
+    Parameters
+    ----------
+    age : float
+        Years (2-20, the growth charts' span; the device targets 8-12).
+    sex : {"female", "male"}
+        The growth charts' group.
+    height : float
+        m.
+    mass : float
+        Body mass, kg.
+    gmfcs : int, optional
+        GMFCS level 1-5; None (or 0) for a typically developing child.
+    affected_side : {"left", "right"}, default "right"
+        The leg the device is worn on.
+    thigh, shank : float, optional
+        Measured hip-knee and knee-ankle joint-centre distances, m.
+    leg_length : float, optional
+        Measured clinical leg length (ASIS to medial malleolus), m.
+    foot_length : float, optional
+        Heel to longest toe, m.
+    ankle_height : float, optional
+        Ankle joint centre above the sole, m. Each measured value overrides its estimate
+        and must be plausible for the child's height
+        (:func:`exoleg.sizing.anthropometry.plausible_range`) unless ``accept_unusual``.
+    name : str, default "child"
+        A label.
+    accept_unusual : bool, default False
+        Accept measured dimensions outside the plausible range (a child who really is out
+        of the ordinary); reports say so.
     """
 
     age: float

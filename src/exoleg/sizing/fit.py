@@ -28,8 +28,19 @@ from exoleg.sizing.child import Child
 
 @dataclass(frozen=True)
 class Miss:
-    """Where the device does not fit: the child's value, the allowed range, by how much (m;
-    > 0: the child is larger than the device allows, < 0: smaller)."""
+    """Where the device does not fit.
+
+    Parameters
+    ----------
+    what : str
+        The part (e.g. the lower telescope).
+    child : float
+        The child's value, m.
+    allowed : (float, float)
+        The device's range, m.
+    by : float
+        By how much, m: > 0 the child is larger than the device allows, < 0 smaller.
+    """
 
     what: str
     child: float
@@ -41,18 +52,25 @@ class Miss:
 class DeviceFit:
     """The verdict for one child.
 
-    Attributes:
-        fits: True when nothing misses.
-        upper: hip-knee telescope setting, m; lower: knee-to-sole telescope setting, m
-            (the child's values, clipped to the device's range when outside).
-        link_lengths: the model's joint-to-joint lengths (hip-knee, knee-ankle,
-            footplate), m.
-        dimensions: the child's dimensions used.
-        misses: what does not fit, by how much.
-        paper_rule: the paper's own check -- Table 1 leg length (by its rule) against the
-            device's 60-86 cm -- for comparison.
-        range_of_motion: device limits (rad) and the child's normative gait range
-            (Schwartz 2008 free speed, mean +- 2 SD; rad) per joint.
+    Parameters
+    ----------
+    fits : bool
+        True when nothing misses.
+    upper, lower : float
+        The hip-knee and knee-to-sole telescope settings, m (the child's values, clipped to
+        the device's range when outside).
+    link_lengths : (float, float, float)
+        The model's joint-to-joint lengths (hip-knee, knee-ankle, footplate), m.
+    dimensions : Dimensions
+        The child's dimensions used.
+    misses : list of Miss
+        What does not fit, by how much.
+    paper_rule : dict
+        The paper's own check -- Table 1 leg length (by its rule) against the device's
+        60-86 cm -- for comparison.
+    range_of_motion : dict
+        The device's limits (rad) and the child's normative gait range (Schwartz 2008
+        free speed, mean +- 2 SD; rad) per joint.
     """
 
     fits: bool
@@ -74,7 +92,19 @@ def _gait_rom() -> tuple[np.ndarray, np.ndarray]:
 
 
 def fit_device(child: Child, leg_length_method: LegLengthMethod = "linear") -> DeviceFit:
-    """Telescope settings and the fit verdict for ``child``."""
+    """Telescope settings and the fit verdict for ``child``.
+
+    Parameters
+    ----------
+    child : Child
+        The child (measured values used as given).
+    leg_length_method : {"linear", "drillis", "table1"}, default "linear"
+        How the clinical leg length is estimated when not measured.
+
+    Returns
+    -------
+    DeviceFit
+    """
     d = estimate_dimensions(child, leg_length_method)
     dev = device()
     misses = []

@@ -110,8 +110,21 @@ def personalized_leg(child: Child, fit: DeviceFit | None = None, g: float | None
     """A :class:`~exoleg.LegModel` of ``child`` wearing the device at its telescope settings.
 
     Link lengths are the fit's joint-to-joint lengths (hip-knee, knee-ankle) and the
-    footplate length;
-    each link carries its two parts (child, SLE), composed by the SMS method.
+    footplate length; each link carries its two parts (child, SLE), composed by the SMS
+    method.
+
+    Parameters
+    ----------
+    child : Child
+        The child (measured values used as given).
+    fit : DeviceFit, optional
+        The fit; default :func:`fit_device` of the child.
+    g : float, optional
+        m/s^2; default the paper's.
+
+    Returns
+    -------
+    LegModel
     """
     f = fit if fit is not None else fit_device(child)
     human = human_bodies(child, f.dimensions)

@@ -296,10 +296,33 @@ def execute(study: Study, out: str | Path, scheduler: str | None = None, *,
             client: Any = None, workers: int | None = None, processes: bool = True,
             on_progress: Callable[[int, int], None] | None = None,
             on_start: Callable[[str], None] | None = None) -> Outcome:
-    """Run ``study`` into the folder ``out`` (resuming it when it holds the same study)
-    on ``client``, or a client of :func:`dask_client`. ``on_start(dashboard)`` once the
-    scheduler answers (its dashboard's address, '' for none); ``on_progress(done,
-    total)`` after each task."""
+    """Run ``study`` into the folder ``out``, resuming it when it holds the same study.
+
+    Parameters
+    ----------
+    study : Study
+        The study (:func:`load_study`).
+    out : str or Path
+        Its folder: the Parquet dataset, the study's text and record.
+    scheduler : str, optional
+        A Dask scheduler's address or scheduler file; default a local cluster.
+    client : distributed.Client, optional
+        A client to use instead (:func:`dask_client`).
+    workers : int, optional
+        The local cluster's workers; default one per core.
+    processes : bool, default True
+        The local cluster's workers as processes (else threads).
+    on_progress : callable, optional
+        ``on_progress(done, total)`` after each task.
+    on_start : callable, optional
+        ``on_start(dashboard)`` once the scheduler answers (its dashboard's address, ''
+        for none).
+
+    Returns
+    -------
+    Outcome
+        Tasks computed now and before, runs, runs with an error, the dashboard.
+    """
     resuming = check_folder(study, out)  # refused before a cluster starts
     with (contextlib.nullcontext(client) if client is not None
           else dask_client(scheduler, workers, processes)) as c:
@@ -369,8 +392,20 @@ def _failed_runs(folder: Path) -> int:
 
 
 def read_results(out: str | Path, columns: list[str] | None = None) -> Any:
-    """The study's rows as one Arrow table, sorted by run (the partition axis a column
-    again); what is written so far of an unfinished study."""
+    """The study's rows, sorted by run (the partition axis a column again); what is
+    written so far of an unfinished study.
+
+    Parameters
+    ----------
+    out : str or Path
+        The study's folder.
+    columns : list of str, optional
+        The columns to read; default all.
+
+    Returns
+    -------
+    pyarrow.Table
+    """
     import pyarrow.dataset as ds
 
     folder = Path(out) / "data"

@@ -129,11 +129,37 @@ _STUDY_KEYS = {"name": str, "sampling": str, "samples": int, "seed": int, "strid
 
 @dataclass(frozen=True)
 class Study:
-    """A parsed study: ``name``, ``sampling``, the axes given (name -> list of values or
-    a (min, max) range), profiles (children measured, or empty), the list's runs, and
-    ``samples``, ``seed``, ``strides``, ``runs_per_task``, ``partition_by``; ``text`` is
-    the file as written (kept with the results); ``device``: the device folder whose files
-    replace the shipped ones in every run (``exoleg sweep --device``)."""
+    """A parsed study (:func:`parse_study`, :func:`load_study`).
+
+    Parameters
+    ----------
+    name : str
+        Its name.
+    sampling : str
+        grid, random, lhs or list.
+    axes : dict
+        The axes given: name -> list of values, or a (min, max) range.
+    profiles : tuple of dict
+        Children measured (``[[profiles]]``), or empty.
+    listed : tuple of dict
+        A list's runs.
+    samples : int
+        Runs drawn (random, lhs).
+    seed : int
+        The sampling's seed.
+    strides : int
+        Strides walked per run.
+    runs_per_task : int
+        Runs per Dask task.
+    partition_by : str
+        The axis the dataset is partitioned by.
+    description : str
+        Free text.
+    text : str
+        The file as written (kept with the results).
+    device : str
+        The device folder whose files replace the shipped ones in every run.
+    """
 
     name: str
     sampling: str
@@ -150,7 +176,12 @@ class Study:
     device: str = ""  # a device folder every run uses (exoleg sweep --device; "": shipped)
 
     def runs(self) -> list[dict[str, Any]]:
-        """Every run's axis values, in the study's order (its id is the index)."""
+        """Every run's axis values, in the study's order (a run's id is its index).
+
+        Returns
+        -------
+        list of dict
+        """
         return expand(self)
 
     @property
@@ -170,13 +201,35 @@ def _where(path: str | Path | None) -> str:
 
 
 def load_study(path: str | Path) -> Study:
-    """Read a study file (one line naming the key for anything wrong)."""
+    """Read a study file (one line naming the key for anything wrong).
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML file.
+
+    Returns
+    -------
+    Study
+    """
     text = read_text(path, "study file (TOML)")
     return parse_study(text, str(path))
 
 
 def parse_study(text: str, where: str = "study") -> Study:
-    """A study from its TOML text."""
+    """A study from its TOML text.
+
+    Parameters
+    ----------
+    text : str
+        The study as TOML.
+    where : str, default "study"
+        Its name in errors.
+
+    Returns
+    -------
+    Study
+    """
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
