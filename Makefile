@@ -6,7 +6,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup browser simulate validate test bench codegen
+.PHONY: setup browser simulate validate test bench codegen docs
 
 setup: $(STAMP)
 
@@ -49,3 +49,10 @@ bench: setup
 
 codegen: setup
 	$(BIN)/python -m exoleg.dynamics.codegen
+
+# The documentation site in docs/_build/html: the drawn figures (docs/figures.py) and the
+# guides' own pictures (their code, run as the tests run it) refreshed in docs/img first.
+docs: setup
+	$(BIN)/python docs/figures.py
+	EXOLEG_DOCS_IMG=$(CURDIR)/docs/img $(BIN)/python -m pytest -q -n auto tests/test_docs.py -k page
+	$(BIN)/python -m sphinx -W -b html docs docs/_build/html

@@ -61,6 +61,11 @@ for i, (lang, code) in enumerate(blocks):
         assert "E-STOP" in httpx.get(m.group(1) + "/", timeout=10).text
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=30) == 130, open("hmi.txt").read()
+# the pictures the page shows that its own code drew: refreshed into EXOLEG_DOCS_IMG
+import shutil
+for name in re.findall(r"\]\(\.\./img/([\w.-]+)\)", open(sys.argv[3]).read()):
+    if os.path.exists(name) and os.environ.get("EXOLEG_DOCS_IMG"):
+        shutil.copy(name, os.path.join(os.environ["EXOLEG_DOCS_IMG"], name))
 '''
 
 
@@ -78,10 +83,15 @@ def test_page_runs_as_written(page: Path, tmp_path: Path) -> None:
     code = blocks(page)
     assert any(lang == "python" for lang, _ in code) or any(
         ".venv/bin/exoleg " in c for _, c in code), f"{page.name} shows nothing that runs"
-    r = subprocess.run([sys.executable, "-c", RUNNER, json.dumps(code), page.name],
+    r = subprocess.run([sys.executable, "-c", RUNNER, json.dumps(code), page.name, str(page)],
                        cwd=tmp_path, capture_output=True, text=True, check=False,
                        timeout=900)
     assert r.returncode == 0, (page.name, r.stderr[-4000:], r.stdout[-1500:])
+    # every picture the page shows is in docs/img; one its own code draws, it drew
+    for name in re.findall(r"\]\(\.\./img/([\w.-]+)\)", page.read_text()):
+        assert (ROOT / "docs" / "img" / name).exists(), name
+        if name.startswith(page.stem + "-"):  # drawn by this page's code
+            assert (tmp_path / name).stat().st_size > 10_000, name
 
 
 def test_readme_is_a_landing_page() -> None:

@@ -98,3 +98,19 @@ def test_the_public_api_has_numpydoc_sections() -> None:
         if errors:
             bad[name] = errors
     assert not bad, "\n".join(f"{k}: {'; '.join(v)}" for k, v in bad.items())
+
+
+def test_the_drawn_figures_come_from_the_code(tmp_path: Path) -> None:
+    """docs/figures.py draws the architecture (from the floors the suite enforces) and
+    the device's block diagram (from the shipped device files); the pages show them."""
+    import matplotlib.image as mpimg
+
+    sys.path.insert(0, str(ROOT / "docs"))
+    import figures
+
+    for path in figures.main(tmp_path):
+        h, w, _ = mpimg.imread(path).shape
+        assert h > 400 and w > 800, path.name
+        assert (ROOT / "docs" / "img" / path.name).exists(), path.name
+    assert "](img/architecture.png)" in (ROOT / "docs" / "architecture.md").read_text()
+    assert "](img/device.png)" in (ROOT / "docs" / "device.md").read_text()
