@@ -481,3 +481,78 @@ def test_a_study_of_a_million_runs_starts_at_once(tmp_path: Path) -> None:
         assert rid == i
         assert (run["age"], run["percentile"], run["bus_voltage"], run["sex"],
                 run["speed"]) == grid[i]
+
+
+def test_a_studys_cost_is_said_before_it_starts(tmp_path: Path) -> None:
+    # Issue 44: a study's cost (runs, memory, time) said before it starts. A study of
+    # TIME_FROM_RUNS runs or more has one run timed here first; the line comes before
+    # the cluster (its dashboard's line), and Ctrl-C then keeps what finished.
+    import signal
+    import time as clock
+
+    from exoleg.study.engine import TIME_FROM_RUNS
+
+    study = tmp_path / "s.toml"
+    study.write_text('[study]\nname = "cost"\nsampling = "grid"\nstrides = 3\n[axes]\n'
+                     "age = [8, 9, 10, 11, 12]\nsex = [\"female\", \"male\"]\n"
+                     "percentile = [10, 25, 50, 75, 90]\nspeed = [\"Slow\", \"Free\"]\n"
+                     "group = [\"TD\", \"GMFCS I\"]\n")
+    n = 5 * 2 * 5 * 2 * 2
+    assert n >= TIME_FROM_RUNS
+    p = subprocess.Popen([sys.executable, "-m", "exoleg.cli", "sweep", str(study), "--out",
+                          str(tmp_path / "out"), "--workers", "1"], stdout=subprocess.PIPE,
+                         stderr=subprocess.STDOUT, text=True,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert p.stdout is not None
+    lines = [p.stdout.readline(), p.stdout.readline()]
+    clock.sleep(2.0)
+    p.send_signal(signal.SIGINT)
+    rest = p.communicate(timeout=60)[0]
+    assert f"{n:,} runs of 3 strides" in lines[0]
+    cost = lines[1]
+    assert cost.startswith("cost: results about 0.2 MB; one run takes "), cost  # 1 kB a row
+    assert f"(measured): {n:,} runs on 1 worker(s), about " in cost, cost
+    assert p.returncode == 130, rest
+    assert "Dask's dashboard" in rest  # after the cost
+
+
+def test_damaged_study_files_are_named_and_recomputed(tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture[str]
+                                                      ) -> None:
+    # Issue 44: a damaged Parquet file, study.toml or study.json gave internal errors
+    # (ArrowInvalid, UnicodeDecodeError, JSONDecodeError) under --summary and --out.
+    import shutil
+
+    study = tmp_path / "s.toml"
+    study.write_text('[study]\nname = "d"\nsampling = "grid"\nstrides = 2\nruns_per_task = 2\n'
+                     '[axes]\nage = [8, 10]\nsex = ["female", "male"]\n')
+    out = tmp_path / "out"
+    assert main(["sweep", str(study), "--out", str(out), "--workers", "1"]) == 0
+    whole = (out / "data" / "task-000001.parquet").read_bytes()
+    (out / "data" / "task-000001.parquet").write_bytes(b"not parquet")
+    capsys.readouterr()
+    assert main(["sweep", "--summary", str(out)]) == 2
+    assert ("1 result file(s) damaged (data/task-000001.parquet): run the study again"
+            in capsys.readouterr().err)
+    # the same command computes the damaged task again: the same rows as before
+    assert main(["sweep", str(study), "--out", str(out), "--workers", "1"]) == 0
+    assert "task(s) 1 had damaged result files" in capsys.readouterr().out
+    assert (out / "data" / "task-000001.parquet").read_bytes() != b"not parquet"
+    import pandas as pd
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    again = pq.read_table(out / "data" / "task-000001.parquet").to_pandas()
+    pd.testing.assert_frame_equal(again, pq.read_table(pa.BufferReader(whole)).to_pandas())
+    # study.json damaged: the summary asks for the axes; given them, it summarises
+    (out / "study.json").write_text("{not json")
+    assert main(["sweep", "--summary", str(out)]) == 2
+    assert "study.json: missing or damaged" in capsys.readouterr().err
+    assert main(["sweep", "--summary", str(out), "--x", "age", "--y", "sex"]) == 0
+    # study.toml not text: another study's folder, refused
+    other = tmp_path / "other"
+    shutil.copytree(out, other)
+    (other / "study.toml").write_bytes(b"\xff\xfe\x00bad")
+    capsys.readouterr()
+    assert main(["sweep", str(study), "--out", str(other), "--workers", "1"]) == 2
+    assert "holds another study" in capsys.readouterr().err

@@ -49,9 +49,11 @@ def _run(args: argparse.Namespace) -> int:
     n_tasks = task_count(study)
     before = len(done_tasks(args.out)) if (Path(args.out) / "study.toml").exists() else 0
     where = args.scheduler or f"a local Dask cluster ({args.workers or 'one worker per core'})"
-    _say(f"exoleg sweep: study '{study.name}', {count_runs(study):,} runs of "
+    n_runs = count_runs(study)
+    _say(f"exoleg sweep: study '{study.name}', {n_runs:,} runs of "
          f"{study.strides} strides in {n_tasks:,} tasks"
          + (f" ({before} done: resuming)" if before else "") + f", on {where}")
+    _say(_cost(study, n_runs, n_tasks - before, args))
     t0 = time.perf_counter()
     # SIGTERM as Ctrl-C: the cluster closes and the tasks done are kept (this process only
     # orchestrates: no compiler callback for the exception to land in)
@@ -73,11 +75,47 @@ def _run(args: argparse.Namespace) -> int:
         finally:
             signal.signal(signal.SIGTERM, old)
     wall = time.perf_counter() - t0
+    if outcome.damaged:
+        _say(f"task(s) {', '.join(map(str, outcome.damaged))} had damaged result files "
+             "(unreadable Parquet): computed again")
     _say(f"{outcome.computed} tasks computed now, {outcome.already_done} before; "
          f"{outcome.runs:,} runs, {outcome.failed_runs} with an error; {wall:.1f} s")
     _say(f"wrote {args.out}/ (data/: Parquet, a row per run; study.toml, study.json); "
          f"summary: exoleg sweep --summary {args.out}")
     return 0
+
+
+def _cost(study: Any, n_runs: int, todo_tasks: int, args: argparse.Namespace) -> str:
+    """The study's cost said before it starts: its results on disk and, for a study of
+    :data:`~exoleg.study.engine.TIME_FROM_RUNS` runs or more, its time -- one run timed
+    here, times the runs left, over the workers (a cluster's: per core)."""
+    import os
+
+    from exoleg.study.engine import TIME_FROM_RUNS, seconds_per_run
+    from exoleg.study.spec import ROW_BYTES
+
+    left = min(n_runs, todo_tasks * study.runs_per_task)
+    size = f"cost: results about {n_runs * ROW_BYTES / 1e6:,.1f} MB"
+    if n_runs < TIME_FROM_RUNS:
+        return size + "; timed as its tasks finish (the bar's time left)"
+    per = seconds_per_run(study)
+    if args.scheduler:
+        return (size + f"; one run takes {per:.2f} s on a core here (measured): "
+                f"{left:,} runs, about {_duration(left * per)} of one core's time")
+    workers = args.workers or os.cpu_count() or 1
+    return (size + f"; one run takes {per:.2f} s on a core here (measured): {left:,} runs "
+            f"on {workers} worker(s), about {_duration(left * per / workers)}")
+
+
+def _duration(s: float) -> str:
+    """A duration as people read it: 45 s, 12 min, 3.2 h, 4.1 days."""
+    if s < 90:
+        return f"{s:.0f} s"
+    if s < 5400:
+        return f"{s / 60:.0f} min"
+    if s < 172800:
+        return f"{s / 3600:.1f} h"
+    return f"{s / 86400:.1f} days"
 
 
 def _dashboard(link: str) -> None:

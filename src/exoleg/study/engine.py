@@ -31,6 +31,7 @@ import logging
 import os
 import signal
 import threading
+import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -49,7 +50,8 @@ IN_FLIGHT_PER_WORKER = 4
 @dataclass(frozen=True)
 class Outcome:
     """What :func:`execute` did: tasks in the study, done before it started, computed
-    now; runs; the rows with an error; the dashboard's address (or '')."""
+    now; runs; the rows with an error; the dashboard's address (or ''); the tasks whose
+    results a resumed study found damaged and computed again."""
 
     tasks: int
     already_done: int
@@ -57,6 +59,7 @@ class Outcome:
     runs: int
     failed_runs: int
     dashboard: str
+    damaged: tuple[int, ...] = ()
 
 
 def task_count(study: Study) -> int:
@@ -88,6 +91,24 @@ def tasks_of(study: Study) -> Tasks:
     return Tasks(study)
 
 
+#: A study of at least this many runs has one of them timed before it starts
+#: (:func:`seconds_per_run`): the 1-2 s it costs is then a small share of the study.
+TIME_FROM_RUNS = 200
+
+
+def seconds_per_run(study: Study) -> float:
+    """How long one run of ``study`` takes on one core of this machine, s: its first run
+    walked twice here, the second timed (the first loads the compiled functions, as
+    each worker does once). The study's cost before it starts (``exoleg sweep``)."""
+    from exoleg.study.runs import run_one
+
+    run = Runs(study)[0]
+    run_one(0, 0, run, study.strides, study.device or None)
+    t0 = time.perf_counter()
+    run_one(0, 0, run, study.strides, study.device or None)
+    return time.perf_counter() - t0
+
+
 def _marker(out: Path, task: int) -> Path:
     return out / ".tasks" / f"task-{task:06d}"
 
@@ -101,6 +122,33 @@ def done_tasks(out: str | Path) -> set[int]:
             if p.name.split("-")[1].isdigit()}
 
 
+def damaged_tasks(out: str | Path) -> dict[int, list[Path]]:
+    """The tasks of the study in ``out`` with a result file Parquet cannot read (cut,
+    overwritten, not Parquet), and those files: task -> its files, every partition's."""
+    import pyarrow.parquet as pq
+
+    files: dict[int, list[Path]] = {}
+    bad: set[int] = set()
+    for f in sorted((Path(out) / "data").rglob("task-*.parquet")):
+        stem = f.stem.split("-")[-1]
+        if not stem.isdigit():
+            continue
+        files.setdefault(int(stem), []).append(f)
+        try:
+            pq.read_metadata(f)
+        except Exception:  # noqa: BLE001  (pyarrow's ArrowInvalid, OSError: unreadable)
+            bad.add(int(stem))
+    return {t: files[t] for t in sorted(bad)}
+
+
+def forget_tasks(out: Path, tasks: dict[int, list[Path]]) -> None:
+    """Remove ``tasks``' result files and markers, so that the study computes them again."""
+    for task, paths in tasks.items():
+        for f in paths:
+            f.unlink(missing_ok=True)
+        _marker(out, task).unlink(missing_ok=True)
+
+
 def check_folder(study: Study, out: str | Path) -> bool:
     """Whether ``out`` holds this study already (to resume); a folder that is a file,
     holds another study or anything else is refused (nothing written)."""
@@ -109,7 +157,7 @@ def check_folder(study: Study, out: str | Path) -> bool:
         raise ParameterError(str(folder), "--out", "is a file; name a folder")
     held = folder / "study.toml"
     if held.exists():
-        if held.read_text(encoding="utf-8") != study.text:
+        if held.read_bytes() != study.text.encode("utf-8"):
             raise ParameterError(str(folder), "--out", "holds another study (its "
                                  "study.toml differs): name another folder (nothing was "
                                  "written)")
@@ -328,6 +376,8 @@ def execute(study: Study, out: str | Path, scheduler: str | None = None, *,
           else dask_client(scheduler, workers, processes)) as c:
         # written once a scheduler answers
         folder = Path(out) if resuming else prepare(study, out)
+        damaged = damaged_tasks(folder) if resuming else {}
+        forget_tasks(folder, damaged)  # computed again below, with the tasks not done
         tasks = tasks_of(study)
         done = done_tasks(folder)
         todo = [t for t in range(len(tasks)) if t not in done]
@@ -340,7 +390,8 @@ def execute(study: Study, out: str | Path, scheduler: str | None = None, *,
         computed = _compute(c, study, folder, tasks, todo, len(done), on_progress)
     failed = _failed_runs(folder)
     return Outcome(tasks=len(tasks), already_done=len(done), computed=computed,
-                   runs=count_runs(study), failed_runs=failed, dashboard=link)
+                   runs=count_runs(study), failed_runs=failed, dashboard=link,
+                   damaged=tuple(damaged))
 
 
 def _compute(client: Any, study: Study, folder: Path, tasks: Tasks, todo: list[int],
@@ -411,9 +462,19 @@ def read_results(out: str | Path, columns: list[str] | None = None) -> Any:
     folder = Path(out) / "data"
     if not folder.is_dir():
         raise ParameterError(str(out), "(study)", "holds no study results (no data/ folder)")
-    dataset = ds.dataset(folder, format="parquet", partitioning="hive")
-    table = dataset.to_table(columns=None if columns is None else
-                             [*columns, *(["run"] if "run" not in columns else [])])
+    try:
+        dataset = ds.dataset(folder, format="parquet", partitioning="hive")
+        table = dataset.to_table(columns=None if columns is None else
+                                 [*columns, *(["run"] if "run" not in columns else [])])
+    except Exception:  # noqa: BLE001  (pyarrow's ArrowInvalid, OSError)
+        damaged = damaged_tasks(out)
+        if not damaged:
+            raise
+        names = [str(f.relative_to(out)) for fs in damaged.values() for f in fs]
+        raise ParameterError(str(out), "data/", f"{len(names)} result file(s) damaged "
+                             f"({', '.join(names[:3])}{', ...' if len(names) > 3 else ''}): "
+                             "run the study again with the same file and --out; it "
+                             "computes those tasks again") from None
     if table.num_rows:
         table = table.sort_by("run")
     return table if columns is None else table.select(columns)

@@ -42,7 +42,11 @@ def default_axes(out: str | Path) -> tuple[str, str]:
     """The study's first two swept axes (one swept: it and the group; none: group)."""
     import json
 
-    swept = json.loads((Path(out) / "study.json").read_text())["swept"]
+    try:
+        swept = json.loads((Path(out) / "study.json").read_text(encoding="utf-8"))["swept"]
+    except (OSError, ValueError, KeyError, TypeError):
+        raise ParameterError(str(out), "study.json", "missing or damaged (it names the "
+                             "axes the study sweeps): give the axes with --x and --y") from None
     axes = [*swept, "group", "sex"]
     x = axes[0]
     y = next(a for a in axes[1:] if a != x)
