@@ -426,6 +426,11 @@ def test_children_are_records_not_folders(tmp_path: Path) -> None:
                              "sex": "female", "height": "139", "mass": "30"}, "test")
     assert status == 200 and again["child_id"] == rec["child_id"]
     assert [c["fits"] for c in hmi.registry.children() if c["id"] == rec["child_id"]] == [2]
+    # a whole number beyond any float (JSON allows it) is the form's refusal, not an
+    # OverflowError in the server's log (issue 44)
+    status, out = hmi.fit({"name": "x", "age": 10, "sex": "female", "height": 138,
+                           "mass": 10**400}, "test")
+    assert status == 422 and "is too large a number" in out["error"], out
     status, out = hmi.fit({"child_id": "Cffffffff", "name": "x", "age": 10, "sex": "female",
                            "height": 138, "mass": 30}, "test")
     assert status == 422 and "no child 'Cffffffff'" in out["error"]

@@ -12,6 +12,7 @@ the definition of a Latin hypercube (one draw per stratum and axis).
 from __future__ import annotations
 
 import importlib.util
+import json
 import os
 import signal
 import subprocess
@@ -311,3 +312,66 @@ def test_the_small_sweep_on_three_schedulers_interrupted_and_resumed(
     assert len(lines) == 1 + 4 * 2  # ages x groups
     r = cli("sweep", "--summary", str(out), "--x", "colour")
     assert r.returncode == 2 and "--x: 'colour' is not a column" in r.stderr
+
+
+@needs_dask
+def test_a_tls_scheduler_with_dasks_settings_and_without(tmp_path: Path) -> None:
+    """Issue 44: a ``tls://`` address gave a TypeError about an SSL context. Without
+    Dask's TLS settings it is one line naming them; with them (a certificate authority
+    and a certificate made here with openssl, a scheduler and a worker started with them
+    on loopback) the tiny study runs there, rows identical to a local cluster's."""
+    import shutil
+
+    if shutil.which("openssl") is None:
+        pytest.skip("openssl is not installed (it makes the test's certificates)")
+    study = _write(tmp_path / "tiny.toml", TINY)
+    r = cli("sweep", str(study), "--out", str(tmp_path / "no"), "--scheduler",
+            "tls://127.0.0.1:9")
+    assert r.returncode == 2 and "needs Dask's TLS settings" in r.stderr, r.stderr
+    assert not (tmp_path / "no").exists()
+    d = tmp_path / "tls"
+    d.mkdir()
+
+    def ssl(*args: str) -> None:
+        subprocess.run(["openssl", *args], cwd=d, check=True, capture_output=True)
+
+    ssl("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout", "ca.key", "-out",
+        "ca.pem", "-days", "1", "-subj", "/CN=exoleg test CA")
+    ssl("req", "-newkey", "rsa:2048", "-nodes", "-keyout", "key.pem", "-out", "req.csr",
+        "-subj", "/CN=127.0.0.1")
+    (d / "ext.cnf").write_text("subjectAltName=IP:127.0.0.1\n")
+    ssl("x509", "-req", "-in", "req.csr", "-CA", "ca.pem", "-CAkey", "ca.key",
+        "-CAcreateserial", "-out", "cert.pem", "-days", "1", "-extfile", "ext.cnf")
+    tls = ["--tls-ca-file", str(d / "ca.pem"), "--tls-cert", str(d / "cert.pem"),
+           "--tls-key", str(d / "key.pem")]
+    sched_file = tmp_path / "scheduler.json"
+    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+    sched = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler",
+                              "--host", "tls://127.0.0.1", "--port", "0", "--no-dashboard",
+                              "--scheduler-file", str(sched_file), *tls], env=env,
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    work = None
+    try:
+        for _ in range(600):
+            if sched_file.exists() and sched_file.stat().st_size:
+                break
+            time.sleep(0.05)
+        address = json.loads(sched_file.read_text())["address"]
+        assert address.startswith("tls://127.0.0.1:")
+        work = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker",
+                                 address, "--nthreads", "1", "--no-dashboard", *tls], env=env,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        settings = {"DASK_DISTRIBUTED__COMM__TLS__CA_FILE": str(d / "ca.pem"),
+                    "DASK_DISTRIBUTED__COMM__TLS__CLIENT__CERT": str(d / "cert.pem"),
+                    "DASK_DISTRIBUTED__COMM__TLS__CLIENT__KEY": str(d / "key.pem")}
+        r = cli("sweep", str(study), "--out", str(tmp_path / "over-tls"), "--scheduler",
+                address, env={**os.environ, **settings})
+        assert r.returncode == 0, r.stderr
+    finally:
+        for proc in (work, sched):
+            if proc is not None:
+                proc.terminate()
+                proc.wait(timeout=30)
+    r = cli("sweep", str(study), "--out", str(tmp_path / "local"), "--workers", "1")
+    assert r.returncode == 0, r.stderr
+    assert _table(tmp_path / "over-tls") == _table(tmp_path / "local")

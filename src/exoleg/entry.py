@@ -39,7 +39,10 @@ def typed_number(label: str, value: object) -> float:
     if isinstance(value, bool):
         raise ValueError(f"{label}: expected a number, got {value!r}")
     if isinstance(value, (int, float)):
-        x = float(value)
+        try:
+            x = float(value)
+        except OverflowError:  # an int beyond any float
+            raise ValueError(f"{label}: {str(value)[:20]}... is too large a number") from None
     else:
         text = str(value if value is not None else "").strip()
         if not text:

@@ -245,12 +245,34 @@ def _reachable(scheduler: str) -> None:
     import socket
     from urllib.parse import urlsplit
 
-    if scheduler.startswith("tcp://"):
+    if scheduler.startswith(("tcp://", "tls://")):
         u = urlsplit(scheduler)
         if u.hostname is None or u.port is None:
-            raise ValueError("expected tcp://HOST:PORT")
+            raise ValueError(f"expected {u.scheme}://HOST:PORT")
+        if u.scheme == "tls":
+            tls_security()  # the certificates first: without them Dask fails obscurely
         socket.create_connection((u.hostname, u.port), timeout=5.0).close()
-        _answers_as_dask(scheduler)
+        if u.scheme == "tcp":
+            _answers_as_dask(scheduler)
+
+
+def tls_security() -> Any:
+    """Dask's TLS settings for a ``tls://`` scheduler, from Dask's configuration
+    (``distributed.comm.tls``: ca-file, client.cert, client.key; or the
+    ``DASK_DISTRIBUTED__COMM__TLS__...`` variables), or a ValueError saying what is
+    missing."""
+    from distributed.security import Security
+
+    sec = Security()
+    missing = [k for k, v in (("ca-file", sec.tls_ca_file), ("client.cert",
+                                                             sec.tls_client_cert))
+               if not v]
+    if missing:
+        raise ValueError("a tls:// scheduler needs Dask's TLS settings; "
+                         f"distributed.comm.tls.{' and .'.join(missing)} not set (in Dask's "
+                         "configuration, or DASK_DISTRIBUTED__COMM__TLS__CA_FILE, "
+                         "..._CLIENT__CERT, ..._CLIENT__KEY)")
+    return sec
 
 
 #: How long a scheduler has to say who it is (s): a server that accepts the connection
@@ -283,8 +305,8 @@ def _answers_as_dask(address: str) -> None:
 @contextlib.contextmanager
 def dask_client(scheduler: str | None = None, workers: int | None = None,
                 processes: bool = True) -> Iterator[Any]:
-    """A Dask client: on ``scheduler`` (an address ``tcp://host:port``, or a scheduler
-    file), or on a ``LocalCluster`` of ``workers`` single-threaded processes (default:
+    """A Dask client: on ``scheduler`` (an address ``tcp://host:port``, ``tls://host:port``
+    with Dask's TLS settings, or a scheduler file), or on a ``LocalCluster`` of ``workers`` single-threaded processes (default:
     this machine's cores; ``processes=False``: threads in this process)."""
     from distributed import Client, LocalCluster
 
@@ -300,9 +322,11 @@ def dask_client(scheduler: str | None = None, workers: int | None = None,
                                      "scheduler's address)") from None
                 _reachable(str(address))
                 client = Client(scheduler_file=scheduler, timeout="10s")
+            elif scheduler.startswith("tls://"):
+                client = Client(scheduler, security=tls_security(), timeout="10s")
             else:
                 client = Client(scheduler, timeout="10s")
-        except (OSError, TimeoutError, ValueError) as e:
+        except (OSError, TimeoutError, ValueError, TypeError) as e:
             raise ParameterError("exoleg sweep", "--scheduler", f"{scheduler!r}: no Dask "
                                  f"scheduler answers there ({e})") from None
         try:
