@@ -28,6 +28,7 @@ from exoleg.cli import (
     identify,
     log,
     population,
+    report,
     run,
     simulate,
     sweep,
@@ -37,7 +38,7 @@ from exoleg.cli._common import _negative_values, _Parser
 
 #: the commands, one module each, in the order of the help
 COMMANDS = (validate, simulate, fit, assess, population, design, sweep, run, hmi, log,
-            detect, identify, export)
+            report, detect, identify, export)
 
 
 def build_parser() -> argparse.ArgumentParser:

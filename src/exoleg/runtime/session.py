@@ -123,7 +123,7 @@ def check_options(backend: str, interface: str | None = None, arm: bool = False,
 #: the files that make a recorded session (a folder holding any of them holds one)
 RECORD_FILES = ("session.log", "run.json", "failed.json")
 #: the files of a session's folder an export must never write over
-SESSION_FILES = (*RECORD_FILES, "control.log", "child.json", "leg.toml")
+SESSION_FILES = (*RECORD_FILES, "control.log", "child.json", "leg.toml", "figures.json")
 LOCK_FILE = ".exoleg-run.lock"
 
 
@@ -382,7 +382,24 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
                "timing_us": res.timing, "realtime": res.realtime,
                "log": str(path), "max_loss_ticks_on_a_crash": MAX_LOSS_TICKS}
     write_json(folder / "run.json", summary)
+    _keep_figures(folder)
     return res, path
+
+
+def _keep_figures(folder: Path) -> None:
+    """The session's figures as a clinician reads them, computed once as it ends and
+    kept beside its records (``figures.json``, :func:`exoleg.runtime.figures.
+    session_figures`); a log they cannot be computed from keeps none (the session's own
+    records are what counts)."""
+    from exoleg.errors import ExolegError
+    from exoleg.io import write_json
+    from exoleg.runtime.figures import session_figures
+
+    try:
+        figures = session_figures(folder)
+    except (ExolegError, ValueError):  # e.g. a session cut before its first tick
+        return
+    write_json(folder / "figures.json", figures)
 
 
 def summarize(path: str | Path) -> dict[str, Any]:

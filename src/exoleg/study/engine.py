@@ -264,9 +264,9 @@ def tls_security() -> Any:
     from distributed.security import Security
 
     sec = Security()
-    missing = [k for k, v in (("ca-file", sec.tls_ca_file), ("client.cert",
-                                                             sec.tls_client_cert))
-               if not v]
+    # (set from Dask's configuration at run time: the class declares no such attributes)
+    missing = [k for k, a in (("ca-file", "tls_ca_file"), ("client.cert", "tls_client_cert"))
+               if not getattr(sec, a, None)]
     if missing:
         raise ValueError("a tls:// scheduler needs Dask's TLS settings; "
                          f"distributed.comm.tls.{' and .'.join(missing)} not set (in Dask's "
@@ -306,8 +306,9 @@ def _answers_as_dask(address: str) -> None:
 def dask_client(scheduler: str | None = None, workers: int | None = None,
                 processes: bool = True) -> Iterator[Any]:
     """A Dask client: on ``scheduler`` (an address ``tcp://host:port``, ``tls://host:port``
-    with Dask's TLS settings, or a scheduler file), or on a ``LocalCluster`` of ``workers`` single-threaded processes (default:
-    this machine's cores; ``processes=False``: threads in this process)."""
+    with Dask's TLS settings, or a scheduler file), or on a ``LocalCluster`` of
+    ``workers`` single-threaded processes (default: this machine's cores;
+    ``processes=False``: threads in this process)."""
     from distributed import Client, LocalCluster
 
     logging.getLogger("distributed").setLevel(logging.ERROR)
