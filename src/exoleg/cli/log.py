@@ -1,4 +1,5 @@
-"""``exoleg log summary``: what a session log holds."""
+"""``exoleg log summary``: what a session log holds; ``exoleg log export``: a session
+for a gait lab (C3D, Motion-BIDS, CSV with units)."""
 
 from __future__ import annotations
 
@@ -63,6 +64,30 @@ def _shown(key: str, value: Any) -> str:
     return str(value)
 
 
+def cmd_log_export(args: argparse.Namespace) -> int:
+    from exoleg.errors import ParameterError
+    from exoleg.runtime.exports import session_export, write_bids, write_c3d, write_csv
+
+    targets = [x for x in (args.c3d, args.bids, args.csv) if x is not None]
+    if len(targets) != 1:
+        raise ParameterError("exoleg log export", "--c3d/--bids/--csv", "give one of them "
+                             "(what to write, and where)")
+    for option, path, suffix in (("--c3d", args.c3d, ".c3d"), ("--csv", args.csv, ".csv")):
+        if path is not None and path.suffix.lower() != suffix:
+            raise ParameterError("exoleg log export", option, f"{path.name}: name a "
+                                 f"{suffix} file")
+    exp = session_export(args.session, args.rate)
+    if args.c3d:
+        written = write_c3d(exp, args.c3d)
+    elif args.bids:
+        written = write_bids(exp, args.bids)
+    else:
+        written = [write_csv(exp, args.csv)]
+    _say(f"{len(exp.channels)} channels at {exp.rate_hz:g} Hz, {len(exp.events)} events; "
+         f"wrote {', '.join(str(p) for p in written)}")
+    return 0
+
+
 def add_parser(sub: Any) -> None:
     """Add ``exoleg log summary`` to the subcommands ``sub``."""
     lg = sub.add_parser("log", help="read a session log")
@@ -72,3 +97,12 @@ def add_parser(sub: Any) -> None:
     ls.add_argument("--csv", type=Path, help="also write the series as CSV")
     ls.add_argument("--parquet", type=Path, help="also write the series as Parquet")
     ls.set_defaults(func=cmd_log_summary)
+    le = lsub.add_parser("export", help="a session for a gait lab: C3D, Motion-BIDS or CSV "
+                         "with units (joint angles in degrees, torques, events)")
+    le.add_argument("session", type=Path, help="the session's folder")
+    le.add_argument("--c3d", type=Path, help="write a C3D file (split every 65,535 frames)")
+    le.add_argument("--bids", type=Path, help="write a Motion-BIDS dataset into this folder")
+    le.add_argument("--csv", type=Path, help="write a CSV, units in its header")
+    le.add_argument("--rate", type=float, help="decimate to this rate, Hz (the tick rate "
+                    "divided by a whole number; each sample the mean of its ticks)")
+    le.set_defaults(func=cmd_log_export)
