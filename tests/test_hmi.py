@@ -292,6 +292,23 @@ def test_sessions_page_lists_plots_and_exports(hmi: Any, operator: Any) -> None:
     table = pq.read_table(io.BytesIO(httpx.get(pq_href, timeout=60,
                                                headers=AUTH(hmi)).content))
     assert np.array_equal(table.column("u_ankle").to_numpy(), cols["u_ankle"])
+    # the report for the clinic's file (issue 42): the PDF, its figures read back
+    pypdf = pytest.importorskip("pypdf", reason="pypdf (exoleg[dev])")
+    from exoleg.runtime.figures import session_figures
+
+    report = hmi.url + d.find_element("id", "session-report").get_attribute("data-file")
+    assert httpx.get(report, timeout=60).status_code == 401
+    r = httpx.get(report, timeout=120, headers=AUTH(hmi))
+    assert r.status_code == 200 and r.headers["content-type"] == "application/pdf"
+    text = "\n".join(p.extract_text() for p in pypdf.PdfReader(io.BytesIO(r.content)).pages)
+    fig = session_figures(folder)
+    assert f"Steps (either foot)\n{fig['steps']}" in text
+    assert "Stopped by the emergency stop" in text
+    # pseudonymous: the console's id, not the name (Ada)
+    assert "Child: C" in text and "Ada" not in text
+    c3d = hmi.url + d.find_element("id", "export-c3d").get_attribute("data-file")
+    r = httpx.get(c3d, timeout=120, headers=AUTH(hmi))
+    assert r.status_code == 200 and r.content[1:2] == b"\x50"  # C3D's key: 0x50
 
 
 def _server_keeps_off_the_loops_cpu(server: int) -> None:

@@ -129,6 +129,28 @@ class Archive:
             session_figure(log, png)
         return png
 
+    def report(self, folder: Path) -> Path:
+        """The session's report for the clinic's file (:func:`exoleg.plots.report.
+        write_report`), kept beside its records; made again when the log is newer."""
+        from exoleg.plots.report import write_report
+
+        out = folder / "report.pdf"
+        log = folder / "session.log"
+        if not out.exists() or out.stat().st_mtime < log.stat().st_mtime:
+            write_report(folder, out)
+        return out
+
+    def c3d(self, folder: Path) -> Path:
+        """The session for a gait lab as C3D (:func:`exoleg.runtime.exports.write_c3d`;
+        a session of more than 65,535 ticks: its first file)."""
+        from exoleg.runtime.exports import session_export, write_c3d
+
+        out = folder / "session.c3d"
+        log = folder / "session.log"
+        if not out.exists() or out.stat().st_mtime < log.stat().st_mtime:
+            return write_c3d(session_export(folder), out)[0]
+        return out
+
     def export(self, folder: Path, fmt: str) -> Path:
         """The session's log as CSV or Parquet (the same series as ``exoleg simulate``)."""
         from exoleg.io import write_csv_table, write_parquet_table

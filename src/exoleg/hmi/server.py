@@ -533,6 +533,14 @@ class HMI:
                 if kind == "plot.png":
                     path = await run_in_threadpool(self.archive.plot, folder)
                     return FileResponse(path, media_type="image/png")
+                if kind == "report.pdf":
+                    path = await run_in_threadpool(self.archive.report, folder)
+                    return FileResponse(path, filename=f"{folder.name}-report.pdf",
+                                        media_type="application/pdf")
+                if kind == "session.c3d":
+                    path = await run_in_threadpool(self.archive.c3d, folder)
+                    return FileResponse(path, filename=path.name.replace(
+                        "session", folder.name))
                 if kind in ("session.csv", "session.parquet"):
                     fmt = kind.split(".")[1]
                     path = await run_in_threadpool(self.archive.export, folder, fmt)
@@ -540,7 +548,8 @@ class HMI:
             except (ParameterError, OSError) as e:
                 return JSONResponse({"error": f"session {folder.name}: {e}"}, 409)
             return JSONResponse({"error": f"unknown file {kind!r} (allowed: plot.png, "
-                                          "session.csv, session.parquet)"}, 404)
+                                          "report.pdf, session.c3d, session.csv, "
+                                          "session.parquet)"}, 404)
 
         @contextlib.asynccontextmanager
         async def lifespan(app: Any) -> Any:

@@ -586,7 +586,7 @@ async function openSession(name) {
   const damaged = d.damaged.length ? `<ul class="over">${d.damaged.map((x) => `<li>damaged: ${esc(x)}</li>`).join("")}</ul>` : "";
   if (L.error) { $("session-detail").innerHTML = `<h3>${esc(name)}</h3><p class="over">${esc(d.stopped_by)}</p>${damaged}<p>${esc(L.error)}</p>`; return; }
   $("session-detail").innerHTML = `<h3>${esc(name)}</h3>${damaged}
-    <p><a id="export-csv" href="#sessions" data-file="${base}/session.csv" data-name="${esc(name)}.csv">Export CSV</a> · <a id="export-parquet" href="#sessions" data-file="${base}/session.parquet" data-name="${esc(name)}.parquet">Export Parquet</a></p>
+    <p><a id="session-report" href="#sessions" data-file="${base}/report.pdf" data-name="${esc(name)}-report.pdf"><b>Report (PDF)</b></a> · <a id="export-c3d" href="#sessions" data-file="${base}/session.c3d" data-name="${esc(name)}.c3d">Export C3D</a> · <a id="export-csv" href="#sessions" data-file="${base}/session.csv" data-name="${esc(name)}.csv">Export CSV</a> · <a id="export-parquet" href="#sessions" data-file="${base}/session.parquet" data-name="${esc(name)}.parquet">Export Parquet</a></p>
     <table><tr><td>child</td><td>${esc(d.child)}</td></tr><tr><td>backend</td><td>${L.backend}</td></tr>
     <tr><td>duration</td><td>${L.duration_s.toFixed(2)} s (${L.ticks} ticks)</td></tr>
     <tr><td>ended by</td><td>${esc(d.stopped_by)}</td></tr>
