@@ -20,6 +20,7 @@ from collections.abc import Sequence
 
 from exoleg.cli import (
     assess,
+    child,
     design,
     detect,
     export,
@@ -38,7 +39,7 @@ from exoleg.cli._common import _negative_values, _Parser
 
 #: the commands, one module each, in the order of the help
 COMMANDS = (validate, simulate, fit, assess, population, design, sweep, run, hmi, log,
-            report, detect, identify, export)
+            report, child, detect, identify, export)
 
 
 def build_parser() -> argparse.ArgumentParser:

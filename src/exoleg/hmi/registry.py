@@ -216,6 +216,16 @@ class Registry:
                         "actor": rec.get("actor", {}), "fits": fits, "sessions": sessions})
         return out
 
+    def sessions_of(self, child_id: str) -> list[dict[str, Any]]:
+        """A child's sessions, oldest first: ``name`` (its folder), ``started`` (s since
+        the epoch), ``fit_id``, ``operator`` and ``note``."""
+        with self.lock:
+            rows = self.db.execute(
+                "SELECT name, started, fit_id, operator, note FROM sessions "
+                "WHERE child_id = ? ORDER BY started, name", (child_id,)).fetchall()
+        return [{"name": n, "started": t, "fit_id": f, "operator": o, "note": x}
+                for n, t, f, o, x in rows]
+
     def session(self, name: str) -> dict[str, Any] | None:
         """The child and fit a session ran on, who started it and their note (None when
         none is recorded)."""

@@ -1,0 +1,73 @@
+"""A child's record over time (issue 42): their sessions from the console's records
+(``records.sqlite`` in the sessions folder), each with the figures kept when it ended
+(``figures.json``; computed from its log where an older session has none), and what
+changed beyond the Gait Profile Score's minimal clinically important difference."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from exoleg.errors import ExolegError, ParameterError
+from exoleg.reference.scores import GPS_MCID_DEG
+
+#: the figures a child's history trends, by their key in a session's figures
+TRENDED = ("walk_time_s", "steps", "cadence_steps_per_min", "stance_percent", "gps_deg")
+
+
+def _figures(folder: Path) -> dict[str, Any] | None:
+    from exoleg.runtime.figures import session_figures
+
+    try:
+        return dict(json.loads((folder / "figures.json").read_text(encoding="utf-8")))
+    except (OSError, ValueError):
+        pass
+    try:
+        return session_figures(folder)
+    except (ExolegError, ValueError):
+        return None  # a session whose log holds nothing to read (listed, without figures)
+
+
+def child_history(sessions: str | Path, child_id: str) -> dict[str, Any]:
+    """A child's sessions over time with their figures and the trend.
+
+    Parameters
+    ----------
+    sessions : str or Path
+        The console's sessions folder (``exoleg hmi --sessions``).
+    child_id : str
+        The child's pseudonymous id (``C3f9a01bc``).
+
+    Returns
+    -------
+    dict
+        ``child_id``, ``name``, ``sessions`` (oldest first: ``name``, ``started``,
+        ``operator``, ``note`` and the trended figures, None where a session has none),
+        ``gps_change_deg`` (the last GPS less the first) and ``beyond_mcid`` (whether
+        that change exceeds the GPS's minimal clinically important difference; None
+        with fewer than two scored sessions).
+    """
+    from exoleg.hmi.registry import FILE, Registry
+
+    root = Path(sessions)
+    if not (root / FILE).is_file():
+        raise ParameterError(str(root), FILE, "no records here (the console's sessions "
+                             "folder, exoleg hmi --sessions, holds them)")
+    reg = Registry(root / FILE)
+    try:
+        if not reg.exists(child_id):
+            ids = ", ".join(c["id"] for c in reg.children()) or "none"
+            raise ParameterError(str(root), child_id, f"no such child (children: {ids})")
+        name = next(c["name"] for c in reg.children() if c["id"] == child_id)
+        rows = []
+        for s in reg.sessions_of(child_id):
+            fig = _figures(root / s["name"]) or {}
+            rows.append({**s, **{k: fig.get(k) for k in TRENDED}})
+    finally:
+        reg.close()
+    scored = [r["gps_deg"] for r in rows if r["gps_deg"] is not None]
+    change = scored[-1] - scored[0] if len(scored) >= 2 else None
+    return {"child_id": child_id, "name": name, "sessions": rows,
+            "gps_change_deg": change,
+            "beyond_mcid": None if change is None else abs(change) > GPS_MCID_DEG}
