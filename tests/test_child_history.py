@@ -81,3 +81,27 @@ def test_the_command_lists_shows_and_exports(records: tuple[Path, str], tmp_path
                       (("export", cid, "--out", str(tmp_path / "h.txt")), "a .csv or .json")):
         r = cli(*bad)
         assert r.returncode == 2 and said in r.stderr and "Traceback" not in r.stderr
+
+
+def test_a_sessions_report_shows_the_childs_sessions_up_to_it(records: tuple[Path, str],
+                                                               tmp_path: Path) -> None:
+    pypdf = pytest.importorskip("pypdf", reason="pypdf (exoleg[dev])")
+    root, cid = records
+    h = child_history(root, cid)
+    names = [s["name"] for s in h["sessions"]]
+
+    def text(session: str) -> str:
+        out = tmp_path / f"{session}.pdf"
+        r = subprocess.run([sys.executable, "-m", "exoleg.cli", "report",
+                            str(root / session), "--out", str(out)], capture_output=True,
+                           text=True, timeout=120)
+        assert r.returncode == 0, r.stderr
+        return "\n".join(p.extract_text() for p in pypdf.PdfReader(out).pages)
+
+    last = text(names[-1])
+    assert "This child's sessions" in last
+    assert f"Gait Profile Score {h['gps_change_deg']:+.1f} deg since the first session" in last
+    assert last.count("2026-") >= 3  # its three sessions (and its own date)
+    first = text(names[0])
+    assert "One scored session so far." in first  # the later ones are not in its report
+    assert f"Child: {cid}" in first and "Ada" not in first

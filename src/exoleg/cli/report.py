@@ -12,6 +12,7 @@ from exoleg.cli._common import _say
 
 def cmd_report(args: argparse.Namespace) -> int:
     from exoleg.errors import ParameterError
+    from exoleg.hmi.history import history_until
     from exoleg.plots.report import write_report
 
     out = args.out or args.session / "report.pdf"
@@ -20,7 +21,7 @@ def cmd_report(args: argparse.Namespace) -> int:
                              "(name a .pdf file; a session's own records are never "
                              "written over)")
     t0 = time.perf_counter()
-    write_report(args.session, out, name=args.name)
+    write_report(args.session, out, name=args.name, history=history_until(args.session))
     _say(f"wrote {out} ({time.perf_counter() - t0:.1f} s)")
     return 0
 

@@ -132,12 +132,13 @@ class Archive:
     def report(self, folder: Path) -> Path:
         """The session's report for the clinic's file (:func:`exoleg.plots.report.
         write_report`), kept beside its records; made again when the log is newer."""
+        from exoleg.hmi.history import history_until
         from exoleg.plots.report import write_report
 
         out = folder / "report.pdf"
         log = folder / "session.log"
         if not out.exists() or out.stat().st_mtime < log.stat().st_mtime:
-            write_report(folder, out)
+            write_report(folder, out, history=history_until(folder))
         return out
 
     def c3d(self, folder: Path) -> Path:

@@ -66,8 +66,40 @@ def child_history(sessions: str | Path, child_id: str) -> dict[str, Any]:
             rows.append({**s, **{k: fig.get(k) for k in TRENDED}})
     finally:
         reg.close()
+    return {"child_id": child_id, "name": name, "sessions": rows, **_change(rows)}
+
+
+def _change(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The GPS's change from the first scored session to the last, and whether it is
+    beyond the MCID (None with fewer than two)."""
     scored = [r["gps_deg"] for r in rows if r["gps_deg"] is not None]
     change = scored[-1] - scored[0] if len(scored) >= 2 else None
-    return {"child_id": child_id, "name": name, "sessions": rows,
-            "gps_change_deg": change,
+    return {"gps_change_deg": change,
             "beyond_mcid": None if change is None else abs(change) > GPS_MCID_DEG}
+
+
+def history_until(folder: str | Path) -> dict[str, Any] | None:
+    """The history (:func:`child_history`) of the child a session ran on, up to that
+    session, when the console's records beside it hold one; None for a session run
+    without them (``exoleg run``)."""
+    from exoleg.hmi.registry import FILE, Registry
+
+    root = Path(folder)
+    if not (root.parent / FILE).is_file():
+        return None
+    try:
+        reg = Registry(root.parent / FILE)
+        try:
+            rec = reg.session(root.name)
+        finally:
+            reg.close()
+        if not rec or not rec["child_id"]:
+            return None
+        h = child_history(root.parent, rec["child_id"])
+    except ExolegError:
+        return None
+    names = [s["name"] for s in h["sessions"]]
+    if root.name in names:  # up to this session, not after it
+        h["sessions"] = h["sessions"][:names.index(root.name) + 1]
+        h.update(_change(h["sessions"]))
+    return h

@@ -51,13 +51,16 @@ def _cycle_figure(fig: dict[str, Any]) -> bytes:
     return buf.getvalue()
 
 
-def _who(folder: Path, fig: dict[str, Any], name: bool) -> str:
+def _who(folder: Path, fig: dict[str, Any], name: bool,
+         history: dict[str, Any] | None) -> str:
     """The child as the report names them: the records' pseudonymous id, the name if
     asked."""
     try:
         child = json.loads((folder / "child.json").read_text(encoding="utf-8"))
     except (OSError, ValueError):
         child = {}
+    if history and not child:
+        child = {"child_id": history["child_id"], "name": history["name"]}
     cid = child.get("child_id")
     who = child.get("name") or fig.get("child")
     if cid:
@@ -67,7 +70,8 @@ def _who(folder: Path, fig: dict[str, Any], name: bool) -> str:
     return "not recorded (a session run without the console's records)"
 
 
-def write_report(folder: str | Path, path: str | Path, name: bool = False) -> Path:
+def write_report(folder: str | Path, path: str | Path, name: bool = False,
+                 history: dict[str, Any] | None = None) -> Path:
     """Write the session report of ``folder`` to ``path`` (PDF, whole or not at all).
 
     Parameters
@@ -78,6 +82,9 @@ def write_report(folder: str | Path, path: str | Path, name: bool = False) -> Pa
         The PDF to write.
     name : bool, default False
         Name the child (else only their pseudonymous id).
+    history : dict, optional
+        The child's sessions up to this one (:func:`exoleg.hmi.history.history_until`),
+        shown as their trend; None: none shown.
 
     Returns
     -------
@@ -122,7 +129,7 @@ def write_report(folder: str | Path, path: str | Path, name: bool = False) -> Pa
     stride = fig["stride_time_s"]
     story: list[Any] = [
         Paragraph("Exoskeleton session report", st["Title"]),
-        Paragraph(f"Session {root.name}, {when}. Child: {_who(root, fig, name)}.",
+        Paragraph(f"Session {root.name}, {when}. Child: {_who(root, fig, name, history)}.",
                   st["Normal"]),
         Spacer(1, 0.3 * cm),
         Paragraph("Summary", st["Heading2"]),
@@ -179,6 +186,21 @@ def write_report(folder: str | Path, path: str | Path, name: bool = False) -> Pa
     else:
         story.append(Paragraph("The cuffs' torque is not measured by this device.",
                                st["Normal"]))
+    if history and history.get("sessions"):
+        h = history
+        story += [Paragraph("This child's sessions", st["Heading2"]),
+                  table([["session", "walking", "steps", "cadence", "GPS"],
+                         *[[datetime.datetime.fromtimestamp(s["started"]).strftime(
+                             "%Y-%m-%d %H:%M"), num(s["walk_time_s"] and
+                                                    s["walk_time_s"] / 60, ".1f", " min"),
+                            num(s["steps"], "d"), num(s["cadence_steps_per_min"], ".0f"),
+                            num(s["gps_deg"], ".1f", " deg")] for s in h["sessions"][-6:]]]),
+                  Paragraph("<font size=8>" + (
+                      f"Gait Profile Score {h['gps_change_deg']:+.1f} deg since the first "
+                      f"session: {'beyond' if h['beyond_mcid'] else 'within'} the "
+                      f"{scores.GPS_MCID_DEG} deg that matters clinically."
+                      if h["gps_change_deg"] is not None else "One scored session so far.")
+                      + "</font>", st["Normal"])]
     story += [Paragraph("What the safety layer did", st["Heading2"])]
     events = fig["safety_events"]
     story.append(table([["", "first at", "for"],
