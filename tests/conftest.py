@@ -56,6 +56,7 @@ def terminal_ctrl_c():  # type: ignore[no-untyped-def]
 #: fill the other worker.
 LONG_FIRST = ("test_hmi_safety.py", "test_docs.py", "test_identify_device.py",
               "test_hmi.py", "test_sweep.py", "validation/test_identify.py", "test_runtime.py",
+              "test_session_exports.py", "test_report.py", "test_child_history.py",
               "test_tick_contract.py", "test_control_api.py", "test_device_folder.py",
               "test_typing.py", "test_child.py")
 

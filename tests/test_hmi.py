@@ -309,6 +309,15 @@ def test_sessions_page_lists_plots_and_exports(hmi: Any, operator: Any) -> None:
     c3d = hmi.url + d.find_element("id", "export-c3d").get_attribute("data-file")
     r = httpx.get(c3d, timeout=120, headers=AUTH(hmi))
     assert r.status_code == 200 and r.content[1:2] == b"\x50"  # C3D's key: 0x50
+    # the child's page opens on their history: this session among them, its figures
+    goto(d, "child")
+    wait_until("Ada listed", lambda: [a for a in d.find_elements("css selector",
+                                                                 "#children a")
+                                      if "Ada" in a.text])[0].click()
+    rows = wait_until("her sessions", lambda: d.find_elements(
+        "css selector", "#history-table tr")[1:])
+    assert len(rows) >= 1 and "operator" in rows[-1].text
+    assert f"{fig['steps']}" in rows[-1].text
 
 
 def _server_keeps_off_the_loops_cpu(server: int) -> None:

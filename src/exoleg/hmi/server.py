@@ -442,6 +442,18 @@ class HMI:
                            damaged=[] if reg is None else reg.damaged)
             return JSONResponse(out)
 
+        async def child_history_route(request: Request) -> JSONResponse:
+            refused = private(request)
+            if refused:
+                return refused
+            from exoleg.hmi.history import child_history
+
+            try:
+                return JSONResponse(await run_in_threadpool(
+                    child_history, self.root, request.path_params["child_id"]))
+            except ParameterError as e:
+                return JSONResponse({"error": str(e)}, 404)
+
         async def fit(request: Request) -> JSONResponse:
             refused = api.refusal(request, "fit")
             if refused:
@@ -565,6 +577,7 @@ class HMI:
                   Route("/api/identify/start", identify_start, methods=["POST"]),
                   Route("/api/session/end", session_end, methods=["POST"]),
                   Route("/api/session/note", session_note, methods=["POST"]),
+                  Route("/api/children/{child_id}/history", child_history_route),
                   Route("/api/sessions", sessions),
                   Route("/api/sessions/{name}", session_detail),
                   Route("/api/sessions/{name}/{kind}", session_file),

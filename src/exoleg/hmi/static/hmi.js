@@ -460,7 +460,22 @@ async function refreshInfo() {
   if (d.child && !$("fit-result").dataset.shown) showFit(d.child);
 }
 
+// the child's sessions over time, from the records (the figures kept when each ended)
+async function showHistory(id) {
+  const r = await call("GET", "/api/children/" + encodeURIComponent(id) + "/history");
+  if (!r.ok) { $("child-history").innerHTML = ""; return; }
+  const h = r.data, n = (x, d, u) => x === null || x === undefined ? "-" : x.toFixed(d) + (u || "");
+  $("child-history").innerHTML = `<h3>${esc(h.name)}'s sessions (${esc(h.child_id)})</h3>` +
+    (h.sessions.length ? `<table id="history-table"><tr><th>date</th><th>walking</th><th>steps</th><th>cadence</th><th>GPS</th><th>operator</th><th>note</th></tr>` +
+      h.sessions.map((s) => `<tr><td>${new Date(s.started * 1000).toLocaleString()}</td><td>${n(s.walk_time_s && s.walk_time_s / 60, 1, " min")}</td>` +
+        `<td>${s.steps === null ? "-" : s.steps}</td><td>${n(s.cadence_steps_per_min, 0, " /min")}</td><td>${n(s.gps_deg, 1, " deg")}</td>` +
+        `<td>${esc(s.operator || "-")}</td><td>${esc(s.note || "")}</td></tr>`).join("") + "</table>" : "<p class='muted'>No session yet.</p>") +
+    (h.gps_change_deg === null ? "" : `<p id="history-trend">Gait Profile Score ${h.gps_change_deg >= 0 ? "+" : ""}${h.gps_change_deg.toFixed(1)} deg since the first session: ` +
+      `${h.beyond_mcid ? "<b>beyond</b>" : "within"} the 1.6 deg that matters clinically.</p>`);
+}
+
 function pickChild(rec) {
+  showHistory(rec.id);
   const f = $("child-form"), c = rec.child;
   f.elements.child_id.value = rec.id;
   $("child-record").textContent = `${rec.name} (${rec.id}): a new fit of this child's record.`;
