@@ -12,6 +12,8 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 os.environ.setdefault("EXOLEG_SIM_OVERRUN_MS", "250")
 
 import importlib.util
+from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -68,3 +70,29 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
                     len(LONG_FIRST))
 
     items.sort(key=rank)  # stable: each file's tests stay together, in their order
+
+
+def tile_session(session: Path, seconds: float, dest: Path) -> tuple[dict[str, Any], Any]:
+    """A long session made of a short one (the report's and the exports' bounds on
+    10- and 30-minute sessions): ``session``'s records repeated until ``seconds`` of
+    ticks, each copy's clock moved on, written as ``dest``/session.log with its
+    run.json. Returns the log's header and the records (ticks x columns)."""
+    import shutil
+
+    import numpy as np
+
+    from exoleg.session_log import read_log
+
+    src = (session / "session.log").read_bytes()
+    head = src.index(b"\n") + 1
+    header, cols, _ = read_log(session / "session.log")
+    n, width = len(cols["t"]), len(header["columns"])
+    rec = np.frombuffer(src[head:head + n * width * 8], dtype=np.float64).reshape(n, width)
+    span = n * header["period"]
+    shift = np.zeros(width)
+    shift[header["columns"].index("t")] = span
+    tiled = np.concatenate([rec + k * shift for k in range(int(np.ceil(seconds / span)))])
+    dest.mkdir(parents=True, exist_ok=True)
+    (dest / "session.log").write_bytes(src[:head] + tiled.tobytes())
+    shutil.copy(session / "run.json", dest / "run.json")
+    return header, tiled

@@ -122,22 +122,11 @@ def test_a_ten_minute_sessions_report_takes_under_five_seconds(session: Path,
     """Issue 42's bound, on a 10-minute log: the module's session's records repeated 50
     times, each copy's clock moved on (the records as the runtime wrote them; measured
     2.6 s for a real 10-minute session here, its log 279 MB)."""
-    import shutil
-
+    from conftest import tile_session
     from exoleg.plots.report import write_report
 
-    src = (session / "session.log").read_bytes()
-    head = src.index(b"\n") + 1
-    header, cols, _ = read_log(session / "session.log")
-    n, width = len(cols["t"]), len(header["columns"])
-    rec = np.frombuffer(src[head:head + n * width * 8], dtype=np.float64).reshape(n, width)
-    span = n * header["period"]
-    copies = int(np.ceil(600.0 / span))
-    tiled = np.concatenate([rec + np.eye(width)[0] * (k * span) for k in range(copies)])
     long = tmp_path / "long"
-    long.mkdir()
-    (long / "session.log").write_bytes(src[:head] + tiled.tobytes())
-    shutil.copy(session / "run.json", long / "run.json")
+    header, tiled = tile_session(session, 600.0, long)
     t0 = time.perf_counter()
     write_report(long, tmp_path / "long.pdf")
     took = time.perf_counter() - t0

@@ -130,17 +130,10 @@ def test_a_thirty_minute_session_exports(session: Path, tmp_path: Path) -> None:
     pytest.importorskip("ezc3d", reason="ezc3d (exoleg[report])")
     import ezc3d
 
-    src = (session / "session.log").read_bytes()
-    head = src.index(b"\n") + 1
-    header, cols, _ = read_log(session / "session.log")
-    n, width = len(cols["t"]), len(header["columns"])
-    rec = np.frombuffer(src[head:head + n * width * 8], dtype=np.float64).reshape(n, width)
-    span = n * header["period"]
-    copies = int(np.ceil(1800.0 / span))
+    from conftest import tile_session
+
     long = tmp_path / "long"
-    long.mkdir()
-    tiled = np.concatenate([rec + np.eye(width)[0] * (k * span) for k in range(copies)])
-    (long / "session.log").write_bytes(src[:head] + tiled.tobytes())
+    header, tiled = tile_session(session, 1800.0, long)
     files = write_c3d(session_export(long), tmp_path / "long.c3d")
     assert len(files) == -(-len(tiled) // C3D_MAX_FRAMES)
     frames = [ezc3d.c3d(str(f))["data"]["points"].shape[2] for f in files]

@@ -33,7 +33,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from exoleg.child.model import ChildModel, child_records, child_tick
+from exoleg.child.compiled import child_records, child_tick
+from exoleg.child.model import ChildModel
 from exoleg.child.passive import passive_torque
 from exoleg.errors import SimulationError
 

@@ -33,7 +33,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from exoleg.child.model import ChildModel, child_tick
+from exoleg.child.compiled import child_tick
+from exoleg.child.model import ChildModel
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError, SimulationError
 from exoleg.identify.estimate import Identified
@@ -100,7 +101,7 @@ class DeviceIdentification:
 
 @njit(cache=True)
 def _muscles(P, C, CS, q, dq, h, out):  # type: ignore[no-untyped-def]
-    """The child's muscles (:func:`~exoleg.child.model.child_tick`, relaxed: standing, not
+    """The child's muscles (:func:`~exoleg.child.compiled.child_tick`, relaxed: standing, not
     walking, unloaded) over the recorded angles and rates, tick by tick, into out."""
     for k in range(q.shape[0]):
         child_tick(P, C, CS, q[k], dq[k], h, False, 0.0, False, out[k])
@@ -111,7 +112,7 @@ def child_torques(child: ChildModel, period: float, q: F64, dq: F64) -> F64:
     angles ``q`` and rates ``dq`` (N, 3) every ``period`` s: their passive moments
     (elastic and viscous) and their muscles' -- tone, short-range stiffness and the
     delayed stretch reflex of the spastic groups (none for a child without spasticity)."""
-    from exoleg.child.model import child_records
+    from exoleg.child.compiled import child_records
     from exoleg.child.passive import passive_moments
 
     P, C, CS = child_records(dataclasses.replace(child, effort=False), period)

@@ -81,7 +81,7 @@ def compare_pendulum(child: Any, duration: float = 5.0, accuracy: float = 1e-10
     import opensim as osim
 
     from exoleg.child.assess import child_leg, pendulum
-    from exoleg.child.model import child_records
+    from exoleg.child.compiled import child_records
 
     t0 = time.perf_counter()
     ex = pendulum(child, duration=duration)

@@ -21,8 +21,9 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from exoleg.child.compiled import child_records, child_tick
 from exoleg.child.interaction import device_leg, interaction_torque
-from exoleg.child.model import ChildModel, child_records, child_tick
+from exoleg.child.model import ChildModel
 from exoleg.device.actuator import (
     ActuatorModel,
     current_loop,
