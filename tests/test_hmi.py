@@ -188,6 +188,17 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
     assert len(rows[2]) == 4 and all(x.endswith("%") for x in rows[2][1:])
     assert "torque off" in text(d, "cuff-rule")
     assert cuff is not None and len(cuff) == 3
+    # the load on the foot sensors in % body weight: the board's counts through its
+    # response inverted (FootSensors.newtons), the page's figure against Python's
+    shown, fsr, page = d.execute_script(  # at once: the state moves at 50 Hz
+        "return [document.getElementById('foot-load').textContent, S.state.fsr, "
+        "footLoad(S.state)]")
+    from exoleg.device.sensors import FootSensors
+
+    board = FootSensors.default(noise_scale=0.0)
+    want = 100 * sum(board.newtons(c) for c in fsr) / (25.0 * 9.81)  # Ada: 25 kg
+    # the page interpolates the inverse every 16 counts: within 0.5 % body weight
+    assert shown.endswith("% body weight") and page == pytest.approx(want, abs=0.5)
     shot(d, "live")
 
     # Gains: outside the bounds refused with the reason, inside accepted
@@ -311,13 +322,15 @@ def test_sessions_page_lists_plots_and_exports(hmi: Any, operator: Any) -> None:
     assert r.status_code == 200 and r.content[1:2] == b"\x50"  # C3D's key: 0x50
     # the child's page opens on their history: this session among them, its figures
     goto(d, "child")
-    wait_until("Ada listed", lambda: [a for a in d.find_elements("css selector",
-                                                                 "#children a")
-                                      if "Ada" in a.text])[0].click()
-    rows = wait_until("her sessions", lambda: d.find_elements(
-        "css selector", "#history-table tr")[1:])
-    assert len(rows) >= 1 and "operator" in rows[-1].text
-    assert f"{fig['steps']}" in rows[-1].text
+    # found and clicked in one script: the list is drawn again as the page refreshes
+    wait_until("Ada listed and picked", lambda: d.execute_script(
+        "const a = [...document.querySelectorAll('#children a')]"
+        ".find((x) => x.textContent.includes('Ada')); if (a) a.click(); return !!a;"))
+    rows = wait_until("her sessions", lambda: d.execute_script(
+        "return [...document.querySelectorAll('#history-table tr')].slice(1)"
+        ".map((r) => r.textContent)"))
+    assert len(rows) >= 1 and "operator" in rows[-1]
+    assert f"{fig['steps']}" in rows[-1]
 
 
 def _server_keeps_off_the_loops_cpu(server: int) -> None:

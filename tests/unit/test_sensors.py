@@ -58,3 +58,16 @@ def test_drift_is_the_sheets_per_decade_under_a_constant_load() -> None:
         fsr_response(REC, last, memory, creep, 0, 0.0, h)
     # the slowest state (100 s) keeps at most exp(-3) = 5.0 % of its 5 %: below 0.3 %
     assert np.all(np.abs(creep[0]) < 0.05 * 0.06)
+
+
+def test_the_boards_counts_read_back_as_newtons() -> None:
+    """FootSensors.newtons inverts the board's response (fsr_counts, noise-free): within
+    one count's force (the ADC's quantization) over the FSR's range; 0 at 0."""
+    from exoleg.device.sensors import FootSensors
+
+    b = FootSensors.default(noise_scale=0.0)
+    for force in np.linspace(0.0, b.fsr_full_scale, 60):
+        c = b.counts(force)
+        step = b.newtons(c + 1) - b.newtons(c)  # one count's force there
+        assert abs(b.newtons(c) - force) <= step, (force, c)
+    assert b.newtons(0.0) == 0.0

@@ -112,6 +112,19 @@ class FootSensors:
         """The board's noise-free reading of ``force`` N on an FSR, ADC counts."""
         return float(fsr_counts(self.record(), force, 0.0))
 
+    def newtons(self, counts: float) -> float:
+        """The force, N, that the board's noise-free reading ``counts`` stands for: the
+        inverse of :func:`fsr_counts`' response (its linearity's quadratic solved; to
+        within one count's quantization), beyond full scale linear."""
+        y = float(counts) / float(2**self.adc_bits - 1) * self.adc_reference \
+            / self.fsr_full_scale_voltage
+        lin = self.fsr_linearity
+        if y >= 1.0 or lin <= 0.0:
+            return max(y, 0.0) * self.fsr_full_scale
+        b = 1.0 + 4.0 * lin
+        f = (b - math.sqrt(max(b * b - 16.0 * lin * y, 0.0))) / (8.0 * lin)
+        return max(f, 0.0) * self.fsr_full_scale
+
     def record(self) -> NDArray[np.void]:
         """What the compiled functions take (:data:`BOARD`)."""
         r = new(BOARD)

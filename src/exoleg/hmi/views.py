@@ -24,6 +24,7 @@ def device_info(leg: Any, folder: str | None = None) -> dict[str, Any]:
     the device folder ``folder``'s actuators (None: the shipped ones)."""
     from exoleg.control.safety import SafetyLimits
     from exoleg.device.actuator import envelope, paper_actuators
+    from exoleg.device.sensors import FootSensors
     from exoleg.device.sensors import SENSOR_X
     from exoleg.dynamics._generated import OFFSETS
     from exoleg.params import paper
@@ -34,6 +35,11 @@ def device_info(leg: Any, folder: str | None = None) -> dict[str, Any]:
     # the cuffs' limit the safety layer enforces (the device's safety.toml [cuffs]), N m
     # per kg of the child; None where a joint is not watched
     safety = SafetyLimits.paper(folder=folder, actuators=tuple(acts))
+    # the foot board's counts as newtons (its response inverted: FootSensors.newtons),
+    # every 16 counts, for the Live page's foot load in % body weight
+    board = FootSensors.default(noise_scale=0.0, folder=folder)
+    top = 2**board.adc_bits - 1
+    grid = [min(c, top) for c in range(0, top + 16, 16)]
     cuff_limit = [float(x) if np.isfinite(x) else None for x in safety.cuff_limit]
     out: dict[str, Any] = {
         "leg": leg.name, "lengths": [float(x) for x in leg.lengths], "offsets": list(OFFSETS),
@@ -42,6 +48,7 @@ def device_info(leg: Any, folder: str | None = None) -> dict[str, Any]:
         "sensor_x": [float(x) * float(leg.lengths[2]) for x in SENSOR_X], "actuators": [],
         "cuff_limit_Nm_per_kg": cuff_limit, "cuff_off_at": float(safety.cuff_off),
         "cuff_stop_after_s": float(safety.cuff_stop),
+        "fsr_counts": grid, "fsr_newtons": [board.newtons(c) for c in grid],
         "device_folder": folder}
     for a in acts:
         par = a.record()

@@ -278,6 +278,22 @@ function drawTorques(s) {
     "<tr><td>continuous (N m)</td>" + acts.map((a) => `<td>${a.continuous_torque.toFixed(0)}</td>`).join("") + "</tr>";
 }
 
+// the foot board's counts as newtons: the board's response inverted on the server
+// (FootSensors.newtons, /api/info), interpolated between its grid's points
+function newtons(counts) {
+  const xs = S.info.device.fsr_counts, ys = S.info.device.fsr_newtons;
+  let i = 1;
+  while (i < xs.length - 1 && xs[i] < counts) i++;
+  const a = xs[i - 1], b = xs[i];
+  return ys[i - 1] + (ys[i] - ys[i - 1]) * Math.max(0, Math.min(1, (counts - a) / ((b - a) || 1)));
+}
+
+// the load on the foot sensors in % of the child's body weight (g = 9.81 m/s^2)
+function footLoad(s) {
+  if (!s.body_mass) return null;
+  return 100 * s.fsr.reduce((sum, c) => sum + newtons(c), 0) / (s.body_mass * 9.81);
+}
+
 function drawFsr(s) {
   const c = $("fsr"), g = c.getContext("2d"), d = S.info.device;
   g.clearRect(0, 0, c.width, c.height);
@@ -354,7 +370,7 @@ $("ended-ack").onclick = () => {
 function clearLive() {
   // no session ticking: nothing of an old frame stays drawn as if it were now
   for (const id of ["leg", "angles", "torques", "fsr"]) { const c = $(id); c.getContext("2d").clearRect(0, 0, c.width, c.height); }
-  for (const id of ["t-session", "t-remaining", "steps", "support", "phase", "gait-source", "safety", "windings",
+  for (const id of ["t-session", "t-remaining", "steps", "support", "phase", "foot-load", "gait-source", "safety", "windings",
     "interaction", "support-level", "t", "late", "late-max", "missed"]) $(id).textContent = "-";
   for (const id of ["fault-live", "torque-table", "cuffs", "cuff-rule", "events"]) $(id).innerHTML = "";
 }
@@ -412,6 +428,8 @@ function frame() {
       $("fault-live").textContent = s.fault ? s.fault_text : "";
       drawLeg(s); drawAngles(); drawTorques(s); drawFsr(s);
       $("phase").textContent = VOC().text.Phase[s.phase] || s.phase;
+      const load = footLoad(s);
+      $("foot-load").textContent = load === null ? "-" : load.toFixed(0) + " % body weight";
       $("gait-source").textContent = VOC().text.Source[s.gait_source] || s.gait_source;
       const bits = VOC().text.Limited.filter(([b]) => s.safety_status & b).map(([, n]) => n);
       $("safety").textContent = bits.length ? bits.join("; ") : "nominal";
