@@ -24,8 +24,7 @@ def device_info(leg: Any, folder: str | None = None) -> dict[str, Any]:
     the device folder ``folder``'s actuators (None: the shipped ones)."""
     from exoleg.control.safety import SafetyLimits
     from exoleg.device.actuator import envelope, paper_actuators
-    from exoleg.device.sensors import FootSensors
-    from exoleg.device.sensors import SENSOR_X
+    from exoleg.device.sensors import SENSOR_X, FootSensors
     from exoleg.dynamics._generated import OFFSETS
     from exoleg.params import paper
     from exoleg.tick import SENSOR_POINTS
