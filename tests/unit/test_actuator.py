@@ -173,7 +173,7 @@ def _two_node(a, current: float, t: float, ambient: float = 25.0) -> np.ndarray:
 
 
 def test_winding_temperature_against_the_two_node_solution() -> None:
-    from exoleg.device.actuator import thermal_step, time_to_winding_limit
+    from exoleg.device.thermal import thermal_step, time_to_winding_limit
 
     for a in ACTS:
         th = a.thermal()
@@ -229,7 +229,7 @@ def copper_rk4(a, current: float, t_end: float, h: float = 1e-3,  # type: ignore
 
 
 def test_the_winding_s_resistance_rises_with_its_temperature() -> None:
-    from exoleg.device.actuator import time_to_winding_limit, winding_temperature
+    from exoleg.device.thermal import time_to_winding_limit, winding_temperature
 
     for a in (HIP, KNEE):
         # at the current limit: the time to the winding's limit against RK4's crossing

@@ -7,8 +7,8 @@ keeps).
 * **Windings**: maxon's two-node model of each motor (the actuator file's thermal
   resistances and time constants) heated by the copper loss of the current the allowed
   torque draws, ``|u| / (N eta k_t)``, the resistance at the winding's temperature
-  (:func:`exoleg.device.actuator.copper_loss`), one exact step per tick with the loss
-  held (:func:`exoleg.device.actuator.thermal_hold`). They start at the ambient.
+  (:func:`exoleg.device.thermal.copper_loss`), one exact step per tick with the loss
+  held (:func:`exoleg.device.thermal.thermal_hold`). They start at the ambient.
 * **Gears**: the torque a gear transmits is the torque allowed last tick less the
   rotor's inertia torque, the reflected inertia N^2 (J_rotor + J_gear) times the
   measured acceleration (the rates' difference over the tick); its peak is kept and
@@ -26,7 +26,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from exoleg.device.actuator import COPPER_ALPHA, copper_loss, thermal_hold, thermal_matrix
+from exoleg.device.actuator import COPPER_ALPHA
+from exoleg.device.thermal import copper_loss, thermal_hold, thermal_matrix
 
 
 def watch_limits(r: NDArray[np.void], actuators: tuple[Any, ...], dt: float,

@@ -38,7 +38,7 @@ def actuator_peaks(acts: Any, tau: Any, dq: Any, u_safe: Any, env: Any,
     against the motor's nominal current: its continuous rating; the gear's transmitted
     torque, the delivered torque less the rotor's inertia torque N^2 J q'' (friction
     aside), against its momentary peak)."""
-    from exoleg.device.actuator import winding_temperature
+    from exoleg.device.thermal import winding_temperature
 
     out = []
     ddq = np.gradient(dq, dt, axis=0)
