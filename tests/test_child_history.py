@@ -15,6 +15,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from exoleg.hmi.history import child_history
@@ -48,6 +49,10 @@ def test_the_history_carries_each_sessions_figures(records: tuple[Path, str]) ->
         kept = json.loads((root / s["name"] / "figures.json").read_text())
         for k in ("walk_time_s", "steps", "gps_deg", "cadence_steps_per_min"):
             assert s[k] == kept[k], k
+        # the assistance trended: per joint, the mean over the phases of the kept figure
+        for j, by_phase in kept["assistance"].items():
+            assert s["assistance"][j] == pytest.approx(np.mean(list(by_phase.values())))
+        assert s["settings"] is None  # run without the console: nothing carried
     gps = [s["gps_deg"] for s in h["sessions"]]
     assert h["gps_change_deg"] == pytest.approx(gps[-1] - gps[0])
     assert h["beyond_mcid"] == (abs(gps[-1] - gps[0]) > 1.6)

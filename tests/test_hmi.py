@@ -597,3 +597,111 @@ def test_identification_is_a_step_of_fitting(hmi: Any, operator: Any) -> None:
     actions = [json.loads(x) for x in (folder / "control.log").read_text().splitlines()]
     said = [a for a in actions if a["command"] == "identification"]
     assert said and said[0]["accepted"] and "kept for the next sessions" in said[0]["why"]
+
+
+def test_a_childs_record_and_settings_follow_them(hmi: Any, operator: Any) -> None:
+    """Issue 42: another child fitted, then Ada picked again from the list keeps her
+    last fit -- the leg identified above -- with no re-fit; a session of hers ends in
+    assist as needed with a stiffer stance; her page shows her sessions with their
+    figures and the trend; the Control page says, before the next session starts, the
+    settings it starts with; and that session starts with them, on her identified leg.
+    References: the records (each session's figures.json, tested against their
+    definitions in tests/test_report.py) and what the operator set."""
+    d = operator
+    api = f"{hmi.url}/api"
+
+    def ada() -> dict[str, Any]:
+        kids = httpx.get(f"{api}/info", headers=AUTH(hmi)).json()["children"]
+        return next(c for c in kids if c["name"] == "Ada")
+
+    def history() -> dict[str, Any]:
+        return dict(httpx.get(f"{api}/children/{ada()['id']}/history",
+                              headers=AUTH(hmi)).json())
+
+    def runs_on() -> str:
+        return str(httpx.get(f"{api}/info", headers=AUTH(hmi)).json()["runs_on"])
+
+    fits = ada()["fits"]
+    goto(d, "child")
+    press(d, "new-child")
+    form = d.find_element("id", "child-form")
+    for name, value in (("name", "Ben"), ("age", "8"), ("height", "128"), ("mass", "26")):
+        fill_in = form.find_element("name", name)
+        fill_in.clear()
+        fill_in.send_keys(value)
+    press(d, "fit")
+    wait_until("Ben kept", lambda: runs_on().startswith("Ben ("), timeout=60)
+    # Ada again, from the list: her last fit (the identified leg), not a new one
+    d.execute_script("[...document.querySelectorAll('#children a')].find("
+                     "(a) => a.textContent.startsWith('Ada (')).click()")
+    wait_until("her history", lambda: d.find_element("id", "keep-child").is_displayed())
+    press(d, "keep-child")
+    on = wait_until("Ada kept", lambda: runs_on().startswith("Ada (") and runs_on())
+    assert "(identified)" in on and ada()["fits"] == fits
+
+    # a session of hers: walking, then assist as needed and a stiffer stance at the hip
+    goto(d, "control")
+    fill(d, "duration", 12)
+    if not d.find_element("id", "arm-start").is_selected():
+        press(d, "arm-start")
+    press(d, "start")
+    wait_until("standing", lambda: text(d, "ctl-mode") == "STANDING", timeout=60)
+    press(d, "cmd-walk")
+    wait_until("walking", lambda: text(d, "ctl-mode") == "WALKING")
+    press(d, "cmd-aan")
+    wait_until("assist as needed", lambda: text(d, "ctl-support") == "aan")
+    hip = wait_until("the gains table", lambda: d.find_element("id", "g-kp_stance-0"))
+    stiffer = round(1.5 * float(hip.get_attribute("value")), 3)
+    fill(d, "g-kp_stance-0", stiffer)
+    press(d, "apply-gains")
+    wait_until("the gain in force", lambda: httpx.get(f"{api}/gains").json()["gains"][
+        "kp_stance"][0] == pytest.approx(stiffer))
+    h = wait_until("the session ended and its settings kept", lambda: (
+        lambda x: (x["sessions"][-1]["settings"] or {}).get("support_mode") == "aan" and x)(
+        history()), timeout=60)
+    last = h["sessions"][-1]
+    assert last["settings"]["gains"]["kp_stance"][0] == pytest.approx(stiffer)
+    assert last["steps"] and last["steps"] > 0 and last["gps_deg"] is not None
+
+    # her page: every session of hers with its figures, the trend, the settings to come
+    goto(d, "child")
+    d.execute_script("[...document.querySelectorAll('#children a')].find("
+                     "(a) => a.textContent.startsWith('Ada (')).click()")
+    wait_until("her history", lambda: "assist as needed" in text(d, "history-settings"))
+    rows = d.execute_script(
+        "return [...document.querySelectorAll('#history-table tr')].slice(1).map("
+        "(r) => [...r.cells].map((c) => c.textContent))")
+    assert len(rows) == len(h["sessions"]) >= 3
+    for row, s in zip(rows, h["sessions"], strict=True):
+        kept = json.loads((hmi.sessions / s["name"] / "figures.json").read_text())
+        assert row[2] == ("-" if kept["steps"] is None else str(kept["steps"]))
+        assert row[4] == ("-" if kept["gps_deg"] is None else f"{kept['gps_deg']:.1f} deg")
+    assert rows[-1][5] == "aan"
+    scored = [s["gps_deg"] for s in h["sessions"] if s["gps_deg"] is not None]
+    assert len(scored) >= 2
+    assert f"{scored[-1] - scored[0]:+.1f} deg since the first session" in text(
+        d, "history-trend")
+    shot(d, "child-history")
+
+    # before the next session starts: what it runs on and the settings it starts with
+    goto(d, "control")
+    said = wait_until("the settings to come", lambda: (
+        lambda t: "ended with: assist as needed" in t and t)(text(d, "runs-on")))
+    assert f"the settings session {last['name']} ended with" in said and \
+        "(identified)" in said
+    fill(d, "duration", 3)
+    press(d, "start")
+    folder = hmi.sessions / wait_until("the fourth session", lambda: (
+        lambda n: n != last["name"] and n)(httpx.get(f"{api}/info").json()["session"]))
+    wait_until("started in assist as needed", lambda: text(d, "ctl-support") == "aan",
+               timeout=60)
+    shown = wait_until("the kept gain shown", lambda: (lambda e: e and e[0])(
+        d.find_elements("id", "g-kp_stance-0")))
+    assert float(shown.get_attribute("value")) == pytest.approx(stiffer)
+    lines = [json.loads(x) for x in (folder / "control.log").read_text().splitlines()]
+    (line,) = [a for a in lines if a["command"] == "kept settings"]
+    assert line["accepted"] and f"kept from session {last['name']}" in line["why"]
+    assert "(identified)" in (folder / "leg.toml").read_text()
+    shot(d, "kept-settings")
+    wait_until("the fourth session ended", lambda: (folder / "run.json").exists(),
+               timeout=30)

@@ -16,6 +16,18 @@ def _when(t: float) -> str:
     return datetime.datetime.fromtimestamp(t).strftime("%Y-%m-%d %H:%M")
 
 
+def _support(s: dict[str, Any]) -> list[Any]:
+    """A session's support mode at its end and its assistance per joint (the support
+    level's mean over the gait phases walked), None where it has none."""
+    from exoleg.params.records import JOINTS
+
+    a = s["assistance"] or {}
+    return [(s["settings"] or {}).get("support_mode"), *[a.get(j) for j in JOINTS]]
+
+
+SUPPORT = ["support_mode", "assistance_hip", "assistance_knee", "assistance_ankle"]
+
+
 def cmd_child(args: argparse.Namespace) -> int:
     from exoleg.errors import ParameterError
     from exoleg.hmi.history import TRENDED, child_history
@@ -37,9 +49,10 @@ def cmd_child(args: argparse.Namespace) -> int:
                title=f"children in {args.sessions}")
         return 0
     h = child_history(args.sessions, args.child)
-    cols = ["session", "started", "operator", *TRENDED]
+    cols = ["session", "started", "operator", *TRENDED, *SUPPORT]
     rows = [[s["name"], _when(s["started"]), s["operator"] or "-",
-             *["-" if s[k] is None else f"{s[k]:.4g}" for k in TRENDED]]
+             *["-" if x is None else x if isinstance(x, str) else f"{x:.4g}"
+               for x in [*(s[k] for k in TRENDED), *_support(s)]]]
             for s in h["sessions"]]
     if args.child_command == "show":
         who = f"{h['child_id']} ({h['name']})" if args.name else h["child_id"]
@@ -48,6 +61,7 @@ def cmd_child(args: argparse.Namespace) -> int:
             _say(f"Gait Profile Score: {h['gps_change_deg']:+.1f} deg from the first session "
                  f"to the last -- {'beyond' if h['beyond_mcid'] else 'within'} its minimal "
                  "clinically important difference (1.6 deg, Baker et al. 2012)")
+        _say(f"their next session starts with {h['settings_text']}")
         return 0
     out: Path = args.out
     if out.suffix.lower() not in (".csv", ".json"):
@@ -62,10 +76,11 @@ def cmd_child(args: argparse.Namespace) -> int:
 
         with atomic_path(out) as tmp, tmp.open("w", newline="", encoding="utf-8") as f:
             w = csv.writer(f)
-            w.writerow(["session", "started_utc_s", "operator", "note", *TRENDED])
+            w.writerow(["session", "started_utc_s", "operator", "note", *TRENDED, *SUPPORT])
             for s in h["sessions"]:
                 w.writerow([s["name"], s["started"], s["operator"] or "", s["note"] or "",
-                            *["" if s[k] is None else s[k] for k in TRENDED]])
+                            *["" if x is None else x
+                              for x in [*(s[k] for k in TRENDED), *_support(s)]]])
     _say(f"wrote {out}")
     return 0
 

@@ -4,6 +4,7 @@ the simulated device carries, and said in words."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from exoleg.entry import typed_number
@@ -89,3 +90,58 @@ def actor_text(child: dict[str, Any], actor: dict[str, Any]) -> str:
     spasticity = ("no spasticity" if a["spasticity"] == "none" else
                   f"{a['spasticity']} spasticity")
     return f"{strength}, {spasticity}, {contracture}, {crouch}"
+
+
+def fit_of_form(body: dict[str, Any], device_dir: str | None = None
+                ) -> tuple[Any, Any, dict[str, Any], list[str]]:
+    """The child the form describes (age y, height cm, mass kg, optional measured
+    dimensions cm, GMFCS level, side, name) fitted to the device (the shipped one, or
+    the files of ``device_dir``): the :class:`~exoleg.sizing.Child`, its fit report
+    (:func:`~exoleg.design.report.fit_report`), the actor settings
+    (:func:`actor_settings`) and the warnings the child's figures raised. ValueError or
+    ParameterError in the form's words on a value that is not allowed."""
+    import warnings
+
+    from exoleg.design.report import fit_report
+    from exoleg.device.actuator import paper_actuators
+    from exoleg.entry import CHILD_ENTRY, MEASURED
+    from exoleg.sizing import Child
+
+    def typed(k: str, v: Any, kind: str) -> float:
+        lo, hi, unit = CHILD_ENTRY[kind]
+        label = FORM_LABELS.get(k, k)
+        x = typed_number(label, v)
+        if not lo <= x <= hi:
+            raise ValueError(f"{label}: {x:g} is outside {lo:g}-{hi:g} {unit}")
+        return x
+
+    values: dict[str, Any] = {k: typed(k, body.get(k), k) for k in ("age", "height", "mass")}
+    for k in MEASURED:
+        if body.get(k) not in (None, ""):
+            values[k] = typed(k, body[k], "measured") / 100
+    gmfcs = str(body.get("gmfcs") or "0")
+    if gmfcs not in ("0", "1", "2", "3", "4", "5"):
+        raise ValueError(f"GMFCS level: {gmfcs[:10]!r} is not a level (allowed: 1-5, or "
+                         "typically developing)")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        child = Child(age=values.pop("age"), sex=str(body.get("sex", "")),  # type: ignore[arg-type]
+                      height=values.pop("height") / 100, mass=values.pop("mass"),
+                      gmfcs=int(gmfcs) or None,
+                      affected_side=str(body.get("side", "right")),  # type: ignore[arg-type]
+                      name=str(body.get("name", "child"))[:60] or "child",
+                      **values)  # Child checks sex and side and names what is allowed
+    rep = fit_report(child, actuators=None if device_dir is None
+                     else paper_actuators(device_dir))
+    return child, rep, actor_settings(body), [str(w.message) for w in caught]
+
+
+def write_actor(record: dict[str, Any], folder: Path) -> str | None:
+    """The child of fit ``record`` as the simulated device carries them, with the fit's
+    actor settings (:func:`actor_model`), written to ``folder``/child.toml; its path, or
+    None when the child is not modelled (GMFCS V)."""
+    model = actor_model(record["child"], record.get("actor", {}))
+    if model is None:
+        return None
+    (folder / "child.toml").write_text(model.to_toml(), encoding="utf-8")
+    return str(folder / "child.toml")

@@ -9,7 +9,10 @@ import json
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from exoleg.errors import ExolegError, ParameterError
+from exoleg.hmi.settings import kept_settings
 from exoleg.reference.scores import GPS_MCID_DEG
 
 #: the figures a child's history trends, by their key in a session's figures
@@ -43,7 +46,11 @@ def child_history(sessions: str | Path, child_id: str) -> dict[str, Any]:
     -------
     dict
         ``child_id``, ``name``, ``sessions`` (oldest first: ``name``, ``started``,
-        ``operator``, ``note`` and the trended figures, None where a session has none),
+        ``operator``, ``note``, the trended figures and ``assistance`` -- per joint the
+        support level's mean over the gait phases, 1 the impedance's full support --,
+        None where a session has none), ``settings`` (what their next session starts
+        with: the settings their last session ended with, or None) and ``settings_text``
+        (that said),
         ``gps_change_deg`` (the last GPS less the first) and ``beyond_mcid`` (whether
         that change exceeds the GPS's minimal clinically important difference; None
         with fewer than two scored sessions).
@@ -63,10 +70,22 @@ def child_history(sessions: str | Path, child_id: str) -> dict[str, Any]:
         rows = []
         for s in reg.sessions_of(child_id):
             fig = _figures(root / s["name"]) or {}
-            rows.append({**s, **{k: fig.get(k) for k in TRENDED}})
+            rows.append({**s, **{k: fig.get(k) for k in TRENDED},
+                         "assistance": _assistance(fig.get("assistance"))})
+        settings, said = kept_settings(reg, child_id)
     finally:
         reg.close()
-    return {"child_id": child_id, "name": name, "sessions": rows, **_change(rows)}
+    return {"child_id": child_id, "name": name, "sessions": rows, **_change(rows),
+            "settings": settings, "settings_text": said}
+
+
+def _assistance(by_phase: dict[str, dict[str, float | None]] | None
+                ) -> dict[str, float | None] | None:
+    """Per joint, the support level's mean over the gait phases a session walked."""
+    if not by_phase:
+        return None
+    return {j: (float(np.mean(v)) if (v := [x for x in p.values() if x is not None])
+                else None) for j, p in by_phase.items()}
 
 
 def _change(rows: list[dict[str, Any]]) -> dict[str, Any]:

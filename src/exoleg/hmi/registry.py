@@ -28,7 +28,7 @@ from typing import Any
 from exoleg.errors import ParameterError
 
 #: the schema this exoleg writes
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 #: the steps from each version to the next (version -> the SQL that makes it)
 MIGRATIONS: dict[int, str] = {
     1: """
@@ -55,6 +55,11 @@ MIGRATIONS: dict[int, str] = {
     2: """
     ALTER TABLE sessions ADD COLUMN operator TEXT;  -- who started it (their name)
     ALTER TABLE sessions ADD COLUMN note TEXT;      -- the operator's note on it
+    """,
+    3: """
+    -- the support mode, gains and assist-as-needed bounds in force when it ended (JSON,
+    -- exoleg.hmi.settings): the child's next session starts with them
+    ALTER TABLE sessions ADD COLUMN settings TEXT;
     """,
 }
 FILE = "records.sqlite"
@@ -174,7 +179,31 @@ class Registry:
         with self.lock:
             self.db.execute("UPDATE sessions SET note = ? WHERE name = ?", (text, name))
 
+    def keep_settings(self, name: str, settings: dict[str, Any]) -> None:
+        """The settings session ``name`` ended with (:mod:`exoleg.hmi.settings`)."""
+        with self.lock:
+            self.db.execute("UPDATE sessions SET settings = ? WHERE name = ?",
+                            (json.dumps(settings), name))
+
     # ------------------------------------------------------------------ reading
+    def latest_fit(self, child_id: str) -> int | None:
+        """The id of child ``child_id``'s latest fit (an identified leg is one), or None."""
+        with self.lock:
+            row = self.db.execute("SELECT id FROM fits WHERE child_id = ? ORDER BY time "
+                                  "DESC, id DESC LIMIT 1", (child_id,)).fetchone()
+        return None if row is None else int(row[0])
+
+    def kept_settings(self, child_id: str) -> dict[str, Any] | None:
+        """The settings child ``child_id``'s latest session with any ended with, and that
+        session's ``session`` (its name) and ``started``; None before any."""
+        with self.lock:
+            row = self.db.execute(
+                "SELECT name, started, settings FROM sessions WHERE child_id = ? AND "
+                "settings IS NOT NULL ORDER BY started DESC, name DESC LIMIT 1",
+                (child_id,)).fetchone()
+        return None if row is None else {**json.loads(row[2]), "session": row[0],
+                                         "started": row[1]}
+
     def exists(self, child_id: str) -> bool:
         with self.lock:
             return self.db.execute("SELECT 1 FROM children WHERE id = ?",
@@ -218,13 +247,15 @@ class Registry:
 
     def sessions_of(self, child_id: str) -> list[dict[str, Any]]:
         """A child's sessions, oldest first: ``name`` (its folder), ``started`` (s since
-        the epoch), ``fit_id``, ``operator`` and ``note``."""
+        the epoch), ``fit_id``, ``operator``, ``note`` and the ``settings`` it ended with
+        (None: not the walking controller, or ended before this was kept)."""
         with self.lock:
             rows = self.db.execute(
-                "SELECT name, started, fit_id, operator, note FROM sessions "
+                "SELECT name, started, fit_id, operator, note, settings FROM sessions "
                 "WHERE child_id = ? ORDER BY started, name", (child_id,)).fetchall()
-        return [{"name": n, "started": t, "fit_id": f, "operator": o, "note": x}
-                for n, t, f, o, x in rows]
+        return [{"name": n, "started": t, "fit_id": f, "operator": o, "note": x,
+                 "settings": None if k is None else json.loads(k)}
+                for n, t, f, o, x, k in rows]
 
     def session(self, name: str) -> dict[str, Any] | None:
         """The child and fit a session ran on, who started it and their note (None when

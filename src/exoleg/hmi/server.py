@@ -32,14 +32,14 @@ from exoleg.entry import DEFAULT_BODY_MASS, typed_number
 from exoleg.errors import ParameterError
 from exoleg.hmi.archive import Archive
 from exoleg.hmi.child_form import (
-    FORM_LABELS,
-    actor_model,
-    actor_settings,
     actor_text,
+    fit_of_form,
+    write_actor,
 )
 from exoleg.hmi.processes import IDENTIFIED, _identify_process, _session_process
 from exoleg.hmi.registry import FILE as RECORDS
 from exoleg.hmi.registry import Registry
+from exoleg.hmi.settings import apply_settings, kept_settings, settings_at_end
 from exoleg.hmi.views import VOCABULARY, device_info, ended_record
 from exoleg.io import write_json
 from exoleg.runtime.control_api import (
@@ -180,31 +180,25 @@ class HMI:
             self.api.record(source, f"start session {name} for {runs_on['text']} "
                             f"({what}, {self.backend}{', armed at start' if arm else ''})",
                             True)
-            threading.Thread(target=self._watch, args=(self.proc, link, folder, identify),
-                             daemon=True).start()
+            settings = None if identify else runs_on["settings"]
+            threading.Thread(target=self._watch, daemon=True,
+                             args=(self.proc, link, folder, identify, settings)).start()
             return 200, {"session": name, **runs_on, "identify": identify}
 
     def _child_file(self, kept: dict[str, Any], folder: Path, wanted: bool = False
                     ) -> str | None:
-        """The fitted child as the simulated device carries them (``child.toml`` in the
-        session's folder, with the fit's actor settings: :func:`actor_model`), when the
-        session's device is simulated; None on a real bus, where the child is real --
-        unless the child's model is ``wanted`` there too (identification holds their
-        own torques at it)."""
-        if not (self._simulated() or wanted):
-            return None
-        model = actor_model(kept["record"]["child"], kept["record"].get("actor", {}))
-        if model is None:
-            return None
-        (folder / "child.toml").write_text(model.to_toml(), encoding="utf-8")
-        return str(folder / "child.toml")
+        """The fitted child's ``child.toml`` in the session's folder
+        (:func:`~exoleg.hmi.child_form.write_actor`) when the session's device is
+        simulated; None on a real bus, where the child is real -- unless the child's
+        model is ``wanted`` there too (identification holds their own torques at it)."""
+        return write_actor(kept["record"], folder) if self._simulated() or wanted else None
 
     def runs_on(self) -> dict[str, Any]:
         """The child, leg and body mass the next session runs on, and that as text."""
         kept = self.kept
         if kept is None:
             return {"child": None, "child_id": None, "leg": self.leg.name,
-                    "body_mass": DEFAULT_BODY_MASS,
+                    "body_mass": DEFAULT_BODY_MASS, "settings": None,
                     "text": f"no child fitted: the paper's leg {self.leg.name!r}, "
                             f"{DEFAULT_BODY_MASS:g} kg"}
         child = kept["record"]["child"]
@@ -213,9 +207,11 @@ class HMI:
         actor = ("" if not self._simulated() or gm > 4 else
                  f"; simulated as an actor ({actor_text(child, kept['record'].get('actor', {}))}"
                  ": child.toml in the session)")
+        settings, said = kept_settings(self.registry, kept["child_id"])
         return {"child": kept["name"], "child_id": kept["child_id"], "leg": self.leg.name,
-                "body_mass": mass, "text": f"{kept['name']} ({kept['child_id']}, fit "
-                f"{kept['id']}): leg {self.leg.name!r}, {mass:g} kg{actor}"}
+                "body_mass": mass, "settings": settings,
+                "text": f"{kept['name']} ({kept['child_id']}, fit {kept['id']}): leg "
+                f"{self.leg.name!r}, {mass:g} kg{actor}; {said}"}
 
     def _simulated(self) -> bool:
         """Whether the sessions' device is simulated (the sim backend, or simulated nodes
@@ -235,12 +231,19 @@ class HMI:
             self.leg = LegModel(links, g=g, name=name, armature=meta.get("armature"))
             self.info = device_info(self.leg)
 
-    def _watch(self, proc: Any, link: LoopLink, folder: Path, identify: bool = False
-               ) -> None:
-        """When the session's process ends: its last applied commands and how it ended
-        go to its control.log, and the page sees no session; an identification's leg is
-        kept for the sessions after (:meth:`keep_identified`)."""
+    def _watch(self, proc: Any, link: LoopLink, folder: Path, identify: bool = False,
+               settings: dict[str, Any] | None = None) -> None:
+        """The session's life from the server's side: the child's kept ``settings`` given
+        to it as it starts (:func:`~exoleg.hmi.settings.apply_settings`); when its process
+        ends, the settings it ended with kept in the records, its last applied commands
+        and how it ended in its control.log, and the page sees no session; an
+        identification's leg is kept for the sessions after (:meth:`keep_identified`)."""
+        if settings is not None:
+            apply_settings(self.api, link, settings)
         proc.join()
+        ended_with = settings_at_end(link)
+        if ended_with is not None and self.registry is not None:
+            self.registry.keep_settings(folder.name, ended_with)
         with self.lock:
             if identify:
                 self.keep_identified(folder)
@@ -325,21 +328,6 @@ class HMI:
     def fit(self, body: dict[str, Any], source: str) -> tuple[int, dict[str, Any]]:
         """Fit the device to the child described (age y, height cm, mass kg, optional
         measured dimensions cm) and keep the fit for the next session."""
-        import warnings
-
-        from exoleg.design.report import fit_report
-        from exoleg.device.actuator import paper_actuators
-        from exoleg.entry import CHILD_ENTRY, MEASURED
-        from exoleg.sizing import Child
-
-        def typed(k: str, v: Any, kind: str) -> float:
-            lo, hi, unit = CHILD_ENTRY[kind]
-            label = FORM_LABELS.get(k, k)
-            x = typed_number(label, v)
-            if not lo <= x <= hi:
-                raise ValueError(f"{label}: {x:g} is outside {lo:g}-{hi:g} {unit}")
-            return x
-
         if self.registry is None:
             return 409, {"error": "this interface serves the one session run by `exoleg "
                                   "run`: fit a child with `exoleg hmi` or `exoleg fit`"}
@@ -348,33 +336,14 @@ class HMI:
             return 422, {"error": f"no child {cid[:12]!r} in the records (choose one from "
                                   "the list, or leave it empty for a new child)"}
         try:
-            values: dict[str, Any] = {k: typed(k, body.get(k), k)
-                                      for k in ("age", "height", "mass")}
-            for k in MEASURED:
-                if body.get(k) not in (None, ""):
-                    values[k] = typed(k, body[k], "measured") / 100
-            gmfcs = str(body.get("gmfcs") or "0")
-            if gmfcs not in ("0", "1", "2", "3", "4", "5"):
-                raise ValueError(f"GMFCS level: {gmfcs[:10]!r} is not a level (allowed: "
-                                 "1-5, or typically developing)")
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
-                child = Child(age=values.pop("age"), sex=str(body.get("sex", "")),  # type: ignore[arg-type]
-                              height=values.pop("height") / 100, mass=values.pop("mass"),
-                              gmfcs=int(gmfcs) or None,
-                              affected_side=str(body.get("side", "right")),  # type: ignore[arg-type]
-                              name=str(body.get("name", "child"))[:60] or "child",
-                              **values)  # Child checks sex and side and names what is allowed
-            rep = fit_report(child, actuators=None if self.device_dir is None
-                             else paper_actuators(self.device_dir))
-            actor = actor_settings(body)
+            child, rep, actor, warned = fit_of_form(body, self.device_dir)
         except (ParameterError, ValueError, TypeError) as e:
             self.api.record(source, "fit", False, str(e))
             return 422, {"error": str(e)}
         record = rep.record(leg_file_written=True)
         record["actor"] = actor
         record["actor_text"] = actor_text(record["child"], actor)
-        record["warnings"] = [str(w.message) for w in caught]
+        record["warnings"] = warned
         reg = self.registry
         assert reg is not None  # refused above without one
         if cid:
@@ -387,6 +356,26 @@ class HMI:
         self.api.record(source, f"fit {child.name} ({cid}, fit {fit_id}): {rep.verdict}",
                         True)
         return 200, {**record, "child_id": cid, "fit_id": fit_id}
+
+    def keep_child(self, child_id: str, source: str) -> tuple[int, dict[str, Any]]:
+        """Keep child ``child_id``'s latest fit (their identified leg, when one was
+        identified after the fit) for the next session: the child picked again, no
+        re-fit."""
+        reg = self.registry
+        if reg is None:
+            return 409, {"error": "this interface serves the one session run by `exoleg "
+                                  "run`: it keeps no child"}
+        fit_id = reg.latest_fit(child_id) if reg.exists(child_id) else None
+        if fit_id is None:
+            why = f"no child {child_id[:12]!r} with a fit in the records"
+            self.api.record(source, "keep child", False, why)
+            return 404, {"error": why}
+        reg.keep(fit_id)
+        self._keep(reg.fit(fit_id))
+        runs_on = self.runs_on()
+        self.api.record(source, f"keep child {child_id} (fit {fit_id})", True,
+                        why=runs_on["text"])
+        return 200, {**runs_on, "fit_id": fit_id}
 
     def sessions(self) -> list[dict[str, Any]]:
         """Every recorded session's line (:meth:`Archive.sessions`) with who started it
@@ -453,6 +442,14 @@ class HMI:
                     child_history, self.root, request.path_params["child_id"]))
             except ParameterError as e:
                 return JSONResponse({"error": str(e)}, 404)
+
+        async def keep_child(request: Request) -> JSONResponse:
+            refused = api.refusal(request, "keep child")
+            if refused:
+                return refused
+            status, out = await run_in_threadpool(
+                self.keep_child, request.path_params["child_id"], source_of(request))
+            return JSONResponse(out, status)
 
         async def fit(request: Request) -> JSONResponse:
             refused = api.refusal(request, "fit")
@@ -578,6 +575,7 @@ class HMI:
                   Route("/api/session/end", session_end, methods=["POST"]),
                   Route("/api/session/note", session_note, methods=["POST"]),
                   Route("/api/children/{child_id}/history", child_history_route),
+                  Route("/api/children/{child_id}/keep", keep_child, methods=["POST"]),
                   Route("/api/sessions", sessions),
                   Route("/api/sessions/{name}", session_detail),
                   Route("/api/sessions/{name}/{kind}", session_file),

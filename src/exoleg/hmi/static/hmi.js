@@ -478,18 +478,27 @@ async function refreshInfo() {
   if (d.child && !$("fit-result").dataset.shown) showFit(d.child);
 }
 
-// the child's sessions over time, from the records (the figures kept when each ended)
+// the child's sessions over time, from the records (the figures kept when each ended),
+// what their next session starts with, and the button that keeps their last fit
 async function showHistory(id) {
   const r = await call("GET", "/api/children/" + encodeURIComponent(id) + "/history");
   if (!r.ok) { $("child-history").innerHTML = ""; return; }
   const h = r.data, n = (x, d, u) => x === null || x === undefined ? "-" : x.toFixed(d) + (u || "");
+  const helped = (a) => a ? JOINTS.map((j) => a[j] === null ? "-" : Math.round(100 * a[j])).join(" / ") + " %" : "-";
   $("child-history").innerHTML = `<h3>${esc(h.name)}'s sessions (${esc(h.child_id)})</h3>` +
-    (h.sessions.length ? `<table id="history-table"><tr><th>date</th><th>walking</th><th>steps</th><th>cadence</th><th>GPS</th><th>operator</th><th>note</th></tr>` +
+    `<p><button id="keep-child" type="button">Keep ${esc(h.name)}'s last fit for the next session (no re-fit)</button></p>` +
+    `<p id="history-settings">Their next session starts with ${esc(h.settings_text)}.</p>` +
+    (h.sessions.length ? `<table id="history-table"><tr><th>date</th><th>walking</th><th>steps</th><th>cadence</th><th>GPS</th><th>support at the end</th><th>assistance ${JOINTS.join(" / ")}</th><th>operator</th><th>note</th></tr>` +
       h.sessions.map((s) => `<tr><td>${new Date(s.started * 1000).toLocaleString()}</td><td>${n(s.walk_time_s && s.walk_time_s / 60, 1, " min")}</td>` +
         `<td>${s.steps === null ? "-" : s.steps}</td><td>${n(s.cadence_steps_per_min, 0, " /min")}</td><td>${n(s.gps_deg, 1, " deg")}</td>` +
+        `<td>${s.settings ? esc(s.settings.support_mode) : "-"}</td><td>${helped(s.assistance)}</td>` +
         `<td>${esc(s.operator || "-")}</td><td>${esc(s.note || "")}</td></tr>`).join("") + "</table>" : "<p class='muted'>No session yet.</p>") +
     (h.gps_change_deg === null ? "" : `<p id="history-trend">Gait Profile Score ${h.gps_change_deg >= 0 ? "+" : ""}${h.gps_change_deg.toFixed(1)} deg since the first session: ` +
       `${h.beyond_mcid ? "<b>beyond</b>" : "within"} the 1.6 deg that matters clinically.</p>`);
+  $("keep-child").onclick = async () => {
+    const k = await act("POST", "/api/children/" + encodeURIComponent(id) + "/keep", {}, `${h.name}'s last fit kept for the next session`);
+    if (k.ok) { $("fit-result").dataset.shown = ""; refreshInfo(); }
+  };
 }
 
 function pickChild(rec) {

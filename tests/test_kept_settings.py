@@ -1,0 +1,124 @@
+"""A child's settings follow them (issue 42): the support mode, gains and
+assist-as-needed bounds the operator left at the end of a child's session are kept in
+the records and given to the child's next session, by the path an operator's change
+takes -- the same bounds (from the device's defaults, not from the kept values: they
+cannot creep up session after session), the supervisor's answer, a line in control.log.
+Settings the device's bounds no longer allow, or damaged ones, leave the defaults and
+say why.
+
+References: what the operator set (the loop's published gains are the walking
+controller's own, exoleg.control.hierarchy.WalkController.gains_now) and the control
+API's bounds (0 to twice the session's first gains, shares 0-1)."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+pytest.importorskip("starlette", reason="starlette (exoleg[api])")
+
+from exoleg.hmi.registry import Registry  # noqa: E402
+from exoleg.hmi.server import HMI  # noqa: E402
+from exoleg.runtime.link import LoopLink  # noqa: E402
+from exoleg.tick import SupportMode  # noqa: E402
+
+
+def _until(what: str, check: Any, timeout: float = 30.0) -> Any:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if out := check():
+            return out
+        time.sleep(0.02)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+def _session(hmi: HMI, seconds: float = 3.0) -> tuple[str, Path]:
+    """Start a session of the kept child (armed at the start) and wait for its gains."""
+    status, out = hmi.start(seconds, "test", arm=True)
+    assert status == 200, out
+    _until("the session's gains", lambda: hmi.api.gains()[0] and LoopLink.running(
+        hmi.api.link.web_copy()) == "running")
+    return out["session"], hmi.root / out["session"]
+
+
+def _ended(hmi: HMI, reg: Registry, cid: str, name: str) -> dict[str, Any]:
+    """Wait for session ``name`` to end and its settings to be kept."""
+    hmi.proc.join(timeout=30)
+    return _until("the settings kept", lambda: (lambda k: k and k["session"] == name and k)(
+        reg.kept_settings(cid)))
+
+
+def _kept_lines(folder: Path) -> list[dict[str, Any]]:
+    lines = [json.loads(x) for x in (folder / "control.log").read_text().splitlines()]
+    return [a for a in lines if a["command"] == "kept settings"]
+
+
+def test_a_childs_settings_follow_them_to_their_next_session(tmp_path: Path) -> None:
+    hmi = HMI(tmp_path)
+    reg = hmi.registry
+    assert reg is not None
+    try:
+        status, rec = hmi.fit({"name": "Ada", "age": 8, "sex": "female", "height": 126,
+                               "mass": 25}, "test")
+        assert status == 200, rec
+        cid = rec["child_id"]
+        on = hmi.runs_on()
+        assert on["settings"] is None and "default settings (no session of theirs yet)" \
+            in on["text"]
+
+        # 1. the operator's changes: a stiffer stance, assist as needed within bounds
+        first, folder = _session(hmi)
+        defaults, bounds = hmi.api.gains()
+        change = {"kp_stance": [1.5 * x for x in defaults["kp_stance"]],
+                  "support_min": [0.2, 0.3, 0.4]}
+        assert hmi.api.check_gains(change) == ""
+        hmi.api.link.web_gains(change)
+        why, _ = hmi.api.send("aan", "test")
+        assert why == ""
+        kept = _ended(hmi, reg, cid, first)
+        assert kept["support_mode"] == "aan"
+        for k, v in change.items():
+            assert kept["gains"][k] == pytest.approx(v, rel=1e-12), k
+        assert kept["gains"]["kd_swing"] == pytest.approx(defaults["kd_swing"], rel=1e-12)
+        on = hmi.runs_on()
+        assert on["settings"]["session"] == first
+        assert f"the settings session {first} ended with: assist as needed" in on["text"]
+
+        # 2. the next session starts with them, its bounds still the device's defaults'
+        second, folder = _session(hmi)
+        (line,) = _until("the kept settings applied", lambda: _kept_lines(folder))
+        assert line["accepted"] and f"kept from session {first}" in line["why"], line
+        now = _until("the kept gains in force", lambda: (
+            lambda g: g["kp_stance"] == pytest.approx(change["kp_stance"]) and g)(
+            hmi.api.gains()[0]))
+        assert now["support_min"] == pytest.approx(change["support_min"])
+        assert hmi.api.gains()[1] == bounds  # not twice the kept values
+        assert _until("assist as needed", lambda: hmi.api.state()["support_mode"]
+                      == SupportMode.AAN)
+        _ended(hmi, reg, cid, second)
+
+        # 3. settings a changed device no longer allows: refused, the defaults stay
+        reg.keep_settings(second, {**kept, "gains": {**kept["gains"], "kp_stance": [
+            3.0 * x for x in defaults["kp_stance"]]}})
+        third, folder = _session(hmi)
+        (line,) = _until("the kept settings refused", lambda: _kept_lines(folder))
+        assert not line["accepted"] and "outside the device's bounds now: kp_stance[0]" \
+            in line["why"] and "the defaults stay" in line["why"], line
+        assert hmi.api.gains()[0]["kp_stance"] == pytest.approx(defaults["kp_stance"])
+        assert hmi.api.state()["support_mode"] == SupportMode.IMPEDANCE
+        _ended(hmi, reg, cid, third)
+
+        # 4. damaged settings in the records: said, the defaults used
+        with reg.lock:
+            reg.db.execute("UPDATE sessions SET settings = ? WHERE name = ?",
+                           (json.dumps({"support_mode": "fast", "gains": {}}), third))
+        on = hmi.runs_on()
+        assert on["settings"] is None and ("the kept ones are damaged: unknown support "
+                                           "mode 'fast'") in on["text"]
+    finally:
+        hmi.close()
+        reg.close()
