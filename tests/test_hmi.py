@@ -280,14 +280,36 @@ def test_sessions_page_lists_plots_and_exports(hmi: Any, operator: Any) -> None:
     row = wait_until("the session listed", lambda: [
         r for r in d.find_elements("css selector", "#sessions tbody tr")
         if "Ada" in r.text])[0]
-    assert "the operator ended the session: torque off (after an E-stop at" in row.text
+    # how it ended in a clinician's words (exoleg.runtime.figures.stop_in_words), the
+    # runtime's own on the cell's title
+    from exoleg.runtime.figures import session_figures, stop_in_words
+
+    folder = ada_folder(hmi)
+    stopped = json.loads((folder / "run.json").read_text())["stopped_by"]
+    assert stopped.startswith("the operator ended the session: torque off (after an E-stop")
+    assert stop_in_words(stopped) in row.text and \
+        row.find_elements("css selector", "td")[4].get_attribute("title") == stopped
     assert "whole" in row.text  # its records are not damaged
     row.click()
     wait_until("the plot", lambda: d.execute_script(
         "const i = document.getElementById('session-plot'); return i && i.complete && "
         "i.naturalWidth > 0;"), timeout=60)
     shot(d, "sessions")
-    folder = ada_folder(hmi)
+    # the session in a clinician's units: its own figures (tests/test_report.py checks
+    # them against their definitions)
+    fig = session_figures(folder)
+    said = dict(d.execute_script(
+        "return [...document.querySelectorAll('#session-clinical tr')].map("
+        "(r) => [r.cells[0].textContent, r.cells[1].textContent])"))
+    assert said["steps, cadence"].startswith(f"{fig['steps']} steps, ")
+    assert said["how it ended"] == stop_in_words(stopped)
+    assert said["Gait Profile Score"] == ("-" if fig["gps_deg"] is None
+                                          else f"{fig['gps_deg']:.1f} deg")
+    assert said["time in the device, armed / walking"].endswith(
+        f"{fig['walk_time_s'] / 60:.1f} min")
+    rom = said["range of motion hip / knee / ankle (typical)"]
+    assert rom.startswith(f"{fig['rom_deg']['hip']:.0f} ({fig['normative_rom_deg']['hip']:.0f})")
+    assert said["cuffs' peak torque hip / knee / ankle (of the limit)"].endswith("N m/kg")
     from exoleg.session_log import read_log
 
     _, cols, _ = read_log(folder / "session.log")
@@ -305,14 +327,11 @@ def test_sessions_page_lists_plots_and_exports(hmi: Any, operator: Any) -> None:
     assert np.array_equal(table.column("u_ankle").to_numpy(), cols["u_ankle"])
     # the report for the clinic's file (issue 42): the PDF, its figures read back
     pypdf = pytest.importorskip("pypdf", reason="pypdf (exoleg[dev])")
-    from exoleg.runtime.figures import session_figures
-
     report = hmi.url + d.find_element("id", "session-report").get_attribute("data-file")
     assert httpx.get(report, timeout=60).status_code == 401
     r = httpx.get(report, timeout=120, headers=AUTH(hmi))
     assert r.status_code == 200 and r.headers["content-type"] == "application/pdf"
     text = "\n".join(p.extract_text() for p in pypdf.PdfReader(io.BytesIO(r.content)).pages)
-    fig = session_figures(folder)
     assert f"Steps (either foot)\n{fig['steps']}" in text
     assert "Stopped by the emergency stop" in text
     # pseudonymous: the console's id, not the name (Ada)

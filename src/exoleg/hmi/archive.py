@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from exoleg.errors import ParameterError
+from exoleg.runtime.figures import stop_in_words
 from exoleg.runtime.session import RECORD_FILES
 
 
@@ -53,7 +54,7 @@ class Archive:
                 return {}
 
         run, child, failed = read("run.json"), read("child.json"), read("failed.json")
-        running = folder == live
+        running = folder == live and not run and not failed  # its summary: ended
         try:
             header, ticks = read_header(folder / "session.log")
             check_session(folder / "session.log", header)
@@ -71,6 +72,7 @@ class Archive:
                 "duration_s": ticks * float(header.get("period", 1e-3)),
                 "stopped_by": str(stopped) if stopped else
                 ("running" if running else "ended without a summary (log kept)"),
+                "stopped_in_words": stop_in_words(str(stopped)) if stopped else None,
                 "damaged": damaged, "running": running}
 
     def sessions(self, live: Path | None = None) -> list[dict[str, Any]]:
@@ -84,15 +86,20 @@ class Archive:
             except (OSError, ValueError, TypeError) as e:  # listed, with why
                 rows.append({"name": p.name, "child": "?", "child_id": None,
                              "started": 0.0, "backend": "?", "duration_s": 0.0,
-                             "stopped_by": "?", "running": False,
+                             "stopped_by": "?", "stopped_in_words": None,
+                             "running": False,
                              "damaged": [f"cannot be read: {type(e).__name__}: {e}"]})
         return sorted(rows, key=lambda r: -float(r["started"]))
 
     def detail(self, folder: Path, live: Path | None = None) -> dict[str, Any]:
-        """One recorded session: its line, its log's summary, its control actions."""
+        """One recorded session: its line, its figures as a clinician reads them
+        (:func:`~exoleg.hmi.history.kept_figures`; None while it runs), its log's
+        summary, its control actions."""
+        from exoleg.hmi.history import kept_figures
         from exoleg.runtime.session import summarize
 
         out = self.summary(folder, live)
+        out["figures"] = None if out["running"] else kept_figures(folder)
         try:
             out["log"] = summarize(folder / "session.log")
         except ParameterError as e:

@@ -19,12 +19,15 @@ from exoleg.reference.scores import GPS_MCID_DEG
 TRENDED = ("walk_time_s", "steps", "cadence_steps_per_min", "stance_percent", "gps_deg")
 
 
-def _figures(folder: Path) -> dict[str, Any] | None:
+def kept_figures(folder: Path) -> dict[str, Any] | None:
+    """A session's figures (:func:`~exoleg.runtime.figures.session_figures`) as kept
+    when it ended (``figures.json``), computed from its log where it has none; None for
+    a log that holds nothing to read."""
     from exoleg.runtime.figures import session_figures
 
     try:
         return dict(json.loads((folder / "figures.json").read_text(encoding="utf-8")))
-    except (OSError, ValueError):
+    except (OSError, ValueError, TypeError):  # absent, or damaged: from the log
         pass
     try:
         return session_figures(folder)
@@ -69,7 +72,7 @@ def child_history(sessions: str | Path, child_id: str) -> dict[str, Any]:
         name = next(c["name"] for c in reg.children() if c["id"] == child_id)
         rows = []
         for s in reg.sessions_of(child_id):
-            fig = _figures(root / s["name"]) or {}
+            fig = kept_figures(root / s["name"]) or {}
             rows.append({**s, **{k: fig.get(k) for k in TRENDED},
                          "assistance": _assistance(fig.get("assistance"))})
         settings, said = kept_settings(reg, child_id)

@@ -617,8 +617,30 @@ async function loadSessions() {
   if (!r.ok) return;
   $("sessions").tBodies[0].innerHTML = r.data.map((s) => `<tr data-name="${esc(s.name)}"><td>${esc(s.name)}</td><td>${esc(s.child)}${s.child_id ? " (" + esc(s.child_id) + ")" : ""}</td>
     <td>${new Date(s.started * 1000).toLocaleString()}</td><td>${s.duration_s === null ? "-" : s.duration_s.toFixed(1) + " s"}</td>
-    <td>${esc(s.stopped_by)}</td><td>${esc(s.operator || "-")}</td><td>${esc(s.note || "")}</td><td class="${s.damaged.length ? "over" : ""}">${s.damaged.length ? "damaged: " + esc(s.damaged.join("; ")) : "whole"}</td></tr>`).join("");
+    <td title="${esc(s.stopped_by)}">${esc(s.stopped_in_words || s.stopped_by)}</td><td>${esc(s.operator || "-")}</td><td>${esc(s.note || "")}</td><td class="${s.damaged.length ? "over" : ""}">${s.damaged.length ? "damaged: " + esc(s.damaged.join("; ")) : "whole"}</td></tr>`).join("");
   for (const tr of $("sessions").tBodies[0].rows) tr.onclick = () => openSession(tr.dataset.name);
+}
+
+// a session's figures in a clinician's words and units (exoleg.runtime.figures)
+function clinical(f) {
+  if (!f) return "<p class='muted'>No figures: the session is running, or its log holds nothing to read.</p>";
+  const n = (x, d, u) => x === null || x === undefined ? "-" : x.toFixed(d) + (u || "");
+  const per = (o, fmt) => o ? JOINTS.map((j) => fmt(o[j], j)).join(" / ") : "-";
+  const helped = f.assistance ? per(f.assistance, (p) => {
+    const v = Object.values(p).filter((x) => x !== null);
+    return v.length ? Math.round(100 * v.reduce((a, b) => a + b, 0) / v.length) + " %" : "-";
+  }) : "-";
+  const cuffs = f.cuffs ? per(f.cuffs, (c) => `<span class="${c.limit_Nm_per_kg !== null && c.peak_Nm_per_kg > c.limit_Nm_per_kg ? "over" : ""}">${n(c.peak_Nm_per_kg, 2)}${c.limit_Nm_per_kg === null ? "" : " of " + c.limit_Nm_per_kg}</span>`) : "not measured";
+  return `<h3>The session</h3><table id="session-clinical">
+    <tr><td>how it ended</td><td>${esc(f.stopped_in_words)}</td></tr>
+    <tr><td>time in the device, armed / walking</td><td>${n(f.up_time_s / 60, 1, " min")} / ${n(f.walk_time_s / 60, 1, " min")}</td></tr>
+    <tr><td>steps, cadence</td><td>${f.steps} steps, ${n(f.cadence_steps_per_min, 0, " steps/min")}</td></tr>
+    <tr><td>stride time, stance</td><td>${f.stride_time_s ? f.stride_time_s[0].toFixed(2) + " ± " + f.stride_time_s[1].toFixed(2) + " s" : "-"}, ${n(f.stance_percent, 0, " % of the stride")}</td></tr>
+    <tr><td>Gait Profile Score</td><td>${n(f.gps_deg, 1, " deg")}</td></tr>
+    <tr><td>range of motion ${JOINTS.join(" / ")} (typical)</td><td>${per(f.rom_deg, (x, j) => n(x, 0) + " (" + n(f.normative_rom_deg[j], 0) + ")")} deg</td></tr>
+    <tr><td>assistance ${JOINTS.join(" / ")} (walking)</td><td>${helped}</td></tr>
+    <tr><td>cuffs' peak torque ${JOINTS.join(" / ")} (of the limit)</td><td>${cuffs}${f.cuffs ? " N m/kg" : ""}</td></tr>
+    <tr><td>safety events</td><td>${f.safety_events && f.safety_events.length ? f.safety_events.map((e) => `${esc(e.text)} (first at ${e.first_s.toFixed(1)} s, ${e.ticks} ticks)`).join("; ") : "none"}</td></tr></table>`;
 }
 
 async function openSession(name) {
@@ -629,6 +651,8 @@ async function openSession(name) {
   if (L.error) { $("session-detail").innerHTML = `<h3>${esc(name)}</h3><p class="over">${esc(d.stopped_by)}</p>${damaged}<p>${esc(L.error)}</p>`; return; }
   $("session-detail").innerHTML = `<h3>${esc(name)}</h3>${damaged}
     <p><a id="session-report" href="#sessions" data-file="${base}/report.pdf" data-name="${esc(name)}-report.pdf"><b>Report (PDF)</b></a> · <a id="export-c3d" href="#sessions" data-file="${base}/session.c3d" data-name="${esc(name)}.c3d">Export C3D</a> · <a id="export-csv" href="#sessions" data-file="${base}/session.csv" data-name="${esc(name)}.csv">Export CSV</a> · <a id="export-parquet" href="#sessions" data-file="${base}/session.parquet" data-name="${esc(name)}.parquet">Export Parquet</a></p>
+    ${clinical(d.figures)}
+    <h3>For the engineer</h3>
     <table><tr><td>child</td><td>${esc(d.child)}</td></tr><tr><td>backend</td><td>${L.backend}</td></tr>
     <tr><td>duration</td><td>${L.duration_s.toFixed(2)} s (${L.ticks} ticks)</td></tr>
     <tr><td>ended by</td><td>${esc(d.stopped_by)}</td></tr>
