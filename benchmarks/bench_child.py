@@ -8,7 +8,7 @@ device and the child >= 100x real time on one core; the OpenSim comparison's fig
   whole device (contacts, sensors, detection, hierarchy, safety layer, drives) on a
   fitted 10-year-old, without a child actor and with one (passive moments in every RK4
   stage, spasticity and effort each tick), end to end after a warm-up run;
-* the child's tick (:func:`exoleg.child.model.child_tick`, moderate spasticity, effort
+* the child's tick (:func:`exoleg.child.compiled.child_tick`, moderate spasticity, effort
   on) and the passive moments (:func:`exoleg.child.passive.passive_torque`), compiled
   loops of 1,000,000 calls, per call;
 * the pendulum test, 5 s: exoleg (RK4, 1 kHz, Python loop over compiled torques)
@@ -25,7 +25,8 @@ import warnings
 import numpy as np
 from numba import njit
 
-from exoleg.child.model import ChildModel, Spasticity, child_records, child_tick
+from exoleg.child.compiled import child_records, child_tick
+from exoleg.child.model import ChildModel, Spasticity
 from exoleg.child.passive import passive_torque
 from exoleg.sim.walk import simulate_walk
 from exoleg.sizing import Child, personalized_leg

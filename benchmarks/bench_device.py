@@ -66,16 +66,20 @@ def _ticks(kind, kp, kd, kc, scale, limit, lim, state, Q, V, R, out):  # type: i
 
 
 def _walk_ticks(ctl, n: int) -> None:  # type: ignore[no-untyped-def]
+    """``n`` ticks of ``ctl`` walking, its clock going on from its last call (a
+    controller's time never runs backwards: its detector divides by the time since)."""
     sens = np.zeros(1, SENSORS)
     sens[0]["q"] = [0.03, -0.05, 0.02]
     sens[0]["fsr"] = [1500.0, 800.0, 600.0, 300.0]
-    _walk_loop(ctl.compiled(), sens, np.zeros(1, OUTPUT), n)
+    k0 = getattr(ctl, "_bench_ticks", 0)
+    _walk_loop(ctl.compiled(), sens, np.zeros(1, OUTPUT), k0, n)
+    ctl._bench_ticks = k0 + n
 
 
 @njit  # not cached: numba would keep stale code when only exoleg's kernels change
-def _walk_loop(ctl, sens, out, n):  # type: ignore[no-untyped-def]
+def _walk_loop(ctl, sens, out, k0, n):  # type: ignore[no-untyped-def]
     cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, as_ = ctl
-    for k in range(n):
+    for k in range(k0, k0 + n):
         sens[0].command = Command.WALK if k == 10 else Command.NONE
         walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, as_,
                           sens, k * 1e-3, out)

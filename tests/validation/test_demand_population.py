@@ -96,3 +96,49 @@ def test_the_simulated_gait_demand_is_the_device_s():
     second = res.t[:-1] >= 1.1 - 1e-12
     assert np.allclose(d.rows["simulated gait"][0], np.abs(res.u[:-1][second]).max(axis=0),
                        rtol=1e-9)
+
+
+def test_gait_percentiles_rise_with_the_percentile_not_with_the_childs_size():
+    """Issue 41: the growth charts' percentile was the gait's too, and a curve of mean +
+    z SD at every phase has peaks that fall and rise across z (ankle speed 378 / 320 /
+    289 deg/s and hip moment 1.04 / 0.73 / 1.39 N m/kg at P3 / P50 / P97). Reference:
+    Schwartz 2008's printed mean and SD (the shipped table), read here by hand."""
+    from statistics import NormalDist
+
+    from exoleg.design.demand import schwartz_demand
+    from exoleg.reference.gait import schwartz2008
+    from exoleg.sizing.child import population_child
+
+    pcts = (3.0, 10.0, 25.0, 50.0, 75.0, 90.0, 97.0)
+    zs = [NormalDist().inv_cdf(p / 100) for p in pcts]
+    rows = np.array([schwartz_demand(1.0, "Free", z, 1.1) for z in zs])  # per kg
+    assert np.all(np.diff(rows, axis=0) > 0)  # every quantity at every joint
+    # by hand from the table: the median is the mean curve's peak; P97 the largest of
+    # abs(mean) + z SD over the phases
+    _, m, sd = schwartz2008("hip_moment_sagittal", "Free")
+    assert rows[3, 0, 0] == pytest.approx(np.abs(m).max(), rel=1e-12)
+    assert rows[6, 0, 0] == pytest.approx(np.max(np.abs(m) + zs[6] * sd), rel=1e-12)
+    # the ankle's speed at P97: the median's, times 1 + z x the excursion's spread (the
+    # SDs at the mean's highest and lowest phases, independent)
+    _, a, asd = schwartz2008("ankle_dorsiflexion", "Free")
+    hi, lo = np.argmax(a), np.argmin(a)
+    spread = np.hypot(asd[hi], asd[lo]) / (a[hi] - a[lo])
+    assert rows[6, 1, 2] == pytest.approx(rows[3, 1, 2] * (1 + zs[6] * spread), rel=1e-12)
+    # the population: a small and a tall 10-year-old girl walk the same gait per kg at
+    # the same gait percentile; their simulated gait's ankle speed rises with it
+    margins = []
+    for gait in (10.0, 50.0, 90.0):
+        rows_ = coverage(ages=(10.0,), sexes=("female",), groups=(None,),
+                         percentiles=(3.0, 97.0), gait_percentile=gait)
+        assert [r.gait_percentile for r in rows_] == [gait, gait]
+        margins.append([r.margin for r in rows_])
+    assert np.all(np.diff(margins, axis=0) < 0)  # a harder gait leaves less margin
+    girl, _ = population_child(None, "female", 10.0, 50.0)
+    leg = personalized_leg(girl)
+    speeds = [actuator_demand(girl, leg, percentile=p).rows["simulated gait"][1, 2]
+              for p in (10.0, 50.0, 90.0)]
+    assert speeds[0] < speeds[1] < speeds[2]
+    per_kg = [actuator_demand(c, personalized_leg(c), percentile=50.0, simulate=False)
+              .rows["Schwartz 2008 Free P50"][0] / c.mass
+              for c in (population_child(None, "female", 10.0, p)[0] for p in (3.0, 97.0))]
+    assert per_kg[0] == pytest.approx(per_kg[1], rel=1e-12)

@@ -12,6 +12,7 @@ from exoleg.cli._common import (
     STRIDE_TIME_RANGE,
     _ages,
     _device_option,
+    _percentile,
     _percentiles,
     _say,
     _table,
@@ -30,7 +31,8 @@ def cmd_population(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     rows = coverage(ages=args.ages, percentiles=args.percentiles or PERCENTILES,
                     stride_time=args.stride_time, simulate=not args.no_simulate,
-                    actuators=None if args.device is None else paper_actuators(args.device))
+                    actuators=None if args.device is None else paper_actuators(args.device),
+                    gait_percentile=args.gait_percentile)
     with OutputFolder(args.out, owner="exoleg population") as out:
         write_csv(rows, out.stage("coverage.csv"))
         heatmap(rows, out.stage("coverage.png"))
@@ -73,7 +75,11 @@ def add_parser(sub: Any) -> None:
     pop = sub.add_parser("population", help="device coverage over ages 8-12, sex, GMFCS I-IV "
                          "and TD, height percentiles")
     pop.add_argument("--ages", type=_ages, default=[8.0, 9.0, 10.0, 11.0, 12.0])
-    pop.add_argument("--percentiles", type=_percentiles)
+    pop.add_argument("--percentiles", type=_percentiles, help="the growth charts' height "
+                     "(and mass) percentiles of the grid's children")
+    pop.add_argument("--gait-percentile", type=_percentile, default=50.0,
+                     help="the gait every child's demand is taken at (default 50: the "
+                     "median; independent of their growth percentile)")
     pop.add_argument("--stride-time", type=_within(*STRIDE_TIME_RANGE, " s"), default=1.1)
     pop.add_argument("--no-simulate", action="store_true")
     pop.add_argument("--out", type=Path, default=Path("exoleg-population"))

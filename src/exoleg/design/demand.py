@@ -8,8 +8,14 @@ source says nothing):
 * ``paper per-kg``: the paper's figures for typically developing children walking
   (section 2.2: 0.7, 0.5, 1.2 N m/kg and 0.8, 0.7, 3 W/kg) times body mass;
 * ``Schwartz 2008``: peak abs(moment) and abs(power) over the gait cycle of the chosen speed
-  group at mean + z SD (z from the percentile) times body mass, and peak abs(angular
-  speed) of the same percentile's joint angles played at the chosen stride time;
+  group, and peak abs(angular speed) of its joint angles played at the chosen stride
+  time, at a *gait* percentile (independent of the child's growth percentile) taken
+  from the data's own spread: a peak's percentile is the largest over the cycle of
+  abs(mean) + z SD (:func:`peak_percentile`; z from the percentile), a
+  speed's percentile the mean's peak speed scaled as the joint's excursion is at that
+  percentile (:func:`excursion_spread`) -- monotonic in the percentile, as the data's
+  spread is (a curve of mean + z SD at every phase is not: its peak speed and peak
+  moments fell and rose again across percentiles);
 * ``gravity compensation``: the largest abs(G_i(q)) of the personalized model over the
   device's range of motion (a 13^3 grid);
 * ``simulated gait``: peaks of the personalized leg, with the actuators' reflected
@@ -30,6 +36,7 @@ from numpy.typing import NDArray
 
 from exoleg.device.actuator import ActuatorModel, envelope, paper_actuators, with_actuators
 from exoleg.dynamics.model import LegModel
+from exoleg.errors import ParameterError
 from exoleg.params import paper
 from exoleg.params.records import JOINTS
 from exoleg.reference.gait import SchwartzGait2008, schwartz2008
@@ -138,16 +145,40 @@ def device_limits(actuators: tuple[ActuatorModel, ...] | None = None) -> F64:
     return out
 
 
+def peak_percentile(mean: F64, sd: F64, z: float) -> float:
+    """The peak of abs(a gait variable) over the cycle at a percentile (z: its normal
+    score): the largest over the cycle's phases of abs(mean) + z SD, each phase's value
+    at that percentile of the children's spread there (never below zero). Increasing in
+    z, as each phase's value is; at z = 0 the mean curve's peak."""
+    return max(0.0, float(np.max(np.abs(mean) + z * sd)))
+
+
+def excursion_spread(speed: str) -> F64:
+    """Per joint, the spread of the joint's excursion over the cycle as a fraction of the
+    mean's (3,): the SDs of the angle at the mean curve's highest and lowest phases taken
+    as independent, sqrt(sd_max^2 + sd_min^2) / (max - min) -- the wider of the bounds
+    the data allow (a child's whole curve shifted, the two perfectly correlated, would
+    give abs(sd_max - sd_min)): a design's demand is not understated. A child at a gait
+    percentile z moves each joint through (1 + z spread) times the mean's excursion in
+    the same time: their angular speeds scale so."""
+    out = np.empty(3)
+    for j, var in enumerate(("hip_flexion", "knee_flexion", "ankle_dorsiflexion")):
+        _, mean, sd = schwartz2008(var, speed)
+        hi, lo = int(np.argmax(mean)), int(np.argmin(mean))
+        out[j] = float(np.hypot(sd[hi], sd[lo]) / (mean[hi] - mean[lo]))
+    return out
+
+
 def schwartz_demand(mass: float, speed: str, z: float, stride_time: float) -> F64:
-    """Schwartz 2008 peaks (3 quantities, 3 joints) at mean + z SD, for this body mass."""
+    """Schwartz 2008 peaks (3 quantities, 3 joints) at the gait percentile of normal score
+    ``z`` (:func:`peak_percentile`, :func:`excursion_spread`), for this body mass."""
     out = np.full((3, 3), np.nan)
     for j, joint in enumerate(JOINTS):
         for i, var in ((0, f"{joint}_moment_sagittal"), (2, f"{joint}_power")):
             _, mean, sd = schwartz2008(var, speed)
-            out[i, j] = mass * np.max(np.abs(mean + z * sd))
-    g = SchwartzGait2008(stride_time=stride_time, speed=speed, sd=z)
-    t = np.linspace(0.0, stride_time, 400, endpoint=False)
-    out[1] = np.max(np.abs(g.sample(t)[1]), axis=0)
+            out[i, j] = mass * peak_percentile(mean, sd, z)
+    _, dq = gait_reference(speed, z, stride_time, stride_time / 400, strides=1)
+    out[1] = np.max(np.abs(dq), axis=0)
     return out
 
 
@@ -161,11 +192,18 @@ def gravity_demand(leg: LegModel, n: int = 13) -> F64:
 
 def gait_reference(speed: str, z: float, stride_time: float, dt: float = 1e-3,
                    strides: int = 2) -> tuple[F64, F64]:
-    """q_ref, dq_ref (N, 3) of ``strides`` cycles of normative gait sampled every dt."""
-    g = SchwartzGait2008(stride_time=stride_time, speed=speed, sd=z)
+    """q_ref, dq_ref (N, 3) of ``strides`` cycles of normative gait sampled every dt, at
+    the gait percentile of normal score ``z``: each joint's excursion about its cycle
+    mean scaled by 1 + z :func:`excursion_spread` (the mean gait at z = 0)."""
+    g = SchwartzGait2008(stride_time=stride_time, speed=speed)
     t = np.arange(int(round(strides * stride_time / dt)) + 1) * dt
     q, dq, _ = g.sample(t)
-    return q, dq
+    scale = 1.0 + z * excursion_spread(speed)
+    if np.any(scale <= 0.0):
+        raise ParameterError("gait_reference", "z", f"{z:g}: a joint's excursion would "
+                             "vanish (allowed: above -1 / its spread)")
+    level = g.sample(np.linspace(0.0, stride_time, 400, endpoint=False))[0].mean(axis=0)
+    return level + (q - level) * scale, dq * scale
 
 
 def simulated_gait_peaks(P: F64, g: float, speed: str = "Free", z: float = 0.0,

@@ -3,7 +3,9 @@
 A grid of children -- ages x sex x group (GMFCS I-IV from Brooks 2011, typically
 developing from WHO 2007) x height percentile -- each with the body mass of the same
 percentile of its chart (an assumption: height and mass percentiles are not
-independent in reality). For each child: dimensions (:mod:`anthropometry`), fit
+independent in reality). Every child walks at one *gait* percentile (default the
+median), independent of their growth percentile: a small child does not walk faster
+for being small. For each child: dimensions (:mod:`anthropometry`), fit
 (:mod:`fit`), personalized model (:mod:`personal`) and actuator margins
 (:mod:`demand`), the simulated normative gait of all children run as one batch.
 WHO 2007 has no weight beyond 10 years, so typically developing children older than
@@ -37,7 +39,7 @@ class Row:
     age: float
     sex: str
     group: str
-    percentile: float
+    percentile: float     # the growth charts' (height and mass)
     height: float
     mass: float
     thigh: float
@@ -53,6 +55,7 @@ class Row:
     exceeds: str          # the demands over them, "; "-separated ("" when none)
     exceeds_where: str    # their joint and quantity, ", "-separated ("ankle speed, ...")
     notes: str = ""
+    gait_percentile: float = 50.0  # the gait's demand (design.demand)
 
 
 def _binding(fit: Any) -> tuple[str, float]:
@@ -75,10 +78,14 @@ def coverage(ages: Sequence[float] = AGES, sexes: Sequence[str] = ("female", "ma
              groups: Sequence[int | None] = GROUPS,
              percentiles: Sequence[float] = PERCENTILES, stride_time: float = 1.1,
              speed: str = "Free", simulate: bool = True,
-             actuators: tuple[Any, ...] | None = None) -> list[Row]:
-    """The coverage grid against ``actuators`` (None: the shipped ones). With
-    ``simulate`` each child's normative gait is simulated (all children in one parallel
-    batch) and counts among the demands."""
+             actuators: tuple[Any, ...] | None = None,
+             gait_percentile: float = 50.0) -> list[Row]:
+    """The coverage grid against ``actuators`` (None: the shipped ones), every child's
+    demand at ``gait_percentile`` (:func:`~exoleg.design.demand.build_demand`). With
+    ``simulate`` each child's gait at that percentile is simulated (all children in one
+    parallel batch) and counts among the demands."""
+    from statistics import NormalDist
+
     children, fits, legs, notes = [], [], [], []
     for group in groups:
         for sex in sexes:
@@ -96,10 +103,12 @@ def coverage(ages: Sequence[float] = AGES, sexes: Sequence[str] = ("female", "ma
     if simulate:  # one batch: every child, with the actuators' reflected inertia, follows
         # the mean gait of the speed group
         peaks = simulated_gait_peaks(np.stack([with_actuators(leg, acts).p for leg in legs]),
-                                     legs[0].g, speed, 0.0, stride_time)
+                                     legs[0].g, speed,
+                                     NormalDist().inv_cdf(gait_percentile / 100.0),
+                                     stride_time)
     rows = []
     for n, ((c, pct, group), f, leg) in enumerate(zip(children, fits, legs, strict=True)):
-        dem = build_demand(c.mass, leg, pct, speed, stride_time,
+        dem = build_demand(c.mass, leg, gait_percentile, speed, stride_time,
                            None if peaks is None else peaks[n], grid=7, limits=limits)
         margin, src, qty, joint = dem.smallest_margin()
         over = dem.exceedances()
@@ -113,7 +122,7 @@ def coverage(ages: Sequence[float] = AGES, sexes: Sequence[str] = ("female", "ma
                         within_limits=not over, exceeds="; ".join(map(str, over)),
                         exceeds_where=", ".join(dict.fromkeys(f"{e.joint} {e.quantity}"
                                                               for e in over)),
-                        notes=notes[n]))
+                        notes=notes[n], gait_percentile=gait_percentile))
     return rows
 
 
