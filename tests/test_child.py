@@ -31,16 +31,51 @@ def riener_printed(pa: float, pk: float, ph: float) -> tuple[float, float, float
     return mh, mk, ma
 
 
-@given(st.floats(-30, 30), st.floats(0, 100), st.floats(-20, 90))
-@settings(max_examples=200, deadline=None)
-def test_the_adults_moments_are_riener_and_edrichs_formula(pa: float, pk: float, ph: float
-                                                           ) -> None:
-    # reference: the printed equations; at the reference height (1.75 m) the scale is 1,
-    # and exoleg's signs are Riener's converted (hip as is, knee and ankle negated)
-    P = passive_record(1.75)
-    tau = passive_moments(P, np.radians([ph, -pk, -pa]))
-    mh, mk, ma = riener_printed(pa, pk, ph)
-    assert tau == pytest.approx([mh, -mk, -ma], rel=1e-12, abs=1e-12)
+def test_the_adults_moments_are_riener_and_edrichs_formula_made_conservative() -> None:
+    # reference: the printed equations on a 9 x 11 x 12 grid of their checked range; at
+    # the reference height (1.75 m) the scale is 1, and exoleg's signs are Riener's
+    # converted (hip as is, knee and ankle negated). The shipped terms are the printed
+    # ones refitted as a conservative field (tools/fit_passive_potential.py); bounds: the
+    # fit's residuals as measured (data/child/passive.toml), rounded up
+    A, K, H = np.linspace(-30, 30, 9), np.linspace(0, 100, 11), np.linspace(-20, 90, 12)
+    ph = np.stack(np.meshgrid(A, K, H, indexing="ij"), -1).reshape(-1, 3)
+    want = np.array([riener_printed(*p) for p in ph]) * [1, -1, -1]
+    got = passive_moments(passive_record(1.75), np.radians(ph[:, ::-1] * [1, -1, -1]))
+    e = got - want
+    walking = (np.abs(ph[:, 0]) <= 20) & (ph[:, 1] <= 70) & (ph[:, 2] <= 50)
+    rms = np.sqrt(np.mean(e[walking] ** 2, axis=0))
+    assert np.all(rms <= [0.5, 0.9, 1.4]), rms
+    assert np.all(np.abs(e[walking]).max(axis=0) <= [2.8, 3.8, 8.5])
+    assert np.all(np.sqrt(np.mean(e ** 2, axis=0)) <= [1.4, 4.6, 3.1])
+
+
+@pytest.mark.parametrize("preset,level", [("none", 0.0), ("predictcpgait", 0.5),
+                                          ("predictcpgait", 1.0), ("predictcpgait", 1.5)])
+def test_the_passive_field_is_conservative(preset: str, level: float) -> None:
+    # Issue 41: the printed field's cross stiffnesses differed (dtau_hip/dq_knee -6.4
+    # against dtau_knee/dq_hip -2.8 N m/rad; -114 against -35 with the contracture): the
+    # moments added or took energy around a loop. Reference: a gradient field's
+    # stiffness matrix is symmetric (central differences at 100 random postures, in and
+    # beyond the checked range), and the work around a closed loop of postures is zero.
+    P = passive_record(1.375, Contracture.preset(preset, level) if level else None)
+    rng = np.random.default_rng(41)
+    worst = 0.0
+    for _ in range(100):
+        q = np.radians([rng.uniform(-30, 100), -rng.uniform(-5, 110), rng.uniform(-40, 40)])
+        k = np.empty((3, 3))
+        for c in range(3):
+            dq = np.zeros(3)
+            dq[c] = 1e-6
+            k[:, c] = (passive_moments(P, q + dq) - passive_moments(P, q - dq)) / 2e-6
+        worst = max(worst, float(np.abs(k - k.T).max() / np.abs(k).max()))
+    assert worst < 1e-6  # the issue's bound: 5 %
+    # the work of the passive moments around a loop through hip, knee and ankle
+    s = np.linspace(0.0, 2 * np.pi, 20001)
+    loop = np.radians(np.stack([30 + 40 * np.cos(s), -50 + 40 * np.sin(s),
+                                10 * np.sin(2 * s)], axis=1))
+    tau = passive_moments(P, loop)
+    work = np.sum(0.5 * (tau[1:] + tau[:-1]) * np.diff(loop, axis=0))
+    assert abs(work) < 1e-6 * np.sum(np.abs(tau[1:] * np.diff(loop, axis=0)))
 
 
 @given(st.floats(1.0, 1.6), st.floats(1.0, 1.6))
@@ -67,8 +102,9 @@ def test_passive_stiffness_scales_with_height5_so_the_natural_frequency_does_not
 
 def test_the_predictcpgait_childs_contracture_signatures() -> None:
     # reference: the shipped curves of Falisse et al. 2020's child (read off the CSV);
-    # tolerance: the issue's +-3 deg / +-15 % (measured: worst 14.2 % on the knee's
-    # moment at hip 90, knee 0: 100.7 against 88.1 N m)
+    # tolerance: the issue's +-3 deg / +-15 % (measured: worst 13.4 % on the
+    # plantarflexors' moment at 0 deg, knee 0: 8.8 against 10.2 N m; the knee's moment
+    # at hip 90, knee 0: 98.4 against 88.1 N m, 11.7 %)
     want = curve_signatures("personalized")
     got = signatures(passive_record(1.375, Contracture.preset("predictcpgait")))
     for name, w, g in zip(SIGNATURES, want, got, strict=True):
@@ -76,6 +112,25 @@ def test_the_predictcpgait_childs_contracture_signatures() -> None:
             assert abs(g - w) <= 3.0, (name, g, w)
         else:
             assert abs(g - w) <= 0.15 * abs(w), (name, g, w)
+
+
+def test_the_contracture_holds_off_its_fitted_curves() -> None:
+    # Issue 41: the preset met its curves (the hip swept with the knee straight) with
+    # constants of 79 / -17 / -62 N m that gave the hip, with the knee flexed 40-90 deg,
+    # a 16-29 N m flexing moment over all of -20..90 deg and no resting point. Reference:
+    # a relaxed limb has a passive resting posture (Riener & Edrich's adults: the hip's
+    # moment crosses zero with the knee flexed 40-90 deg, as the scaled model here does),
+    # and the moment restores towards it (falls through zero as the hip flexes)
+    hips = np.radians(np.arange(-20.0, 90.5, 0.5))
+    for P in (passive_record(1.375), passive_record(1.375, Contracture.preset("predictcpgait"))):
+        for knee in (40.0, 60.0, 90.0):
+            q = np.stack([hips, np.full_like(hips, -np.radians(knee)), np.zeros_like(hips)], 1)
+            m = passive_moments(P, q)[:, 0]
+            cross = np.nonzero(np.diff(np.sign(m)))[0]
+            assert len(cross) == 1, (knee, cross)
+            assert m[cross[0]] > 0 > m[cross[0] + 1]  # restoring
+    # the preset's contracture constants within 2.5x Riener & Edrich's largest (8.07 N m)
+    assert np.all(np.abs(Contracture.preset("predictcpgait").constant) <= 20.0)
 
 
 def test_contracture_shortens_muscles_not_the_joint_limit() -> None:
@@ -180,23 +235,32 @@ def test_the_cuffs_carry_the_device_at_rest(fitted_leg) -> None:  # type: ignore
 
 def test_the_pendulum_test_meets_white_2007_for_a_typical_and_a_spastic_child() -> None:
     # reference: White et al. 2007 (10 TD, 10 CP, mean 13 y): peak knee velocity 293 vs
-    # 202 deg/s, time to peak 0.34 vs 0.22 s; the issue's +-20 %. Measured on a 13 y,
-    # 1.56 m, 45 kg child: TD 312 deg/s at 0.285 s; moderate spasticity 198 at 0.263 s
+    # 202 deg/s, time to peak 0.34 vs 0.22 s; the issue's +-15 %. Measured on a 13 y,
+    # 1.56 m, 45 kg child: TD 306 deg/s at 0.290 s; moderate spasticity 182 at 0.210 s
     import warnings
 
-    from exoleg.child.assess import pendulum
+    from exoleg.child.assess import pendulum, stretch
 
     td = ChildModel.typical("td", 13, 1.56, 45.0, "male")
+    moderate = td.with_(gmfcs=2, spasticity=Spasticity.preset("moderate"))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         typical = pendulum(td)
-        spastic = pendulum(td.with_(gmfcs=2, spasticity=Spasticity.preset("moderate")))
+        spastic = pendulum(moderate)
     for p, (v, t) in ((typical, (293, 0.34)), (spastic, (202, 0.22))):
-        assert abs(p.peak_velocity - v) <= 0.2 * v
-        assert abs(p.time_to_peak - t) <= 0.2 * t
+        assert abs(p.peak_velocity - v) <= 0.15 * v
+        assert abs(p.time_to_peak - t) <= 0.15 * t
     # Bajd & Vodovnik's relaxation index: >= 1.6 typical, below spastic
     assert typical.relaxation_index >= 1.6 > spastic.relaxation_index
     assert spastic.first_swing < typical.first_swing
+    # spasticity, not hypertonia: the knee flexors resist a fast stretch more than a
+    # slow one (issue 41: 20.7 against 20.3 N m before the velocity reflex; its bound
+    # 1.5x; measured 1.66x), the typical child's by their tissue's damping alone
+    # (measured 1.08x)
+    fast = stretch(moderate, speeds=(5.0, 180.0)).peak_resistance
+    assert fast[1] >= 1.5 * fast[0]
+    calm = stretch(td, speeds=(5.0, 180.0)).peak_resistance
+    assert calm[1] <= 1.1 * calm[0]
 
 
 def test_assess_writes_the_summary_the_issue_names(tmp_path) -> None:  # type: ignore[no-untyped-def]

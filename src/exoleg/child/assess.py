@@ -15,8 +15,9 @@ flexion at the first reversal); the relaxation index A1 / A0 (the first swing ov
 resting angle, both from full extension; Bajd & Vodovnik: below 1.6 spastic).
 
 **Stretch**: the knee extended at a constant speed from 90 deg flexion to the end of
-its passive range (hip at ``hip_flexion``, 90 deg: the popliteal position), slow (5
-deg/s) and fast; the resistance is what the examiner's hand feels, the passive
+its passive range -- where the slowest stretch's passive resistance reaches 10 N m (R2),
+as an examiner stops there -- (hip at ``hip_flexion``, 90 deg: the popliteal
+position), slow (5 deg/s) and fast; the resistance is what the examiner's hand feels, the passive
 moment plus the reflex (the shank's weight excluded, as instrumented tests subtract
 it). Figures: the peak resistance against stretch speed; the catch angle (Tardieu R1:
 the knee flexion at which the fastest stretch's resistance exceeds the slowest's at the
@@ -201,14 +202,16 @@ def stretch(child: ChildModel, speeds: tuple[float, ...] = (5.0, 30.0, 60.0, 90.
             # the moment the leg opposes extension with (- tau2), the hand feels it
             r_all[k] = -(out[1] + tick[1])
             x_all[k] = -tick[1]
-        angles.append(knee)
-        res.append(r_all)
-        refl.append(x_all)
-        peaks.append(float(r_all.max()))
         if v == speeds[0]:
             passive = r_all - x_all
             above = np.nonzero(passive >= 10.0)[0]
             end = float(knee[above[0]]) if above.size else float(knee[-1])
+        # the examiner's hand stops at the end of the range the slowest stretch found
+        keep = knee >= end
+        angles.append(knee[keep])
+        res.append(r_all[keep])
+        refl.append(x_all[keep])
+        peaks.append(float(r_all[keep].max()))
     # the velocity-dependent resistance: the fastest stretch's less the slowest's at the
     # same angle; the catch where it first reaches half its largest (none below 1 N m)
     extra = res[-1] - np.interp(angles[-1], angles[0][::-1], res[0][::-1])

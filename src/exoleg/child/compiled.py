@@ -37,7 +37,8 @@ F64 = NDArray[np.float64]
 
 
 #: The child as the compiled tick reads it: the spastic groups' passive term (index into
-#: :data:`PASSIVE`'s terms), tone (N m, scaled), reflex gains, short-range stiffness
+#: :data:`PASSIVE`'s terms), tone (N m, scaled), reflex gains (force, force rate, and
+#: stretch velocity beyond its threshold: N m per deg/s, scaled), short-range stiffness
 #: (per degree of tone), its range (deg) and fade (s), the reflex delay (ticks), the
 #: tonically active muscles' force-velocity (the eccentric gain, its speed deg/s); the
 #: effort (1 on), its stiffness (N m/rad) and damping (N m s/rad) with the foot loaded
@@ -47,6 +48,7 @@ F64 = NDArray[np.float64]
 #: loaded (row 0: what the device's stance support leaves them) and in swing (row 1), and the
 #: stride time (s) the cycle takes.
 CHILD = np.dtype([("term", I8, 4), ("tone", F8, 4), ("g_f", F8, 4), ("g_df", F8, 4),
+                  ("g_v", F8, 4), ("v_threshold", F8),
                   ("srs", F8), ("srs_range", F8), ("srs_decay", F8), ("reflex_delay", I8),
                   ("eccentric", F8), ("fv_speed", F8),
                   ("effort", F8), ("kp", F8, (2, 3)), ("kd", F8, (2, 3)), ("strength", F8, 3),
@@ -55,12 +57,14 @@ CHILD = np.dtype([("term", I8, 4), ("tone", F8, 4), ("g_f", F8, 4), ("g_df", F8,
                   ("gait_tau", F8, (GAIT_SAMPLES, 3)), ("share", F8, 2), ("stride", F8),
                   ("intrinsic", F8), ("learn_f", F8), ("learn_g", F8)])
 
-#: The child's memory (:func:`child_tick`): ticks so far, each group's force and its
-#: rate, the joint angles and rates the child felt (rings of :data:`HISTORY` ticks), the
+#: The child's memory (:func:`child_tick`): ticks so far, each group's force, its rate
+#: and its stretch velocity (deg/s), the joint angles and rates the child felt (rings
+#: of :data:`HISTORY` ticks), the
 #: short-range stiffness's anchor (deg), its torque (N m) and whether it yielded; the
 #: tick's torques (N m, exoleg's signs): the reflexes' (tone, short range, stretch
 #: reflex) and the effort's.
 CHILD_STATE = np.dtype([("k", I8), ("force", F8, (HISTORY, 4)), ("rate", F8, (HISTORY, 4)),
+                        ("stretch", F8, (HISTORY, 4)),
                         ("q", F8, (HISTORY, 3)), ("dq", F8, (HISTORY, 3)),
                         ("anchor", F8, 4), ("srs", F8, 4), ("yielded", F8, 4),
                         ("reflex", F8, 3), ("effort", F8, 3), ("share0", F8), ("e_sq", F8),
@@ -94,6 +98,7 @@ def child_records(child: ChildModel | None, h: float, stride_time: float = 1.1,
     r["term"] = [groups.index(g) for g in SPASTIC_GROUPS]
     r["tone"] = np.array(sp.tone) * s
     r["g_f"], r["g_df"] = sp.g_f, sp.g_df
+    r["g_v"], r["v_threshold"] = np.array(sp.g_v) * s, sp.v_threshold
     r["srs"], r["srs_range"], r["srs_decay"] = sp.srs_per_deg, sp.srs_range, sp.srs_decay
     r["eccentric"], r["fv_speed"] = sp.eccentric, sp.fv_speed
     for name, delay in (("reflex_delay", sp.delay),
@@ -218,9 +223,15 @@ def child_tick(P, C, CS, q, dq, h, walking, xc, loaded, out):  # type: ignore[no
             prev = s.force[(i - 1) % L, g] if k > 0 else force
             s.force[i, g] = force
             s.rate[i, g] = (force - prev) / h
+            s.stretch[i, g] = v
             n = c.reflex_delay
+            # the stretch reflex: the muscle's force and its rate (De Groote 2018) and
+            # the spindles' velocity response beyond its threshold (Lance 1980's
+            # velocity-dependent resistance)
             reflex = max(0.0, c.g_f[g] * _delayed(s.force, k, n, g)
-                         + c.g_df[g] * _delayed(s.rate, k, n, g))
+                         + c.g_df[g] * _delayed(s.rate, k, n, g)
+                         + c.g_v[g] * max(0.0, _delayed(s.stretch, k, n, g)
+                                          - c.v_threshold))
             active = 0.0
             if c.tone[g] > 0.0 or reflex > 0.0:
                 active = R.sign[t] * (tone + s.srs[g] + reflex)

@@ -64,6 +64,11 @@ class Spasticity:
         eccentric tanh(v / fv_speed) while lengthening at v deg/s.
     fv_speed : float, default 30.0
         That force-velocity relation's speed, deg/s.
+    g_v : tuple of float, default (0, 0, 0, 0)
+        Per group, the stretch reflex's velocity gain, N m per deg/s of stretch beyond
+        ``v_threshold`` at the reference height.
+    v_threshold : float, default 0.0
+        The stretch velocity the velocity reflex starts from, deg/s.
     """
 
     level: str
@@ -76,10 +81,16 @@ class Spasticity:
     srs_decay: float
     eccentric: float = 0.8
     fv_speed: float = 30.0
+    g_v: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
+    v_threshold: float = 0.0
 
     def __post_init__(self) -> None:
         w = "spasticity"
-        for name, lo, hi in (("tone", 0.0, 50.0), ("g_f", 0.0, 1.0), ("g_df", 0.0, 0.5)):
+        if not (math.isfinite(self.v_threshold) and 0.0 <= self.v_threshold <= 500.0):
+            raise ParameterError(w, "velocity_threshold_deg_s", f"{self.v_threshold!r} is "
+                                 "outside 0-500 deg/s")
+        for name, lo, hi in (("tone", 0.0, 50.0), ("g_f", 0.0, 1.0), ("g_df", 0.0, 0.5),
+                             ("g_v", 0.0, 2.0)):
             v = getattr(self, name)
             if len(v) != 4 or not all(math.isfinite(x) and lo <= x <= hi for x in v):
                 raise ParameterError(w, name, f"{v!r}: expected 4 values in {lo:g}-{hi:g} "
@@ -108,7 +119,8 @@ class Spasticity:
         return cls(level, tuple(lv["tone"]), tuple(lv["g_f"]), tuple(lv["g_df"]),
                    float(d["delay_s"]), float(d["srs_per_deg"]), float(d["srs_range_deg"]),
                    float(d["srs_decay_s"]), float(d["eccentric_gain"]),
-                   float(d["force_velocity_speed_deg_s"]))
+                   float(d["force_velocity_speed_deg_s"]), tuple(lv["g_v"]),
+                   float(d["velocity_threshold_deg_s"]))
 
 
 @dataclass(frozen=True)

@@ -1,19 +1,29 @@
 """Passive joint moments of the child: Riener & Edrich's double exponentials with their
-two-joint coupling (``data/child/passive.toml``), scaled to the child by height^5
-(Lebiedowska & Fisk 1999), with contracture as shortened muscles
+two-joint coupling (``data/child/passive.toml``), made a conservative field, scaled to
+the child by height^5 (Lebiedowska & Fisk 1999), with contracture as shortened muscles
 (``data/child/contracture.toml``).
 
-Each term k of joint j is ``sign_k exp(a_k + b_k . phi)`` with phi = (phi_A, phi_K,
-phi_H) in Riener's degrees (ankle plantarflexion, knee and hip flexion positive); a
-joint's moment is the sum of its terms and a constant. For a child of height H the
-moments are scaled by s = (H / H_ref)^5 (``ln s`` added to every a, the constants
-multiplied by s). A contracted muscle group's term ``exp(a + da + f_own b_own phi_own +
-f_cpl b_cpl . phi_cpl)``: ``da`` is the shortening (its passive force rises at a
-shorter stretch), ``f_own`` and ``f_cpl`` the steeper rise of shorter fibres over its own
-joint and over the joints it crosses besides; each scaled by the contracture level.
+Each term k is a muscle group's passive force ``F_k = exp(a_k + b_k . phi)`` with phi =
+(phi_A, phi_K, phi_H) in Riener's degrees (ankle plantarflexion, knee and hip flexion
+positive), acting on every joint its exponent depends on through moment arms
+proportional to b_k: ``M_i = sign_k (b_k,i / b_k,own) F_k`` -- on its own joint Riener's
+form, and the field the gradient of ``sum_k sign_k F_k / b_k,own``: no loop of postures
+gains or loses energy. (Riener & Edrich print each term on its own joint alone, which is
+not conservative; the terms' a and b are refitted to their equations,
+``tools/fit_passive_potential.py``.) A joint's moment is the sum of the terms' and a
+constant. For a child of height H the moments are scaled by s = (H / H_ref)^5 (``ln s``
+added to every a, the constants multiplied by s). A contracted muscle group's force
+``exp(a + da + f_own b_own phi_own + f_cpl b_cpl . phi_cpl)``: ``da`` is the shortening
+(its passive force rises at a shorter stretch), ``f_own`` and ``f_cpl`` the steeper rise
+of shorter fibres over its own joint and over the joints it crosses besides -- a group
+stands for several muscles, and the ratio of its moment arms shifts as they shorten
+unequally (f_cpl / f_own within :data:`ARM_SHIFT`); each scaled by the contracture
+level.
 
-Beyond the range the moments were measured over (:data:`VALID_DEG`) each term goes on
-along its tangent (never below zero) instead of growing exponentially.
+Beyond the range the moments were measured over (:data:`VALID_DEG`) each term's force
+goes on along its tangent in its stretch ``b . phi`` (never below zero) instead of
+growing exponentially -- a function of the stretch alone, so the field stays
+conservative there too.
 """
 
 from __future__ import annotations
@@ -43,17 +53,25 @@ GROUPS = ("hip_flexors", "hip_extensors", "knee_flexors", "knee_extensors", "lim
 #: flexion +) over which the curves were measured and checked (the predictcpgait
 #: child's sweeps); the terms continue on their tangents beyond
 VALID_DEG = ((-30.0, 30.0), (0.0, 100.0), (-20.0, 90.0))
+#: How far a contracted group's moment arms may shift: f_cpl / f_own within these (a
+#: muscle's own arms are anatomy; a group's ratio shifts as its muscles shorten
+#: unequally -- a free fit made the knee flexors' arm at the hip 1.6x their arm at the
+#: knee, and the hip 56 N m extending at hip 90 / knee 90 deg)
+ARM_SHIFT = (0.5, 2.0)
 #: The contracture levels a preset may be taken at (0 none, 1 as measured).
 CONTRACTURE_LEVELS = (0.0, 1.5)
 N_TERMS = 7
 
 #: The passive model as the compiled code reads it: per term its joint (0 hip, 1 knee,
 #: 2 ankle), sign, exponent coefficients (a, b_A, b_K, b_H) with the child's scale and
-#: contracture applied; per joint its constant (N m, scaled) and viscous damping
-#: (N m s/rad); ``on`` 0 for a leg without a child model.
+#: contracture applied, the moment it gives each joint (hip, knee, ankle; Riener's
+#: signs) per unit of its force (``arm``: sign b_i / b_own), and the range of its
+#: stretch b . phi over the checked range (``span``, degrees: the force's tangent
+#: beyond); per joint its constant (N m, scaled) and viscous damping (N m s/rad); ``on``
+#: 0 for a leg without a child model.
 PASSIVE = np.dtype([("on", F8), ("joint", F8, N_TERMS), ("sign", F8, N_TERMS),
-                    ("coef", F8, (N_TERMS, 4)), ("constant", F8, 3), ("damping", F8, 3),
-                    ("valid", F8, (3, 2))])
+                    ("coef", F8, (N_TERMS, 4)), ("arm", F8, (N_TERMS, 3)),
+                    ("span", F8, (N_TERMS, 2)), ("constant", F8, 3), ("damping", F8, 3)])
 
 
 @cache
@@ -104,7 +122,7 @@ class Contracture:
     groups : dict of str to (float, float, float)
         Per muscle group (:data:`GROUPS` but "limit"): the shortening ``da`` (added to
         the term's exponent) and the steepening of its own (``f_own``) and coupled
-        (``f_cpl``) coordinates.
+        (``f_cpl``) coordinates, f_cpl / f_own within :data:`ARM_SHIFT`.
     level : float, default 1.0
         How much of it: 0 none, 1 as measured.
     constant : (float, float, float), default (0, 0, 0)
@@ -130,10 +148,13 @@ class Contracture:
             if g not in GROUPS or g == "limit":
                 raise ParameterError("contracture", g, "unknown muscle group (allowed: "
                                      + ", ".join(x for x in GROUPS if x != "limit") + ")")
+            lo_, hi_ = ARM_SHIFT
             if not (len(v) == 3 and all(math.isfinite(x) for x in v)
-                    and -5 <= v[0] <= 5 and 0.1 <= v[1] <= 5 and 0.1 <= v[2] <= 5):
+                    and -5 <= v[0] <= 5 and 0.1 <= v[1] <= 5
+                    and lo_ * (1 - 1e-3) <= v[2] / v[1] <= hi_ * (1 + 1e-3)):  # (files round)
                 raise ParameterError("contracture", g, f"{v!r}: expected [da (-5..5), "
-                                     "f_own (0.1..5), f_cpl (0.1..5)]")
+                                     f"f_own (0.1..5), f_cpl ({lo_:g}-{hi_:g} x f_own: "
+                                     "the group's moment arms shift so far)]")
 
     @classmethod
     def none(cls) -> Contracture:
@@ -220,28 +241,33 @@ def passive_record(height: float, contracture: Contracture | None = None,
         b = [v * (fo if i == own else fc) for i, v in enumerate(t.b)]
         r["joint"][0, k], r["sign"][0, k] = t.joint, t.sign
         r["coef"][0, k] = (t.a + da + math.log(s), *b)
+        # the muscle's moment on each joint (hip, knee, ankle: phi's H, K, A) per unit
+        # of its force, and its stretch's range over the checked box (at its corners)
+        r["arm"][0, k] = [t.sign * b[_OWN[j]] / b[own] for j in range(3)]
+        corners = [sum(bi * VALID_DEG[i][(n >> i) & 1] for i, bi in enumerate(b))
+                   for n in range(8)]
+        r["span"][0, k] = (min(corners), max(corners))
     r["constant"] = (np.array(m.constant) + c.level * np.array(c.constant)) * s
     r["damping"] = damping
-    r["valid"] = VALID_DEG
     return r
 
 
 @njit(cache=True)
-def _term(c, v, pa, pk, ph):  # type: ignore[no-untyped-def]
-    """A term's magnitude (>= 0) with coefficients ``c`` (a, b_A, b_K, b_H) at Riener's
-    (phi_A, phi_K, phi_H) degrees: the exponential inside the valid ranges ``v`` (3, 2),
-    its tangent (not below zero) beyond."""
-    ca = min(max(pa, v[0, 0]), v[0, 1])
-    ck = min(max(pk, v[1, 0]), v[1, 1])
-    ch = min(max(ph, v[2, 0]), v[2, 1])
-    lin = c[1] * (pa - ca) + c[2] * (pk - ck) + c[3] * (ph - ch)
-    return math.exp(c[0] + c[1] * ca + c[2] * ck + c[3] * ch) * max(0.0, 1.0 + lin)
+def _force(c, span, pa, pk, ph):  # type: ignore[no-untyped-def]
+    """A term's force (>= 0) with coefficients ``c`` (a, b_A, b_K, b_H) at Riener's
+    (phi_A, phi_K, phi_H) degrees: exp(a + b . phi) while its stretch b . phi lies
+    within ``span`` (its range over the checked box), on its tangent (not below zero)
+    beyond."""
+    x = c[1] * pa + c[2] * pk + c[3] * ph
+    xc = min(max(x, span[0]), span[1])
+    return math.exp(c[0] + xc) * max(0.0, 1.0 + x - xc)
 
 
 @njit(cache=True)
 def term_value(P, k, phi):  # type: ignore[no-untyped-def]
-    """Term k's magnitude (>= 0) at phi (3,) in Riener's degrees (:func:`_term`)."""
-    return _term(P.coef[k], P.valid, phi[0], phi[1], phi[2])
+    """Term k's force (>= 0) at phi (3,) in Riener's degrees (:func:`_force`): its
+    moment on its own joint, N m."""
+    return _force(P.coef[k], P.span[k], phi[0], phi[1], phi[2])
 
 
 @njit(cache=True)
@@ -267,14 +293,10 @@ def passive_torque(P, q, dq, out):  # type: ignore[no-untyped-def]
     pa, pk, ph = -q[2] * d, -q[1] * d, q[0] * d
     m0, m1, m2 = R.constant[0], R.constant[1], R.constant[2]
     for k in range(N_TERMS):
-        v = R.sign[k] * _term(R.coef[k], R.valid, pa, pk, ph)
-        j = R.joint[k]
-        if j == 0.0:
-            m0 += v
-        elif j == 1.0:
-            m1 += v
-        else:
-            m2 += v
+        f = _force(R.coef[k], R.span[k], pa, pk, ph)
+        m0 += R.arm[k, 0] * f
+        m1 += R.arm[k, 1] * f
+        m2 += R.arm[k, 2] * f
     # Riener's moments flex hip and knee and plantarflex the ankle; exoleg's knee
     # flexion and ankle plantarflexion are negative q
     out[0] = m0 - R.damping[0] * dq[0]

@@ -6,9 +6,10 @@ The OpenSim model: the child's shank and foot (ankle held where the pendulum hol
 as one body on a ``PinJoint`` at the knee, the thigh (ground) horizontal, gravity -y;
 its mass, centre of mass and inertia taken from exoleg's leg (the mass matrix's knee
 entry and the gravity torque at two angles -- the same rigid body, exactly); the
-passive moments as an ``ExpressionBasedCoordinateForce`` whose expression is Riener &
-Edrich's terms as the child's record holds them (scaled, contracted, each continued on
-its tangent beyond the checked range, as exoleg's compiled model does), written out by
+passive moments as an ``ExpressionBasedCoordinateForce`` whose expression is the
+passive terms as the child's record holds them (scaled, contracted, each acting at the
+knee through its moment arm there and continued on its tangent beyond the checked
+range, as exoleg's compiled model does), written out by
 :func:`passive_expression`; the reflexes' torque as exoleg's run produced it, held over
 each tick (a ``CoordinateActuator`` driven by a ``PrescribedController``). OpenSim
 integrates with its own error-controlled integrator; exoleg with RK4 at 1 kHz.
@@ -36,26 +37,22 @@ def available() -> bool:
 
 def passive_expression(P: NDArray[np.void], hip: float, ankle: float) -> str:
     """The knee's passive torque (exoleg's sign, N m) as a Lepton expression in the
-    coordinate ``q`` (rad) and ``qdot``: the record's knee terms with hip and ankle held,
-    each term's exponent clamped to the checked range and continued on its tangent."""
+    coordinate ``q`` (rad) and ``qdot``: every term's force acting at the knee (through
+    its moment arm there) with hip and ankle held, its stretch clamped to its range over
+    the checked box and continued on its tangent."""
     R = P[0]
     d = 180.0 / math.pi
-    phi_fixed = {0: -ankle * d, 2: hip * d}  # phi_A, phi_H held
     parts = []
     for k in range(len(R["joint"])):
-        if int(R["joint"][k]) != 1:
+        arm = float(R["arm"][k][1])
+        if arm == 0.0:
             continue
         c = [float(x) for x in R["coef"][k]]
-        valid = [(float(a), float(b)) for a, b in R["valid"]]
-        u0 = c[0] + sum(c[1 + i] * min(max(v, valid[i][0]), valid[i][1])
-                        for i, v in phi_fixed.items())
-        lin0 = sum(c[1 + i] * (v - min(max(v, valid[i][0]), valid[i][1]))
-                   for i, v in phi_fixed.items())
-        lo, hi = valid[1]
-        phik = f"(-q*{d!r})"
-        clamped = f"min(max({phik},{lo!r}),{hi!r})"
-        term = (f"exp({u0!r}+{c[2]!r}*{clamped})*max(0,1+{lin0!r}+{c[2]!r}*({phik}-{clamped}))")
-        parts.append(f"{float(R['sign'][k])!r}*{term}")
+        lo, hi = (float(x) for x in R["span"][k])
+        x0 = c[1] * (-ankle * d) + c[3] * (hip * d)  # phi_A, phi_H held
+        x = f"({x0!r}+{c[2]!r}*(-q*{d!r}))"
+        clamped = f"min(max({x},{lo!r}),{hi!r})"
+        parts.append(f"{arm!r}*exp({c[0]!r}+{clamped})*max(0,1+{x}-{clamped})")
     mk = "+".join(parts) + f"+{float(R['constant'][1])!r}"
     return f"-({mk})-{float(R['damping'][1])!r}*qdot"
 
