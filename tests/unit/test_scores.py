@@ -84,3 +84,28 @@ def test_exolegs_angles_in_clinical_degrees() -> None:
     # docs/conventions.md: hip flexion +, knee flexion -, ankle dorsiflexion + (rad)
     assert scores.clinical_degrees([0.1, -0.5, 0.2]) == pytest.approx(
         np.degrees([0.1, 0.5, 0.2]))
+
+
+def test_sagittal_patterns_follow_sangeux_2015() -> None:
+    # Sangeux, Rodda & Graham 2015 (Gait Posture 41:586): mean z-scores of the ankle and
+    # the knee over 20-45 % of the cycle against the normative gait, thresholds +-1.
+    # Cycles built from the normative mean shifted by whole SDs have scores of exactly
+    # those shifts (the definition), and fall in the classes the paper's figure draws
+    from exoleg.reference.scores import normative_cycle, sagittal_pattern
+
+    mean, sd = normative_cycle()
+    for ankle, knee, want in ((0, 0, "within normal limits"), (-2, 0, "true equinus"),
+                              (-2, -2, "true equinus"), (-2, 2, "jump"),
+                              (0, 2, "apparent equinus"), (2, 2, "crouch"),
+                              (0, -2, "knee recurvatum"), (2, 0, "undetermined")):
+        c = mean + sd * np.array([0.0, knee, ankle])
+        got, za, zk = sagittal_pattern(c)
+        assert got == want and za == pytest.approx(ankle) and zk == pytest.approx(knee)
+    # the shipped child with CP (knee 42-49 deg in mid-stance, the ankle within its
+    # band): apparent equinus, their scores computed here by hand over 20-44 %
+    cyc = scores.cp_child_cycle()
+    mid = slice(10, 23)
+    pattern, za, zk = sagittal_pattern(cyc)
+    assert pattern == "apparent equinus"
+    assert zk == pytest.approx(np.mean((cyc[mid, 1] - mean[mid, 1]) / sd[mid, 1]), rel=1e-12)
+    assert za == pytest.approx(np.mean((cyc[mid, 2] - mean[mid, 2]) / sd[mid, 2]), rel=1e-12)

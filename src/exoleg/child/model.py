@@ -26,6 +26,9 @@ F64 = NDArray[np.float64]
 LEVELS = ("none", "mild", "moderate", "severe")
 #: Strength as a multiple of the GMFCS level's typical, the range a child model takes.
 STRENGTH_SCALE = (0.1, 1.5)
+#: The gaits a child may intend: the normative (Schwartz 2008, with a crouch cluster) or
+#: the shipped real child with CP's (predictcpgait subject 1, Falisse et al. 2020).
+GAITS = ("normative", "predictcpgait")
 #: Rozumalski & Schwartz 2009's crouch clusters (0: the normative gait).
 CROUCH_CLUSTERS = (0, 1, 2, 3, 4, 5)
 SPASTIC_GROUPS = ("plantarflexors", "knee_flexors", "knee_extensors", "hip_flexors")
@@ -158,6 +161,10 @@ class ChildModel:
         How they adapt their stance effort to the device stride by stride (Emken et
         al. 2007's human model, x <- f x + g e: this is their f, 0.5-0.999); 0: they do
         not adapt, their stance effort fixed by the support the device starts with.
+    gait : str, default "normative"
+        The gait they intend (:data:`GAITS`): the normative gait (with ``crouch``'s
+        cluster) or a real child's (``predictcpgait``: the shipped child with CP's, its
+        moments scaled to this child's mass).
     """
 
     name: str
@@ -172,6 +179,7 @@ class ChildModel:
     sex: str = "female"
     strength_scale: float = 1.0
     learning: float = 0.0
+    gait: str = "normative"
 
     def __post_init__(self) -> None:
         w = "child"
@@ -200,6 +208,12 @@ class ChildModel:
         if self.crouch not in CROUCH_CLUSTERS:
             raise ParameterError(w, "crouch", f"{self.crouch!r}: allowed 0 (none), 1-5 "
                                  "(Rozumalski & Schwartz 2009's clusters)")
+        if self.gait not in GAITS:
+            raise ParameterError(w, "gait", f"{self.gait!r}: allowed {', '.join(GAITS)}")
+        if self.gait != "normative" and self.crouch:
+            raise ParameterError(w, "crouch", f"{self.crouch}: a crouch cluster bends the "
+                                 f"normative gait; the {self.gait} gait is a real child's "
+                                 "as measured (crouch 0)")
 
     @classmethod
     def typical(cls, name: str, age: float, height: float, mass: float,
@@ -314,6 +328,7 @@ class ChildModel:
             "",
             "[effort]",
             f"on = {'true' if self.effort else 'false'}",
+            f'gait = "{self.gait}"   # normative | predictcpgait (a real CP child, Falisse 2020)',
             f"crouch = {self.crouch}   # 0 normative gait, 1-5 Rozumalski & Schwartz 2009 cluster",
             f"strength = {self.strength_scale:g}   # x the GMFCS level's strength (0.1-1.5)",
             f"learning = {self.learning:g}   # 0 fixed; 0.5-0.999 adapts, per stride",
@@ -380,7 +395,8 @@ class ChildModel:
         s = d.get("spasticity", {})
         _check.keys(f"{where} [spasticity]", s, [], ["level"])
         e = d.get("effort", {})
-        _check.keys(f"{where} [effort]", e, [], ["on", "crouch", "strength", "learning"])
+        _check.keys(f"{where} [effort]", e, [], ["on", "crouch", "strength", "learning",
+                                                  "gait"])
         try:
             con = Contracture.preset(str(p.get("contracture", "none")),
                                      float(p.get("contracture_level", 1.0)))
@@ -390,7 +406,8 @@ class ChildModel:
                        spasticity=Spasticity.preset(str(s.get("level", "none"))),
                        effort=_bool(where, "effort.on", e.get("on", True)),
                        crouch=_int(where, "crouch", e.get("crouch", 0)), sex=str(c["sex"]),
-                       strength_scale=e.get("strength", 1.0), learning=e.get("learning", 0.0))
+                       strength_scale=e.get("strength", 1.0), learning=e.get("learning", 0.0),
+                       gait=str(e.get("gait", "normative")))
         except ParameterError as err:
             raise ParameterError(where, err.field, err.problem) from None
         except (TypeError, ValueError) as err:
@@ -450,10 +467,13 @@ def intended_gait(child: ChildModel, stride_time: float, speed: str = "Free"
                   ) -> tuple[F64, F64, F64]:
     """The child's intended gait over one cycle (:data:`GAIT_SAMPLES`): q (rad), dq
     (rad/s) and the internal joint moments of the normative gait (N m, exoleg's signs;
-    Schwartz 2008's N m/kg x the child's mass)."""
+    Schwartz 2008's N m/kg x the child's mass), or of the real child's their ``gait``
+    names (:func:`real_gait`)."""
     from exoleg.reference.gait import SchwartzGait2008, schwartz2008
 
     x = np.linspace(0.0, 1.0, GAIT_SAMPLES)
+    if child.gait == "predictcpgait":
+        return real_gait(x, stride_time, child.mass)
     gait = SchwartzGait2008(stride_time=stride_time, speed=speed, upright=True)
     q, dq, _ = gait.sample(x * stride_time)
     if child.crouch:
@@ -472,4 +492,28 @@ def intended_gait(child: ChildModel, stride_time: float, speed: str = "Free"
     return q, dq, tau
 
 
-__all__ = ["LEVELS", "ChildModel", "Spasticity", "intended_gait"]
+def real_gait(x: F64, stride_time: float, mass: float, harmonics: int = 12
+              ) -> tuple[F64, F64, F64]:
+    """The shipped real child with CP's gait (:func:`exoleg.validate.cp_child.cp_child_gait`)
+    at cycle fractions ``x``, played over ``stride_time`` s: q (rad; the hip's angle from
+    the vertical, the pelvis's tilt added, as exoleg's upright hip is), dq (rad/s) through
+    its first ``harmonics`` Fourier harmonics (its 99 samples of a cycle), and its
+    inverse-dynamics moments (N m, exoleg's signs) scaled by ``mass`` / the child's."""
+    from exoleg.validate.cp_child import MASS_KG, cp_child_gait
+
+    g = cp_child_gait()
+    n = len(g.t) - 1  # the last sample closes the cycle onto the first
+    q = g.q[:n].copy()
+    q[:, 0] += g.tilt[:n]
+    c = np.fft.rfft(q, axis=0) / n
+    k = np.arange(harmonics + 1)
+    phase = np.exp(2j * np.pi * np.outer(np.mod(x, 1.0), k))
+    w = np.where(k == 0, 1.0, 2.0)[None, :]
+    qx = np.real((phase * w) @ c[:harmonics + 1])
+    dqx = np.real((phase * w * (2j * np.pi * k / stride_time)[None, :]) @ c[:harmonics + 1])
+    xs = np.linspace(0.0, 1.0, n + 1)
+    tau = np.stack([np.interp(np.mod(x, 1.0), xs, g.tau[:, j]) for j in range(3)], axis=1)
+    return qx, dqx, tau * (mass / MASS_KG)
+
+
+__all__ = ["GAITS", "LEVELS", "ChildModel", "Spasticity", "intended_gait", "real_gait"]

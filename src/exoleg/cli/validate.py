@@ -66,7 +66,50 @@ def _transparency(strides: int) -> int:
     return 0 if v.met else 1
 
 
+def _cp_child(strides: int) -> int:
+    """``validate --cp-child``: the shipped real child with CP against exoleg's dynamics
+    and its simulated child (:mod:`exoleg.validate.cp_child`); 0 when both goals are
+    met."""
+    import numpy as np
+
+    from exoleg.params.records import JOINTS
+    from exoleg.reference.scores import cp_child_cycle, gait_scores, sagittal_pattern
+    from exoleg.validate.cp_child import HEIGHT_M, MASS_KG, inverse_dynamics, walk_match
+
+    idyn = inverse_dynamics()
+    _table([[j, f"{idyn['rms_shipped'][i]:.1f}", f"{idyn['rms_error'][i]:.1f}",
+             f"{100 * idyn['relative'][i]:.0f} %"] for i, j in enumerate(JOINTS[:2])],
+           ["joint", "shipped moment RMS N m", "exoleg's error RMS N m", "relative"],
+           title=f"inverse dynamics of predictcpgait subject 1 (Falisse et al. 2020): "
+                 f"exoleg's leg for {MASS_KG:g} kg, {HEIGHT_M:g} m through the shipped "
+                 "kinematics and ground reaction force (the ankle's moment given: no centre "
+                 "of pressure is shipped)")
+    cyc = cp_child_cycle()
+    pattern, za, zk = sagittal_pattern(cyc)
+    _, gps = gait_scores(cyc)
+    _say(f"the real child: GPS (3 sagittal variables) {gps:.1f} deg; {pattern} (Sangeux "
+         f"2015: ankle {za:+.1f}, knee {zk:+.1f} SD in mid-stance)")
+    w = walk_match(strides=strides)
+    _table([[j, f"{100 * w.within[i]:.0f} %", f"{w.rms_deg[i]:.1f}"]
+            for i, j in enumerate(JOINTS)],
+           ["joint", "samples within the real child's mean +- 1 SD", "RMS deg"],
+           title=f"the simulated child (GMFCS II, mild spasticity, the predictcpgait "
+                 f"contracture) intending this gait, in the device in transparent mode: "
+                 f"{w.strides} strides; {w.pattern} (the real child: {w.real_pattern}); "
+                 f"{100 * w.forefoot_first:.0f} % of contacts forefoot first"
+                 + ("; the safety layer stopped the walk" if w.fault else ""))
+    goal_id = bool(np.all(idyn["relative"][:2] <= 0.10))
+    goal_walk = bool(np.all(w.within >= 0.90))
+    _say(f"goals: inverse dynamics within 10 % RMS at hip and knee: "
+         f"{'met' if goal_id else 'not met'}; the simulated child within the real one's "
+         f"mean +- 1 SD at >= 90 % of the cycle at every joint: "
+         f"{'met' if goal_walk else 'not met'}")
+    return 0 if goal_id and goal_walk else 1
+
+
 def cmd_validate(args: argparse.Namespace) -> int:
+    if args.cp_child:
+        return _cp_child(args.strides or 12)
     if args.identify:
         from exoleg.cli._common import _Progress
         from exoleg.validate.identify import evaluate as identify_children
@@ -148,11 +191,14 @@ def add_parser(sub: Any) -> None:
     v.add_argument("--gait-phase", action="store_true",
                    help="the gait-phase detector against the true contacts: children x noise")
     v.add_argument("--strides", type=_count(1, 1000), metavar="N",
-                   help="with --gait-phase (default 20) or --transparency (default 10): "
-                        "strides per walk, 1-1000")
+                   help="with --gait-phase (default 20), --transparency (default 10) or "
+                        "--cp-child (default 12): strides per walk, 1-1000")
     v.add_argument("--transparency", action="store_true",
                    help="the transparent mode: the device's budget and a typically "
                         "developing child walking in it")
+    v.add_argument("--cp-child", action="store_true",
+                   help="the shipped real child with CP (Falisse et al. 2020): inverse "
+                        "dynamics on their gait, and the simulated child walking it")
     v.add_argument("--identify", action="store_true",
                    help="identification of the leg over simulated children of the design "
                         "range (offline)")

@@ -165,3 +165,57 @@ def cp_child_cycle() -> F64:
     if not np.allclose(a[:, 0], PERCENT):
         raise ParameterError("predictcpgait_gait_r.csv", "percent", "not on the 2 % grid")
     return a[:, 1:]
+
+
+#: Sangeux et al. 2015's mid-stance: 20 % to 45 % of the cycle (samples 20-44 %)
+MID_STANCE = (20.0, 45.0)
+#: Their classes by (ankle, knee) score: beyond +-1 SD of the normative mean
+PATTERNS = ("within normal limits", "true equinus", "jump", "apparent equinus",
+            "crouch", "knee recurvatum", "undetermined")
+
+
+def sagittal_pattern(cycle: ArrayLike, speed: str = "Free") -> tuple[str, float, float]:
+    """A gait cycle's sagittal pattern by Sangeux, Rodda & Graham's plantarflexor-knee
+    extension couple index (Gait Posture 2015, 41:586-591).
+
+    The ankle's and the knee's scores are their mean z-scores against the normative gait
+    over mid-stance (:data:`MID_STANCE`): (angle - normative mean) / normative SD,
+    averaged. Beyond +-1 they are abnormal: the ankle below -1 (plantarflexed) with the
+    knee not above +1 is *true equinus*, with the knee above +1 *jump*; the ankle within
+    +-1 with the knee above +1 *apparent equinus*; the ankle above +1 (dorsiflexed) with
+    the knee above +1 *crouch*; both within +-1 *within normal limits*; the knee below -1
+    with the ankle within +-1 *knee recurvatum*; anything else *undetermined*.
+
+    Parameters
+    ----------
+    cycle : array_like
+        ``(51, 3)`` clinical degrees over 0-100 % in steps of 2 (:func:`gait_scores`).
+    speed : str, default "Free"
+        The normative gait's speed group.
+
+    Returns
+    -------
+    pattern : str
+        One of :data:`PATTERNS`.
+    ankle, knee : float
+        The two scores.
+    """
+    c = np.asarray(cycle, dtype=float)
+    if c.shape != (len(PERCENT), 3) or not np.all(np.isfinite(c)):
+        raise ParameterError("sagittal_pattern", "cycle", f"expected {len(PERCENT)} finite "
+                             f"samples of 3 angles, got shape {c.shape}")
+    mean, sd = normative_cycle(speed)
+    mid = (PERCENT >= MID_STANCE[0]) & (PERCENT < MID_STANCE[1])
+    z = np.mean((c[mid] - mean[mid]) / sd[mid], axis=0)
+    knee, ankle = float(z[1]), float(z[2])
+    if abs(ankle) <= 1 and abs(knee) <= 1:
+        pattern = "within normal limits"
+    elif ankle < -1:
+        pattern = "true equinus" if knee <= 1 else "jump"
+    elif ankle > 1:
+        pattern = "crouch" if knee > 1 else "undetermined"
+    elif knee > 1:
+        pattern = "apparent equinus"
+    else:
+        pattern = "knee recurvatum"
+    return pattern, ankle, knee
