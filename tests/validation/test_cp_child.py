@@ -66,15 +66,18 @@ def test_the_real_childs_gait_as_a_childs_intent() -> None:
 
 def test_the_simulated_child_walks_the_real_childs_pattern() -> None:
     # the simulated child of their size (GMFCS II, mild spasticity, the predictcpgait
-    # contracture) intending their gait, transparent mode: the same sagittal pattern as
-    # the real child (Sangeux 2015: apparent equinus), forefoot contacts, no fault.
-    # Against the real child's mean +- 1 SD (measured over 12 strides, exoleg validate
-    # --cp-child: 50 / 31 / 44 % of the cycle at hip / knee / ankle; RMS 5.1 / 7.3 /
-    # 5.7 deg): the 90 % is not reached
+    # contracture) intending their gait, transparent mode, on a treadmill matched to that
+    # gait (the belt's speed and the other leg's support from its stance and swing): the
+    # same sagittal pattern as the real child (Sangeux 2015: apparent equinus), forefoot
+    # contacts, no fault. Against the real child's mean +- 1 SD (measured over 12
+    # strides, exoleg validate --cp-child: 68 / 77 / 60 % of the cycle at hip / knee /
+    # ankle, RMS 2.4 / 3.0 / 4.5 deg; on the normative gait's treadmill 50 / 31 / 44 %,
+    # 5.1 / 7.3 / 5.7 deg): the 90 % is not reached; bounds as measured here
     from exoleg.validate.cp_child import walk_match
 
-    w = walk_match(strides=8)
-    assert w.strides >= 4 and not w.fault
+    w = walk_match(strides=12)
+    assert w.strides >= 8 and not w.fault
     assert w.pattern == w.real_pattern == "apparent equinus"
     assert w.forefoot_first >= 0.9
-    assert np.all(w.rms_deg <= 8.0)
+    assert np.all(w.rms_deg <= [2.6, 3.3, 4.8]), w.rms_deg
+    assert np.all(w.within >= [0.65, 0.7, 0.55]), w.within

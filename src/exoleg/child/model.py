@@ -499,7 +499,7 @@ def real_gait(x: F64, stride_time: float, mass: float, harmonics: int = 12
     the vertical, the pelvis's tilt added, as exoleg's upright hip is), dq (rad/s) through
     its first ``harmonics`` Fourier harmonics (its 99 samples of a cycle), and its
     inverse-dynamics moments (N m, exoleg's signs) scaled by ``mass`` / the child's."""
-    from exoleg.validate.cp_child import MASS_KG, cp_child_gait
+    from exoleg.reference.cp_child import MASS_KG, cp_child_gait
 
     g = cp_child_gait()
     n = len(g.t) - 1  # the last sample closes the cycle onto the first
@@ -516,4 +516,15 @@ def real_gait(x: F64, stride_time: float, mass: float, harmonics: int = 12
     return qx, dqx, tau * (mass / MASS_KG)
 
 
-__all__ = ["GAITS", "LEVELS", "ChildModel", "Spasticity", "intended_gait", "real_gait"]
+def real_gait_toe_off(gait: str) -> float:
+    """The fraction of the cycle at which the real child whose gait is named ``gait``
+    (:data:`GAITS` but the normative) leaves the ground."""
+    from exoleg.reference.cp_child import toe_off_fraction
+
+    if gait != "predictcpgait":
+        raise ParameterError("child", "gait", f"{gait!r} is not a real child's gait")
+    return toe_off_fraction()
+
+
+__all__ = ["GAITS", "LEVELS", "ChildModel", "Spasticity", "intended_gait", "real_gait",
+           "real_gait_toe_off"]

@@ -94,7 +94,8 @@ def _cp_child(strides: int) -> int:
             for i, j in enumerate(JOINTS)],
            ["joint", "samples within the real child's mean +- 1 SD", "RMS deg"],
            title=f"the simulated child (GMFCS II, mild spasticity, the predictcpgait "
-                 f"contracture) intending this gait, in the device in transparent mode: "
+                 f"contracture) intending this gait, in the device in transparent mode, on "
+                 f"a treadmill matched to it: "
                  f"{w.strides} strides; {w.pattern} (the real child: {w.real_pattern}); "
                  f"{100 * w.forefoot_first:.0f} % of contacts forefoot first"
                  + ("; the safety layer stopped the walk" if w.fault else ""))

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from exoleg.child.compiled import child_records, child_tick
 from exoleg.child.interaction import device_leg, interaction_torque
-from exoleg.child.model import ChildModel
+from exoleg.child.model import ChildModel, intended_gait, real_gait_toe_off
 from exoleg.device.actuator import (
     ActuatorModel,
     current_loop,
@@ -49,7 +49,7 @@ from exoleg.world.plant import (
     step_contacts,
     walking_step,
 )
-from exoleg.world.treadmill import belt_speed_for, other_leg_support
+from exoleg.world.treadmill import SWING, belt_speed_for, other_leg_support
 
 F64 = NDArray[np.float64]
 
@@ -267,8 +267,16 @@ class SimulatedDevice:
         SchwartzGait2008(stride_time=stride_time, speed=speed)  # checks both
         share = body_weight_share(body_mass)
         depth = ankle_height + ground.sole
+        # the treadmill's scenery -- the belt's speed and the other leg's support -- is
+        # the gait's the child walks: the normative one's, or a real child's they intend
+        # (its stance and swing: a crouched child's hip extends slower on the belt)
+        gait, swing_from = None, SWING[0]
+        if child is not None and child.gait != "normative":
+            gait = intended_gait(child, stride_time, speed)[0]
+            swing_from = real_gait_toe_off(child.gait)
         plant = WalkingPlant.of(with_actuators(leg, actuators), share,
-                                belt_speed_for(leg, speed, stride_time), ground, ankle_height)
+                                belt_speed_for(leg, speed, stride_time, gait), ground,
+                                ankle_height)
         if step:  # the other leg holds the pelvis that much higher
             plant = dataclasses.replace(plant, support_height=plant.support_height + step)
         fk = leg.fk(standing)
@@ -279,7 +287,8 @@ class SimulatedDevice:
         x0[1:4] = standing
         return cls(leg=leg, actuators=tuple(actuators), sensors=sensors, plant=plant,
                    A=params_array(tuple(actuators)),
-                   support=other_leg_support(leg, plant.points, speed, ground.support_drop),
+                   support=other_leg_support(leg, plant.points, speed, ground.support_drop,
+                                             gait=gait, swing_from=swing_from),
                    depth=depth, imu_x=sensors.imu_position * float(leg.lengths[2]), x0=x0,
                    stride_time=stride_time, speed=speed, child=child,
                    device_p=device_leg(leg, actuators).p, step=float(step),

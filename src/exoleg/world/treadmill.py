@@ -12,15 +12,27 @@ from exoleg.dynamics.model import LegModel
 F64 = NDArray[np.float64]
 
 
-def belt_speed_for(leg: LegModel, speed: str, stride_time: float) -> float:
-    """The belt speed that matches the normative gait's stance: the ankle's mean backward
-    speed relative to the hip between 15 % and 45 % of the cycle (mid-stance), m/s."""
+def belt_speed_for(leg: LegModel, speed: str, stride_time: float,
+                   gait: F64 | None = None) -> float:
+    """The belt speed that matches the normative gait's stance -- or ``gait``'s, a gait
+    cycle q (samples, 3) over fractions 0-1 of the cycle: the ankle's mean backward speed
+    relative to the hip between 15 % and 45 % of the cycle (mid-stance), m/s."""
     from exoleg.reference.gait import SchwartzGait2008
 
-    gait = SchwartzGait2008(stride_time=stride_time, speed=speed, upright=True)
-    t = np.linspace(0.15, 0.45, 61) * stride_time
-    ankle = leg.fk(gait.sample(t)[0])["ankle"][:, 0]
+    x = np.linspace(0.15, 0.45, 61)
+    t = x * stride_time
+    if gait is None:
+        q = SchwartzGait2008(stride_time=stride_time, speed=speed, upright=True).sample(t)[0]
+    else:
+        q = _cycle_at(gait, x)
+    ankle = leg.fk(q)["ankle"][:, 0]
     return float(max(0.0, -(ankle[-1] - ankle[0]) / (t[-1] - t[0])))
+
+
+def _cycle_at(gait: F64, x: F64) -> F64:
+    """A gait cycle's q (samples over fractions 0-1, 3) at fractions ``x``, linearly."""
+    grid = np.linspace(0.0, 1.0, len(gait))
+    return np.stack([np.interp(x, grid, gait[:, j]) for j in range(3)], axis=1)
 
 
 def hip_height(leg: LegModel, q: F64, sole: F64) -> F64:
@@ -39,20 +51,24 @@ SWING = (0.58, 0.95)
 
 
 def other_leg_support(leg: LegModel, sole: F64, speed: str, clearance: float,
-                      carry: float = 0.01, samples: int = 201) -> F64:
+                      carry: float = 0.01, samples: int = 201, gait: F64 | None = None,
+                      swing_from: float = SWING[0]) -> F64:
     """The other leg's support height over this leg's cycle (samples,), m.
 
-    The other leg is an actor, not a model: while this leg swings it holds the pelvis
-    where this leg's normative swing posture clears the belt by ``clearance`` (what a
-    child's pelvis and other leg do, by rising and hip hiking: fixed at the hip's x, the
-    normative joint angles alone would scuff the toe); through this leg's stance it
-    stays ``carry`` below this leg's stance height, so this leg carries the body."""
+    The other leg is an actor, not a model: while this leg swings (``swing_from`` to
+    :data:`SWING`'s end) it holds the pelvis where this leg's swing posture -- the
+    normative gait's, or ``gait``'s (a cycle's q over fractions 0-1) -- clears the belt
+    by ``clearance`` (what a child's pelvis and other leg do, by rising and hip hiking:
+    fixed at the hip's x, the joint angles alone would scuff the toe); through this leg's
+    stance it stays ``carry`` below this leg's stance height, so this leg carries the
+    body."""
     from exoleg.reference.gait import SchwartzGait2008
 
-    gait = SchwartzGait2008(stride_time=1.0, speed=speed, upright=True)
     x = np.linspace(0.0, 1.0, samples)
-    hh = hip_height(leg, gait.sample(x)[0], sole)
-    swing = (x >= SWING[0]) & (x <= SWING[1])
+    q = (SchwartzGait2008(stride_time=1.0, speed=speed, upright=True).sample(x)[0]
+         if gait is None else _cycle_at(gait, x))
+    hh = hip_height(leg, q, sole)
+    swing = (x >= swing_from) & (x <= SWING[1])
     h = np.where(swing, np.max(hh[swing]) + clearance, hh - carry)
     k = max(1, samples // 40)  # smoothed over 5 % of the cycle, circularly
     pad = np.concatenate([h[-k:], h, h[:k]])

@@ -1,0 +1,91 @@
+"""The shipped real child with CP (issue 41): predictcpgait's subject 1 (Falisse et al.
+2020, Front Hum Neurosci 14:40; repository antoinefalisse/predictcpgait, MIT licence), a
+child with spastic diplegic CP -- their right leg over one gait cycle
+(``data/child/predictcpgait_subject1_r.csv``) in exoleg's angles and signs. Checked by
+:mod:`exoleg.validate.cp_child`; walked as a simulated child's intent by
+:func:`exoleg.child.model.real_gait`."""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+from functools import cache
+from importlib import resources
+
+import numpy as np
+from numpy.typing import NDArray
+
+from exoleg.params.records import JOINTS
+
+F64 = NDArray[np.float64]
+
+#: the subject's mass (the repository's OpenSim model, the sum of its bodies), kg
+MASS_KG = 33.1
+#: the height taken for them, m (child-references: a 33 kg child's generic hamstring
+#: moment is 0.30x Riener's adults, (1.35-1.40 / 1.75)^5)
+HEIGHT_M = 1.375
+G = 9.81
+
+
+@dataclass(frozen=True)
+class CPChildGait:
+    """The shipped gait in exoleg's angles and signs (q = hip flexion, -knee flexion,
+    ankle dorsiflexion; a torque + moves q +): time (s), q, its SD, dq, ddq (rad, rad/s,
+    rad/s^2; hip from the pelvis), the joint moments and their SD (N m), the pelvis's
+    tilt (rad, + anticlockwise seen from the right) with its rates, its origin's
+    acceleration (m/s^2, x forward, y up), and the ground reaction force (N)."""
+
+    t: F64
+    q: F64
+    q_sd: F64
+    dq: F64
+    ddq: F64
+    tau: F64
+    tau_sd: F64
+    tilt: F64
+    tilt_rate: F64
+    tilt_acc: F64
+    pelvis_acc: F64
+    grf: F64
+
+
+@cache
+def cp_child_gait() -> CPChildGait:
+    """The shipped real CP child's gait (``data/child/predictcpgait_subject1_r.csv``).
+
+    Returns
+    -------
+    CPChildGait
+        100 samples over one cycle from the right initial contact.
+    """
+    text = resources.files("exoleg").joinpath(
+        "data", "child", "predictcpgait_subject1_r.csv").read_text()
+    rows = list(csv.DictReader(ln for ln in text.splitlines() if not ln.startswith("#")))
+    c = {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+    sign = np.array([1.0, -1.0, 1.0])  # knee flexion is -q2
+
+    def joints(suffix: str) -> F64:
+        return np.stack([c[f"{j}{suffix}"] for j in JOINTS], axis=1) * sign
+
+    rad = math.pi / 180.0
+    return CPChildGait(
+        t=c["time_s"], q=joints("") * rad, q_sd=np.abs(joints("_sd")) * rad,
+        dq=joints("_rate") * rad, ddq=joints("_acc") * rad, tau=joints("_moment"),
+        tau_sd=np.abs(joints("_moment_sd")), tilt=c["pelvis_tilt"] * rad,
+        tilt_rate=c["pelvis_tilt_rate"] * rad, tilt_acc=c["pelvis_tilt_acc"] * rad,
+        pelvis_acc=np.stack([c["pelvis_x_acc"], c["pelvis_y_acc"]], axis=1),
+        grf=np.stack([c["grf_fore_aft_pct_bw"], c["grf_vertical_pct_bw"]], axis=1)
+        / 100.0 * MASS_KG * G)
+
+
+def toe_off_fraction() -> float:
+    """The fraction of the cycle at which the shipped child's foot leaves the ground:
+    the first sample after their stance whose vertical ground reaction force is below
+    1 % of their body weight."""
+    g = cp_child_gait()
+    off = np.nonzero(g.grf[:, 1] < 0.01 * MASS_KG * G)[0]
+    return float(off[0] / (len(g.t) - 1))
+
+
+__all__ = ["CPChildGait", "HEIGHT_M", "MASS_KG", "cp_child_gait", "toe_off_fraction"]
