@@ -99,6 +99,10 @@ def _cp_child(strides: int) -> int:
                  f"{w.strides} strides; {w.pattern} (the real child: {w.real_pattern}); "
                  f"{100 * w.forefoot_first:.0f} % of contacts forefoot first"
                  + ("; the safety layer stopped the walk" if w.fault else ""))
+    for row in w.detection:
+        _say(f"the detector (FSRs and the foot's IMU, x1 noise), {row['event']}: "
+             f"{row['detected']} of {row['true']}, median {row['median_abs_error_ms']:.0f} "
+             f"ms, p95 {row['p95_abs_error_ms']:.0f} ms off the true ones")
     goal_id = bool(np.all(idyn["relative"][:2] <= 0.10))
     goal_walk = bool(np.all(w.within >= 0.90))
     _say(f"goals: inverse dynamics within 10 % RMS at hip and knee: "

@@ -100,7 +100,9 @@ class WalkMatch:
     vertical), ``within`` per joint the share of its samples within the real child's
     mean +- 1 SD, ``rms_deg`` per joint, ``strides`` counted, ``pattern`` and
     ``real_pattern`` (Sangeux 2015's class of each), ``fault`` whether the safety layer
-    stopped the walk, ``forefoot_first`` the share of contacts made with the forefoot."""
+    stopped the walk, ``forefoot_first`` the share of contacts made with the forefoot,
+    ``detection`` the gait-phase detector's rows for initial contact and toe off
+    (:func:`exoleg.sim.metrics.detection_table`)."""
 
     cycle: F64
     within: F64
@@ -110,6 +112,7 @@ class WalkMatch:
     real_pattern: str
     fault: bool
     forefoot_first: float
+    detection: list[dict[str, Any]]
 
 
 def walk_match(strides: int = 12, spasticity: str = "mild",
@@ -125,6 +128,7 @@ def walk_match(strides: int = 12, spasticity: str = "mild",
     from exoleg.control.transparency import SupportMode
     from exoleg.reference.scores import PERCENT, clinical_degrees, sagittal_pattern
     from exoleg.sim.events import true_events
+    from exoleg.sim.metrics import detection_table
     from exoleg.sim.walk import simulate_walk
     from exoleg.sizing import Child, personalized_leg
 
@@ -166,4 +170,6 @@ def walk_match(strides: int = 12, spasticity: str = "mild",
         real_pattern=sagittal_pattern(clinical_degrees(on_grid[1]))[0],
         fault=bool(np.any(r.safety_status & Limited.FAULT)),
         forefoot_first=float(np.mean((fore[:, 1:].max(axis=1) > 5.0) & (fore[:, 0] <= 5.0)))
-        if len(keep) else math.nan)
+        if len(keep) else math.nan,
+        detection=[row for row in detection_table([r])
+                   if row["event"] in ("initial contact", "toe off")])
