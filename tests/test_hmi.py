@@ -74,6 +74,17 @@ def fill(driver: Any, id_: str, value: object) -> None:
     e.send_keys(str(value))
 
 
+def fill_child(driver: Any, name: str, age: str, height: str, mass: str) -> Any:
+    """The Child page's form filled with a child's name, age, height and mass."""
+    form = driver.find_element("id", "child-form")
+    for field_name, value in (("name", name), ("age", age), ("height", height),
+                              ("mass", mass)):
+        field = form.find_element("name", field_name)
+        field.clear()
+        field.send_keys(value)
+    return form
+
+
 @pytest.fixture(scope="module")
 def hmi(tmp_path_factory: pytest.TempPathFactory) -> Any:
     with served_hmi(tmp_path_factory.mktemp("hmi") / "sessions") as served:
@@ -102,13 +113,9 @@ def test_child_page_fits_and_keeps_the_child(hmi: Any, operator: Any) -> None:
     d.find_element("id", "take").click()
     wait_until("control taken", lambda: "you (operator) hold control" in text(d, "hdr-operator"))
     goto(d, "child")
-    form = d.find_element("id", "child-form")
     # a child the datasheets' device carries walking (issue 21: at 24 V, with its gears'
     # ratings, a 9-year-old of 27 kg already faults at the knee; 8 y, 25 kg walks)
-    for name, value in (("name", "Ada"), ("age", "8"), ("height", "126"), ("mass", "25")):
-        field = form.find_element("name", name)
-        field.clear()
-        field.send_keys(value)
+    form = fill_child(d, "Ada", "8", "126", "25")
     form.find_element("name", "spasticity").send_keys("mild")  # the child as an actor
     d.find_element("id", "fit").click()
     verdict = wait_until("the fit's verdict", lambda: text(d, "verdict"), timeout=60)
@@ -643,11 +650,7 @@ def test_a_childs_record_and_settings_follow_them(hmi: Any, operator: Any) -> No
     fits = ada()["fits"]
     goto(d, "child")
     press(d, "new-child")
-    form = d.find_element("id", "child-form")
-    for name, value in (("name", "Ben"), ("age", "8"), ("height", "128"), ("mass", "26")):
-        fill_in = form.find_element("name", name)
-        fill_in.clear()
-        fill_in.send_keys(value)
+    fill_child(d, "Ben", "8", "128", "26")
     press(d, "fit")
     wait_until("Ben kept", lambda: runs_on().startswith("Ben ("), timeout=60)
     # Ada again, from the list: her last fit (the identified leg), not a new one
