@@ -16,7 +16,7 @@ from exoleg.child.curves import SIGNATURES, curve_signatures, falisse_curves, si
 from exoleg.child.interaction import device_leg
 from exoleg.child.model import ChildModel, Spasticity, crouch_offset, intended_gait
 from exoleg.child.passive import Contracture, passive_moments, passive_record
-from exoleg.errors import ParameterError
+from exoleg.errors import ParameterError, SimulationError
 
 
 def riener_printed(pa: float, pk: float, ph: float) -> tuple[float, float, float]:
@@ -261,6 +261,12 @@ def test_the_pendulum_test_meets_white_2007_for_a_typical_and_a_spastic_child() 
     assert fast[1] >= 1.5 * fast[0]
     calm = stretch(td, speeds=(5.0, 180.0)).peak_resistance
     assert calm[1] <= 1.1 * calm[0]
+    # a knee whose range ends before the stretch starts has nothing to stretch: said,
+    # not a peak of one sample
+    tight = td.with_(contracture=Contracture("tight hamstrings", {
+        "knee_flexors": (5.0, 1.0, 1.0), "hip_extensors": (5.0, 1.0, 1.0)}))
+    with pytest.raises(SimulationError, match="resist .* N m at 90 deg flexion already"):
+        stretch(tight)
 
 
 def test_assess_writes_the_summary_the_issue_names(tmp_path) -> None:  # type: ignore[no-untyped-def]

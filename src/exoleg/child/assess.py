@@ -206,6 +206,14 @@ def stretch(child: ChildModel, speeds: tuple[float, ...] = (5.0, 30.0, 60.0, 90.
             passive = r_all - x_all
             above = np.nonzero(passive >= 10.0)[0]
             end = float(knee[above[0]]) if above.size else float(knee[-1])
+            if end >= knee[0] - 5.0:  # no range to stretch through
+                raise SimulationError(
+                    f"the stretch of {child.name or 'the child'}: their knee flexors resist "
+                    f"{passive[0]:.1f} N m at {knee[0]:g} deg flexion already -- the end "
+                    f"of the range (10 N m) comes within 5 deg of the stretch's start, "
+                    "so no velocity-dependent resistance can be measured (contracture "
+                    f"'{child.contracture.name}' at level {child.contracture.level:g}: "
+                    "lower it, or test the pendulum)")
         # the examiner's hand stops at the end of the range the slowest stretch found
         keep = knee >= end
         angles.append(knee[keep])
