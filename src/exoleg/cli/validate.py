@@ -51,6 +51,19 @@ def _transparency(strides: int) -> int:
             "rotor's inertia now / that fits kg m^2"],
            title=f"the budget: the device alone along the normative gait at 1.1 s strides, "
                  f"{v.child} ({v.body_mass:.1f} kg)")
+    from exoleg.validate.transparency import LIMITS
+
+    reach = v.rows[-1]["rms_Nm_per_kg"]
+    _table([[b["joint"], *(f"{b['floors_Nm_per_kg'][k]:.3f}" for k in LIMITS),
+             f"{b['floor_all_Nm_per_kg']:.3f}", f"{b['gear_mode_hz']:.0f}",
+             f"{reach[b['joint']]:.3f}"] for b in v.floors],
+           ["joint", *(f"{k} N m/kg" for k in LIMITS), "all together N m/kg",
+            "gear's first mode Hz", "the law reaches N m/kg"],
+           title="the physical floor along the walk's own motion: what each limit of the "
+                 "actuators' datasheets alone leaves the child of the device alone's need "
+                 "(RMS per kg), all of them together (the drive's envelope), the rotor on "
+                 "the gear's stiffness (bounding any torque loop's bandwidth), beside the "
+                 "law's residual on the same motion")
     _table([[r["parts"], *(f"{r['rms_Nm_per_kg'][j]:.3f} ({r['rms_Nm'][j]:.1f})"
                            for j in JOINTS)] for r in v.rows],
            ["transparent law's parts", *(f"{j} N m/kg (N m)" for j in JOINTS)],

@@ -65,7 +65,8 @@ def budget(leg: Any, config: Any, body_mass: float, stride_time: float = 1.1,
     inertial = np.einsum("kij,kj->ki", dev.M(q), ddq)
     rows = []
     for j, joint in enumerate(JOINTS):
-        lim = config.actuators[j].torque_limit
+        act = config.actuators[j]
+        lim = act.torque_limit
         over = np.maximum(np.abs(need[:, j]) - lim, 0.0)
         # the need is the links' and friction's plus the rotor's J ddq: the largest J
         # that keeps |links + J ddq| within the limit at every sample of the cycle
@@ -79,8 +80,48 @@ def budget(leg: Any, config: Any, body_mass: float, stride_time: float = 1.1,
                      "inertial_rms_Nm": _rms(inertial[:, j]), "limit_Nm": float(lim),
                      "beyond_share": float(np.mean(over > 0.0)),
                      "floor_Nm_per_kg": _rms(over) / body_mass,
-                     "rotor_inertia_kgm2": float(rotors[j]), "fits_kgm2": fits})
+                     "rotor_inertia_kgm2": float(rotors[j]), "fits_kgm2": fits,
+                     **limit_floors(act, need[:, j], dq[:, j], body_mass)})
     return rows
+
+
+#: the physical limits a drive's torque meets, by name (:func:`limit_floors`)
+LIMITS = ("gear's repeated peak", "drive's current limit", "bus voltage (back-EMF)",
+          "rotor's permissible speed")
+
+
+def limit_floors(act: Any, need: F64, w: F64, body_mass: float) -> dict[str, Any]:
+    """What each of the actuator ``act``'s physical limits alone leaves the child of the
+    device's ``need`` (N m per sample of the cycle) at joint speeds ``w`` (rad/s): per
+    :data:`LIMITS`, the RMS of the need beyond the torque that limit allows, per kg
+    (``floors_Nm_per_kg``), and all together (``floor_all_Nm_per_kg``: the drive's
+    envelope, :func:`~exoleg.device.actuator.drive_limit`); the gear's first mode with
+    the rotor and the gear's input on its stiffness (``gear_mode_hz``: sqrt(k / N^2 J)
+    / 2 pi), which bounds any torque loop's bandwidth (a loop on a joint torque sensor
+    included).
+
+    The torque each allows: the gear, its repeated peak; the drive, N eta k_t I_max;
+    the voltage, N eta k_t (V - N k_t |w|) / R while the motor drives the motion (the
+    need along the speed; braking, the back-EMF helps: no limit); the rotor's speed, none
+    beyond N times its permissible speed while driving."""
+    from exoleg.device.actuator import drive_limit
+
+    a = np.abs(need)
+    driving = need * w > 0.0
+    volt = np.where(driving, act.joint_torque_constant * np.maximum(
+        0.0, (act.bus_voltage - act.torque_constant * act.ratio * np.abs(w))
+        / act.terminal_resistance), np.inf)
+    speed = np.where(driving & (np.abs(w) > act.permissible_speed), 0.0, np.inf)
+    allowed = {LIMITS[0]: np.full_like(a, act.repeated_peak_torque),
+               LIMITS[1]: np.full_like(a, act.current_limited_torque),
+               LIMITS[2]: volt, LIMITS[3]: speed}
+    A = act.record()
+    envelope = np.array([drive_limit(A, wk, uk) for wk, uk in zip(w, need, strict=True)])
+    return {"floors_Nm_per_kg": {k: _rms(np.maximum(a - v, 0.0)) / body_mass
+                                 for k, v in allowed.items()},
+            "floor_all_Nm_per_kg": _rms(np.maximum(a - envelope, 0.0)) / body_mass,
+            "gear_mode_hz": float(np.sqrt(act.gear_stiffness / act.reflected_inertia)
+                                  / (2 * np.pi))}
 
 
 def contributions(r: Any, after: float | None = None) -> list[dict[str, Any]]:
@@ -110,7 +151,8 @@ def contributions(r: Any, after: float | None = None) -> list[dict[str, Any]]:
 class Transparency:
     """``exoleg validate --transparency``'s figures: the child, the budget rows, the
     contribution rows, each joint's share of the walk at the drive's limit, whether the
-    safety layer stopped the walk, the run."""
+    safety layer stopped the walk, the run, and per joint the physical floor along the
+    walk's own motion (:func:`walk_floors`)."""
 
     child: str
     body_mass: float
@@ -119,6 +161,7 @@ class Transparency:
     saturated: dict[str, float]
     fault: bool
     run: Any
+    floors: list[dict[str, Any]]
 
     @property
     def met(self) -> bool:
@@ -152,7 +195,31 @@ def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0) -> Tran
                         rows=contributions(r), fault=bool(np.any(r.safety_status
                                                                  & Limited.FAULT)),
                         saturated=dict(zip(JOINTS, at.mean(axis=0).tolist(), strict=True)),
-                        run=r)
+                        run=r, floors=walk_floors(r, leg, config))
+
+
+def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None
+                ) -> list[dict[str, Any]]:
+    """Per joint, :func:`limit_floors` of the device alone's need along a walk's own
+    motion (``r``: a :class:`~exoleg.sim.walk.WalkResult`; its angles and rates, their
+    acceleration by central differences) from ``after`` s (default: :data:`SETTLE_STRIDES`
+    strides after its start): the floor the transparent law's residual on that walk is
+    to be judged against."""
+    from exoleg.child.interaction import device_leg
+    from exoleg.device.actuator import friction, params_array
+
+    t0 = r.walk_start + SETTLE_STRIDES * r.stride_time if after is None else after
+    sel = r.t >= t0
+    dt = float(r.t[1] - r.t[0])
+    q, dq = r.q[sel], r.dq[sel]
+    ddq = np.gradient(r.dq, dt, axis=0)[sel]
+    dev = device_leg(leg, config.actuators)
+    A = params_array(config.actuators)
+    need = dev.inverse_dynamics(q, dq, ddq) + np.array(
+        [[friction(A[j:j + 1], w) for j, w in enumerate(row)] for row in dq])
+    return [{"joint": joint, **limit_floors(config.actuators[j], need[:, j], dq[:, j],
+                                            r.body_mass)}
+            for j, joint in enumerate(JOINTS)]
 
 
 def _rms(x: F64) -> float:
