@@ -42,7 +42,7 @@ def _child_loop(P, C, S, n, out):  # type: ignore[no-untyped-def]
     acc = 0.0
     for k in range(n):
         q[1] = -0.3 + 0.2 * np.sin(k * 1e-3)
-        child_tick(P, C, S, q, dq, 1e-3, True, (k % 1100) / 1100.0, k % 1100 < 660, out)
+        child_tick((P, C, S), q, dq, 1e-3, True, (k % 1100) / 1100.0, k % 1100 < 660, out)
         acc += out[1]
     return acc
 

@@ -166,13 +166,15 @@ def _learn(c, s, xc, q, loaded):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def child_tick(P, C, CS, q, dq, h, walking, xc, loaded, out):  # type: ignore[no-untyped-def]
+def child_tick(child, q, dq, h, walking, xc, loaded, out):  # type: ignore[no-untyped-def]
     """The child's muscles over one tick, their passive moments aside (the plant adds
     those in every stage): tone, short-range stiffness and stretch reflex of each spastic
     group, and the effort tracking the intended gait at the child's gait fraction ``xc``
     while ``walking`` (else holding the standing posture) from what the child felt a
-    delay ago, within their strength, stiffer while their foot is ``loaded``. Torques
-    (N m, exoleg's signs) into ``out`` (3,)."""
+    delay ago, within their strength, stiffer while their foot is ``loaded``. ``child``:
+    (:data:`PASSIVE`, :data:`CHILD`, :data:`CHILD_STATE`), as :func:`child_records` makes
+    them. Torques (N m, exoleg's signs) into ``out`` (3,)."""
+    P, C, CS = child
     R = P[0]
     c = C[0]
     s = CS[0]

@@ -41,9 +41,11 @@ def device_leg(leg: LegModel, actuators: tuple[ActuatorModel, ...]) -> LegModel:
 
 
 @njit(cache=True)
-def interaction_torque(pd, A, g, q, dq, ddq, ddy, tau, out):  # type: ignore[no-untyped-def]
+def interaction_torque(pd, A, g, motion, ddy, tau, out):  # type: ignore[no-untyped-def]
     """The cuffs' torque (N m) into out (3,) from the delivered torque ``tau`` and the
-    motion (q, dq, ddq; the pelvis's ddy), the device alone's parameters ``pd``."""
+    motion (``motion``: rows q, dq, ddq; the pelvis's ddy), the device alone's
+    parameters ``pd``."""
+    q, dq, ddq = motion[0], motion[1], motion[2]
     M = np.empty((3, 3))
     mass_matrix(q, pd, M)
     Cq = np.empty(3)

@@ -191,15 +191,16 @@ def fsr_counts(s, force, noise):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def imu(s, foot_rate, acc_x, acc_y, phi, g, bias_g, bias_ax, bias_ay, n_g, n_ax, n_ay):  # type: ignore[no-untyped-def]
+def imu(s, foot_rate, acc_x, acc_y, phi, g, bias, noise):  # type: ignore[no-untyped-def]
     """(gyro rad/s, accelerometer x, y m/s^2 in the foot frame): the true foot rate and
     the specific force (acceleration less gravity, rotated into the foot frame) plus
-    bias and noise (already scaled), saturated at the ranges."""
+    ``bias`` and ``noise`` (3,: gyro, accelerometer x, y; the noise already scaled),
+    saturated at the ranges."""
     c, sn = math.cos(phi), math.sin(phi)
     fx, fy = acc_x, acc_y + g  # specific force in the world frame (gravity along -y)
-    ax = c * fx + sn * fy + bias_ax + n_ax
-    ay = -sn * fx + c * fy + bias_ay + n_ay
-    gr = foot_rate + bias_g + n_g
+    ax = c * fx + sn * fy + bias[1] + noise[1]
+    ay = -sn * fx + c * fy + bias[2] + noise[2]
+    gr = foot_rate + bias[0] + noise[0]
     rg, ra = s[0].gyro_range, s[0].accel_range
     return min(max(gr, -rg), rg), min(max(ax, -ra), ra), min(max(ay, -ra), ra)
 

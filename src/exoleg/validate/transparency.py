@@ -101,7 +101,7 @@ def limit_floors(act: Any, need: F64, w: F64, body_mass: float) -> dict[str, Any
     included).
 
     The torque each allows: the gear, its repeated peak; the drive, N eta k_t I_max;
-    the voltage, N eta k_t (V - N k_t |w|) / R while the motor drives the motion (the
+    the voltage, N eta k_t (V - N k_t abs(w)) / R while the motor drives the motion (the
     need along the speed; braking, the back-EMF helps: no limit); the rotor's speed, none
     beyond N times its permissible speed while driving."""
     from exoleg.device.actuator import drive_limit

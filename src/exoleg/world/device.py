@@ -122,8 +122,7 @@ def device_sense(p, w, A, sens, imu_x, imu_y, S, h, first, fsr_noise, imu_noise,
     for i in range(3):
         o.interaction[i] = D.interaction[i]
     o.gyro, o.accel[0], o.accel[1] = imu(sens, x[5] + x[6] + x[7], ax, ay, phi, w[0].g,
-                                         imu_bias[0], imu_bias[1], imu_bias[2],
-                                         imu_noise[0], imu_noise[1], imu_noise[2])
+                                         imu_bias, imu_noise)
     for i in range(3):
         a = A[i:i + 1]
         q = encode(a, x[1 + i])
@@ -180,8 +179,7 @@ def device_actuate(p, w, A, K, S, h, sub, u, fn, walking, t, stride, support,  #
     for i in range(3):
         env[i] = drive_limit(A[i:i + 1], D.vm[i], u[i])
     x = D.x
-    child_tick(P, C, CS, x[1:4], x[5:8], h, walking, xc, D.loaded,
-               D.child)
+    child_tick((P, C, CS), x[1:4], x[5:8], h, walking, xc, D.loaded, D.child)
     x0 = x.copy()
     pts = np.empty((SOLE_MAX, 4))
     F = np.empty((SOLE_MAX, 2))
@@ -207,7 +205,7 @@ def device_actuate(p, w, A, K, S, h, sub, u, fn, walking, t, stride, support,  #
             qm[i] = 0.5 * (x0[1 + i] + x[1 + i])
             dqm[i] = 0.5 * (x0[5 + i] + x[5 + i])
             ddq[i] = (x[5 + i] - x0[5 + i]) / h
-        interaction_torque(pd, A, W.g, qm, dqm, ddq, (x[4] - x0[4]) / h, tau, D.interaction)
+        interaction_torque(pd, A, W.g, V[2:], (x[4] - x0[4]) / h, tau, D.interaction)
     ok = 1
     for i in range(8):
         if not math.isfinite(x[i]):
