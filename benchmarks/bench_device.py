@@ -132,7 +132,7 @@ def main() -> None:
         def mj() -> None:
             mujoco.mj_resetData(m, d)
             for k in range(len(t) - 1):
-                control_law(*args, d.qpos, d.qvel, Qr[k], DQr[k], DDQr[k], u)
+                control_law(args, d.qpos, d.qvel, (Qr[k], DQr[k], DDQr[k]), u)
                 d.qfrc_applied[:] = u
                 mujoco.mj_step(m, d)
 

@@ -110,7 +110,8 @@ class Controller:
             if a.shape != (3,) or not np.all(np.isfinite(a)):
                 raise ParameterError(self.name, nm, f"expected 3 finite values, got {a!r}")
         u = np.empty(3)
-        mask = laws.control_law(self.kind, *self.law_args(), *args, u)  # type: ignore[call-arg]
+        mask = laws.control_law((self.kind, *self.law_args()), args[0], args[1],
+                                (args[2], args[3], args[4]), u)
         return u, int(mask)
 
     def law_args(self) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...], float,

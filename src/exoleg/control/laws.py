@@ -73,10 +73,13 @@ def law(c, sc, q, v, r, w, a):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def control_law(kind, kp, kd, kc, scale, limit, q, dq, q_ref, dq_ref, ddq_ref, u):  # type: ignore[no-untyped-def]
-    """:func:`law` on arrays (3,): writes the torque into ``u``; returns the saturation mask."""
+def control_law(params, q, dq, ref, u):  # type: ignore[no-untyped-def]
+    """:func:`law` on arrays (3,): ``params`` its record (kind, kp, kd, kc, scale,
+    limit), ``ref`` the reference (q_ref, dq_ref, ddq_ref); writes the torque into ``u``;
+    returns the saturation mask."""
+    q_ref, dq_ref, ddq_ref = ref
     u[0], u[1], u[2], mask = law(
-        (kind, kp, kd, kc, scale, limit),
+        params,
         (math.sin(q[0]), math.cos(q[0]), math.sin(q[1]), math.cos(q[1]), math.sin(q[2]),
          math.cos(q[2])), (q[0], q[1], q[2]), (dq[0], dq[1], dq[2]),
         (q_ref[0], q_ref[1], q_ref[2]), (dq_ref[0], dq_ref[1], dq_ref[2]),

@@ -54,15 +54,16 @@ def guard_step(lim, sst, sup, sens, refused, u, qr, out):  # type: ignore[no-unt
 
 
 @njit(cache=True)
-def track_step(kind, kp, kd, kc, scale, limit, lim, sst, sup, sens, refused, qr, dqr, ddqr,  # type: ignore[no-untyped-def]
-               out):
-    """A compiled law (``kind``, :func:`~exoleg.control.laws.control_law`) at the
-    reference ``qr``, ``dqr``, ``ddqr`` (3,) on the readings ``sens``, then
-    :func:`guard_step`."""
+def track_step(params, guard, sens, refused, ref, out):  # type: ignore[no-untyped-def]
+    """A compiled law (``params``: its record, :func:`~exoleg.control.laws.control_law`)
+    at the reference ``ref`` (q, dq, ddq: (3,) each) on the readings ``sens``, then
+    :func:`guard_step` (``guard``: the safety layer's limits and state and the
+    supervisor's)."""
     s = sens[0]
     u = np.empty(3)
-    control_law(kind, kp, kd, kc, scale, limit, s.q, s.dq, qr, dqr, ddqr, u)
-    guard_step(lim, sst, sup, sens, refused, u, qr, out)
+    control_law(params, s.q, s.dq, ref, u)
+    lim, sst, sup = guard
+    guard_step(lim, sst, sup, sens, refused, u, ref[0], out)
 
 
 #: The ticks as Python calls them (numba's dispatcher has no signature for a type checker).
@@ -162,7 +163,7 @@ class TrackingController:
         sst, sup, z = self.sst.copy(), self.sup.copy(), np.zeros(3)
         refused = _supervise(sup, self.lim, sst, 0, z, z)
         if self._own is None:
-            _track(*self._args, self.lim, sst, sup, new(SENSORS), refused, z, z, z,
+            _track(self._args, (self.lim, sst, sup), new(SENSORS), refused, (z, z, z),
                    new(OUTPUT))
         else:  # a law of one's own fails here, before the clock starts, if it must
             _guard(self.lim, sst, sup, new(SENSORS), refused,
@@ -201,8 +202,8 @@ class TrackingController:
         else:
             _, q, dq, ddq = self._held
         if self._own is None:
-            _track(*self._args, self.lim, self.sst, self.sup, self.io.sens, refused, q, dq,
-                   ddq, self.io.out)
+            _track(self._args, (self.lim, self.sst, self.sup), self.io.sens, refused,
+                   (q, dq, ddq), self.io.out)
         else:
             _guard(self.lim, self.sst, self.sup, self.io.sens, refused,
                    self._torque(r["q"], r["dq"], q, dq, ddq), q, self.io.out)

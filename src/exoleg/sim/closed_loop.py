@@ -55,7 +55,7 @@ def warm_up() -> None:
     states = np.zeros((2, 3))  # the argument types simulate() and the engines pass
     _diagnose(leg.p, leg.g, (1.0, 1.0, 1.0), states, states, states, np.empty((2, 5)))
     z = np.zeros(3)
-    control_law(ctrl.kind, *ctrl.law_args(), z, z, z, z, z, np.zeros(3))
+    control_law((ctrl.kind, *ctrl.law_args()), z, z, (z, z, z), np.zeros(3))
 
 
 @njit(cache=True, error_model="numpy")

@@ -126,7 +126,7 @@ class MujocoLeg:
         qpos, qvel = d.qpos, d.qvel  # views into MuJoCo's state
         for k in range(len(q_ref) - 1):
             if k % hold == 0:
-                control_law(*args, qpos, qvel, q_ref[k], dq_ref[k], ddq_ref[k], u)  # type: ignore[call-arg]
+                control_law(args, qpos, qvel, (q_ref[k], dq_ref[k], ddq_ref[k]), u)
                 d.qfrc_applied[:] = u
             mj.mj_step(m, d)
             out[k + 1] = qpos
