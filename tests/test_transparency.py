@@ -61,8 +61,8 @@ def _law(settings_: TransparencySettings, q: Any, dq: Any, tau_int: Any, ticks: 
         v = np.asarray(dq) + np.asarray(ddq) * t
         x = np.asarray(q) + np.asarray(dq) * t + 0.5 * np.asarray(ddq) * t * t
         track_rates(tp, ss, v, h)
-        transparent_torque(tp, A, ss, x, v, np.asarray(tau_int, float), np.zeros(3), lo,
-                           hi, dev.g, h, True, out)
+        transparent_torque((tp, A, ss), dev.g, (x, v), (np.asarray(tau_int, float),
+                                                         np.zeros(3)), (lo, hi), h, True, out)
     return out, ss
 
 

@@ -404,8 +404,8 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, 
     if level[0] < 1.0 or level[1] < 1.0 or level[2] < 1.0:
         tr = np.empty(3)
         L = lim[0]
-        transparent_torque(tp, A, ss, qm, vm, s.interaction, tau_ref, L.lower, L.upper,
-                           C.g, L.dt,
+        transparent_torque((tp, A, ss), C.g, (qm, vm), (s.interaction, tau_ref),
+                           (L.lower, L.upper), L.dt,
                            sup[0].mode != Mode.DISARMED and sup[0].mode != Mode.FAULT, tr)
         for j in range(3):
             cmd[j] = level[j] * cmd[j] + (1.0 - level[j]) * tr[j]

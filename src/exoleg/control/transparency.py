@@ -212,17 +212,21 @@ def track_rates(tp, ss, dq, h):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def transparent_torque(tp, A, ss, q, dq, tau_int, tau_ref, lower, upper, g, h, armed, out):  # type: ignore[no-untyped-def]
-    """The transparent law's torque (N m) into ``out`` (3,) at the measured ``q``,
-    ``dq``, the cuffs' torque ``tau_int`` read this tick (NaN: no sensor, the feedback
-    off) and the torque asked at the cuffs ``tau_ref`` (0: transparent; an assistance
-    law's otherwise -- added ahead, and the feedback acts on ``tau_int - tau_ref``), the
-    range of motion ``lower``, ``upper`` (rad), a tick of ``h`` s. ``tp``:
-    :data:`TRANSPARENCY`; ``A``: the actuators' records; ``ss``: :data:`SUPPORT_STATE`
-    (the acceleration estimate :func:`track_rates` keeps; the integral advances here,
-    each part's torque is kept). The integral runs only while ``armed``, within its
-    bound. Beyond the range of motion a wall (stiffness, and damping against the motion
-    outwards) pushes back."""
+def transparent_torque(law, g, motion, cuff, rom, h, armed, out):  # type: ignore[no-untyped-def]
+    """The transparent law's torque (N m) into ``out`` (3,) at the measured ``motion``
+    (q, dq), the cuffs' ``cuff`` (tau_int, tau_ref): their torque read this tick (NaN: no
+    sensor, the feedback off) and the torque asked at them (0: transparent; an
+    assistance law's otherwise -- added ahead, and the feedback acts on ``tau_int -
+    tau_ref``), the range of motion ``rom`` (lower, upper, rad), gravity ``g``, a tick of
+    ``h`` s. ``law``: (:data:`TRANSPARENCY`, the actuators' records,
+    :data:`SUPPORT_STATE` -- the acceleration estimate :func:`track_rates` keeps; the
+    integral advances here, each part's torque is kept). The integral runs only while
+    ``armed``, within its bound. Beyond the range of motion a wall (stiffness, and
+    damping against the motion outwards) pushes back."""
+    tp, A, ss = law
+    q, dq = motion
+    tau_int, tau_ref = cuff
+    lower, upper = rom
     T = tp[0]
     S = ss[0]
     P = S.parts
