@@ -78,11 +78,9 @@ def _walk_ticks(ctl, n: int) -> None:  # type: ignore[no-untyped-def]
 
 @njit  # not cached: numba would keep stale code when only exoleg's kernels change
 def _walk_loop(ctl, sens, out, k0, n):  # type: ignore[no-untyped-def]
-    cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, as_ = ctl
     for k in range(k0, k0 + n):
         sens[0].command = Command.WALK if k == 10 else Command.NONE
-        walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, as_,
-                          sens, k * 1e-3, out)
+        walk_control_step(ctl, sens, k * 1e-3, out)
 
 
 def best(fn, repeat: int) -> float:  # type: ignore[no-untyped-def]

@@ -257,9 +257,9 @@ def stance_gravity(p, g, q, fx, sole, counts, weight, out):  # type: ignore[no-u
 
 
 @njit(cache=True)
-def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, as_, sens, t,  # type: ignore[no-untyped-def]
-                      out):
-    """One control tick. ``cp``: the controller's parameters (:data:`PARAMS`); ``gq``,
+def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
+    """One control tick. ``ctl``: the controller's records (:meth:`WalkController.compiled`)
+    -- ``cp``: the controller's parameters (:data:`PARAMS`); ``gq``,
     ``gdq``: the gait tables (K, 3), (K, 6) (rad, rad per cycle); ``p``: its leg model's
     parameter vector; ``d``, ``st``: the detector's settings and state
     (:data:`~exoleg.control.gait_phase.SETTINGS`, ``STATE``); ``lim``, ``sst``: the
@@ -279,6 +279,7 @@ def walk_control_step(cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, 
     posture there to the standing posture over ``stand_blend`` s (:func:`_stand_blend`);
     while it moves the detected phase chooses the stance or swing model and gains. An
     E-stop or a fault stays immediate."""
+    cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, as_ = ctl
     C = cp[0]
     s = sens[0]
     o = out[0]
@@ -566,7 +567,7 @@ class WalkController:
             self.cp[0][k] = getattr(a, k)
 
     def compiled(self) -> tuple[Any, ...]:
-        """What :func:`walk_control_step` takes before the tick's readings, in its order:
+        """The records :func:`walk_control_step` takes as its first argument, in order:
         parameters, gait tables, leg model, detector settings and state, safety limits and
         state, supervisor state, reference state, the transparent mode's parameters, the
         actuators' records, the support mode's state, assist-as-needed's parameters and
@@ -577,13 +578,13 @@ class WalkController:
     def warm_up(self) -> None:
         """Compile (or load from numba's cache) the tick on copies of the state."""
         cp, gq, gdq, p, d, st, lim, sst, sup, ref, tp, A, ss, ap, as_ = self.compiled()
-        _tick(cp, gq, gdq, p, d, st.copy(), lim, sst.copy(), sup.copy(), ref.copy(), tp,
-              A, ss.copy(), ap, as_.copy(), new(SENSORS), 0.0, new(OUTPUT))
+        _tick((cp, gq, gdq, p, d, st.copy(), lim, sst.copy(), sup.copy(), ref.copy(), tp,
+               A, ss.copy(), ap, as_.copy()), new(SENSORS), 0.0, new(OUTPUT))
 
     def update(self, sensors: Mapping[str, Any], command: int, t: float) -> dict[str, Any]:
         """One tick on ``sensors`` with the operator's ``command`` at ``t`` s (the
         :class:`~exoleg.control.contract.Controller` contract; see the class)."""
         self.io.read(sensors, command)
-        _tick(*self.compiled(), self.io.sens, float(t), self.io.out)
+        _tick(self.compiled(), self.io.sens, float(t), self.io.out)
         return self.io.result()
 

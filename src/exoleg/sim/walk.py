@@ -125,7 +125,7 @@ def _run_walk(world, ctl, plan, S, series):  # type: ignore[no-untyped-def]
     same = 0
     froze = -1
     X, SENS, FN, OUT, TAU, ENV, SUP, CH, PA, SH = series
-    cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref, tp, cA, ss, ap, as_ = ctl
+    ss, as_ = ctl[12], ctl[14]  # the support mode's and assist-as-needed's states
     n = X.shape[0] - 1
     for k in range(n + 1):
         t = k * h
@@ -144,8 +144,7 @@ def _run_walk(world, ctl, plan, S, series):  # type: ignore[no-untyped-def]
                 froze = k
         sk[0].command = commands[k] if froze < 0 else Command.ESTOP
         # 2. the controller tick (supervisor, detection, reference, impedance, safety)
-        walk_control_step(cp, gq, gdq, cp_p, d, st, lim, sst, sup, ref, tp, cA, ss, ap, as_,
-                          sk, t, ok_)
+        walk_control_step(ctl, sk, t, ok_)
         for i in range(3):
             for m in range(4):
                 PA[k, m, i] = ss[0].parts[m, i]
