@@ -96,18 +96,18 @@ class SimBackend:
         """Compile (or load from numba's cache) the tick's functions on copies of the state,
         so that the first real tick is not late by the compile time."""
         S, w, f = self.S.copy(), self.w.copy(), np.zeros(4)
-        device_sense(self.p, w, self.dev.A, self.sens, self.dev.imu_x, -self.dev.depth, S,
-                     self.period, True, self.fsr_noise[0], self.imu_noise[0], self.bias,
+        device_sense((self.p, w, self.dev.A), (self.sens, self.dev.imu_x, -self.dev.depth),
+                     S, self.period, True, (self.fsr_noise[0], self.imu_noise[0], self.bias),
                      new(SENSORS), f)
         # the child's memory copied, the rest as the ticks pass it: a copy of the device
         # alone's parameters (read-only in its model) is another type to numba, and the
         # first real tick compiled it again -- a second late (a loop overrun on a fresh
         # install, whose compile cache is empty)
         P, C, CS, pd = self.K
-        device_actuate(self.p, w, self.dev.A, (P, C, CS.copy(), pd), S,
-                       self.period, self.substeps, np.zeros(3), f,
-                       False, 0.0, self.dev.stride_time, self.dev.support,
-                       self.dev.plant.support_height, np.zeros(3), np.zeros(3))
+        device_actuate((self.p, w, self.dev.A), (P, C, CS.copy(), pd), S,
+                       (self.period, self.substeps), np.zeros(3), f,
+                       (False, 0.0, self.dev.stride_time, self.dev.support,
+                        self.dev.plant.support_height), (np.zeros(3), np.zeros(3)))
 
     def read(self, t: float) -> dict[str, Any]:
         if self._written:  # the drives' last command acts over the tick that ended
@@ -115,9 +115,10 @@ class SimBackend:
         i = self.k % _CHUNK
         if i == 0 and self.k:
             self.fsr_noise, self.imu_noise, _ = self._draw()
-        device_sense(self.p, self.w, self.dev.A, self.sens, self.dev.imu_x, -self.dev.depth,
-                     self.S, self.period, self.k == 0, self.fsr_noise[i], self.imu_noise[i],
-                     self.bias, self.reading, self.fn)
+        device_sense((self.p, self.w, self.dev.A), (self.sens, self.dev.imu_x,
+                                                     -self.dev.depth),
+                     self.S, self.period, self.k == 0,
+                     (self.fsr_noise[i], self.imu_noise[i], self.bias), self.reading, self.fn)
         r = self.reading[0]
         return {"q": r["q"], "dq": r["dq"], "fsr": r["fsr"], "gyro": float(r["gyro"]),
                 "accel": r["accel"], "interaction": r["interaction"]}
@@ -134,9 +135,10 @@ class SimBackend:
     def _step(self) -> None:
         t = self.k * self.period
         walking = self.walking and not self.dev.step
-        device_actuate(self.p, self.w, self.dev.A, self.K, self.S, self.period, self.substeps,
-                       self.u, self.fn, walking, t, self.dev.stride_time,
-                       self.dev.support, self.dev.plant.support_height, self.env, self.tau)
+        device_actuate((self.p, self.w, self.dev.A), self.K, self.S,
+                       (self.period, self.substeps), self.u, self.fn,
+                       (walking, t, self.dev.stride_time, self.dev.support,
+                        self.dev.plant.support_height), (self.env, self.tau))
         self.k += 1
         self._written = False
 

@@ -132,8 +132,8 @@ def _run_walk(world, ctl, plan, S, series):  # type: ignore[no-untyped-def]
         sk = SENS[k:k + 1]
         ok_ = OUT[k:k + 1]
         # 1. the foot board and the encoders
-        device_sense(p, w, A, sens, imu_x, imu_y, S, h, k == 0, fsr_noise[k], imu_noise[k],
-                     imu_bias, sk, FN[k])
+        device_sense((p, w, A), (sens, imu_x, imu_y), S, h, k == 0,
+                     (fsr_noise[k], imu_noise[k], imu_bias), sk, FN[k])
         apply_faults(F, sk, t)
         if frozen > 0 and froze < 0:
             alike = k > 0 and SENS[k].gyro == SENS[k - 1].gyro
@@ -157,10 +157,10 @@ def _run_walk(world, ctl, plan, S, series):  # type: ignore[no-untyped-def]
                 TAU[k, i] = S[0].tau[i]
             break
         # 3. the drives and 4. the plant
-        SUP[k], ok = device_actuate(p, w, A, K, S, h, sub, OUT[k].tau, FN[k],
-                                    OUT[k].mode == Mode.WALKING or OUT[k].mode == Mode.STOPPING,
-                                    t, stride, support,
-                                    stand_support, ENV[k], TAU[k])
+        walking = OUT[k].mode == Mode.WALKING or OUT[k].mode == Mode.STOPPING
+        SUP[k], ok = device_actuate((p, w, A), K, S, (h, sub), OUT[k].tau, FN[k],
+                                    (walking, t, stride, support, stand_support),
+                                    (ENV[k], TAU[k]))
         for i in range(8):
             X[k + 1, i] = S[0].x[i]
         for i in range(3):

@@ -97,12 +97,17 @@ def device_state(plant: WalkingPlant, A: NDArray[np.void], x0: F64, imu_x: float
 
 
 @njit(cache=True, error_model="numpy")
-def device_sense(p, w, A, sens, imu_x, imu_y, S, h, first, fsr_noise, imu_noise,  # type: ignore[no-untyped-def]
-                 imu_bias, out, fn):
+def device_sense(dev, board, S, h, first, noise, out, fn):  # type: ignore[no-untyped-def]
     """What the device's sensors read now into ``out`` (:data:`SENSORS`, its ``command``
     left alone): FSR counts (each from its own sole element's load), encoder angles and
     filtered rates, IMU (gyro, accel x, y); and the true normal force under each sensor's
-    region of the foot ``fn`` (4,). ``S``: :data:`DEVICE`."""
+    region of the foot ``fn`` (4,). ``dev``: (the plant's parameters, its world, the
+    actuators' records); ``board``: (the foot board's record, the IMU's x and y on the
+    foot); ``noise``: this tick's (FSR unit normals (4,), IMU noise (3,), the IMU's bias
+    (3,)); ``S``: :data:`DEVICE`; a tick of ``h`` s, the ``first``."""
+    p, w, A = dev
+    sens, imu_x, imu_y = board
+    fsr_noise, imu_noise, imu_bias = noise
     D = S[0]
     o = out[0]
     x = D.x
@@ -134,11 +139,13 @@ def device_sense(p, w, A, sens, imu_x, imu_y, S, h, first, fsr_noise, imu_noise,
 
 
 @njit(cache=True, error_model="numpy")
-def device_actuate(p, w, A, K, S, h, sub, u, fn, walking, t, stride, support,  # type: ignore[no-untyped-def]
-                   stand_support, env, tau):
-    """The drives and ``sub`` plant steps over one tick of ``h`` s under the torque command
-    ``u`` (3,): the envelope at the measured speed (into ``env``), the current loop (the
-    mean torque delivered into ``tau``), contacts held per step. The treadmill runs and the
+def device_actuate(dev, K, S, step, u, fn, scene, into):  # type: ignore[no-untyped-def]
+    """The drives and ``sub`` plant steps over one tick of ``h`` s (``step``: (h, sub))
+    under the torque command ``u`` (3,): the envelope at the measured speed (into
+    ``env``), the current loop (the mean torque delivered into ``tau``; ``into``: (env,
+    tau)), contacts held per step. ``dev``: (the plant's parameters, its world, the
+    actuators' records); ``scene``: (``walking``, the time ``t`` s, the ``stride`` time,
+    the other leg's ``support`` over the cycle, its ``stand_support`` height). The treadmill runs and the
     other leg (an actor) keeps time with this leg's true foot strikes (from ``fn``) while
     ``walking``; each walk's start (``walking`` again after standing) restarts their clock
     at mid-stance (where the controller starts a walk) until this walk's first strike. The child
@@ -146,6 +153,10 @@ def device_actuate(p, w, A, K, S, h, sub, u, fn, walking, t, stride, support,  #
     every stage, their reflexes and effort held over the tick; the
     cuffs' torque of the tick into the state. Returns (the other leg's mean force on the
     pelvis, 1 if the state is still finite)."""
+    p, w, A = dev
+    h, sub = step
+    walking, t, stride, support, stand_support = scene
+    env, tau = into
     P, C, CS, pd = K
     D = S[0]
     W = w[0]
