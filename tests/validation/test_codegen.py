@@ -46,7 +46,7 @@ def test_kernels_match_fresh_derivation_numerically(fresh):
             assert np.allclose(gravity_sc(*sc, leg.coefficients), G, rtol=1e-13, atol=1e-14)
             tau = rng.uniform(-50, 50, 3)
             ddq = np.linalg.solve(fM(*a), tau - fC(*a) @ dq - G)
-            got = forward_dynamics_sc(*sc, *dq, *tau, leg.coefficients)
+            got = forward_dynamics_sc(tuple(sc), tuple(dq), tuple(tau), leg.coefficients)
             # measured: 2.2e-15 of max |ddq| (G: 5.6e-16 of max |G|)
             assert np.abs(np.subtract(got, ddq)).max() <= 1e-13 * np.abs(ddq).max()
 

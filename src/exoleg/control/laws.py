@@ -64,8 +64,8 @@ def law(c, sc, q, v, r, w, a):  # type: ignore[no-untyped-def]
         u1 += g1
         u2 += g2
     elif kind == Law.COMPUTED_TORQUE:
-        u0, u1, u2 = inverse_dynamics_sc(s0, c0, s1, c1, s2, c2, v0, v1, v2,
-                                         a0 + u0, a1 + u1, a2 + u2, kc)
+        u0, u1, u2 = inverse_dynamics_sc((s0, c0, s1, c1, s2, c2), (v0, v1, v2),
+                                         (a0 + u0, a1 + u1, a2 + u2), kc)
     u0, m0 = _clip(scale * u0, limit[0])
     u1, m1 = _clip(scale * u1, limit[1])
     u2, m2 = _clip(scale * u2, limit[2])

@@ -524,10 +524,14 @@ def gravity_sc(s_0, c_0, s_1, c_1, s_2, c_2, k):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def forward_dynamics_sc(s_0, c_0, s_1, c_1, s_2, c_2, dq0, dq1, dq2, tau0, tau1, tau2, k):
-    """forward_dynamics on scalars, given s_i = sin(q_i), c_i = cos(q_i) instead of q and the
-    leg's coefficients k, returning the tuple ddq: no arrays, and a stepper that knows
-    sin/cos cheaply (angle addition from the previous stage) skips libm."""
+def forward_dynamics_sc(sc, dq, tau, k):
+    """forward_dynamics on scalars, given sc = (s_0, c_0, ...), s_i = sin(q_i), c_i = cos(q_i)
+    instead of q, the tuples dq and tau and the leg's coefficients k, returning the tuple
+    ddq: no arrays, and a stepper that knows sin/cos cheaply (angle addition from the
+    previous stage) skips libm."""
+    s_0, c_0, s_1, c_1, s_2, c_2 = sc
+    dq0, dq1, dq2 = dq
+    tau0, tau1, tau2 = tau
     k0 = k[0]
     k1 = k[1]
     k2 = k[2]
@@ -599,9 +603,13 @@ def forward_dynamics_sc(s_0, c_0, s_1, c_1, s_2, c_2, dq0, dq1, dq2, tau0, tau1,
 
 
 @njit(cache=True, error_model="numpy")
-def inverse_dynamics_sc(s_0, c_0, s_1, c_1, s_2, c_2, dq0, dq1, dq2, ddq0, ddq1, ddq2, k):
-    """inverse_dynamics on scalars, given s_i = sin(q_i), c_i = cos(q_i) and the leg's
-    coefficients k, returning the tuple tau."""
+def inverse_dynamics_sc(sc, dq, ddq, k):
+    """inverse_dynamics on scalars, given sc = (s_0, c_0, ...), s_i = sin(q_i),
+    c_i = cos(q_i), the tuples dq and ddq and the leg's coefficients k, returning the
+    tuple tau."""
+    s_0, c_0, s_1, c_1, s_2, c_2 = sc
+    dq0, dq1, dq2 = dq
+    ddq0, ddq1, ddq2 = ddq
     k0 = k[0]
     k1 = k[1]
     k2 = k[2]

@@ -274,21 +274,26 @@ def generate(d: Derivation) -> str:
     m_h = hoisted(poly[:nm + n], [f"M_{j}_{k}" for j, k in upper] + [f"h{i}" for i in range(n)])
     body = m_h + [ln for ln in solve if not ln.startswith("out[")]
     body.append("return (" + ", ".join(f"w{i}" for i in range(n)) + ",)")
-    vel_args = ", ".join([*map(str, d.dq)] + [f"tau{i}" for i in range(n)])
+    # the scalars come as three tuples (sin/cos pairs, rates, torques or accelerations):
+    # unpacked in the kernel, as cheap as separate arguments once compiled
+    dqs = ", ".join(map(str, d.dq))
+    unpack = [f"{trig_args} = sc", f"{dqs} = dq"]
     funcs.append(_function(
-        "forward_dynamics_sc", f"{trig_args}, {vel_args}, k",
-        "forward_dynamics on scalars, given s_i = sin(q_i), c_i = cos(q_i) instead of q and the\n"
-        "    leg's coefficients k, returning the tuple ddq: no arrays, and a stepper that knows\n"
-        "    sin/cos cheaply (angle addition from the previous stage) skips libm.",
-        body, inline=True))
+        "forward_dynamics_sc", "sc, dq, tau, k",
+        "forward_dynamics on scalars, given sc = (s_0, c_0, ...), s_i = sin(q_i), c_i = cos(q_i)\n"
+        "    instead of q, the tuples dq and tau and the leg's coefficients k, returning the tuple\n"
+        "    ddq: no arrays, and a stepper that knows sin/cos cheaply (angle addition from the\n"
+        "    previous stage) skips libm.",
+        unpack + [", ".join(f"tau{i}" for i in range(n)) + " = tau"] + body, inline=True))
     body = m_h + [f"t{i} = " + " + ".join(f"M_{min(i, j)}_{max(i, j)} * ddq{j}" for j in range(n))
                   + f" + h{i}" for i in range(n)]
     body.append("return (" + ", ".join(f"t{i}" for i in range(n)) + ",)")
-    acc_args = ", ".join([*map(str, d.dq)] + [f"ddq{i}" for i in range(n)])
     funcs.append(_function(
-        "inverse_dynamics_sc", f"{trig_args}, {acc_args}, k",
-        "inverse_dynamics on scalars, given s_i = sin(q_i), c_i = cos(q_i) and the leg's\n"
-        "    coefficients k, returning the tuple tau.", body))
+        "inverse_dynamics_sc", "sc, dq, ddq, k",
+        "inverse_dynamics on scalars, given sc = (s_0, c_0, ...), s_i = sin(q_i),\n"
+        "    c_i = cos(q_i), the tuples dq and ddq and the leg's coefficients k, returning the\n"
+        "    tuple tau.",
+        unpack + [", ".join(f"ddq{i}" for i in range(n)) + " = ddq"] + body))
 
     # the simulator's per-step diagnostics in one kernel; the verification signal is the
     # quadratic form of the evaluated matrices Mdot and C, never simplified symbolically

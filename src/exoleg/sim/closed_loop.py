@@ -105,7 +105,7 @@ def _run(p, g, c, ref, span, series, carry):  # type: ignore[no-untyped-def]
         U[n, 0], U[n, 1], U[n, 2] = u[0], u[1], u[2]  # (not U[n] = u: its shape check
         SAT[n] = mask[0]                                # compiles numba's string formatting)
         DDQ[n, 0], DDQ[n, 1], DDQ[n, 2] = forward_dynamics_sc(
-            s0, c0, s1, c1, s2, c2, v0, v1, v2, u[0], u[1], u[2], coef)
+            (s0, c0, s1, c1, s2, c2), (v0, v1, v2), (u[0], u[1], u[2]), coef)
     return -1
 
 

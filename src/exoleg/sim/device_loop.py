@@ -62,10 +62,10 @@ def _accel(coef, A, q, v, t):  # type: ignore[no-untyped-def]
     q0, q1, q2 = q
     v0, v1, v2 = v
     t0, t1, t2 = t
-    return forward_dynamics_sc(math.sin(q0), math.cos(q0), math.sin(q1), math.cos(q1),
-                               math.sin(q2), math.cos(q2), v0, v1, v2,
-                               t0 - friction(A[0:1], v0), t1 - friction(A[1:2], v1),
-                               t2 - friction(A[2:3], v2), coef)
+    return forward_dynamics_sc((math.sin(q0), math.cos(q0), math.sin(q1), math.cos(q1),
+                                math.sin(q2), math.cos(q2)), (v0, v1, v2),
+                               (t0 - friction(A[0:1], v0), t1 - friction(A[1:2], v1),
+                                t2 - friction(A[2:3], v2)), coef)
 
 
 @njit(inline="always")

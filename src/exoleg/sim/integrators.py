@@ -97,7 +97,7 @@ def rk4_sc(sc, q, v, t, k, h):  # type: ignore[no-untyped-def]
     q0, q1, q2 = q
     v0, v1, v2 = v
     t0, t1, t2 = t
-    a0, a1, a2 = forward_dynamics_sc(s0, c0, s1, c1, s2, c2, v0, v1, v2, t0, t1, t2, k)
+    a0, a1, a2 = forward_dynamics_sc(sc, v, t, k)
     x0, x1, x2 = v0, v1, v2  # the previous stage's velocity (x) and acceleration (y)
     y0, y1, y2 = a0, a1, a2
     sq0, sq1, sq2 = v0, v1, v2  # weighted sums of the stages' velocities, accelerations
@@ -108,7 +108,7 @@ def rk4_sc(sc, q, v, t, k, h):  # type: ignore[no-untyped-def]
         u1, w1 = _shift(s1, c1, c * x1)
         u2, w2 = _shift(s2, c2, c * x2)
         x0, x1, x2 = v0 + c * y0, v1 + c * y1, v2 + c * y2
-        y0, y1, y2 = forward_dynamics_sc(u0, w0, u1, w1, u2, w2, x0, x1, x2, t0, t1, t2, k)
+        y0, y1, y2 = forward_dynamics_sc((u0, w0, u1, w1, u2, w2), (x0, x1, x2), t, k)
         sq0, sq1, sq2 = sq0 + wt * x0, sq1 + wt * x1, sq2 + wt * x2
         sv0, sv1, sv2 = sv0 + wt * y0, sv1 + wt * y1, sv2 + wt * y2
     s = h / 6.0
