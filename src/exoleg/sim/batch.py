@@ -55,14 +55,17 @@ def _one(p, g, gains, ref, dt, start, out, limit):  # type: ignore[no-untyped-de
 
 
 @njit(parallel=True, cache=True)
-def _batch(P, g, kp, kd, Qr, DQr, dt, q_init, dq_init, start):  # type: ignore[no-untyped-def]
-    """Every leg of ``P`` (n, 18) as :func:`_one`, in parallel: peaks (n, 3, 3). (Its
-    arguments stay apart: numba's parallel loop takes no tuple of arrays.)"""
+def _batch(P, g, gains, ref, dt, start):  # type: ignore[no-untyped-def]
+    """Every leg of ``P`` (n, 18) as :func:`_one`, in parallel: peaks (n, 3, 3).
+    ``gains``: (Kp, Kd) tuples; ``ref``: (2, N, 3) the reference's angles and rates, from
+    its first sample. (Arrays, not a tuple of them: numba's parallel loop takes none.)"""
     n = P.shape[0]
     out = np.zeros((n, 3, 3))  # [leg, (torque, speed, power), joint]
     limit = (np.inf, np.inf, np.inf)
+    kp, kd = gains
+    Qr, DQr = ref[0], ref[1]
     for c in prange(n):
-        _one(P[c], g, (kp, kd), (Qr, DQr, q_init, dq_init), dt, start, out[c], limit)
+        _one(P[c], g, (kp, kd), (Qr, DQr, Qr[0], DQr[0]), dt, start, out[c], limit)
     return out
 
 
@@ -72,9 +75,9 @@ def batch_gait_peaks(P: F64, g: float, kp: F64, kd: F64, q_ref: F64, dq_ref: F64
     (parameter vectors ``P`` (n, 18)) tracking ``q_ref``, ``dq_ref`` (N, 3) sampled every
     ``dt`` s, from the reference's first state; peaks from step ``start`` on."""
     P = np.ascontiguousarray(P, dtype=np.float64)
-    out = _batch(P, float(g), tuple(map(float, kp)), tuple(map(float, kd)),
-                 np.ascontiguousarray(q_ref), np.ascontiguousarray(dq_ref), float(dt),
-                 np.array(q_ref[0]), np.array(dq_ref[0]), int(start))
+    out = _batch(P, float(g), (tuple(map(float, kp)), tuple(map(float, kd))),
+                 np.ascontiguousarray(np.stack([q_ref, dq_ref]), dtype=np.float64), float(dt),
+                 int(start))
     bad = np.flatnonzero(np.isnan(out[:, 0, 0]))
     if len(bad):
         raise SimulationError(f"batch run: legs {bad.tolist()[:10]} became non-finite")
