@@ -168,3 +168,20 @@ def test_the_check_sees_an_upward_import(tmp_path: Path) -> None:
     assert imports["exoleg.errors"] == {"exoleg.cli.main": 2}
     graph = {m: set(t) for m, t in imports.items()}
     assert _circles(graph) == [["exoleg.cli.main", "exoleg.errors"]]
+
+
+def test_no_compiled_function_takes_more_than_eight_arguments() -> None:
+    # issue 37: ticks of a few arguments (mj_step(model, data)'s shape) -- records and
+    # tuples of them, not 14-29 positional arguments (nested records compile, cache and
+    # cost less per call). Every function compiled by numba in src/exoleg, generated
+    # kernels included
+    wide = []
+    for path in ROOT.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.FunctionDef) and any(
+                    (isinstance(d, ast.Call) and getattr(d.func, "id", "") == "njit")
+                    or getattr(d, "id", "") == "njit" for d in node.decorator_list):
+                if len(node.args.args) > 8:
+                    wide.append(f"{path.relative_to(ROOT)}:{node.name} "
+                                f"({len(node.args.args)} arguments)")
+    assert not wide, wide
