@@ -74,6 +74,19 @@ def fill(driver: Any, id_: str, value: object) -> None:
     e.send_keys(str(value))
 
 
+def armed_walk(driver: Any, start: str, length: str, seconds: float) -> None:
+    """Start a session from the Control page (``start``'s button, its ``length`` field
+    ``seconds``), armed as it starts, then walk: standing, then walking."""
+    goto(driver, "control")
+    fill(driver, length, seconds)
+    if not driver.find_element("id", "arm-start").is_selected():
+        press(driver, "arm-start")
+    press(driver, start)
+    wait_until("armed, standing", lambda: text(driver, "ctl-mode") == "STANDING", timeout=60)
+    press(driver, "cmd-walk")
+    wait_until("walking", lambda: text(driver, "ctl-mode") == "WALKING")
+
+
 def fill_child(driver: Any, name: str, age: str, height: str, mass: str) -> Any:
     """The Child page's form filled with a child's name, age, height and mass."""
     form = driver.find_element("id", "child-form")
@@ -592,15 +605,7 @@ def test_identification_is_a_step_of_fitting(hmi: Any, operator: Any) -> None:
     has played, and the identified leg becomes her kept fit: the next session runs on
     it. Reference: the identification's own record (exoleg.identify.device)."""
     d = operator
-    goto(d, "control")
-    fill(d, "plan", 10)
-    box = d.find_element("id", "arm-start")
-    if not box.is_selected():
-        press(d, "arm-start")
-    press(d, "identify")
-    wait_until("armed for the plan", lambda: text(d, "ctl-mode") == "STANDING", timeout=60)
-    press(d, "cmd-walk")
-    wait_until("the plan playing", lambda: text(d, "ctl-mode") == "WALKING")
+    armed_walk(d, "identify", "plan", 10)  # Walk starts the plan
     shot(d, "identify")
     info = httpx.get(f"{hmi.url}/api/info", headers=AUTH(hmi)).json()
     folder = next(hmi.sessions.glob(f"*-{info['child']['child_id']}-identify"))
@@ -662,14 +667,7 @@ def test_a_childs_record_and_settings_follow_them(hmi: Any, operator: Any) -> No
     assert "(identified)" in on and ada()["fits"] == fits
 
     # a session of hers: walking, then assist as needed and a stiffer stance at the hip
-    goto(d, "control")
-    fill(d, "duration", 12)
-    if not d.find_element("id", "arm-start").is_selected():
-        press(d, "arm-start")
-    press(d, "start")
-    wait_until("standing", lambda: text(d, "ctl-mode") == "STANDING", timeout=60)
-    press(d, "cmd-walk")
-    wait_until("walking", lambda: text(d, "ctl-mode") == "WALKING")
+    armed_walk(d, "start", "duration", 12)
     press(d, "cmd-aan")
     wait_until("assist as needed", lambda: text(d, "ctl-support") == "aan")
     hip = wait_until("the gains table", lambda: d.find_element("id", "g-kp_stance-0"))
