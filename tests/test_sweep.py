@@ -11,6 +11,7 @@ the definition of a Latin hypercube (one draw per stratum and axis).
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import json
 import os
@@ -18,6 +19,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -222,6 +224,36 @@ def test_support_modes_are_an_axis_and_a_row_keeps_the_support_and_the_safety_ev
 
 
 # ------------------------------------------------------------------ the engine
+@contextlib.contextmanager
+def _cluster(tmp_path: Path, host: str, tls: Sequence[str] = (), nworkers: int = 1
+             ) -> Iterator[tuple[Path, str]]:
+    """A Dask scheduler on ``host`` (loopback) and ``nworkers`` workers, each a process of
+    its own (``tls``: Dask's TLS options for both), until the block ends: yields the
+    scheduler's file and address."""
+    sched_file = tmp_path / "scheduler.json"
+    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+    quiet = {"env": env, "stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
+    sched = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler",
+                              "--host", host, "--port", "0", "--no-dashboard",
+                              "--scheduler-file", str(sched_file), *tls], **quiet)
+    work = None
+    try:
+        for _ in range(600):
+            if sched_file.exists() and sched_file.stat().st_size:
+                break
+            time.sleep(0.05)
+        address = json.loads(sched_file.read_text())["address"]
+        work = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address,
+                                 "--nworkers", str(nworkers), "--nthreads", "1",
+                                 "--no-dashboard", *tls], **quiet)
+        yield sched_file, address
+    finally:
+        for proc in (work, sched):
+            if proc is not None:
+                proc.terminate()
+                proc.wait(timeout=30)
+
+
 def _table(out: Path) -> dict[str, list[object]]:
     from exoleg.study.engine import read_results
 
@@ -273,30 +305,10 @@ def test_the_small_sweep_on_three_schedulers_interrupted_and_resumed(
     with dask_client(workers=2, processes=False) as c:
         execute(parse_study(small, str(example)), tmp_path / "inprocess", client=c)
     # 3. a scheduler and two workers, each a process of its own, on loopback
-    sched_file = tmp_path / "scheduler.json"
-    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
-    sched = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler",
-                              "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                              "--scheduler-file", str(sched_file)], env=env,
-                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    work = None
-    try:
-        for _ in range(600):
-            if sched_file.exists() and sched_file.stat().st_size:
-                break
-            time.sleep(0.05)
-        work = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker",
-                                 "--scheduler-file", str(sched_file), "--nworkers", "2",
-                                 "--nthreads", "1", "--no-dashboard"], env=env,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    with _cluster(tmp_path, "127.0.0.1", nworkers=2) as (sched_file, _):
         r = cli("sweep", str(example), "--out", str(tmp_path / "remote"), "--scheduler",
                 str(sched_file))
         assert r.returncode == 0, r.stderr
-    finally:
-        for proc in (work, sched):
-            if proc is not None:
-                proc.terminate()
-                proc.wait(timeout=30)
     tables = [_table(tmp_path / d) for d in ("local", "inprocess", "remote")]
     assert tables[0]["run"] == list(range(64)) and not any(tables[0]["error"])
     assert tables[0] == tables[1] == tables[2]
@@ -348,34 +360,14 @@ def test_a_tls_scheduler_with_dasks_settings_and_without(tmp_path: Path) -> None
         "-CAcreateserial", "-out", "cert.pem", "-days", "1", "-extfile", "ext.cnf")
     tls = ["--tls-ca-file", str(d / "ca.pem"), "--tls-cert", str(d / "cert.pem"),
            "--tls-key", str(d / "key.pem")]
-    sched_file = tmp_path / "scheduler.json"
-    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
-    sched = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler",
-                              "--host", "tls://127.0.0.1", "--port", "0", "--no-dashboard",
-                              "--scheduler-file", str(sched_file), *tls], env=env,
-                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    work = None
-    try:
-        for _ in range(600):
-            if sched_file.exists() and sched_file.stat().st_size:
-                break
-            time.sleep(0.05)
-        address = json.loads(sched_file.read_text())["address"]
+    with _cluster(tmp_path, "tls://127.0.0.1", tls) as (_, address):
         assert address.startswith("tls://127.0.0.1:")
-        work = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker",
-                                 address, "--nthreads", "1", "--no-dashboard", *tls], env=env,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         settings = {"DASK_DISTRIBUTED__COMM__TLS__CA_FILE": str(d / "ca.pem"),
                     "DASK_DISTRIBUTED__COMM__TLS__CLIENT__CERT": str(d / "cert.pem"),
                     "DASK_DISTRIBUTED__COMM__TLS__CLIENT__KEY": str(d / "key.pem")}
         r = cli("sweep", str(study), "--out", str(tmp_path / "over-tls"), "--scheduler",
                 address, env={**os.environ, **settings})
         assert r.returncode == 0, r.stderr
-    finally:
-        for proc in (work, sched):
-            if proc is not None:
-                proc.terminate()
-                proc.wait(timeout=30)
     r = cli("sweep", str(study), "--out", str(tmp_path / "local"), "--workers", "1")
     assert r.returncode == 0, r.stderr
     assert _table(tmp_path / "over-tls") == _table(tmp_path / "local")
