@@ -232,10 +232,10 @@ def _cluster(tmp_path: Path, host: str, tls: Sequence[str] = (), nworkers: int =
     scheduler's file and address."""
     sched_file = tmp_path / "scheduler.json"
     env = {**os.environ, "PYTHONWARNINGS": "ignore"}
-    quiet = {"env": env, "stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
     sched = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler",
                               "--host", host, "--port", "0", "--no-dashboard",
-                              "--scheduler-file", str(sched_file), *tls], **quiet)
+                              "--scheduler-file", str(sched_file), *tls], env=env,
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     work = None
     try:
         for _ in range(600):
@@ -245,7 +245,8 @@ def _cluster(tmp_path: Path, host: str, tls: Sequence[str] = (), nworkers: int =
         address = json.loads(sched_file.read_text())["address"]
         work = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address,
                                  "--nworkers", str(nworkers), "--nthreads", "1",
-                                 "--no-dashboard", *tls], **quiet)
+                                 "--no-dashboard", *tls], env=env,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         yield sched_file, address
     finally:
         for proc in (work, sched):
