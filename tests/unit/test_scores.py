@@ -37,12 +37,14 @@ def test_the_normative_gait_scores_zero() -> None:
 def test_the_cp_childs_gps_is_its_definition() -> None:
     """The shipped child with CP (predictcpgait subject 1) against Schwartz 2008 Free."""
     norm = _normative_by_hand()
-    text = (files("exoleg") / "data" / "child" / "predictcpgait_gait_r.csv").read_text()
+    text = (files("exoleg") / "data" / "child" / "predictcpgait_subject1_r.csv").read_text()
     rows = list(csv.DictReader(ln for ln in text.splitlines() if not ln.startswith("#")))
-    assert len(rows) == 51
+    assert len(rows) == 100  # sample k at k/99 of the cycle, onto the 2 % grid linearly
+    pct = [100.0 * k / 99 for k in range(100)]
     gvs_hand = []
-    for v in VARS:
-        sq = [(float(r[v]) - norm[v][i]) ** 2 for i, r in enumerate(rows)]
+    for v, col in zip(VARS, ("hip", "knee", "ankle"), strict=True):
+        on_grid = np.interp(scores.PERCENT, pct, [float(r[col]) for r in rows])
+        sq = [(on_grid[i] - norm[v][i]) ** 2 for i in range(len(on_grid))]
         gvs_hand.append(math.sqrt(sum(sq) / len(sq)))
     gps_hand = math.sqrt(sum(g * g for g in gvs_hand) / 3)
     gvs, gps = scores.gait_scores(scores.cp_child_cycle())

@@ -150,21 +150,19 @@ def cycle_of(t: ArrayLike, q: ArrayLike, contacts: ArrayLike) -> F64:
 @cache
 def cp_child_cycle() -> F64:
     """The shipped child with CP's right-leg gait cycle (predictcpgait subject 1,
-    Falisse et al. 2020; ``data/child/predictcpgait_gait_r.csv``).
+    Falisse et al. 2020; :func:`exoleg.reference.cp_child.cp_child_gait`, its 100 samples
+    over the cycle interpolated linearly onto the 2 % grid).
 
     Returns
     -------
     ndarray
         ``(51, 3)`` clinical degrees over :data:`PERCENT`.
     """
-    from importlib.resources import files
+    from exoleg.reference.cp_child import cp_child_gait
 
-    text = (files("exoleg") / "data" / "child" / "predictcpgait_gait_r.csv").read_text()
-    rows = [ln for ln in text.splitlines() if ln and not ln.startswith("#")]
-    a = np.array([[float(x) for x in ln.split(",")] for ln in rows[1:]])
-    if not np.allclose(a[:, 0], PERCENT):
-        raise ParameterError("predictcpgait_gait_r.csv", "percent", "not on the 2 % grid")
-    return a[:, 1:]
+    g = cp_child_gait()
+    x = np.linspace(0.0, 100.0, len(g.t))  # sample k at k/99 of the cycle
+    return np.stack([np.interp(PERCENT, x, c) for c in clinical_degrees(g.q).T], axis=1)
 
 
 #: Sangeux et al. 2015's mid-stance: 20 % to 45 % of the cycle (samples 20-44 %)
