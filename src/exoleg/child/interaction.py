@@ -1,9 +1,10 @@
 """The interaction torque between child and device: what the device's cuffs transmit.
 
-At each joint, the torque the actuator delivers less what the device's own links, its
-motors' rotors (the reflected inertia) and its friction take:
+At each joint, the torque that reaches the device's link (a rigid unit's delivered torque
+less its friction; a compliant unit's spring torque) less what the device's own links and
+the rotors they carry (the reflected inertia of a rigid unit) take:
 
-    tau_int = tau_act - friction(dq) - [M_d(q) ddq + C_d(q, dq) dq + G_d(q) + p_d(q) ddy]
+    tau_int = tau_link - [M_d(q) ddq + C_d(q, dq) dq + G_d(q) + p_d(q) ddy]
 
 with M_d, C_d, G_d the device alone (its links with the rotors as armature) and
 p_d ddy what the pelvis's vertical acceleration asks of them (the walking plant's
@@ -17,15 +18,17 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from exoleg.device.actuator import ActuatorModel, friction, with_actuators
+from exoleg.device.actuator import ActuatorModel, with_actuators
 from exoleg.dynamics.kernels import coriolis_dq, gravity, mass_height_terms, mass_matrix
 from exoleg.dynamics.model import LegModel
 from exoleg.params.records import LINKS, Link
 
 
-def device_leg(leg: LegModel, actuators: tuple[ActuatorModel, ...]) -> LegModel:
-    """The device alone at ``leg``'s lengths, its rotors as armature: the links' parts
-    after the first (the child's) when the leg was composed from parts (a fitted child,
+def device_leg(leg: LegModel, actuators: tuple[ActuatorModel, ...],
+               link: bool = False) -> LegModel:
+    """The device alone at ``leg``'s lengths, its rotors as armature (as the links feel
+    them, or, ``link``, as they carry them: :func:`~exoleg.device.actuator.with_actuators`):
+    the links' parts after the first (the child's) when the leg was composed from parts (a fitted child,
     the paper's detailed leg), else the paper's SLE bodies at these telescope settings
     (``data/paper/device.toml``)."""
     if all(len(lk.parts) >= 2 for lk in leg.links):
@@ -37,14 +40,16 @@ def device_leg(leg: LegModel, actuators: tuple[ActuatorModel, ...]) -> LegModel:
         bodies = device_bodies(float(leg.lengths[0]), float(leg.lengths[1]))
         links = [Link.from_parts(float(leg.lengths[i]), (bodies[i],), name=LINKS[i])
                  for i in range(3)]
-    return with_actuators(LegModel(links, g=leg.g, name="device alone"), actuators)
+    return with_actuators(LegModel(links, g=leg.g, name="device alone"), actuators, link)
 
 
 @njit(cache=True)
-def interaction_torque(pd, A, g, motion, ddy, tau, out):  # type: ignore[no-untyped-def]
-    """The cuffs' torque (N m) into out (3,) from the delivered torque ``tau`` and the
-    motion (``motion``: rows q, dq, ddq; the pelvis's ddy), the device alone's
-    parameters ``pd``."""
+def interaction_torque(pd, g, motion, ddy, link, out):  # type: ignore[no-untyped-def]
+    """The cuffs' torque (N m) into out (3,) from the torque that reaches the device's
+    links ``link`` (a rigid unit's delivered torque less its friction; a compliant
+    unit's spring torque, its friction being its rotor's) and the motion (``motion``:
+    rows q, dq, ddq; the pelvis's ddy), the device alone's parameters ``pd`` (its links
+    with the armature they carry themselves: ``device_leg(..., link=True)``)."""
     q, dq, ddq = motion[0], motion[1], motion[2]
     M = np.empty((3, 3))
     mass_matrix(q, pd, M)
@@ -58,4 +63,4 @@ def interaction_torque(pd, A, g, motion, ddy, tau, out):  # type: ignore[no-unty
         need = Cq[j] + G[j] + pv[j] * ddy
         for k in range(3):
             need += M[j, k] * ddq[k]
-        out[j] = tau[j] - friction(A[j:j + 1], dq[j]) - need
+        out[j] = link[j] - need

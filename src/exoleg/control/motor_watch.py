@@ -10,7 +10,8 @@ keeps).
   (:func:`exoleg.device.thermal.copper_loss`), one exact step per tick with the loss
   held (:func:`exoleg.device.thermal.thermal_hold`). They start at the ambient.
 * **Gears**: the torque a gear transmits is the torque allowed last tick less the
-  rotor's inertia torque, the reflected inertia N^2 (J_rotor + J_gear) times the
+  rotor's inertia torque, the inertia the link feels of it (N^2 (J_rotor + J_gear), or
+  K / w_b^2 behind a series spring's torque loop) times the
   measured acceleration (the rates' difference over the tick); its peak is kept and
   each time it goes beyond the gear's momentary peak is counted. The acceleration is
   also kept low-passed (``acc``): the layer's limit on what the gear carries
@@ -50,7 +51,7 @@ def watch_limits(r: NDArray[np.void], actuators: tuple[Any, ...], dt: float,
         r["continuous"][0, i] = min(a.continuous_torque, max_torque[i])
         r["momentary"][0, i] = a.momentary_peak_torque
         r["repeated"][0, i] = a.repeated_peak_torque
-        r["inertia"][0, i] = a.reflected_inertia
+        r["inertia"][0, i] = a.apparent_inertia
         r["drag"][0, i] = a.ratio * a.torque_constant * a.no_load_current
         r["smoothing"][0, i] = a.friction_smoothing
     r["dt"] = dt

@@ -31,7 +31,16 @@ What it does, at the joint (SI units):
   the same model every tick to derate a hot motor;
 * **encoder** (:func:`encode`): the absolute joint encoder's quantisation (2^bits per
   turn); the velocity is the finite difference of encoder readings over the control
-  period through a first-order low-pass of ``velocity_filter_hz`` (:func:`filter_gain`).
+  period through a first-order low-pass of ``velocity_filter_hz`` (:func:`filter_gain`);
+* **compliance** (optional, :data:`COMPLIANCE`, :data:`SERIES_FIELDS`): a series spring
+  between the gear and the link, or the stiff gear with a joint torque sensor -- the
+  rotor (inertia B = N^2 J) a body of its own on the stiffness K (:func:`series_torque`),
+  the drive closing a torque loop on the measured torque (:func:`torque_loop`) whose
+  gains follow from its natural frequency and damping
+  (:attr:`ActuatorModel.torque_loop_gains`); the link then feels K / w_b^2 of the rotor
+  (:attr:`ActuatorModel.apparent_inertia`) and 1 / (1 + kp) of its friction
+  (:func:`link_friction`). The walking plant steps the rotors with the leg
+  (:func:`exoleg.world.plant.walking_step_series`).
 """
 
 from __future__ import annotations
@@ -100,8 +109,26 @@ FIELDS: tuple[tuple[str, str, float, float], ...] = (
     ("viscous_friction", "N m s/rad", 0.0, 50.0),
     ("friction_smoothing", "rad/s", 1e-5, 10.0),
 )
+#: What sits between the gear's output and the link (an actuator file's ``compliance``):
+#: nothing (``rigid``: motor, gear and link turn as one body); a ``series_spring`` whose
+#: deflection an encoder reads; or the gear's own and a joint torque sensor's twist
+#: (``torque_sensor``: the same two-mass model, stiff). Either compliant kind closes the
+#: drive's torque loop on the measured torque.
+COMPLIANCE = ("rigid", "series_spring", "torque_sensor")
+#: (field, unit, lower, upper) of a compliant unit's figures, absent from a rigid one's
+#: file: the series stiffness (the spring's, or the gear's and the sensor's in series)
+#: and damping at the joint, the torque loop's natural frequency and damping ratio, the
+#: deflection's resolution in bits per turn (an encoder across the spring; a torque
+#: sensor's resolution expressed as the twist it resolves).
+SERIES_FIELDS: tuple[tuple[str, str, float, float], ...] = (
+    ("series_stiffness", "N m/rad", 10.0, 1e6),
+    ("series_damping", "N m s/rad", 0.0, 100.0),
+    ("torque_loop_bandwidth", "Hz", 1.0, 1000.0),
+    ("torque_loop_damping", "", 0.1, 2.0),
+    ("deflection_bits", "bit", 8.0, 32.0),
+)
 #: the fields that are whole numbers
-WHOLE = ("pole_pairs", "product_code", "encoder_bits")
+WHOLE = ("pole_pairs", "product_code", "encoder_bits", "deflection_bits")
 _NAMES = ("joint", "motor", "gear", "drive")
 #: The largest reflected inertia at a joint a file may give, kg m^2: six times the
 #: paper's hip (3.2 kg m^2: its motor and harmonic drive through 1:100); more would be
@@ -159,6 +186,49 @@ class ActuatorModel:
     viscous_friction: float
     friction_smoothing: float
     sources: dict[str, str] = field(default_factory=dict, compare=False)
+    compliance: str = "rigid"
+    series_stiffness: float = 0.0
+    series_damping: float = 0.0
+    torque_loop_bandwidth: float = 0.0
+    torque_loop_damping: float = 0.0
+    deflection_bits: int = 0
+
+    @property
+    def compliant(self) -> bool:
+        """Whether a spring or a torque sensor sits between the gear and the link."""
+        return self.compliance != "rigid"
+
+    @property
+    def torque_loop_gains(self) -> tuple[float, float]:
+        """The drive's torque loop on the measured torque tau_s = K delta (delta the
+        deflection), ``tau_m = (1 + kp) tau_d - kp tau_s - kd K d(delta)/dt``: with the
+        link held, B delta'' + (c + kd K) delta' + K (1 + kp) delta = (1 + kp) tau_d, so
+        the loop's natural frequency is w_b = sqrt(K (1 + kp) / B) and its damping ratio
+        zeta = (c + kd K) / (2 w_b B), B the reflected inertia: kp = B w_b^2 / K - 1,
+        kd = (2 zeta w_b B - c) / K. (0, 0) for a rigid unit."""
+        if not self.compliant:
+            return 0.0, 0.0
+        B, K = self.reflected_inertia, self.series_stiffness
+        wb = 2.0 * math.pi * self.torque_loop_bandwidth
+        return B * wb * wb / K - 1.0, (2.0 * self.torque_loop_damping * wb * B
+                                       - self.series_damping) / K
+
+    @property
+    def apparent_inertia(self) -> float:
+        """The inertia the link feels of its actuator, kg m^2: rigid, the reflected
+        inertia N^2 J; compliant, below the torque loop's bandwidth, B / (1 + kp) =
+        K / w_b^2 (Pratt & Williamson 1995: a series-elastic actuator's output impedance)."""
+        if not self.compliant:
+            return self.reflected_inertia
+        wb = 2.0 * math.pi * self.torque_loop_bandwidth
+        return self.series_stiffness / (wb * wb)
+
+    @property
+    def link_inertia(self) -> float:
+        """The armature the link itself carries, kg m^2: the reflected inertia when
+        rigid, none when compliant (the rotor is then a body of its own behind the
+        spring)."""
+        return 0.0 if self.compliant else self.reflected_inertia
 
     @property
     def reflected_inertia(self) -> float:
@@ -235,7 +305,10 @@ class ActuatorModel:
                 self.bus_voltage, self.torque_constant * self.ratio, self.terminal_resistance,
                 self.permissible_speed, self.coulomb_friction,
                 self.viscous_friction, self.friction_smoothing, self.current_loop_bandwidth,
-                self.encoder_resolution, self.velocity_filter_hz)
+                self.encoder_resolution, self.velocity_filter_hz,
+                self.series_stiffness if self.compliant else 0.0, self.series_damping,
+                self.reflected_inertia, *self.torque_loop_gains,
+                2 * math.pi / 2**self.deflection_bits if self.compliant else 0.0)
         return r
 
     def thermal(self) -> NDArray[np.void]:
@@ -259,11 +332,16 @@ class ActuatorModel:
 #: resistance (ohm), the motor's maximum permissible speed at the joint (rad/s), Coulomb
 #: (N m) and viscous (N m s/rad) friction and the Coulomb term's smoothing speed
 #: (rad/s), the current loop's bandwidth (Hz), the encoder's resolution (rad), the
-#: velocity filter's cut-off (Hz).
+#: velocity filter's cut-off (Hz); a compliant unit's series stiffness (N m/rad; 0: a
+#: rigid unit) and damping (N m s/rad), the rotor's reflected inertia (kg m^2), the
+#: torque loop's gains kp and kd (s) (:attr:`ActuatorModel.torque_loop_gains`) and the
+#: deflection's resolution (rad).
 ACTUATOR = np.dtype([("torque", F8), ("kt_joint", F8), ("current", F8), ("voltage", F8),
                      ("ke_joint", F8), ("resistance", F8), ("speed", F8),
                      ("coulomb", F8), ("viscous", F8), ("smoothing", F8), ("bandwidth", F8),
-                     ("resolution", F8), ("filter_hz", F8)])
+                     ("resolution", F8), ("filter_hz", F8), ("stiffness", F8),
+                     ("series_damping", F8), ("inertia", F8), ("kp", F8), ("kd", F8),
+                     ("deflection", F8)])
 #: The motor's two thermal nodes (:meth:`ActuatorModel.thermal`): winding-housing and
 #: housing-ambient resistances (K/W), the winding's and the housing's heat capacities
 #: (J/K: each time constant over its resistance) and the winding's resistance (ohm).
@@ -287,7 +365,8 @@ ActuatorModel.__doc__ = (ActuatorModel.__doc__ or "").rstrip() + "\n" + _paramet
 
 def parse_actuator(data: dict[str, Any], where: str) -> ActuatorModel:
     """An actuator from a parsed file; errors name the file, the field and the range."""
-    _check.keys(where, data, [*_NAMES, *(f[0] for f in FIELDS)], ["sources"])
+    _check.keys(where, data, [*_NAMES, *(f[0] for f in FIELDS)],
+                ["sources", "compliance", *(f[0] for f in SERIES_FIELDS)])
     vals: dict[str, Any] = {}
     for name in _NAMES:
         if not isinstance(data[name], str):
@@ -330,11 +409,62 @@ def parse_actuator(data: dict[str, Any], where: str) -> ActuatorModel:
     sources = data.get("sources", {})
     if not isinstance(sources, dict):
         raise ParameterError(where, "sources", "must be a table of field = \"source\"")
-    missing = [f[0] for f in FIELDS if f[0] not in sources]
+    vals.update(_series(data, where, vals))
+    fields = FIELDS + (SERIES_FIELDS if vals.get("compliance", "rigid") != "rigid" else ())
+    missing = [f[0] for f in fields if f[0] not in sources]
     if missing:
         raise ParameterError(where, f"sources.{missing[0]}", "every figure names its source "
                              "(a sheet's id, Table 2, the paper, or \"choice: why\")")
     return ActuatorModel(sources={k: str(v) for k, v in sources.items()}, **vals)
+
+
+def _series(data: dict[str, Any], where: str, vals: dict[str, Any]) -> dict[str, Any]:
+    """A compliant unit's figures (:data:`SERIES_FIELDS`), checked: all of them when
+    ``compliance`` is not rigid, none when it is; the torque loop above the rotor's
+    resonance on the spring with the link held (a loop below it would add inertia, not
+    hide it), at most a third of the current loop's bandwidth (the inner loop of a
+    cascade must be the faster), and not needing negative damping."""
+    kind = data.get("compliance", "rigid")
+    given = [f[0] for f in SERIES_FIELDS if f[0] in data]
+    if kind not in COMPLIANCE:
+        raise ParameterError(where, "compliance", f"unknown {kind!r} (allowed: "
+                             + ", ".join(COMPLIANCE) + ")")
+    if kind == "rigid":
+        if given:
+            raise ParameterError(where, given[0], "a rigid unit has no series figures "
+                                 "(set compliance = \"series_spring\" or \"torque_sensor\")")
+        return {}
+    out: dict[str, Any] = {"compliance": kind}
+    for name, unit, lo, hi in SERIES_FIELDS:
+        if name not in data:
+            raise ParameterError(where, name, f"missing: a {kind} unit needs "
+                                 + ", ".join(f[0] for f in SERIES_FIELDS))
+        v = _check.finite(where, name, data[name])
+        if not lo <= v <= hi:
+            raise ParameterError(where, name, f"{v:g} {unit} is outside {lo:g}-{hi:g} {unit}"
+                                 .replace("  ", " "))
+        if name in WHOLE:
+            if v != int(v):
+                raise ParameterError(where, name, f"expected a whole number, got {v}")
+            v = int(v)
+        out[name] = v
+    B = (vals["rotor_inertia"] + vals["gear_input_inertia"]) * vals["ratio"] ** 2
+    f0 = math.sqrt(out["series_stiffness"] / B) / (2 * math.pi) if B > 0 else math.inf
+    fb = out["torque_loop_bandwidth"]
+    if fb < f0:
+        raise ParameterError(where, "torque_loop_bandwidth", f"{fb:g} Hz is below the rotor's "
+                             f"resonance on the series stiffness with the link held "
+                             f"({f0:.3g} Hz): allowed {f0:.3g}-"
+                             f"{vals['current_loop_bandwidth'] / 3:g} Hz")
+    if fb > vals["current_loop_bandwidth"] / 3:
+        raise ParameterError(where, "torque_loop_bandwidth", f"{fb:g} Hz is above a third of "
+                             f"the current loop's {vals['current_loop_bandwidth']:g} Hz")
+    wb = 2 * math.pi * fb
+    if 2 * out["torque_loop_damping"] * wb * B < out["series_damping"]:
+        raise ParameterError(where, "series_damping", f"{out['series_damping']:g} N m s/rad "
+                             "alone damps the torque loop beyond torque_loop_damping "
+                             f"{out['torque_loop_damping']:g}: raise that or lower this")
+    return out
 
 
 def actuator_text(a: ActuatorModel, header: str = "") -> str:
@@ -345,12 +475,16 @@ def actuator_text(a: ActuatorModel, header: str = "") -> str:
 
     out = [f"# {ln}" for ln in header.splitlines()]
     out += [f"{k} = {toml_string(str(getattr(a, k)))}" for k in _NAMES]
-    for name, unit, _, _ in FIELDS:
+    fields = FIELDS
+    if a.compliant:
+        out.append(f"compliance = {toml_string(a.compliance)}")
+        fields = FIELDS + SERIES_FIELDS
+    for name, unit, _, _ in fields:
         v = getattr(a, name)
         text = str(int(v)) if name in WHOLE else repr(float(v))
         out.append(f"{name} = {text}" + (f"  # {unit}" if unit else ""))
     out += ["", "[sources]"]
-    out += [f"{k} = {toml_string(a.sources.get(k, ''))}" for k, *_ in FIELDS]
+    out += [f"{k} = {toml_string(a.sources.get(k, ''))}" for k, *_ in fields]
     return "\n".join(out) + "\n"
 
 
@@ -415,7 +549,8 @@ def hip_variant(name: str) -> ActuatorModel:
         "data", "device", "hip-variants", f"{name}.toml")))
 
 
-def with_actuators(leg: LegModel, actuators: tuple[ActuatorModel, ...] | None = None) -> LegModel:
+def with_actuators(leg: LegModel, actuators: tuple[ActuatorModel, ...] | None = None,
+                   link: bool = False) -> LegModel:
     """``leg`` with each actuator's reflected inertia as its joint's armature.
 
     Parameters
@@ -425,13 +560,20 @@ def with_actuators(leg: LegModel, actuators: tuple[ActuatorModel, ...] | None = 
     actuators : tuple of ActuatorModel, optional
         Hip, knee, ankle; default the shipped ones.
 
+    link : bool
+        The armature the links themselves carry (:attr:`ActuatorModel.link_inertia`:
+        none at a compliant joint, whose rotor is a body of its own -- the walking
+        plant's); default what a model of the device should hold, the inertia each link
+        feels (:attr:`ActuatorModel.apparent_inertia`: the reflected inertia of a rigid
+        unit, K / w_b^2 of a compliant one).
+
     Returns
     -------
     LegModel
-        A new model, N^2 (J_rotor + J_gear) on M's diagonal.
+        A new model, the armature on M's diagonal.
     """
     acts = paper_actuators() if actuators is None else actuators
-    return leg.with_armature([a.reflected_inertia for a in acts])
+    return leg.with_armature([a.link_inertia if link else a.apparent_inertia for a in acts])
 
 
 def params_array(actuators: tuple[ActuatorModel, ...]) -> NDArray[np.void]:
@@ -482,6 +624,16 @@ def friction(par, w):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
+def link_friction(par, w):  # type: ignore[no-untyped-def]
+    """The friction the link feels at speed w, N m: a rigid unit's own (:func:`friction`);
+    behind a compliant unit's torque loop, 1 / (1 + kp) of its rotor's (the loop rejects
+    a disturbance on the motor's side so, below its bandwidth)."""
+    f = friction(par, w)
+    P = par[0]
+    return f / (1.0 + P.kp) if P.stiffness > 0.0 else f
+
+
+@njit(cache=True)
 def current_loop(par, tau, tau_cmd, h):  # type: ignore[no-untyped-def]
     """The drive's torque (current) loop over a step of ``h`` s with the command held:
     first order of bandwidth f_c, exactly discretised. Returns (torque at the end of the
@@ -491,6 +643,31 @@ def current_loop(par, tau, tau_cmd, h):  # type: ignore[no-untyped-def]
     end = tau_cmd + (tau - tau_cmd) * e
     mean = tau_cmd + (tau - tau_cmd) * (T / h) * (1.0 - e)
     return end, mean
+
+
+@njit(cache=True, inline="always")
+def series_torque(par, q, dq, qr, wr):  # type: ignore[no-untyped-def]
+    """The torque a compliant unit's spring (or gear and sensor) passes to its link, N m:
+    K (theta_r - q) + c (w_r - dq), the rotor's angle ``qr`` and speed ``wr`` on the
+    joint's side of the gear, the link's ``q`` and ``dq``."""
+    P = par[0]
+    return P.stiffness * (qr - q) + P.series_damping * (wr - dq)
+
+
+@njit(cache=True)
+def torque_loop(par, tau_d, q, dq, qr, wr):  # type: ignore[no-untyped-def]
+    """A compliant unit's drive closing its torque loop on the measured torque (the
+    deflection ``qr - q`` as its encoder resolves it, times the stiffness) towards the
+    joint torque ``tau_d`` (:attr:`ActuatorModel.torque_loop_gains`; the deflection's rate
+    from the rotor's and the link's speeds). Returns (the motor's torque command within
+    the drive's limit at the rotor's speed -- the current loop's input --, the torque the
+    spring passes, the measured torque), N m at the joint."""
+    P = par[0]
+    d = qr - q
+    measured = P.stiffness * math.floor(d / P.deflection + 0.5) * P.deflection
+    cmd = (1.0 + P.kp) * tau_d - P.kp * measured - P.kd * P.stiffness * (wr - dq)
+    e = drive_limit(par, wr, cmd)
+    return min(max(cmd, -e), e), series_torque(par, q, dq, qr, wr), measured
 
 
 @njit(cache=True)

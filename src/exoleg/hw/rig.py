@@ -59,11 +59,14 @@ class DriveRig:
         return self.scaling[j].to_counts(float(self.sensors["q"][i] + self.jump[i]))
 
     def drive(self, i: int) -> tuple[int, int, int]:
-        """Drive ``i``'s answer: statusword, position actual (counts), torque actual (per
-        mille)."""
+        """Drive ``i``'s answer: statusword, position actual (counts), torque actual
+        (0x6077, per mille): the torque the drive controls -- its motor's (from the
+        current) for a rigid unit, the measured joint torque (the deflection's encoder
+        times the stiffness, or the torque sensor) its torque loop closes on for a
+        compliant one."""
         j = JOINT_ORDER[i]
         return (self.drives[j].statusword, self.position(i),
-                self.scaling[j].to_per_mille(float(self.dev.tau[i])))
+                self.scaling[j].to_per_mille(float(self.dev.S[0]["joint_torque"][i])))
 
     def foot(self) -> tuple[bytes, bytes]:
         """The foot board's FSR and IMU data (:data:`FOOT_FSR`, :data:`FOOT_IMU`)."""

@@ -49,6 +49,7 @@ class SimBackend:
 
         self.dev = device
         self.controller = controller
+        substeps = device.substeps_for(period, substeps)
         check_step(self.dev.plant, period / substeps, self.dev.folder)
         self.period = period
         self.substeps = substeps

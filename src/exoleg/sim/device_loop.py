@@ -248,6 +248,12 @@ def device_parts(device: str | Path | None, actuators: tuple[ActuatorModel, ...]
 
     folder = None if device is None else check_folder(device)
     acts = paper_actuators(folder) if actuators is None else tuple(actuators)
+    for a in acts:
+        if a.compliant:
+            raise ParameterError(f"actuators/{a.joint}.toml", "compliance",
+                                 f"{a.compliance}: the paper's scenario steps rigid units "
+                                 "only (the leg in the air, each rotor on its link); a "
+                                 "compliant unit walks (exoleg simulate --walk, exoleg run)")
     lim = SafetyLimits.paper(control_dt, folder, acts) if safety is None else safety
     return folder, acts, params_array(acts), lim
 

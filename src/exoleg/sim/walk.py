@@ -341,6 +341,7 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     ctl, dev = cast(WalkController, system.controller), system.device
     assert dev is not None  # simulated
     plant, sens = dev.plant, dev.sensors
+    substeps = dev.substeps_for(control_dt, substeps)
     check_step(plant, control_dt / substeps, dev.folder)
     n = int(round((standing + strides * stride_time) / control_dt))
     if commands is None:

@@ -24,6 +24,7 @@ knee exoskeleton: under 1.8 N m in its zero mode), ``shared/design/child-referen
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -170,9 +171,11 @@ class Transparency:
         return not self.fault and all(v <= GOAL_NM_PER_KG for v in last.values())
 
 
-def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0) -> Transparency:
+def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
+             device: str | Path | None = None) -> Transparency:
     """The typically developing 10-year-old girl walking ``strides`` strides of
-    ``stride_time`` s in the transparent mode (the sensors at their datasheet noise)."""
+    ``stride_time`` s in the transparent mode (the sensors at their datasheet noise), on
+    the device of the folder ``device`` (None: the shipped one)."""
     from exoleg.child.model import ChildModel
     from exoleg.control.safety import Limited
     from exoleg.control.transparency import SupportMode
@@ -184,9 +187,9 @@ def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0) -> Tran
     c, _ = population_child(None, "female", 10.0, 50.0)
     child = ChildModel.of(c)
     leg = personalized_leg(c)
-    config = DeviceConfig.load()
+    config = DeviceConfig.load(device)
     r = simulate_walk(leg, c.mass, strides=strides, stride_time=stride_time, child=child,
-                      seed=seed, support_mode=SupportMode.TRANSPARENT)
+                      seed=seed, support_mode=SupportMode.TRANSPARENT, device=device)
     sel = r.t >= r.walk_start + SETTLE_STRIDES * stride_time
     lim = np.array([a.torque_limit for a in config.actuators])
     at = np.abs(r.tau[sel]) >= 0.99 * lim

@@ -30,7 +30,9 @@ from exoleg.device.actuator import (
     drive_limit,
     encode,
     filter_gain,
+    friction,
     params_array,
+    torque_loop,
     with_actuators,
 )
 from exoleg.device.ground import ANKLE_HEIGHT, SOLE_MAX, Ground
@@ -48,6 +50,7 @@ from exoleg.world.plant import (
     sole_loads,
     step_contacts,
     walking_step,
+    walking_step_series,
 )
 from exoleg.world.treadmill import SWING, belt_speed_for, other_leg_support
 
@@ -71,12 +74,17 @@ def _imu_point(p, x, px, py):  # type: ignore[no-untyped-def]
 #: hysteresis direction and creep states: :func:`~exoleg.device.sensors.fsr_response`),
 #: the child's muscles' torque over the last tick (reflexes and effort, N m; their
 #: passive moments act in the plant) and the cuffs' torque (the interaction torque,
-#: :mod:`exoleg.child.interaction`; NaN when the device's own links are unknown).
+#: :mod:`exoleg.child.interaction`; NaN when the device's own links are unknown); the
+#: rotors' angles and speeds at the joint's side of the gear (6,: a compliant unit's
+#: rotor is a body of its own; a rigid unit's follows its link) and the joint torque a
+#: compliant unit measured over the last tick (its deflection times its stiffness, N m;
+#: a rigid unit's motor torque).
 DEVICE = np.dtype([("x", F8, 8), ("tau", F8, 3), ("qm", F8, 3), ("vm", F8, 3),
                    ("v_imu", F8, 2), ("loaded", np.bool_), ("t_off", F8), ("t_strike", F8),
                    ("walking", np.bool_), ("t_start", F8),
                    ("belt", F8), ("fsr_last", F8, 4), ("fsr_memory", F8, 4),
-                   ("fsr_creep", F8, (4, 3)), ("child", F8, 3), ("interaction", F8, 3)])
+                   ("fsr_creep", F8, (4, 3)), ("child", F8, 3), ("interaction", F8, 3),
+                   ("rotor", F8, 6), ("joint_torque", F8, 3)])
 
 
 def device_state(plant: WalkingPlant, A: NDArray[np.void], x0: F64, imu_x: float,
@@ -93,6 +101,7 @@ def device_state(plant: WalkingPlant, A: NDArray[np.void], x0: F64, imu_x: float
     r["t_off"] = r["t_strike"] = -1e9
     r["belt"] = plant.belt_speed
     r["interaction"] = np.nan
+    r["rotor"] = np.concatenate([x0[1:4], x0[5:8]])
     return S
 
 
@@ -196,27 +205,45 @@ def device_actuate(dev, K, S, step, u, fn, scene, into):  # type: ignore[no-unty
     F = np.empty((SOLE_MAX, 2))
     gen = np.empty(4)
     # by row: the joints' torque in a substep, its sum over the tick, the tick's mean
-    # posture, rates and accelerations (one allocation: this runs every tick)
-    V = np.zeros((5, 3))
-    joint, acc, qm, dqm, ddq = V[0], V[1], V[2], V[3], V[4]
+    # posture, rates and accelerations, the link's torque (one allocation: this runs every
+    # tick); with compliant units, what their drives and the child apply and the
+    # measured torque's sum
+    V = np.zeros((6, 3))
+    joint, acc, qm, dqm, ddq, link = V[0], V[1], V[2], V[3], V[4], V[5]
+    series = A[0].stiffness > 0.0 or A[1].stiffness > 0.0 or A[2].stiffness > 0.0
+    drive = np.zeros((3, 3))
     supp = 0.0
     hs = h / sub
     for _ in range(sub):
         for i in range(3):
             tc = min(max(u[i], -env[i]), env[i])
+            if series and A[i].stiffness > 0.0:
+                tc, passed, measured = torque_loop(A[i:i + 1], tc, x[1 + i], x[5 + i],
+                                                   D.rotor[i], D.rotor[3 + i])
+                link[i] += passed
+                drive[2, i] += measured
             D.tau[i], mean = current_loop(A[i:i + 1], D.tau[i], tc, hs)
             acc[i] += mean
             joint[i] = mean + D.child[i]
+            drive[0, i], drive[1, i] = mean, D.child[i]
         supp += step_contacts(p, w, x, pts, F, gen)
-        walking_step(p, w, A, P, x, joint, gen, hs)
+        if series:
+            walking_step_series(p, w, A, P, (x, D.rotor), drive[:2], gen, hs)
+        else:
+            walking_step(p, w, A, P, x, joint, gen, hs)
     for i in range(3):
         tau[i] = acc[i] / sub
+        D.joint_torque[i] = drive[2, i] / sub if A[i].stiffness > 0.0 else tau[i]
     if pd.shape[0] > 0:  # the cuffs' torque over the tick, from its mean accelerations
         for i in range(3):
             qm[i] = 0.5 * (x0[1 + i] + x[1 + i])
             dqm[i] = 0.5 * (x0[5 + i] + x[5 + i])
             ddq[i] = (x[5 + i] - x0[5 + i]) / h
-        interaction_torque(pd, A, W.g, V[2:], (x[4] - x0[4]) / h, tau, D.interaction)
+            # what reaches the link: a rigid unit's torque less its friction, a compliant
+            # unit's spring (its friction is the rotor's, behind it)
+            link[i] = (link[i] / sub if A[i].stiffness > 0.0
+                       else tau[i] - friction(A[i:i + 1], dqm[i]))
+        interaction_torque(pd, W.g, V[2:5], (x[4] - x0[4]) / h, link, D.interaction)
     ok = 1
     for i in range(8):
         if not math.isfinite(x[i]):
@@ -283,7 +310,7 @@ class SimulatedDevice:
         if child is not None and child.gait != "normative":
             gait = intended_gait(child, stride_time, speed)[0]
             swing_from = real_gait_toe_off(child.gait)
-        plant = WalkingPlant.of(with_actuators(leg, actuators), share,
+        plant = WalkingPlant.of(with_actuators(leg, actuators, link=True), share,
                                 belt_speed_for(leg, speed, stride_time, gait), ground,
                                 ankle_height)
         if step:  # the other leg holds the pelvis that much higher
@@ -300,8 +327,16 @@ class SimulatedDevice:
                                              gait=gait, swing_from=swing_from),
                    depth=depth, imu_x=sensors.imu_position * float(leg.lengths[2]), x0=x0,
                    stride_time=stride_time, speed=speed, child=child,
-                   device_p=device_leg(leg, actuators).p, step=float(step),
+                   device_p=device_leg(leg, actuators, link=True).p, step=float(step),
                    child_support=float(child_support), folder=folder)
+
+    def substeps_for(self, tick: float, asked: int) -> int:
+        """The plant's steps per control tick of ``tick`` s: ``asked``, or more for a
+        device of compliant units, whose light links need the sole's friction resolved
+        (:meth:`~exoleg.world.plant.WalkingPlant.fewest_substeps`)."""
+        if not any(a.compliant for a in self.actuators):
+            return asked
+        return max(asked, self.plant.fewest_substeps(tick))
 
     def state(self) -> NDArray[np.void]:
         """A fresh device state at the start posture (:data:`DEVICE`)."""

@@ -49,7 +49,7 @@ from numpy.typing import NDArray
 
 from exoleg import checks as _check
 from exoleg.child.passive import passive_torque
-from exoleg.device.actuator import friction
+from exoleg.device.actuator import friction, series_torque
 from exoleg.device.ground import ANKLE_HEIGHT, REGIONS, SOLE_MAX, Ground
 from exoleg.dynamics.kernels import (
     coriolis_dq,
@@ -70,6 +70,17 @@ F64 = NDArray[np.float64]
 #: the largest abs(lambda) h the plant's RK4 step is let to meet (its stability region
 #: reaches 2.78 on the real axis, 2.83 on the imaginary one)
 STEP_LIMIT = 2.5
+#: the largest h c / m a plant step is let to meet on the sole's friction (c its slope
+#: at no slip under the whole stance load, m the foot's effective mass along the belt):
+#: the friction is held over each step, an explicit Euler step for its damping, which
+#: beyond 2 reverses the slip it acts on -- the foot then chatters within the friction's
+#: smooth band (``slip_speed``). A device of compliant units, whose links are light, met
+#: 10 at 0.5 ms: the ankle chattered at 500 Hz and the cuffs' residual of a transparent
+#: walk moved 0.72 -> 0.92 -> 0.89 N m/kg from 4 to 8 to 16 steps a tick (measured).
+#: The shipped rigid device meets 2.2-5.0 at its 0.5 ms step (the rotors on its links
+#: make the foot heavy) and keeps that step: its transparent walk's residual moved 0.30
+#: -> 0.26 N m/kg from 2 to 8 steps a tick (measured; simulate_walk's ``substeps``).
+FRICTION_LIMIT = 2.0
 
 
 @dataclass(frozen=True)
@@ -127,6 +138,29 @@ class WalkingPlant:
                 f"for the sole, on {m:.1f} kg) has a mode of {lam:.3g} /s: the plant's step of "
                 f"{h * 1e3:g} ms diverges above {STEP_LIMIT / h:.3g} /s (RK4: |lambda| h "
                 f"<= {STEP_LIMIT:g}); soften the contact or take more substeps")
+
+    def friction_rate(self) -> float:
+        """c / m, 1/s: the sole's friction slope at no slip under the whole stance load
+        (mu (body mass + leg) g / slip speed) over the foot's effective mass along the
+        belt at its lightest sole element, standing straight (1 / (J_x M^-1 J_x^T), M
+        with the armature the links carry)."""
+        from exoleg.dynamics.kernels import foot_point_jacobian
+
+        g = self.ground
+        q = np.zeros(3)
+        Mi = np.linalg.inv(self.leg.M(q))
+        J = np.empty((2, 3))
+        m = math.inf
+        for px, py in self.points:
+            foot_point_jacobian(q, self.leg.p, float(px), float(py), J)
+            m = min(m, 1.0 / float(J[0] @ Mi @ J[0]))
+        c = g.friction * (self.body_mass + self.leg_mass) * self.leg.g / g.slip_speed
+        return c / m
+
+    def fewest_substeps(self, tick: float) -> int:
+        """The fewest plant steps per control tick of ``tick`` s that keep the sole's
+        friction within :data:`FRICTION_LIMIT` (:meth:`friction_rate`)."""
+        return max(1, math.ceil(tick * self.friction_rate() / FRICTION_LIMIT - 1e-9))
 
     @property
     def depth(self) -> float:
@@ -343,6 +377,70 @@ def walking_step(p, w, A, P, x, tau, gen, h):  # type: ignore[no-untyped-def]
             k[stage, 4 + i] = a[i]
     for i in range(8):
         x[i] += h / 6.0 * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _deriv_series(p, w, A, P, s, drive, gen, work):  # type: ignore[no-untyped-def]
+    """:func:`_deriv` with compliant units: the state s (14,) is the plant's (8,), then
+    the rotors' angles and speeds at the joint's side (3 + 3); ``drive``: rows the motors'
+    torques and the child's (3,) each. A rigid joint takes its motor's torque less its
+    friction as :func:`_deriv` does; a compliant one the spring's, its rotor (reflected
+    inertia B) driven by the motor against the spring and its own friction. ``work``:
+    (:func:`scratch`'s arrays, dr (3,)): (ddy, ddq) into the first's last, the rotors'
+    accelerations into dr (0 at a rigid joint, whose rotor is the link)."""
+    wk, dr = work
+    t = wk[1][2]
+    q, dq = s[1:4], s[5:8]
+    passive_torque(P, q, dq, t)
+    for i in range(3):
+        a = A[i]
+        if a.stiffness > 0.0:
+            ts = series_torque(A[i:i + 1], q[i], dq[i], s[8 + i], s[11 + i])
+            t[i] += ts + drive[1, i]
+            dr[i] = (drive[0, i] - ts - friction(A[i:i + 1], s[11 + i])) / a.inertia
+        else:
+            t[i] += drive[0, i] + drive[1, i] - friction(A[i:i + 1], dq[i])
+            dr[i] = 0.0
+    walking_accel(p, w, s, t, gen, wk)
+
+
+@njit(cache=True, error_model="numpy")
+def walking_step_series(p, w, A, P, state, drive, gen, h):  # type: ignore[no-untyped-def]
+    """:func:`walking_step` for a device with compliant units: ``state`` the plant's x
+    (8,) and the rotors' r (6,: angles, then speeds, at the joint's side), stepped
+    together by RK4, in place, the motors' and the child's torques (``drive``, rows (2, 3)) and the
+    generalized external forces held. A rigid joint's rotor is its link: its entries of r
+    follow the link's."""
+    x, r = state
+    k = np.empty((4, 14))
+    s = np.empty(14)
+    s[:8] = x
+    s[8:] = r
+    z = s.copy()
+    wk = scratch()
+    a = wk[3]
+    dr = np.empty(3)
+    for stage in range(4):
+        c = 0.0 if stage == 0 else (0.5 if stage < 3 else 1.0)
+        if stage > 0:
+            for i in range(14):
+                s[i] = z[i] + c * h * k[stage - 1, i]
+        _deriv_series(p, w, A, P, s, drive, gen, (wk, dr))
+        for i in range(4):
+            k[stage, i] = s[4 + i]
+            k[stage, 4 + i] = a[i]
+        for i in range(3):
+            k[stage, 8 + i] = s[11 + i]
+            k[stage, 11 + i] = dr[i]
+    for i in range(8):
+        x[i] += h / 6.0 * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
+    for i in range(3):
+        if A[i].stiffness > 0.0:
+            for j in (i, 3 + i):
+                r[j] += h / 6.0 * (k[0, 8 + j] + 2.0 * k[1, 8 + j] + 2.0 * k[2, 8 + j]
+                                   + k[3, 8 + j])
+        else:
+            r[i], r[3 + i] = x[1 + i], x[5 + i]
 
 
 @njit(cache=True, error_model="numpy")
