@@ -9,14 +9,18 @@ round trip of a written actuator file); the screen's closed forms
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
+import math
 import tomllib
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from exoleg.cli import main
 from exoleg.design.catalogue import candidate, catalogue
+from exoleg.design.study import SPRING_STEPS
 from exoleg.device.actuator import actuator_text, paper_actuators, parse_actuator
 
 SMALL = """
@@ -61,10 +65,21 @@ def test_design_screens_chooses_writes_a_device_and_walks_it(tmp_path: Path) -> 
     config = tmp_path / "design.toml"
     config.write_text(SMALL)
     out = tmp_path / "d"
-    assert main(["design", str(config), "--out", str(out)]) == 0
+    assert main(["design", str(config), "--out", str(out), "--no-population"]) == 0
     rows = list(csv.DictReader((out / "screen.csv").open()))
     motors, gears = catalogue()
-    assert len(rows) == 3 * len(motors) * len(gears) * 2
+    # each motor and gear rigid, with SPRING_STEPS springs, and with a torque sensor
+    assert len(rows) == 3 * len(motors) * len(gears) * 2 * (1 + SPRING_STEPS + 1)
+    for r in rows:  # a compliant option that cannot close its loop serves nobody
+        if r["why_not"]:
+            assert float(r["served"]) == 0.0
+    # the torque sensor on the knee's 1:50 gear (13,000 N m/rad, S10) with the EC 60
+    # flat's rotor: sqrt(K / B) / 2 pi = 38.5 Hz, above the 30 Hz loop asked
+    knee_b = (8.1e-5 + 7.9e-6) * 50**2
+    sensor = [r for r in rows if r["joint"] == "knee" and r["series"] == "torque_sensor"
+              and "EC 60" in r["motor"] and r["ratio"] == "50.0"]
+    assert sensor and all(f"{math.sqrt(13000 / knee_b) / (2 * math.pi):.1f} Hz" in r["why_not"]
+                          for r in sensor)
     chosen = [r for r in rows if r["chosen"] == "True"]
     assert sorted(r["joint"] for r in chosen) == ["ankle", "hip", "knee"]
     assert len({r["bus_V"] for r in chosen}) == 1  # one bus for the device's drives
@@ -85,6 +100,22 @@ def test_design_screens_chooses_writes_a_device_and_walks_it(tmp_path: Path) -> 
             r["joint"])), strict=True):
         assert (a.motor, a.gear, a.bus_voltage) == (r["motor"], r["gear"], float(r["bus_V"]))
         assert a.peak_current == 2 * a.nominal_current
+        assert a.compliance == r["series"]
+        if a.compliant:
+            assert a.series_stiffness == pytest.approx(float(r["stiffness_Nm_per_rad"]))
+    # its impedance: the shipped gains times J' / J (the shipped file's rule, Kp = J w^2,
+    # Kd = 2 zeta J w, on the chosen units' inertia); assist-as-needed bounded to alpha
+    import exoleg
+    from exoleg.control.hierarchy import WalkGains
+
+    link = np.diag(exoleg.paper_leg().M(np.zeros(3)))
+    scale = ((link + [a.apparent_inertia for a in acts])
+             / (link + [a.apparent_inertia for a in paper_actuators()]))
+    g, g0 = WalkGains.default(out / "device"), WalkGains.default()
+    for name in ("kp_stance", "kd_stance", "kp_swing", "kd_swing"):  # written to 4 digits
+        assert np.allclose(getattr(g, name), getattr(g0, name) * scale, rtol=5e-4), name
+    assist = tomllib.loads((out / "device" / "assist.toml").read_text())
+    assert assist["support_max"] == assist["start"] == [0.5, 0.5, 0.5]
     summary = json.loads((out / "design.json").read_text())
     assert summary["children"] == 8
     walked = {v["device"]: v for v in summary["verify"]}
@@ -108,3 +139,54 @@ def test_a_bad_design_file_is_named(tmp_path: Path, capsys: pytest.CaptureFixtur
     err = capsys.readouterr().err
     assert str(config) in err and says in err, err
     assert not (tmp_path / "d" / "design.json").exists()
+
+
+def test_the_population_walks_on_the_sweep_engine_and_resumes(tmp_path: Path) -> None:
+    """The chosen device verified over the population through the sweep engine (a local
+    Dask cluster): one child of the design set in the mass window and one held out, each
+    transparent and assist-as-needed; a second run finds every task done."""
+    from exoleg.study.engine import done_tasks
+
+    config = tmp_path / "design.toml"
+    config.write_text(SMALL.replace("ages = [9.0, 11.0]", "ages = [10.0]")
+                      .replace("groups = [0, 3]", "groups = [0]")
+                      .replace("percentiles = [25.0, 75.0]", "percentiles = [50.0]")
+                      .replace("strides = 2", "strides = 1\nstrides_transparent = 1\n"
+                               "strides_assist = 1\nmass_kg = [20.0, 40.0]"))
+    out = tmp_path / "d"
+    args = ["design", str(config), "--out", str(out), "--workers", "1"]
+    assert main(args) == 0
+    rows = list(csv.DictReader((out / "verify-population.csv").open()))
+    assert [r["held_out"] for r in rows] == ["False", "True"]
+    for r in rows:
+        assert 20.0 <= float(r["mass_kg"]) <= 40.0 or r["held_out"] == "True"
+        assert r["served"] == str(r["transparent_met"] == "True" and r["assist_met"] == "True")
+        met = all(float(r[f"transparent_residual_Nm_per_kg_{j}"]) <= 0.036
+                  for j in ("hip", "knee", "ankle")) and not r["transparent_fault"]
+        assert (r["transparent_met"] == "True") == met
+    summary = json.loads((out / "design.json").read_text())["verify_population"]
+    assert summary["design_set"]["children"] == 1 and summary["held_out"]["children"] == 1
+    done = {m: done_tasks(out / f"verify-{m}") for m in ("transparent", "aan")}
+    log = (out / "verify-aan" / "tasks.log").read_text()
+    assert main(args) == 0  # resumed: no task computed again
+    assert {m: done_tasks(out / f"verify-{m}") for m in done} == done
+    assert (out / "verify-aan" / "tasks.log").read_text() == log
+
+
+def test_a_study_on_a_device_folder_walks_its_units(tmp_path: Path) -> None:
+    from exoleg.errors import ParameterError
+    from exoleg.study.runs import device_variant
+    from exoleg.study.spec import parse_study
+
+    folder = tmp_path / "device" / "actuators"
+    folder.mkdir(parents=True)
+    knee = paper_actuators()[1]
+    for a in paper_actuators():  # the knee's unit at every joint
+        (folder / f"{a.joint}.toml").write_text(actuator_text(
+            dataclasses.replace(knee, joint=a.joint)))
+    study = parse_study("[axes]\nage = [10]\n").on_device(str(folder.parent))
+    units = device_variant(study.runs()[0], study.device)
+    assert [a.motor for a in units] == [knee.motor] * 3
+    assert [a.ratio for a in units] == [50.0] * 3  # not the axes' default 100 / 50 / 120
+    with pytest.raises(ParameterError, match="a device folder fixes the actuation"):
+        parse_study("[axes]\nhip_ratio = [50]\n").on_device(str(folder.parent))

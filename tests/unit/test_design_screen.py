@@ -75,3 +75,37 @@ def test_the_screen_agrees_with_its_forms_candidate_by_candidate() -> None:
     # its rotor would turn beyond its 6,000 rpm (actuation-design.md: about 6,400 rpm at
     # a 1.0 s stride; at this 1.1 s stride, 120 x the ankle's peak rate)
     assert r["motor_speed_peak"][0, 2, 0] > 6000 * np.pi / 30 and not r["fits"][0, 2].any()
+
+
+def test_a_spring_adds_the_torque_that_winds_it() -> None:
+    # behind a series stiffness K the rotor leads the link by alpha tau / K: the motor's
+    # torque is J N (qdd + alpha tau_dd / K) + alpha tau / (N eta), term by term
+    tau_dd = s.periodic_second_derivative(TAU, 1.1, 10)
+    rigid = s.motor_torque(2e-4, 50.0, 0.5, TAU, QDD, 0.8)
+    soft = s.motor_torque(2e-4, 50.0, 0.5, TAU, QDD, 0.8, (300.0, tau_dd))
+    assert np.allclose(soft - rigid, 2e-4 * 50.0 * 0.5 * tau_dd / 300.0, rtol=1e-12)
+    # a stiffer spring winds less: the limit is the rigid gear
+    stiff = s.motor_torque(2e-4, 50.0, 0.5, TAU, QDD, 0.8, (1e12, tau_dd))
+    assert np.allclose(stiff, rigid, atol=1e-9)
+
+
+def test_the_periodic_second_derivative_of_a_harmonic_is_exact() -> None:
+    t = np.arange(100) / 100 * 1.1
+    x = 3.0 * np.sin(2 * np.pi * 2 * t / 1.1) + 0.5 * np.cos(2 * np.pi * 12 * t / 1.1)
+    d2 = s.periodic_second_derivative(x, 1.1, 10)  # the 12th harmonic left out
+    assert np.allclose(d2, -3.0 * (2 * np.pi * 2 / 1.1) ** 2 * np.sin(2 * np.pi * 2 * t / 1.1),
+                       atol=1e-9)
+
+
+def test_the_loop_inertia_is_the_units_apparent_inertia() -> None:
+    import dataclasses
+
+    from exoleg.device.actuator import paper_actuators
+
+    knee = dataclasses.replace(paper_actuators()[1], compliance="series_spring",
+                               series_stiffness=300.0, torque_loop_bandwidth=30.0,
+                               torque_loop_damping=0.7, deflection_bits=20)
+    kp, _ = knee.torque_loop_gains
+    assert s.loop_inertia(300.0, 30.0) == pytest.approx(knee.apparent_inertia, rel=1e-15)
+    assert s.loop_inertia(300.0, 30.0) == pytest.approx(knee.reflected_inertia / (1 + kp),
+                                                        rel=1e-12)

@@ -13,6 +13,7 @@ from exoleg.cli._common import _say, _table
 def cmd_design(args: argparse.Namespace) -> int:
     import csv
 
+    from exoleg.design import verify as population
     from exoleg.design.study import Design, run_design, verify
     from exoleg.io import OutputFolder, refuse_overwrite, write_json
 
@@ -22,15 +23,29 @@ def cmd_design(args: argparse.Namespace) -> int:
     actuators = out / "device" / "actuators"
     files = ("hip.toml", "knee.toml", "ankle.toml")
     # before the screen and the walks: none of the user's files is written over
-    refuse_overwrite(out, "exoleg design", ("screen.csv", "verify.csv", "design.json"))
+    refuse_overwrite(out, "exoleg design", ("screen.csv", "verify.csv", "design.json",
+                                            "verify-population.csv"))
     refuse_overwrite(actuators, "exoleg design", files)
+    refuse_overwrite(out / "device", "exoleg design", ("transparency.toml", "assist.toml",
+                                                       "walking_control.toml"))
     found = run_design(design)
     rows = found["rows"]
     with OutputFolder(actuators, owner="exoleg design") as dev:
         for j, text in found["text"].items():
             dev.stage(f"{j}.toml").write_text(text)
         dev.commit()
+    with OutputFolder(out / "device", owner="exoleg design") as dev:
+        dev.stage("transparency.toml").write_text(population.transparency_text(found["units"]))
+        dev.stage("assist.toml").write_text(population.assist_text(design.alpha))
+        dev.stage("walking_control.toml").write_text(
+            population.walking_control_text(found["units"]))
+        dev.commit()
     checked = verify(design, None) + verify(design, out / "device")
+    served: list[dict[str, Any]] = []
+    if not args.no_population:
+        _say(f"exoleg design: verifying the device in the walking loop over the population "
+             f"on the sweep engine ({out}/verify-transparent, verify-aan; resumable)")
+        served = population.run(design, out / "device", out, args.scheduler, args.workers)
     with OutputFolder(out, owner="exoleg design") as o:
         keys = [k for k in rows[0] if not k.startswith("_")]
         with o.stage("screen.csv").open("w", newline="") as f:
@@ -42,21 +57,27 @@ def cmd_design(args: argparse.Namespace) -> int:
             w = csv.DictWriter(f, fieldnames=list(checked[0]))
             w.writeheader()
             w.writerows(checked)
+        if served:
+            with o.stage("verify-population.csv").open("w", newline="") as f:
+                w = csv.DictWriter(f, fieldnames=list(served[0]))
+                w.writeheader()
+                w.writerows(served)
         write_json(o.stage("design.json"), {
             "design": str(args.config), "children": found["children"],
             "alpha": list(design.alpha), "transparency_goal_Nm_per_kg": design.goal,
             "chosen": {j: {k: v for k, v in r.items() if not k.startswith("_")}
                        for j, r in found["chosen"].items()},
             "device": str(out / "device"), "verify": checked,
+            "verify_population": population.summary(served) if served else None,
             "wall_time_s": time.perf_counter() - t0})
         o.commit(last="design.json")
     _say(f"exoleg design: {found['children']} children x {len(rows) // 3} candidates per "
          f"joint (the catalogue's motors and gears on {len(design.buses)} bus voltage(s)), "
          f"alpha {'/'.join(f'{a:g}' for a in design.alpha)}")
-    _table([[r["joint"], r["motor"], r["gear"], f"{r['bus_V']:g}",
+    _table([[r["joint"], r["motor"], r["gear"], _series_words(r), f"{r['bus_V']:g}",
              f"{100 * r['served']:.0f} %", f"{r['residual_worst_Nm_per_kg']:.3f}",
              f"{r['winding_worst_C']:.0f}"] for r in found["chosen"].values()],
-           ["joint", "motor", "gear", "bus V", "served", "worst residual N m/kg",
+           ["joint", "motor", "gear", "series", "bus V", "served", "worst residual N m/kg",
             "worst winding degC"], title="chosen (screen: closed forms over the population)")
     _table([[c["device"], f"{c['age']:g} {c['sex']} "
              f"{'TD' if not c['group'] else 'GMFCS ' + str(c['group'])} "
@@ -64,10 +85,27 @@ def cmd_design(args: argparse.Namespace) -> int:
              " / ".join(f"{c['tracking_rms_deg_' + j]:.1f}" for j in ("hip", "knee", "ankle"))]
             for c in checked], ["device", "held-out child", "walked", "tracking RMS deg"],
            title=f"verified in the walking loop ({design.strides} strides, impedance)")
+    if served:
+        summ = population.summary(served)
+        _table([[name, str(v["children"]), f"{100 * v['transparent_met']:.0f} %",
+                 f"{100 * v['assist_met']:.0f} %", f"{100 * v['served']:.0f} %",
+                 " / ".join(f"{x:.3f}" for x in v["residual_worst_Nm_per_kg"].values())]
+                for name, v in summ.items()],
+               ["children", "n", f"transparent <= {design.goal:g} N m/kg",
+                "assist-as-needed clean", "both", "worst residual hip / knee / ankle"],
+               title=f"verified in the walking loop ({design.strides_transparent} strides "
+                     f"transparent, {design.strides_assist} assist-as-needed)")
     _say(f"wrote {out}/: screen.csv, verify.csv, design.json, device/actuators/ "
          f"({time.perf_counter() - t0:.1f} s); walk it: exoleg simulate --walk --device "
          f"{out / 'device'}")
     return 0
+
+
+def _series_words(r: dict[str, Any]) -> str:
+    """A screen row's series element in words."""
+    if r["series"] == "rigid":
+        return "rigid"
+    return f"{r['series'].replace('_', ' ')} {r['stiffness_Nm_per_rad']:.0f} N m/rad"
 
 
 def add_parser(sub: Any) -> None:
@@ -76,4 +114,12 @@ def add_parser(sub: Any) -> None:
                        "(motors and gears of the catalogue, screened, verified walking)")
     d.add_argument("config", type=Path, help="design file (TOML): examples/design-*.toml")
     d.add_argument("--out", type=Path, default=Path("exoleg-design"))
+    d.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="the population's walks on this Dask scheduler (tcp://host:port or "
+                   "a scheduler file); default a local cluster")
+    d.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="the local cluster's workers (default one per core)")
+    d.add_argument("--no-population", action="store_true",
+                   help="screen, choose and walk the held-out children only: leave out the "
+                   "population's walks on the sweep engine")
     d.set_defaults(func=cmd_design)

@@ -5,7 +5,6 @@ summary over any two axes."""
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import signal
 import sys
 import time
@@ -45,7 +44,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.device is not None:
         from exoleg.device.files import check_folder
 
-        study = dataclasses.replace(study, device=str(check_folder(args.device).resolve()))
+        study = study.on_device(str(check_folder(args.device).resolve()))
     n_tasks = task_count(study)
     before = len(done_tasks(args.out)) if (Path(args.out) / "study.toml").exists() else 0
     where = args.scheduler or f"a local Dask cluster ({args.workers or 'one worker per core'})"

@@ -10,6 +10,12 @@ not in the catalogue. A candidate joint is the shipped unit of that joint with a
 catalogue motor and gear in place (its drive, encoder and friction kept), its drive's
 current limit set at 2 x the motor's nominal current as maxon configures it (S3), on a
 chosen bus voltage (the EPOS4 50/15 takes 10-50 V: its sheet).
+
+Between the gear and the link a candidate may carry a series element
+(``data/device/series.toml``, :func:`series_options`): a torsion spring the design sizes
+within the stiffness range published springs span, its deflection read by absolute
+encoders, or the gear's own stiffness read by a joint torque sensor; either closes the
+drive's torque loop on the measured torque (:mod:`exoleg.device.actuator`).
 """
 
 from __future__ import annotations
@@ -68,9 +74,24 @@ def catalogue() -> tuple[tuple[Part, ...], tuple[Part, ...]]:
     return tuple(motors.values()), tuple(gears.values())
 
 
-def candidate(joint: str, motor: Part, gear: Part, bus_voltage: float) -> ActuatorModel:
+def series_options() -> dict[str, Part]:
+    """The series elements (``data/device/series.toml``): ``series_spring`` and
+    ``torque_sensor``, their figures and sources."""
+    import tomllib
+
+    text = (resources.files("exoleg") / "data" / "device" / "series.toml").read_text()
+    data = tomllib.loads(text)
+    return {kind: Part(kind, kind.replace("_", " "),
+                       {k: float(v) for k, v in d.items() if k != "sources"},
+                       dict(d["sources"])) for kind, d in data.items()}
+
+
+def candidate(joint: str, motor: Part, gear: Part, bus_voltage: float,
+              series: tuple[Part, float, float] | None = None) -> ActuatorModel:
     """The shipped ``joint`` unit with ``motor`` and ``gear`` in place, its drive's
-    current limit at 2 x the motor's nominal current, on ``bus_voltage`` V."""
+    current limit at 2 x the motor's nominal current, on ``bus_voltage`` V; with
+    ``series`` = (the element, its stiffness N m/rad, the torque loop's frequency Hz), a
+    compliant unit of that element."""
     if not BUS_RANGE[0] <= bus_voltage <= BUS_RANGE[1]:
         raise ParameterError("exoleg design", "bus_voltage", f"{bus_voltage:g} V is outside "
                              f"the drive's {BUS_RANGE[0]:g}-{BUS_RANGE[1]:g} V")
@@ -81,5 +102,21 @@ def candidate(joint: str, motor: Part, gear: Part, bus_voltage: float) -> Actuat
     sources = {**base.sources, **motor.sources, **gear.sources,
                "peak_current": "S3 (maxon's own configuration sets 2 x I_N)",
                "bus_voltage": "exoleg design: the bus chosen (the EPOS4 50/15: 10-50 V)"}
+    if series is not None:
+        part, stiffness, loop_hz = series
+        figures.update(compliance=part.kind, series_stiffness=float(stiffness),
+                       series_damping=part.figures["damping"],
+                       torque_loop_bandwidth=float(loop_hz),
+                       torque_loop_damping=part.figures["torque_loop_damping"],
+                       deflection_bits=int(part.figures["deflection_bits"]))
+        sized = ("exoleg design: the softest spring within the range "
+                 f"({part.sources['stiffness_min']}; {part.sources['stiffness_max']}) that "
+                 "carries the peak asked within the design's deflection"
+                 if part.kind == "series_spring" else
+                 f"the gear's torsional stiffness ({gear.sources.get('gear_stiffness', '')})")
+        sources.update(series_stiffness=sized, series_damping=part.sources["damping"],
+                       torque_loop_bandwidth="exoleg design: the design file's torque loop",
+                       torque_loop_damping=part.sources["torque_loop_damping"],
+                       deflection_bits=part.sources["deflection_bits"])
     return dataclasses.replace(base, motor=motor.name, gear=gear.name, peak_current=peak,
                                bus_voltage=float(bus_voltage), sources=sources, **figures)

@@ -64,18 +64,48 @@ def transparency_ratio(inertia: ArrayLike, goal: ArrayLike, qdd: ArrayLike) -> F
 
 
 def motor_torque(inertia: ArrayLike, ratio: ArrayLike, alpha: ArrayLike, tau: ArrayLike,
-                 qdd: ArrayLike, efficiency: ArrayLike = 1.0) -> F64:
+                 qdd: ArrayLike, efficiency: ArrayLike = 1.0,
+                 spring: tuple[ArrayLike, ArrayLike] | None = None) -> F64:
     """tau_m = J N qdd + alpha tau / (N eta) at each sample, N m (the last axis: the
-    gait's samples; the others broadcast)."""
+    gait's samples; the others broadcast). ``spring`` = (K, tau_dd): behind a series
+    stiffness K (N m/rad) the rotor turns by the deflection alpha tau / K more than the
+    link, so the motor also drives J N alpha tau_dd / K (tau_dd the moment's second
+    derivative, N m/s^2): the softer the spring, the more of the motor's torque goes to
+    winding it (the large-force bandwidth of a series-elastic actuator, Robinson et al.
+    1999)."""
     J, N = np.asarray(inertia)[..., None], np.asarray(ratio)[..., None]
     a, eta = np.asarray(alpha)[..., None], np.asarray(efficiency)[..., None]
-    return J * N * np.asarray(qdd) + a * np.asarray(tau) / (N * eta)
+    out = J * N * np.asarray(qdd) + a * np.asarray(tau) / (N * eta)
+    if spring is not None:
+        K, tau_dd = spring
+        out = out + J * N * a * np.asarray(tau_dd) / np.asarray(K)[..., None]
+    return out
+
+
+def periodic_second_derivative(x: ArrayLike, period: float, harmonics: int) -> F64:
+    """d^2x/dt^2 of a periodic signal's uniform samples over one ``period`` s (the last
+    axis), through its Fourier series kept to ``harmonics`` harmonics (measured gait
+    curves carry noise that differentiation would amplify)."""
+    a = np.asarray(x, dtype=float)
+    n = a.shape[-1]
+    X = np.fft.rfft(a, axis=-1)
+    k = np.arange(X.shape[-1])
+    X = X * np.where(k <= harmonics, -(2.0 * np.pi * k / period) ** 2, 0.0)
+    return np.fft.irfft(X, n=n, axis=-1)
 
 
 def residual(inertia: ArrayLike, ratio: ArrayLike, qdd: ArrayLike) -> F64:
     """RMS of the reflected inertia's torque J N^2 qdd, N m: what the zero-torque mode
     leaves the child with the rotor uncompensated."""
     return np.asarray(inertia) * np.asarray(ratio) ** 2 * rms(qdd)
+
+
+def loop_inertia(stiffness: ArrayLike, loop_hz: ArrayLike) -> F64:
+    """K / w_b^2, kg m^2: the inertia a compliant unit's rotor leaves the link behind a
+    torque loop of natural frequency ``loop_hz`` on a series stiffness K (Pratt &
+    Williamson 1995; :attr:`exoleg.device.actuator.ActuatorModel.apparent_inertia`)."""
+    wb = 2.0 * np.pi * np.asarray(loop_hz, dtype=float)
+    return np.asarray(stiffness, dtype=float) / (wb * wb)
 
 
 def winding_temperature(current_rms: ArrayLike, r25: ArrayLike, r_th: ArrayLike,
@@ -120,7 +150,8 @@ def population_gait(masses: ArrayLike, joint: int, stride_time: float = 1.1,
 def screen(motor: dict[str, ArrayLike], ratio: ArrayLike, efficiency: ArrayLike,
            gear_inertia: ArrayLike, tau: F64, qd: F64, qdd: F64, alpha: float,
            masses: ArrayLike, bus_voltage: ArrayLike, peak_current: ArrayLike,
-           ambient: float = 25.0) -> dict[str, NDArray[Any]]:
+           ambient: float = 25.0, apparent: ArrayLike | None = None,
+           spring: tuple[ArrayLike, F64] | None = None) -> dict[str, NDArray[Any]]:
     """Every candidate with every child, one joint: ``motor``'s figures as arrays that
     broadcast over the candidates (``kt`` N m/A, ``rotor_inertia`` kg m^2, ``r25`` ohm,
     ``r_th`` K/W winding to ambient, ``max_speed`` rad/s at the motor), the gear's
@@ -130,14 +161,20 @@ def screen(motor: dict[str, ArrayLike], ratio: ArrayLike, efficiency: ArrayLike,
     (C,) kg. Candidate axes first, children next: each result has the candidates' shape
     plus (C,). Returns the RMS and peak current (A), the winding's steady temperature
     (degC), the peak terminal voltage (V), the motor's peak speed (rad/s), the gear's peak
-    output torque (N m), the zero-torque residual (N m/kg), and ``fits``: within the
+    output torque (N m), the zero-torque residual (N m/kg: the inertia the link feels of
+    the rotor -- ``apparent``, kg m^2 per candidate, or J N^2 by default -- times the
+    gait's RMS acceleration; a compliant unit's rotor follows the link and winds its
+    spring: ``spring`` = (K per candidate, the moments' second derivative (C, S)), see
+    :func:`motor_torque`), and ``fits``: within the
     drive's ``peak_current``, the ``bus_voltage``, the motor's speed and winding limit
     (``max_winding_temperature`` in ``motor``)."""
     J = np.asarray(motor["rotor_inertia"]) + np.asarray(gear_inertia)
     N = np.asarray(ratio, dtype=float)
     shape = np.broadcast_shapes(J.shape, N.shape, np.shape(efficiency),
                                 np.shape(motor["kt"]), np.shape(bus_voltage),
-                                np.shape(peak_current))
+                                np.shape(peak_current),
+                                () if apparent is None else np.shape(apparent),
+                                () if spring is None else np.shape(spring[0]))
     c = (slice(None),) * len(shape) + (None,)  # a candidate axis's value per child
 
     def per(x: Any) -> F64:
@@ -145,7 +182,8 @@ def screen(motor: dict[str, ArrayLike], ratio: ArrayLike, efficiency: ArrayLike,
         return np.broadcast_to(np.asarray(x, dtype=float), shape)[c]
 
     Jc, Nc, eta, kt, r25 = per(J), per(N), per(efficiency), per(motor["kt"]), per(motor["r25"])
-    tau_m = motor_torque(Jc, Nc, alpha, tau, qdd, eta)      # (*shape, C, S)
+    tau_m = motor_torque(Jc, Nc, alpha, tau, qdd, eta,
+                         None if spring is None else (per(spring[0]), spring[1]))
     i = tau_m / kt[..., None]
     i_rms = rms(i)
     volts = terminal_voltage(i, r25, kt, Nc, qd)
@@ -158,7 +196,9 @@ def screen(motor: dict[str, ArrayLike], ratio: ArrayLike, efficiency: ArrayLike,
         "motor_speed_peak": np.broadcast_to(Nc * np.max(np.abs(qd)), i_rms.shape),
         "gear_torque_peak": np.broadcast_to(alpha * np.max(np.abs(tau), axis=-1),
                                             i_rms.shape),
-        "residual_per_kg": np.broadcast_to(residual(Jc, Nc, qdd), i_rms.shape) / m,
+        "residual_per_kg": np.broadcast_to(
+            residual(Jc, Nc, qdd) if apparent is None else per(apparent) * rms(qdd),
+            i_rms.shape) / m,
     }
     limit_speed, limit_temp = per(motor["max_speed"]), per(motor["max_winding_temperature"])
     bus, drive = per(bus_voltage), per(peak_current)

@@ -30,15 +30,23 @@ import numpy as np
 
 from exoleg import checks as _check
 from exoleg.design import screen as sc
-from exoleg.design.catalogue import BUS_RANGE, CURRENT_LIMIT, candidate, catalogue
+from exoleg.design.catalogue import (
+    BUS_RANGE,
+    CURRENT_LIMIT,
+    candidate,
+    catalogue,
+    series_options,
+)
 from exoleg.errors import ParameterError
 from exoleg.params.records import JOINTS
 
 #: The design file's tables and their fields (required, optional).
 TABLES = {"population": (["ages", "sexes", "groups", "percentiles"], ["speed", "stride_time"]),
           "assistance": (["alpha"], []),
-          "constraints": (["bus_voltage", "transparency_Nm_per_kg"], ["ambient"]),
-          "verify": (["held_out"], ["strides"])}
+          "constraints": (["bus_voltage", "transparency_Nm_per_kg"],
+                          ["ambient", "torque_loop_hz", "spring_deflection_deg"]),
+          "verify": (["held_out"], ["strides", "mass_kg", "strides_transparent",
+                                    "strides_assist"])}
 
 
 @dataclass(frozen=True)
@@ -58,6 +66,11 @@ class Design:
     ambient: float = 25.0
     strides: int = 10
     source: str = ""
+    loop_hz: float = 30.0
+    deflection_deg: float = 10.0
+    verify_mass: tuple[float, float] = (20.0, 40.0)
+    strides_transparent: int = 10
+    strides_assist: int = 40
 
     @classmethod
     def load(cls, path: str | Path) -> Design:
@@ -114,7 +127,16 @@ class Design:
                    ambient=numbers("constraints", "ambient", -20.0, 60.0, "degC")[0]
                    if "ambient" in c else 25.0,
                    strides=int(numbers("verify", "strides", 1, 100, "")[0])
-                   if "strides" in v else 10, source=where)
+                   if "strides" in v else 10, source=where,
+                   loop_hz=numbers("constraints", "torque_loop_hz", 1.0, 1000.0, "Hz")[0]
+                   if "torque_loop_hz" in c else 30.0,
+                   deflection_deg=numbers("constraints", "spring_deflection_deg", 0.5, 45.0,
+                                          "deg")[0] if "spring_deflection_deg" in c else 10.0,
+                   verify_mass=_mass_window(where, v), strides_transparent=int(
+                       numbers("verify", "strides_transparent", 1, 200, "")[0])
+                   if "strides_transparent" in v else 10, strides_assist=int(
+                       numbers("verify", "strides_assist", 1, 200, "")[0])
+                   if "strides_assist" in v else 40)
 
     def children(self) -> list[Any]:
         """The population, each child from the growth charts."""
@@ -124,38 +146,104 @@ class Design:
                 for s in self.sexes for a in self.ages for p in self.percentiles]
 
 
+#: Springs tried per candidate: stiffnesses spaced evenly on a log scale over the range a
+#: spring may take (the catalogue's, above what carries the peak within the deflection).
+SPRING_STEPS = 8
+#: Harmonics of a joint moment kept in its second derivative (a walking moment's content
+#: lies within its first ten: below 9 Hz at a 1.1 s stride; the digitised curves' higher
+#: harmonics are their 2 % sampling's, which differentiating twice would amplify).
+MOMENT_HARMONICS = 10
+
+
+def _mass_window(where: str, v: dict[str, Any]) -> tuple[float, float]:
+    """[verify] mass_kg: the verification set's masses, [lowest, highest] kg."""
+    raw = v.get("mass_kg", [20.0, 40.0])
+    if not (isinstance(raw, list) and len(raw) == 2):
+        raise ParameterError(f"{where} [verify]", "mass_kg", f"{raw!r}: expected [lowest, "
+                             "highest] kg, e.g. [20, 40]")
+    lo, hi = (_check.within(f"{where} [verify]", "mass_kg", x, 10.0, 120.0, "kg") for x in raw)
+    if lo >= hi:
+        raise ParameterError(f"{where} [verify]", "mass_kg", f"{lo:g} is not below {hi:g}")
+    return lo, hi
+
+
+def _series(design: Design, joint: int, B: float, gear: Any, peak: float
+            ) -> list[tuple[Any, float, str]]:
+    """A candidate's series elements: (element or None for rigid, stiffness N m/rad, why
+    it cannot serve -- '' when it can). Springs of :data:`SPRING_STEPS` stiffnesses from
+    the softest that carries the ``peak`` asked (N m) within the design's deflection to
+    the catalogue's stiffest; the torque sensor on the gear's own stiffness. The torque
+    loop must be above the rotor's resonance on that stiffness with the link held
+    (sqrt(K / B), B the reflected inertia) and at most a third of the current loop's
+    bandwidth."""
+    from exoleg.device.actuator import paper_actuators
+
+    opts = series_options()
+    spring, sensor = opts["series_spring"], opts["torque_sensor"]
+    wb = 2.0 * math.pi * design.loop_hz
+    inner = paper_actuators()[joint].current_loop_bandwidth
+    lo = max(spring.figures["stiffness_min"], peak / math.radians(design.deflection_deg))
+    hi = spring.figures["stiffness_max"]
+    springs = [float(k) for k in np.geomspace(lo, hi, SPRING_STEPS)] if lo <= hi else [lo]
+    out: list[tuple[Any, float, str]] = [(None, 0.0, "")]
+    for part, K in [(spring, k) for k in springs] + [(sensor, gear.figures["gear_stiffness"])]:
+        why = ""
+        if part is spring and K > hi:
+            why = (f"a spring of {K:.0f} N m/rad (the peak within "
+                   f"{design.deflection_deg:g} deg) is stiffer than the catalogue's {hi:g}")
+        elif K > B * wb * wb:
+            why = (f"the rotor resonates at {math.sqrt(K / B) / (2 * math.pi):.1f} Hz on "
+                   f"{K:.0f} N m/rad, above the {design.loop_hz:g} Hz torque loop")
+        elif design.loop_hz > inner / 3:
+            why = f"the torque loop is above a third of the current loop's {inner:g} Hz"
+        out.append((part, float(K), why))
+    return out
+
+
 def screen_joint(design: Design, joint: int, masses: np.ndarray) -> list[dict[str, Any]]:
     """Every catalogue candidate at ``joint`` with every child of ``masses``: one row per
-    candidate (motor, gear, bus) with the share of children it serves and its worst
-    figures over them."""
+    candidate (motor, gear, series element, bus) with the share of children it serves and
+    its worst figures over them."""
     motors, gears = catalogue()
     tau, qd, qdd = sc.population_gait(masses, joint, design.stride_time, design.speed)
+    tau_dd = sc.periodic_second_derivative(tau, design.stride_time, MOMENT_HARMONICS)
+    peak = design.alpha[joint] * float(np.max(np.abs(tau)))
     rows = []
     for m, g, bus in itertools.product(motors, gears, design.buses):
         f = m.figures
-        r = sc.screen({"kt": f["torque_constant"], "rotor_inertia": f["rotor_inertia"],
-                       "r25": f["terminal_resistance"],
-                       "r_th": f["thermal_resistance_winding"] + f["thermal_resistance_housing"],
-                       "max_speed": f["max_speed_rpm"] * math.pi / 30,
-                       "max_winding_temperature": f["max_winding_temperature"]},
-                      g.figures["ratio"], g.figures["efficiency"],
-                      g.figures["gear_input_inertia"], tau, qd, qdd, design.alpha[joint],
-                      masses, bus, CURRENT_LIMIT * f["nominal_current"], design.ambient)
-        transparent = r["residual_per_kg"] <= design.goal
-        serves = r["fits"] & (r["gear_torque_peak"] <= g.figures["repeated_peak_torque"])
-        rows.append({"joint": JOINTS[joint], "motor": m.name, "gear": g.name,
-                     "ratio": g.figures["ratio"], "bus_V": bus,
-                     "served": float(np.mean(serves)),
-                     "transparent": float(np.mean(transparent)),
-                     "residual_worst_Nm_per_kg": float(np.max(r["residual_per_kg"])),
-                     "winding_worst_C": float(np.max(r["winding"])),
-                     "thermal_margin_K": float(f["max_winding_temperature"]
-                                               - np.max(r["winding"])),
-                     "current_peak_A": float(np.max(r["current_peak"])),
-                     "voltage_peak_V": float(np.max(r["voltage_peak"])),
-                     "motor_speed_peak_rpm": float(np.max(r["motor_speed_peak"]) * 30 / math.pi),
-                     "gear_torque_peak_Nm": float(np.max(r["gear_torque_peak"])),
-                     "_parts": (m, g)})
+        B = (f["rotor_inertia"] + g.figures["gear_input_inertia"]) * g.figures["ratio"] ** 2
+        for part, K, why in _series(design, joint, B, g, peak):
+            r = sc.screen({"kt": f["torque_constant"], "rotor_inertia": f["rotor_inertia"],
+                           "r25": f["terminal_resistance"],
+                           "r_th": f["thermal_resistance_winding"]
+                           + f["thermal_resistance_housing"],
+                           "max_speed": f["max_speed_rpm"] * math.pi / 30,
+                           "max_winding_temperature": f["max_winding_temperature"]},
+                          g.figures["ratio"], g.figures["efficiency"],
+                          g.figures["gear_input_inertia"], tau, qd, qdd, design.alpha[joint],
+                          masses, bus, CURRENT_LIMIT * f["nominal_current"], design.ambient,
+                          None if part is None else sc.loop_inertia(K, design.loop_hz),
+                          None if part is None else (K, tau_dd))
+            transparent = r["residual_per_kg"] <= design.goal
+            serves = (r["fits"] & (r["gear_torque_peak"] <= g.figures["repeated_peak_torque"])
+                      & (why == ""))
+            rows.append({"joint": JOINTS[joint], "motor": m.name, "gear": g.name,
+                         "ratio": g.figures["ratio"], "bus_V": bus,
+                         "series": "rigid" if part is None else part.kind,
+                         "stiffness_Nm_per_rad": K, "why_not": why,
+                         "served": float(np.mean(serves)),
+                         "transparent": float(np.mean(transparent & serves)),
+                         "residual_worst_Nm_per_kg": float(np.max(r["residual_per_kg"])),
+                         "winding_worst_C": float(np.max(r["winding"])),
+                         "thermal_margin_K": float(f["max_winding_temperature"]
+                                                   - np.max(r["winding"])),
+                         "current_peak_A": float(np.max(r["current_peak"])),
+                         "voltage_peak_V": float(np.max(r["voltage_peak"])),
+                         "motor_speed_peak_rpm": float(np.max(r["motor_speed_peak"])
+                                                       * 30 / math.pi),
+                         "gear_torque_peak_Nm": float(np.max(r["gear_torque_peak"])),
+                         "_parts": (m, g, None if part is None else
+                                    (part, K, design.loop_hz))})
     _pareto(rows)
     return rows
 
@@ -222,8 +310,8 @@ def run_design(design: Design) -> dict[str, Any]:
         r["chosen"] = any(r is c for c in chosen.values())
     units = {}
     for j in JOINTS:
-        m, g = chosen[j]["_parts"]
-        units[j] = candidate(j, m, g, chosen[j]["bus_V"])
+        m, g, series = chosen[j]["_parts"]
+        units[j] = candidate(j, m, g, chosen[j]["bus_V"], series)
     return {"rows": rows, "chosen": chosen, "units": units, "children": len(children),
             "text": {j: actuator_text(a, f"exoleg design ({design.source}): the {j}'s unit "
                                          "chosen for the population") for j, a in units.items()}}

@@ -74,7 +74,11 @@ def _units(hip_motor: str, device: str | None = None) -> tuple[Any, ...]:
 def device_variant(run: dict[str, Any], device: str | None = None) -> tuple[Any, ...]:
     """The three actuation units a run names: the hip's motor variant, each joint's gear
     ratio (the ratings of the shipped gear of that ratio: 50 the knee's CSF-17-50, 100
-    the hip's CSF-17-100, 120 the ankle's), the bus voltage."""
+    the hip's CSF-17-100, 120 the ankle's), the bus voltage. A study on a device folder
+    (``device``) walks the folder's own units: it fixes the actuation
+    (:meth:`~exoleg.study.spec.Study.on_device` refuses the device axes with it)."""
+    if device is not None:
+        return _units(run["hip_motor"], device)[1:]
     hip, *shipped = _units(run["hip_motor"], device)
     by_ratio = {a.ratio: a for a in shipped}
     gear = ("gear", "ratio", "efficiency", "gear_input_inertia", "gear_rated_torque",
@@ -174,6 +178,10 @@ def run_one(run_id: int, task: int, run: dict[str, Any], strides: int,
     except (ExolegError, ValueError, ArithmeticError) as e:
         row["error"] = f"{type(e).__name__}: {e}"
         return row
+    if device is not None:  # the actuation the folder fixed, not the axes' defaults
+        hip, knee, ankle = r.actuators
+        row.update(hip_motor=hip.motor, bus_voltage=hip.bus_voltage, hip_ratio=hip.ratio,
+                   knee_ratio=knee.ratio, ankle_ratio=ankle.ratio)
     dt = float(r.t[1] - r.t[0])
     status = r.safety_status
     for p, j in zip(walk_peaks(r), JOINTS, strict=True):

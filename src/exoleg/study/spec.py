@@ -26,6 +26,7 @@ place in the expanded study, the same on every machine.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import shutil
@@ -113,6 +114,8 @@ AXES: dict[str, Axis] = {
     "noise": Axis("number", 0.0, 10.0, default=1.0, meaning="x the sensors' datasheet noise"),
     "seed": Axis("whole", 0, 2**31 - 1, default=0, meaning="sensor noise seed"),
 }
+#: The axes that name the device's actuation (:func:`exoleg.study.runs.device_variant`).
+DEVICE_AXES = ("hip_motor", "bus_voltage", "hip_ratio", "knee_ratio", "ankle_ratio")
 #: The axes that act on the child as an actor only (the ``child`` axis's "actor").
 IMPAIRMENTS = ("spasticity", "crouch", "contracture", "strength")
 #: The axes that describe a chart's child (replaced by ``profile`` when profiles are given).
@@ -183,6 +186,18 @@ class Study:
         list of dict
         """
         return expand(self)
+
+    def on_device(self, folder: str) -> Study:
+        """This study on the device folder ``folder`` (its runs walk the folder's own
+        actuation units, gains, sensors, limits and ground): refused when the study names
+        a device axis (:data:`DEVICE_AXES`), which the folder fixes."""
+        named = [a for a in DEVICE_AXES
+                 if a in self.axes or any(a in r for r in self.listed)]
+        if named:
+            raise ParameterError(self.name, named[0], "a device folder fixes the actuation: "
+                                 f"leave {', '.join(DEVICE_AXES)} out of a study run with "
+                                 "--device, or sweep them on the shipped device")
+        return dataclasses.replace(self, device=folder)
 
     @property
     def swept(self) -> list[str]:
