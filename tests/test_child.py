@@ -217,7 +217,8 @@ def test_the_cuffs_carry_the_device_at_rest(fitted_leg) -> None:  # type: ignore
     # reference: statics. Unpowered and near still, the cuffs hold the device's own
     # links: tau_int = -G_device(q) - friction(dq) (the device alone's gravity through
     # LegModel's general path; the drives' friction at the residual creep)
-    from exoleg.device.actuator import friction, paper_actuators, params_array
+    from exoleg.device.actuator import paper_actuators, params_array
+    from exoleg.device.drive import friction
     from exoleg.sim.walk import simulate_walk
 
     ch = ChildModel("c", 10, 1.40, 32.0)

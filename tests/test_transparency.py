@@ -28,7 +28,8 @@ from exoleg.control.transparency import (
     track_rates,
     transparent_torque,
 )
-from exoleg.device.actuator import friction, params_array
+from exoleg.device.actuator import params_array
+from exoleg.device.drive import friction
 from exoleg.errors import ParameterError
 from exoleg.system.config import DeviceConfig
 from exoleg.tick import Command, Mode
@@ -104,7 +105,7 @@ def test_the_inertia_part_is_the_share_of_pinocchios_M_times_the_acceleration() 
 
 
 def test_friction_is_the_actuators_model_ahead_by_the_lead() -> None:
-    # reference: exoleg.device.actuator.friction (viscous + smooth Coulomb) at the rate
+    # reference: exoleg.device.drive.friction (viscous + smooth Coulomb) at the rate
     # plus lead x the acceleration estimate; at constant speed the estimate is 0
     _, A, _ = _device()
     s = TransparencySettings.default().with_parts("friction")

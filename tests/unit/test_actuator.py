@@ -18,16 +18,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from exoleg.device.actuator import (
-    current_loop,
-    drive_limit,
-    encode,
-    envelope,
-    filter_gain,
-    friction,
-    load_actuator,
-    paper_actuators,
-)
+from exoleg.device.actuator import load_actuator, paper_actuators
+from exoleg.device.drive import current_loop, drive_limit, encode, envelope, filter_gain, friction
 from exoleg.errors import ParameterError
 from exoleg.params import paper
 

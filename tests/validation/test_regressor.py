@@ -139,8 +139,9 @@ def test_the_base_parameters_are_khalil_and_dombres_regrouping(who: str) -> None
 
 
 def test_friction_columns_are_the_actuators_friction() -> None:
-    # reference: the actuators' own friction model (exoleg.device.actuator.friction)
-    from exoleg.device.actuator import friction, paper_actuators
+    # reference: the actuators' own friction model (exoleg.device.drive.friction)
+    from exoleg.device.actuator import paper_actuators
+    from exoleg.device.drive import friction
     from exoleg.identify.base import actuator_friction, friction_columns
 
     acts = paper_actuators()

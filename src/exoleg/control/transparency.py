@@ -12,7 +12,7 @@ friction take, so that the cuffs pass (ideally) no torque::
 
 with M_d, C_d, G_d the device alone (:func:`exoleg.child.interaction.device_leg`: its
 links at the child's telescope settings with the rotors as armature), f the actuators'
-friction (:func:`exoleg.device.actuator.link_friction`), ddq^ the joint acceleration
+friction (:func:`exoleg.device.drive.link_friction`), ddq^ the joint acceleration
 estimated from the measured rates (their difference per tick, low-passed), ``lead``
 the drive's lag the friction's speed is taken ahead by, and the last terms the feedback
 of the cuffs' torque ``tau_int`` measured (the :data:`SENSORS` field ``interaction``,
@@ -36,7 +36,7 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from exoleg import checks as _check
-from exoleg.device.actuator import link_friction
+from exoleg.device.drive import link_friction
 from exoleg.dynamics.kernels import N_PARAMS, coriolis_dq, gravity, mass_matrix
 from exoleg.entry import SUPPORT_MODES
 from exoleg.errors import ParameterError

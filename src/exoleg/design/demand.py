@@ -34,7 +34,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from exoleg.device.actuator import ActuatorModel, envelope, paper_actuators, with_actuators
+from exoleg.device.actuator import ActuatorModel, paper_actuators, with_actuators
+from exoleg.device.drive import envelope
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
 from exoleg.params import paper

@@ -1,4 +1,5 @@
-"""Actuators: motor + strain-wave gear + drive per joint, as data, and their compiled behaviour.
+"""Actuators: motor + strain-wave gear + drive per joint, as data; their compiled behaviour is
+:mod:`exoleg.device.drive`'s.
 
 An :class:`ActuatorModel` is one file (``data/device/actuators/{hip,knee,ankle}.toml``),
 each figure with its source id from ``shared/design/device-datasheets.md`` (the
@@ -8,19 +9,19 @@ What it does, at the joint (SI units):
 * **reflected inertia** ``N^2 (J_rotor + J_gear_input)``: the leg's armature
   (:func:`with_actuators` puts it into the model, the exports and the engines);
 * **torque from current** ``tau = N eta k_t i``;
-* **torque-speed envelope** (:func:`envelope`), voltage-limited at the bus voltage: the
+* **torque-speed envelope** (:func:`~exoleg.device.drive.envelope`), voltage-limited at the bus voltage: the
   current the winding can still draw at motor speed ``w_m = N |w|``,
   ``min(I_limit, (V_bus - k_t w_m) / R)`` (the back-EMF constant is k_t in SI units),
   times ``N eta k_t``; capped by the gear's **repeated peak torque** (its working
   limit; the momentary peak is for collisions and E-stops, never commanded); zero
   beyond the motor's maximum permissible speed. That is the motoring envelope; a torque
-  against the motion (:func:`drive_limit`: braking, the back-EMF helping the current)
+  against the motion (:func:`~exoleg.device.drive.drive_limit`: braking, the back-EMF helping the current)
   is limited by the current and the gear only, at any speed -- the drive brakes a joint
   the load has driven past its speed, as a four-quadrant drive does;
-* **friction** (:func:`friction`): Coulomb from the motor's no-load current
+* **friction** (:func:`~exoleg.device.drive.friction`): Coulomb from the motor's no-load current
   (``N k_t I_0``) and the gear's backdriving torque, smoothed near zero speed
   (``tanh(w / w_s)``, so the dynamics stay integrable), plus a viscous term;
-* **the drive's current loop** (:func:`current_loop`): first order with the loop's
+* **the drive's current loop** (:func:`~exoleg.device.drive.current_loop`): first order with the loop's
   closed-loop bandwidth, discretised exactly over each plant step (zero-order hold of
   the command), returning the mean torque over the step;
 * **the winding's temperature** (:mod:`exoleg.device.thermal`: ``thermal_matrix``,
@@ -29,17 +30,17 @@ What it does, at the joint (SI units):
   constants) heated by the copper loss ``R(T_w) i^2``, the winding's resistance rising
   with its temperature as copper's does (:data:`COPPER_ALPHA`); the safety layer runs
   the same model every tick to derate a hot motor;
-* **encoder** (:func:`encode`): the absolute joint encoder's quantisation (2^bits per
+* **encoder** (:func:`~exoleg.device.drive.encode`): the absolute joint encoder's quantisation (2^bits per
   turn); the velocity is the finite difference of encoder readings over the control
-  period through a first-order low-pass of ``velocity_filter_hz`` (:func:`filter_gain`);
+  period through a first-order low-pass of ``velocity_filter_hz`` (:func:`~exoleg.device.drive.filter_gain`);
 * **compliance** (optional, :data:`COMPLIANCE`, :data:`SERIES_FIELDS`): a series spring
   between the gear and the link, or the stiff gear with a joint torque sensor -- the
-  rotor (inertia B = N^2 J) a body of its own on the stiffness K (:func:`series_torque`),
-  the drive closing a torque loop on the measured torque (:func:`torque_loop`) whose
+  rotor (inertia B = N^2 J) a body of its own on the stiffness K (:func:`~exoleg.device.drive.series_torque`),
+  the drive closing a torque loop on the measured torque (:func:`~exoleg.device.drive.torque_loop`) whose
   gains follow from its natural frequency and damping
   (:attr:`ActuatorModel.torque_loop_gains`); the link then feels K / w_b^2 of the rotor
   (:attr:`ActuatorModel.apparent_inertia`) and 1 / (1 + kp) of its friction
-  (:func:`link_friction`). The walking plant steps the rotors with the leg
+  (:func:`~exoleg.device.drive.link_friction`). The walking plant steps the rotors with the leg
   (:func:`exoleg.world.plant.walking_step_series`).
 """
 
@@ -52,7 +53,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
 from exoleg import checks as _check
@@ -363,6 +363,21 @@ def _parameters() -> str:
 
 ActuatorModel.__doc__ = (ActuatorModel.__doc__ or "").rstrip() + "\n" + _parameters()
 
+def figure(where: str, row: tuple[str, str, float, float], value: Any) -> Any:
+    """One number of an actuator file checked against its ``row`` of :data:`FIELDS` or
+    :data:`SERIES_FIELDS` (field, unit, range); a whole number as an int."""
+    name, unit, lo, hi = row
+    v = _check.finite(where, name, value)
+    if not lo <= v <= hi:
+        raise ParameterError(where, name, f"{v:g} {unit} is outside {lo:g}-{hi:g} {unit}"
+                             .replace("  ", " "))
+    if name in WHOLE:
+        if v != int(v):
+            raise ParameterError(where, name, f"expected a whole number, got {v}")
+        return int(v)
+    return v
+
+
 def parse_actuator(data: dict[str, Any], where: str) -> ActuatorModel:
     """An actuator from a parsed file; errors name the file, the field and the range."""
     _check.keys(where, data, [*_NAMES, *(f[0] for f in FIELDS)],
@@ -375,16 +390,8 @@ def parse_actuator(data: dict[str, Any], where: str) -> ActuatorModel:
     if vals["joint"] not in JOINTS:
         raise ParameterError(where, "joint", f"unknown {vals['joint']!r} (allowed: "
                                              + ", ".join(JOINTS) + ")")
-    for name, unit, lo, hi in FIELDS:
-        v = _check.finite(where, name, data[name])
-        if not lo <= v <= hi:
-            raise ParameterError(where, name, f"{v:g} {unit} is outside {lo:g}-{hi:g} {unit}"
-                                 .replace("  ", " "))
-        if name in WHOLE:
-            if v != int(v):
-                raise ParameterError(where, name, f"expected a whole number, got {v}")
-            v = int(v)
-        vals[name] = v
+    for row in FIELDS:
+        vals[row[0]] = figure(where, row, data[row[0]])
     if vals["current_loop_bandwidth"] > vals["current_loop_rate"] / 2:
         raise ParameterError(where, "current_loop_bandwidth",
                              f"{vals['current_loop_bandwidth']:g} Hz is above half the loop "
@@ -435,19 +442,11 @@ def _series(data: dict[str, Any], where: str, vals: dict[str, Any]) -> dict[str,
                                  "(set compliance = \"series_spring\" or \"torque_sensor\")")
         return {}
     out: dict[str, Any] = {"compliance": kind}
-    for name, unit, lo, hi in SERIES_FIELDS:
-        if name not in data:
-            raise ParameterError(where, name, f"missing: a {kind} unit needs "
+    for row in SERIES_FIELDS:
+        if row[0] not in data:
+            raise ParameterError(where, row[0], f"missing: a {kind} unit needs "
                                  + ", ".join(f[0] for f in SERIES_FIELDS))
-        v = _check.finite(where, name, data[name])
-        if not lo <= v <= hi:
-            raise ParameterError(where, name, f"{v:g} {unit} is outside {lo:g}-{hi:g} {unit}"
-                                 .replace("  ", " "))
-        if name in WHOLE:
-            if v != int(v):
-                raise ParameterError(where, name, f"expected a whole number, got {v}")
-            v = int(v)
-        out[name] = v
+        out[row[0]] = figure(where, row, data[row[0]])
     B = (vals["rotor_inertia"] + vals["gear_input_inertia"]) * vals["ratio"] ** 2
     f0 = math.sqrt(out["series_stiffness"] / B) / (2 * math.pi) if B > 0 else math.inf
     fb = out["torque_loop_bandwidth"]
@@ -583,102 +582,3 @@ def params_array(actuators: tuple[ActuatorModel, ...]) -> NDArray[np.void]:
         raise ParameterError("actuators", "joint",
                              "need the hip, knee and ankle actuators, in that order")
     return np.concatenate([a.record() for a in actuators])
-
-
-# ------------------------------------------------------------------ compiled behaviour
-@njit(cache=True)
-def envelope(par, w):  # type: ignore[no-untyped-def]
-    """Largest joint torque (N m, >= 0) the actuator ``par`` (:data:`ACTUATOR`)
-    delivers at joint speed ``w`` (rad/s): the current the bus voltage can still drive
-    against the back-EMF, ``(V - N k_t |w|) / R``, within the current limit, times
-    N eta k_t; within the working limit (the gear's repeated peak); zero beyond the
-    motor's maximum permissible speed. The same both ways (the braking quadrant, which
-    the back-EMF helps, is taken as the motoring one: conservative)."""
-    P = par[0]
-    s = abs(w)
-    if s > P.speed:
-        return 0.0
-    i = min(P.current, max(0.0, (P.voltage - P.ke_joint * s) / P.resistance))
-    return min(P.torque, P.kt_joint * i)
-
-
-@njit(cache=True)
-def drive_limit(par, w, u):  # type: ignore[no-untyped-def]
-    """Largest torque (N m, >= 0) the drive delivers in the direction of the command
-    ``u`` at joint speed ``w``: :func:`envelope` while motoring (``u`` along ``w``); while
-    braking (``u`` against ``w``, the back-EMF driving the current with the bus) the
-    current limit's torque within the gear's working limit, at any speed."""
-    if u * w < 0.0:
-        P = par[0]
-        return min(P.torque, P.kt_joint * P.current)
-    return envelope(par, w)
-
-
-@njit(cache=True)
-def friction(par, w):  # type: ignore[no-untyped-def]
-    """Friction torque at the joint, N m, opposing the speed w: viscous plus smooth
-    Coulomb (the motor's no-load drag and the gear's backdriving torque, tanh over
-    ``friction_smoothing``)."""
-    P = par[0]
-    return P.viscous * w + P.coulomb * math.tanh(w / P.smoothing)
-
-
-@njit(cache=True)
-def link_friction(par, w):  # type: ignore[no-untyped-def]
-    """The friction the link feels at speed w, N m: a rigid unit's own (:func:`friction`);
-    behind a compliant unit's torque loop, 1 / (1 + kp) of its rotor's (the loop rejects
-    a disturbance on the motor's side so, below its bandwidth)."""
-    f = friction(par, w)
-    P = par[0]
-    return f / (1.0 + P.kp) if P.stiffness > 0.0 else f
-
-
-@njit(cache=True)
-def current_loop(par, tau, tau_cmd, h):  # type: ignore[no-untyped-def]
-    """The drive's torque (current) loop over a step of ``h`` s with the command held:
-    first order of bandwidth f_c, exactly discretised. Returns (torque at the end of the
-    step, mean torque over the step)."""
-    T = 1.0 / (2.0 * math.pi * par[0].bandwidth)
-    e = math.exp(-h / T)
-    end = tau_cmd + (tau - tau_cmd) * e
-    mean = tau_cmd + (tau - tau_cmd) * (T / h) * (1.0 - e)
-    return end, mean
-
-
-@njit(cache=True, inline="always")
-def series_torque(par, q, dq, qr, wr):  # type: ignore[no-untyped-def]
-    """The torque a compliant unit's spring (or gear and sensor) passes to its link, N m:
-    K (theta_r - q) + c (w_r - dq), the rotor's angle ``qr`` and speed ``wr`` on the
-    joint's side of the gear, the link's ``q`` and ``dq``."""
-    P = par[0]
-    return P.stiffness * (qr - q) + P.series_damping * (wr - dq)
-
-
-@njit(cache=True)
-def torque_loop(par, tau_d, q, dq, qr, wr):  # type: ignore[no-untyped-def]
-    """A compliant unit's drive closing its torque loop on the measured torque (the
-    deflection ``qr - q`` as its encoder resolves it, times the stiffness) towards the
-    joint torque ``tau_d`` (:attr:`ActuatorModel.torque_loop_gains`; the deflection's rate
-    from the rotor's and the link's speeds). Returns (the motor's torque command within
-    the drive's limit at the rotor's speed -- the current loop's input --, the torque the
-    spring passes, the measured torque), N m at the joint."""
-    P = par[0]
-    d = qr - q
-    measured = P.stiffness * math.floor(d / P.deflection + 0.5) * P.deflection
-    cmd = (1.0 + P.kp) * tau_d - P.kp * measured - P.kd * P.stiffness * (wr - dq)
-    e = drive_limit(par, wr, cmd)
-    return min(max(cmd, -e), e), series_torque(par, q, dq, qr, wr), measured
-
-
-@njit(cache=True)
-def encode(par, q):  # type: ignore[no-untyped-def]
-    """The joint encoder's reading of angle q (rad): quantised to 2pi / 2^bits."""
-    r = par[0].resolution
-    return math.floor(q / r + 0.5) * r
-
-
-@njit(cache=True)
-def filter_gain(par, h):  # type: ignore[no-untyped-def]
-    """Gain b of the velocity low-pass y += b (x - y) sampled every h s (exact for a
-    first-order filter of ``velocity_filter_hz`` with the input held)."""
-    return 1.0 - math.exp(-2.0 * math.pi * par[0].filter_hz * h)

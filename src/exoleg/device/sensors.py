@@ -13,7 +13,7 @@
   velocity) and the accelerometer's specific force in the foot frame, each with a bias
   drawn once per run, white noise of the datasheet's density over the sensor's
   bandwidth, and saturation at the full-scale range.
-* Encoders: :func:`exoleg.device.actuator.encode`.
+* Encoders: :func:`exoleg.device.drive.encode`.
 
 Noise is drawn before a run from a seeded generator (:func:`draw_noise`), so runs are
 deterministic. Figures and their sources: ``data/device/sensors.toml``.

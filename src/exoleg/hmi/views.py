@@ -23,7 +23,8 @@ def device_info(leg: Any, folder: str | None = None) -> dict[str, Any]:
     positions, each actuator's torque limits and torque-speed envelope (SI units) -- of
     the device folder ``folder``'s actuators (None: the shipped ones)."""
     from exoleg.control.safety import SafetyLimits
-    from exoleg.device.actuator import envelope, paper_actuators
+    from exoleg.device.actuator import paper_actuators
+    from exoleg.device.drive import envelope
     from exoleg.device.sensors import SENSOR_X, FootSensors
     from exoleg.dynamics._generated import OFFSETS
     from exoleg.params import paper

@@ -1,6 +1,6 @@
 """What every transport's master keeps, written once: the joints' scaling, the staged
 torques and the arming, each drive's CiA 402 state and the controlword walking it, the
-measured velocity (the drives' filter of :func:`exoleg.device.actuator.filter_gain`, as
+measured velocity (the drives' filter of :func:`exoleg.device.drive.filter_gain`, as
 in simulation), the foot board's last data, and the log's columns. The canopen and
 ethercat backends add only their bus exchange (``read``), start-up, ``safe`` and
 ``close``."""
@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from exoleg.device.actuator import filter_gain
+from exoleg.device.drive import filter_gain
 from exoleg.errors import ParameterError
 from exoleg.hw import cia402
 from exoleg.hw.rig import JOINT_ORDER

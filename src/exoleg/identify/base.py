@@ -15,7 +15,7 @@ and 2 armatures in motion, 6 (the first moments) from static postures alone.
 
 The actuators' friction adds two columns per joint (:func:`friction_columns`): viscous
 ``dq`` and Coulomb ``tanh(dq / w_s)`` (the actuators' model,
-:func:`exoleg.device.actuator.friction`).
+:func:`exoleg.device.drive.friction`).
 """
 
 from __future__ import annotations
@@ -106,7 +106,7 @@ def base_parameters(leg: LegModel, static: bool = False, samples: int = 200,
 def friction_columns(dq: ArrayLike, smoothing: ArrayLike) -> F64:
     """The friction's regressor (..., 3, 6): per joint its viscous (``dq``) and Coulomb
     (``tanh(dq / smoothing)``) columns, joint by joint -- the friction torque of
-    :func:`exoleg.device.actuator.friction` is these times (viscous, Coulomb)."""
+    :func:`exoleg.device.drive.friction` is these times (viscous, Coulomb)."""
     v = np.asarray(dq, dtype=float)
     w = np.asarray(smoothing, dtype=float)
     out = np.zeros((*v.shape[:-1], N_JOINTS, 2 * N_JOINTS))

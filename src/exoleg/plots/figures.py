@@ -199,7 +199,7 @@ def _torque_speed(ax: Axes, actuator: ActuatorModel, t: np.ndarray, dq: np.ndarr
                   tau: np.ndarray) -> None:
     """One joint's delivered torque against its speed over the actuator's envelope, with
     the fastest the actuator turns at its bus voltage marked."""
-    from exoleg.device.actuator import envelope
+    from exoleg.device.drive import envelope
 
     par = actuator.record()
     w = np.linspace(0, 1.15 * actuator.max_velocity, 400)

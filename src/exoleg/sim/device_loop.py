@@ -4,7 +4,7 @@ Where :func:`exoleg.simulate` drives the leg with ideal torques from perfect sta
 feedback, :func:`simulate_device` runs what the device would do, every control tick
 (1 kHz by default):
 
-1. **encoders**: each joint angle quantised (:func:`exoleg.device.actuator.encode`);
+1. **encoders**: each joint angle quantised (:func:`exoleg.device.drive.encode`);
    the velocity is their finite difference over the tick through the first-order
    low-pass of the actuator file;
 2. **controller**: the same compiled law as :func:`exoleg.simulate` (PD, PD + gravity
@@ -34,17 +34,8 @@ from numpy.typing import ArrayLike, NDArray
 from exoleg.control.controllers import Controller
 from exoleg.control.laws import law
 from exoleg.control.safety import SafetyLayer, SafetyLimits, safety_step
-from exoleg.device.actuator import (
-    ActuatorModel,
-    current_loop,
-    drive_limit,
-    encode,
-    filter_gain,
-    friction,
-    paper_actuators,
-    params_array,
-    with_actuators,
-)
+from exoleg.device.actuator import ActuatorModel, paper_actuators, params_array, with_actuators
+from exoleg.device.drive import current_loop, drive_limit, encode, filter_gain, friction
 from exoleg.dynamics.kernels import coefficients, forward_dynamics_sc
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError, SimulationError

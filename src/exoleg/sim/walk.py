@@ -36,7 +36,8 @@ from exoleg.child.passive import passive_moments
 from exoleg.control.hierarchy import WalkController, WalkGains, walk_control_step
 from exoleg.control.safety import SafetyLimits
 from exoleg.control.transparency import PARTS, SupportMode
-from exoleg.device.actuator import ActuatorModel, drive_limit
+from exoleg.device.actuator import ActuatorModel
+from exoleg.device.drive import drive_limit
 from exoleg.device.faults import SensorFault, apply_faults, fault_records
 from exoleg.device.ground import ANKLE_HEIGHT, Ground
 from exoleg.device.sensors import FROZEN_S, FootSensors, draw_noise

@@ -11,7 +11,7 @@ telescopes', known. Plans are designed on the models (:func:`design_plan`), the 
 legs driven through them; what the identification reads is what the device would
 measure:
 
-* the joint angles through the 20-bit encoders (:func:`exoleg.device.actuator.encode`),
+* the joint angles through the 20-bit encoders (:func:`exoleg.device.drive.encode`),
   their rates and accelerations by a zero-phase quadratic fit over 41 ms (a
   Savitzky-Golay differentiator: the identification runs offline on the recording);
 * the joint torques: the true leg's inverse dynamics plus the actuators' friction, with
@@ -48,7 +48,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from exoleg.device.actuator import encode
+from exoleg.device.drive import encode
 from exoleg.dynamics.model import LegModel
 from exoleg.identify.signals import HALF_WINDOW, derivatives
 
@@ -94,7 +94,7 @@ class IdentifyRun:
 
 @njit(cache=True)
 def _encoded(par, q):  # type: ignore[no-untyped-def]
-    """The encoder's readings (:func:`~exoleg.device.actuator.encode`) of the angles q."""
+    """The encoder's readings (:func:`~exoleg.device.drive.encode`) of the angles q."""
     out = np.empty_like(q)
     for k in range(len(q)):
         out[k] = encode(par, q[k])

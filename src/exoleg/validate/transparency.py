@@ -51,7 +51,8 @@ def budget(leg: Any, config: Any, body_mass: float, stride_time: float = 1.1,
     the largest with which the need stays within the drive's limit (kg m^2; the gear
     ratio scales it by its square)."""
     from exoleg.child.interaction import device_leg
-    from exoleg.device.actuator import friction, params_array
+    from exoleg.device.actuator import params_array
+    from exoleg.device.drive import friction
     from exoleg.reference.gait import SchwartzGait2008
 
     dev = device_leg(leg, config.actuators)
@@ -96,7 +97,7 @@ def limit_floors(act: Any, need: F64, w: F64, body_mass: float) -> dict[str, Any
     device's ``need`` (N m per sample of the cycle) at joint speeds ``w`` (rad/s): per
     :data:`LIMITS`, the RMS of the need beyond the torque that limit allows, per kg
     (``floors_Nm_per_kg``), and all together (``floor_all_Nm_per_kg``: the drive's
-    envelope, :func:`~exoleg.device.actuator.drive_limit`); the gear's first mode with
+    envelope, :func:`~exoleg.device.drive.drive_limit`); the gear's first mode with
     the rotor and the gear's input on its stiffness (``gear_mode_hz``: sqrt(k / N^2 J)
     / 2 pi), which bounds any torque loop's bandwidth (a loop on a joint torque sensor
     included).
@@ -105,7 +106,7 @@ def limit_floors(act: Any, need: F64, w: F64, body_mass: float) -> dict[str, Any
     the voltage, N eta k_t (V - N k_t abs(w)) / R while the motor drives the motion (the
     need along the speed; braking, the back-EMF helps: no limit); the rotor's speed, none
     beyond N times its permissible speed while driving."""
-    from exoleg.device.actuator import drive_limit
+    from exoleg.device.drive import drive_limit
 
     a = np.abs(need)
     driving = need * w > 0.0
@@ -209,7 +210,8 @@ def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None
     strides after its start): the floor the transparent law's residual on that walk is
     to be judged against."""
     from exoleg.child.interaction import device_leg
-    from exoleg.device.actuator import friction, params_array
+    from exoleg.device.actuator import params_array
+    from exoleg.device.drive import friction
 
     t0 = r.walk_start + SETTLE_STRIDES * r.stride_time if after is None else after
     sel = r.t >= t0

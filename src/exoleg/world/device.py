@@ -24,16 +24,14 @@ from numpy.typing import NDArray
 from exoleg.child.compiled import child_records, child_tick
 from exoleg.child.interaction import device_leg, interaction_torque
 from exoleg.child.model import ChildModel, intended_gait, real_gait_toe_off
-from exoleg.device.actuator import (
-    ActuatorModel,
+from exoleg.device.actuator import ActuatorModel, params_array, with_actuators
+from exoleg.device.drive import (
     current_loop,
     drive_limit,
     encode,
     filter_gain,
     friction,
-    params_array,
     torque_loop,
-    with_actuators,
 )
 from exoleg.device.ground import ANKLE_HEIGHT, SOLE_MAX, Ground
 from exoleg.device.sensors import FootSensors, fsr_counts, fsr_response, imu

@@ -49,7 +49,7 @@ from numpy.typing import NDArray
 
 from exoleg import checks as _check
 from exoleg.child.passive import passive_torque
-from exoleg.device.actuator import friction, series_torque
+from exoleg.device.drive import friction, series_torque
 from exoleg.device.ground import ANKLE_HEIGHT, REGIONS, SOLE_MAX, Ground
 from exoleg.dynamics.kernels import (
     coriolis_dq,
