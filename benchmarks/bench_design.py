@@ -48,7 +48,7 @@ def main() -> None:
           f"{pairs / best:,.0f} pairs/s; target >= 100,000 in <= 60 s: "
           f"{'met' if pairs >= 100_000 and best <= 60 else 'NOT met'}")
     # the same candidates each behind a series spring of 8 stiffnesses (272-1000 N m/rad,
-    # data/device/series.toml) and a 30 Hz torque loop: the rotor winding the spring
+    # data/design/series.toml) and a 30 Hz torque loop: the rotor winding the spring
     # (the moment's second derivative) and the loop's apparent inertia
     k = np.geomspace(272.25, 1000.0, 8)[None, None, None, :]
     m4 = {key: (v[..., None] if isinstance(v, np.ndarray) else v) for key, v in motor.items()}

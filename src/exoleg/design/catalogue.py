@@ -12,7 +12,7 @@ current limit set at 2 x the motor's nominal current as maxon configures it (S3)
 chosen bus voltage (the EPOS4 50/15 takes 10-50 V: its sheet).
 
 Between the gear and the link a candidate may carry a series element
-(``data/device/series.toml``, :func:`series_options`): a torsion spring the design sizes
+(``data/design/series.toml``, :func:`series_options`): a torsion spring the design sizes
 within the stiffness range published springs span, its deflection read by absolute
 encoders, or the gear's own stiffness read by a joint torque sensor; either closes the
 drive's torque loop on the measured torque (:mod:`exoleg.device.actuator`).
@@ -75,11 +75,11 @@ def catalogue() -> tuple[tuple[Part, ...], tuple[Part, ...]]:
 
 
 def series_options() -> dict[str, Part]:
-    """The series elements (``data/device/series.toml``): ``series_spring`` and
+    """The series elements (``data/design/series.toml``): ``series_spring`` and
     ``torque_sensor``, their figures and sources."""
     import tomllib
 
-    text = (resources.files("exoleg") / "data" / "device" / "series.toml").read_text()
+    text = (resources.files("exoleg") / "data" / "design" / "series.toml").read_text()
     data = tomllib.loads(text)
     return {kind: Part(kind, kind.replace("_", " "),
                        {k: float(v) for k, v in d.items() if k != "sources"},

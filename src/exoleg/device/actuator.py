@@ -357,7 +357,13 @@ def _parameters() -> str:
     for name, unit, lo, hi in FIELDS:
         kind = "int" if name in WHOLE else "float"
         rows += [f"{name} : {kind}", f"    {unit or 'dimensionless'}; {lo:g} to {hi:g}."]
-    rows += ["sources : dict of str to str", "    Per figure, the datasheet it comes from."]
+    rows += ["sources : dict of str to str", "    Per figure, the datasheet it comes from.",
+             "compliance : str", "    What sits between the gear and the link: "
+             + ", ".join(COMPLIANCE) + " (default rigid, with none of the figures below)."]
+    for name, unit, lo, hi in SERIES_FIELDS:
+        kind = "int" if name in WHOLE else "float"
+        rows += [f"{name} : {kind}", f"    {unit or 'dimensionless'}; {lo:g} to {hi:g} "
+                 "(a compliant unit's)."]
     return "\n".join(f"    {r}" for r in ["", "Parameters", "----------", *rows, ""])
 
 

@@ -188,9 +188,20 @@ class Study:
         return expand(self)
 
     def on_device(self, folder: str) -> Study:
-        """This study on the device folder ``folder`` (its runs walk the folder's own
-        actuation units, gains, sensors, limits and ground): refused when the study names
-        a device axis (:data:`DEVICE_AXES`), which the folder fixes."""
+        """This study on a device folder.
+
+        Parameters
+        ----------
+        folder : str
+            The device folder: its runs walk the folder's own actuation units, gains,
+            sensors, limits and ground.
+
+        Returns
+        -------
+        Study
+            The same study with ``device`` set; a ParameterError when it names a device
+            axis (:data:`DEVICE_AXES`), which the folder fixes.
+        """
         named = [a for a in DEVICE_AXES
                  if a in self.axes or any(a in r for r in self.listed)]
         if named:
