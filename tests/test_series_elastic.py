@@ -256,3 +256,20 @@ def test_a_series_elastic_device_gets_the_same_ticks_on_every_device(tmp_path: P
     # the knee's drive answered with the spring's measured torque, not its motor's
     meas = can["tau_meas_knee"][600:]
     assert np.max(np.abs(meas)) > 1.0 and np.all(np.isfinite(meas))
+
+
+@pytest.mark.parametrize("command", [["simulate", "--actuators"],
+                                     ["identify", "--duration", "10"]])
+def test_what_models_rigid_units_only_refuses_a_compliant_one(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], command: list[str]) -> None:
+    """The paper's scenario (the leg in the air, each rotor on its link) and
+    identification (each rotor an armature in its regressor) model rigid units: a device
+    folder with a series spring is said, not simulated or identified wrongly."""
+    from exoleg.cli import main
+
+    folder = _folder(tmp_path / "device", {"knee": SPRING})
+    out = tmp_path / "out"
+    assert main([*command, "--device", str(folder), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "knee.toml" in err and "compliance" in err and "series_spring" in err, err
+    assert not (out / "summary.json").exists() and not (out / "identify.json").exists()

@@ -277,6 +277,13 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
     leg = exoleg.paper_leg() if leg is None else leg
     config = DeviceConfig.load(device)
     acts = config.actuators
+    for a in acts:
+        if a.compliant:
+            raise ParameterError(f"actuators/{a.joint}.toml", "compliance",
+                                 f"{a.compliance}: identification models every unit as "
+                                 "rigid (its rotor an armature of the link, its friction "
+                                 "the link's); a compliant unit's drive answers the "
+                                 "spring's torque, which its regressor does not hold")
     fitted = config.leg(leg)
     stage = DEVICE_ALONE if device_alone else "leg"
     prior_sds = None
