@@ -9,39 +9,40 @@ What it does, at the joint (SI units):
 * **reflected inertia** ``N^2 (J_rotor + J_gear_input)``: the leg's armature
   (:func:`with_actuators` puts it into the model, the exports and the engines);
 * **torque from current** ``tau = N eta k_t i``;
-* **torque-speed envelope** (:func:`~exoleg.device.drive.envelope`), voltage-limited at the bus voltage: the
-  current the winding can still draw at motor speed ``w_m = N |w|``,
+* **torque-speed envelope** (:func:`~exoleg.device.drive.envelope`), voltage-limited at
+  the bus voltage: the current the winding can still draw at motor speed ``w_m = N |w|``,
   ``min(I_limit, (V_bus - k_t w_m) / R)`` (the back-EMF constant is k_t in SI units),
-  times ``N eta k_t``; capped by the gear's **repeated peak torque** (its working
-  limit; the momentary peak is for collisions and E-stops, never commanded); zero
-  beyond the motor's maximum permissible speed. That is the motoring envelope; a torque
-  against the motion (:func:`~exoleg.device.drive.drive_limit`: braking, the back-EMF helping the current)
-  is limited by the current and the gear only, at any speed -- the drive brakes a joint
-  the load has driven past its speed, as a four-quadrant drive does;
-* **friction** (:func:`~exoleg.device.drive.friction`): Coulomb from the motor's no-load current
-  (``N k_t I_0``) and the gear's backdriving torque, smoothed near zero speed
+  times ``N eta k_t``; capped by the gear's **repeated peak torque** (its working limit;
+  the momentary peak is for collisions and E-stops, never commanded); zero beyond the
+  motor's maximum permissible speed. That is the motoring envelope; a torque against the
+  motion (:func:`~exoleg.device.drive.drive_limit`: braking, the back-EMF helping the
+  current) is limited by the current and the gear only, at any speed -- the drive brakes a
+  joint the load has driven past its speed, as a four-quadrant drive does;
+* **friction** (:func:`~exoleg.device.drive.friction`): Coulomb from the motor's no-load
+  current (``N k_t I_0``) and the gear's backdriving torque, smoothed near zero speed
   (``tanh(w / w_s)``, so the dynamics stay integrable), plus a viscous term;
-* **the drive's current loop** (:func:`~exoleg.device.drive.current_loop`): first order with the loop's
-  closed-loop bandwidth, discretised exactly over each plant step (zero-order hold of
-  the command), returning the mean torque over the step;
+* **the drive's current loop** (:func:`~exoleg.device.drive.current_loop`): first order
+  with the loop's closed-loop bandwidth, discretised exactly over each plant step
+  (zero-order hold of the command), returning the mean torque over the step;
 * **the winding's temperature** (:mod:`exoleg.device.thermal`: ``thermal_matrix``,
-  ``thermal_hold``, ``copper_loss``, ``winding_temperature``):
-  maxon's two-node model (winding and housing, their thermal resistances and time
-  constants) heated by the copper loss ``R(T_w) i^2``, the winding's resistance rising
-  with its temperature as copper's does (:data:`COPPER_ALPHA`); the safety layer runs
-  the same model every tick to derate a hot motor;
-* **encoder** (:func:`~exoleg.device.drive.encode`): the absolute joint encoder's quantisation (2^bits per
-  turn); the velocity is the finite difference of encoder readings over the control
-  period through a first-order low-pass of ``velocity_filter_hz`` (:func:`~exoleg.device.drive.filter_gain`);
+  ``thermal_hold``, ``copper_loss``, ``winding_temperature``): maxon's two-node model
+  (winding and housing, their thermal resistances and time constants) heated by the copper
+  loss ``R(T_w) i^2``, the winding's resistance rising with its temperature as copper's
+  does (:data:`COPPER_ALPHA`); the safety layer runs the same model every tick to derate a
+  hot motor;
+* **encoder** (:func:`~exoleg.device.drive.encode`): the absolute joint encoder's
+  quantisation (2^bits per turn); the velocity is the finite difference of encoder
+  readings over the control period through a first-order low-pass of
+  ``velocity_filter_hz`` (:func:`~exoleg.device.drive.filter_gain`);
 * **compliance** (optional, :data:`COMPLIANCE`, :data:`SERIES_FIELDS`): a series spring
-  between the gear and the link, or the stiff gear with a joint torque sensor -- the
-  rotor (inertia B = N^2 J) a body of its own on the stiffness K (:func:`~exoleg.device.drive.series_torque`),
-  the drive closing a torque loop on the measured torque (:func:`~exoleg.device.drive.torque_loop`) whose
-  gains follow from its natural frequency and damping
-  (:attr:`ActuatorModel.torque_loop_gains`); the link then feels K / w_b^2 of the rotor
-  (:attr:`ActuatorModel.apparent_inertia`) and 1 / (1 + kp) of its friction
-  (:func:`~exoleg.device.drive.link_friction`). The walking plant steps the rotors with the leg
-  (:func:`exoleg.world.plant.walking_step_series`).
+  between the gear and the link, or the stiff gear with a joint torque sensor -- the rotor
+  (inertia B = N^2 J) a body of its own on the stiffness K
+  (:func:`~exoleg.device.drive.series_torque`), the drive closing a torque loop on the
+  measured torque (:func:`~exoleg.device.drive.torque_loop`) whose gains follow from its
+  natural frequency and damping (:attr:`ActuatorModel.torque_loop_gains`); the link then
+  feels K / w_b^2 of the rotor (:attr:`ActuatorModel.apparent_inertia`) and 1 / (1 + kp)
+  of its friction (:func:`~exoleg.device.drive.link_friction`). The walking plant steps
+  the rotors with the leg (:func:`exoleg.world.plant.walking_step_series`).
 """
 
 from __future__ import annotations
