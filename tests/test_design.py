@@ -130,6 +130,9 @@ def test_design_screens_chooses_writes_a_device_and_walks_it(tmp_path: Path) -> 
     ("alpha = [0.5, 0.5, 0.5]", "alpha = [0.5, 0.5]", "[assistance]: alpha: 3 shares"),
     ("bus_voltage = [24.0, 48.0]", "bus_voltage = [24.0, 60.0]", "bus_voltage"),
     ("[verify]", "[verifi]", "verify"),
+    ("strides = 2", "strides = 2\nmass_kg = [40.0, 20.0]", "mass_kg: 40 is not below 20"),
+    ("transparency_Nm_per_kg = 0.036", "transparency_Nm_per_kg = 0.036\ntorque_loop_hz = 0",
+     "torque_loop_hz"),
 ])
 def test_a_bad_design_file_is_named(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                     old: str, new: str, says: str) -> None:
