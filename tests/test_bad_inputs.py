@@ -212,6 +212,12 @@ CASES: list[tuple[str, list[str], str]] = [
                                  "{device_rate}"], "max_torque_rate"),
     ("device contact diverges", ["simulate", "--walk", "--strides", "1", "--device",
                                  "{device_contact}"], "[contact] stiffness/damping"),
+    # the design's population walks on the sweep engine
+    ("design no workers", ["design", "{folder}/none.toml", "--workers", "0"],
+     "0 is outside 1-256"),
+    ("design workers and a scheduler", ["design", "{folder}/none.toml", "--workers", "2",
+                                        "--scheduler", "tcp://127.0.0.1:1"],
+     "sizes the local cluster"),
     # any command
     ("unknown option", ["validate", "--bogus"], "unrecognized arguments"),
     ("no command", [], "required"),

@@ -7,7 +7,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from exoleg.cli._common import _say, _table
+from exoleg.cli._common import _count, _say, _table
 
 
 def cmd_design(args: argparse.Namespace) -> int:
@@ -17,7 +17,12 @@ def cmd_design(args: argparse.Namespace) -> int:
     from exoleg.design.study import Design, run_design, verify
     from exoleg.io import OutputFolder, refuse_overwrite, write_json
 
+    from exoleg.errors import ParameterError
+
     t0 = time.perf_counter()
+    if args.scheduler and args.workers:
+        raise ParameterError("exoleg design", "--workers", "sizes the local cluster: not "
+                             "with --scheduler (the cluster has its own workers)")
     design = Design.load(args.config)
     out = Path(args.out)
     actuators = out / "device" / "actuators"
@@ -117,7 +122,7 @@ def add_parser(sub: Any) -> None:
     d.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="the population's walks on this Dask scheduler (tcp://host:port or "
                    "a scheduler file); default a local cluster")
-    d.add_argument("--workers", type=int, default=None, metavar="N",
+    d.add_argument("--workers", type=_count(1, 256), default=None, metavar="N",
                    help="the local cluster's workers (default one per core)")
     d.add_argument("--no-population", action="store_true",
                    help="screen, choose and walk the held-out children only: leave out the "
