@@ -15,9 +15,8 @@ def cmd_design(args: argparse.Namespace) -> int:
 
     from exoleg.design import verify as population
     from exoleg.design.study import Design, run_design, verify
-    from exoleg.io import OutputFolder, refuse_overwrite, write_json
-
     from exoleg.errors import ParameterError
+    from exoleg.io import OutputFolder, refuse_overwrite, write_json
 
     t0 = time.perf_counter()
     if args.scheduler and args.workers:
