@@ -84,9 +84,9 @@ def test_design_screens_chooses_writes_a_device_and_walks_it(tmp_path: Path) -> 
     assert sorted(r["joint"] for r in chosen) == ["ankle", "hip", "knee"]
     assert len({r["bus_V"] for r in chosen}) == 1  # one bus for the device's drives
 
-    def key(r: dict) -> tuple[float, float, float]:
+    def key(r: dict) -> tuple[float, float, float, float]:
         return (float(r["served"]), -float(r["residual_worst_Nm_per_kg"]),
-                float(r["thermal_margin_K"]))
+                -float(r["reflected_inertia_kg_m2"]), float(r["thermal_margin_K"]))
 
     for r in rows:  # the Pareto flag is non-dominance over the joint's candidates
         others = [key(o) for o in rows if o["joint"] == r["joint"] and key(o) != key(r)]

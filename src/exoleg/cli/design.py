@@ -88,7 +88,8 @@ def cmd_design(args: argparse.Namespace) -> int:
              f"P{c['percentile']:g}", "yes" if c["walked"] else c["fault"],
              " / ".join(f"{c['tracking_rms_deg_' + j]:.1f}" for j in ("hip", "knee", "ankle"))]
             for c in checked], ["device", "held-out child", "walked", "tracking RMS deg"],
-           title=f"verified in the walking loop ({design.strides} strides, impedance)")
+           title=f"verified in the walking loop ({design.strides} strides, the held-out "
+                 "children as actors, assist-as-needed)")
     if served:
         summ = population.summary(served)
         _table([[name, str(v["children"]), f"{100 * v['transparent_met']:.0f} %",
