@@ -76,13 +76,17 @@ def _imu_point(p, x, px, py):  # type: ignore[no-untyped-def]
 #: rotors' angles and speeds at the joint's side of the gear (6,: a compliant unit's
 #: rotor is a body of its own; a rigid unit's follows its link) and the joint torque a
 #: compliant unit measured over the last tick (its deflection times its stiffness, N m;
-#: a rigid unit's motor torque).
+#: a rigid unit's motor torque); then the work arrays of a tick (the sole's points and
+#: forces, the generalized forces, the sensors' loads, the tick's first state, the drives'
+#: and the motion's rows), kept here so that no tick allocates.
 DEVICE = np.dtype([("x", F8, 8), ("tau", F8, 3), ("qm", F8, 3), ("vm", F8, 3),
                    ("v_imu", F8, 2), ("loaded", np.bool_), ("t_off", F8), ("t_strike", F8),
                    ("walking", np.bool_), ("t_start", F8),
                    ("belt", F8), ("fsr_last", F8, 4), ("fsr_memory", F8, 4),
                    ("fsr_creep", F8, (4, 3)), ("child", F8, 3), ("interaction", F8, 3),
-                   ("rotor", F8, 6), ("joint_torque", F8, 3)])
+                   ("rotor", F8, 6), ("joint_torque", F8, 3),
+                   ("pts", F8, (SOLE_MAX, 4)), ("forces", F8, (SOLE_MAX, 2)), ("gen", F8, 4),
+                   ("carried", F8, 4), ("x0", F8, 8), ("work", F8, (9, 3))])
 
 
 def device_state(plant: WalkingPlant, A: NDArray[np.void], x0: F64, imu_x: float,
@@ -118,9 +122,7 @@ def device_sense(dev, board, S, h, first, noise, out, fn):  # type: ignore[no-un
     D = S[0]
     o = out[0]
     x = D.x
-    pts = np.empty((SOLE_MAX, 4))
-    F = np.empty((SOLE_MAX, 2))
-    carried = np.empty(4)
+    pts, F, carried = D.pts, D.forces, D.carried
     contact_points(p, w, x[0], x[1:4], x[5:8], x[4], pts)
     contact_forces(w, pts, F)
     sole_loads(w, F, fn, carried)
@@ -198,18 +200,17 @@ def device_actuate(dev, K, S, step, u, fn, scene, into):  # type: ignore[no-unty
         env[i] = drive_limit(A[i:i + 1], D.vm[i], u[i])
     x = D.x
     child_tick((P, C, CS), x[1:4], x[5:8], h, walking, xc, D.loaded, D.child)
-    x0 = x.copy()
-    pts = np.empty((SOLE_MAX, 4))
-    F = np.empty((SOLE_MAX, 2))
-    gen = np.empty(4)
+    x0 = D.x0
+    x0[:] = x
+    pts, F, gen = D.pts, D.forces, D.gen
     # by row: the joints' torque in a substep, its sum over the tick, the tick's mean
-    # posture, rates and accelerations, the link's torque (one allocation: this runs every
-    # tick); with compliant units, what their drives and the child apply and the
-    # measured torque's sum
-    V = np.zeros((6, 3))
+    # posture, rates and accelerations, the link's torque; with compliant units, what
+    # their drives and the child apply and the measured torque's sum
+    work = D.work
+    work[:] = 0.0
+    V, drive = work[:6], work[6:]
     joint, acc, qm, dqm, ddq, link = V[0], V[1], V[2], V[3], V[4], V[5]
     series = A[0].stiffness > 0.0 or A[1].stiffness > 0.0 or A[2].stiffness > 0.0
-    drive = np.zeros((3, 3))
     supp = 0.0
     hs = h / sub
     for _ in range(sub):
