@@ -170,5 +170,6 @@ def add_parser(sub: Any) -> None:
     s.add_argument("--x", help="with --summary: the axis across")
     s.add_argument("--y", help="with --summary: the axis up")
     _device_option(s, "every run's actuators, gains, sensors, safety limits and ground (the "
-                      "folder must be readable where the workers run)")
+                      "folder must be readable where the workers run; its actuation is "
+                      "fixed: a study naming hip_motor, bus_voltage or a ratio is refused)")
     s.set_defaults(func=cmd_sweep)
