@@ -167,21 +167,18 @@ def _mass_window(where: str, v: dict[str, Any]) -> tuple[float, float]:
     return lo, hi
 
 
-def _series(design: Design, joint: int, B: float, gear: Any, peak: float
-            ) -> list[tuple[Any, float, str]]:
+def _series(design: Design, parts: tuple[Any, Any, float], B: float, gear: Any,
+            peak: float) -> list[tuple[Any, float, str]]:
     """A candidate's series elements: (element or None for rigid, stiffness N m/rad, why
     it cannot serve -- '' when it can). Springs of :data:`SPRING_STEPS` stiffnesses from
     the softest that carries the ``peak`` asked (N m) within the design's deflection to
     the catalogue's stiffest; the torque sensor on the gear's own stiffness. The torque
     loop must be above the rotor's resonance on that stiffness with the link held
     (sqrt(K / B), B the reflected inertia) and at most a third of the current loop's
-    bandwidth."""
-    from exoleg.device.actuator import paper_actuators
-
-    opts = series_options()
-    spring, sensor = opts["series_spring"], opts["torque_sensor"]
+    bandwidth. ``parts``: (the spring, the torque sensor, the joint's current loop
+    bandwidth, Hz)."""
+    spring, sensor, inner = parts
     wb = 2.0 * math.pi * design.loop_hz
-    inner = paper_actuators()[joint].current_loop_bandwidth
     lo = max(spring.figures["stiffness_min"], peak / math.radians(design.deflection_deg))
     hi = spring.figures["stiffness_max"]
     springs = [float(k) for k in np.geomspace(lo, hi, SPRING_STEPS)] if lo <= hi else [lo]
@@ -204,15 +201,20 @@ def screen_joint(design: Design, joint: int, masses: np.ndarray) -> list[dict[st
     """Every catalogue candidate at ``joint`` with every child of ``masses``: one row per
     candidate (motor, gear, series element, bus) with the share of children it serves and
     its worst figures over them."""
+    from exoleg.device.actuator import paper_actuators
+
     motors, gears = catalogue()
     tau, qd, qdd = sc.population_gait(masses, joint, design.stride_time, design.speed)
     tau_dd = sc.periodic_second_derivative(tau, design.stride_time, MOMENT_HARMONICS)
     peak = design.alpha[joint] * float(np.max(np.abs(tau)))
+    opts = series_options()  # read once per joint, not per candidate
+    parts = (opts["series_spring"], opts["torque_sensor"],
+             paper_actuators()[joint].current_loop_bandwidth)
     rows = []
     for m, g, bus in itertools.product(motors, gears, design.buses):
         f = m.figures
         B = (f["rotor_inertia"] + g.figures["gear_input_inertia"]) * g.figures["ratio"] ** 2
-        for part, K, why in _series(design, joint, B, g, peak):
+        for part, K, why in _series(design, parts, B, g, peak):
             r = sc.screen({"kt": f["torque_constant"], "rotor_inertia": f["rotor_inertia"],
                            "r25": f["terminal_resistance"],
                            "r_th": f["thermal_resistance_winding"]

@@ -71,18 +71,29 @@ def study_text(design: Any, mode: str, kids: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def _shipped(name: str, vectors: Any, header: str) -> str:
+    """The shipped ``data/device/<name>`` with each ``key = [...]`` line of ``vectors``
+    (key -> function of the shipped values giving the new ones) rewritten, under the
+    comment ``header``."""
+    from importlib import resources
+
+    text = (resources.files("exoleg") / "data" / "device" / name).read_text()
+    for key, new in vectors.items():
+        m = re.search(rf"(?m)^{key}\s*=\s*\[([^\]]*)\]", text)
+        assert m is not None, key  # the shipped file has each key once
+        vals = new(np.array([float(v) for v in m.group(1).split(",")]))
+        text = (text[:m.start()] + f"{key} = [" + ", ".join(f"{v:.6g}" for v in vals) + "]"
+                + text[m.end():])
+    return f"# exoleg design: {header}\n" + text
+
+
 def assist_text(alpha: tuple[float, float, float]) -> str:
     """The shipped ``assist.toml`` with assist-as-needed bounded to ``alpha`` of the
     impedance's support per joint, and starting there."""
-    from importlib import resources
-
-    text = (resources.files("exoleg") / "data" / "device" / "assist.toml").read_text()
-    vec = "[" + ", ".join(repr(float(a)) for a in alpha) + "]"
-    for key in ("support_max", "start"):
-        text, n = re.subn(rf"(?m)^{key}\s*=\s*\[[^\]]*\]", f"{key} = {vec}", text)
-        assert n == 1, key  # the shipped file has each once
-    return ("# exoleg design: assist-as-needed bounded to the design's alpha (the share of "
-            "the child's\n# moment the device gives) and starting there\n" + text)
+    return _shipped("assist.toml", {k: lambda _: np.array(alpha) for k in
+                                    ("support_max", "start")},
+                    "assist-as-needed bounded to the design's alpha (the share of the "
+                    "child's moment the device gives) and starting there")
 
 
 def transparency_text(units: dict[str, Any]) -> str:
@@ -90,16 +101,9 @@ def transparency_text(units: dict[str, Any]) -> str:
     joints whose unit is compliant: its loop already closes on the joint's torque, and at
     the rigid units' gain of 2 the two loops in series saturated the motors in 48 % of a
     transparent walk's ticks, against 15 % at 1 (measured, a series-spring device)."""
-    from importlib import resources
-
-    text = (resources.files("exoleg") / "data" / "device" / "transparency.toml").read_text()
-    m = re.search(r"(?m)^kp_interaction\s*=\s*\[([^\]]*)\]", text)
-    assert m is not None
-    kp = [float(v) for v in m.group(1).split(",")]
-    kp = [k / 2 if units[j].compliant else k for k, j in zip(kp, JOINTS, strict=True)]
-    vec = "[" + ", ".join(repr(k) for k in kp) + "]"
-    return ("# exoleg design: the cuffs' feedback halved at compliant joints\n"
-            + text[:m.start()] + f"kp_interaction = {vec}" + text[m.end():])
+    half = np.array([0.5 if units[j].compliant else 1.0 for j in JOINTS])
+    return _shipped("transparency.toml", {"kp_interaction": lambda kp: kp * half},
+                    "the cuffs' feedback halved at compliant joints")
 
 
 def walking_control_text(units: dict[str, Any]) -> str:
@@ -107,12 +111,11 @@ def walking_control_text(units: dict[str, Any]) -> str:
     chosen unit the way the shipped gains were set for theirs (that file's comment:
     Kp = J w^2, Kd = 2 zeta J w, J the joint's inertia dominated by the rotor): the gains
     scaled by J' / J, J' the paper's leg's link inertia at standing plus the inertia the
-    link feels of the chosen unit (:attr:`~exoleg.device.actuator.ActuatorModel.apparent_inertia`),
-    J the same with the shipped unit -- the same closed-loop frequency and damping on the
-    new inertia. (Unscaled, a series-elastic ankle's damping held over the 1 ms tick met
+    link feels of the chosen unit
+    (:attr:`~exoleg.device.actuator.ActuatorModel.apparent_inertia`), J the same with the
+    shipped unit -- the same closed-loop frequency and damping on the new inertia.
+    (Unscaled, a series-elastic ankle's damping held over the 1 ms tick met
     h lambda(M^-1 Kd) = 8.7-11.6, far beyond the 2 a sampled damping holds at: measured.)"""
-    from importlib import resources
-
     import exoleg
     from exoleg.device.actuator import paper_actuators
 
@@ -120,15 +123,11 @@ def walking_control_text(units: dict[str, Any]) -> str:
     shipped = np.array([a.apparent_inertia for a in paper_actuators()])
     chosen = np.array([units[j].apparent_inertia for j in JOINTS])
     scale = (link + chosen) / (link + shipped)
-    text = (resources.files("exoleg") / "data" / "device" / "walking_control.toml").read_text()
-    for key in ("kp_stance", "kd_stance", "kp_swing", "kd_swing"):
-        m = re.search(rf"(?m)^{key}\s*=\s*\[([^\]]*)\]", text)
-        assert m is not None, key
-        vals = [float(v) * f for v, f in zip(m.group(1).split(","), scale, strict=True)]
-        text = (text[:m.start()] + f"{key} = [" + ", ".join(f"{v:.4g}" for v in vals) + "]"
-                + text[m.end():])
-    return ("# exoleg design: the impedance scaled to the chosen units' inertia (x "
-            + ", ".join(f"{f:.3g}" for f in scale) + " at hip, knee, ankle)\n" + text)
+    return _shipped("walking_control.toml",
+                    {k: lambda v: v * scale for k in ("kp_stance", "kd_stance", "kp_swing",
+                                                      "kd_swing")},
+                    "the impedance scaled to the chosen units' inertia (x "
+                    + ", ".join(f"{f:.3g}" for f in scale) + " at hip, knee, ankle)")
 
 
 def run(design: Any, device: Path, out: Path, scheduler: str | None = None,

@@ -223,8 +223,10 @@ def device_actuate(dev, K, S, step, u, fn, scene, into):  # type: ignore[no-unty
                 drive[2, i] += measured
             D.tau[i], mean = current_loop(A[i:i + 1], D.tau[i], tc, hs)
             acc[i] += mean
-            joint[i] = mean + D.child[i]
-            drive[0, i], drive[1, i] = mean, D.child[i]
+            if series:  # the motors' and the child's torques apart: a rotor between
+                drive[0, i], drive[1, i] = mean, D.child[i]
+            else:
+                joint[i] = mean + D.child[i]
         supp += step_contacts(p, w, x, pts, F, gen)
         if series:
             walking_step_series(p, w, A, P, (x, D.rotor), drive[:2], gen, hs)
