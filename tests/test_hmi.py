@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import io
 import json
+import re
 import time
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,7 @@ import pytest
 pytest.importorskip("starlette", reason="starlette (exoleg[api])")
 httpx = pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
 
+import exoleg.hmi  # noqa: E402
 from exoleg.hmi.testing import (  # noqa: E402
     browser_missing,
     chromium,
@@ -30,6 +32,12 @@ from exoleg.hmi.testing import (  # noqa: E402
     wait_until,
 )
 from exoleg.runtime.link import BEAT_CHECK_TICKS  # noqa: E402
+
+#: how long the page waits for the E-stop's answer before it says it did not reach the
+#: device (hmi.js's ESTOP_WAIT_MS, read from the page the browser runs)
+ESTOP_WAIT_MS = float(re.search(  # type: ignore[union-attr]
+    r"const ESTOP_WAIT_MS = (\d+);", (Path(exoleg.hmi.__file__).parent / "static" /
+                                     "hmi.js").read_text()).group(1))
 
 missing = browser_missing()
 pytestmark = pytest.mark.skipif(bool(missing), reason=f"no headless browser: {missing}")
@@ -263,10 +271,16 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
         if a["source"] == "loop" and a["command"] == "estop"])
     # The loop looks for an E-stop at every tick, ahead of everything else; the slowest
     # thing on the path it must not wait for is the heartbeat check, every
-    # BEAT_CHECK_TICKS ticks (100 ms). The issue's goal (<= 50 ms) is timed by
-    # benchmarks/bench_hmi.py on a quiet host: under this suite's load (two browsers, the
-    # server and the loop on 2 cores) one click measured 59.6 ms once in CI.
-    assert 0.0 < applied[0]["after_click_ms"] < BEAT_CHECK_TICKS * 1.0  # 1 ms a tick
+    # BEAT_CHECK_TICKS ticks (100 ms): the server's receipt to the tick that wrote the
+    # drives' command is the software's part (measured 1.5 ms quiet and with two
+    # CPU-bound processes beside the suite's test). From the click it adds the browser's
+    # event and the request, which the host's load decides: the issue's goal (<= 50 ms)
+    # is timed by benchmarks/bench_hmi.py on a quiet host (5.6 ms here quiet, 20.8 ms
+    # with two CPU-bound processes; 136 ms once in CI beside another worker's files);
+    # the bound here is the page's own, ESTOP_WAIT_MS, beyond which it says the E-stop
+    # did not reach the device and sends it again (test_hmi_safety.py's case 4).
+    assert 0.0 < applied[0]["after_request_ms"] < BEAT_CHECK_TICKS * 1.0  # 1 ms a tick
+    assert applied[0]["after_request_ms"] < applied[0]["after_click_ms"] < ESTOP_WAIT_MS
     d.find_element("id", "end").click()
     folder = ada_folder(hmi)
     wait_until("the session's summary", lambda: (folder / "run.json").exists(), timeout=30)
