@@ -534,10 +534,11 @@ class WalkController:
         stance support times the support mode's first level (none when transparent)."""
         return float(self.gains.support * np.mean(self.ss[0]["level"]))
 
-    def gains_now(self) -> dict[str, list[float]]:
+    def gains_now(self, record: NDArray[np.void] | None = None) -> dict[str, list[float]]:
         """The gains in force (N m/rad, N m s/rad per joint), the support level and the
-        bounds on assist-as-needed's support (:data:`TUNABLE`)."""
-        c = self.cp[0]
+        bounds on assist-as-needed's support (:data:`TUNABLE`); of ``record`` (one
+        :data:`PARAMS`, :meth:`gains_record`'s) when given."""
+        c = (self.cp if record is None else record)[0]
         return {k: [float(x) for x in np.atleast_1d(c[k])] for k in TUNABLE}
 
     def set_gains(self, change: dict[str, list[float]]) -> None:
@@ -545,10 +546,18 @@ class WalkController:
         not finite or outside what :class:`WalkGains` and :class:`AssistSettings`
         allow, none (ParameterError). The operator interface's tighter bounds are its
         own (checked before)."""
+        self.cp[:] = self.gains_record(change)
+
+    def gains_record(self, change: dict[str, list[float]],
+                     record: NDArray[np.void] | None = None) -> NDArray[np.void]:
+        """The controller's parameters (:data:`PARAMS`) with ``change`` made, a copy, for
+        a loop that swaps them in between ticks; made on ``record`` (default those in
+        force), checked as :meth:`set_gains` checks."""
         import dataclasses
 
         where = "WalkController.set_gains"
-        now = self.gains_now()
+        base = self.cp if record is None else record
+        now = self.gains_now(base)
         for k in change:
             if k not in now:
                 raise ParameterError(where, k, f"unknown gain (allowed: {', '.join(now)})")
@@ -561,10 +570,12 @@ class WalkController:
             a = dataclasses.replace(self.assist, **{k: new_[k] for k in BOUNDS})
         except ParameterError as e:
             raise ParameterError(where, e.field, e.problem) from None
+        out = base.copy()
         for k in WalkGains.TUNABLE:
-            self.cp[0][k] = getattr(g, k)
+            out[0][k] = getattr(g, k)
         for k in BOUNDS:
-            self.cp[0][k] = getattr(a, k)
+            out[0][k] = getattr(a, k)
+        return out
 
     def compiled(self) -> tuple[Any, ...]:
         """The records :func:`walk_control_step` takes as its first argument, in order:

@@ -44,10 +44,19 @@ class RateClock:
 
     def stats(self) -> dict[str, float]:
         """Lateness p50/p99/p99.9/max (us) and deadlines missed by more than a period."""
-        x = self.late[: min(self.n, len(self.late))] * 1e6
-        if not len(x):
-            return {"ticks": 0}
-        return {"ticks": int(self.n), "p50_us": float(np.percentile(x, 50)),
-                "p99_us": float(np.percentile(x, 99)),
-                "p999_us": float(np.percentile(x, 99.9)), "max_us": float(x.max()),
-                "missed": int((x > self.period * 1e6).sum())}
+        return lateness_stats(self.late[: min(self.n, len(self.late))], self.period, self.n)
+
+
+def lateness_stats(late: np.ndarray, period: float, ticks: int | None = None
+                   ) -> dict[str, float]:
+    """The ticks' lateness ``late`` (s) as the session's summary keeps it: its p50, p99,
+    p99.9 and max (us) and how many deadlines were missed by more than a ``period``; over
+    ``ticks`` waits (default ``len(late)``)."""
+    x = np.asarray(late) * 1e6
+    if not len(x):
+        return {"ticks": 0}
+    return {"ticks": int(len(x) if ticks is None else ticks),
+            "p50_us": float(np.percentile(x, 50)),
+            "p99_us": float(np.percentile(x, 99)),
+            "p999_us": float(np.percentile(x, 99.9)), "max_us": float(x.max()),
+            "missed": int((x > period * 1e6).sum())}

@@ -49,6 +49,11 @@ LINK_TIMEOUT_S = 1.0
 BEAT_CHECK_TICKS = 100
 
 
+def _names(record: Any) -> Any:
+    """The field names of a record (np.void) or the keys of a mapping."""
+    return record.dtype.names if isinstance(record, np.void) else record
+
+
 def _shape(dtype: np.dtype, name: str) -> tuple[int, ...]:
     return tuple(dtype[name].shape)
 
@@ -146,10 +151,20 @@ class LoopLink:
         None). Never waits; an E-stop goes first. :data:`LINK_LOST` once the web side's
         heartbeat is older than :data:`LINK_TIMEOUT_S` (looked at every
         :data:`BEAT_CHECK_TICKS` calls)."""
-        change = None
         self._polls += 1
         if self._polls % BEAT_CHECK_TICKS == 0 and self.link_lost():
             return LINK_LOST, None
+        change = self.loop_receive()
+        if not self._queue:
+            return 0, change
+        code, rid = self._queue.popleft()
+        self._inflight.append((code, rid))
+        return code, change
+
+    def loop_receive(self) -> dict[str, list[float]] | None:
+        """Move what the web side sent into the loop's queue (an E-stop before anything
+        queued); returns the gain change sent, merged, or None. Never waits."""
+        change = None
         while self.receiver.poll():
             kind, value, rid = self.receiver.recv()
             if kind == "gains":
@@ -158,24 +173,31 @@ class LoopLink:
                 self._queue.appendleft((int(value), int(rid)))
             else:
                 self._queue.append((int(value), int(rid)))
-        if not self._queue:
-            return 0, change
-        code, rid = self._queue.popleft()
-        self._inflight.append((code, rid))
-        return code, change
+        return change
 
-    def loop_tick(self, k: int, t: float, out: dict[str, Any], sensors: dict[str, Any],
-                  late: float, period: float, publish: bool) -> None:
+    def loop_take(self) -> list[int]:
+        """Every command queued, in order, each noted as handed to the controller (for
+        a loop that queues them itself: :mod:`exoleg.runtime.ticker`)."""
+        codes = []
+        while self._queue:
+            code, rid = self._queue.popleft()
+            self._inflight.append((code, rid))
+            codes.append(code)
+        return codes
+
+    def loop_tick(self, k: int, t: float, out: Any, sensors: Any, late: float,
+                  period: float, publish: bool, wall: float | None = None) -> None:
         """After tick ``k``: note a command the controller applied this tick (with the
-        wall time, after the drives' command was written) and, when ``publish``, the
-        tick's state."""
+        wall time, after the drives' command was written -- ``wall`` when the tick
+        stamped it, else now) and, when ``publish``, the tick's state. ``out``, ``sensors``:
+        the tick's :data:`OUTPUT` and :data:`SENSORS` fields by name."""
         events = int(out["events"])
         self._events |= events
         self._status |= int(out["safety_status"])
         self._late_max = max(self._late_max, late)
         if late > period:
             self._missed += 1
-        applied = int(sensors.get("command", 0))
+        applied = int(sensors["command"])
         hit = next((x for x in self._inflight if x[0] == applied), None) if applied else None
         if not publish and hit is None and not events:
             return
@@ -190,14 +212,15 @@ class LoopLink:
             self._inflight.remove(hit)
             n = int(v["applied"])
             refused = float(int(out["refused"]) == hit[0])
-            v["ring"][n % RING] = (hit[0], hit[1], k, time.time(), refused, int(out["mode"]))
+            v["ring"][n % RING] = (hit[0], hit[1], k, time.time() if wall is None else wall,
+                                   refused, int(out["mode"]))
             v["applied"] = n + 1
         if publish:
             v["t"] = t
             for name in PUBLISHED:
                 v[name] = out[name]
             for name in READINGS:
-                v[name] = sensors.get(name, np.nan)  # a device without cuff sensors
+                v[name] = sensors[name] if name in _names(sensors) else np.nan  # (no cuffs)
             v["events"] = self._events  # ORed since the last publication
             v["safety_status"] = self._status
             v["late_us"] = late * 1e6

@@ -5,9 +5,10 @@ kernel can promise is a good median and p99, not a bound: the garbage collector,
 scheduler and page faults give a tail of milliseconds. The session freezes the heap (no
 collection in the loop) and asks for SCHED_FIFO where permitted, for the bus's threads
 too, and for an isolated CPU where the kernel keeps one
-(:func:`~exoleg.runtime.realtime.realtime_settings`); hard real time needs the loop on a
-real-time kernel, or the tick in C on an isolated core, with this process above it as
-the operator's side. The device's readings are watched for what the safety layer cannot
+(:func:`~exoleg.runtime.realtime.realtime_settings`). The simulated device under the
+walking controller ticks off the interpreter instead (:mod:`exoleg.runtime.ticker`: the
+same ticks, compiled, in a thread of their own); hard real time needs a real-time
+kernel beside that. The device's readings are watched for what the safety layer cannot
 see in the values (:class:`~exoleg.runtime.watch.SensorWatch`).
 
 :func:`run_session` runs one session on a device (:class:`Device`: ``read``, ``write``)
@@ -56,7 +57,23 @@ F64 = NDArray[np.float64]
 #: 2-12 ms a minute), half a drive's own watchdog (EtherCAT's sync manager default,
 #: 100 ms). On a real-time kernel it can be tightened (``run(..., overrun=)``).
 OVERRUN_S = 0.05
+#: Overruns as data (ros2_control's ``overruns.manage``): the controller is given the
+#: fixed period and every tick's lateness is logged; one tick later than a period is
+#: tolerated, this many in a row are a controlled stop (the loop cannot keep time), and
+#: one later than :data:`OVERRUN_S` takes the torque off at once.
+LATE_RUN_TICKS = 10
 
+
+def late_run_ticks(overrun: float) -> int:
+    """How many ticks in a row later than a period are a controlled stop, under the
+    overrun limit ``overrun`` s: :data:`LATE_RUN_TICKS` at :data:`OVERRUN_S`, as many
+    times more as a simulated device's limit is relaxed (the test suite's host)."""
+    return max(LATE_RUN_TICKS, int(round(LATE_RUN_TICKS * overrun / OVERRUN_S)))
+
+
+def late_run_text(ticks: int) -> str:
+    """How a session ended by a run of late ticks is said."""
+    return f"the loop fell behind: {ticks} ticks in a row later than a period"
 
 
 class Device(Protocol):
@@ -139,6 +156,17 @@ ENDS = {END_SESSION: "the operator ended the session",
         REFERENCE_PLAYED: "the reference played to its end"}
 
 
+def stop_on_signals(stop: list[str]) -> dict[int, Any]:
+    """SIGINT and SIGTERM noted in ``stop`` (in the main thread, which alone gets them);
+    returns the handlers they replaced, to put back."""
+    def on_signal(signum: int, frame: object) -> None:
+        stop.append(f"signal {signal.Signals(signum).name}")
+
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    return {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+
+
 def run_session(backend: Device, controller: Controller, duration: float, period: float,
                 log: SessionLog, commands: dict[int, int] | None = None,
                 realtime: bool = True,
@@ -154,21 +182,17 @@ def run_session(backend: Device, controller: Controller, duration: float, period
     the duration, the operator's end and a lost link are controlled stops while the child
     walks: the loop commands a stand, goes on until the supervisor stands (at most
     :data:`STOP_GRACE_S`), then takes the torque off; a signal, a fault or an E-stop is
-    immediate. A tick later than ``overrun`` s takes the torque off and stops. With ``realtime``, the loop runs at SCHED_FIFO and the ``io_threads``
-    above it (:func:`realtime_settings`); this thread's scheduling is restored afterwards.
+    immediate. A tick later than ``overrun`` s takes the torque off and stops, a run of
+    ticks later than a period (:func:`late_run_ticks`) is a controlled stop. With
+    ``realtime``, the loop runs at SCHED_FIFO and the ``io_threads`` above it
+    (:func:`realtime_settings`); this thread's scheduling is restored afterwards.
     ``scenery(out)``: a simulated world told each tick's output before the drives'
     command acts on it (the treadmill follows the supervisor's walking). Returns how it
     ended."""
     stop: list[str] = []
-
-    def on_signal(signum: int, frame: object) -> None:
-        stop.append(f"signal {signal.Signals(signum).name}")
-
     backend.warm_up()  # compile before the clock starts
     controller.warm_up()
-    main = threading.current_thread() is threading.main_thread()  # only it gets signals
-    old = ({s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
-           if main else {})
+    old = stop_on_signals(stop)
     restore = saved_scheduling()
     rt = realtime_settings(io_threads, period) if realtime else []
     clock = RateClock(period)
@@ -186,6 +210,7 @@ def run_session(backend: Device, controller: Controller, duration: float, period
     clock.start()
     k = -1
     late = 0.0
+    late_run, late_limit = 0, late_run_ticks(overrun)  # ticks in a row later than a period
     latched = ""  # the first fault or E-stop the controller latched, and when
     try:
         while k + 1 < limit:
@@ -218,6 +243,8 @@ def run_session(backend: Device, controller: Controller, duration: float, period
             # the drives follow the supervisor's arming
             backend.write(tau, out["mode"] in ARMED_MODES)
             end = "duration" if k == n - 1 else ""
+            if late_run >= late_limit:
+                end = late_run_text(late_limit)
             if on_tick is not None:
                 cmd = on_tick(k, out, sensors, late)
                 if cmd in ENDS:
@@ -243,6 +270,7 @@ def run_session(backend: Device, controller: Controller, duration: float, period
                 reason = f"{stop[0]}: torque off"
                 break
             late = clock.wait()
+            late_run = late_run + 1 if late > period else 0
             if late > overrun:  # the drives held a stale torque too long
                 backend.write(zero, False)
                 backend.safe()

@@ -223,7 +223,8 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         inject: Any = None, link: Any = None, bus_timeout: float | None = None,
         overrun: float | None = None, controller: str = "walk", child: Any = None,
         reference: Any = None, step: float = 0.0, model: Any = None,
-        device: str | Path | None = None) -> tuple[SessionResult, Path]:
+        device: str | Path | None = None, compiled: bool = True
+        ) -> tuple[SessionResult, Path]:
     """One session: the device (``backend``) under ``controller`` (the walking hierarchy,
     or one of the paper's laws on the paper's scenario, as
     :func:`~exoleg.system.build.build` makes them from ``device``, a device folder whose
@@ -244,7 +245,10 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     ``step``: on a simulated device, the child on a step that high (m), the leg hanging
     (:meth:`~exoleg.world.device.SimulatedDevice.of`); ``model``: the leg a law is given, when it
     is not the one a simulated device carries (``leg``: the truth identification
-    measures)."""
+    measures). ``compiled``: the simulated device under the walking controller ticks in
+    compiled code off the interpreter lock (:mod:`exoleg.runtime.ticker`); False: from
+    Python (:func:`~exoleg.runtime.loop.run_session`), as every other device and law
+    does."""
     import os
 
     if overrun is None and simulated(backend, interface):
@@ -269,7 +273,7 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
             held = hold_device(device_name(backend, interface, channel))
         return _run(backend, duration, folder, period, arm, walk_after, leg, body_mass,
                     seed, realtime, interface, channel, inject, link, bus_timeout, overrun,
-                    controller, child, reference, step, model, device)
+                    controller, child, reference, step, model, device, compiled)
     finally:
         let_go(held)
         os.close(lock)
@@ -280,11 +284,14 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
          interface: str | None, channel: str, inject: Any, link: Any,
          bus_timeout: float | None, overrun: float, controller: str, child: Any = None,
          reference: Any = None, step: float = 0.0, model: Any = None,
-         device_folder: str | Path | None = None) -> tuple[SessionResult, Path]:
+         device_folder: str | Path | None = None, compiled: bool = True
+         ) -> tuple[SessionResult, Path]:
     """:func:`run` in the folder it holds."""
     import exoleg
+    from exoleg.control.hierarchy import WalkController
     from exoleg.io import write_json
     from exoleg.runtime.sim_backend import SimBackend
+    from exoleg.runtime.ticker import run_compiled
     from exoleg.system.build import build
     from exoleg.system.config import DeviceConfig
     from exoleg.tick import WALKING_MODES, Command
@@ -364,9 +371,13 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
     if link is not None and tunable:
         link.loop_gains(ctl.gains_now())
     try:
-        res = run_session(b, ctl, duration, period, log, commands, realtime=realtime,
-                          on_tick=on_tick, overrun=overrun, io_threads=io_threads,
-                          scenery=scenery)
+        if compiled and b is sim and isinstance(ctl, WalkController) and inject is None:
+            res = run_compiled(b, ctl, duration, log, commands, realtime, link, tunable,
+                               overrun)
+        else:
+            res = run_session(b, ctl, duration, period, log, commands, realtime=realtime,
+                              on_tick=on_tick, overrun=overrun, io_threads=io_threads,
+                              scenery=scenery)
     finally:
         if link is not None:
             link.loop_ended()
