@@ -167,12 +167,27 @@ def test_heartbeat_is_counted_from_the_first_exchange() -> None:
     ("nominal", "knee drive (node 2): 0x3001 sub 1 (nominal current): 15000 mA; the device "
                 "file says 7250 mA"),
     ("offset", "knee drive (node 2): (homing): the joint reads"),
+    # the interpolation period of a published EPOS4 configuration (10 ms) against the
+    # 1 kHz loop's (realtime.md; EPOS4 firmware specification, 0x60C2)
+    ("interpolation", "hip drive (node 3): 0x60C2: interpolation period 10 ms (sub 1 = 10, "
+                      "sub 2 = -3); the loop's period is 1 ms: set sub 1 = 1, sub 2 = -3"),
+    ("enabled", "knee drive (node 2): 0x6041: the drive is in OPERATION_ENABLED before the "
+                "session (another master may be driving it"),
+    ("fault", "ankle drive (node 1): 0x6041: the drive is in FAULT before the session "
+              "(clear its fault first)"),
 ])
 def test_start_up_refuses_a_misconfigured_device(tmp_path: Path, fault: str,
                                                   text: str) -> None:
     from exoleg.errors import ParameterError
 
     def inject(k: int, rig) -> None:  # type: ignore[no-untyped-def]
+        if k == -1 and fault == "interpolation":
+            rig.nodes["hip"].sdo[0x60C2][1].raw = 10
+        if k == -1 and fault in ("enabled", "fault"):
+            j, state = (("knee", cia402.State.OPERATION_ENABLED) if fault == "enabled"
+                        else ("ankle", cia402.State.FAULT))
+            rig.drives[j].state = state
+            rig.nodes[j].sdo[0x6041].raw = cia402.STATUSWORD[state]
         if k == -1 and fault == "old units":
             rig.nodes["hip"].sdo[0x6076].raw = round(0.0712 * 15 * 1000)
         if k == -1 and fault == "nominal":
@@ -183,6 +198,32 @@ def test_start_up_refuses_a_misconfigured_device(tmp_path: Path, fault: str,
 
     with pytest.raises(ParameterError, match=text.replace("(", r"\(").replace(")", r"\)")):
         hil(1.0, tmp_path, arm=True, channel=f"hil-start-{fault}", inject=inject)
+
+
+def test_every_target_is_defined_before_the_drives_are_enabled(tmp_path: Path) -> None:
+    # Targets left by a previous master (a torque of 40 % of the rated, a position far
+    # from the joint): the start-up sets the torque to 0 and the position to where each
+    # joint is before any drive is enabled (ethercat_driver_ros2's drives moved at launch
+    # to targets defaulting to 0, realtime.md); a drive that kept a stale torque target
+    # would be refused (0x6071), so the session would not start
+    from exoleg.hw.rig import JOINT_ORDER
+
+    seen: dict[str, tuple[float, float]] = {}
+
+    def inject(k: int, rig) -> None:  # type: ignore[no-untyped-def]
+        if k == -1:
+            for j in JOINT_ORDER:
+                rig.nodes[j].sdo[0x6071].raw = 400
+                rig.nodes[j].sdo[0x607A].raw = rig.scaling[j].to_counts(1.0)
+        if k == 0:  # the first cycle: target position against position actual, rad
+            seen.update({j: (rig.scaling[j].to_rad(int(rig.nodes[j].sdo[0x607A].raw)),
+                             rig.scaling[j].to_rad(int(rig.nodes[j].sdo[0x6064].raw)))
+                         for j in JOINT_ORDER})
+
+    res, _ = hil(0.3, tmp_path, arm=True, channel="hil-targets", inject=inject)
+    assert res.stopped_by == "duration", res.stopped_by
+    for j, (target, actual) in seen.items():
+        assert abs(target - actual) < 1e-3, j  # (a tick's motion at most)
 
 
 def test_the_bus_holds_with_the_cpus_busy(tmp_path: Path, sched_fifo: None) -> None:

@@ -105,6 +105,14 @@ def test_faults_take_torque_off(tmp_path: Path, what: str, text: str) -> None:
     ("offset", r"knee drive \(slave 2\): \(homing\): the joint reads"),
     ("order", r"ankle drive \(slave 1\): \(identity\): is 'exoleg foot board'"),
     ("missing", r"EtherCAT segment: \(start-up\): 3 slaves found"),
+    # a published EPOS4 configuration's 10 ms against the 1 kHz loop (realtime.md)
+    ("interpolation", r"hip drive \(slave 3\): 0x60C2: interpolation period 10 ms \(sub 1 "
+                      r"= 10, sub 2 = -3\); the loop's period is 1 ms: set sub 1 = 1, sub 2 "
+                      r"= -3"),
+    ("enabled", r"knee drive \(slave 2\): 0x6041: the drive is in OPERATION_ENABLED before "
+                r"the session \(another master may be driving it"),
+    ("stale target", r"ankle drive \(slave 1\): 0x607A: target position 0 counts, not the "
+                     r"position actual value"),
 ])
 def test_start_up_refuses_a_misconfigured_segment(tmp_path: Path, fault: str,
                                                   text: str) -> None:
@@ -120,6 +128,20 @@ def test_start_up_refuses_a_misconfigured_segment(tmp_path: Path, fault: str,
         elif fault == "offset":
             rig.slaves[1].objects[0x6064, 0] = struct.pack(
                 "<i", rig.scaling["knee"].to_counts(2.0))
+        elif fault == "interpolation":
+            rig.slaves[2].objects[0x60C2, 1] = struct.pack("<B", 10)
+        elif fault == "enabled":
+            rig.drives["knee"].state = cia402.State.OPERATION_ENABLED
+            rig.slaves[1].objects[0x6041, 0] = struct.pack(
+                "<H", cia402.STATUSWORD[cia402.State.OPERATION_ENABLED])
+        elif fault == "stale target":  # a drive that does not take the target written
+            s = rig.slaves[0]
+            s.objects.pop((0x607A, 0))
+            s.objects[0x607A, 0] = struct.pack("<i", 0)
+            write = s.sdo_write
+            s.sdo_write = lambda i, sub, data: None if (i, sub) == (0x607A, 0) else \
+                write(i, sub, data)
+            s.objects[0x6064, 0] = struct.pack("<i", rig.scaling["ankle"].to_counts(0.2))
         elif fault == "order":
             rig.slaves.insert(0, rig.slaves.pop())
         else:
@@ -157,6 +179,36 @@ def test_a_missing_interface_is_a_clear_error(tmp_path: Path) -> None:
     with pytest.raises(ParameterError, match="--interface: cannot open 'exoleg-nonexistent0' "
                                              "for EtherCAT"):
         run("ethercat", 1.0, tmp_path, interface="exoleg-nonexistent0", realtime=False)
+
+
+def test_every_target_is_defined_before_the_drives_are_enabled(tmp_path: Path) -> None:
+    # as on the CAN bus (test_hil_canopen.py): targets a previous master left -- 40 % of
+    # the rated torque, a position 1 rad away -- are set to 0 and to where each joint is
+    # before any drive is enabled
+    from exoleg.hw.ethercat_backend import SLAVE_POS
+    from exoleg.hw.rig import JOINT_ORDER
+
+    seen: dict[str, tuple[float, float]] = {}
+
+    def inject(k: int, rig) -> None:  # type: ignore[no-untyped-def]
+        def obj(j: str, index: int, f: str) -> int:
+            return int(struct.unpack(f, rig.slaves[SLAVE_POS[j] - 1].objects[index, 0])[0])
+
+        if k == -1:
+            for j in JOINT_ORDER:
+                o = rig.slaves[SLAVE_POS[j] - 1].objects
+                o[0x6071, 0] = struct.pack("<h", 400)
+                o[0x607A, 0] = struct.pack("<i", rig.scaling[j].to_counts(1.0))
+        if k == 0:  # the first cycle: target position against position actual, rad
+            seen.update({j: (rig.scaling[j].to_rad(obj(j, 0x607A, "<i")),
+                             rig.scaling[j].to_rad(obj(j, 0x6064, "<i")))
+                         for j in JOINT_ORDER})
+
+    res, _ = hil(0.3, tmp_path, arm=True, inject=inject)
+    assert res.stopped_by == "duration", res.stopped_by
+    assert set(seen) == set(JOINT_ORDER)
+    for j, (target, actual) in seen.items():
+        assert abs(target - actual) < 1e-3, j  # (a tick's motion at most)
 
 
 def test_the_hardware_estop_is_honoured_within_a_tick(tmp_path: Path) -> None:

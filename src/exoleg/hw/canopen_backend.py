@@ -123,18 +123,25 @@ class CanopenBackend(DriveMaster):
         """Before any motion: every drive answers (SDO), is a CiA 402 servo drive of the
         product the device file names (0x1018), is configured for the file's motor as
         maxon configures it (0x6076 in uN m, 0x3001) and set to cyclic
-        synchronous torque (0x6060 = 10); the leg, read from the absolute encoders (the
-        homing), is within its range of motion (``lower``/``upper`` rad, plus ``margin``).
+        synchronous torque (0x6060 = 10) with the loop's interpolation period (0x60C2),
+        idle (0x6041) and its targets defined (0x6071 = 0, 0x607A = where it is); the
+        leg, read from the absolute encoders (the homing), is within its range of motion
+        (``lower``/``upper`` rad, plus ``margin``).
         Raises ParameterError naming the node and what is wrong; returns what it checked."""
         def configure(j: str) -> cia402.DriveObjects:
             sdo = self.nodes[j].sdo
             sdo[0x6060].raw = cia402.CST
+            counts = int(sdo[0x6064].raw)
+            sdo[0x6071].raw = 0  # every target defined before Operation Enabled
+            sdo[0x607A].raw = counts
             self.inputs[j] = int(sdo[0x60FD].raw)
             return cia402.DriveObjects(
                 device_type=int(sdo[0x1000].raw), product_code=int(sdo[0x1018][2].raw),
                 rated_unm=int(sdo[0x6076].raw), nominal_ma=int(sdo[0x3001][1].raw),
                 limit_ma=int(sdo[0x3001][2].raw), mode=int(sdo[0x6060].raw),
-                counts=int(sdo[0x6064].raw), inputs=self.inputs[j])
+                counts=counts, inputs=self.inputs[j], statusword=int(sdo[0x6041].raw),
+                interpolation=(int(sdo[0x60C2][1].raw), int(sdo[0x60C2][2].raw)),
+                target_torque=int(sdo[0x6071].raw), target_counts=int(sdo[0x607A].raw))
 
         where = {j: f"{j} drive (node {DRIVE_IDS[j]})" for j in JOINT_ORDER}
         return self.check_drives(JOINT_ORDER, where, configure, lower, upper, margin)

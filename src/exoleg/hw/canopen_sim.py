@@ -8,6 +8,7 @@ from __future__ import annotations
 import threading
 from typing import Any
 
+from exoleg.hw import cia402
 from exoleg.hw.canopen_backend import (
     DRIVE_IDS,
     FOOT_FSR_COB,
@@ -51,6 +52,10 @@ class SimulatedRig(DriveRig):
                 motor[sub].raw = value
             pos: Any = node.sdo[0x6064]
             pos.raw = self.position(JOINT_ORDER.index(j))
+            # its cyclic modes expect the SYNC every period (commissioned so)
+            interpolation: Any = node.sdo[0x60C2]
+            interpolation[1].raw, interpolation[2].raw = cia402.interpolation_of(
+                device.period)
             node.nmt.start_heartbeat(HEARTBEAT_MS)
         self.silent: set[str] = set()
         self.sent_inputs = [0, 0, 0]  # TPDO2 (0x60FD) is sent when the inputs change
@@ -65,6 +70,7 @@ class SimulatedRig(DriveRig):
             for i, j in enumerate(JOINT_ORDER):
                 status, counts, torque = self.drive(i)
                 self.nodes[j].sdo[0x6064].raw = counts  # for SDO reads (start-up)
+                self.nodes[j].sdo[0x6041].raw = status
                 if j in self.silent:
                     continue
                 inputs = self.inputs(i)

@@ -196,8 +196,10 @@ class DriveObjects:
     """What the master reads of a drive at start-up, over any bus: device type
     (0x1000), product code (0x1018 sub 2), motor rated torque (0x6076, uN m), the motor
     data's nominal current and output current limit (0x3001 sub 1, 2; mA), the mode of
-    operation after setting CST (0x6060), the position (0x6064, counts) and the digital
-    inputs (0x60FD)."""
+    operation after setting CST (0x6060), the position (0x6064, counts), the digital
+    inputs (0x60FD), the statusword (0x6041), the interpolation period (0x60C2 sub 1
+    value, sub 2 index: value x 10^index s) and the targets read back after the master
+    set them (0x6071 target torque, per mille; 0x607A target position, counts)."""
 
     device_type: int
     product_code: int
@@ -207,10 +209,31 @@ class DriveObjects:
     mode: int
     counts: int
     inputs: int = 0
+    statusword: int = STATUSWORD[State.SWITCH_ON_DISABLED]
+    interpolation: tuple[int, int] = (1, -3)
+    target_torque: int = 0
+    target_counts: int | None = None
+
+
+#: the states a drive may be found in before the session (none acting on a target)
+IDLE_STATES = (State.SWITCH_ON_DISABLED, State.READY_TO_SWITCH_ON, State.SWITCHED_ON)
+
+
+def interpolation_period(value: int, index: int) -> float:
+    """The interpolation period 0x60C2 holds (sub 1 ``value``, sub 2 ``index``), s."""
+    return float(value) * 10.0 ** int(index)
+
+
+def interpolation_of(period: float) -> tuple[int, int]:
+    """0x60C2's (value, index) for ``period`` s: in ms (index -3) when whole, else in
+    us (index -6)."""
+    ms = period * 1e3
+    return (int(round(ms)), -3) if abs(ms - round(ms)) < 1e-9 else \
+        (int(round(period * 1e6)), -6)
 
 
 def check_drive(where: str, read: DriveObjects, want: Any, q: float, lower: float,
-                upper: float, margin: float) -> str:
+                upper: float, margin: float, period: float = 1e-3) -> str:
     """The start-up check of one drive, the same over every transport: a CiA 402 servo
     drive (0x1000) of the product the device file names (0x1018 sub 2), configured for
     the device file's motor as maxon configures it (``want``: the file's
@@ -218,8 +241,14 @@ def check_drive(where: str, read: DriveObjects, want: Any, q: float, lower: floa
     0x3001's nominal current and current limit in mA), in cyclic synchronous torque
     (0x6060), its hardware E-stop released (0x60FD), and the joint -- read from its
     absolute encoder, the homing -- within its range of motion (``lower``/``upper`` rad,
-    plus ``margin``). Raises ParameterError naming the drive (``where``) and the object;
-    returns what it checked."""
+    plus ``margin``). Then what makes it safe to enable (the lessons of
+    ethercat_driver_ros2 and ros2_canopen, realtime.md): its interpolation period (0x60C2)
+    is the loop's ``period`` s (a drive expecting its SYNC every 10 ms, as a published
+    EPOS4 configuration has it, is refused); it is idle -- not in Operation Enabled, Quick
+    Stop or Fault (0x6041): nothing acts on a target before the operator arms --; and the
+    targets the master set hold: torque 0 (0x6071) and the position where the joint is
+    (0x607A, for a drive that falls back to a position mode). Raises ParameterError
+    naming the drive (``where``) and the object; returns what it checked."""
     from math import degrees
 
     from exoleg.errors import ParameterError
@@ -249,10 +278,36 @@ def check_drive(where: str, read: DriveObjects, want: Any, q: float, lower: floa
     if interlock_fault(where, read.inputs):
         raise ParameterError(where, "0x60FD", "the hardware E-stop is pressed (interlock "
                              "input open): release it before the session")
+    every = interpolation_period(*read.interpolation)
+    if abs(every - period) > 1e-9 * period:
+        value, index = interpolation_of(period)
+        raise ParameterError(where, "0x60C2", f"interpolation period {every * 1e3:g} ms (sub 1 "
+                             f"= {read.interpolation[0]}, sub 2 = {read.interpolation[1]}); "
+                             f"the loop's period is {period * 1e3:g} ms: set sub 1 = {value}, "
+                             f"sub 2 = {index}")
+    try:
+        state = decode(read.statusword)
+    except ValueError as e:
+        raise ParameterError(where, "0x6041", str(e)) from None
+    if state not in IDLE_STATES:
+        raise ParameterError(where, "0x6041", f"the drive is in {state.name} before the "
+                             "session (" + ("clear its fault first" if state in (
+                                 State.FAULT, State.FAULT_REACTION_ACTIVE) else
+                                 "another master may be driving it: disable it first")
+                             + "); the session starts from Switch On Disabled")
+    if read.target_torque != 0:
+        raise ParameterError(where, "0x6071", f"target torque {read.target_torque} per mille "
+                             "after the master set 0: a stale target would act at enable")
+    if read.target_counts is not None and read.target_counts != read.counts:
+        raise ParameterError(where, "0x607A", f"target position {read.target_counts} counts, "
+                             f"not the position actual value {read.counts} the master set: "
+                             "the drive would move at enable in a position mode")
     if not lower - margin <= q <= upper + margin:
         raise ParameterError(where, "(homing)", f"the joint reads {degrees(q):.1f} deg, "
                              f"outside its range of motion {degrees(lower):.0f} to "
                              f"{degrees(upper):.0f} deg: check the encoder offset before "
                              "any motion")
     return (f"{where}: CiA 402 servo 0x{read.product_code:08X}, rated torque "
-            f"{read.rated_unm} uN m, I_N {read.nominal_ma} mA, CST, at {degrees(q):.1f} deg")
+            f"{read.rated_unm} uN m, I_N {read.nominal_ma} mA, CST, interpolation "
+            f"{every * 1e3:g} ms, {state.name}, targets torque 0 and position "
+            f"{read.counts} counts, at {degrees(q):.1f} deg")

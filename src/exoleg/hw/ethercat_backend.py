@@ -115,7 +115,8 @@ class EthercatBackend(DriveMaster):
         """Discover the segment (four slaves: three EPOS4 drives, the foot board, in the
         chain's order), check every drive as the canopen backend does
         (:func:`cia402.check_drive`: device type, rated torque, cyclic synchronous
-        torque, homing within the range of motion), map the PDOs, and bring the segment
+        torque, the interpolation period, idle, the targets defined, homing within the
+        range of motion), map the PDOs, and bring the segment
         to OP -- the drives stay in Switch On Disabled until the operator arms. Raises
         ParameterError naming the slave and what is wrong; returns what it checked."""
         m = self.master
@@ -137,11 +138,17 @@ class EthercatBackend(DriveMaster):
             def sdo(index: int, sub: int, f: str) -> int:
                 return int(struct.unpack(f, s.sdo_read(index, sub, struct.calcsize(f)))[0])
 
+            counts = sdo(0x6064, 0, "<i")
+            s.sdo_write(0x6071, 0, struct.pack("<h", 0))  # every target defined first
+            s.sdo_write(0x607A, 0, struct.pack("<i", counts))
             read = cia402.DriveObjects(
                 device_type=sdo(0x1000, 0, "<I"), product_code=int(s.id),
                 rated_unm=sdo(0x6076, 0, "<I"), nominal_ma=sdo(0x3001, 1, "<I"),
                 limit_ma=sdo(0x3001, 2, "<I"), mode=sdo(0x6060, 0, "<b"),
-                counts=sdo(0x6064, 0, "<i"), inputs=sdo(0x60FD, 0, "<I"))
+                counts=counts, inputs=sdo(0x60FD, 0, "<I"),
+                statusword=sdo(0x6041, 0, "<H"),
+                interpolation=(sdo(0x60C2, 1, "<B"), sdo(0x60C2, 2, "<b")),
+                target_torque=sdo(0x6071, 0, "<h"), target_counts=sdo(0x607A, 0, "<i"))
             s.config_func = self._mapper(s)
             s.add_emergency_callback(self.on_emcy(j))
             self.slaves[j] = s
@@ -180,8 +187,10 @@ class EthercatBackend(DriveMaster):
         return "; ".join(bad) or "no slave reports why"
 
     def _exchange(self) -> int:
-        self.master.send_processdata()
-        return int(self.master.receive_processdata(int(self.timeout * 1e6)))
+        # the wire's wait without the interpreter lock (pysoem >= 1.1.13): the console's
+        # and the log's Python threads run meanwhile, and do not hold up the exchange
+        self.master.send_processdata(release_gil=True)
+        return int(self.master.receive_processdata(int(self.timeout * 1e6), release_gil=True))
 
     def safe(self) -> None:
         """Torque off now: zero torque and quick stop to every drive, in one exchange."""

@@ -73,6 +73,8 @@ class SimulatedSegment(DriveRig):
     def __init__(self, device: Any, offsets: dict[str, int] | None = None) -> None:
         super().__init__(device, offsets)
         self.slaves: list[Any] = [None] * FOOT_POS
+        # the drives' cyclic modes expect the SYNC every period (commissioned so)
+        value, index = cia402.interpolation_of(device.period)
         for i, j in enumerate(JOINT_ORDER):
             # configured as maxon configures a drive for the device file's motor
             m = MotorData.of(device.dev.actuators[i])
@@ -81,6 +83,11 @@ class SimulatedSegment(DriveRig):
                        (0x6060, 0): struct.pack("<b", 0),
                        (0x6064, 0): struct.pack("<i", self.position(i)),
                        (0x60FD, 0): struct.pack("<I", 0),
+                       (0x6041, 0): struct.pack("<H", self.drives[j].statusword),
+                       (0x6071, 0): struct.pack("<h", 0),
+                       (0x607A, 0): struct.pack("<i", 0),
+                       (0x60C2, 1): struct.pack("<B", value),
+                       (0x60C2, 2): struct.pack("<b", index),
                        **{(0x3001, k): struct.pack("<I", v) for k, v in m.subs().items()}}
             self.slaves[SLAVE_POS[j] - 1] = _Slave(DRIVE_NAME, MAXON_VENDOR_ID, TX.size,
                                                    objects, m.product_code)
@@ -122,7 +129,7 @@ class SimulatedSegment(DriveRig):
             elif self.state < s.state:
                 s.state = self.state
 
-    def send_processdata(self) -> int:
+    def send_processdata(self, release_gil: bool | None = None) -> int:
         with self.lock:
             if self.state_check(OP) == OP:
                 cws, targets = [], []
@@ -141,13 +148,14 @@ class SimulatedSegment(DriveRig):
             status, counts, torque = self.drive(i)
             s.objects[0x6064, 0] = struct.pack("<i", counts)  # for SDO reads (start-up)
             s.objects[0x60FD, 0] = struct.pack("<I", self.inputs(i))
+            s.objects[0x6041, 0] = struct.pack("<H", status)
             if j not in self.silent:
                 s.input = TX.pack(status, counts, torque, cia402.CST, self.inputs(i))
         if "foot" not in self.silent:
             fsr, imu = self.foot()
             self.slaves[FOOT_POS - 1].input = fsr + imu
 
-    def receive_processdata(self, timeout: int = 2000) -> int:
+    def receive_processdata(self, timeout: int = 2000, release_gil: bool | None = None) -> int:
         if self.state_check(SAFEOP) < SAFEOP:
             return 0
         drives = [j for j in JOINT_ORDER if j not in self.silent]

@@ -55,10 +55,11 @@ class DriveMaster:
     def check_drives(self, order: tuple[str, ...], where: dict[str, str], configure: Any,
                      lower: F64, upper: F64, margin: float) -> list[str]:
         """The start-up check of every drive, in ``order`` (the bus's): ``configure(j)``
-        sets drive ``j`` to cyclic synchronous torque and returns what the bus reads of
-        it (:class:`~exoleg.hw.cia402.DriveObjects`); :func:`cia402.check_drive` judges them. The
-        positions read become the velocity filter's start. Raises ParameterError naming
-        the drive (``where[j]``); returns what it checked."""
+        sets drive ``j`` to cyclic synchronous torque and its targets to torque 0 and the
+        position it reads, and returns what the bus reads of it
+        (:class:`~exoleg.hw.cia402.DriveObjects`); :func:`cia402.check_drive` judges them.
+        The positions read become the velocity filter's start. Raises ParameterError
+        naming the drive (``where[j]``); returns what it checked."""
         done = []
         for j in order:
             try:
@@ -70,7 +71,7 @@ class DriveMaster:
             i = JOINT_ORDER.index(j)
             q = self.scaling[j].to_rad(read.counts)
             done.append(cia402.check_drive(where[j], read, self.motor[j], q, lower[i],
-                                           upper[i], margin))
+                                           upper[i], margin, self.period))
             self.q_prev[i] = q
         return done
 
