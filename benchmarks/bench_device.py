@@ -184,7 +184,7 @@ def main() -> None:
         import mujoco
 
         from exoleg.export.writers import to_mjcf
-        from exoleg.world.plant import WalkingPlant, contact_buffers, step_contacts
+        from exoleg.world.plant import STEP_WORK, WalkingPlant, contact_buffers, step_contacts
 
         plant = WalkingPlant.of(with_actuators(leg), 20.0, 0.8)
         m = mujoco.MjModel.from_xml_string(to_mjcf(plant.leg, timestep=5e-4,
@@ -194,6 +194,7 @@ def main() -> None:
         foot = m.body("foot").id
         p, w = plant.leg.p, plant.record()
         pts, F, gen = contact_buffers()
+        work = np.zeros(STEP_WORK)
         x = np.zeros(8)
         n_steps = int(walked / 5e-4)
 
@@ -202,7 +203,7 @@ def main() -> None:
             d.qpos[0] = plant.standing_height
             for _ in range(n_steps):
                 x[:4], x[4:] = d.qpos, d.qvel
-                step_contacts(p, w, x, pts, F, gen)
+                step_contacts(p, w, x, pts, F, gen, work)
                 mujoco.mj_forward(m, d)
                 qfrc = np.zeros(4)
                 for i in range(w["n"][0]):

@@ -156,7 +156,9 @@ def test_a_walking_session_survives_a_request_burst_and_a_browser_starting(
         tmp_path: Path) -> None:
     # The console's server and its session are two processes; the session's tick is
     # compiled on a thread of its own. 2,000 requests at once (8 clients) and a Chromium
-    # starting beside it: the walk goes on, and ends when the operator ends it.
+    # starting beside it, the operator's page keeping its hold: the walk goes on, and
+    # ends when the operator ends it. (Without the page's word for 5 s the hold lapses:
+    # a controlled stop, then disarm -- which is what the suite's load once did here.)
     pytest.importorskip("starlette", reason="starlette (exoleg[api])")
     httpx = pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
     from exoleg.hmi.testing import browser_missing, chromium, served_hmi, wait_until
@@ -179,12 +181,19 @@ def test_a_walking_session_survives_a_request_burst_and_a_browser_starting(
                           headers=op).status_code == 200
         wait_until("walking", lambda: mode() == Mode.WALKING, 10)
         answered: list[int] = []
+        done = threading.Event()
 
         def burst(n: int) -> None:
             with httpx.Client(timeout=30.0) as c:
                 answered.extend(c.get(f"{base}/state").status_code for _ in range(n))
 
+        def keep() -> None:  # the operator's page, keeping its hold as it does (1 s)
+            while not done.wait(1.0):
+                httpx.get(f"{base}/operator", headers=op, timeout=30.0)
+
         clients = [threading.Thread(target=burst, args=(250,)) for _ in range(8)]
+        keeper = threading.Thread(target=keep)
+        keeper.start()
         for c in clients:
             c.start()
         browser = None if browser_missing() else chromium()
@@ -194,11 +203,14 @@ def test_a_walking_session_survives_a_request_burst_and_a_browser_starting(
             for c in clients:
                 c.join()
         finally:
+            done.set()
+            keeper.join()
             if browser is not None:
                 browser.quit()
         assert answered.count(200) == 2000
         state = httpx.get(f"{base}/state").json()
-        assert state["running"] == "running" and state["mode"] == Mode.WALKING, state
+        assert state["running"] == "running" and state["mode"] == Mode.WALKING, (
+            state["fault_text"], state["alarm"])
         assert httpx.post(f"{base}/session/end", headers=op).status_code == 200
         wait_until("the session's summary", (folder / "run.json").exists, 30)
     run_ = json.loads((folder / "run.json").read_text())

@@ -17,6 +17,7 @@ from exoleg.device import with_actuators
 from exoleg.device.actuator import ACTUATOR
 from exoleg.layout import new
 from exoleg.world.plant import (
+    STEP_WORK,
     WalkingPlant,
     contact_buffers,
     step_contacts,
@@ -36,11 +37,12 @@ def _run(plant: WalkingPlant, x0: np.ndarray, q_hold: np.ndarray, n: int,
     p, w = plant.leg.p, plant.record()
     x = x0.copy()
     pts, F, gen = contact_buffers()
+    work = np.zeros(STEP_WORK)
     X, FN, GEN, TAU, PTS, FF = [x.copy()], [], [], [], [], []
     for _ in range(n):
-        step_contacts(p, w, x, pts, F, gen)
+        step_contacts(p, w, x, pts, F, gen, work)
         tau = kp * (q_hold - x[1:4]) - kd * x[5:8] + plant.leg.G(x[1:4])
-        walking_step(p, w, NO_FRICTION, NO_CHILD, x, tau, gen, h)
+        walking_step(p, w, NO_FRICTION, NO_CHILD, x, tau, gen, h, work)
         X.append(x.copy())
         FN.append(F[:, 1].sum())
         GEN.append(gen.copy())

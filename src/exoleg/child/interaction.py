@@ -15,7 +15,6 @@ child's joint towards positive q (hip flexion, knee extension, dorsiflexion).
 
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
 
 from exoleg.device.actuator import ActuatorModel, with_actuators
@@ -44,18 +43,19 @@ def device_leg(leg: LegModel, actuators: tuple[ActuatorModel, ...],
 
 
 @njit(cache=True)
-def interaction_torque(pd, g, motion, ddy, link, out):  # type: ignore[no-untyped-def]
+def interaction_torque(pd, g, motion, ddy, link, out, work):  # type: ignore[no-untyped-def]
     """The cuffs' torque (N m) into out (3,) from the torque that reaches the device's
     links ``link`` (a rigid unit's delivered torque less its friction; a compliant
     unit's spring torque, its friction being its rotor's) and the motion (``motion``:
     rows q, dq, ddq; the pelvis's ddy), the device alone's parameters ``pd`` (its links
-    with the armature they carry themselves: ``device_leg(..., link=True)``)."""
+    with the armature they carry themselves: ``device_leg(..., link=True)``); ``work``:
+    (3, 3) arrays to work in, the device alone's mass matrix and its Coriolis and
+    gravity torques by row."""
     q, dq, ddq = motion[0], motion[1], motion[2]
-    M = np.empty((3, 3))
+    M, rows = work
     mass_matrix(q, pd, M)
-    Cq = np.empty(3)
+    Cq, G = rows[0], rows[1]
     coriolis_dq(q, dq, pd, Cq)
-    G = np.empty(3)
     gravity(q, pd, g, G)
     y0, y1, y2, _, _ = mass_height_terms(q, dq, pd)
     pv = (y0, y1, y2)

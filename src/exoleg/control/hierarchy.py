@@ -171,7 +171,12 @@ TUNABLE = (*WalkGains.TUNABLE, *BOUNDS)
 #: (s; negative: none); when a walk was asked that waits for the foot's contact to be
 #: known (s; negative: none waiting).
 REFERENCE = np.dtype([("x", F8), ("t_stop", F8), ("t_stand", F8), ("q_from", F8, 3),
-                      ("t_walk", F8), ("t_asked", F8)])
+                      ("t_walk", F8), ("t_asked", F8),
+                      ("work", F8, (10, 3)), ("M", F8, (3, 3)), ("J", F8, (2, 3))])
+#: (and the tick's work, by row: the reference's q, dq, ddq, the gravity torque, the
+#: impedance's command, assist-as-needed's levels, its tracking error, the support
+#: levels, the torque asked at the cuffs, the transparent law's; the mass matrix; the
+#: centre of pressure's Jacobian -- the tick allocates nothing.)
 #: A stop gives up waiting for mid-stance after this many strides, and stands from
 #: wherever the gait is (a child who stopped stepping never reaches it again).
 STOP_WAIT_STRIDES = 1.5
@@ -237,12 +242,13 @@ def _gait(gq, gdq, x, T, out_q, out_dq, out_ddq):  # type: ignore[no-untyped-def
 
 
 @njit(cache=True)
-def stance_gravity(p, g, q, fx, sole, counts, weight, out):  # type: ignore[no-untyped-def]
+def stance_gravity(p, g, q, fx, sole, counts, weight, out, J):  # type: ignore[no-untyped-def]
     """G(q) - J_cop(q)^T (0, weight): the stance leg holding ``weight`` N up at the centre
     of pressure the four FSR readings give (their x positions ``fx`` on the foot, at
     ``sole`` -- negative -- on the foot frame's y axis; the foot's middle when nothing
     is measured). Hip and knee carry the weight through the ankle, the ankle the moment
-    of the pressure's lever about it; the ankle's impedance sets where the pressure sits."""
+    of the pressure's lever about it; the ankle's impedance sets where the pressure sits.
+    ``J``: a (2, 3) to work in."""
     gravity(q, p, g, out)
     tot = counts[0] + counts[1] + counts[2] + counts[3]
     if tot > 0.0:
@@ -250,7 +256,6 @@ def stance_gravity(p, g, q, fx, sole, counts, weight, out):  # type: ignore[no-u
               + counts[3] * fx[3]) / tot
     else:
         cx = 0.5 * (fx[0] + fx[3])
-    J = np.empty((2, 3))
     foot_point_jacobian(q, p, cx, sole, J)  # the pressure's point (generated kinematics)
     for j in range(3):  # J^T (0, W): W times the x lever of the pressure about joint j
         out[j] -= J[1, j] * weight
@@ -325,9 +330,12 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
     vm = s.dq
     ev = gp.detect(d, st, s.fsr, s.gyro, s.accel, t)
     phase = st[0].phase
-    qr = np.empty(3)
-    dqr = np.empty(3)
-    ddqr = np.zeros(3)
+    W = R.work
+    qr, dqr, ddqr, G, cmd, aan, err, level, tau_ref, tr = (W[0], W[1], W[2], W[3], W[4],
+                                                          W[5], W[6], W[7], W[8], W[9])
+    for j in range(3):
+        ddqr[j] = 0.0
+        tau_ref[j] = 0.0
     x = 0.0
     if mode == Mode.WALKING or mode == Mode.STOPPING:
         x = gp.gait_fraction(d, st, t)
@@ -355,15 +363,13 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
             dqr[j] = 0.0
     # inertial feedforward M(q) ddq_ref: with the actuators' reflected inertia in the
     # controller's model, what it takes to follow the gait's accelerations
-    M = np.empty((3, 3))
+    M = R.M
     mass_matrix(qm, p, M)
-    G = np.empty(3)
     if stance:
         stance_gravity(p, C.g, qm, C.fsr_x, C.sole, s.fsr,
-                       C.support * (C.body_mass + links_mass(p)) * C.g, G)
+                       C.support * (C.body_mass + links_mass(p)) * C.g, G, R.J)
     else:
         gravity(qm, p, C.g, G)
-    cmd = np.empty(3)
     for j in range(3):
         kp = C.kp_stance[j] if stance else C.kp_swing[j]
         kd = C.kd_stance[j] if stance else C.kd_swing[j]
@@ -377,17 +383,14 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
     S = ss[0]
     if tp[0].known:
         track_rates(tp, ss, vm, lim[0].dt)
-    aan = np.empty(3)
     if S.mode == SupportMode.AAN:
         if sup[0].mode == Mode.WALKING:
-            err = np.empty(3)
             for j in range(3):
                 err[j] = qr[j] - qm[j]
             assist_track(as_, x, err)
             if ev & gp.Event.IC:
                 assist_stride(ap, as_, t, C.support_min, C.support_max)
         assist_level(ap, as_, x, t, C.support_min, C.support_max, aan)
-    level = np.empty(3)
     wa = support_mix(ss, w, aan, level)
     hold = standing_hold(mode, R.t_stand, R.t_walk, C.stand_blend, tp[0].ramp, t)
     share = sst[0].cuff_share
@@ -395,7 +398,7 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
         if level[j] < hold:
             level[j] = hold
         level[j] *= share[j]
-    tau_ref = np.zeros(3)  # the torque asked at the cuffs (the proportional law's)
+    # tau_ref: the torque asked at the cuffs (the proportional law's; zero unless)
     if ap[0].law == PROPORTIONAL and wa > 0.0 and (sup[0].mode == Mode.WALKING
                                         or sup[0].mode == Mode.STOPPING):
         assist_moment(ap, as_, gp.forefoot(st, s.fsr), st[0].bearing, s.interaction,
@@ -403,7 +406,6 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
         for j in range(3):
             tau_ref[j] *= wa * share[j]  # blended with the mode, as the levels
     if level[0] < 1.0 or level[1] < 1.0 or level[2] < 1.0:
-        tr = np.empty(3)
         L = lim[0]
         transparent_torque((tp, A, ss), C.g, (qm, vm), (s.interaction, tau_ref),
                            (L.lower, L.upper), L.dt,

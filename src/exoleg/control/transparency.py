@@ -174,12 +174,13 @@ TRANSPARENCY = np.dtype([("parts", F8, 4), ("accel_filter_hz", F8), ("inertia_sh
 #: measured (rad/s), the acceleration estimate (rad/s^2), the cuffs' torque integral
 #: (N m), whether a tick has run (the first has no rate before it), and the last tick's
 #: torque of each part of the transparent law (:data:`PARTS`, N m per joint) and of its
-#: wall.
+#: wall; the device alone's mass matrix, worked in by the law (no allocation a tick).
 SUPPORT_STATE = np.dtype([("asked", I8), ("mode", I8), ("t_switch", F8),
                           ("level", F8, 3), ("assist", F8), ("from_level", F8, 3),
                           ("from_assist", F8),
                           ("dq_last", F8, 3), ("ddq", F8, 3), ("integral", F8, 3),
-                          ("started", np.bool_), ("parts", F8, (4, 3)), ("wall", F8, 3)])
+                          ("started", np.bool_), ("parts", F8, (4, 3)), ("wall", F8, 3),
+                          ("M", F8, (3, 3))])
 
 
 def new_support_state(mode: SupportMode = SupportMode.IMPEDANCE,
@@ -237,7 +238,7 @@ def transparent_torque(law, g, motion, cuff, rom, h, armed, out):  # type: ignor
     if T.parts[0] != 0.0:
         gravity(q, pd, g, P[0])
     if T.parts[1] != 0.0:
-        M = np.empty((3, 3))
+        M = S.M  # (the device alone's mass matrix, worked in here: no allocation)
         mass_matrix(q, pd, M)
         coriolis_dq(q, dq, pd, P[1])
         for j in range(3):

@@ -42,11 +42,13 @@ from exoleg.layout import F8, new
 from exoleg.reference.gait import MID_STANCE, SchwartzGait2008
 from exoleg.sizing.anthropometry import body_weight_share
 from exoleg.world.plant import (
+    STEP_WORK,
     WalkingPlant,
     contact_forces,
     contact_points,
     sole_loads,
     step_contacts,
+    step_work,
     walking_step,
     walking_step_series,
 )
@@ -86,7 +88,8 @@ DEVICE = np.dtype([("x", F8, 8), ("tau", F8, 3), ("qm", F8, 3), ("vm", F8, 3),
                    ("fsr_creep", F8, (4, 3)), ("child", F8, 3), ("interaction", F8, 3),
                    ("rotor", F8, 6), ("joint_torque", F8, 3),
                    ("pts", F8, (SOLE_MAX, 4)), ("forces", F8, (SOLE_MAX, 2)), ("gen", F8, 4),
-                   ("carried", F8, 4), ("x0", F8, 8), ("work", F8, (9, 3))])
+                   ("carried", F8, 4), ("x0", F8, 8), ("work", F8, (9, 3)),
+                   ("step", F8, STEP_WORK)])
 
 
 def device_state(plant: WalkingPlant, A: NDArray[np.void], x0: F64, imu_x: float,
@@ -227,11 +230,11 @@ def device_actuate(dev, K, S, step, u, fn, scene, into):  # type: ignore[no-unty
                 drive[0, i], drive[1, i] = mean, D.child[i]
             else:
                 joint[i] = mean + D.child[i]
-        supp += step_contacts(p, w, x, pts, F, gen)
+        supp += step_contacts(p, w, x, pts, F, gen, D.step)
         if series:
-            walking_step_series(p, w, A, P, (x, D.rotor), drive[:2], gen, hs)
+            walking_step_series(p, w, A, P, (x, D.rotor), drive[:2], gen, hs, D.step)
         else:
-            walking_step(p, w, A, P, x, joint, gen, hs)
+            walking_step(p, w, A, P, x, joint, gen, hs, D.step)
     for i in range(3):
         tau[i] = acc[i] / sub
         D.joint_torque[i] = drive[2, i] / sub if A[i].stiffness > 0.0 else tau[i]
@@ -244,7 +247,9 @@ def device_actuate(dev, K, S, step, u, fn, scene, into):  # type: ignore[no-unty
             # unit's spring (its friction is the rotor's, behind it)
             link[i] = (link[i] / sub if A[i].stiffness > 0.0
                        else tau[i] - friction(A[i:i + 1], dqm[i]))
-        interaction_torque(pd, W.g, V[2:5], (x[4] - x0[4]) / h, link, D.interaction)
+        M, rows, _, _ = step_work(D.step)[3]  # (the steps are done with it)
+        interaction_torque(pd, W.g, V[2:5], (x[4] - x0[4]) / h, link, D.interaction,
+                           (M, rows))
     ok = 1
     for i in range(8):
         if not math.isfinite(x[i]):

@@ -279,13 +279,32 @@ def _solve4(A, r):  # type: ignore[no-untyped-def]
         r[i] = t / A[i, i]
 
 
+#: The float64s a plant step works in (:func:`step_work`): RK4's slopes (4, 14), the
+#: stage's state and the step's start (14,) each, the leg's mass matrix (3, 3), its
+#: Coriolis, gravity and joint torques (3, 3), the 4 x 4 system and its right-hand side,
+#: the rotors' accelerations (3,) and a sole point's Jacobian (2, 3). A caller that
+#: keeps them (the simulated device: its DEVICE record's ``step``) steps with no
+#: allocation.
+STEP_WORK = 56 + 14 + 14 + 9 + 9 + 16 + 4 + 3 + 6
+
+
+@njit(cache=True, error_model="numpy")
+def step_work(buf):  # type: ignore[no-untyped-def]
+    """Views of ``buf`` (:data:`STEP_WORK`,): (slopes (4, 14), stage state (14,), start
+    state (14,), :func:`scratch`'s arrays, rotors' accelerations (3,), a Jacobian (2, 3))."""
+    b = buf
+    return (b[0:56].reshape((4, 14)), b[56:70], b[70:84],
+            (b[84:93].reshape((3, 3)), b[93:102].reshape((3, 3)),
+             b[102:118].reshape((4, 4)), b[118:122]),
+            b[122:125], b[125:131].reshape((2, 3)))
+
+
 @njit(cache=True, error_model="numpy", inline="always")
-def generalized_contact(p, w, y, q, F, out):  # type: ignore[no-untyped-def]
+def generalized_contact(p, w, y, q, F, out, J):  # type: ignore[no-untyped-def]
     """Generalized forces (4,) of the elements' forces F (:data:`SOLE_MAX`, 2): on y the
     sum of the normal forces, on the joints sum J_i^T F_i (the generated
-    :func:`~exoleg.dynamics.kernels.foot_point_jacobian`)."""
+    :func:`~exoleg.dynamics.kernels.foot_point_jacobian`; ``J``: a (2, 3) to work in)."""
     P = w[0].points
-    J = np.empty((2, 3))
     out[:] = 0.0
     for k in range(w[0].n):
         out[0] += F[k, 1]
@@ -357,14 +376,15 @@ def _deriv(p, w, A, P, x, tau, gen, wk):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, error_model="numpy")
-def walking_step(p, w, A, P, x, tau, gen, h):  # type: ignore[no-untyped-def]
+def walking_step(p, w, A, P, x, tau, gen, h, buf):  # type: ignore[no-untyped-def]
     """One RK4 step of the state x (8,) = (y, q0, q1, q2, dy, dq0, dq1, dq2), in place, with
     the joint torques ``tau`` and generalized external forces ``gen`` held (the contact
     forces of the step's start, :func:`step_contacts`); the child's passive moments
-    (``P``) in every stage."""
-    k = np.empty((4, 8))
-    s = x.copy()
-    wk = scratch()
+    (``P``) in every stage. ``buf``: the step's work (:data:`STEP_WORK`,)."""
+    k, s_, _, wk, _, _ = step_work(buf)
+    s = s_[:8]
+    for i in range(8):
+        s[i] = x[i]
     a = wk[3]
     for stage in range(4):
         c = 0.0 if stage == 0 else (0.5 if stage < 3 else 1.0)
@@ -405,21 +425,18 @@ def _deriv_series(p, w, A, P, s, drive, gen, work):  # type: ignore[no-untyped-d
 
 
 @njit(cache=True, error_model="numpy")
-def walking_step_series(p, w, A, P, state, drive, gen, h):  # type: ignore[no-untyped-def]
+def walking_step_series(p, w, A, P, state, drive, gen, h, buf):  # type: ignore[no-untyped-def]
     """:func:`walking_step` for a device with compliant units: ``state`` the plant's x
     (8,) and the rotors' r (6,: angles, then speeds, at the joint's side), stepped
     together by RK4, in place, the motors' and the child's torques (``drive``, rows (2, 3)) and the
     generalized external forces held. A rigid joint's rotor is its link: its entries of r
-    follow the link's."""
+    follow the link's. ``buf``: the step's work (:data:`STEP_WORK`,)."""
     x, r = state
-    k = np.empty((4, 14))
-    s = np.empty(14)
+    k, s, z, wk, dr, _ = step_work(buf)
     s[:8] = x
     s[8:] = r
-    z = s.copy()
-    wk = scratch()
+    z[:] = s
     a = wk[3]
-    dr = np.empty(3)
     for stage in range(4):
         c = 0.0 if stage == 0 else (0.5 if stage < 3 else 1.0)
         if stage > 0:
@@ -444,13 +461,14 @@ def walking_step_series(p, w, A, P, state, drive, gen, h):  # type: ignore[no-un
 
 
 @njit(cache=True, error_model="numpy")
-def step_contacts(p, w, x, pts, F, gen):  # type: ignore[no-untyped-def]
+def step_contacts(p, w, x, pts, F, gen, buf):  # type: ignore[no-untyped-def]
     """The contact and support forces at state x: the sole's points into pts
     (:data:`SOLE_MAX`, 4), their forces into F (:data:`SOLE_MAX`, 2), the generalized
-    forces (support included) into gen (4,). Returns the support force."""
+    forces (support included) into gen (4,) (``buf``: the step's work,
+    :data:`STEP_WORK`). Returns the support force."""
     contact_points(p, w, x[0], x[1:4], x[5:8], x[4], pts)
     contact_forces(w, pts, F)
-    generalized_contact(p, w, x[0], x[1:4], F, gen)
+    generalized_contact(p, w, x[0], x[1:4], F, gen, step_work(buf)[5])
     fc = support_force(w, x[0], x[4])
     gen[0] += fc
     return fc
