@@ -44,6 +44,7 @@ bench: setup
 	$(BIN)/python benchmarks/bench_simulate.py
 	$(BIN)/python benchmarks/bench_device.py
 	$(BIN)/python benchmarks/bench_runtime.py
+	$(BIN)/python benchmarks/bench_realtime.py
 	$(BIN)/python benchmarks/bench_hmi.py
 	$(BIN)/python benchmarks/bench_sweep.py
 

@@ -219,3 +219,39 @@ def test_a_walking_session_survives_a_request_burst_and_a_browser_starting(
     assert "the tick compiled, off the interpreter lock" in run_["realtime"]
     cols = read_log(folder / "session.log")[1]
     assert np.all(np.diff(cols["t"]) > 0) and len(cols["t"]) == run_["ticks"]
+
+
+#: a session of ``seconds`` on the compiled path, counting numba's allocations in each
+#: call of the tick loop (its start -- the arrays handed in -- and its ticks)
+COUNT_ALLOCATIONS = """
+import sys, tempfile, pathlib
+from numba.core.runtime import rtsys
+import exoleg.runtime.ticker as tk
+from exoleg.runtime.session import run
+inner, calls = tk.run_ticks, []
+def counted(*a):
+    s0 = rtsys.get_allocation_stats()
+    how = inner(*a)
+    calls.append((int(how[1]), rtsys.get_allocation_stats().alloc - s0.alloc))
+    return how
+tk.run_ticks = counted
+run("sim", float(sys.argv[1]), pathlib.Path(tempfile.mkdtemp()) / "s", arm=True,
+    walk_after=0.5, realtime=False, controller=sys.argv[2])
+print(calls)
+"""
+
+
+@pytest.mark.parametrize("controller", ["walk", "aan"])
+def test_the_compiled_tick_allocates_nothing(controller: str) -> None:
+    # numba's runtime counts every array it allocates (NUMBA_NRT_STATS): the loop's
+    # call with no tick (compiling, the arrays handed in) and the session's call with
+    # 1,500 ticks, walking, must allocate alike -- none in the ticks (was 26.7 a tick)
+    import ast
+
+    r = subprocess.run([sys.executable, "-c", COUNT_ALLOCATIONS, "1.5", controller],
+                       capture_output=True, text=True, timeout=300,
+                       env={**os.environ, "NUMBA_NRT_STATS": "1"})
+    assert r.returncode == 0, r.stderr[-2000:]
+    (warm, start), (ticks, session) = ast.literal_eval(r.stdout.strip().splitlines()[-1])
+    assert warm == 0 and ticks >= 1500
+    assert session == start, (session, start)
