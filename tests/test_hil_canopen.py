@@ -69,6 +69,38 @@ def test_silent_node_is_a_fault(tmp_path: Path) -> None:
     assert res.stopped_by.startswith("device fault: no PDO from the hip drive (node 3)")
 
 
+@pytest.mark.parametrize("every", [0, 50])
+def test_lost_pdos_are_counted_and_a_rate_of_them_is_a_fault(tmp_path: Path,
+                                                             every: int) -> None:
+    # the hip's answer dropped at single cycles: held for that tick, counted, the walk
+    # goes on; dropped every 50th cycle (2 %, above exoleg.hw.master's 1 % of 1,000):
+    # a device fault once the 11th is lost
+    import json
+
+    from exoleg.hw.master import LOSS_MAX
+
+    drops = {300, 600, 900} if not every else set(range(every, 1000, every))
+
+    def inject(k: int, rig) -> None:  # type: ignore[no-untyped-def]
+        if k in drops:
+            rig.silent.add("hip")
+        elif k - 1 in drops:
+            rig.silent.discard("hip")
+
+    res, _ = run("canopen", 1.2, tmp_path / "s", realtime=False, bus_timeout=0.02,
+                 arm=True, channel=f"hil-loss-{every}", inject=inject)
+    pdo = json.loads((tmp_path / "s" / "run.json").read_text())["process_data"]
+    if not every:
+        assert res.stopped_by == "duration", res.stopped_by
+        # (the host may have delayed an answer past 20 ms too: at least the drops)
+        assert pdo["missing"]["hip"] >= 3 and pdo["cycles"] == res.ticks
+        assert pdo["received"]["hip"] == pdo["cycles"] - pdo["missing"]["hip"]
+    else:
+        assert res.stopped_by.startswith(f"device fault: process data lost in "
+                                         f"{LOSS_MAX + 1} of the last "), res.stopped_by
+        assert sum(pdo["missing"].values()) >= LOSS_MAX + 1  # (the host's delays too)
+
+
 def test_silent_foot_board_is_a_fault(tmp_path: Path) -> None:
     def inject(k: int, rig) -> None:  # type: ignore[no-untyped-def]
         if k == 300:

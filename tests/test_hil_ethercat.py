@@ -211,6 +211,31 @@ def test_every_target_is_defined_before_the_drives_are_enabled(tmp_path: Path) -
         assert abs(target - actual) < 1e-3, j  # (a tick's motion at most)
 
 
+def test_a_lost_exchange_is_held_counted_and_three_in_a_row_are_a_fault(
+        tmp_path: Path) -> None:
+    # the hip's slave out of single exchanges (the working counter short): the last
+    # inputs held for that tick, counted for every drive (which slave is not known),
+    # the walk goes on; out for good: a fault at the third exchange in a row
+    # (exoleg.hw.master.LOSS_RUN)
+    import json
+
+    from exoleg.hw.master import LOSS_RUN
+
+    def inject(k: int, rig) -> None:  # type: ignore[no-untyped-def]
+        if k in (300, 600) or k >= 900:
+            rig.silent.add("hip")
+        elif k in (301, 601):
+            rig.silent.discard("hip")
+
+    res, _ = hil(1.2, tmp_path / "s", arm=True, inject=inject)
+    assert res.stopped_by.startswith("device fault: EtherCAT working counter 7, expected "
+                                     f"10: a slave did not answer the process data, "
+                                     f"{LOSS_RUN} cycles in a row"), res.stopped_by
+    pdo = json.loads((tmp_path / "s" / "run.json").read_text())["process_data"]
+    assert pdo["missing"] == dict.fromkeys(("hip", "knee", "ankle"), 2 + LOSS_RUN)
+    assert res.ticks == 901 + LOSS_RUN  # (silenced after tick 900: lost from 901)
+
+
 def test_the_hardware_estop_is_honoured_within_a_tick(tmp_path: Path) -> None:
     # Issue 20, point 2: the E-stop chain (the drives' STO) read in each drive's
     # interlock input (0x60FD bit 3), mapped in the cyclic process data.

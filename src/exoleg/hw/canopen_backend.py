@@ -167,16 +167,16 @@ class CanopenBackend(DriveMaster):
         self.foot.clear()
         self.net.sync.transmit()
         fault = ""
-        q = np.zeros(3)
+        q = self.q_prev.copy()  # a drive's answer missing: its last held
+        missing = []
         for i, j in enumerate(JOINT_ORDER):
             tp = self.nodes[j].tpdo[1]
             with tp.receive_condition:
                 if not tp.is_received:
                     tp.receive_condition.wait(self.timeout)
             if not tp.is_received:
-                fault = f"no PDO from the {j} drive (node {DRIVE_IDS[j]}) within " \
-                        f"{self.timeout * 1e3:g} ms"
-                break
+                missing.append(j)
+                continue
             status, counts, torque = TPDO1.unpack(bytes(tp.data))
             state = cia402.decode(status)
             self.states[i] = state
@@ -189,6 +189,9 @@ class CanopenBackend(DriveMaster):
                 break
             q[i] = self.scaling[j].to_rad(counts)
             self.tau_meas[i] = self.scaling[j].to_nm(torque)
+        fault = fault or self.pdo_loss(tuple(missing), {
+            j: f"no PDO from the {j} drive (node {DRIVE_IDS[j]}) within "
+               f"{self.timeout * 1e3:g} ms" for j in missing})
         if not fault:
             now = time.time()
             if self.cycling is None:

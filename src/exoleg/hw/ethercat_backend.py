@@ -207,10 +207,13 @@ class EthercatBackend(DriveMaster):
         wkc = self._exchange()
         fault = ""
         q = self.q_prev.copy()
-        if wkc < self.master.expected_wkc:
-            fault = (f"EtherCAT working counter {wkc}, expected {self.master.expected_wkc}: "
-                     "a slave did not answer the process data")
+        if wkc < self.master.expected_wkc:  # which slave is not known: counted for all
+            fault = self.pdo_loss(JOINT_ORDER, dict.fromkeys(
+                JOINT_ORDER, f"EtherCAT working counter {wkc}, expected "
+                             f"{self.master.expected_wkc}: a slave did not answer the "
+                             "process data"))
         else:
+            self.pdo_loss((), {})
             for i, j in enumerate(JOINT_ORDER):
                 status, counts, torque, _, inputs = TX.unpack(bytes(self.slaves[j].input))
                 state = cia402.decode(status)

@@ -21,6 +21,15 @@ from exoleg.hw.units import JointScaling, MotorData
 
 F64 = NDArray[np.float64]
 
+#: Process-data loss (a drive's answer missing at a cycle; on EtherCAT a working counter
+#: short of the segment's): the cycle goes on with that drive's last answer held, and is
+#: counted. :data:`LOSS_RUN` cycles in a row from one drive (3 ms at 1 kHz: a position
+#: held three ticks, the velocity filter's rate frozen), or more than :data:`LOSS_MAX` of
+#: the last :data:`LOSS_WINDOW` cycles (1 %), are a device fault: the torque goes off.
+LOSS_RUN = 3
+LOSS_WINDOW = 1000
+LOSS_MAX = 10
+
 
 class DriveMaster:
     """The master's side of three CiA 402 drives and the foot board, whatever the bus."""
@@ -51,6 +60,10 @@ class DriveMaster:
         self.states = [cia402.State.SWITCH_ON_DISABLED] * 3
         self.first = True
         self.bus_us = 0.0
+        self.cycles = 0  # cycles exchanged, and each drive's answers missing
+        self.lost = dict.fromkeys(JOINT_ORDER, 0)
+        self._in_a_row = dict.fromkeys(JOINT_ORDER, 0)
+        self._recent = np.zeros(LOSS_WINDOW, dtype=bool)
 
     def check_drives(self, order: tuple[str, ...], where: dict[str, str], configure: Any,
                      lower: F64, upper: F64, margin: float) -> list[str]:
@@ -74,6 +87,37 @@ class DriveMaster:
                                            upper[i], margin, self.period))
             self.q_prev[i] = q
         return done
+
+    def pdo_loss(self, missing: tuple[str, ...], what: dict[str, str]) -> str:
+        """Count this cycle's answers missing (the drives in ``missing``); the fault once
+        a drive has missed :data:`LOSS_RUN` in a row or the segment more than
+        :data:`LOSS_MAX` of the last :data:`LOSS_WINDOW` cycles ('' while within them);
+        ``what[j]``: how the bus says drive ``j``'s answer was missing."""
+        self._recent[self.cycles % LOSS_WINDOW] = bool(missing)
+        self.cycles += 1
+        fault = ""
+        for j in JOINT_ORDER:
+            if j in missing:
+                self.lost[j] += 1
+                self._in_a_row[j] += 1
+                if self._in_a_row[j] >= LOSS_RUN and not fault:
+                    fault = (f"{what[j]}, {self._in_a_row[j]} cycles in a row (at most "
+                             f"{LOSS_RUN - 1} held)")
+            else:
+                self._in_a_row[j] = 0
+        n = int(self._recent.sum())
+        if not fault and n > LOSS_MAX:
+            seen = min(self.cycles, LOSS_WINDOW)
+            fault = (f"process data lost in {n} of the last {seen} cycles (at most "
+                     f"{LOSS_MAX} of {LOSS_WINDOW}): the bus is failing")
+        return fault
+
+    def pdo_counts(self) -> dict[str, Any]:
+        """The session's process data: cycles sent, and per drive the answers received
+        and missing (for the session's summary)."""
+        return {"cycles": self.cycles,
+                "received": {j: self.cycles - n for j, n in self.lost.items()},
+                "missing": dict(self.lost)}
 
     def on_emcy(self, joint: str) -> Any:
         """A callback keeping the EMCY messages of ``joint``'s drive (read in ``read``)."""

@@ -391,6 +391,7 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
                "bus_timeout_ms": None if bus_timeout is None else bus_timeout * 1e3,
                "overrun_ms": overrun * 1e3,
                "timing_us": res.timing, "realtime": res.realtime,
+               **({"process_data": b.pdo_counts()} if hasattr(b, "pdo_counts") else {}),
                "log": str(path), "max_loss_ticks_on_a_crash": MAX_LOSS_TICKS}
     write_json(folder / "run.json", summary)
     _keep_figures(folder)
