@@ -71,8 +71,10 @@ def _network(interface: str, channel: str) -> Any:
 
 class CanopenBackend(DriveMaster):
     """The master side: ``read`` sends the pending commands and SYNC and waits for every
-    node's answer (``timeout`` s: a missing PDO is a fault); ``write`` stages the torques
-    and its enable flag the CiA 402 walk towards Operation Enabled or away from it."""
+    node's answer (``timeout`` s: a missing PDO is held and counted, a run or a rate of
+    them a fault, :meth:`~exoleg.hw.master.DriveMaster.pdo_loss`); ``write`` stages the
+    torques and its enable flag the CiA 402 walk towards Operation Enabled or away from
+    it."""
 
     def __init__(self, actuators: tuple[Any, ...], period: float = 1e-3,
                  interface: str = "virtual", channel: str = "exoleg", timeout: float = 5e-3,
