@@ -51,6 +51,7 @@ from exoleg.runtime.loop import (
     stop_on_signals,
 )
 from exoleg.runtime.realtime import LOOP_PRIORITY, realtime_settings, saved_scheduling
+from exoleg.runtime.sim_backend import RECORD
 from exoleg.runtime.watch import JUMP_RAD
 from exoleg.tick import OUTPUT, SENSORS, Command, Mode
 from exoleg.world.device import device_actuate, device_sense
@@ -75,6 +76,11 @@ HEAD, DRAINED, STOP, END, QUEUED, TAKEN, ESTOPS, ESTOPS_SEEN, GAINS, GAINS_SEEN,
     NOISE0, NOISE1 = range(12)
 IO_SLOTS = 12
 QUEUE = 64
+#: what the ring keeps of each tick besides its records: its time and lateness (s), the
+#: wall time its drives' command was written (s, for the link's applied commands) and
+#: the operator's command it took
+TICK = np.dtype([("t", np.float64), ("late", np.float64), ("wall", np.float64),
+                 ("command", np.int64)])
 
 
 class Stop(IntEnum):
@@ -124,22 +130,22 @@ def _until(ts, deadline, spin):  # type: ignore[no-untyped-def]
 
 @njit(cache=True, nogil=True)
 def _device_row(sk, D, tau, row):  # type: ignore[no-untyped-def]
-    """What the log keeps of the simulated device this tick, in
-    :data:`~exoleg.runtime.sim_backend.RECORD`'s order."""
+    """What the log keeps of the simulated device this tick into ``row`` (one
+    :data:`~exoleg.runtime.sim_backend.RECORD`), by name."""
     r = sk[0]
     for i in range(3):
-        row[i] = r.q[i]
-        row[3 + i] = r.dq[i]
-        row[13 + i] = D.x[1 + i]
-        row[17 + i] = tau[i]
-        row[20 + i] = r.interaction[i]
-        row[23 + i] = D.child[i]
+        row.q_meas[i] = r.q[i]
+        row.dq_meas[i] = r.dq[i]
+        row.q[i] = D.x[1 + i]
+        row.tau[i] = tau[i]
+        row.interaction[i] = r.interaction[i]
+        row.child[i] = D.child[i]
     for i in range(4):
-        row[6 + i] = r.fsr[i]
-    row[10] = r.gyro
-    row[11] = r.accel[0]
-    row[12] = r.accel[1]
-    row[16] = D.x[0]
+        row.fsr[i] = r.fsr[i]
+    for i in range(2):
+        row.acc[i] = r.accel[i]
+    row.gyro = r.gyro
+    row.pelvis = D.x[0]
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -157,14 +163,14 @@ def run_ticks(world, ctl, S, K, noise, ring, io, plan):  # type: ignore[no-untyp
     (:meth:`~exoleg.control.hierarchy.WalkController.compiled`); ``S``: the device's
     state; ``K``: the child's records; ``noise``: (FSR unit normals (2 chunks, 4), IMU
     noise (2 chunks, 3), the IMU's bias (3,)), each chunk's number in ``io[NOISE0 +
-    slot]``; ``ring``: (times (n, 4): t, lateness s, wall time s, command; the device's
-    rows (n, 26); SENSORS (n,); OUTPUT (n,)); ``io``: :data:`IO_SLOTS` int64 then
-    :data:`QUEUE` commands; ``plan``: (the ticks of the duration, the ticks of a
-    controlled stop's grace, the scheduled commands' ticks and codes, the overrun limit s,
-    the late ticks in a row that are a controlled stop, the frozen-board limit in ticks,
-    the staged controller parameters, the drives' command, envelope and delivered torque
-    (3,) each, the true forces under the sensors (4,), a timespec (2,) and the start's
-    monotonic time (0: now))."""
+    slot]``; ``ring``: (:data:`TICK` (n,), the device's
+    :data:`~exoleg.runtime.sim_backend.RECORD` (n,), SENSORS (n,), OUTPUT (n,));
+    ``io``: :data:`IO_SLOTS` int64 then :data:`QUEUE` commands; ``plan``: (the ticks of
+    the duration, the ticks of a controlled stop's grace, the scheduled commands' ticks
+    and codes, the overrun limit s, the late ticks in a row that are a controlled stop,
+    the frozen-board limit in ticks, the staged controller parameters, the drives'
+    command, envelope and delivered torque (3,) each, the true forces under the sensors
+    (4,), a timespec (2,) and the start's monotonic time (0: now))."""
     p, w, A, sens, imu_x, imu_y, h, sub, step, stride, support, stand = world
     fsr_noise, imu_noise, bias = noise
     times, rows, SENS, OUT = ring
@@ -257,10 +263,11 @@ def run_ticks(world, ctl, S, K, noise, ring, io, plan):  # type: ignore[no-untyp
                 u[:] = 0.0
                 return Stop.NOT_FINITE, k + 1, j, 0, o.tau[j]
         # 5. the record, the scenery and the drives
-        times[slot, 0] = t
-        times[slot, 1] = late
-        times[slot, 2] = now(ts, CLOCK_REALTIME)
-        times[slot, 3] = command
+        tk = times[slot]
+        tk.t = t
+        tk.late = late
+        tk.wall = now(ts, CLOCK_REALTIME)
+        tk.command = command
         _device_row(sk, D, tau, rows[slot])
         walking = o.mode == Mode.WALKING or o.mode == Mode.STOPPING
         armed = walking or o.mode == Mode.STANDING
@@ -352,7 +359,7 @@ class _Outside:
         self.b, self.ctl, self.log, self.link, self.tunable = b, controller, log, link, tunable
         self.period = b.period
         N = RING_TICKS
-        self.ring = (np.zeros((N, 4)), np.zeros((N, len(b.columns))), np.zeros(N, SENSORS),
+        self.ring = (np.zeros(N, TICK), np.zeros(N, RECORD), np.zeros(N, SENSORS),
                      np.zeros(N, OUTPUT))
         self.io = np.zeros(IO_SLOTS + QUEUE, np.int64)
         C = NOISE_CHUNK
@@ -404,21 +411,23 @@ class _Outside:
             return
         times, rows, SENS, OUT = self.ring
         idx = np.arange(self.drained, head) % RING_TICKS
-        block = np.hstack([times[idx, :2], rows[idx],
+        block = np.hstack([structured_to_unstructured(times[["t", "late"]][idx]),
+                           structured_to_unstructured(rows[idx], dtype=np.float64),
                            structured_to_unstructured(OUT[idx], dtype=np.float64)])
         for row in block:
             self.log.append(row)
-        self.late[self.drained:head] = times[idx, 1]
+        self.late[self.drained:head] = times["late"][idx]
         if not self.latched:
             hit = np.flatnonzero(OUT["fault"][idx])
             if hit.size:
                 o = OUT[idx[hit[0]]]
                 self.latched = (f"after {fault_event(o['fault'], o['fault_joint'])} at "
-                                f"{times[idx[hit[0]], 0]:.3f} s")
+                                f"{times['t'][idx[hit[0]]]:.3f} s")
         if self.link is not None:
             for k, i in zip(range(self.drained, head), idx, strict=True):
-                self.link.loop_tick(k, times[i, 0], OUT[i], SENS[i], times[i, 1],
-                                    self.period, publish=k % 10 == 0, wall=times[i, 2])
+                tk = times[i]
+                self.link.loop_tick(k, tk["t"], OUT[i], SENS[i], tk["late"], self.period,
+                                    publish=k % 10 == 0, wall=tk["wall"])
         self.drained = head
         self.io[DRAINED] = head
 
