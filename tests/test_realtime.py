@@ -69,8 +69,8 @@ try:
 except (AttributeError, OSError):
     FIFO = False
 
-#: a task above the loop's SCHED_FIFO priority on every CPU, busy ``busy`` s of every
-#: ``cycle`` s (all in phase, on the monotonic clock) for ``span`` s from ``start``
+#: a task above the loop's SCHED_FIFO priority on one CPU, busy ``busy`` s of every
+#: ``cycle`` s (on the monotonic clock) for ``span`` s from ``start``
 HOG = """
 import os, sys, time
 cpu, start, span, cycle, busy = int(sys.argv[1]), *map(float, sys.argv[2:])
@@ -85,17 +85,25 @@ while time.monotonic() < start + span:
 """
 
 
-def _hog(start: float, span: float, cycle: float, busy: float) -> list[subprocess.Popen]:  # type: ignore[type-arg]
-    return [subprocess.Popen([sys.executable, "-c", HOG, str(cpu), str(start), str(span),
-                              str(cycle), str(busy)])
-            for cpu in sorted(os.sched_getaffinity(0))]
+#: the CPU the hog takes, and the session's loop is pinned to (as to an isolated CPU):
+#: the suite's other worker keeps the other CPU
+CPU = max(os.sched_getaffinity(0))
+
+
+def _hog(start: float, span: float, cycle: float, busy: float) -> subprocess.Popen:  # type: ignore[type-arg]
+    return subprocess.Popen([sys.executable, "-c", HOG, str(CPU), str(start), str(span),
+                             str(cycle), str(busy)])
 
 
 def _walking_session(tmp_path: Path, hog: tuple[float, float, float],
-                     compiled: bool = True
+                     monkeypatch: pytest.MonkeyPatch, compiled: bool = True
                      ) -> tuple[dict[str, Any], dict[str, np.ndarray], float]:
     """A walking session at SCHED_FIFO with the strict limits of a device (50 ms, a run
-    of 10), the hog beside it from 2 s in (walking from 1 s); (run.json, log, start)."""
+    of 10), its loop pinned to :data:`CPU` as to an isolated CPU, the hog on that CPU
+    from 2 s in (walking from 1 s); (run.json, log, start)."""
+    import exoleg.runtime.realtime as realtime
+
+    monkeypatch.setattr(realtime, "isolated_cpus", lambda *a: {CPU})
     got: list[Any] = []
     thread = threading.Thread(target=lambda: got.append(run(
         "sim", 6.0, tmp_path / "s", arm=True, walk_after=1.0, realtime=True,
@@ -107,9 +115,7 @@ def _walking_session(tmp_path: Path, hog: tuple[float, float, float],
         assert time.time() < deadline and thread.is_alive(), got
         time.sleep(0.01)
     start = time.monotonic() + 1.4
-    hogs = _hog(start, *hog)
-    for h in hogs:
-        h.wait(timeout=60)
+    _hog(start, *hog).wait(timeout=60)
     thread.join(timeout=60)
     return (json.loads((tmp_path / "s" / "run.json").read_text()),
             read_log(log)[1], start)
@@ -117,10 +123,12 @@ def _walking_session(tmp_path: Path, hog: tuple[float, float, float],
 
 @pytest.mark.skipif(not FIFO, reason="SCHED_FIFO not permitted here (needs root or "
                     "CAP_SYS_NICE): the hog could not pre-empt the loop")
-def test_a_stall_beyond_the_overrun_limit_takes_the_torque_off(tmp_path: Path) -> None:
-    # every CPU taken for 80 ms by a task above the loop: the next tick is 80 ms late,
+def test_a_stall_beyond_the_overrun_limit_takes_the_torque_off(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # the loop's CPU taken for 80 ms by a task above it: the next tick is 80 ms late,
     # beyond the 50 ms limit (exoleg.runtime.loop.OVERRUN_S): the torque off at once
-    run_, cols, _ = _walking_session(tmp_path, (0.08, 1.0, 1.0))
+    run_, cols, _ = _walking_session(tmp_path, (0.08, 1.0, 1.0), monkeypatch)
+    assert f"pinned to isolated CPU {CPU}" in run_["realtime"]
     assert run_["stopped_by"].startswith("loop overrun: tick "), run_["stopped_by"]
     late_ms = float(run_["stopped_by"].split(" started ")[1].split(" ms")[0])
     assert 50 < late_ms < 200, run_["stopped_by"]  # the stall, less the tick it began in
@@ -133,11 +141,13 @@ def test_a_stall_beyond_the_overrun_limit_takes_the_torque_off(tmp_path: Path) -
 @pytest.mark.skipif(not FIFO, reason="SCHED_FIFO not permitted here (needs root or "
                     "CAP_SYS_NICE): the hog could not pre-empt the loop")
 @pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
-def test_a_run_of_late_ticks_is_a_controlled_stop(tmp_path: Path, compiled: bool) -> None:
-    # the CPUs taken 2.2 ms of every 2.5 ms for 60 ms: the loop runs in the gaps, every
-    # tick 1-2 ms late -- each tolerated, none beyond 50 ms; LATE_RUN_TICKS (10) in a row
-    # are a controlled stop: the walk stands, then the torque goes off (both loops)
-    run_, cols, _ = _walking_session(tmp_path, (0.06, 0.0025, 0.0022), compiled)
+def test_a_run_of_late_ticks_is_a_controlled_stop(tmp_path: Path, compiled: bool,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    # the loop's CPU taken 2.2 ms of every 2.5 ms for 60 ms: the loop runs in the gaps,
+    # every tick 1-2 ms late -- each tolerated, none beyond 50 ms; LATE_RUN_TICKS (10) in
+    # a row are a controlled stop: the walk stands, then the torque goes off (both loops)
+    run_, cols, _ = _walking_session(tmp_path, (0.06, 0.0025, 0.0022), monkeypatch,
+                                     compiled)
     said = late_run_text(LATE_RUN_TICKS)
     assert run_["stopped_by"].startswith(f"{said}, after a controlled stop to STANDING"), \
         run_["stopped_by"]

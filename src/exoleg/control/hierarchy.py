@@ -242,13 +242,14 @@ def _gait(gq, gdq, x, T, out_q, out_dq, out_ddq):  # type: ignore[no-untyped-def
 
 
 @njit(cache=True)
-def stance_gravity(p, g, q, fx, sole, counts, weight, out, J):  # type: ignore[no-untyped-def]
+def stance_gravity(p, g, q, fx, sole, counts, weight, into):  # type: ignore[no-untyped-def]
     """G(q) - J_cop(q)^T (0, weight): the stance leg holding ``weight`` N up at the centre
     of pressure the four FSR readings give (their x positions ``fx`` on the foot, at
     ``sole`` -- negative -- on the foot frame's y axis; the foot's middle when nothing
     is measured). Hip and knee carry the weight through the ankle, the ankle the moment
     of the pressure's lever about it; the ankle's impedance sets where the pressure sits.
-    ``J``: a (2, 3) to work in."""
+    ``into``: (out (3,), a (2, 3) to work in)."""
+    out, J = into
     gravity(q, p, g, out)
     tot = counts[0] + counts[1] + counts[2] + counts[3]
     if tot > 0.0:
@@ -367,7 +368,7 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
     mass_matrix(qm, p, M)
     if stance:
         stance_gravity(p, C.g, qm, C.fsr_x, C.sole, s.fsr,
-                       C.support * (C.body_mass + links_mass(p)) * C.g, G, R.J)
+                       C.support * (C.body_mass + links_mass(p)) * C.g, (G, R.J))
     else:
         gravity(qm, p, C.g, G)
     for j in range(3):

@@ -254,7 +254,12 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     if overrun is None and simulated(backend, interface):
         overrun = simulated_overrun()
         if overrun is not None and bus_timeout is None and backend != "sim":
-            bus_timeout = overrun  # a host stalling the loop stalls the nodes' threads too
+            # a host stalling the loop stalls the nodes' threads too; a lost answer is
+            # held (exoleg.hw.master.LOSS_RUN in a row a fault), so its wait must leave
+            # the run of them within the overrun limit
+            from exoleg.hw.master import LOSS_RUN
+
+            bus_timeout = overrun / (LOSS_RUN + 1)
     overrun = OVERRUN_S if overrun is None else overrun
     check_options(backend, interface, arm, walk_after, bus_timeout, overrun, controller,
                   link, plan=reference is not None)

@@ -232,9 +232,9 @@ def device_actuate(dev, K, S, step, u, fn, scene, into):  # type: ignore[no-unty
                 joint[i] = mean + D.child[i]
         supp += step_contacts(p, w, x, pts, F, gen, D.step)
         if series:
-            walking_step_series(p, w, A, P, (x, D.rotor), drive[:2], gen, hs, D.step)
+            walking_step_series(p, w, A, P, (x, D.rotor), drive[:2], gen, (hs, D.step))
         else:
-            walking_step(p, w, A, P, x, joint, gen, hs, D.step)
+            walking_step(p, w, A, P, x, joint, gen, (hs, D.step))
     for i in range(3):
         tau[i] = acc[i] / sub
         D.joint_torque[i] = drive[2, i] / sub if A[i].stiffness > 0.0 else tau[i]

@@ -376,11 +376,12 @@ def _deriv(p, w, A, P, x, tau, gen, wk):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, error_model="numpy")
-def walking_step(p, w, A, P, x, tau, gen, h, buf):  # type: ignore[no-untyped-def]
+def walking_step(p, w, A, P, x, tau, gen, step):  # type: ignore[no-untyped-def]
     """One RK4 step of the state x (8,) = (y, q0, q1, q2, dy, dq0, dq1, dq2), in place, with
     the joint torques ``tau`` and generalized external forces ``gen`` held (the contact
     forces of the step's start, :func:`step_contacts`); the child's passive moments
-    (``P``) in every stage. ``buf``: the step's work (:data:`STEP_WORK`,)."""
+    (``P``) in every stage. ``step``: (h s, the step's work :data:`STEP_WORK`)."""
+    h, buf = step
     k, s_, _, wk, _, _ = step_work(buf)
     s = s_[:8]
     for i in range(8):
@@ -425,13 +426,14 @@ def _deriv_series(p, w, A, P, s, drive, gen, work):  # type: ignore[no-untyped-d
 
 
 @njit(cache=True, error_model="numpy")
-def walking_step_series(p, w, A, P, state, drive, gen, h, buf):  # type: ignore[no-untyped-def]
+def walking_step_series(p, w, A, P, state, drive, gen, step):  # type: ignore[no-untyped-def]
     """:func:`walking_step` for a device with compliant units: ``state`` the plant's x
     (8,) and the rotors' r (6,: angles, then speeds, at the joint's side), stepped
     together by RK4, in place, the motors' and the child's torques (``drive``, rows (2, 3)) and the
     generalized external forces held. A rigid joint's rotor is its link: its entries of r
-    follow the link's. ``buf``: the step's work (:data:`STEP_WORK`,)."""
+    follow the link's. ``step``: (h s, the step's work :data:`STEP_WORK`)."""
     x, r = state
+    h, buf = step
     k, s, z, wk, dr, _ = step_work(buf)
     s[:8] = x
     s[8:] = r
