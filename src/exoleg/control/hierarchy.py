@@ -169,14 +169,15 @@ TUNABLE = (*WalkGains.TUNABLE, *BOUNDS)
 #: where the blend to the standing posture started -- its time (s; negative: none under
 #: way) and the reference's posture then (rad); when the last walk started from standing
 #: (s; negative: none); when a walk was asked that waits for the foot's contact to be
-#: known (s; negative: none waiting).
+#: known (s; negative: none waiting). Then the tick's work (it allocates nothing): the
+#: reference, the gravity torque, the impedance's command, assist-as-needed's levels and
+#: error, the support levels, the torques asked at the cuffs and of the transparent law,
+#: the mass matrix and the centre of pressure's Jacobian.
 REFERENCE = np.dtype([("x", F8), ("t_stop", F8), ("t_stand", F8), ("q_from", F8, 3),
-                      ("t_walk", F8), ("t_asked", F8),
-                      ("work", F8, (10, 3)), ("M", F8, (3, 3)), ("J", F8, (2, 3))])
-#: (and the tick's work, by row: the reference's q, dq, ddq, the gravity torque, the
-#: impedance's command, assist-as-needed's levels, its tracking error, the support
-#: levels, the torque asked at the cuffs, the transparent law's; the mass matrix; the
-#: centre of pressure's Jacobian -- the tick allocates nothing.)
+                      ("t_walk", F8), ("t_asked", F8)]
+                     + [(n, F8, 3) for n in ("qr", "dqr", "ddqr", "gravity", "command",
+                                             "aan", "error", "level", "tau_ref", "tr")]
+                     + [("M", F8, (3, 3)), ("J", F8, (2, 3))])
 #: A stop gives up waiting for mid-stance after this many strides, and stands from
 #: wherever the gait is (a child who stopped stepping never reaches it again).
 STOP_WAIT_STRIDES = 1.5
@@ -331,9 +332,8 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
     vm = s.dq
     ev = gp.detect(d, st, s.fsr, s.gyro, s.accel, t)
     phase = st[0].phase
-    W = R.work
-    qr, dqr, ddqr, G, cmd, aan, err, level, tau_ref, tr = (W[0], W[1], W[2], W[3], W[4],
-                                                          W[5], W[6], W[7], W[8], W[9])
+    qr, dqr, ddqr, G, cmd = R.qr, R.dqr, R.ddqr, R.gravity, R.command
+    aan, err, level, tau_ref, tr = R.aan, R.error, R.level, R.tau_ref, R.tr
     for j in range(3):
         ddqr[j] = 0.0
         tau_ref[j] = 0.0

@@ -71,11 +71,18 @@ NOISE_CHUNK = 4096
 #: deadline wakes 60-110 us late on this VM, measured)
 SPIN_S = 150e-6
 
-#: IO's slots, int64: written by the loop (HEAD, the ticks in the ring) or the outside
-HEAD, DRAINED, STOP, END, QUEUED, TAKEN, ESTOPS, ESTOPS_SEEN, GAINS, GAINS_SEEN, \
-    NOISE0, NOISE1 = range(12)
-IO_SLOTS = 12
+#: commands the queue holds
 QUEUE = 64
+#: What the loop and the outside say to each other (one record; each field written by
+#: one side): the ticks in the ring (the loop's), the ticks drained, a stop asked (its
+#: code) and an end asked (:data:`~exoleg.runtime.loop.ENDS`), the commands queued and
+#: taken, the E-stops sent and seen, the gain changes staged and swapped in, the chunk of
+#: noise in each slot, and the queue of commands.
+IO = np.dtype([("head", np.int64), ("drained", np.int64), ("stop", np.int64),
+               ("end", np.int64), ("queued", np.int64), ("taken", np.int64),
+               ("estops", np.int64), ("estops_seen", np.int64), ("gains", np.int64),
+               ("gains_seen", np.int64), ("noise", np.int64, 2),
+               ("queue", np.int64, QUEUE)])
 #: what the ring keeps of each tick besides its records: its time and lateness (s), the
 #: wall time its drives' command was written (s, for the link's applied commands) and
 #: the operator's command it took
@@ -162,10 +169,10 @@ def run_ticks(world, ctl, S, K, noise, ring, io, plan):  # type: ignore[no-untyp
     support table, its standing height); ``ctl``: the walking controller's records
     (:meth:`~exoleg.control.hierarchy.WalkController.compiled`); ``S``: the device's
     state; ``K``: the child's records; ``noise``: (FSR unit normals (2 chunks, 4), IMU
-    noise (2 chunks, 3), the IMU's bias (3,)), each chunk's number in ``io[NOISE0 +
-    slot]``; ``ring``: (:data:`TICK` (n,), the device's
+    noise (2 chunks, 3), the IMU's bias (3,)), each chunk's number in the
+    :data:`IO` record's ``noise``; ``ring``: (:data:`TICK` (n,), the device's
     :data:`~exoleg.runtime.sim_backend.RECORD` (n,), SENSORS (n,), OUTPUT (n,));
-    ``io``: :data:`IO_SLOTS` int64 then :data:`QUEUE` commands; ``plan``: (the ticks of
+    ``io``: one :data:`IO`; ``plan``: (the ticks of
     the duration, the ticks of a controlled stop's grace, the scheduled commands' ticks
     and codes, the overrun limit s, the late ticks in a row that are a controlled stop,
     the frozen-board limit in ticks, the staged controller parameters, the drives'
@@ -176,6 +183,7 @@ def run_ticks(world, ctl, S, K, noise, ring, io, plan):  # type: ignore[no-untyp
     times, rows, SENS, OUT = ring
     n, grace, when, what, overrun, late_runs, frozen, staged, u, env, tau, fn, ts, t0 = plan
     D = S[0]
+    x = io[0]  # what the outside and the loop say to each other
     cp = ctl[0]
     N = times.shape[0]
     nchunk = fsr_noise.shape[0] // 2
@@ -192,14 +200,14 @@ def run_ticks(world, ctl, S, K, noise, ring, io, plan):  # type: ignore[no-untyp
     same = 0
     walking = False
     while k < limit:
-        if io[STOP] != 0:
+        if x.stop != 0:
             u[:] = 0.0
-            return Stop.ASKED, k, io[STOP], 0, 0.0
-        if k - io[DRAINED] >= N:
+            return Stop.ASKED, k, x.stop, 0, 0.0
+        if k - x.drained >= N:
             u[:] = 0.0
             return Stop.RING_FULL, k, N, 0, 0.0
         c = k // nchunk
-        if io[NOISE0 + c % 2] != c:
+        if x.noise[c % 2] != c:
             u[:] = 0.0
             return Stop.NOISE_BEHIND, k, c, 0, 0.0
         t = k * h
@@ -234,12 +242,12 @@ def run_ticks(world, ctl, S, K, noise, ring, io, plan):  # type: ignore[no-untyp
                 return Stop.JUMP, k + 1, big, 0, abs(r.q[big] - prev.q[big])
         # 3. a gain change between ticks, whole; the operator's command: an E-stop
         # first, a controlled stop's stand, what was scheduled, then the queue
-        if io[GAINS] != io[GAINS_SEEN]:
+        if x.gains != x.gains_seen:
             cp[0] = staged[0]
-            io[GAINS_SEEN] = io[GAINS]
+            x.gains_seen = x.gains
         command = 0
-        if io[ESTOPS] != io[ESTOPS_SEEN]:
-            io[ESTOPS_SEEN] += 1
+        if x.estops != x.estops_seen:
+            x.estops_seen += 1
             command = Command.ESTOP
         elif stand_next:
             command, stand_next = Command.STAND, False
@@ -251,9 +259,9 @@ def run_ticks(world, ctl, S, K, noise, ring, io, plan):  # type: ignore[no-untyp
             else:
                 deferred = what[plan_i]
             plan_i += 1
-        if command == 0 and io[TAKEN] < io[QUEUED]:
-            command = io[IO_SLOTS + io[TAKEN] % QUEUE]
-            io[TAKEN] += 1
+        if command == 0 and x.taken < x.queued:
+            command = x.queue[x.taken % QUEUE]
+            x.taken += 1
         r.command = command
         # 4. the controller's tick
         walk_control_step(ctl, sk, t, ok_)
@@ -273,13 +281,13 @@ def run_ticks(world, ctl, S, K, noise, ring, io, plan):  # type: ignore[no-untyp
         armed = walking or o.mode == Mode.STANDING
         for j in range(3):
             u[j] = o.tau[j] if armed else 0.0
-        io[HEAD] = k + 1
+        x.head = k + 1
         # 6. the session's end: a controlled stop while walking, else at once
         end = END_DURATION if k == n - 1 else 0
         if late_run >= late_runs:
             end = END_LATE
-        if io[END] != 0:
-            end = io[END]
+        if x.end != 0:
+            end = x.end
         if end != 0 and not ending and walking:
             ending, k_ending = end, k
             stand_next = True
@@ -361,7 +369,8 @@ class _Outside:
         N = RING_TICKS
         self.ring = (np.zeros(N, TICK), np.zeros(N, RECORD), np.zeros(N, SENSORS),
                      np.zeros(N, OUTPUT))
-        self.io = np.zeros(IO_SLOTS + QUEUE, np.int64)
+        self.io = np.zeros(1, IO)
+        self.x = self.io[0]  # (a view: its fields write through)
         C = NOISE_CHUNK
         self.fsr, self.imu = np.zeros((2 * C, 4)), np.zeros((2 * C, 3))
         self.fsr[:C], self.imu[:C] = b.fsr_noise[:C], b.imu_noise[:C]
@@ -389,7 +398,7 @@ class _Outside:
         C, c = NOISE_CHUNK, self.chunk
         slot = slice((c % 2) * C, (c % 2 + 1) * C)
         self.fsr[slot], self.imu[slot], _ = self.b._draw()
-        self.io[NOISE0 + c % 2] = c
+        self.x["noise"][c % 2] = c
         self.chunk += 1
 
     def args(self, ticks: int | None = None) -> tuple[Any, ...]:
@@ -406,7 +415,7 @@ class _Outside:
         """The ticks the loop has written since the last call into the log and the link."""
         from exoleg.control.safety import fault_event
 
-        head = int(self.io[HEAD])
+        head = int(self.x["head"])
         if head <= self.drained:
             return
         times, rows, SENS, OUT = self.ring
@@ -429,11 +438,11 @@ class _Outside:
                 self.link.loop_tick(k, tk["t"], OUT[i], SENS[i], tk["late"], self.period,
                                     publish=k % 10 == 0, wall=tk["wall"])
         self.drained = head
-        self.io[DRAINED] = head
+        self.x["drained"] = head
 
     def feed(self) -> None:
         """The noise drawn ahead; the link's commands, gains and heartbeat to the loop."""
-        if int(self.io[HEAD]) > (self.chunk - 1) * NOISE_CHUNK:
+        if int(self.x["head"]) > (self.chunk - 1) * NOISE_CHUNK:
             self._draw()
         link = self.link
         if link is None:
@@ -442,24 +451,24 @@ class _Outside:
         if now - self.beat_at >= BEAT_CHECK_TICKS * self.period:
             self.beat_at = now
             if link.link_lost():
-                self.io[END] = LINK_LOST
+                self.x["end"] = LINK_LOST
         change = link.loop_receive()
         if change is not None and self.tunable:
             self.change.update(change)
-        io = self.io
-        if self.change and io[GAINS] == io[GAINS_SEEN]:  # the last change is in force
+        x = self.x
+        if self.change and x["gains"] == x["gains_seen"]:  # the last change is in force
             self.staged[:] = self.ctl.gains_record(self.change, self.staged)
             self.change = {}
-            io[GAINS] += 1
+            x["gains"] += 1
             link.loop_gains(self.ctl.gains_now(self.staged))
         for code in link.loop_take():
             if code == Command.ESTOP:
-                io[ESTOPS] += 1
+                x["estops"] += 1
             elif code in ENDS:
-                io[END] = code
-            elif io[QUEUED] - io[TAKEN] < QUEUE:
-                io[IO_SLOTS + io[QUEUED] % QUEUE] = code
-                io[QUEUED] += 1
+                x["end"] = code
+            elif x["queued"] - x["taken"] < QUEUE:
+                x["queue"][x["queued"] % QUEUE] = code
+                x["queued"] += 1
 
     def wait(self, seconds: float) -> None:
         """Until the link has something for the loop, or ``seconds``."""
@@ -536,17 +545,17 @@ def run_compiled(backend: Any, controller: Any, duration: float, log: Any,
         while thread.is_alive():
             outside.drain()
             outside.feed()
-            if asked and not outside.io[STOP]:
-                outside.io[STOP] = 1
+            if asked and not outside.x["stop"]:
+                outside.x["stop"] = 1
             outside.wait(OUTSIDE_S)
     except BaseException as e:  # the log (disk full), the link...: the torque off first
-        outside.io[STOP] = 1
+        outside.x["stop"] = 1
         thread.join()
         if not isinstance(e, Exception):
             raise
         failure = f"loop error: {type(e).__name__}: {e}: torque off"
     finally:
-        outside.io[STOP] = 1
+        outside.x["stop"] = 1
         thread.join()
         gc.unfreeze()
         for s, h in old.items():
