@@ -253,11 +253,7 @@ def test_session_ends_torque_off_when_the_interface_dies(tmp_path: Path) -> None
 
     with served_hmi(tmp_path / "s") as hmi:
         base = f"{hmi.url}/api"
-        auth = {"Authorization": f"Bearer {hmi.token}"}
-        op = {**auth, "X-Operator": httpx.post(f"{base}/operator", json={"name": "ann"},
-                                               headers=auth).json()["operator"]}
-        r = httpx.post(f"{base}/session/start", json={"duration": 120, "arm": True},
-                       headers=op)
+        op, r = hmi.start_session(120)
         assert r.status_code == 200
         _wait(f"{base}/state", "mode", 1)  # armed at the start: standing
         hmi.process.kill()

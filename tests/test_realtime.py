@@ -175,11 +175,7 @@ def test_a_walking_session_survives_a_request_burst_and_a_browser_starting(
 
     with served_hmi(tmp_path / "s") as hmi:
         base = f"{hmi.url}/api"
-        auth = {"Authorization": f"Bearer {hmi.token}"}
-        op = {**auth, "X-Operator": httpx.post(f"{base}/operator", json={"name": "ann"},
-                                               headers=auth).json()["operator"]}
-        r = httpx.post(f"{base}/session/start", json={"duration": 300, "arm": True},
-                       headers=op)
+        op, r = hmi.start_session(300)
         assert r.status_code == 200, r.text
         folder = tmp_path / "s" / r.json()["session"]
 

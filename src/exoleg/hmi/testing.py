@@ -88,6 +88,19 @@ class Served:
         """The page's address with the token, as ``exoleg hmi`` prints it."""
         return f"{self.url}/#token={self.token}"
 
+    def start_session(self, duration: float, operator: str = "ann"
+                      ) -> tuple[dict[str, str], Any]:
+        """Control taken as ``operator`` and a session started, armed, for ``duration``
+        s, through the control API: (the operator's headers, the start's response)."""
+        import httpx
+
+        base = f"{self.url}/api"
+        auth = {"Authorization": f"Bearer {self.token}"}
+        op = {**auth, "X-Operator": httpx.post(f"{base}/operator", json={"name": operator},
+                                               headers=auth).json()["operator"]}
+        return op, httpx.post(f"{base}/session/start",
+                              json={"duration": duration, "arm": True}, headers=op)
+
 
 @contextmanager
 def served_hmi(sessions: Path, *args: str) -> Iterator[Served]:

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from exoleg.control.gait_phase import Event
-from exoleg.control.hierarchy import PARAMS, TUNABLE
+from exoleg.control.walk_gains import PARAMS, TUNABLE
 from exoleg.runtime.loop import END_SESSION, LINK_LOST
 from exoleg.tick import OUTPUT, SENSORS, Command
 
