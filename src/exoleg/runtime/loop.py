@@ -71,6 +71,22 @@ def late_run_ticks(overrun: float) -> int:
     return max(LATE_RUN_TICKS, int(round(LATE_RUN_TICKS * overrun / OVERRUN_S)))
 
 
+def stood_text(end: str, mode: int, seconds: float) -> str:
+    """A session's end that came to a controlled stop, said (before ': torque off')."""
+    return f"{end}, after a controlled stop to {Mode(mode).name} in {seconds:.2f} s"
+
+
+def not_stood_text(end: str) -> str:
+    """A session's end whose controlled stop did not stand in time, said."""
+    return f"{end}: the controlled stop did not stand within {STOP_GRACE_S:g} s: torque off"
+
+
+def overrun_text(tick: int, late: float, overrun: float) -> str:
+    """A loop overrun, said."""
+    return (f"loop overrun: tick {tick} started {late * 1e3:.1f} ms late (limit "
+            f"{overrun * 1e3:g} ms): torque off")
+
+
 def late_run_text(ticks: int) -> str:
     """How a session ended by a run of late ticks is said."""
     return f"the loop fell behind: {ticks} ticks in a row later than a period"
@@ -260,8 +276,7 @@ def run_session(backend: Device, controller: Controller, duration: float, period
                 pending[k + 1] = Command.STAND  # before anything else set for that tick
                 limit = k + 1 + int(round(STOP_GRACE_S / period))
             elif ending and not walking:
-                stop.append(f"{ending}, after a controlled stop to {Mode(out['mode']).name} "
-                            f"in {(k - k_ending) * period:.2f} s")
+                stop.append(stood_text(ending, out["mode"], (k - k_ending) * period))
             elif end and not ending and end != "duration":
                 stop.append(end)
             if stop:
@@ -274,15 +289,13 @@ def run_session(backend: Device, controller: Controller, duration: float, period
             if late > overrun:  # the drives held a stale torque too long
                 backend.write(zero, False)
                 backend.safe()
-                reason = (f"loop overrun: tick {k + 1} started {late * 1e3:.1f} ms late "
-                          f"(limit {overrun * 1e3:g} ms): torque off")
+                reason = overrun_text(k + 1, late, overrun)
                 break
         else:
             if ending:  # the stop did not stand in time: the torque goes off all the same
                 backend.write(zero, False)
                 backend.safe()
-                reason = (f"{ending}: the controlled stop did not stand within "
-                          f"{STOP_GRACE_S:g} s: torque off")
+                reason = not_stood_text(ending)
     except BaseException as e:  # the bus, the log (disk full), the operator's link...
         with contextlib.suppress(Exception):  # the torque off first, whatever failed
             backend.write(zero, False)

@@ -48,11 +48,14 @@ from exoleg.runtime.loop import (
     SessionResult,
     late_run_text,
     late_run_ticks,
+    not_stood_text,
+    overrun_text,
+    stood_text,
     stop_on_signals,
 )
 from exoleg.runtime.realtime import LOOP_PRIORITY, realtime_settings, saved_scheduling
 from exoleg.runtime.sim_backend import RECORD
-from exoleg.runtime.watch import JUMP_RAD
+from exoleg.runtime.watch import JUMP_RAD, frozen_text, jump_text
 from exoleg.tick import OUTPUT, SENSORS, Command, Mode
 from exoleg.world.device import device_actuate, device_sense
 
@@ -330,23 +333,18 @@ def stopped_by(how: tuple[int, int, int, int, float], period: float, overrun: fl
     if stop == Stop.ASKED:
         return f"{asked[0] if asked else 'asked to stop'}: torque off"
     if stop == Stop.ENDED:
-        if b < 0:
-            return f"{ends[a]}: torque off"
-        return (f"{ends[a]}, after a controlled stop to {Mode(b).name} in {x:.2f} s: "
-                "torque off")
+        return (f"{ends[a]}: torque off" if b < 0
+                else f"{stood_text(ends[a], b, x)}: torque off")
     if stop == Stop.NOT_STOOD:
-        return (f"{ends[a]}: the controlled stop did not stand within {STOP_GRACE_S:g} s: "
-                "torque off")
+        return not_stood_text(ends[a])
     if stop == Stop.FROZEN:
-        return f"device fault: the foot board's readings froze for {a} ticks"
+        return f"device fault: {frozen_text(a)}"
     if stop == Stop.JUMP:
-        return (f"device fault: implausible joint reading: joint {a} moved {x:.3g} rad in "
-                f"one tick (at most {JUMP_RAD} rad)")
+        return f"device fault: {jump_text(a, x)}"
     if stop == Stop.NOT_FINITE:
         return f"controller error: the command to joint {a} was {x!r}"
     if stop == Stop.OVERRUN:
-        return (f"loop overrun: tick {a} started {x * 1e3:.1f} ms late (limit "
-                f"{overrun * 1e3:g} ms): torque off")
+        return overrun_text(a, x, overrun)
     if stop == Stop.RING_FULL:
         return f"loop error: the log fell {a} ticks behind the loop: torque off"
     return (f"loop error: the simulated sensors' noise for ticks from {a * NOISE_CHUNK} was "

@@ -17,6 +17,17 @@ F64 = NDArray[np.float64]
 #: rad in 1 ms is 5700 deg/s, eight times the fastest joint of Table 2). (A frozen foot
 #: board: :data:`~exoleg.device.sensors.FROZEN_S`.)
 JUMP_RAD = 0.1
+def frozen_text(ticks: int) -> str:
+    """A frozen foot board, said."""
+    return f"the foot board's readings froze for {ticks} ticks"
+
+
+def jump_text(joint: int, jump: float) -> str:
+    """An implausible joint reading, said."""
+    return (f"implausible joint reading: joint {joint} moved {jump:.3g} rad in one tick "
+            f"(at most {JUMP_RAD} rad)")
+
+
 class SensorWatch:
     """Faults the safety layer cannot see in the values themselves: a frozen sensor and
     an implausible jump of a joint reading (a bad encoder frame, a wrong offset)."""
@@ -33,7 +44,7 @@ class SensorWatch:
         if self.last is not None and np.array_equal(foot, self.last):
             self.same += 1
             if self.same >= self.limit:
-                return f"the foot board's readings froze for {self.same} ticks"
+                return frozen_text(self.same)
         else:
             self.same = 0
         self.last = foot
@@ -42,7 +53,6 @@ class SensorWatch:
             jump = np.abs(q - self.q_last)
             if np.any(jump > JUMP_RAD):
                 i = int(np.argmax(jump))
-                return (f"implausible joint reading: joint {i} moved {jump[i]:.3g} rad in "
-                        f"one tick (at most {JUMP_RAD} rad)")
+                return jump_text(i, float(jump[i]))
         self.q_last = q
         return ""
