@@ -96,7 +96,7 @@ def _number(text: str) -> float:
 def _positive(text: str) -> float:
     v = _number(text)
     if v <= 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
     return v
 
 
@@ -130,7 +130,7 @@ def _percentile(text: str) -> float:
     v = _number(text)
     if not 0.0 < v < 100.0:
         raise argparse.ArgumentTypeError(
-            f"a percentile is between 0 and 100 (exclusive), got {text}")
+            f"a percentile is between 0 and 100 (exclusive), got {text!r}")
     return v
 
 
