@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import exoleg
+from conftest import REALTIME
 from exoleg.child.curves import SIGNATURES, curve_signatures, falisse_curves, signatures
 from exoleg.child.interaction import device_leg
 from exoleg.child.model import ChildModel, Spasticity, crouch_offset, intended_gait
@@ -407,7 +408,7 @@ def test_a_session_with_the_child_logs_and_sums_up_the_cuffs_torque(tmp_path) ->
     from exoleg.session_log import read_log
 
     ch = ChildModel("c", 10, 1.40, 32.0, 2, spasticity=Spasticity.preset("mild"), sex="male")
-    _, path = run("sim", 2.0, tmp_path / "s", realtime=False, child=ch, body_mass=32.0)
+    _, path = run("sim", 2.0, tmp_path / "s", realtime=REALTIME, child=ch, body_mass=32.0)
     header, cols, _ = read_log(path)
     assert header["child"] == "c"
     assert abs(np.degrees(cols["q_knee"][-1] - cols["q_knee"][0])) < 3.0

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import REALTIME
 from exoleg.hmi.history import child_history
 from exoleg.hmi.registry import FILE, Registry
 from exoleg.runtime.session import run
@@ -32,7 +33,7 @@ def records(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
     other = reg.add_child("Ben")
     for k, (walk, noise) in enumerate(((1.0, 0), (2.0, 1), (3.0, 2))):
         name = f"2026120{k + 1}-100000-{cid}"
-        run("sim", 5.0, root / name, arm=True, walk_after=walk, realtime=False, seed=noise)
+        run("sim", 5.0, root / name, arm=True, walk_after=walk, realtime=REALTIME, seed=noise)
         reg.add_session(name, cid, fit, 1796300000.0 + 86400 * k, operator="therapist")
     reg.note(f"20261201-100000-{cid}", "first session; tolerated well")
     reg.add_session("lost-session", other, None, 1796300000.0)  # no folder: no figures

@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 import exoleg
+from conftest import REALTIME
 from exoleg.runtime.contract import check_device
 from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, run_session
 from exoleg.runtime.session import simulated_overrun
@@ -140,7 +141,7 @@ def _session(device: Any, sim: SimBackend, path: Path) -> dict[str, np.ndarray]:
         sim.walking = int(out["mode"]) in (2, 4)
 
     res = run_session(device, sim.controller, 2.0, 1e-3, log,
-                      {0: int(Command.ARM), 500: int(Command.WALK)}, realtime=False,
+                      {0: int(Command.ARM), 500: int(Command.WALK)}, realtime=REALTIME,
                       scenery=scenery)
     device.deactivate()
     assert res.stopped_by.startswith("duration"), res.stopped_by

@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 import exoleg
+from conftest import REALTIME
 from exoleg.cli import main
 
 SHIPPED_HIP_NM = 54.0   # data/device/actuators/hip.toml: repeated_peak_torque
@@ -143,7 +144,7 @@ def test_identify_designs_and_plays_its_plan_on_the_folders_device(device: Path,
     shipped = DeviceConfig.load()
     assert (plan_limits(cfg.safety, cfg.actuators).torque[0]
             < plan_limits(shipped.safety, shipped.actuators).torque[0])
-    r = identify_device("sim", tmp_path / "id", duration=10.0, realtime=False,
+    r = identify_device("sim", tmp_path / "id", duration=10.0, realtime=REALTIME,
                         candidates=2, device=device)
     assert r.summary()["device_folder"] == str(device)
     ran = json.loads((tmp_path / "id" / "session" / "run.json").read_text())

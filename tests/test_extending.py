@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 
 import exoleg
-from exoleg.runtime.session import run, simulated_overrun
+from conftest import BUS_WAIT, REALTIME
+from exoleg.runtime.session import run
 from exoleg.session_log import read_log
 from exoleg.tick import Mode
 
@@ -54,9 +55,9 @@ def test_the_example_with_the_papers_gains_is_eq_23() -> None:
 
 
 def _session(backend: str, folder: Path, controller: str) -> dict[str, np.ndarray]:
-    res, path = run(backend, 3.0, folder, arm=True, walk_after=1.0, realtime=False,
+    res, path = run(backend, 3.0, folder, arm=True, walk_after=1.0, realtime=REALTIME,
                     controller=controller, channel="extending",
-                    bus_timeout=None if backend == "sim" else simulated_overrun() or 0.05)
+                    bus_timeout=None if backend == "sim" else BUS_WAIT)
     assert res.stopped_by.startswith("duration"), (backend, res.stopped_by)
     return read_log(path)[1]
 

@@ -12,23 +12,18 @@ import pytest
 
 pytest.importorskip("canopen", reason="python-canopen (exoleg[hw])")
 
+from conftest import BUS_WAIT, REALTIME  # noqa: E402
 from exoleg.hw import cia402  # noqa: E402
-from exoleg.hw.master import LOSS_RUN  # noqa: E402
-from exoleg.runtime.session import run, simulated_overrun  # noqa: E402
+from exoleg.runtime.session import run  # noqa: E402
 from exoleg.session_log import read_log  # noqa: E402
 
 ENABLED = cia402.State.OPERATION_ENABLED.value[1]
-#: the master's wait for every node, s: 5 ms on a device; here, where the test machine is
-#: shared and the suite runs on both CPUs, the suite's overrun limit (conftest: 250 ms):
-#: a slow answer is not the fault under test (at 50 ms CI lost one, the suite on 2 CPUs)
-#: (a lost answer is held, exoleg.hw.master.LOSS_RUN in a row a fault: the wait leaves
-#: the run of them within the overrun limit, as exoleg.runtime.session.run's default)
-T = (simulated_overrun() or 0.05) / (LOSS_RUN + 1)
 
 
 def hil(duration: float, folder: Path, **kw):  # type: ignore[no-untyped-def]
-    """A session on the canopen backend over the virtual bus (no real-time settings)."""
-    return run("canopen", duration, folder, realtime=False, bus_timeout=T, **kw)
+    """A session on the canopen backend over the virtual bus (the suite's waits and
+    real-time settings, conftest)."""
+    return run("canopen", duration, folder, realtime=REALTIME, bus_timeout=BUS_WAIT, **kw)
 
 
 def test_arming_walking_and_torque_over_the_bus(tmp_path: Path) -> None:
@@ -90,7 +85,7 @@ def test_lost_pdos_are_counted_and_a_rate_of_them_is_a_fault(tmp_path: Path,
         elif k - 1 in drops:
             rig.silent.discard("hip")
 
-    res, _ = run("canopen", 1.2, tmp_path / "s", realtime=False, bus_timeout=0.02,
+    res, _ = run("canopen", 1.2, tmp_path / "s", realtime=REALTIME, bus_timeout=0.02,
                  arm=True, channel=f"hil-loss-{every}", inject=inject)
     pdo = json.loads((tmp_path / "s" / "run.json").read_text())["process_data"]
     if not every:
@@ -175,7 +170,7 @@ def test_heartbeat_is_counted_from_the_first_exchange() -> None:
     sim = SimBackend.built(exoleg.paper_leg(), 30.0, 1e-3, config=config)
     sim.configure(config.safety)
     rig = SimulatedRig(sim, "virtual", "hil-first")
-    master = CanopenBackend(config.actuators, 1e-3, "virtual", "hil-first", T)
+    master = CanopenBackend(config.actuators, 1e-3, "virtual", "hil-first", BUS_WAIT)
     try:
         master.configure(config.safety)
         rig.nodes["ankle"].nmt.stop_heartbeat()

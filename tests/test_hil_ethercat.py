@@ -13,23 +13,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import BUS_WAIT, REALTIME
 from exoleg.errors import ParameterError
 from exoleg.hw import cia402
 from exoleg.hw.master import LOSS_RUN
-from exoleg.runtime.session import run, simulated_overrun
+from exoleg.runtime.session import run
 from exoleg.session_log import read_log
 
 ENABLED = cia402.State.OPERATION_ENABLED.value[1]
-#: the master's wait for every node, s: 5 ms on a device; here, where the test machine is
-#: shared and the suite runs on both CPUs, the suite's overrun limit (conftest: 250 ms):
-#: a slow answer is not the fault under test (at 50 ms CI lost one, the suite on 2 CPUs)
-#: (a lost answer is held, exoleg.hw.master.LOSS_RUN in a row a fault: the wait leaves
-#: the run of them within the overrun limit, as exoleg.runtime.session.run's default)
-T = (simulated_overrun() or 0.05) / (LOSS_RUN + 1)
 
 
 def hil(duration: float, folder: Path, **kw):  # type: ignore[no-untyped-def]
-    return run("ethercat", duration, folder, realtime=False, bus_timeout=T, **kw)
+    return run("ethercat", duration, folder, realtime=REALTIME, bus_timeout=BUS_WAIT, **kw)
 
 
 def test_mapping_arming_walking_and_torque_over_process_data(tmp_path: Path) -> None:

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import exoleg
+from conftest import REALTIME
 from exoleg.errors import ParameterError
 
 pytest.importorskip("canopen", reason="python-canopen (exoleg[hw])")
@@ -62,11 +63,11 @@ def test_a_spastic_child_identified_in_stages_over_the_can_bus(tmp_path: Path) -
     model = DeviceConfig.load().leg(fitted)
     truth, device_truth = true_legs(model, acts, np.random.default_rng(5))
     device = identify_device("sim", tmp_path / "device", leg=fitted, duration=10.0,
-                             truth=device_truth, realtime=False, candidates=4,
+                             truth=device_truth, realtime=REALTIME, candidates=4,
                              device_alone=True)
     assert device.summary()["stage"] == "device alone"
     r = identify_device("canopen", tmp_path / "leg", leg=fitted, child=child, duration=10.0,
-                        truth=truth, realtime=False, candidates=4, channel="identify",
+                        truth=truth, realtime=REALTIME, candidates=4, channel="identify",
                         identified_device=tmp_path / "device", figure=identify_figure)
     grid = _grid()
     g = truth.G(grid)
@@ -100,12 +101,12 @@ def test_a_spastic_child_identified_in_stages_over_the_can_bus(tmp_path: Path) -
     assert (out / "session" / "session.log").exists()
     # a second identification into the same folder keeps the first's session
     with pytest.raises(ParameterError, match="recorded session"):
-        identify_device("canopen", out, leg=fitted, duration=10.0, realtime=False,
+        identify_device("canopen", out, leg=fitted, duration=10.0, realtime=REALTIME,
                         channel="identify")
     # the stages need the device identified at this child's telescope settings
     with pytest.raises(ParameterError, match="identify the device alone with its "
                                              "telescopes set for this child"):
-        identify_device("sim", tmp_path / "other", duration=10.0, realtime=False,
+        identify_device("sim", tmp_path / "other", duration=10.0, realtime=REALTIME,
                         identified_device=tmp_path / "device", figure=identify_figure)
 
 

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import REALTIME
 from exoleg.runtime.figures import session_figures, stop_in_words
 from exoleg.runtime.session import run
 from exoleg.session_log import read_log
@@ -26,7 +27,7 @@ from exoleg.tick import Event
 @pytest.fixture(scope="module")
 def session(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder = tmp_path_factory.mktemp("report") / "s"
-    run("sim", 12.0, folder, arm=True, walk_after=1.0, realtime=False)
+    run("sim", 12.0, folder, arm=True, walk_after=1.0, realtime=REALTIME)
     return folder
 
 

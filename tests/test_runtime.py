@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 import exoleg
+from conftest import REALTIME
 from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, run_session
 from exoleg.runtime.sim_backend import SimBackend
 from exoleg.session_log import MAX_LOSS_TICKS, SessionLog, read_log
@@ -40,7 +41,7 @@ def _session(tmp_path: Path, backend: SimBackend, controller, duration: float,  
              commands: dict[int, int]):
     log = SessionLog(tmp_path / "s.log", LOG_HEAD + backend.columns + LOG_TAIL,
                      {"period": 1e-3})
-    res = run_session(backend, controller, duration, 1e-3, log, commands, realtime=False)
+    res = run_session(backend, controller, duration, 1e-3, log, commands, realtime=REALTIME)
     return res, read_log(tmp_path / "s.log")[1]
 
 
@@ -288,7 +289,7 @@ def test_any_failure_in_the_tick_takes_torque_off(tmp_path: Path, backend_factor
 
     b = backend_factory()
     log = FullDisk(tmp_path / "s.log", LOG_HEAD + b.columns + LOG_TAIL, {"period": 1e-3})
-    res = run_session(b, b.controller, 1.0, 1e-3, log, {0: Command.ARM}, realtime=False,
+    res = run_session(b, b.controller, 1.0, 1e-3, log, {0: Command.ARM}, realtime=REALTIME,
                       on_tick=on_tick)
     assert res.stopped_by == {"log": "loop error: OSError: [Errno 28] No space left on "
                                      "device: torque off",
@@ -339,7 +340,7 @@ def test_the_operators_end_is_a_controlled_stop_while_walking(tmp_path: Path, ba
 
     log = SessionLog(tmp_path / "s.log", LOG_HEAD + b.columns + LOG_TAIL, {"period": 1e-3})
     res = run_session(b, b.controller, 10.0, 1e-3, log, {0: Command.ARM, 1000: Command.WALK},
-                      realtime=False, on_tick=on_tick, scenery=treadmill)
+                      realtime=REALTIME, on_tick=on_tick, scenery=treadmill)
     cols = read_log(tmp_path / "s.log")[1]
     assert np.array_equal(b.u, np.zeros(3))  # the drives were told zero at the end
     if when == "standing":
@@ -372,7 +373,7 @@ def test_a_slow_disk_does_not_stall_the_loop(tmp_path: Path, backend_factory,  #
     b = backend_factory()
     log = SessionLog(tmp_path / "s.log", LOG_HEAD + b.columns + LOG_TAIL, {"period": 1e-3},
                      fsync_every=5)  # an fsync every 100 ticks
-    res = run_session(b, b.controller, 1.0, 1e-3, log, {0: Command.ARM}, realtime=False)
+    res = run_session(b, b.controller, 1.0, 1e-3, log, {0: Command.ARM}, realtime=REALTIME)
     assert res.stopped_by == "duration", res.stopped_by
     assert len(read_log(tmp_path / "s.log")[1]["t"]) == 1000
 
@@ -433,7 +434,7 @@ def test_how_a_session_ended_is_said_truly(tmp_path: Path, backend_factory) -> N
     log = SessionLog(tmp_path / "t.log", LOG_HEAD + b.columns + LOG_TAIL, {"period": 1e-3})
     b = backend_factory()
     res = run_session(b, b.controller, 3.0, 1e-3, log, {0: Command.ARM, 500: Command.ESTOP},
-                      realtime=False, on_tick=lambda k, *a: END_SESSION if k == 900 else None)
+                      realtime=REALTIME, on_tick=lambda k, *a: END_SESSION if k == 900 else None)
     assert res.stopped_by == ("the operator ended the session: torque off (after an E-stop "
                               "at 0.500 s)")
 

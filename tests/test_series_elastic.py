@@ -227,18 +227,16 @@ def test_a_series_elastic_device_gets_the_same_ticks_on_every_device(tmp_path: P
     measures."""
     pytest.importorskip("canopen", reason="python-canopen (exoleg[hw])")
     pytest.importorskip("pysoem", reason="pysoem (exoleg[hw])")
-    from exoleg.hw.master import LOSS_RUN
-    from exoleg.runtime.session import run, simulated_overrun
+    from conftest import BUS_WAIT, REALTIME
+    from exoleg.runtime.session import run
     from exoleg.session_log import read_log
-
-    # the masters' wait, as the tick contract's test
-    T = (simulated_overrun() or 0.05) / (LOSS_RUN + 1)
 
     folder = _folder(tmp_path / "device", {j: SPRING for j in ("knee",)})
     cols = {}
     for backend in ("sim", "canopen", "ethercat"):
         res, path = run(backend, 2.0, tmp_path / backend, arm=True, walk_after=0.5,
-                        realtime=False, bus_timeout=None if backend == "sim" else T,
+                        realtime=REALTIME,
+                        bus_timeout=None if backend == "sim" else BUS_WAIT,
                         channel="contract-series", device=folder)
         assert res.stopped_by.startswith("duration"), (backend, res.stopped_by)
         cols[backend] = read_log(path)[1]

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import REALTIME
 from exoleg.runtime.exports import C3D_MAX_FRAMES, session_export, write_c3d
 from exoleg.runtime.session import run
 from exoleg.session_log import read_log
@@ -28,7 +29,7 @@ from exoleg.tick import Event
 @pytest.fixture(scope="module")
 def session(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder = tmp_path_factory.mktemp("exports") / "s"
-    run("sim", 6.0, folder, arm=True, walk_after=1.0, realtime=False)
+    run("sim", 6.0, folder, arm=True, walk_after=1.0, realtime=REALTIME)
     return folder
 
 

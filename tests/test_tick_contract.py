@@ -16,20 +16,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from exoleg.hw.master import LOSS_RUN
+from conftest import BUS_WAIT, REALTIME
 from exoleg.runtime.loop import LOG_TAIL
-from exoleg.runtime.session import run, simulated_overrun
+from exoleg.runtime.session import run
 from exoleg.session_log import read_log
 from exoleg.tick import OUTPUT, Mode
 
-#: the masters' wait for every node, s: generous on a shared test machine (a slow answer
-#: is not what this test is about)
-#: the master's wait for every node, s: 5 ms on a device; here, where the test machine is
-#: shared and the suite runs on both CPUs, the suite's overrun limit (conftest: 250 ms):
-#: a slow answer is not the fault under test (at 50 ms CI lost one, the suite on 2 CPUs)
-#: (a lost answer is held, exoleg.hw.master.LOSS_RUN in a row a fault: the wait leaves
-#: the run of them within the overrun limit, as exoleg.runtime.session.run's default)
-T = (simulated_overrun() or 0.05) / (LOSS_RUN + 1)
 WALK_AT = 1000  # tick of the walk command (1 s at 1 kHz)
 
 
@@ -39,8 +31,8 @@ def _three(tmp_path: Path, controller: str) -> dict[str, dict[str, np.ndarray]]:
     cols = {}
     for backend in ("sim", "canopen", "ethercat"):
         res, path = run(backend, 3.0, tmp_path / backend, arm=True, walk_after=1.0,
-                        realtime=False, controller=controller,
-                        bus_timeout=None if backend == "sim" else T,
+                        realtime=REALTIME, controller=controller,
+                        bus_timeout=None if backend == "sim" else BUS_WAIT,
                         channel=f"contract-{controller}")
         assert res.stopped_by.startswith("duration, after a controlled stop to STANDING"), (
             backend, res.stopped_by)
