@@ -32,7 +32,7 @@ FLOORS = (
     ("runs", ("sim",)),
     ("runtime", ("runtime",)),
     ("analyses", ("validate", "identify", "study", "design")),
-    ("faces", ("cli", "hmi", "plots")),
+    ("faces", ("cli", "hmi", "plots", "compile")),
 )
 LEVEL = {pkg: i for i, (_, pkgs) in enumerate(FLOORS) for pkg in pkgs}
 #: Floor-mates that never import each other.

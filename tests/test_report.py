@@ -116,20 +116,3 @@ def test_a_report_is_a_pdf_and_never_over_a_record(session: Path, tmp_path: Path
     r = subprocess.run([sys.executable, "-m", "exoleg.cli", "report", str(tmp_path)],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and "no session log here" in r.stderr
-
-
-def test_a_ten_minute_sessions_report_takes_under_five_seconds(session: Path,
-                                                              tmp_path: Path) -> None:
-    """Issue 42's bound, on a 10-minute log: the module's session's records repeated 50
-    times, each copy's clock moved on (the records as the runtime wrote them; measured
-    2.6 s for a real 10-minute session here, its log 279 MB)."""
-    from conftest import tile_session
-    from exoleg.plots.report import write_report
-
-    long = tmp_path / "long"
-    header, tiled = tile_session(session, 600.0, long)
-    t0 = time.perf_counter()
-    write_report(long, tmp_path / "long.pdf")
-    took = time.perf_counter() - t0
-    assert len(tiled) * header["period"] >= 600.0
-    assert took < 5.0, took

@@ -1,0 +1,116 @@
+"""Compile exoleg's kernels into numba's on-disk cache before their first use
+(``python -m exoleg.compile``; ``make setup`` runs it after installing).
+
+exoleg's tick, plant, child, detector and studies are numba functions compiled on their
+first call and cached beside their source (``cache=True``). On a fresh install that
+first call is slow: the walking device's kernels take 25 s on this 2-core machine, the
+paper's scenario 5 s, each command's own more. A session's loop compiles what it needs
+before its clock starts (:meth:`exoleg.runtime.loop.Device.warm_up`), so nothing is
+ever late; but the first ``exoleg simulate --walk`` a clinic runs would wait, and every
+process that starts on the empty cache at the same time compiles the same code again
+(the test suite's workers and the commands they start: 70 s of its wall time).
+
+This runs each command that compiles something on a small job of its own -- the paper's
+scenario, a walk in every support mode with a child as an actor, the runtime's compiled
+and Python loops on the simulated device and both simulated buses, the fitting and
+population batch, identification, the design screen, the detector -- in ``jobs``
+processes at once (numba's cache is safe across processes: :mod:`exoleg._cache`). The
+kernels are those the commands use, with the types they are called with; a source
+edited later recompiles on its next use as before. Its own output goes to a temporary
+folder and is removed."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+#: (label, the command's arguments after ``exoleg``) with ``{d}`` the job's folder and
+#: ``{child}`` the child file the first job writes; in the order they are started
+JOBS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("walking with a child", ("run", "--backend", "sim", "--duration", "0.3", "--arm",
+                              "--walk-after", "0.1", "--child", "{child}", "--no-realtime",
+                              "--out", "{d}")),
+    ("the paper's scenario", ("simulate", "--duration", "0.5", "--out", "{d}")),
+    ("transparent walk", ("simulate", "--walk", "--strides", "1", "--controller",
+                          "transparent", "--child", "{child}", "--out", "{d}")),
+    ("assist-as-needed walk", ("simulate", "--walk", "--strides", "1", "--controller", "aan",
+                               "--child", "{child}", "--out", "{d}")),
+    ("impedance walk", ("simulate", "--walk", "--strides", "1", "--out", "{d}")),
+    ("the paper's actuators", ("simulate", "--actuators", "--duration", "0.5", "--no-engine",
+                               "--out", "{d}")),
+    ("a session on the simulated device", ("run", "--backend", "sim", "--duration", "0.3",
+                                           "--arm", "--walk-after", "0.1", "--no-realtime",
+                                           "--out", "{d}")),
+    ("a session over CANopen", ("run", "--backend", "canopen", "--interface", "virtual",
+                                "--duration", "0.3", "--arm", "--walk-after", "0.1",
+                                "--no-realtime", "--out", "{d}")),
+    ("a session over EtherCAT", ("run", "--backend", "ethercat", "--interface", "fake",
+                                 "--duration", "0.3", "--arm", "--walk-after", "0.1",
+                                 "--no-realtime", "--out", "{d}")),
+    ("pd-gravity session", ("run", "--backend", "sim", "--controller", "pd-gravity",
+                            "--duration", "0.3", "--arm", "--no-realtime", "--out", "{d}")),
+    ("the population", ("population", "--ages", "10", "--percentiles", "50", "--out", "{d}")),
+    ("identification", ("identify", "--backend", "sim", "--duration", "10", "--no-realtime",
+                        "--out", "{d}")),
+    ("the detector", ("detect", "{d0}", "--out", "{d}")),
+)
+#: the job that writes the child file the others use
+FIT = ("fit", "--age", "10", "--sex", "female", "--height", "138", "--mass", "32",
+       "--gmfcs", "2", "--spasticity", "moderate", "--no-simulate", "--out", "{d}")
+
+
+def _exoleg(args: list[str], env: dict[str, str]) -> tuple[int, str]:
+    r = subprocess.run([sys.executable, "-m", "exoleg.cli", *args], capture_output=True,
+                       text=True, env=env, check=False)
+    return r.returncode, (r.stderr.strip().splitlines() or [""])[-1]
+
+
+def compile_all(jobs: int | None = None, say=print) -> list[str]:  # type: ignore[no-untyped-def]
+    """Run :data:`JOBS` in ``jobs`` processes at once (default: the CPUs this process
+    may use); returns the jobs that failed, each with its last line of error (a job's
+    failure leaves that command to compile on first use: nothing else depends on it)."""
+    jobs = jobs or len(os.sched_getaffinity(0))
+    env = {**os.environ, "MPLBACKEND": "Agg"}
+    failed: list[str] = []
+    with tempfile.TemporaryDirectory(prefix="exoleg-compile-") as tmp:
+        root = Path(tmp)
+        t0 = time.perf_counter()
+        code, err = _exoleg([a.format(d=root / "fit") for a in FIT], env)
+        child = root / "fit" / "child.toml"
+        if code != 0 or not child.exists():
+            failed.append(f"fitting a child: {err}")
+        first = root / "job0"
+
+        def one(k: int) -> str | None:
+            label, args = JOBS[k]
+            if "{child}" in args and not child.exists():
+                return None
+            code, err = _exoleg([a.format(d=root / f"job{k}", child=child, d0=first / "session.log")
+                                 for a in args], env)
+            say(f"exoleg.compile: {label}: {'done' if code == 0 else 'FAILED'} "
+                f"({time.perf_counter() - t0:.0f} s)")
+            return None if code == 0 else f"{label}: {err}"
+
+        # the first job's session is what the detector's job reads: it runs first
+        failed += filter(None, [one(0)])
+        with ThreadPoolExecutor(jobs) as pool:
+            failed += filter(None, pool.map(one, range(1, len(JOBS))))
+    return failed
+
+
+def main() -> int:
+    t0 = time.perf_counter()
+    failed = compile_all()
+    print(f"exoleg.compile: numba's cache filled in {time.perf_counter() - t0:.0f} s"
+          + (f"; {len(failed)} jobs failed (they compile on first use): "
+             + "; ".join(failed) if failed else ""))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

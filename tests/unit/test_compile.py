@@ -1,0 +1,22 @@
+"""``python -m exoleg.compile`` (run by ``make setup``): its jobs are commands a user
+types, so each must stay one the command line accepts -- a job refused would leave its
+kernels to compile on first use, every process at once (the suite's 70 s), unseen.
+Reference: the command line's own parser (exoleg.cli.build_parser)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from exoleg.cli import build_parser
+from exoleg.compile import FIT, JOBS
+
+
+@pytest.mark.parametrize("label,args", [("fit", FIT), *JOBS], ids=lambda x: str(x)[:30])
+def test_every_job_is_a_command_the_command_line_takes(label: str, args: tuple[str, ...],
+                                                       tmp_path: Path) -> None:
+    argv = [a.format(d=tmp_path / "d", child=tmp_path / "child.toml",
+                     d0=tmp_path / "session.log") for a in args]
+    ns = build_parser().parse_args(argv)  # exits (SystemExit 2) on what it refuses
+    assert ns.command == argv[0]
