@@ -36,13 +36,13 @@ browser:
 	  else echo "make: no Chromium and no root to install it: the browser tests will skip"; fi; \
 	fi
 
-# The suite runs in one worker more than there are cores (pytest-xdist), a file's tests on
-# one worker in their order: a third of the workers' time is spent waiting on the wall
-# clock (real-time sessions, the browser), which the extra worker fills. Measured on 2
-# cores, warm cache: 469 s with 2 workers, 414 s with 3, 429 s with 4.
-JOBS ?= $(shell echo $$(( $$(nproc) + 1 )))
+# The suite runs on every core (pytest-xdist), a file's tests on one worker in their order.
+# A worker more would fill the third of the workers' time spent waiting on the wall clock
+# (real-time sessions, the browser): 414 s instead of 469 s on 2 cores, warm cache; but
+# with two CPU-bound processes beside it a browser session then did not reach STANDING
+# within 60 s, and with 4 workers a walk stopped under the request burst. Not taken.
 test: setup browser
-	$(BIN)/python -m pytest -n $(JOBS) --dist loadfile $(ARGS)
+	$(BIN)/python -m pytest -n auto --dist loadfile $(ARGS)
 
 bench: setup
 	$(BIN)/python benchmarks/bench_dynamics.py

@@ -29,20 +29,22 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-#: (label, the command's arguments after ``exoleg``) with ``{d}`` the job's folder and
-#: ``{child}`` the child file the first job writes; in the order they are started
+#: (label, the command's arguments after ``exoleg``) with ``{d}`` the job's folder,
+#: ``{child}`` the fitted child's file and ``{d0}`` the first job's session log; in the
+#: order they are started (beside the first, the jobs whose kernels it does not compile)
 JOBS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("walking with a child", ("run", "--backend", "sim", "--duration", "0.3", "--arm",
                               "--walk-after", "0.1", "--child", "{child}", "--no-realtime",
                               "--out", "{d}")),
     ("the paper's scenario", ("simulate", "--duration", "0.5", "--out", "{d}")),
+    ("the paper's actuators", ("simulate", "--actuators", "--duration", "0.5", "--no-engine",
+                               "--out", "{d}")),
+    ("the population", ("population", "--ages", "10", "--percentiles", "50", "--out", "{d}")),
     ("transparent walk", ("simulate", "--walk", "--strides", "1", "--controller",
                           "transparent", "--child", "{child}", "--out", "{d}")),
     ("assist-as-needed walk", ("simulate", "--walk", "--strides", "1", "--controller", "aan",
                                "--child", "{child}", "--out", "{d}")),
     ("impedance walk", ("simulate", "--walk", "--strides", "1", "--out", "{d}")),
-    ("the paper's actuators", ("simulate", "--actuators", "--duration", "0.5", "--no-engine",
-                               "--out", "{d}")),
     ("a session on the simulated device", ("run", "--backend", "sim", "--duration", "0.3",
                                            "--arm", "--walk-after", "0.1", "--no-realtime",
                                            "--out", "{d}")),
@@ -54,7 +56,6 @@ JOBS: tuple[tuple[str, tuple[str, ...]], ...] = (
                                  "--no-realtime", "--out", "{d}")),
     ("pd-gravity session", ("run", "--backend", "sim", "--controller", "pd-gravity",
                             "--duration", "0.3", "--arm", "--no-realtime", "--out", "{d}")),
-    ("the population", ("population", "--ages", "10", "--percentiles", "50", "--out", "{d}")),
     ("identification", ("identify", "--backend", "sim", "--duration", "10", "--no-realtime",
                         "--out", "{d}")),
     ("the detector", ("detect", "{d0}", "--out", "{d}")),
@@ -96,10 +97,10 @@ def compile_all(jobs: int | None = None, say=print) -> list[str]:  # type: ignor
                 f"({time.perf_counter() - t0:.0f} s)")
             return None if code == 0 else f"{label}: {err}"
 
-        # the first job's session is what the detector's job reads: it runs first
-        failed += filter(None, [one(0)])
         with ThreadPoolExecutor(jobs) as pool:
-            failed += filter(None, pool.map(one, range(1, len(JOBS))))
+            failed += filter(None, pool.map(one, range(len(JOBS) - 1)))
+        # the detector's job reads the first job's session: last
+        failed += filter(None, [one(len(JOBS) - 1)])
     return failed
 
 
