@@ -477,7 +477,9 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
         fill(phone, "duration", 120)
         press(phone, "arm-start")
         press(phone, "start")
-        wait_until("standing", lambda: text(phone, "ctl-mode") == "STANDING", timeout=60)
+        wait_until("standing", lambda: text(phone, "ctl-mode") == "STANDING", timeout=60,
+                   seen=lambda: (text(phone, "ctl-mode"), text(phone, "hdr-mode"),
+                                 text(phone, "message"), text(phone, "ended-text")))
         assert "for no child fitted: the paper's leg" in text(phone, "message")
         enabled = {b.get_attribute("data-command"): b.is_enabled()
                    for b in phone.find_elements("css selector", "[data-command]")}
@@ -573,7 +575,9 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
         if not phone.find_element("id", "arm-start").is_selected():  # the page reloaded
             press(phone, "arm-start")
         press(phone, "start")
-        wait_until("standing", lambda: text(phone, "ctl-mode") == "STANDING", timeout=60)
+        wait_until("standing", lambda: text(phone, "ctl-mode") == "STANDING", timeout=60,
+                   seen=lambda: (text(phone, "ctl-mode"), text(phone, "hdr-mode"),
+                                 text(phone, "message"), text(phone, "ended-text")))
         press(phone, "estop")
         banner = wait_until("the fault", lambda: phone.find_element(
             "id", "fault-banner").is_displayed() and text(phone, "fault-banner"))

@@ -54,9 +54,10 @@ def chromium(width: int = 1400, height: int = 1000) -> Any:
 
 
 def wait_until(what: str, check: Callable[[], Any], timeout: float = 30.0,
-               every: float = 0.05) -> Any:
+               every: float = 0.05, seen: Callable[[], Any] | None = None) -> Any:
     """``check()``'s first truthy value (an exception counts as not yet: a page still
-    loading, a server not yet up); an AssertionError naming ``what`` after ``timeout`` s."""
+    loading, a server not yet up); an AssertionError naming ``what`` after ``timeout`` s,
+    with what ``seen()`` then gives (what the page showed instead) when given."""
     deadline = time.time() + timeout
     last: Any = None
     while time.time() < deadline:
@@ -67,7 +68,11 @@ def wait_until(what: str, check: Callable[[], Any], timeout: float = 30.0,
         if last and not isinstance(last, Exception):
             return last
         time.sleep(every)
-    raise AssertionError(f"{what}: still {last!r} after {timeout:g} s")
+    try:
+        shown = f" (seen: {seen()!r})" if seen else ""
+    except Exception as e:
+        shown = f" (seen: {e!r})"
+    raise AssertionError(f"{what}: still {last!r} after {timeout:g} s{shown}")
 
 
 def free_port() -> int:
