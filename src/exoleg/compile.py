@@ -21,6 +21,7 @@ folder and is removed."""
 
 from __future__ import annotations
 
+import logging
 import os
 import subprocess
 import sys
@@ -60,6 +61,8 @@ JOBS: tuple[tuple[str, tuple[str, ...]], ...] = (
                         "--out", "{d}")),
     ("the detector", ("detect", "{d0}", "--out", "{d}")),
 )
+log = logging.getLogger(__name__)
+
 #: the job that writes the child file the others use
 FIT = ("fit", "--age", "10", "--sex", "female", "--height", "138", "--mass", "32",
        "--gmfcs", "2", "--spasticity", "moderate", "--no-simulate", "--out", "{d}")
@@ -71,10 +74,11 @@ def _exoleg(args: list[str], env: dict[str, str]) -> tuple[int, str]:
     return r.returncode, (r.stderr.strip().splitlines() or [""])[-1]
 
 
-def compile_all(jobs: int | None = None, say=print) -> list[str]:  # type: ignore[no-untyped-def]
+def compile_all(jobs: int | None = None) -> list[str]:
     """Run :data:`JOBS` in ``jobs`` processes at once (default: the CPUs this process
-    may use); returns the jobs that failed, each with its last line of error (a job's
-    failure leaves that command to compile on first use: nothing else depends on it)."""
+    may use), each said as it ends (logging, INFO); returns the jobs that failed, each
+    with its last line of error (a job's failure leaves that command to compile on first
+    use: nothing else depends on it)."""
     jobs = jobs or len(os.sched_getaffinity(0))
     env = {**os.environ, "MPLBACKEND": "Agg"}
     failed: list[str] = []
@@ -93,8 +97,8 @@ def compile_all(jobs: int | None = None, say=print) -> list[str]:  # type: ignor
                 return None
             code, err = _exoleg([a.format(d=root / f"job{k}", child=child, d0=first / "session.log")
                                  for a in args], env)
-            say(f"exoleg.compile: {label}: {'done' if code == 0 else 'FAILED'} "
-                f"({time.perf_counter() - t0:.0f} s)")
+            log.info("exoleg.compile: %s: %s (%.0f s)", label,
+                     "done" if code == 0 else "FAILED", time.perf_counter() - t0)
             return None if code == 0 else f"{label}: {err}"
 
         with ThreadPoolExecutor(jobs) as pool:
@@ -105,11 +109,12 @@ def compile_all(jobs: int | None = None, say=print) -> list[str]:  # type: ignor
 
 
 def main() -> int:
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
     t0 = time.perf_counter()
     failed = compile_all()
-    print(f"exoleg.compile: numba's cache filled in {time.perf_counter() - t0:.0f} s"
-          + (f"; {len(failed)} jobs failed (they compile on first use): "
-             + "; ".join(failed) if failed else ""))
+    log.info("exoleg.compile: numba's cache filled in %.0f s%s", time.perf_counter() - t0,
+             f"; {len(failed)} jobs failed (they compile on first use): " + "; ".join(failed)
+             if failed else "")
     return 0
 
 
