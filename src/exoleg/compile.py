@@ -11,13 +11,12 @@ process that starts on the empty cache at the same time compiles the same code a
 (the test suite's workers and the commands they start: 70 s of its wall time).
 
 This runs each command that compiles something on a small job of its own -- the paper's
-scenario, a walk in every support mode with a child as an actor, the runtime's compiled
-and Python loops on the simulated device and both simulated buses, the fitting and
-population batch, identification, the design screen, the detector -- in ``jobs``
-processes at once (numba's cache is safe across processes: :mod:`exoleg._cache`). The
-kernels are those the commands use, with the types they are called with; a source
-edited later recompiles on its next use as before. Its own output goes to a temporary
-folder and is removed."""
+scenario and its actuators, a walk in every support mode with a fitted child as an actor,
+sessions on the simulated device and both simulated buses, the population batch,
+identification, the detector (:data:`JOBS`) -- in as many processes at once as CPUs
+(numba's cache is safe across processes: :mod:`exoleg._cache`). The kernels are those
+the commands use, with the types they are called with; a source edited later recompiles
+on its next use as before. Its own output goes to a temporary folder and is removed."""
 
 from __future__ import annotations
 
@@ -29,6 +28,8 @@ import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+
+log = logging.getLogger(__name__)
 
 #: (label, the command's arguments after ``exoleg``) with ``{d}`` the job's folder,
 #: ``{child}`` the fitted child's file and ``{d0}`` the first job's session log; in the
@@ -61,8 +62,6 @@ JOBS: tuple[tuple[str, tuple[str, ...]], ...] = (
                         "--out", "{d}")),
     ("the detector", ("detect", "{d0}", "--out", "{d}")),
 )
-log = logging.getLogger(__name__)
-
 #: the job that writes the child file the others use
 FIT = ("fit", "--age", "10", "--sex", "female", "--height", "138", "--mass", "32",
        "--gmfcs", "2", "--spasticity", "moderate", "--no-simulate", "--out", "{d}")
