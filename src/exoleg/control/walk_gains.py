@@ -43,15 +43,9 @@ class WalkGains:
                 raise ParameterError(w, name, f"gains are 0-1e4 per joint, got {v.tolist()}")
             object.__setattr__(self, name, v)
         object.__setattr__(self, "standing", _check.vector(w, "standing", list(self.standing), 3))
-        s = _check.finite(w, "support", self.support)
-        if not 0.0 <= s <= 1.0:
-            raise ParameterError(w, "support", f"{s:g} is outside 0-1")
-        object.__setattr__(self, "support", s)
-        b = _check.finite(w, "stand_blend", self.stand_blend)
-        if not STAND_BLEND_S[0] <= b <= STAND_BLEND_S[1]:
-            raise ParameterError(w, "stand_blend", f"{b:g} s is outside "
-                                 f"{STAND_BLEND_S[0]:g}-{STAND_BLEND_S[1]:g} s")
-        object.__setattr__(self, "stand_blend", b)
+        object.__setattr__(self, "support", _check.within(w, "support", self.support, 0.0, 1.0))
+        object.__setattr__(self, "stand_blend", _check.within(
+            w, "stand_blend", self.stand_blend, *STAND_BLEND_S, unit="s"))
 
     @classmethod
     def default(cls, folder: str | Path | None = None) -> WalkGains:
