@@ -307,10 +307,17 @@ def test_every_stop_is_explained_on_every_page(console: Any) -> None:
         c.take()
 
         def on_every_page(folder: Path, run: dict[str, Any], cause: str) -> None:
+            # until the page's next poll it may still show the session before's ending
+            # (kept until acknowledged): wait for this one's, then hold it to run.json
+            def this_end(page: Any) -> str | bool:
+                said = text(page, "ended-banner")
+                return page.find_element("id", "ended-banner").is_displayed() and (
+                    f"Session {folder.name} ended" in said) and said
+
             for page in (desk, phone):
-                said = wait_until(f"{cause}: the reason on the page", lambda p=page: p.find_element(
-                    "id", "ended-banner").is_displayed() and text(p, "ended-banner"), 10)
-                assert f"Session {folder.name} ended" in said and run["stopped_by"] in said
+                said = wait_until(f"{cause}: the reason on the page", lambda p=page: this_end(p),
+                                  10, seen=lambda p=page: text(p, "ended-banner"))
+                assert run["stopped_by"] in said
                 assert text(page, "hdr-mode") == "-" and text(page, "t-session") == "-"
             shot(phone, f"ended-{cause}")
 
