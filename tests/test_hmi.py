@@ -279,8 +279,15 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
     # with two CPU-bound processes; 136 ms once in CI beside another worker's files);
     # the bound here is the page's own, ESTOP_WAIT_MS, beyond which it says the E-stop
     # did not reach the device and sends it again (test_hmi_safety.py's case 4).
-    assert 0.0 < applied[0]["after_request_ms"] < BEAT_CHECK_TICKS * 1.0  # 1 ms a tick
-    assert applied[0]["after_request_ms"] < applied[0]["after_click_ms"] < ESTOP_WAIT_MS
+    # A page that had no answer within ESTOP_WAIT_MS said so and sent it again (each try
+    # carries the press's time): once in a full run on two cores the first try's answer
+    # came late and the retry was the one applied.
+    first = applied[0]
+    assert 0.0 < first["after_request_ms"] < BEAT_CHECK_TICKS * 1.0, first  # 1 ms a tick
+    assert first["after_request_ms"] < first["after_click_ms"], first
+    if first["after_click_ms"] >= ESTOP_WAIT_MS:
+        wait_until(f"a late E-stop said on the page ({first})", lambda: "(sent " in text(
+            v, "message"), 10, seen=lambda: text(v, "message"))
     d.find_element("id", "end").click()
     folder = ada_folder(hmi)
     wait_until("the session's summary", lambda: (folder / "run.json").exists(), timeout=30)

@@ -118,7 +118,7 @@ async function estop(ev) {
     let r = null;
     try {
       r = await fetch("/api/estop", {method: "POST", signal: ctl.signal, headers: authHeaders(),
-        body: JSON.stringify(n ? {} : {clicked_at: clicked})});
+        body: JSON.stringify({clicked_at: clicked})});  // each try: the one that arrives is timed from the press
     } catch (e) {
       r = null;  // no answer within ESTOP_WAIT_MS, or no connection
     }
