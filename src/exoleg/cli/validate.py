@@ -55,15 +55,24 @@ def _transparency(strides: int) -> int:
 
     reach = v.rows[-1]["rms_Nm_per_kg"]
     _table([[b["joint"], *(f"{b['floors_Nm_per_kg'][k]:.3f}" for k in LIMITS),
-             f"{b['floor_all_Nm_per_kg']:.3f}", f"{b['gear_mode_hz']:.0f}",
-             f"{reach[b['joint']]:.3f}"] for b in v.floors],
+             f"{b['floor_all_Nm_per_kg']:.3f}", f"{b['floor_loop_Nm_per_kg']:.3f}",
+             f"{b['gear_mode_hz']:.0f}", f"{reach[b['joint']]:.3f}",
+             f"{100 * (reach[b['joint']] / b['floor_loop_Nm_per_kg'] - 1):+.0f} %"]
+            for b in v.floors],
            ["joint", *(f"{k} N m/kg" for k in LIMITS), "all together N m/kg",
-            "gear's first mode Hz", "the law reaches N m/kg"],
+            "with the loop's lag N m/kg", "gear's first mode Hz", "the law reaches N m/kg",
+            "above the loop's floor"],
            title="the physical floor along the walk's own motion: what each limit of the "
                  "actuators' datasheets alone leaves the child of the device alone's need "
-                 "(RMS per kg), all of them together (the drive's envelope), the rotor on "
-                 "the gear's stiffness (bounding any torque loop's bandwidth), beside the "
-                 "law's residual on the same motion")
+                 "(RMS per kg), all of them together (the drive's envelope), and with the "
+                 "loop's lag (a law that knows the device exactly, a tick behind at 1 kHz, "
+                 "through the drive's torque loop); the rotor on the gear's stiffness "
+                 "(bounding any torque loop's bandwidth); beside the law's residual on the "
+                 "same motion")
+    _say("of the device's need, the pelvis's vertical acceleration asks "
+         + ", ".join(f"{b['joint']} {b['pelvis_Nm_per_kg']:.3f}" for b in v.floors)
+         + " N m/kg RMS: the transparent law leaves it to the child (no sensor on the "
+           "device reads it)")
     _table([[r["parts"], *(f"{r['rms_Nm_per_kg'][j]:.3f} ({r['rms_Nm'][j]:.1f})"
                            for j in JOINTS)] for r in v.rows],
            ["transparent law's parts", *(f"{j} N m/kg (N m)" for j in JOINTS)],

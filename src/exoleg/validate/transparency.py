@@ -28,8 +28,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
+from exoleg.device.drive import current_loop, drive_limit
+from exoleg.dynamics.kernels import mass_height_terms
 from exoleg.params.records import JOINTS
 
 F64 = NDArray[np.float64]
@@ -202,13 +205,60 @@ def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
                         run=r, floors=walk_floors(r, leg, config))
 
 
+def loop_floor(act: Any, need: F64, w: F64, h: float, body_mass: float) -> float:
+    """What a law that knows the device alone's ``need`` (N m per tick of ``h`` s: each
+    tick's mean) exactly leaves the child, RMS per kg of ``body_mass``, through the loop
+    that delivers it: at each tick it has the need of the ticks before (the sensors are
+    read at the tick's start; what the tick will ask depends on its own accelerations)
+    and extrapolates it along their last difference, commands that within the drive's
+    envelope at the last speed ``w`` (rad/s), and the drive's torque loop -- the current
+    loop, or behind a spring the torque loop -- delivers it as a first order of its
+    bandwidth (:func:`~exoleg.device.drive.current_loop`, the tick's mean). Beside
+    :func:`limit_floors` it adds the control rate and the torque loop's lag: an impact
+    that stops the rotors within a tick is felt whatever the law. A ramp of slope ``a``
+    N m/s within the limits leaves ``a / (2 pi f_c)`` (the first order's lag)."""
+    import dataclasses
+
+    if act.compliant:  # the torque loop on the spring stands where the current loop is
+        act = dataclasses.replace(act, current_loop_bandwidth=act.torque_loop_bandwidth)
+    left = np.zeros(len(need))
+    _loop_left(act.record(), need, w, h, left)
+    return _rms(left[2:]) / body_mass
+
+
+@njit(cache=True)
+def _loop_left(A, need, w, h, left):  # type: ignore[no-untyped-def]
+    """:func:`loop_floor`'s ticks: what is left of ``need`` at each into ``left``."""
+    tau = 0.0
+    for k in range(2, len(need)):
+        p = 2.0 * need[k - 1] - need[k - 2]
+        lim = drive_limit(A, w[k - 1], p)
+        tau, mean = current_loop(A, tau, min(max(p, -lim), lim), h)
+        left[k] = need[k] - mean
+
+
+@njit(cache=True)
+def _pelvis_terms(q, dq, p, ddy, out):  # type: ignore[no-untyped-def]
+    """What the pelvis's vertical acceleration ``ddy`` asks of the links ``p`` at each
+    sample (:func:`~exoleg.dynamics.kernels.mass_height_terms`' gradient) into ``out``."""
+    for k in range(len(ddy)):
+        y0, y1, y2, _, _ = mass_height_terms(q[k], dq[k], p)
+        out[k, 0] = y0 * ddy[k]
+        out[k, 1] = y1 * ddy[k]
+        out[k, 2] = y2 * ddy[k]
+
+
 def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None
                 ) -> list[dict[str, Any]]:
-    """Per joint, :func:`limit_floors` of the device alone's need along a walk's own
-    motion (``r``: a :class:`~exoleg.sim.walk.WalkResult`; its angles and rates, their
-    acceleration by central differences) from ``after`` s (default: :data:`SETTLE_STRIDES`
-    strides after its start): the floor the transparent law's residual on that walk is
-    to be judged against."""
+    """Per joint, :func:`limit_floors` and :func:`loop_floor` of the device alone's need
+    along a walk's own motion (``r``: a :class:`~exoleg.sim.walk.WalkResult`; its angles
+    and rates, their acceleration and the pelvis's vertical one by central differences:
+    the device's links carry the pelvis's bounce too, as
+    :func:`~exoleg.child.interaction.interaction_torque` counts it) from ``after`` s
+    (default: :data:`SETTLE_STRIDES` strides after its start): the floor the transparent
+    law's residual on that walk is to be judged against (``floor_loop_Nm_per_kg``: every
+    limit and the loop's lag together); ``pelvis_Nm_per_kg``, the RMS of the need's part
+    from the pelvis's vertical acceleration."""
     from exoleg.child.interaction import device_leg
     from exoleg.device.actuator import params_array
     from exoleg.device.drive import friction
@@ -218,13 +268,17 @@ def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None
     dt = float(r.t[1] - r.t[0])
     q, dq = r.q[sel], r.dq[sel]
     ddq = np.gradient(r.dq, dt, axis=0)[sel]
+    ddy = np.gradient(np.gradient(r.pelvis, dt), dt)[sel]
     dev = device_leg(leg, config.actuators)
     A = params_array(config.actuators)
-    need = dev.inverse_dynamics(q, dq, ddq) + np.array(
+    pelvis = np.zeros_like(q)
+    _pelvis_terms(q, dq, dev.p, ddy, pelvis)
+    need = dev.inverse_dynamics(q, dq, ddq) + pelvis + np.array(
         [[friction(A[j:j + 1], w) for j, w in enumerate(row)] for row in dq])
-    return [{"joint": joint, **limit_floors(config.actuators[j], need[:, j], dq[:, j],
-                                            r.body_mass)}
-            for j, joint in enumerate(JOINTS)]
+    return [{"joint": joint, **limit_floors(act, need[:, j], dq[:, j], r.body_mass),
+             "floor_loop_Nm_per_kg": loop_floor(act, need[:, j], dq[:, j], dt, r.body_mass),
+             "pelvis_Nm_per_kg": _rms(pelvis[:, j]) / r.body_mass}
+            for j, (joint, act) in enumerate(zip(JOINTS, config.actuators, strict=True))]
 
 
 def _rms(x: F64) -> float:
