@@ -39,13 +39,15 @@ def main() -> None:
     cfg = DeviceConfig.load()
     d = cfg.detector.record(cfg.fsr_floor_counts, 1.1, cfg.sensors.gyro_range,
                             cfg.sensors.accel_range)
-    detect_all(d, gp.new_state(d), counts[:1000], gyro[:1000], acc[:1000], t[:1000])
+    other = np.full_like(counts, np.nan)  # no insole under the other foot
+    detect_all(d, gp.new_state(d), counts[:1000], gyro[:1000], acc[:1000], t[:1000],
+               other[:1000])
     for label, c in (("FSRs and IMU", counts), ("the IMU alone", np.full_like(counts, np.nan))):
         ticks = []
         for _ in range(5):
             st = gp.new_state(d)
             t0 = time.perf_counter()
-            bits = detect_all(d, st, c, gyro, acc, t)
+            bits = detect_all(d, st, c, gyro, acc, t, other)
             ticks.append((time.perf_counter() - t0) / len(t))
         tick = min(ticks) * 1e9
         events = int(np.count_nonzero(bits & gp.Event.IC))

@@ -115,13 +115,26 @@ def test_the_device_readings_at_100_hz_against_the_true_contacts(walk, tmp_path:
         assert row["median_abs_error_ms"] <= median and row["p95_abs_error_ms"] <= p95, row
 
 
-def test_a_session_log_gives_the_sessions_own_events(tmp_path: Path) -> None:
+@pytest.mark.parametrize("insole", [False, True], ids=["one foot", "both feet"])
+def test_a_session_log_gives_the_sessions_own_events(tmp_path: Path, insole: bool) -> None:
     # exoleg run on the simulated device logs the events its controller detected each
-    # tick; the same detector over the log's counts finds them again.
+    # tick; the same detector over the log's counts finds them again -- with the
+    # unassisted foot's insole fitted too (a device folder's sensors.toml [other_foot]):
+    # its readings logged, and read back by the replay as the controller read them
+    from importlib import resources
+
     session = tmp_path / "session"
+    device = []
+    if insole:
+        folder = tmp_path / "device"
+        folder.mkdir()
+        text = resources.files("exoleg").joinpath("data", "device", "sensors.toml").read_text()
+        assert "fitted = false" in text
+        (folder / "sensors.toml").write_text(text.replace("fitted = false", "fitted = true"))
+        device = ["--device", str(folder)]
     r = subprocess.run([sys.executable, "-m", "exoleg.cli", "run", "--duration", "5",
-                        "--arm", "--walk-after", "1", "--no-realtime", "--out", str(session)],
-                       capture_output=True, text=True, timeout=300, check=False)
+                        "--arm", "--walk-after", "1", "--no-realtime", "--out", str(session),
+                        *device], capture_output=True, text=True, timeout=300, check=False)
     assert r.returncode == 0, (r.stdout[:300], r.stderr)
     out = tmp_path / "events.csv"
     r = _detect(str(session), "--out", str(out))
@@ -129,6 +142,10 @@ def test_a_session_log_gives_the_sessions_own_events(tmp_path: Path) -> None:
     from exoleg.session_log import read_log
 
     _, cols, _ = read_log(session / "session.log")
+    other = np.stack([cols[f"fsr_other_{s}"] for s in ("heel", "met1", "met5", "hallux")])
+    assert np.all(np.isfinite(other)) == insole and np.all(np.isnan(other)) != insole
+    if insole:  # the other leg stepping: its insole loaded and unloaded while walking
+        assert other.sum(axis=0).max() > 1000 and other.sum(axis=0).min() < 100
     logged = _events(cols["events"].astype(np.int64), cols["t"])
     assert len(logged) >= 6  # walking: contacts and toe offs
     got = [(round(float(t), 6), e) for t, e in

@@ -153,9 +153,12 @@ class SupportMode(IntEnum):
 #: and accelerations (m/s^2, foot frame), the operator's command (:class:`Command`),
 #: and the torque the cuffs transmit to the child per joint (N m,
 #: :mod:`exoleg.child.interaction`: the simulated device's own; NaN where a device has
-#: no cuff or joint-torque sensor, as the drives on the buses have not).
+#: no cuff or joint-torque sensor, as the drives on the buses have not), and the
+#: unassisted foot's insole, four FSRs in :data:`SENSOR_POINTS`' order (ADC counts; NaN
+#: where none is fitted).
 SENSORS = np.dtype([("q", F8, 3), ("dq", F8, 3), ("fsr", F8, 4), ("gyro", F8),
-                    ("accel", F8, 2), ("command", I8), ("interaction", F8, 3)])
+                    ("accel", F8, 2), ("command", I8), ("interaction", F8, 3),
+                    ("fsr_other", F8, 4)])
 
 #: What a controller gives each tick: the torque to the drives (N m), the supervisor's
 #: mode (:class:`Mode`), the gait phase (:class:`Phase`), the
@@ -230,7 +233,8 @@ class TickRecords:
 
     def read(self, sensors: Mapping[str, Any], command: Any) -> None:
         """Check one tick's readings and command and put them into :attr:`sens`: ``q``,
-        ``dq`` (3) and ``fsr`` (4) required, ``gyro`` and ``accel`` optional (0); a wrong
+        ``dq`` (3) and ``fsr`` (4) required, ``gyro`` and ``accel`` optional (0),
+        ``interaction`` (3) and ``fsr_other`` (4) optional (NaN: not measured); a wrong
         shape or kind, or an unknown command, is a ParameterError naming the field."""
         w, v = self.where, self._in
         if not isinstance(sensors, Mapping):
@@ -241,9 +245,9 @@ class TickRecords:
         v["fsr"][:] = _check.reading(w, "fsr", sensors.get("fsr"), 4)
         if "accel" in sensors:
             v["accel"][:] = _check.reading(w, "accel", sensors["accel"], 2)
-        it = sensors.get("interaction")
-        v["interaction"][:] = np.nan if it is None else _check.reading(
-            w, "interaction", it, 3)
+        for name, n in (("interaction", 3), ("fsr_other", 4)):  # NaN: not measured
+            x = sensors.get(name)
+            v[name][:] = np.nan if x is None else _check.reading(w, name, x, n)
         g = sensors.get("gyro", 0.0)
         v["gyro"][0] = g if type(g) is float else _check.reading(w, "gyro", [g], 1)[0]
         if isinstance(command, bool) or not isinstance(command, (int, np.integer)) \

@@ -15,6 +15,7 @@ SET = gp.DetectorSettings.default()
 FLOOR = 200.0
 D = SET.record(FLOOR, 1.0)
 NO_ACC = np.full(2, np.nan)  # no accelerometer reading
+NO_OTHER = np.full(4, np.nan)  # no insole under the other foot
 _BOARD = FootSensors.default()
 TOP = float(2**_BOARD.adc_bits - 1)  # the ADC's full scale, counts
 
@@ -133,7 +134,8 @@ def _ticks(counts: np.ndarray, gyro: np.ndarray, t: np.ndarray, acc: np.ndarray 
     src = np.empty(len(t), dtype=np.int64)
     bearing = np.empty(len(t), dtype=bool)
     for k in range(len(t)):
-        ev[k] = gp.detect(d, st, counts[k], gyro[k], acc[k] if acc.ndim == 2 else acc, t[k])
+        ev[k] = gp.detect(d, st, counts[k], gyro[k], acc[k] if acc.ndim == 2 else acc, t[k],
+                          NO_OTHER)
         src[k], bearing[k] = st[0]["source"], st[0]["bearing"]
     return ev, src, bearing, st
 

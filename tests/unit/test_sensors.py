@@ -71,3 +71,26 @@ def test_the_boards_counts_read_back_as_newtons() -> None:
         step = b.newtons(c + 1) - b.newtons(c)  # one count's force there
         assert abs(b.newtons(c) - force) <= step, (force, c)
     assert b.newtons(0.0) == 0.0
+
+
+def test_the_other_foots_load_rolls_from_heel_to_toes() -> None:
+    # other_loads by hand from its definition (sensors.toml [other_foot]: the heel's share
+    # falls to none by heel_until, the hallux takes up to half of the forefoot's from
+    # hallux_from, the metatarsal heads the rest 55 / 45): the whole load on the insole
+    # at every point of the stance, all on the heel at the strike, half on the hallux at
+    # the toe off, none beyond the stance's ends
+    from exoleg.device.sensors import other_loads
+
+    assert (SENS.other_foot, SENS.other_heel_until, SENS.other_hallux_from) == (
+        False, 0.6, 0.5)  # not on the paper's device
+    out = np.zeros(4)
+    for p, want in ((0.0, [400, 0, 0, 0]), (0.3, [200, 110, 90, 0]),
+                    (0.75, [0, 165, 135, 100]), (1.0, [0, 110, 90, 200]),
+                    (-1.0, [400, 0, 0, 0]), (2.0, [0, 110, 90, 200])):
+        other_loads(REC, 400.0, p, out)
+        assert out == pytest.approx(want, abs=1e-9), p
+    for p in np.linspace(0.0, 1.0, 41):
+        other_loads(REC, 400.0, p, out)
+        assert out.sum() == pytest.approx(400.0, rel=1e-12) and np.all(out >= 0.0)
+    other_loads(REC, -5.0, 0.5, out)  # the support never pulls
+    assert np.all(out == 0.0)

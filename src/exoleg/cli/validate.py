@@ -8,6 +8,7 @@ from typing import Any
 
 from exoleg.cli._common import _count, _say, _table
 from exoleg.cli.simulate_walk import _DETECTION_HEADER, _detection_rows
+from exoleg.errors import ParameterError
 
 
 def _ms(x: float) -> str:
@@ -162,12 +163,19 @@ def cmd_validate(args: argparse.Namespace) -> int:
         ok = all(r.g_max_pct <= 3.0 and r.g_rms_pct <= 1.0 for r in done) and all(
             r.walk_identified_pct <= 10.0 for r in carried)
         return 0 if ok else 1
+    if args.other_foot and not args.gait_phase:
+        raise ParameterError("exoleg validate", "--other-foot", "goes with --gait-phase "
+                             "(the detector's check with both feet's FSRs)")
     if args.transparency:
         return _transparency(args.strides or 10)
     if args.gait_phase:
         from exoleg.validate.gait_phase import evaluate
 
-        v = evaluate(strides=args.strides or 20)
+        v = evaluate(strides=args.strides or 20, other_foot=args.other_foot)
+        if args.other_foot:
+            _say("both feet's FSRs: the unassisted foot's insole fitted in every walk and "
+                 "replay (its load bounds the device's foot's stance: no lift while the "
+                 "other foot is off the ground)")
         rows, rows_ok, runs, faults = v.rows, v.rows_ok, v.runs, v.faults
         _table([[r.child, f"x{r.noise:g}", f"{r.stride_time:g} s", str(r.strides),
                  "stopped by the safety layer" if r.fault else "ok"] for r in runs],
@@ -217,6 +225,9 @@ def add_parser(sub: Any) -> None:
     v.add_argument("--quick", action="store_true", help="fewer random legs and states")
     v.add_argument("--gait-phase", action="store_true",
                    help="the gait-phase detector against the true contacts: children x noise")
+    v.add_argument("--other-foot", action="store_true",
+                   help="with --gait-phase: the unassisted foot's insole fitted too (both "
+                        "feet's FSRs) in every walk and replay")
     v.add_argument("--strides", type=_count(1, 1000), metavar="N",
                    help="with --gait-phase (default 20), --transparency (default 10) or "
                         "--cp-child (default 12): strides per walk, 1-1000")

@@ -228,11 +228,12 @@ def _held_landing(D, s, counts, t):  # type: ignore[no-untyped-def]
 
 
 @njit(inline="always")
-def _fsr_path(D, s, counts, gyro, gyro_ok, strike, t):  # type: ignore[no-untyped-def]
+def _fsr_path(D, s, counts, gyro, gyro_ok, strike, t, bears):  # type: ignore[no-untyped-def]
     """The FSRs' path, the gyroscope fused when it reads: this tick's events. ``strike``:
     the foot's IMU reads the foot striking the ground (:func:`detect`) -- the initial
     contact when the heel's sensor read no load last stance (failed, or a child landing
-    on the forefoot)."""
+    on the forefoot). ``bears``: whether the other foot bears the body (or is not read):
+    while it does not, this foot does, whatever its sensors read (:func:`_other_bears`)."""
     total = 0.0
     for i in range(4):
         if counts[i] > s.max[i]:
@@ -256,7 +257,7 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, strike, t):  # type: ignore[no-untype
         s.heel_now = True
     # the whole foot unloaded, too: a load spread over several sensors, each below its own
     # threshold, is still a foot on the ground
-    lifted = not h and not f and \
+    lifted = bears and not h and not f and \
         (total - base) / max(s.total_max - base, D.floor) < D.contact_off
     swinging = False
     if gyro_ok and gyro > _swing_level(D, s):
@@ -420,15 +421,33 @@ def _imu_path(D, s, gyro, acc_dev, strike, acc_ok, t):  # type: ignore[no-untype
     return ev
 
 
+@njit(inline="always")
+def _other_bears(D, s, other):  # type: ignore[no-untyped-def]
+    """Whether the unassisted foot bears the body: its insole's four readings' sum above
+    the calibration floor and ``other_bears`` of the largest sum it has read. Walking
+    has no flight: while the other foot is off the ground (or barely on it), the device's
+    foot bears the body, and a lift its own sensors read is load between them. True
+    when its insole is not fitted or not reading (NaN)."""
+    if D.other_foot == 0.0:
+        return True
+    total = other[0] + other[1] + other[2] + other[3]
+    if not math.isfinite(total):
+        return True
+    s.other_max = max(s.other_max, total)
+    return total >= max(D.floor, D.other_bears * s.other_max)
+
+
 @njit(cache=True)
-def detect(d, st, counts, gyro, acc, t):  # type: ignore[no-untyped-def]
+def detect(d, st, counts, gyro, acc, t, other):  # type: ignore[no-untyped-def]
     """One reading of the four FSRs (ADC counts: heel, met1, met5, hallux; NaN: none), the
     foot's gyroscope (its sagittal rate, rad/s; NaN: none) and accelerometer (x, y
-    specific force in the foot frame, m/s^2; NaN: none) at time t. ``d``:
-    :data:`SETTINGS`, ``st``: :data:`STATE` (updated). Returns the events (bits of
+    specific force in the foot frame, m/s^2; NaN: none) at time t, and the unassisted
+    foot's insole's four (``other``; read when :data:`SETTINGS` says it is fitted).
+    ``d``: :data:`SETTINGS`, ``st``: :data:`STATE` (updated). Returns the events (bits of
     :class:`Event`) of this tick."""
     D = d[0]
     s = st[0]
+    bears = _other_bears(D, s, other)
     # the sources' health: a reading missing (NaN), at its range (saturated) or unchanged
     # for frozen_time (a sensor's noise always moves it) is not used
     gyro_ok = math.isfinite(gyro) and abs(gyro) < D.gyro_range
@@ -488,7 +507,7 @@ def detect(d, st, counts, gyro, acc, t):  # type: ignore[no-untyped-def]
             s.swing_jump = max(s.swing_jump, s.jumps[1])
             s.jumps[1], s.jumps[0], s.jump_t = s.jumps[0], 0.0, t
         s.jumps[0] = max(s.jumps[0], min(jump, D.accel_range))  # a saturation: the range
-    ev_f = _fsr_path(D, s, counts, gyro, gyro_ok, strike, t) if fsr_ok else 0
+    ev_f = _fsr_path(D, s, counts, gyro, gyro_ok, strike, t, bears) if fsr_ok else 0
     ev_i = 0
     if gyro_ok:
         ev_i = _imu_path(D, s, gyro, acc_dev, strike, acc_ok, t)

@@ -56,6 +56,7 @@ class DetectorSettings:
     held_swing: float  # of the stride
     frozen_time: float  # s
     fsr_silent_strides: float
+    other_bears: float = 0.1  # of the other foot's span of load
 
     def __post_init__(self) -> None:
         w = "DetectorSettings"
@@ -117,7 +118,9 @@ class DetectorSettings:
             "impact_ms": (1.0, 100.0, "ms"), "impact_swing": (0.0, 1.0, ""),
             "unload_turn": (0.05, 1.0, ""), "held_band": (0.0, 0.5, ""),
             "held_ms": (1.0, 500.0, "ms"), "held_swing": (0.1, 1.0, ""),
-            "frozen_ms": (10.0, 10000.0, "ms"), "fsr_silent_strides": (1.0, 10.0, "")})
+            "frozen_ms": (10.0, 10000.0, "ms"), "fsr_silent_strides": (1.0, 10.0, "")},
+            optional=("source", "other_bears"))
+        other = _check.within(where, "other_bears", d.get("other_bears", 0.1), 0.05, 0.95, "")
         if "stride_accept" not in d:
             raise ParameterError(where, "stride_accept", "missing ([lower, upper] multiples)")
         acc = _check.vector(where, "stride_accept", d["stride_accept"], 2)
@@ -147,17 +150,19 @@ class DetectorSettings:
                        held_band=v["held_band"], held_time=v["held_ms"] / 1e3,
                        held_swing=v["held_swing"],
                        frozen_time=v["frozen_ms"] / 1e3,
-                       fsr_silent_strides=v["fsr_silent_strides"])
+                       fsr_silent_strides=v["fsr_silent_strides"], other_bears=other)
         except ParameterError as e:  # a rule across fields: name the file
             raise ParameterError(where, e.field, e.problem) from None
 
     def record(self, floor_counts: float, expected_stride: float,
-               gyro_range: float = math.inf, accel_range: float = math.inf
-               ) -> NDArray[np.void]:
+               gyro_range: float = math.inf, accel_range: float = math.inf,
+               other_foot: bool = False) -> NDArray[np.void]:
         """For :func:`detect` (:data:`SETTINGS`): thresholds, times, the calibration
         floor in counts, the expected stride time, the IMU's ranges (rad/s, m/s^2: a
-        reading at its range is saturated)."""
+        reading at its range is saturated), whether the unassisted foot's insole is
+        fitted (its readings are read only then)."""
         r = new(SETTINGS)
+        r["other_foot"] = 1.0 if other_foot else 0.0
         for f in fields(self):  # every setting the record holds as it is
             if f.name in _RECORD_NAMES:
                 r[f.name] = getattr(self, f.name)
@@ -170,7 +175,9 @@ class DetectorSettings:
 #: The detector's settings as :func:`detect` reads them (:meth:`DetectorSettings.record`):
 #: thresholds (normalised), the calibration floor (ADC counts), times (s), the stride
 #: rules, the stride time expected before any is measured (s), the IMU's rules (rad/s,
-#: m/s^2, s) and ranges (a reading at its range is saturated).
+#: m/s^2, s) and ranges (a reading at its range is saturated), the share of its span of
+#: load above which the unassisted foot bears the body and whether its insole is fitted
+#: (1/0).
 SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("floor", F8),
                      ("debounce", F8), ("min_swing", F8), ("min_stance", F8),
                      ("strides_averaged", I8), ("accept_lo", F8), ("accept_hi", F8),
@@ -186,5 +193,5 @@ SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("floor", F8),
                      ("impact_time", F8), ("impact_swing", F8), ("unload_turn", F8),
                      ("held_band", F8), ("held_time", F8), ("held_swing", F8),
                      ("frozen_time", F8), ("fsr_silent_strides", F8), ("gyro_range", F8),
-                     ("accel_range", F8)])
+                     ("accel_range", F8), ("other_bears", F8), ("other_foot", F8)])
 _RECORD_NAMES = frozenset(SETTINGS.names or ())

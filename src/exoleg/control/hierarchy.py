@@ -239,7 +239,7 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
         R.t_stand = -1.0
     qm = s.q
     vm = s.dq
-    ev = gp.detect(d, st, s.fsr, s.gyro, s.accel, t)
+    ev = gp.detect(d, st, s.fsr, s.gyro, s.accel, t, s.fsr_other)
     phase = st[0].phase
     qr, dqr, ddqr, G, cmd = R.qr, R.dqr, R.ddqr, R.gravity, R.command
     aan, err, level, tau_ref, tr = R.aan, R.error, R.level, R.tau_ref, R.tr
@@ -382,7 +382,9 @@ class WalkController:
     ``actuators``: the device alone's parameters and the actuators' records (what the
     transparent law compensates; without them only the impedance mode is offered),
     ``transparency``, ``assist``: those laws' settings, ``support_mode``: the mode it
-    starts in. Returns the
+    starts in; ``other_foot``: whether the unassisted foot's insole is fitted (its
+    readings, ``fsr_other``, bound the foot's stance: :func:`~exoleg.control.gait_phase.detect`).
+    Returns the
     :data:`~exoleg.control.contract.OUTPUT` fields as a dict (:meth:`TickRecords.result`):
     ``tau`` (3,) N m for the drives, ``mode``, ``phase``, ``gait_fraction``, ``events``,
     ``safety_status``, ``q_ref``, ``fault``, ``fault_joint``, ``fault_value``,
@@ -398,7 +400,7 @@ class WalkController:
                  actuators: NDArray[np.void] | None = None,
                  transparency: TransparencySettings | None = None,
                  support_mode: SupportMode = SupportMode.IMPEDANCE,
-                 assist: AssistSettings | None = None) -> None:
+                 assist: AssistSettings | None = None, other_foot: bool = False) -> None:
         from exoleg.device.sensors import SENSOR_X
 
         w = "WalkController"
@@ -420,7 +422,7 @@ class WalkController:
         self.gq, self.gdq = gait_tables(speed)
         self.cp[0]["stop_fraction"] = stop_fraction(leg, self.gq)
         self.d = self.detector.record(fsr_floor_counts, expected_stride, gyro_range,
-                                      accel_range)
+                                      accel_range, other_foot)
         self.st = gp.new_state(self.d)
         self.lim, self.sst, self.sup = self.safety.record(), sf.new_state(), new(SUPERVISOR)
         self.ref = new_reference()

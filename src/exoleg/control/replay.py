@@ -56,8 +56,8 @@ COUNTS_RANGE = (0.0, 4095.0)
 class Recording:
     """A recording at the controller's rate: tick times ``t`` (s), FSR counts (n, 4),
     the gyroscope (rad/s) and the accelerometer (n, 2: x, y, m/s^2; NaN where none), the
-    true events per tick (bits; None where none were given), and what it was read
-    from."""
+    true events per tick (bits; None where none were given), what it was read from and
+    at what rate, and the unassisted foot's insole's counts."""
 
     t: F64
     counts: F64
@@ -66,6 +66,9 @@ class Recording:
     reference: NDArray[np.int64] | None
     source: str
     rate_hz: float
+    #: the unassisted foot's insole (n, 4, counts; NaN where none: a CSV, or a session
+    #: of a device without it)
+    other: F64 | None = None
 
 
 def _event_bits(where: str, row: int, text: str) -> int:
@@ -169,8 +172,9 @@ def _imu_columns(cols: Any, n: int) -> tuple[F64, F64]:
     return gyro, acc
 
 
-def _read_log(path: Path) -> tuple[F64, F64, F64, F64]:
-    """(t, FSR counts (N, 4), gyro, accelerometer (N, 2)) of a session log."""
+def _read_log(path: Path) -> tuple[F64, F64, F64, F64, F64]:
+    """(t, FSR counts (N, 4), gyro, accelerometer (N, 2), the unassisted foot's insole's
+    counts (N, 4; NaN where the log has none)) of a session log."""
     from exoleg.session_log import read_log
 
     _, cols, _ = read_log(path)
@@ -188,7 +192,9 @@ def _read_log(path: Path) -> tuple[F64, F64, F64, F64]:
                              f"{t[k - 1]:.6g} s; a log's times are finite and increase"
                              if k else f"tick 0: {t[0]:.6g} s is not a finite time")
     counts = np.stack([cols[f"fsr_{s}"] for s in SENSOR_COLUMNS], axis=1)
-    return t, counts, *_imu_columns(cols, len(t))
+    nan = np.full(len(t), np.nan)
+    other = np.stack([cols.get(f"fsr_other_{s}", nan) for s in SENSOR_COLUMNS], axis=1)
+    return t, counts, *_imu_columns(cols, len(t)), other
 
 
 def is_session_log(path: Path) -> bool:
@@ -215,10 +221,11 @@ def read_recording(path: str | Path, counts: bool = False, control_dt: float = 1
 
     p = Path(path)
     if is_session_log(p):
-        t, c, gyro, acc = _read_log(p)
+        t, c, gyro, acc, other = _read_log(p)
         ref = None
     else:
         t, raw, gyro, acc, ref = _read_csv(p, counts)
+        other = np.full((len(t), 4), np.nan)
         c = raw if counts else counts_of(FootSensors.default(0.0, device).record(),
                                          np.ascontiguousarray(raw))
     if t[-1] - t[0] > MAX_DURATION_S:
@@ -234,7 +241,8 @@ def read_recording(path: str | Path, counts: bool = False, control_dt: float = 1
         for i in np.flatnonzero(ref):
             reference[near[i]] |= ref[i]
     return Recording(t=ticks, counts=c[k], gyro=gyro[k], accel=acc[k], reference=reference,
-                     source=str(p), rate_hz=1.0 / float(np.median(np.diff(t))))
+                     source=str(p), rate_hz=1.0 / float(np.median(np.diff(t))),
+                     other=other[k])
 
 
 def detect_events(rec: Recording, expected_stride: float = 1.1,
@@ -245,21 +253,26 @@ def detect_events(rec: Recording, expected_stride: float = 1.1,
     from exoleg.device.sensors import FSR_FLOOR_N, FootSensors
 
     board = FootSensors.default(0.0, device)
-    d = gp.DetectorSettings.default(device).record(board.counts(FSR_FLOOR_N), expected_stride,
-                                                   board.gyro_range, board.accel_range)
+    other = (np.full((len(rec.t), 4), np.nan) if rec.other is None
+             else np.ascontiguousarray(rec.other))
+    d = gp.DetectorSettings.default(device).record(
+        board.counts(FSR_FLOOR_N), expected_stride, board.gyro_range, board.accel_range,
+        other_foot=bool(np.isfinite(other).any()))
     out: NDArray[np.int64] = detect_all(d, gp.new_state(d), np.ascontiguousarray(rec.counts),
                                         np.ascontiguousarray(rec.gyro),
-                                        np.ascontiguousarray(rec.accel), rec.t - rec.t[0])
+                                        np.ascontiguousarray(rec.accel), rec.t - rec.t[0],
+                                        other)
     return out
 
 
 @njit(cache=True)
-def detect_all(d, st, counts, gyro, accel, t):  # type: ignore[no-untyped-def]
+def detect_all(d, st, counts, gyro, accel, t, other):  # type: ignore[no-untyped-def]
     """:func:`~exoleg.control.gait_phase.detect` over every tick (the FSR counts (n, 4),
-    the gyroscope (n,), the accelerometer (n, 2), NaN where none): the event bits (n,)."""
+    the gyroscope (n,), the accelerometer (n, 2), the unassisted foot's insole's counts
+    (n, 4), NaN where none): the event bits (n,)."""
     out = np.zeros(len(t), dtype=np.int64)
     for k in range(len(t)):
-        out[k] = gp.detect(d, st, counts[k], gyro[k], accel[k], t[k])
+        out[k] = gp.detect(d, st, counts[k], gyro[k], accel[k], t[k], other[k])
     return out
 
 

@@ -68,6 +68,11 @@ class FootSensors:
     accel_bias: float        # m/s^2, standard deviation of the per-run bias
     accel_range: float       # m/s^2
     imu_position: float      # fraction of the foot from the ankle
+    #: the unassisted foot's insole (``[other_foot]``): fitted or not, and where along its
+    #: stance (0 its strike, 1 its toe off) the load leaves the heel and reaches the hallux
+    other_foot: bool = False
+    other_heel_until: float = 0.6
+    other_hallux_from: float = 0.5
 
     @classmethod
     def default(cls, noise_scale: float = 1.0, folder: str | Path | None = None) -> FootSensors:
@@ -77,7 +82,7 @@ class FootSensors:
         from exoleg.device.files import load
 
         where, d = load("sensors.toml", folder)
-        _check.keys(where, d, ["fsr", "imu"], ["source"])
+        _check.keys(where, d, ["fsr", "imu"], ["source", "other_foot"])
         f = _check.ranged(f"{where} [fsr]", d["fsr"], {
             "full_scale_N": (1.0, 1e4, "N"), "linearity": (0.0, 0.2, ""),
             "hysteresis": (0.0, 0.2, ""), "drift": (0.0, 0.2, ""),
@@ -92,6 +97,17 @@ class FootSensors:
             "accel_noise_ug_rthz": (0.0, 1e5, "ug/sqrt(Hz)"),
             "accel_bias_mg": (0.0, 1e3, "mg"), "accel_range_g": (1.0, 100.0, "g"),
             "bandwidth_hz": (1.0, 1e4, "Hz"), "position": (-0.5, 1.0, "")})
+        o = d.get("other_foot", {"fitted": False})
+        if not isinstance(o, dict):
+            raise ParameterError(where, "other_foot", "expected a table (fitted, "
+                                 "heel_until, hallux_from)")
+        _check.keys(f"{where} [other_foot]", o, ["fitted"], ["heel_until", "hallux_from"])
+        if not isinstance(o["fitted"], bool):
+            raise ParameterError(f"{where} [other_foot]", "fitted",
+                                 f"expected true or false, got {o['fitted']!r}")
+        shares = _check.ranged(f"{where} [other_foot]", {
+            "heel_until": o.get("heel_until", 0.6), "hallux_from": o.get("hallux_from", 0.5)},
+            {"heel_until": (0.1, 1.0, ""), "hallux_from": (0.0, 0.9, "")})
         k = _check.finite("FootSensors", "noise_scale", noise_scale)
         if not 0.0 <= k <= 100.0:
             raise ParameterError("FootSensors", "noise_scale", f"{k:g} is outside 0-100")
@@ -106,7 +122,9 @@ class FootSensors:
                    gyro_range=math.radians(i["gyro_range_dps"]),
                    accel_noise=k * i["accel_noise_ug_rthz"] * 1e-6 * g * rt,
                    accel_bias=k * i["accel_bias_mg"] * 1e-3 * g,
-                   accel_range=i["accel_range_g"] * g, imu_position=i["position"])
+                   accel_range=i["accel_range_g"] * g, imu_position=i["position"],
+                   other_foot=o["fitted"], other_heel_until=shares["heel_until"],
+                   other_hallux_from=shares["hallux_from"])
 
     def counts(self, force: float) -> float:
         """The board's noise-free reading of ``force`` N on an FSR, ADC counts."""
@@ -130,7 +148,9 @@ class FootSensors:
         r = new(BOARD)
         r[0] = (self.fsr_full_scale, self.fsr_linearity, self.fsr_noise,
                 float(2**self.adc_bits - 1), self.adc_reference, self.fsr_full_scale_voltage,
-                self.gyro_range, self.accel_range, self.fsr_hysteresis, self.fsr_drift)
+                self.gyro_range, self.accel_range, self.fsr_hysteresis, self.fsr_drift,
+                1.0 if self.other_foot else 0.0, self.other_heel_until,
+                self.other_hallux_from)
         return r
 
 
@@ -143,10 +163,12 @@ FROZEN_S = 0.25
 #: The foot board as the compiled functions read it (:meth:`FootSensors.record`): the
 #: FSR's full scale (N), linearity error and noise (fractions of full scale), the ADC's
 #: top count and reference (V), the FSR's full-scale voltage (V), the IMU's ranges
-#: (rad/s, m/s^2).
+#: (rad/s, m/s^2), the FSRs' hysteresis and drift, whether the unassisted foot's insole
+#: is fitted (1/0) and its load's progression (:meth:`FootSensors.other_shares`).
 BOARD = np.dtype([("full_scale", F8), ("linearity", F8), ("noise", F8), ("counts", F8),
                   ("reference", F8), ("full_scale_v", F8), ("gyro_range", F8),
-                  ("accel_range", F8), ("hysteresis", F8), ("drift", F8)])
+                  ("accel_range", F8), ("hysteresis", F8), ("drift", F8), ("other", F8),
+                  ("heel_until", F8), ("hallux_from", F8)])
 #: the creep states' time constants, s: three decades, so that a constant load's
 #: reading rises by about ``drift`` per decade of time between 1 and 100 s
 CREEP_TAU = (1.0, 10.0, 100.0)
@@ -179,6 +201,27 @@ def fsr_response(s, last, memory, creep, i, force, h):  # type: ignore[no-untype
 
 
 @njit(cache=True)
+def other_loads(s, force, progress, out):  # type: ignore[no-untyped-def]
+    """The unassisted foot's ``force`` (N, its whole load) over its insole's four sensors
+    (:data:`~exoleg.tick.SENSOR_POINTS`' order) into ``out`` (4,), at ``progress`` along
+    its stance (0 its strike, 1 its toe off): the heel's share falls from all to none by
+    ``heel_until``, the rest on the forefoot, of which the hallux takes up to half from
+    ``hallux_from`` on, the metatarsal heads the rest (first 55 %, fifth 45 %). The
+    common heel-to-toe pattern of children's plantar loading; the figures are choices
+    (``sensors.toml [other_foot]``)."""
+    b = s[0]
+    p = min(max(progress, 0.0), 1.0)
+    heel = min(max(1.0 - p / b.heel_until, 0.0), 1.0)
+    fore = 1.0 - heel
+    hallux = 0.5 * fore * min(max((p - b.hallux_from) / (1.0 - b.hallux_from), 0.0), 1.0)
+    f = max(force, 0.0)
+    out[0] = f * heel
+    out[1] = 0.55 * f * (fore - hallux)
+    out[2] = 0.45 * f * (fore - hallux)
+    out[3] = f * hallux
+
+
+@njit(cache=True)
 def fsr_counts(s, force, noise):  # type: ignore[no-untyped-def]
     """ADC counts of one FSR under ``force`` N (as the sensor reads it: after
     :func:`fsr_response`), with the unit normal draw ``noise``."""
@@ -206,12 +249,17 @@ def imu(s, foot_rate, acc_x, acc_y, phi, g, bias, noise):  # type: ignore[no-unt
 
 
 def draw_noise(sensors: FootSensors, n: int, seed: int) -> tuple[F64, F64, F64]:
-    """Seeded draws for a run of n ticks: FSR unit normals (n, 4); IMU noise (n, 3)
-    already scaled (gyro, accel x, y); the per-run biases (3,)."""
+    """Seeded draws for a run of n ticks: FSR unit normals (n, 8: the foot's four, then
+    the unassisted foot's insole's, drawn after the rest -- zeros when it is not fitted,
+    so that a run without it draws what it always drew); IMU noise (n, 3) already
+    scaled (gyro, accel x, y); the per-run biases (3,)."""
     rng = np.random.default_rng(seed)
-    fsr = rng.standard_normal((n, 4))
+    fsr = np.zeros((n, 8))
+    fsr[:, :4] = rng.standard_normal((n, 4))
     imu_noise = rng.standard_normal((n, 3)) * np.array(
         [sensors.gyro_noise, sensors.accel_noise, sensors.accel_noise])
     bias = rng.standard_normal(3) * np.array(
         [sensors.gyro_bias, sensors.accel_bias, sensors.accel_bias])
+    if sensors.other_foot:
+        fsr[:, 4:] = rng.standard_normal((n, 4))
     return fsr, imu_noise, bias

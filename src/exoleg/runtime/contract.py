@@ -19,7 +19,8 @@ from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL
 
 #: a reading's fields: (shape, whether NaN -- not measured -- is allowed)
 READINGS = {"q": ((3,), False), "dq": ((3,), False), "fsr": ((4,), False),
-            "gyro": ((), True), "accel": ((2,), True), "interaction": ((3,), True)}
+            "gyro": ((), True), "accel": ((2,), True), "interaction": ((3,), True),
+            "fsr_other": ((4,), True)}
 #: the fields a device must give every tick (the others it may leave out)
 REQUIRED = ("q", "dq", "fsr")
 

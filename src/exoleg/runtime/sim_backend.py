@@ -23,10 +23,11 @@ _CHUNK = 4096  # ticks of noise drawn at once
 #: its readings (the encoders' angles and rates, rad, rad/s; the FSRs, counts; the foot's
 #: gyro, rad/s, and accelerations, m/s^2), the plant's true joint angles (rad) and pelvis
 #: height (m), the torque the drives delivered, the cuffs' torque and the child's
-#: muscles' torque (N m). Its flat columns are :attr:`SimBackend.columns`.
+#: muscles' torque (N m), and the unassisted foot's insole (counts; NaN where none is
+#: fitted). Its flat columns are :attr:`SimBackend.columns`.
 RECORD = np.dtype([("q_meas", F8, 3), ("dq_meas", F8, 3), ("fsr", F8, 4), ("gyro", F8),
                    ("acc", F8, 2), ("q", F8, 3), ("pelvis", F8), ("tau", F8, 3),
-                   ("interaction", F8, 3), ("child", F8, 3)])
+                   ("interaction", F8, 3), ("child", F8, 3), ("fsr_other", F8, 4)])
 
 
 class SimBackend:
@@ -122,7 +123,8 @@ class SimBackend:
                      (self.fsr_noise[i], self.imu_noise[i], self.bias), self.reading, self.fn)
         r = self.reading[0]
         return {"q": r["q"], "dq": r["dq"], "fsr": r["fsr"], "gyro": float(r["gyro"]),
-                "accel": r["accel"], "interaction": r["interaction"]}
+                "accel": r["accel"], "interaction": r["interaction"],
+                "fsr_other": r["fsr_other"]}
 
     def write(self, tau: F64, enable: bool) -> None:
         """The drives' torque command (N m), zero unless ``enable``."""
@@ -150,4 +152,5 @@ class SimBackend:
         o["gyro"], o["acc"] = r["gyro"], r["accel"]
         o["q"], o["pelvis"] = x[1:4], x[0]
         o["tau"], o["interaction"], o["child"] = self.tau, r["interaction"], self.S[0]["child"]
+        o["fsr_other"] = r["fsr_other"]
         return self._record.view(np.float64).copy()

@@ -152,6 +152,7 @@ def _device_row(sk, D, tau, row):  # type: ignore[no-untyped-def]
         row.child[i] = D.child[i]
     for i in range(4):
         row.fsr[i] = r.fsr[i]
+        row.fsr_other[i] = r.fsr_other[i]
     for i in range(2):
         row.acc[i] = r.accel[i]
     row.gyro = r.gyro
@@ -370,7 +371,7 @@ class _Outside:
         self.io = np.zeros(1, IO)
         self.x = self.io[0]  # (a view: its fields write through)
         C = NOISE_CHUNK
-        self.fsr, self.imu = np.zeros((2 * C, 4)), np.zeros((2 * C, 3))
+        self.fsr, self.imu = np.zeros((2 * C, 8)), np.zeros((2 * C, 3))
         self.fsr[:C], self.imu[:C] = b.fsr_noise[:C], b.imu_noise[:C]
         self.chunk = 1
         self._draw()

@@ -239,6 +239,9 @@ class WalkResult(TimeSeries):
     board_frozen: float = -1.0
     #: the cuffs' torque limit the safety layer held them to, N m per kg of the child
     cuff_limit: F64 = field(default_factory=lambda: np.full(3, np.inf), repr=False)
+    #: the unassisted foot's insole, counts per sensor (:data:`SENSOR_POINTS`; NaN where
+    #: none is fitted: ``sensors.toml [other_foot]``)
+    fsr_other: F64 = field(default_factory=lambda: np.full((0, 4), np.nan), repr=False)
 
     @property
     def motor_speed(self) -> F64:
@@ -273,6 +276,9 @@ class WalkResult(TimeSeries):
         for i, s in enumerate(SENSOR_POINTS):
             cols[f"fsr_{s}"] = self.fsr[:, i]
             cols[f"contact_force_{s}"] = self.contact_force[:, i]
+        if np.isfinite(self.fsr_other).any():
+            for i, s in enumerate(SENSOR_POINTS):
+                cols[f"fsr_other_{s}"] = self.fsr_other[:, i]
         cols["gyro"] = self.gyro
         cols["accel_x"], cols["accel_y"] = self.accel[:, 0], self.accel[:, 1]
         for name in ("mode", "phase", "events", "safety_status", "fault", "fault_joint"):
@@ -391,7 +397,7 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                       child_share=SH, plant=plant, actuators=dev.actuators, walk_start=standing,
                       stride_time=stride_time, body_mass=body_mass,
                       board_frozen=froze * control_dt if froze >= 0 else -1.0,
-                      cuff_limit=cfg.safety.cuff_limit)
+                      cuff_limit=cfg.safety.cuff_limit, fsr_other=SENS["fsr_other"])
 
 
 

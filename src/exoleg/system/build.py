@@ -54,7 +54,8 @@ def walk_controller(config: DeviceConfig, leg: LegModel, body_mass: float,
                           config.safety, speed, stride_time, config.fsr_floor_counts, depth,
                           config.sensors.gyro_range, config.sensors.accel_range,
                           device_leg(leg, config.actuators).p, params_array(config.actuators),
-                          config.transparency, support_mode, config.assist)
+                          config.transparency, support_mode, config.assist,
+                          config.sensors.other_foot)
 
 
 def build(config: DeviceConfig, leg: LegModel, body_mass: float,

@@ -124,15 +124,23 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
              children: tuple[tuple[str, float, str, int | None], ...] = CHILDREN,
              seed: int = 0, slow: tuple[float, ...] = SLOW,
              worst: tuple[tuple[str, float, str, int | None, dict[str, Any], str], ...]
-             = WORST, closed: tuple[str, ...] | None = None) -> GaitPhaseValidation:
+             = WORST, closed: tuple[str, ...] | None = None,
+             other_foot: bool = False) -> GaitPhaseValidation:
     """Each child walks ``strides`` strides at each noise level at the expected 1.1 s
     stride, and at the datasheet noise at each of the ``slow`` stride times (s) and with
     each sensor fault of ``closed`` (:data:`FAULTS`' names; None: all but the first, the
     walks' own readings); each of the ``worst`` walkers ``strides`` strides at the
-    datasheet noise."""
+    datasheet noise. ``other_foot``: every walk with the unassisted foot's insole fitted
+    (the controller's detector reading both feet's FSRs), every replay with it too."""
+    import functools
+
     from exoleg.control.safety import Limited
     from exoleg.sim.metrics import detection_table
     from exoleg.sim.walk import simulate_walk
+
+    # with the insole: the device's board at each noise scale, the insole fitted
+    walk = functools.partial(_with_insole, simulate_walk) if other_foot else simulate_walk
+    replay = functools.partial(fault_cases, other_foot=other_foot)
 
     results: list[Any] = []  # (walk, run) at the expected stride
     runs: list[DetectionRun] = []
@@ -143,7 +151,7 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
     for label, age, sex, gmfcs in children:
         leg, m, ankle, actor = _walker(age, sex, gmfcs, {"spasticity": SPASTICITY[gmfcs or 0]})
         for case in cases:
-            r = simulate_walk(leg, m, strides=strides, seed=seed + 1, ankle_height=ankle,
+            r = walk(leg, m, strides=strides, seed=seed + 1, ankle_height=ankle,
                               child=actor, faults=FAULTS[case])
             closed_walks[case].append(r)
             if np.any(r.safety_status & Limited.FAULT):
@@ -151,7 +159,7 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
         walks = [(n, 1.1, k) for k, n in enumerate(noise)] + [
             (1.0, st, len(noise) + k) for k, st in enumerate(slow)]
         for n, st, k in walks:
-            r = simulate_walk(leg, m, strides=strides, noise_scale=n, seed=seed + k,
+            r = walk(leg, m, strides=strides, noise_scale=n, seed=seed + k,
                               ankle_height=ankle, child=actor, stride_time=st)
             run = DetectionRun(label, n, strides, bool(np.any(r.safety_status & Limited.FAULT)),
                                st)
@@ -163,21 +171,32 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
     hard = {}
     for k, (label, age, sex, gmfcs, options, how) in enumerate(worst):
         leg, m, ankle, actor = _walker(age, sex, gmfcs, options)
-        r = simulate_walk(leg, m, strides=strides, seed=seed + 10 + k, ankle_height=ankle,
+        r = walk(leg, m, strides=strides, seed=seed + 10 + k, ankle_height=ankle,
                           child=actor, commands=None if how == "walk" else
                           _stop(strides, 1.1, again=how == "again"))
         runs.append(DetectionRun(label, 1.0, strides,
                                  bool(np.any(r.safety_status & Limited.FAULT))))
-        hard[label] = fault_cases([r], 1.1, SOURCES)
+        hard[label] = replay([r], 1.1, SOURCES)
     walks_ = [r for r, _ in results]
     ok = [r for r, run in results if not run.fault]
     return GaitPhaseValidation(detection_table(walks_), detection_table(ok) if ok else [],
-                               runs, fault_cases(ok),
+                               runs, replay(ok),
                                {st: detection_table(rs) for st, rs in slow_results.items()},
-                               {st: fault_cases(rs, st, SOURCES)
+                               {st: replay(rs, st, SOURCES)
                                 for st, rs in slow_results.items()}, hard,
                                {c: detection_table(rs) for c, rs in closed_walks.items()},
                                stopped)
+
+
+def _with_insole(walk: Any, *args: Any, noise_scale: float = 1.0, **kw: Any) -> Any:
+    """``walk`` (:func:`~exoleg.sim.walk.simulate_walk`) on the shipped foot board at
+    ``noise_scale`` with the unassisted foot's insole fitted."""
+    import dataclasses
+
+    from exoleg.device.sensors import FootSensors
+
+    board = dataclasses.replace(FootSensors.default(noise_scale), other_foot=True)
+    return walk(*args, noise_scale=noise_scale, sensors=board, **kw)
 
 
 #: Sensor faults (:class:`~exoleg.device.faults.SensorFault`), replayed over the walks'
@@ -211,25 +230,29 @@ SOURCES = ("none (the walks' own readings, replayed)",
 
 
 def fault_cases(results: list[Any], stride_time: float = 1.1,
-                cases: tuple[str, ...] | None = None) -> dict[str, list[dict[str, Any]]]:
+                cases: tuple[str, ...] | None = None, other_foot: bool = False
+                ) -> dict[str, list[dict[str, Any]]]:
     """Per :data:`FAULTS` case (or those named in ``cases``), the detection table
     (:func:`exoleg.control.replay.event_rows`) of the controller's detector replayed from
     a fresh state over each walk's readings with the fault, against the walk's true
-    events."""
+    events; ``other_foot``: with the unassisted foot's insole too (the walks' own,
+    ``fsr_other``: walked with it fitted; the fault is the device foot's board's)."""
     from exoleg.control import gait_phase as gp
     from exoleg.control.replay import detect_all, event_rows
     from exoleg.system.config import DeviceConfig
 
     cfg = DeviceConfig.load()
     d = cfg.detector.record(cfg.fsr_floor_counts, stride_time, cfg.sensors.gyro_range,
-                            cfg.sensors.accel_range)
+                            cfg.sensors.accel_range, other_foot)
     out = {}
     for name in cases or tuple(FAULTS):
         series = []
         for r in results:
             counts, gyro, accel = faulted(FAULTS[name], r.fsr, r.gyro, r.accel, r.t,
                                           cfg.sensors)
-            bits = detect_all(d, gp.new_state(d), counts, gyro, accel, r.t)
+            other = (np.ascontiguousarray(r.fsr_other) if other_foot
+                     else np.full_like(counts, np.nan))
+            bits = detect_all(d, gp.new_state(d), counts, gyro, accel, r.t, other)
             walking = r.t >= r.walk_start
             series.append((r.t[walking], bits[walking], r.true_events()[walking]))
         out[name] = event_rows(series)

@@ -34,7 +34,7 @@ from exoleg.device.drive import (
     torque_loop,
 )
 from exoleg.device.ground import ANKLE_HEIGHT, SOLE_MAX, Ground
-from exoleg.device.sensors import FootSensors, fsr_counts, fsr_response, imu
+from exoleg.device.sensors import FootSensors, fsr_counts, fsr_response, imu, other_loads
 from exoleg.dynamics.kernels import foot_point
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
@@ -49,6 +49,7 @@ from exoleg.world.plant import (
     sole_loads,
     step_contacts,
     step_work,
+    support_force,
     walking_step,
     walking_step_series,
 )
@@ -80,10 +81,14 @@ def _imu_point(p, x, px, py):  # type: ignore[no-untyped-def]
 #: compliant unit measured over the last tick (its deflection times its stiffness, N m;
 #: a rigid unit's motor torque); then the work arrays of a tick (the sole's points and
 #: forces, the generalized forces, the sensors' loads, the tick's first state, the drives'
-#: and the motion's rows), kept here so that no tick allocates.
+#: and the motion's rows), kept here so that no tick allocates; the unassisted foot's
+#: insole: where this leg is in its cycle (the other leg keeps time with it, 0-1), the
+#: load on each of its sensors (N) and their memory, as the foot's own.
 DEVICE = np.dtype([("x", F8, 8), ("tau", F8, 3), ("qm", F8, 3), ("vm", F8, 3),
                    ("v_imu", F8, 2), ("loaded", np.bool_), ("t_off", F8), ("t_strike", F8),
-                   ("walking", np.bool_), ("t_start", F8),
+                   ("walking", np.bool_), ("t_start", F8), ("xc", F8),
+                   ("other_load", F8, 4), ("other_last", F8, 4), ("other_memory", F8, 4),
+                   ("other_creep", F8, (4, 3)),
                    ("belt", F8), ("fsr_last", F8, 4), ("fsr_memory", F8, 4),
                    ("fsr_creep", F8, (4, 3)), ("child", F8, 3), ("interaction", F8, 3),
                    ("rotor", F8, 6), ("joint_torque", F8, 3),
@@ -132,6 +137,7 @@ def device_sense(dev, board, S, h, first, noise, out, fn):  # type: ignore[no-un
     for i in range(4):
         read = fsr_response(sens, D.fsr_last, D.fsr_memory, D.fsr_creep, i, carried[i], h)
         o.fsr[i] = fsr_counts(sens, read * sens[0].full_scale, fsr_noise[i])
+    _other_foot(w, sens, D, h, fsr_noise, o.fsr_other)
     vx, vy, phi = _imu_point(p, x, imu_x, imu_y)
     ax = 0.0 if first else (vx - D.v_imu[0]) / h
     ay = 0.0 if first else (vy - D.v_imu[1]) / h
@@ -148,6 +154,33 @@ def device_sense(dev, board, S, h, first, noise, out, fn):  # type: ignore[no-un
         D.qm[i] = q
         o.q[i] = q
         o.dq[i] = D.vm[i]
+
+
+@njit(inline="always")
+def _other_foot(w, sens, D, h, noise, out):  # type: ignore[no-untyped-def]
+    """The unassisted foot's insole (fitted: the board's ``other``; else NaN) into ``out``
+    (4,): the other leg's load on the pelvis (:func:`~exoleg.world.plant.support_force`)
+    over its four sensors along its stance -- which spans this leg's swing
+    (:data:`~exoleg.world.treadmill.SWING`; standing, the foot flat, half on the heel)
+    -- through the FSRs' response, with the noise's last four draws."""
+    b = sens[0]
+    if b.other == 0.0:
+        for i in range(4):
+            out[i] = np.nan
+        return
+    x = D.x
+    if D.walking:
+        d = D.xc - SWING[0]
+        if d < -0.25:  # this leg's stance's first part: the other foot's last
+            d += 1.0
+        progress = d / (SWING[1] - SWING[0])
+    else:
+        progress = 0.5 * b.heel_until
+    other_loads(sens, support_force(w, x[0], x[4]), progress, D.other_load)
+    for i in range(4):
+        read = fsr_response(sens, D.other_last, D.other_memory, D.other_creep, i,
+                            D.other_load[i], h)
+        out[i] = fsr_counts(sens, read * b.full_scale, noise[4 + i])
 
 
 @njit(cache=True, error_model="numpy")
@@ -199,6 +232,7 @@ def device_actuate(dev, K, S, step, u, fn, scene, into):  # type: ignore[no-unty
     else:
         W.belt_speed = 0.0
         W.support_height = stand_support
+    D.xc = xc
     for i in range(3):
         env[i] = drive_limit(A[i:i + 1], D.vm[i], u[i])
     x = D.x
