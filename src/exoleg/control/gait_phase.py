@@ -422,19 +422,26 @@ def _imu_path(D, s, gyro, acc_dev, strike, acc_ok, t):  # type: ignore[no-untype
 
 
 @njit(inline="always")
-def _other_bears(D, s, other):  # type: ignore[no-untyped-def]
+def _other_bears(D, s, other, t):  # type: ignore[no-untyped-def]
     """Whether the unassisted foot bears the body: its insole's four readings' sum above
     the calibration floor and ``other_bears`` of the largest sum it has read. Walking
     has no flight: while the other foot is off the ground (or barely on it), the device's
     foot bears the body, and a lift its own sensors read is load between them. True
-    when its insole is not fitted or not reading (NaN)."""
+    when its insole is not fitted, not reading (NaN), or silent -- unloaded for
+    ``fsr_silent_strides`` strides since it last bore (or since the detector started),
+    which no swing lasts: a cable off; the foot's own sensors decide then, as without
+    it (until it is silent, a dead insole holds the foot's stance: its first toe off is
+    missed)."""
     if D.other_foot == 0.0:
         return True
     total = other[0] + other[1] + other[2] + other[3]
     if not math.isfinite(total):
         return True
     s.other_max = max(s.other_max, total)
-    return total >= max(D.floor, D.other_bears * s.other_max)
+    if total >= max(D.floor, D.other_bears * s.other_max):
+        s.other_t = t
+        return True
+    return t - s.other_t > D.fsr_silent_strides * _stride(D, s)
 
 
 @njit(cache=True)
@@ -447,7 +454,7 @@ def detect(d, st, counts, gyro, acc, t, other):  # type: ignore[no-untyped-def]
     :class:`Event`) of this tick."""
     D = d[0]
     s = st[0]
-    bears = _other_bears(D, s, other)
+    bears = _other_bears(D, s, other, t)
     # the sources' health: a reading missing (NaN), at its range (saturated) or unchanged
     # for frozen_time (a sensor's noise always moves it) is not used
     gyro_ok = math.isfinite(gyro) and abs(gyro) < D.gyro_range

@@ -44,7 +44,8 @@ HISTORY = 10
 #: have not changed (s). A held sensor (the FSRs' path): the sensors loaded this stance
 #: (bits), the one alone loaded (-1: none), since when (s), its reading's mean and lowest
 #: (counts), the mean's last update (s), and since when a landing reads (s, -1: none).
-#: The unassisted foot's insole: the largest sum of its four readings (counts).
+#: The unassisted foot's insole: the largest sum of its four readings (counts), when it
+#: last bore the body (s; 0 before it has: the detector's start).
 STATE = np.dtype([("phase", I8), ("bearing", np.bool_), ("t_ic", F8),
                   ("n_stride", I8), ("history", F8, HISTORY), ("source", I8),
                   ("phase_f", I8), ("t_ic_f", F8), ("t_to_f", F8),
@@ -67,7 +68,7 @@ STATE = np.dtype([("phase", I8), ("bearing", np.bool_), ("t_ic", F8),
                   ("gyro_last", F8), ("gyro_same", F8), ("fsr_last", F8, 4),
                   ("fsr_same", F8), ("stance_mask", I8), ("held", I8), ("held_since", F8),
                   ("held_mean", F8), ("held_min", F8), ("held_t", F8), ("held_hit", F8),
-                  ("other_max", F8)])
+                  ("other_max", F8), ("other_t", F8)])
 
 
 def new_state(settings: NDArray[np.void]) -> NDArray[np.void]:
