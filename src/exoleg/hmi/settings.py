@@ -98,8 +98,12 @@ def apply_settings(api: OperatorRules, link: LoopLink, settings: dict[str, Any])
     why = check_settings(settings)
     deadline = time.monotonic() + WAIT_S
     while not why and not (api.gains()[0] and LoopLink.running(link.web_copy()) == "running"):
-        if LoopLink.running(link.web_copy()) == "ended" or time.monotonic() > deadline:
-            why = "the session published no gains (not the walking controller)"
+        if LoopLink.running(link.web_copy()) == "ended":
+            why = "the session ended before it published its gains"
+            break
+        if time.monotonic() > deadline:
+            why = (f"the session published no gains within {WAIT_S:g} s (not the walking "
+                   "controller, or a slow start); the defaults stay")
             break
         time.sleep(0.005)
     if not why:
