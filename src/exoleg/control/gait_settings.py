@@ -120,7 +120,8 @@ class DetectorSettings:
             "held_ms": (1.0, 500.0, "ms"), "held_swing": (0.1, 1.0, ""),
             "frozen_ms": (10.0, 10000.0, "ms"), "fsr_silent_strides": (1.0, 10.0, "")},
             optional=("source", "other_bears"))
-        other = _check.within(where, "other_bears", d.get("other_bears", 0.1), 0.05, 0.95, "")
+        other = _check.within(where, "other_bears", d.get("other_bears", cls.other_bears),
+                              0.05, 0.95, "")
         if "stride_accept" not in d:
             raise ParameterError(where, "stride_accept", "missing ([lower, upper] multiples)")
         acc = _check.vector(where, "stride_accept", d["stride_accept"], 2)

@@ -105,8 +105,9 @@ class FootSensors:
         if not isinstance(o["fitted"], bool):
             raise ParameterError(f"{where} [other_foot]", "fitted",
                                  f"expected true or false, got {o['fitted']!r}")
-        shares = _check.ranged(f"{where} [other_foot]", {
-            "heel_until": o.get("heel_until", 0.6), "hallux_from": o.get("hallux_from", 0.5)},
+        shares = _check.ranged(f"{where} [other_foot]", {  # (absent: the fields' defaults)
+            "heel_until": o.get("heel_until", cls.other_heel_until),
+            "hallux_from": o.get("hallux_from", cls.other_hallux_from)},
             {"heel_until": (0.1, 1.0, ""), "hallux_from": (0.0, 0.9, "")})
         k = _check.finite("FootSensors", "noise_scale", noise_scale)
         if not 0.0 <= k <= 100.0:
@@ -164,7 +165,7 @@ FROZEN_S = 0.25
 #: FSR's full scale (N), linearity error and noise (fractions of full scale), the ADC's
 #: top count and reference (V), the FSR's full-scale voltage (V), the IMU's ranges
 #: (rad/s, m/s^2), the FSRs' hysteresis and drift, whether the unassisted foot's insole
-#: is fitted (1/0) and its load's progression (:meth:`FootSensors.other_shares`).
+#: is fitted (1/0) and its load's progression (:func:`other_loads`).
 BOARD = np.dtype([("full_scale", F8), ("linearity", F8), ("noise", F8), ("counts", F8),
                   ("reference", F8), ("full_scale_v", F8), ("gyro_range", F8),
                   ("accel_range", F8), ("hysteresis", F8), ("drift", F8), ("other", F8),
