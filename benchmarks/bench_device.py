@@ -203,7 +203,7 @@ def main() -> None:
             d.qpos[0] = plant.standing_height
             for _ in range(n_steps):
                 x[:4], x[4:] = d.qpos, d.qvel
-                step_contacts(p, w, x, pts, F, gen, work)
+                step_contacts(p, w, x, pts, F, gen, (5e-4, work))
                 mujoco.mj_forward(m, d)
                 qfrc = np.zeros(4)
                 for i in range(w["n"][0]):

@@ -429,9 +429,9 @@ def test_a_typically_developing_child_walks_in_the_transparent_mode() -> None:
     assert floors == pytest.approx([0.6018, 0.0131, 0.7021], abs=1e-4)  # to the digits shown
     # along the walk's own motion (the pelvis's bounce in the device's need), the physical
     # floor (every limit together) and with the loop's lag (a law that knows the device
-    # exactly) are below what the law leaves -- no law beats the drives (measured 0.433 /
-    # 0.162 / 0.468 and 0.459 / 0.181 / 0.460 against 0.593 / 0.257 / 0.498: the ankle
-    # within 8 % of its loop's floor, the hip 29 % above it, the knee 42 %, its floor its
+    # exactly) are below what the law leaves -- no law beats the drives (measured 0.427 /
+    # 0.165 / 0.464 and 0.454 / 0.182 / 0.457 against 0.587 / 0.257 / 0.495: the ankle
+    # within 8 % of its loop's floor, the hip 29 % above it, the knee 41 %, its floor its
     # heel strikes', 0.036 out of reach on this motion); the pelvis's part the law leaves
     # to the child, measured 0.152 / 0.060 / 0.010 N m/kg
     for f in v.floors:

@@ -40,7 +40,7 @@ def _run(plant: WalkingPlant, x0: np.ndarray, q_hold: np.ndarray, n: int,
     work = np.zeros(STEP_WORK)
     X, FN, GEN, TAU, PTS, FF = [x.copy()], [], [], [], [], []
     for _ in range(n):
-        step_contacts(p, w, x, pts, F, gen, work)
+        step_contacts(p, w, x, pts, F, gen, (h, work))
         tau = kp * (q_hold - x[1:4]) - kd * x[5:8] + plant.leg.G(x[1:4])
         walking_step(p, w, NO_FRICTION, NO_CHILD, x, tau, gen, (h, work))
         X.append(x.copy())

@@ -188,15 +188,17 @@ def device_actuate(dev, K, S, step, u, fn, scene, into):  # type: ignore[no-unty
     """The drives and ``sub`` plant steps over one tick of ``h`` s (``step``: (h, sub))
     under the torque command ``u`` (3,): the envelope at the measured speed (into
     ``env``), the current loop (the mean torque delivered into ``tau``; ``into``: (env,
-    tau)), contacts held per step. ``dev``: (the plant's parameters, its world, the
-    actuators' records); ``scene``: (``walking``, the time ``t`` s, the ``stride`` time,
-    the other leg's ``support`` over the cycle, its ``stand_support`` height). The treadmill runs and the
-    other leg (an actor) keeps time with this leg's true foot strikes (from ``fn``) while
-    ``walking``; each walk's start (``walking`` again after standing) restarts their clock
-    at mid-stance (where the controller starts a walk) until this walk's first strike. The child
-    (``K``: :meth:`SimulatedDevice.child_records`) acts too: their passive moments in
-    every stage, their reflexes and effort held over the tick; the
-    cuffs' torque of the tick into the state. Returns (the other leg's mean force on the
+    tau)), contacts held per step (the sole's friction as the step meets it:
+    :func:`~exoleg.world.plant.implicit_friction`). ``dev``: (the plant's parameters,
+    its world, the actuators' records); ``scene``: (``walking``, the time ``t`` s, the
+    ``stride`` time, the other leg's ``support`` over the cycle, its ``stand_support``
+    height). The treadmill runs and the other leg (an actor) keeps time with this leg's
+    true foot strikes (from ``fn``) while ``walking``; each walk's start (``walking``
+    again after standing) restarts their clock at mid-stance (where the controller starts
+    a walk) until this walk's first strike. The child (``K``:
+    :meth:`SimulatedDevice.child_records`) acts too: their passive moments in every
+    stage, their reflexes and effort held over the tick; the cuffs' torque of the tick
+    into the state. Returns (the other leg's mean force on the
     pelvis, 1 if the state is still finite)."""
     p, w, A = dev
     h, sub = step
@@ -264,7 +266,7 @@ def device_actuate(dev, K, S, step, u, fn, scene, into):  # type: ignore[no-unty
                 drive[0, i], drive[1, i] = mean, D.child[i]
             else:
                 joint[i] = mean + D.child[i]
-        supp += step_contacts(p, w, x, pts, F, gen, D.step)
+        supp += step_contacts(p, w, x, pts, F, gen, (hs, D.step))
         if series:
             walking_step_series(p, w, A, P, (x, D.rotor), drive[:2], gen, (hs, D.step))
         else:

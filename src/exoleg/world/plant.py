@@ -70,16 +70,18 @@ F64 = NDArray[np.float64]
 #: the largest abs(lambda) h the plant's RK4 step is let to meet (its stability region
 #: reaches 2.78 on the real axis, 2.83 on the imaginary one)
 STEP_LIMIT = 2.5
-#: the largest h c / m a plant step is let to meet on the sole's friction (c its slope
-#: at no slip under the whole stance load, m the foot's effective mass along the belt):
-#: the friction is held over each step, an explicit Euler step for its damping, which
-#: beyond 2 reverses the slip it acts on -- the foot then chatters within the friction's
-#: smooth band (``slip_speed``). A device of compliant units, whose links are light, met
-#: 10 at 0.5 ms: the ankle chattered at 500 Hz and the cuffs' residual of a transparent
-#: walk moved 0.72 -> 0.92 -> 0.89 N m/kg from 4 to 8 to 16 steps a tick (measured).
-#: The shipped rigid device meets 2.2-5.0 at its 0.5 ms step (the rotors on its links
-#: make the foot heavy) and keeps that step: its transparent walk's residual moved 0.30
-#: -> 0.26 N m/kg from 2 to 8 steps a tick (measured; simulate_walk's ``substeps``).
+#: the largest h c / m a plant step of a device of compliant units is let to meet on the
+#: sole's friction (c its slope at no slip under the whole stance load, m the foot's
+#: effective mass along the belt standing straight). Held over a step explicitly, the
+#: friction beyond 2 reversed the slip it acts on and the foot chattered at the step's
+#: rate; it is now implicit (:func:`implicit_friction`) and cannot, but such a device's
+#: light foot still rang at 500 Hz at 2 steps a tick (the device ``exoleg design``
+#: chose: 30 N m RMS above 100 Hz in the hip's cuffs; not the friction, the torque
+#: loop's gains or the contact's damping alone), so its steps are kept this many (9 a
+#: tick there: its transparent walk's residual 0.245 / 0.121 / 0.079 N m/kg against
+#: 0.247 / 0.123 / 0.078 at 48 -- 0.289 / 0.141 / 0.090 with the friction explicit;
+#: measured). The shipped rigid device keeps 2 steps a tick: 0.587 / 0.257 / 0.495 at
+#: 2 against 0.574 / 0.252 / 0.495 at 32 (explicit: 0.593 / 0.257 / 0.498 at 2).
 FRICTION_LIMIT = 2.0
 
 
@@ -462,15 +464,50 @@ def walking_step_series(p, w, A, P, state, drive, gen, step):  # type: ignore[no
             r[i], r[3 + i] = x[1 + i], x[5 + i]
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def implicit_friction(p, w, q, pts, F, h, wk):  # type: ignore[no-untyped-def]
+    """The sole's friction F[:, 0] as a step of ``h`` s meets it, linearly implicit: each
+    element's slope within the smooth Coulomb law's band (mu F_n sech^2(slip /
+    slip_speed) / slip_speed) acts as a damper on its effective mass along the belt (1 /
+    (J_x M^-1 J_x^T), M the leg's with the armature its links carry, at the step's
+    start), so the friction is divided by 1 + h slope / m. Held over a step explicitly,
+    a slope beyond 2 m / h reverses the slip it acts on and the foot chatters at the
+    step's rate within the band (:data:`FRICTION_LIMIT`); so it cannot, at any step,
+    while a sliding element (beyond the band: slope ~ 0) keeps mu F_n. ``wk``: two
+    (3, 3) to work in and a (2, 3) Jacobian."""
+    W = w[0]
+    M, Mi, J = wk
+    mass_matrix(q, p, M)
+    a, b, c = M[0, 0], M[0, 1], M[0, 2]
+    d, e, f = M[1, 1], M[1, 2], M[2, 2]
+    Mi[0, 0], Mi[0, 1], Mi[0, 2] = d * f - e * e, c * e - b * f, b * e - c * d
+    Mi[1, 1], Mi[1, 2], Mi[2, 2] = a * f - c * c, b * c - a * e, a * d - b * b
+    det = a * Mi[0, 0] + b * Mi[0, 1] + c * Mi[0, 2]
+    P = W.points
+    for k in range(W.n):
+        if F[k, 1] <= 0.0:
+            continue
+        foot_point_jacobian(q, p, P[k, 0], P[k, 1], J)
+        x0, x1, x2 = J[0, 0], J[0, 1], J[0, 2]
+        inv_m = (x0 * (Mi[0, 0] * x0 + 2.0 * (Mi[0, 1] * x1 + Mi[0, 2] * x2))
+                 + x1 * (Mi[1, 1] * x1 + 2.0 * Mi[1, 2] * x2) + x2 * Mi[2, 2] * x2) / det
+        ch = math.cosh((pts[k, 2] + W.belt_speed) / W.slip_speed)
+        F[k, 0] /= 1.0 + h * W.friction * F[k, 1] / (W.slip_speed * ch * ch) * inv_m
+
+
 @njit(cache=True, error_model="numpy")
-def step_contacts(p, w, x, pts, F, gen, buf):  # type: ignore[no-untyped-def]
-    """The contact and support forces at state x: the sole's points into pts
-    (:data:`SOLE_MAX`, 4), their forces into F (:data:`SOLE_MAX`, 2), the generalized
-    forces (support included) into gen (4,) (``buf``: the step's work,
-    :data:`STEP_WORK`). Returns the support force."""
+def step_contacts(p, w, x, pts, F, gen, step):  # type: ignore[no-untyped-def]
+    """The contact and support forces at state x over a step: the sole's points into
+    pts (:data:`SOLE_MAX`, 4), their forces into F (:data:`SOLE_MAX`, 2) -- the friction
+    as the step meets it, :func:`implicit_friction` --, the generalized forces (support
+    included) into gen (4,) (``step``: (h s, the step's work :data:`STEP_WORK`)).
+    Returns the support force."""
+    h, buf = step
+    _, _, _, wk, _, J = step_work(buf)
     contact_points(p, w, x[0], x[1:4], x[5:8], x[4], pts)
     contact_forces(w, pts, F)
-    generalized_contact(p, w, x[0], x[1:4], F, gen, step_work(buf)[5])
+    implicit_friction(p, w, x[1:4], pts, F, h, (wk[0], wk[1], J))
+    generalized_contact(p, w, x[0], x[1:4], F, gen, J)
     fc = support_force(w, x[0], x[4])
     gen[0] += fc
     return fc
