@@ -26,7 +26,8 @@ from exoleg.cli import main
 
 SHIPPED_HIP_NM = 54.0   # data/device/actuators/hip.toml: repeated_peak_torque
 CHANGED_HIP_NM = 40.0
-COMMANDS = ("simulate", "fit", "population", "run", "hmi", "identify", "sweep", "detect")
+COMMANDS = ("simulate", "fit", "population", "run", "hmi", "identify", "sweep", "detect",
+            "validate")
 
 
 @pytest.fixture(scope="module")
@@ -149,6 +150,18 @@ def test_identify_designs_and_plays_its_plan_on_the_folders_device(device: Path,
     assert r.summary()["device_folder"] == str(device)
     ran = json.loads((tmp_path / "id" / "session" / "run.json").read_text())
     assert ran["device"]["actuators"][0]["torque_limit_Nm"] == CHANGED_HIP_NM
+
+
+def test_validate_judges_the_folders_transparency(device: Path,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    # the budget's drive limit is the folder's hip (40 N m, the shipped 54), and the walk
+    # is on it; --device with a check that is not of a device is refused by name
+    assert main(["validate", "--transparency", "--strides", "3", "--device", str(device)]) == 1
+    hip = next(ln.split() for ln in capsys.readouterr().out.splitlines()
+               if ln.split()[:1] == ["hip"])
+    assert hip[5] == f"{CHANGED_HIP_NM:.1f}", hip
+    assert main(["validate", "--gait-phase", "--device", str(device)]) == 2
+    assert "--device: goes with --transparency" in capsys.readouterr().err
 
 
 def test_detect_reads_the_folders_gait_phase_settings(device: Path, tmp_path: Path) -> None:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from exoleg.cli._common import _count, _say, _table
+from exoleg.cli._common import _count, _device_option, _say, _table
 from exoleg.cli.simulate_walk import _DETECTION_HEADER, _detection_rows
 from exoleg.errors import ParameterError
 
@@ -36,13 +36,14 @@ def _fault_table(cases: dict[str, list[dict[str, Any]]], title: str) -> None:
             "extra", "in strides"], title=title)
 
 
-def _transparency(strides: int) -> int:
+def _transparency(strides: int, device: Any) -> int:
     """``validate --transparency``: the budget and the walk's table
-    (:mod:`exoleg.validate.transparency`); 0 when the goal is met."""
+    (:mod:`exoleg.validate.transparency`) on the shipped device or the folder ``device``;
+    0 when the goal is met."""
     from exoleg.params.records import JOINTS
     from exoleg.validate.transparency import GOAL_NM_PER_KG, PREX_NM, SETTLE_STRIDES, evaluate
 
-    v = evaluate(strides=strides)
+    v = evaluate(strides=strides, device=device)
     _table([[b["joint"], f"{b['need_rms_Nm']:.1f} / {b['need_peak_Nm']:.1f}",
              f"{b['inertial_rms_Nm']:.1f}", f"{b['limit_Nm']:.1f}",
              f"{100 * b['beyond_share']:.0f} %", f"{b['floor_Nm_per_kg']:.3f}",
@@ -166,8 +167,12 @@ def cmd_validate(args: argparse.Namespace) -> int:
     if args.other_foot and not args.gait_phase:
         raise ParameterError("exoleg validate", "--other-foot", "goes with --gait-phase "
                              "(the detector's check with both feet's FSRs)")
+    if args.device is not None and not args.transparency:
+        raise ParameterError("exoleg validate", "--device", "goes with --transparency (the "
+                             "other checks are of the model, the detector and the shipped "
+                             "device's identification)")
     if args.transparency:
-        return _transparency(args.strides or 10)
+        return _transparency(args.strides or 10, args.device)
     if args.gait_phase:
         from exoleg.validate.gait_phase import evaluate
 
@@ -234,6 +239,7 @@ def add_parser(sub: Any) -> None:
     v.add_argument("--transparency", action="store_true",
                    help="the transparent mode: the device's budget and a typically "
                         "developing child walking in it")
+    _device_option(v, "with --transparency, the device judged")
     v.add_argument("--cp-child", action="store_true",
                    help="the shipped real child with CP (Falisse et al. 2020): inverse "
                         "dynamics on their gait, and the simulated child walking it")
