@@ -438,6 +438,7 @@ def test_a_typically_developing_child_walks_in_the_transparent_mode() -> None:
         law = every[("hip", "knee", "ankle").index(f["joint"])]
         assert f["floor_all_Nm_per_kg"] <= law and f["floor_loop_Nm_per_kg"] <= law
         assert f["floor_loop_Nm_per_kg"] > GOAL_NM_PER_KG
+        assert np.isnan(f["floor_rotor_Nm_per_kg"])  # rigid: no rotor behind a spring
     pelvis = [f["pelvis_Nm_per_kg"] for f in v.floors]
     assert pelvis[0] > pelvis[1] > pelvis[2] > 0.0  # the links' mass above each joint
 
@@ -460,3 +461,54 @@ def test_the_loops_floor_is_a_first_orders_lag_on_a_ramp() -> None:
     act = cfg.actuators[1]
     over = np.full(20_000, act.torque_limit + 5.0)
     assert loop_floor(act, over, np.zeros_like(over), h, 1.0) == pytest.approx(5.0, rel=1e-3)
+
+
+def _compliant_hip() -> Any:
+    """The shipped hip unit with a series spring behind its gear (300 N m/rad)."""
+    import dataclasses
+
+    from exoleg.device.actuator import paper_actuators
+
+    return dataclasses.replace(paper_actuators()[0], compliance="series_spring",
+                               series_stiffness=300.0, series_damping=0.0,
+                               torque_loop_bandwidth=30.0, torque_loop_damping=0.7,
+                               deflection_bits=20)
+
+
+def test_the_rotors_floor_is_the_quadratic_programmes_optimum() -> None:
+    # rotor_floor against scipy's trust-constr on the same programme written densely: a
+    # link swinging at 4 rad/s stopped within a few milliseconds (a heel strike) while
+    # the need swings 5 N m -- the rotor (3.2 kg m^2 at the joint, the shipped hip's)
+    # cannot follow within its 54 N m; the two agree to 1e-6; and a motion well within
+    # the motor's reach leaves nothing
+    from scipy.optimize import LinearConstraint, minimize
+
+    from exoleg.validate.transparency import rotor_floor
+
+    act = _compliant_hip()
+    h, n = 1e-3, 60
+    t = np.arange(n) * h
+    q = np.where(t < 0.03, 4.0 * t, 0.12 + 0.01 * (1 - np.exp(-(t - 0.03) / 0.0025)))
+    need = 5.0 * np.sin(2 * np.pi * t / 0.06)
+    K, B, lim = act.series_stiffness, act.reflected_inertia, act.current_limited_torque
+    # the motor's torque at the inner ticks, B r'' + K (r - q), as a matrix on r
+    M = np.zeros((n - 2, n))
+    for i in range(n - 2):
+        M[i, i:i + 3] = np.array([1.0, -2.0, 1.0]) * B / h**2
+        M[i, i + 1] += K
+    res = minimize(lambda r: np.sum((K * (r - q) - need) ** 2), q + need / K,
+                   jac=lambda r: 2 * K * (K * (r - q) - need), method="trust-constr",
+                   constraints=[LinearConstraint(M, -lim + K * q[1:-1], lim + K * q[1:-1])],
+                   options={"maxiter": 5000, "gtol": 1e-10, "xtol": 1e-12})
+    best = math.sqrt(res.fun / n)
+    assert best > 1.0  # the rotor cannot follow: the motor's limit binds
+    assert rotor_floor(act, need, q, h, 1.0, tol=1e-7) == pytest.approx(best, rel=1e-6)
+    slow = 0.3 * np.sin(2 * np.pi * 1.0 * np.arange(2000) * h)
+    # (to ADMM's tolerance: measured 6.3e-5 N m at 1e-6, 0.0056 at the default 1e-4, of a
+    # need of 2.1 N m RMS; on the designed device's walk 1e-4 and 1e-6 agree to 4 digits)
+    within = rotor_floor(act, 3.0 * np.cos(2 * np.pi * np.arange(2000) * h), slow, h, 1.0,
+                         tol=1e-6)
+    assert within < 1e-3
+    with pytest.raises(ValueError, match="rigid"):
+        rotor_floor(paper_hip := _device()[2].actuators[0], need, q, h, 1.0)
+    assert not paper_hip.compliant

@@ -71,6 +71,14 @@ def _transparency(strides: int, device: Any) -> int:
                  "through the drive's torque loop); the rotor on the gear's stiffness "
                  "(bounding any torque loop's bandwidth); beside the law's residual on the "
                  "same motion")
+    behind = [b for b in v.floors if b["floor_rotor_Nm_per_kg"] == b["floor_rotor_Nm_per_kg"]]
+    if behind:
+        _say("behind the series springs, their rotors must follow the links: what any law "
+             "leaves the child -- even knowing the walk ahead, with the motors' current "
+             "limit alone -- "
+             + ", ".join(f"{b['joint']} {b['floor_rotor_Nm_per_kg']:.3f}" for b in behind)
+             + " N m/kg RMS, against the law's "
+             + ", ".join(f"{b['joint']} {reach[b['joint']]:.3f}" for b in behind))
     _say("of the device's need, the pelvis's vertical acceleration asks "
          + ", ".join(f"{b['joint']} {b['pelvis_Nm_per_kg']:.3f}" for b in v.floors)
          + " N m/kg RMS: the transparent law leaves it to the child (no sensor on the "
