@@ -247,10 +247,11 @@ def rotor_floor(act: Any, need: F64, q: F64, h: float, body_mass: float,
     ``abs(tau_m) <= N eta k_t I_max``. The least RMS of ``spring - need`` over every rotor
     path, a convex quadratic programme over the walk (ADMM with penalty ``rho`` on the
     torques scaled by the limit -- 0.01-10 give the same optimum --, its sparse system
-    factored once; to ``tol`` of its residuals, 20,000 iterations at most). A relaxation of the device -- no tick's delay, no current
-    loop, no voltage or speed limit, no friction -- so a bound below any law's residual:
-    where the link's heel strikes ask the rotor to follow faster than its motor can turn
-    it, the spring passes the difference."""
+    factored once; to ``tol`` of its residuals, 20,000 iterations at most). A relaxation
+    of the device -- no tick's delay, no current loop, no voltage or speed limit, no
+    friction -- so a bound below any law's residual: where the link's heel strikes ask
+    the rotor to follow faster than its motor can turn it, the spring passes the
+    difference."""
     from scipy import sparse
     from scipy.sparse.linalg import splu
 
