@@ -200,8 +200,9 @@ def test_a_compliant_devices_walk_does_not_depend_on_its_plant_step(tmp_path: Pa
     girl walking 4 strides transparent on the shipped units with series springs (links that
     carry no rotor: a light foot), at the device's own steps a tick (9) and at 16: the
     cuffs' residual per joint within 5 % -- measured 0.5 / 3.1 / 0.6 %; with the sole's
-    friction held over each step explicitly (before :func:`~exoleg.world.plant.
-    implicit_friction`) 1.1 / 7.2 / 37 %, the foot chattering at the step's rate."""
+    friction held over each step explicitly (before
+    :func:`~exoleg.world.plant.implicit_friction`) 1.1 / 7.2 / 37 %, the foot chattering
+    at the step's rate."""
     from exoleg.child.model import ChildModel
     from exoleg.control.transparency import SupportMode
     from exoleg.sim.walk import simulate_walk
