@@ -120,6 +120,18 @@ def test_design_screens_chooses_writes_a_device_and_walks_it(tmp_path: Path) -> 
     assert summary["children"] == 8
     walked = {v["device"]: v for v in summary["verify"]}
     assert set(walked) == {"shipped", "designed"} and walked["designed"]["walked"]
+    # its transparency against its floors on the 10-year-old girl's walk (validate
+    # --transparency's): any law's bound behind a spring below what its law leaves, and
+    # the goal within reach only where every floor is within it
+    floors = {f["joint"]: f for f in summary["floors"]}
+    assert set(floors) == {"hip", "knee", "ankle"}
+    for j, a in zip(("hip", "knee", "ankle"), acts, strict=True):
+        f = floors[j]
+        assert (f["rotor_Nm_per_kg"] is not None) == a.compliant
+        if a.compliant:
+            assert 0.0 < f["rotor_Nm_per_kg"] < f["law_Nm_per_kg"]
+        assert f["reachable"] == (max(f["loop_Nm_per_kg"], f["rotor_Nm_per_kg"] or 0.0)
+                                  <= summary["transparency_goal_Nm_per_kg"])
     # every command takes it
     assert main(["simulate", "--walk", "--strides", "1", "--device", str(out / "device"),
                  "--out", str(tmp_path / "walk")]) == 0

@@ -45,6 +45,7 @@ def cmd_design(args: argparse.Namespace) -> int:
             population.walking_control_text(found["units"]))
         dev.commit()
     checked = verify(design, None) + verify(design, out / "device")
+    floors = transparency_floors(design, out / "device")
     served: list[dict[str, Any]] = []
     if not args.no_population:
         _say(f"exoleg design: verifying the device in the walking loop over the population "
@@ -71,7 +72,7 @@ def cmd_design(args: argparse.Namespace) -> int:
             "alpha": list(design.alpha), "transparency_goal_Nm_per_kg": design.goal,
             "chosen": {j: {k: v for k, v in r.items() if not k.startswith("_")}
                        for j, r in found["chosen"].items()},
-            "device": str(out / "device"), "verify": checked,
+            "device": str(out / "device"), "verify": checked, "floors": floors,
             "verify_population": population.summary(served) if served else None,
             "wall_time_s": time.perf_counter() - t0})
         o.commit(last="design.json")
@@ -90,6 +91,16 @@ def cmd_design(args: argparse.Namespace) -> int:
             for c in checked], ["device", "held-out child", "walked", "tracking RMS deg"],
            title=f"verified in the walking loop ({design.strides} strides, the held-out "
                  "children as actors, assist-as-needed)")
+    _table([[f["joint"], f"{f['law_Nm_per_kg']:.3f}", f"{f['loop_Nm_per_kg']:.3f}",
+             "-" if f["rotor_Nm_per_kg"] is None else f"{f['rotor_Nm_per_kg']:.3f}",
+             "yes" if f["reachable"] else "no"] for f in floors],
+           ["joint", "the law leaves N m/kg", "the loop's floor", "the rotor's bound",
+            f"<= {design.goal:g} within reach"],
+           title="transparent, the 10-year-old girl (P50) on the chosen device, 10 "
+                 "strides: what its law leaves, what a law "
+                 "knowing the device exactly would (a tick late, through the drive's loop), "
+                 "and behind a spring what any law could, the walk known ahead "
+                 "(exoleg validate --transparency --device)")
     if served:
         summ = population.summary(served)
         _table([[name, str(v["children"]), f"{100 * v['transparent_met']:.0f} %",
@@ -104,6 +115,27 @@ def cmd_design(args: argparse.Namespace) -> int:
          f"({time.perf_counter() - t0:.1f} s); walk it: exoleg simulate --walk --device "
          f"{out / 'device'}")
     return 0
+
+
+def transparency_floors(design: Any, device: Path) -> list[dict[str, Any]]:
+    """Per joint, the chosen device's transparent residual against its floors on the
+    typically developing 10-year-old girl's walk of 10 strides
+    (:func:`exoleg.validate.transparency.evaluate`): the law's, the loop's floor, a
+    compliant unit's rotor bound (None for a rigid one), and whether the goal is within
+    reach of every floor."""
+    from exoleg.validate.transparency import evaluate
+
+    v = evaluate(strides=10, stride_time=design.stride_time, device=device)
+    law = v.rows[-1]["rms_Nm_per_kg"]
+    out = []
+    for f in v.floors:
+        rotor = f["floor_rotor_Nm_per_kg"]
+        rotor = None if rotor != rotor else float(rotor)
+        out.append({"joint": f["joint"], "law_Nm_per_kg": float(law[f["joint"]]),
+                    "loop_Nm_per_kg": float(f["floor_loop_Nm_per_kg"]),
+                    "rotor_Nm_per_kg": rotor,
+                    "reachable": max(f["floor_loop_Nm_per_kg"], rotor or 0.0) <= design.goal})
+    return out
 
 
 def _series_words(r: dict[str, Any]) -> str:
