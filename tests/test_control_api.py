@@ -246,6 +246,36 @@ def test_hmi_refuses_what_it_must(tmp_path: Path) -> None:
     assert not sim.archive.sessions() and sim.proc is None  # nothing started by any of it
 
 
+def test_a_start_sent_again_is_answered_again_not_refused(tmp_path: Path) -> None:
+    """A browser resends a request whose reused connection dropped before the answer (a
+    loaded host: the page then said "refused: session ... is running" about the session
+    its own start began, and never held it). The page's start carries an id: the same id
+    again while its session runs gets the same answer; another start is refused as
+    before; an id that is not one is refused naming the field."""
+    import httpx
+
+    from exoleg.hmi.testing import served_hmi
+
+    with served_hmi(tmp_path / "s") as hmi:
+        base = f"{hmi.url}/api"
+        auth = {"Authorization": f"Bearer {hmi.token}"}
+        op = {**auth, "X-Operator": httpx.post(f"{base}/operator", json={"name": "ann"},
+                                               headers=auth).json()["operator"]}
+        start = {"duration": 60, "arm": True, "request": "lq3x-0a1b2c"}
+        first = httpx.post(f"{base}/session/start", json=start, headers=op, timeout=30)
+        assert first.status_code == 200, first.text
+        again = httpx.post(f"{base}/session/start", json=start, headers=op, timeout=30)
+        assert again.status_code == 200 and again.json() == first.json()
+        other = httpx.post(f"{base}/session/start", json={**start, "request": "other-1"},
+                           headers=op, timeout=30)
+        assert other.status_code == 409 and "is running; end it first" in other.json()["error"]
+        bad = httpx.post(f"{base}/session/start", json={**start, "request": "no id!"},
+                         headers=op, timeout=30)
+        assert bad.status_code == 422 and bad.json()["error"].startswith("request: ")
+        sessions = [p for p in (tmp_path / "s").iterdir() if p.is_dir()]
+        assert [p.name for p in sessions] == [first.json()["session"]]  # one session
+
+
 def test_session_ends_torque_off_when_the_interface_dies(tmp_path: Path) -> None:
     """Fault injection: the server's process killed (SIGKILL) mid-session -- nobody could
     stop the device from the page, so the session ends with the torque off."""

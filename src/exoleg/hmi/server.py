@@ -63,6 +63,19 @@ MAX_DURATION = 3600.0
 NOTE_LIMIT = 2000
 #: an identification's plan, s (exoleg.identify.plan.design_plan's range)
 PLAN_RANGE = (10.0, 120.0)
+
+def request_id(body: dict[str, Any]) -> str | None:
+    """A start's ``request`` id (the page's, 1-64 letters, digits, ``-`` or ``_``;
+    None when not given). ValueError naming the field when it is anything else."""
+    rid = body.get("request")
+    if rid is None:
+        return None
+    if not (isinstance(rid, str) and 1 <= len(rid) <= 64
+            and all(ch.isascii() and (ch.isalnum() or ch in "-_") for ch in rid)):
+        raise ValueError(f"request: {rid!r} is not a start's id (1-64 letters, digits, "
+                         "- or _)")
+    return rid
+
 class HMI:
     """The server's state: the session (running or not), the child kept for the next
     session, the sessions folder."""
@@ -98,6 +111,10 @@ class HMI:
                                                          legacy=self.root / "children")
         self.kept: dict[str, Any] | None = None  # the fit the next session runs on
         self.proc: Any = None
+        # the page's id of the start that began the running session, and its answer: a
+        # start sent again with the same id (a browser resends a request whose reused
+        # connection dropped before the answer) is answered again, not refused
+        self.started: tuple[str, dict[str, Any]] | None = None
         self.session: Path | None = None
         self.leg = leg if leg is not None else exoleg.paper_leg()
         if self.registry is not None and leg is None:
@@ -111,13 +128,20 @@ class HMI:
 
     # ------------------------------------------------------------------ sessions
     def start(self, duration: float, source: str, arm: bool = False,
-              identify: bool = False) -> tuple[int, dict[str, Any]]:
+              identify: bool = False, request: str | None = None
+              ) -> tuple[int, dict[str, Any]]:
         """Start a session (its own process) with the child kept, if any. ``arm``: arm as
         the loop starts -- only on the simulated device, whose child has no muscles of its
         own and folds within about a second while the device is disarmed. ``identify``:
         the session plays identification's plan (``duration`` s of it; the operator starts
-        it with Walk) and the identified leg is kept for the sessions after."""
+        it with Walk) and the identified leg is kept for the sessions after. ``request``:
+        the page's id for this start; the same id again while its session runs gets the
+        same answer (the start is not repeated, nor refused as another's)."""
         with self.lock:
+            running = self.proc is not None and self.proc.is_alive()
+            if running and request is not None and self.started is not None \
+                    and self.started[0] == request:
+                return 200, self.started[1]
             try:
                 check_options(self.backend, self.interface, arm)
             except ParameterError as e:  # arming at the start on a real device
@@ -125,7 +149,7 @@ class HMI:
             if self.fixed:
                 return 409, {"error": "this HMI serves one session run by `exoleg run`; it "
                                       "cannot start another"}
-            if self.proc is not None and self.proc.is_alive():
+            if running:
                 return 409, {"error": f"session {self.session.name if self.session else ''}"
                                       " is running; end it first"}
             lo, hi, label = ((*PLAN_RANGE, "Plan (s)") if identify
@@ -183,7 +207,9 @@ class HMI:
             settings = None if identify else runs_on["settings"]
             threading.Thread(target=self._watch, daemon=True,
                              args=(self.proc, link, folder, identify, settings)).start()
-            return 200, {"session": name, **runs_on, "identify": identify}
+            out = {"session": name, **runs_on, "identify": identify}
+            self.started = None if request is None else (request, out)
+            return 200, out
 
     def _child_file(self, kept: dict[str, Any], folder: Path, wanted: bool = False
                     ) -> str | None:
@@ -469,8 +495,13 @@ class HMI:
             except ValueError as e:
                 api.record(source_of(request), "start session", False, str(e))
                 return JSONResponse({"error": str(e)}, 422)
+            try:
+                started_by = request_id(body)
+            except ValueError as e:
+                api.record(source_of(request), "start session", False, str(e))
+                return JSONResponse({"error": str(e)}, 422)
             status, out = self.start(duration, source_of(request),
-                                     arm=body.get("arm") is True)
+                                     arm=body.get("arm") is True, request=started_by)
             if status != 200:
                 api.record(source_of(request), "start session", False, out["error"])
             return JSONResponse(out, status)
@@ -485,8 +516,13 @@ class HMI:
             except ValueError as e:
                 api.record(source_of(request), "start identification", False, str(e))
                 return JSONResponse({"error": str(e)}, 422)
+            try:
+                started_by = request_id(body)
+            except ValueError as e:
+                api.record(source_of(request), "start identification", False, str(e))
+                return JSONResponse({"error": str(e)}, 422)
             status, out = self.start(plan, source_of(request), arm=body.get("arm") is True,
-                                     identify=True)
+                                     identify=True, request=started_by)
             if status != 200:
                 api.record(source_of(request), "start identification", False, out["error"])
             return JSONResponse(out, status)

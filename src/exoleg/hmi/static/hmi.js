@@ -562,12 +562,15 @@ $("release").onclick = async () => {
   S.operator = ""; sessionStorage.removeItem("exoleg-operator"); refreshOperator();
 };
 const freshLive = () => { S.hist = []; S.events = []; S.lastMode = null; S.lastEvent = -1; S.eventCount = 0; refreshInfo(); };
+// each start its own id: a start the browser sends again (its reused connection dropped
+// before the answer) is answered again by the server, not refused as another's session
+const startId = () => Date.now().toString(36) + "-" + Math.random().toString(36).slice(2, 10);
 $("start").onclick = async () => {
-  const r = await act("POST", "/api/session/start", {duration: $("duration").value, arm: $("arm-start").checked}, "session started");
+  const r = await act("POST", "/api/session/start", {duration: $("duration").value, arm: $("arm-start").checked, request: startId()}, "session started");
   if (r.ok) { say(`session ${r.data.session} started for ${r.data.text}`, true); freshLive(); }
 };
 $("identify").onclick = async () => {
-  const r = await act("POST", "/api/identify/start", {plan: $("plan").value, arm: $("arm-start").checked}, "identification started");
+  const r = await act("POST", "/api/identify/start", {plan: $("plan").value, arm: $("arm-start").checked, request: startId()}, "identification started");
   if (r.ok) { say(`identification ${r.data.session} started for ${r.data.text}: Arm, then Walk starts the plan`, true); freshLive(); }
 };
 const ARMED = () => VOC().armed || [];  // the modes in which the drives are enabled
