@@ -502,12 +502,13 @@ def test_the_page_is_same_origin_and_the_records_need_the_token(tmp_path: Path) 
     from starlette.testclient import TestClient
     from starlette.websockets import WebSocketDisconnect
 
+    from exoleg.hmi.routes import app
     from exoleg.hmi.server import HMI
 
     hmi = HMI(tmp_path)
     hmi.fit({"name": "Ada", "age": 10, "sex": "female", "height": 138, "mass": 32}, "t")
     auth = {"Authorization": f"Bearer {hmi.api.token}"}
-    with TestClient(hmi.app(), base_url="http://127.0.0.1:8780") as c:
+    with TestClient(app(hmi), base_url="http://127.0.0.1:8780") as c:
         me = "http://127.0.0.1:8780"
         for url, body in (("/api/estop", {}), ("/api/command", {"command": "estop"}),
                           ("/api/operator", {"name": "x"}), ("/api/fit", {})):

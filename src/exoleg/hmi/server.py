@@ -16,7 +16,6 @@ the operator holding control; an E-stop needs neither.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import multiprocessing as mp
 import threading
@@ -26,9 +25,8 @@ from typing import Any
 
 import numpy as np
 
-from exoleg.control.hierarchy import TUNABLE
 from exoleg.device import files as device_files
-from exoleg.entry import DEFAULT_BODY_MASS, typed_number
+from exoleg.entry import DEFAULT_BODY_MASS
 from exoleg.errors import ParameterError
 from exoleg.hmi.archive import Archive
 from exoleg.hmi.child_form import (
@@ -40,23 +38,16 @@ from exoleg.hmi.processes import IDENTIFIED, _identify_process, _session_process
 from exoleg.hmi.registry import FILE as RECORDS
 from exoleg.hmi.registry import Registry
 from exoleg.hmi.settings import apply_settings, kept_settings, settings_at_end
-from exoleg.hmi.views import VOCABULARY, device_info, ended_record
+from exoleg.hmi.views import device_info, ended_record
 from exoleg.io import write_json
 from exoleg.runtime.control_api import (
-    BadBody,
     ControlAPI,
-    SameOrigin,
-    bad_body,
-    body_of,
-    loopback,
-    source_of,
 )
 from exoleg.runtime.device_lock import device_name, hold_device, let_go
 from exoleg.runtime.link import LoopLink
 from exoleg.runtime.operator import REQUEST_OPERATOR
 from exoleg.runtime.session import check_options, simulated
 
-STATIC = Path(__file__).parent / "static"
 #: the longest session the HMI starts, s (a session may be ended at any time before)
 MAX_DURATION = 3600.0
 #: the longest note on a session, characters
@@ -64,17 +55,6 @@ NOTE_LIMIT = 2000
 #: an identification's plan, s (exoleg.identify.plan.design_plan's range)
 PLAN_RANGE = (10.0, 120.0)
 
-def request_id(body: dict[str, Any]) -> str | None:
-    """A start's ``request`` id (the page's, 1-64 letters, digits, ``-`` or ``_``;
-    None when not given). ValueError naming the field when it is anything else."""
-    rid = body.get("request")
-    if rid is None:
-        return None
-    if not (isinstance(rid, str) and 1 <= len(rid) <= 64
-            and all(ch.isascii() and (ch.isalnum() or ch in "-_") for ch in rid)):
-        raise ValueError(f"request: {rid!r} is not a start's id (1-64 letters, digits, "
-                         "- or _)")
-    return rid
 
 class HMI:
     """The server's state: the session (running or not), the child kept for the next
@@ -416,215 +396,3 @@ class HMI:
     def live(self) -> Path | None:
         """The folder of the session running now (None when none runs)."""
         return self.session if self.api.link is not None else None
-
-    # ------------------------------------------------------------------ the web app
-    def app(self) -> Any:
-        from starlette.applications import Starlette
-        from starlette.concurrency import run_in_threadpool
-        from starlette.requests import Request
-        from starlette.responses import FileResponse, JSONResponse, Response
-        from starlette.routing import Mount, Route
-        from starlette.staticfiles import StaticFiles
-
-        api = self.api
-
-        async def index(request: Request) -> Response:
-            return FileResponse(STATIC / "index.html")
-
-        def private(request: Request) -> JSONResponse | None:
-            """None with the token; else the refusal (children's and sessions' data)."""
-            if api.has_token(request.headers):
-                return None
-            return JSONResponse({"error": "the children's and the sessions' records need "
-                                 "the token (Control page: Token)"}, 401)
-
-        async def info(request: Request) -> JSONResponse:
-            records = private(request) is None
-            with self.lock:
-                kept, runs_on = self.kept, self.runs_on()
-                out = {"device": self.info, "backend": self.backend, "fixed": self.fixed,
-                       "simulated": self._simulated(),
-                       "session": self.session.name if self.session else None,
-                       "max_duration": MAX_DURATION, "vocabulary": VOCABULARY,
-                       "gains": [g for g in TUNABLE if g != "support"],
-                       "records": records}
-            if records:
-                reg = self.registry
-                out.update(child=kept and {**kept["record"], "child_id": kept["child_id"],
-                                           "fit_id": kept["id"]},
-                           runs_on=runs_on["text"],
-                           children=[] if reg is None else reg.children(),
-                           damaged=[] if reg is None else reg.damaged)
-            return JSONResponse(out)
-
-        async def child_history_route(request: Request) -> JSONResponse:
-            refused = private(request)
-            if refused:
-                return refused
-            from exoleg.hmi.history import child_history
-
-            try:
-                return JSONResponse(await run_in_threadpool(
-                    child_history, self.root, request.path_params["child_id"]))
-            except ParameterError as e:
-                return JSONResponse({"error": str(e)}, 404)
-
-        async def keep_child(request: Request) -> JSONResponse:
-            refused = api.refusal(request, "keep child")
-            if refused:
-                return refused
-            status, out = await run_in_threadpool(
-                self.keep_child, request.path_params["child_id"], source_of(request))
-            return JSONResponse(out, status)
-
-        async def fit(request: Request) -> JSONResponse:
-            refused = api.refusal(request, "fit")
-            if refused:
-                return refused
-            body = await body_of(request)
-            status, out = await run_in_threadpool(self.fit, body, source_of(request))
-            return JSONResponse(out, status)
-
-        async def session_start(request: Request) -> JSONResponse:
-            refused = api.refusal(request, "start session")
-            if refused:
-                return refused
-            body = await body_of(request)
-            try:
-                duration = typed_number("Duration (s)", body.get("duration", 60.0))
-            except ValueError as e:
-                api.record(source_of(request), "start session", False, str(e))
-                return JSONResponse({"error": str(e)}, 422)
-            try:
-                started_by = request_id(body)
-            except ValueError as e:
-                api.record(source_of(request), "start session", False, str(e))
-                return JSONResponse({"error": str(e)}, 422)
-            status, out = self.start(duration, source_of(request),
-                                     arm=body.get("arm") is True, request=started_by)
-            if status != 200:
-                api.record(source_of(request), "start session", False, out["error"])
-            return JSONResponse(out, status)
-
-        async def identify_start(request: Request) -> JSONResponse:
-            refused = api.refusal(request, "start identification")
-            if refused:
-                return refused
-            body = await body_of(request)
-            try:
-                plan = typed_number("Plan (s)", body.get("plan", PLAN_RANGE[1]))
-            except ValueError as e:
-                api.record(source_of(request), "start identification", False, str(e))
-                return JSONResponse({"error": str(e)}, 422)
-            try:
-                started_by = request_id(body)
-            except ValueError as e:
-                api.record(source_of(request), "start identification", False, str(e))
-                return JSONResponse({"error": str(e)}, 422)
-            status, out = self.start(plan, source_of(request), arm=body.get("arm") is True,
-                                     identify=True, request=started_by)
-            if status != 200:
-                api.record(source_of(request), "start identification", False, out["error"])
-            return JSONResponse(out, status)
-
-        async def session_note(request: Request) -> JSONResponse:
-            refused = api.refusal(request, "note")
-            if refused:
-                return refused
-            body = await body_of(request)
-            status, out = self.note(body.get("note"), source_of(request))
-            return JSONResponse(out, status)
-
-        async def session_end(request: Request) -> JSONResponse:
-            refused = api.refusal(request, "end session")
-            if refused:
-                return refused
-            status, out = self.end(source_of(request))
-            return JSONResponse(out, status)
-
-        async def sessions(request: Request) -> JSONResponse:
-            refused = private(request)
-            if refused:
-                return refused
-            return JSONResponse(await run_in_threadpool(self.sessions))
-
-        def recorded(request: Request) -> Path:
-            folder = self.archive.folder_of(request.path_params["name"])
-            if folder is None:
-                raise LookupError(request.path_params["name"])
-            return folder
-
-        async def session_detail(request: Request) -> Response:
-            refused = private(request)
-            if refused:
-                return refused
-            try:
-                folder = recorded(request)
-            except LookupError as e:
-                return JSONResponse({"error": f"no recorded session {e}"}, 404)
-            return JSONResponse(await run_in_threadpool(self.archive.detail, folder,
-                                                        self.live()))
-
-        async def session_file(request: Request) -> Response:
-            refused = private(request)
-            if refused:
-                return refused
-            try:
-                folder = recorded(request)
-            except LookupError as e:
-                return JSONResponse({"error": f"no recorded session {e}"}, 404)
-            kind = request.path_params["kind"]
-            try:
-                if kind == "plot.png":
-                    path = await run_in_threadpool(self.archive.plot, folder)
-                    return FileResponse(path, media_type="image/png")
-                if kind == "report.pdf":
-                    path = await run_in_threadpool(self.archive.report, folder)
-                    return FileResponse(path, filename=f"{folder.name}-report.pdf",
-                                        media_type="application/pdf")
-                if kind == "session.c3d":
-                    path = await run_in_threadpool(self.archive.c3d, folder)
-                    return FileResponse(path, filename=path.name.replace(
-                        "session", folder.name))
-                if kind in ("session.csv", "session.parquet"):
-                    fmt = kind.split(".")[1]
-                    path = await run_in_threadpool(self.archive.export, folder, fmt)
-                    return FileResponse(path, filename=f"{folder.name}.{fmt}")
-            except (ParameterError, OSError) as e:
-                return JSONResponse({"error": f"session {folder.name}: {e}"}, 409)
-            return JSONResponse({"error": f"unknown file {kind!r} (allowed: plot.png, "
-                                          "report.pdf, session.c3d, session.csv, "
-                                          "session.parquet)"}, 404)
-
-        @contextlib.asynccontextmanager
-        async def lifespan(app: Any) -> Any:
-            import asyncio
-
-            task = asyncio.create_task(api.watch())
-            yield
-            task.cancel()
-
-        routes = [Route("/", index), Route("/api/info", info),
-                  Route("/api/fit", fit, methods=["POST"]),
-                  Route("/api/session/start", session_start, methods=["POST"]),
-                  Route("/api/identify/start", identify_start, methods=["POST"]),
-                  Route("/api/session/end", session_end, methods=["POST"]),
-                  Route("/api/session/note", session_note, methods=["POST"]),
-                  Route("/api/children/{child_id}/history", child_history_route),
-                  Route("/api/children/{child_id}/keep", keep_child, methods=["POST"]),
-                  Route("/api/sessions", sessions),
-                  Route("/api/sessions/{name}", session_detail),
-                  Route("/api/sessions/{name}/{kind}", session_file),
-                  Mount("/api", routes=api.routes()),
-                  Mount("/static", app=StaticFiles(directory=STATIC), name="static")]
-        from starlette.middleware import Middleware
-        from starlette.middleware.trustedhost import TrustedHostMiddleware
-
-        # on loopback, only requests addressed to loopback names: a page elsewhere that
-        # rebinds its own name to 127.0.0.1 cannot read the state
-        hosts = (["127.0.0.1", "localhost", "[::1]", self.host] if loopback(self.host)
-                 else ["*"])
-        return Starlette(routes=routes, lifespan=lifespan,
-                         exception_handlers={BadBody: bad_body},
-                         middleware=[Middleware(TrustedHostMiddleware, allowed_hosts=hosts),
-                                     Middleware(SameOrigin)])

@@ -16,6 +16,7 @@ from typing import Any
 
 from exoleg._parent import when_parent_ends
 from exoleg.errors import ParameterError
+from exoleg.hmi.routes import app
 from exoleg.hmi.server import HMI
 from exoleg.runtime.control_api import loopback
 from exoleg.runtime.link import LoopLink
@@ -109,7 +110,7 @@ def serve(hmi: HMI, host: str = "127.0.0.1", port: int = 8780, certfile: str | N
             raise
         ready.send(str(e))
         return ""
-    config = uvicorn.Config(hmi.app(), log_level="warning", ssl_certfile=certfile,
+    config = uvicorn.Config(app(hmi), log_level="warning", ssl_certfile=certfile,
                             ssl_keyfile=keyfile, lifespan="on",
                             timeout_keep_alive=KEEP_ALIVE_S)
     server = Server(config)
