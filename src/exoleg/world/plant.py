@@ -477,16 +477,18 @@ def implicit_friction(p, w, q, pts, F, h, wk):  # type: ignore[no-untyped-def]
     (3, 3) to work in and a (2, 3) Jacobian."""
     W = w[0]
     M, Mi, J = wk
-    mass_matrix(q, p, M)
-    a, b, c = M[0, 0], M[0, 1], M[0, 2]
-    d, e, f = M[1, 1], M[1, 2], M[2, 2]
-    Mi[0, 0], Mi[0, 1], Mi[0, 2] = d * f - e * e, c * e - b * f, b * e - c * d
-    Mi[1, 1], Mi[1, 2], Mi[2, 2] = a * f - c * c, b * c - a * e, a * d - b * b
-    det = a * Mi[0, 0] + b * Mi[0, 1] + c * Mi[0, 2]
+    det = 0.0  # the mass matrix's adjugate and determinant, at the first contact (none in swing)
     P = W.points
     for k in range(W.n):
         if F[k, 1] <= 0.0:
             continue
+        if det == 0.0:
+            mass_matrix(q, p, M)
+            a, b, c = M[0, 0], M[0, 1], M[0, 2]
+            d, e, f = M[1, 1], M[1, 2], M[2, 2]
+            Mi[0, 0], Mi[0, 1], Mi[0, 2] = d * f - e * e, c * e - b * f, b * e - c * d
+            Mi[1, 1], Mi[1, 2], Mi[2, 2] = a * f - c * c, b * c - a * e, a * d - b * b
+            det = a * Mi[0, 0] + b * Mi[0, 1] + c * Mi[0, 2]
         foot_point_jacobian(q, p, P[k, 0], P[k, 1], J)
         x0, x1, x2 = J[0, 0], J[0, 1], J[0, 2]
         inv_m = (x0 * (Mi[0, 0] * x0 + 2.0 * (Mi[0, 1] * x1 + Mi[0, 2] * x2))
