@@ -134,6 +134,19 @@ def test_run_hmi_token_operator_gains_estop(tmp_path: Path) -> None:
     assert all(a["time"] > 0 and a["source"] for a in actions)
 
 
+def _tick_after(command: int) -> tuple[dict[str, Any], dict[str, Any]]:
+    """A tick's output and sensor records (every field of contract.OUTPUT, the readings
+    the link publishes) after the loop applied ``command``."""
+    out = {"events": 0, "safety_status": 2, "mode": 3, "phase": 0, "gait_source": 1,
+           "tau": np.zeros(3), "gait_fraction": 0.0, "q_ref": np.zeros(3), "fault": 1,
+           "fault_joint": -1, "fault_value": 0.0, "fault_limit": 0.0, "refused": 0,
+           "winding_temp": np.array([40.0, 35.0, 30.0]),
+           "gear_torque": np.zeros(3), "support_mode": 0,
+           "support_level": np.ones(3), "cuff": np.full(3, np.nan)}
+    return out, {"command": int(command), "q": np.zeros(3), "dq": np.zeros(3),
+                 "fsr": np.zeros(4)}
+
+
 def test_link_estop_goes_first_and_applied_commands_are_timed() -> None:
     link = LoopLink.new()
     assert LoopLink.gains(link.web_copy()) is None  # not published yet
@@ -147,15 +160,7 @@ def test_link_estop_goes_first_and_applied_commands_are_timed() -> None:
     time.sleep(0.05)
     cmd, change = link.loop_poll()
     assert cmd == Command.ESTOP and change is None  # queued last, applied first
-    out = {"events": 0, "safety_status": 2, "mode": 3, "phase": 0, "gait_source": 1,
-           "tau": np.zeros(3), "gait_fraction": 0.0, "q_ref": np.zeros(3), "fault": 1,
-           "fault_joint": -1, "fault_value": 0.0, "fault_limit": 0.0, "refused": 0,
-           "winding_temp": np.array([40.0, 35.0, 30.0]),
-           "gear_torque": np.zeros(3), "support_mode": 0,
-           "support_level": np.ones(3),
-           "cuff": np.full(3, np.nan)}  # every field of the output record (contract.OUTPUT)
-    sensors = {"command": int(Command.ESTOP), "q": np.zeros(3), "dq": np.zeros(3),
-               "fsr": np.zeros(4)}
+    out, sensors = _tick_after(Command.ESTOP)
     before = time.time()
     link.loop_tick(7, 0.007, out, sensors, 0.0, 1e-3, publish=True)
     n, done = LoopLink.applied(link.web_copy(), 0)
@@ -188,6 +193,41 @@ def test_link_estop_goes_first_and_applied_commands_are_timed() -> None:
                        publish=False)
     n, done = LoopLink.applied(link.web_copy(), 0)
     assert n == RING + 8 and len(done) == RING and done[-1][1] == 100 + RING + 4
+
+
+def test_an_estop_applied_before_its_click_time_is_read_is_logged_with_it(tmp_path: Path
+                                                                          ) -> None:
+    """POST /estop queues the E-stop before reading the body that carries the page's
+    click time; a loop can apply it first (a CI run did, and its record had no time from
+    the click). The applied record waits for the click time, in either order."""
+    from exoleg.runtime.control_api import ControlAPI
+
+    api = ControlAPI(folder=tmp_path)
+    link = LoopLink.new()
+    api.attach(link, tmp_path)
+    for k, click_first in ((1, False), (2, True)):
+        pressed = time.time() - 0.050  # the press, 50 ms before the request
+        why, rid = api.estop(click_to_come=True)
+        assert why == ""
+        if click_first:
+            api.clicked(rid, pressed)
+        time.sleep(0.02)
+        assert link.loop_poll()[0] == Command.ESTOP
+        link.loop_tick(k, k * 1e-3, *_tick_after(Command.ESTOP), 0.0, 1e-3, publish=True)
+        api.poll_applied()
+        assert api.outcome(rid) == (True, "")  # the answer does not wait for the body
+        if not click_first:
+            assert not [a for a in api.actions if a["source"] == "loop"]  # held for it
+            api.clicked(rid, pressed)
+        loop = [a for a in api.actions if a["source"] == "loop" and a["request"] == rid]
+        assert len(loop) == 1, loop
+        a = loop[0]
+        # the sleep's 20 ms from the request; 50 ms more from the press
+        assert 20.0 <= a["after_request_ms"] < a["after_click_ms"], a
+        assert a["after_click_ms"] - a["after_request_ms"] == pytest.approx(50.0, abs=5.0)
+    logged = [json.loads(x) for x in (tmp_path / "control.log").read_text().splitlines()]
+    assert [a["request"] for a in logged if a["source"] == "loop"] == [1, 2]
+    assert all("after_click_ms" in a for a in logged if a["source"] == "loop")
 
 
 def test_bind_elsewhere_needs_tls_or_says_so(tmp_path: Path) -> None:

@@ -244,33 +244,39 @@ class ControlAPI(OperatorRules):
             status, out = self.take(request.headers, source, name)
             return JSONResponse(out, status)
 
-        def estopped(source: str, why: str, rid: int, body: dict[str, Any],
-                     problem: str) -> JSONResponse:
+        def estopped(source: str, why: str, note: str) -> JSONResponse:
             """The answer to an E-stop already queued (or refused: no session)."""
             if why:
                 self.record(source, "estop", False, why)
                 return JSONResponse({"error": why}, 409)
-            clicked_at, note = click_stamp(body.get("clicked_at"))
-            if clicked_at is not None:
-                self.stamp(rid, clicked_at)
-            self.record(source, "estop", True, "; ".join(x for x in (problem, note) if x))
+            self.record(source, "estop", True, note)
             return JSONResponse({"queued": "estop"})
 
         async def estop(request: Request) -> JSONResponse:
-            # the E-stop goes before anything of the request is read: any body, any size
-            why, rid = self.estop()
+            # the E-stop goes before anything of the request is read: any body, any size;
+            # the page's click time in it follows (its applied record waits for it)
+            why, rid = self.estop(click_to_come=True)
             self.who(request.headers)  # the operator's name in the record, if theirs
-            body, problem = ({}, "") if why else await read_body(request)
-            return estopped(source_of(request), why, rid, body, problem)
+            body, problem = {}, ""
+            try:
+                if not why:
+                    body, problem = await read_body(request)
+            finally:
+                clicked_at, note = click_stamp(body.get("clicked_at"))
+                if not why:
+                    self.clicked(rid, clicked_at)
+            return estopped(source_of(request), why,
+                            "; ".join(x for x in (problem, note) if x))
 
         async def command(request: Request) -> JSONResponse:
             source = source_of(request)
             body = await body_of(request)
             name = str(body.get("command", ""))
+            clicked_at, note = click_stamp(body.get("clicked_at"))
             if name == "estop":
-                why, rid = self.estop()
+                why, rid = self.estop(clicked_at)
                 self.who(request.headers)
-                return estopped(source, why, rid, body, "")
+                return estopped(source, why, note)
             if name not in COMMANDS:
                 why = f"unknown command {name!r} (allowed: {', '.join(COMMANDS)})"
                 self.record(source, name or "?", False, why)
@@ -279,7 +285,6 @@ class ControlAPI(OperatorRules):
                 refused = self.refusal(request, name)
                 if refused:
                     return refused
-            clicked_at, note = click_stamp(body.get("clicked_at"))
             why, rid = self.send(name, source, clicked_at)
             if why:
                 self.record(source, name, False, why)

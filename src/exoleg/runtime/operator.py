@@ -67,6 +67,9 @@ class OperatorRules:
         self.actions: list[dict[str, Any]] = []
         self.operator: dict[str, Any] | None = None
         self.requests: dict[int, dict[str, Any]] = {}
+        # applied E-stops whose page's click time is still being read: their record waits
+        # for it (:meth:`clicked`)
+        self.held: dict[int, tuple[tuple[Any, ...], dict[str, Any]]] = {}
         self.next_id = 1
         self.seen_applied = 0
         self.alarm: dict[str, Any] | None = None  # the latest alarm, on every page
@@ -99,6 +102,7 @@ class OperatorRules:
         with self.lock:
             self.link, self.folder = link, Path(folder)
             self.bounds, self.actions, self.requests, self.outcomes = {}, [], {}, {}
+            self.held = {}
             self.seen_applied = 0
             self.alarm = None
             self.unattended = None
@@ -207,8 +211,12 @@ class OperatorRules:
                     extra["after_click_ms"] = round((wall - req["clicked_at"]) * 1e3, 3)
                 why = refusal(code, mode) if refused else ""
                 self.outcomes[rid] = (not refused, why)
-                self.record("loop", NAMES.get(code, str(code)), not refused, why=why,
-                            applied=wall, **extra)
+                args = ("loop", NAMES.get(code, str(code)), not refused)
+                kwargs = {"why": why, "applied": wall, **extra}
+                if req.get("click_to_come"):  # logged once the page's click time is read
+                    self.held[rid] = (args, kwargs)
+                else:
+                    self.record(*args, **kwargs)
             while len(self.outcomes) > 256:  # the pages read theirs within a second
                 self.outcomes.pop(next(iter(self.outcomes)))
 
@@ -371,18 +379,17 @@ class OperatorRules:
              ) -> tuple[str, int]:
         """Queue ``name`` for the loop: ('' or why it cannot go, its request id, whose
         outcome :meth:`outcome` gives once the loop has applied it)."""
-        why, rid = self._queue(name)
-        if not why and clicked_at is not None:
-            self.stamp(rid, clicked_at)
-        return why, rid
+        return self._queue(name, clicked_at)
 
     def outcome(self, rid: int) -> tuple[bool, str] | None:
         """Whether the supervisor applied request ``rid`` and why not (None: not yet)."""
         with self.lock:
             return self.outcomes.get(rid)
 
-    def _queue(self, name: str) -> tuple[str, int]:
-        """Queue ``name``: ('' or why it cannot go, its request id)."""
+    def _queue(self, name: str, clicked_at: float | None = None,
+               click_to_come: bool = False) -> tuple[str, int]:
+        """Queue ``name``: ('' or why it cannot go, its request id), with the page's click
+        time (s, wall clock) when known, or to come (:meth:`clicked`)."""
         with self.lock:
             link = self.link
             if link is None:
@@ -392,17 +399,34 @@ class OperatorRules:
                 return f"the session is {running}: commands go once its loop runs", -1
             rid = self.next_id
             self.next_id += 1
-            self.requests[rid] = {"received": time.time()}
+            self.requests[rid] = {"received": time.time(), "click_to_come": click_to_come,
+                                  **({} if clicked_at is None else {"clicked_at": clicked_at})}
         link.web_send(int(COMMANDS[name]), rid)
         return "", rid
 
-    def estop(self) -> tuple[str, int]:
+    def estop(self, clicked_at: float | None = None, click_to_come: bool = False
+              ) -> tuple[str, int]:
         """Queue an E-stop before anything else (nothing about the request is needed):
-        ('' or why it could not go -- no session --, its request id)."""
-        return self._queue("estop")
+        ('' or why it could not go -- no session --, its request id). With
+        ``click_to_come`` the request's body (the page's click time) is read after it went
+        and :meth:`clicked` must follow."""
+        return self._queue("estop", clicked_at, click_to_come)
 
-    def stamp(self, rid: int, clicked_at: float) -> None:
-        """The click's time (s, wall clock) of request ``rid``, for the applied record."""
+    def clicked(self, rid: int, clicked_at: float | None) -> None:
+        """The click time (s, wall clock; None: the page sent none) of E-stop ``rid``, read
+        after it went: kept for its applied record, or that record -- held, since the loop
+        may apply the E-stop before the request's body is read -- logged with it now."""
         with self.lock:
-            if rid in self.requests:
-                self.requests[rid]["clicked_at"] = clicked_at
+            req = self.requests.get(rid)
+            if req is not None:  # not applied yet
+                req["click_to_come"] = False
+                if clicked_at is not None:
+                    req["clicked_at"] = clicked_at
+                return
+            held = self.held.pop(rid, None)
+            if held is None:
+                return
+            args, kwargs = held
+            if clicked_at is not None:
+                kwargs["after_click_ms"] = round((kwargs["applied"] - clicked_at) * 1e3, 3)
+            self.record(*args, **kwargs)
