@@ -257,7 +257,8 @@ class ControlAPI(OperatorRules):
             # the page's click time in it follows (its applied record waits for it)
             why, rid = self.estop(click_to_come=True)
             self.who(request.headers)  # the operator's name in the record, if theirs
-            body, problem = {}, ""
+            body: dict[str, Any] = {}
+            problem = ""
             try:
                 if not why:
                     body, problem = await read_body(request)
