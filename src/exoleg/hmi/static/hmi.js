@@ -17,7 +17,7 @@ const DEG = 180 / Math.PI;
 const S = {
   token: "", operator: sessionStorage.getItem("exoleg-operator") || "",
   info: null, state: null, hist: [], events: [], updates: [], lastMode: null,
-  lastMsg: 0, lastEvent: -1, eventCount: 0, estopFailed: false, estopPending: 0,
+  lastMsg: 0, lastEvent: -1, eventCount: 0, estopFailed: false, estopPending: 0, startPending: false,
 };
 const ESTOP_KEY = "F2";
 const ESTOP_WAIT_MS = 300;  // an E-stop unanswered this long: said at once, and sent again
@@ -339,14 +339,11 @@ function enableButtons(s) {
   const running = s && s.running === "running";
   const applies = running ? [...((VOC().applies || {})[String(s.mode)] || []),
     ...((VOC().support_applies || []).includes(MODE(s.mode)) ? VOC().support_commands || [] : [])] : [];
-  $("save-note").onclick = async () => {
-  const r = await act("POST", "/api/session/note", {note: $("note").value}, "note kept");
-  if (r.ok) $("note-line").textContent = `Kept with session ${r.data.session} (and in its control log).`;
-};
-for (const b of document.querySelectorAll("[data-command]")) b.disabled = !applies.includes(b.dataset.command);
+  for (const b of document.querySelectorAll("[data-command]")) b.disabled = !applies.includes(b.dataset.command);
   const live = s && (s.running === "running" || s.running === "starting");
-  $("start").disabled = !!live || (S.info && S.info.fixed);
-  $("identify").disabled = !!live || (S.info && S.info.fixed);
+  // a start in flight: a second tap would be refused as another session
+  $("start").disabled = !!live || S.startPending || (S.info && S.info.fixed);
+  $("identify").disabled = !!live || S.startPending || (S.info && S.info.fixed);
   $("end").disabled = !live;
 }
 
@@ -565,13 +562,25 @@ const freshLive = () => { S.hist = []; S.events = []; S.lastMode = null; S.lastE
 // each start its own id: a start the browser sends again (its reused connection dropped
 // before the answer) is answered again by the server, not refused as another's session
 const startId = () => Date.now().toString(36) + "-" + Math.random().toString(36).slice(2, 10);
+// one start at a time: the buttons are off from the tap until the answer (a double tap
+// on a phone would otherwise send a second start, refused as the first one's session)
+async function startOnce(url, body, done) {
+  if (S.startPending) return null;
+  S.startPending = true;
+  $("start").disabled = $("identify").disabled = true;
+  try {
+    return await act("POST", url, {...body, arm: $("arm-start").checked, request: startId()}, done);
+  } finally {
+    S.startPending = false;  // the buttons follow the next update (50 per second)
+  }
+}
 $("start").onclick = async () => {
-  const r = await act("POST", "/api/session/start", {duration: $("duration").value, arm: $("arm-start").checked, request: startId()}, "session started");
-  if (r.ok) { say(`session ${r.data.session} started for ${r.data.text}`, true); freshLive(); }
+  const r = await startOnce("/api/session/start", {duration: $("duration").value}, "session started");
+  if (r && r.ok) { say(`session ${r.data.session} started for ${r.data.text}`, true); freshLive(); }
 };
 $("identify").onclick = async () => {
-  const r = await act("POST", "/api/identify/start", {plan: $("plan").value, arm: $("arm-start").checked, request: startId()}, "identification started");
-  if (r.ok) { say(`identification ${r.data.session} started for ${r.data.text}: Arm, then Walk starts the plan`, true); freshLive(); }
+  const r = await startOnce("/api/identify/start", {plan: $("plan").value}, "identification started");
+  if (r && r.ok) { say(`identification ${r.data.session} started for ${r.data.text}: Arm, then Walk starts the plan`, true); freshLive(); }
 };
 const ARMED = () => VOC().armed || [];  // the modes in which the drives are enabled
 $("end").onclick = async () => {
