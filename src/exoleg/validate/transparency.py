@@ -175,25 +175,35 @@ class Transparency:
         return not self.fault and all(v <= GOAL_NM_PER_KG for v in last.values())
 
 
-def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
-             device: str | Path | None = None) -> Transparency:
-    """The typically developing 10-year-old girl walking ``strides`` strides of
+def girl_walk(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
+              device: str | Path | None = None) -> tuple[Any, Any, Any]:
+    """The typically developing 10-year-old girl (P50) walking ``strides`` strides of
     ``stride_time`` s in the transparent mode (the sensors at their datasheet noise), on
-    the device of the folder ``device`` (None: the shipped one)."""
+    the device of the folder ``device`` (None: the shipped one): (the child, her leg, the
+    :class:`~exoleg.sim.walk.WalkResult`)."""
     from exoleg.child.model import ChildModel
-    from exoleg.control.safety import Limited
     from exoleg.control.transparency import SupportMode
     from exoleg.sim.walk import simulate_walk
     from exoleg.sizing import personalized_leg
     from exoleg.sizing.child import population_child
-    from exoleg.system.config import DeviceConfig
 
     c, _ = population_child(None, "female", 10.0, 50.0)
-    child = ChildModel.of(c)
     leg = personalized_leg(c)
+    r = simulate_walk(leg, c.mass, strides=strides, stride_time=stride_time,
+                      child=ChildModel.of(c), seed=seed,
+                      support_mode=SupportMode.TRANSPARENT, device=device)
+    return c, leg, r
+
+
+def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
+             device: str | Path | None = None) -> Transparency:
+    """:func:`girl_walk`'s figures: the budget, the law's parts, the drives' saturation,
+    the floors."""
+    from exoleg.control.safety import Limited
+    from exoleg.system.config import DeviceConfig
+
+    c, leg, r = girl_walk(strides, stride_time, seed, device)
     config = DeviceConfig.load(device)
-    r = simulate_walk(leg, c.mass, strides=strides, stride_time=stride_time, child=child,
-                      seed=seed, support_mode=SupportMode.TRANSPARENT, device=device)
     sel = r.t >= r.walk_start + SETTLE_STRIDES * stride_time
     lim = np.array([a.torque_limit for a in config.actuators])
     at = np.abs(r.tau[sel]) >= 0.99 * lim
