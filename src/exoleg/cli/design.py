@@ -89,14 +89,19 @@ def cmd_design(args: argparse.Namespace) -> int:
            ["joint", "motor", "gear", "series", "bus V", "served", "worst residual N m/kg",
             "worst winding degC"], title="chosen (screen: closed forms over the population)")
     if springs:
+        def left(t: dict[str, Any], who: str) -> str:
+            return " / ".join(f"{t[f'{who}residual_Nm_per_kg_{j}']:.3f}" for j in JOINTS)
+
         _table([[t["joint"], " / ".join(f"{t['stiffness_Nm_per_rad_' + j]:.0f}" for j in JOINTS),
-                 " / ".join(f"{t['residual_Nm_per_kg_' + j]:.3f}" for j in JOINTS),
-                 f"{sum(t['residual_Nm_per_kg_' + j] for j in JOINTS):.3f}",
+                 left(t, ""), left(t, "lightest_") if "lightest_residual_Nm_per_kg_hip" in t
+                 else "-", f"{t['worse_sum_Nm_per_kg']:.3f}",
                  "fault" if t["fault"] else "", "chosen" if t["chosen"] else ""]
                 for t in springs],
-               ["varied", "springs hip / knee / ankle N m/rad", "left N m/kg", "sum", "", ""],
-               title="the springs walked (the 10-year-old girl, transparent, "
-                     f"{population.GIRL_STRIDES} strides; rigid joints keep 0): the least "
+               ["varied", "springs hip / knee / ankle N m/rad", "the girl's left N m/kg",
+                "the lightest child's", "worse sum", "", ""],
+               title="the springs walked (transparent, "
+                     f"{population.GIRL_STRIDES} strides, the 10-year-old girl P50 and the "
+                     "design set's lightest child; rigid joints keep 0): the least worse "
                      "sum chosen")
     _table([[c["device"], f"{c['age']:g} {c['sex']} "
              f"{'TD' if not c['group'] else 'GMFCS ' + str(c['group'])} "
