@@ -150,31 +150,29 @@ def app(hmi: HMI) -> Any:
             return refused
         return JSONResponse(await run_in_threadpool(hmi.sessions))
 
-    def recorded(request: Request) -> Path:
-        folder = hmi.archive.folder_of(request.path_params["name"])
-        if folder is None:
-            raise LookupError(request.path_params["name"])
-        return folder
-
-    async def session_detail(request: Request) -> Response:
+    def recorded(request: Request) -> Path | Response:
+        """The recorded session's folder the path names, or the answer refusing it (the
+        records need the token; a name not recorded: 404)."""
         refused = private(request)
         if refused:
             return refused
-        try:
-            folder = recorded(request)
-        except LookupError as e:
-            return JSONResponse({"error": f"no recorded session {e}"}, 404)
+        name = request.path_params["name"]
+        folder = hmi.archive.folder_of(name)
+        if folder is None:
+            return JSONResponse({"error": f"no recorded session {name!r}"}, 404)
+        return folder
+
+    async def session_detail(request: Request) -> Response:
+        folder = recorded(request)
+        if not isinstance(folder, Path):
+            return folder
         return JSONResponse(await run_in_threadpool(hmi.archive.detail, folder,
                                                     hmi.live()))
 
     async def session_file(request: Request) -> Response:
-        refused = private(request)
-        if refused:
-            return refused
-        try:
-            folder = recorded(request)
-        except LookupError as e:
-            return JSONResponse({"error": f"no recorded session {e}"}, 404)
+        folder = recorded(request)
+        if not isinstance(folder, Path):
+            return folder
         kind = request.path_params["kind"]
         try:
             if kind == "plot.png":
