@@ -109,11 +109,9 @@ def candidate(joint: str, motor: Part, gear: Part, bus_voltage: float,
                        torque_loop_bandwidth=float(loop_hz),
                        torque_loop_damping=part.figures["torque_loop_damping"],
                        deflection_bits=int(part.figures["deflection_bits"]))
-        sized = ("exoleg design: a spring within the range "
+        sized = ("exoleg design: the softest spring within the range "
                  f"({part.sources['stiffness_min']}; {part.sources['stiffness_max']}) that "
-                 "carries the peak asked within the design's deflection; of the screen's, "
-                 "the one whose transparent walk left the least cuff torque (design.json "
-                 "springs)"
+                 "carries the peak asked within the design's deflection"
                  if part.kind == "series_spring" else
                  f"the gear's torsional stiffness ({gear.sources.get('gear_stiffness', '')})")
         sources.update(series_stiffness=sized, series_damping=part.sources["damping"],

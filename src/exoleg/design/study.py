@@ -306,7 +306,9 @@ def verify(design: Design, device: Path | None) -> list[dict[str, Any]]:
 
 def run_design(design: Design) -> dict[str, Any]:
     """Screen and choose: the rows, the chosen unit per joint and its actuator file's
-    text (the CLI walks the springs, writes them, and verifies the choice)."""
+    text (the CLI writes them, and verifies the choice)."""
+    from exoleg.device.actuator import actuator_text
+
     children = design.children()
     masses = np.array([c.mass for c in children])
     rows = [r for j in range(3) for r in screen_joint(design, j, masses)]
@@ -319,41 +321,12 @@ def run_design(design: Design) -> dict[str, Any]:
             best.setdefault(bus, {})[j] = max(at, key=_rank)
     bus = max(design.buses, key=lambda b: (min(r["served"] for r in best[b].values()), -b))
     chosen = best[bus]
-    return {"rows": rows, "children": len(children), **choose(design, rows, chosen)}
-
-
-def choose(design: Design, rows: list[dict[str, Any]], chosen: dict[str, dict[str, Any]]
-           ) -> dict[str, Any]:
-    """The screen's ``rows`` marked with ``chosen`` (a row per joint): the chosen rows,
-    each joint's unit and its actuator file's text."""
-    from exoleg.device.actuator import actuator_text
-
     for r in rows:
         r["chosen"] = any(r is c for c in chosen.values())
     units = {}
     for j in JOINTS:
         m, g, series = chosen[j]["_parts"]
         units[j] = candidate(j, m, g, chosen[j]["bus_V"], series)
-    return {"chosen": chosen, "units": units,
+    return {"rows": rows, "chosen": chosen, "units": units, "children": len(children),
             "text": {j: actuator_text(a, f"exoleg design ({design.source}): the {j}'s unit "
                                          "chosen for the population") for j, a in units.items()}}
-
-
-def spring_options(rows: list[dict[str, Any]], chosen: dict[str, dict[str, Any]]
-                   ) -> dict[str, list[dict[str, Any]]]:
-    """Per joint whose chosen unit carries a spring, the screen's rows of its motor, gear
-    and bus behind each spring that serves as many children as the choice, softest first:
-    the stiffnesses the walking loop chooses among (:func:`exoleg.design.verify.walk_springs`).
-    The screen's own order among them -- the least apparent inertia K / w_b^2, the softest
-    -- is the closed forms' (the rotor hidden by the torque loop); the walk also has the
-    rotor's motor at its limit, which a softer spring asks more often."""
-    out = {}
-    for j, c in chosen.items():
-        if c["series"] != "series_spring":
-            continue
-        out[j] = sorted((r for r in rows if r["joint"] == j and r["series"] == c["series"]
-                         and (r["motor"], r["gear"], r["bus_V"]) == (c["motor"], c["gear"],
-                                                                     c["bus_V"])
-                         and not r["why_not"] and r["served"] >= c["served"]),
-                        key=lambda r: r["stiffness_Nm_per_rad"])
-    return out

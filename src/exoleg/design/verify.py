@@ -17,7 +17,6 @@ masses asked (``[verify] mass_kg``), and the held-out children (not in the desig
 
 from __future__ import annotations
 
-import math
 import re
 from pathlib import Path
 from typing import Any
@@ -29,29 +28,24 @@ from exoleg.params.records import JOINTS
 #: The verification's two walks: the study's controller and its strides' key in the
 #: design file's [verify] table.
 MODES = {"transparent": "strides_transparent", "aan": "strides_assist"}
-#: The 10-year-old girl's transparent walk that chooses the springs and names the chosen
-#: device's floors, strides (its first two settle: validate.transparency.SETTLE_STRIDES).
-GIRL_STRIDES = 10
-
-
-def design_set(design: Any) -> list[tuple[int, str, float, float, Any]]:
-    """The design's population within ``design.verify_mass`` kg: (group, sex, age,
-    percentile, the chart's child) each."""
-    from exoleg.sizing.child import population_child
-
-    lo, hi = design.verify_mass
-    kids = [(g, s, a, p, population_child(g or None, s, a, p)[0]) for g in design.groups
-            for s in design.sexes for a in design.ages for p in design.percentiles]
-    return [k for k in kids if lo <= k[4].mass <= hi]
 
 
 def children(design: Any) -> list[dict[str, Any]]:
     """The verification set as chart children (age, sex, group, percentile): the design's
     population within ``design.verify_mass`` kg, then the held-out children."""
+    from exoleg.sizing.child import population_child
     from exoleg.study.spec import GROUPS
 
-    out = [{"age": a, "sex": s, "group": GROUPS[g], "percentile": p, "held_out": False}
-           for g, s, a, p, _ in design_set(design)]
+    lo, hi = design.verify_mass
+    out = []
+    for g in design.groups:
+        for s in design.sexes:
+            for a in design.ages:
+                for p in design.percentiles:
+                    c = population_child(g or None, s, a, p)[0]
+                    if lo <= c.mass <= hi:
+                        out.append({"age": a, "sex": s, "group": GROUPS[g], "percentile": p,
+                                    "held_out": False})
     for h in design.held_out:
         out.append({"age": float(h["age"]), "sex": str(h["sex"]),
                     "group": GROUPS[int(h["group"])], "percentile": float(h["percentile"]),
@@ -134,89 +128,6 @@ def walking_control_text(units: dict[str, Any]) -> str:
                                                       "kd_swing")},
                     "the impedance scaled to the chosen units' inertia (x "
                     + ", ".join(f"{f:.3g}" for f in scale) + " at hip, knee, ankle)")
-
-
-def device_files(design: Any, found: dict[str, Any]) -> dict[str, str]:
-    """The device folder of a choice (:func:`~exoleg.design.study.choose`'s): each file's
-    path in the folder and its text -- the chosen units, the transparency, assistance and
-    impedance set for them."""
-    return {**{f"actuators/{j}.toml": text for j, text in found["text"].items()},
-            "transparency.toml": transparency_text(found["units"]),
-            "assist.toml": assist_text(design.alpha),
-            "walking_control.toml": walking_control_text(found["units"])}
-
-
-def walk_springs(design: Any, found: dict[str, Any], work: Path) -> list[dict[str, Any]]:
-    """The springs of the compliant joints chosen in the walking loop: the chosen device
-    with the stiffnesses the screen lets serve (:func:`~exoleg.design.study.spring_options`)
-    walked in the transparent mode, :data:`GIRL_STRIDES` strides, by two children -- the
-    10-year-old girl (P50; :func:`exoleg.validate.transparency.girl_walk`, the floors'
-    walk) and the lightest child of the design set within the verification's masses --,
-    first every compliant joint's k-th stiffness together, then each joint's alone from
-    the best so far; the springs whose worse child's RMS cuff torque summed over the
-    joints is least, with no fault, are chosen (``found`` updated in place; the trial
-    folders go under ``work``). One row per walk of both.
-
-    Why the loop: the screen ranks the softest spring first (the least apparent inertia
-    K / w_b^2 the torque loop leaves), but on the walk a soft spring asks its rotor to
-    travel the deflection too, and a motor at its current limit then leaves more: the
-    first design (272 N m/rad everywhere) left the girl 0.245 / 0.121 / 0.079 N m/kg, with
-    830 N m/rad everywhere 0.229 / 0.107 / 0.068. Why together first: the joints' springs
-    do not act apart -- the knee's alone at 475 N m/rad took its own residual from 0.121
-    to 0.107 and the ankle's from 0.079 to 0.123. Why the lightest child too: springs
-    chosen on the girl alone (32 kg) lowered the population's median residual by 3-5 % and
-    raised the lightest children's (the 18.6 kg boy's hip 0.396 -> 0.484; measured)."""
-    from exoleg.control.safety import Limited
-    from exoleg.design.study import choose, spring_options
-    from exoleg.validate.transparency import girl_walk, residual, transparent_walk
-
-    options = spring_options(found["rows"], found["chosen"])
-    trials: list[dict[str, Any]] = []
-    if not options:
-        return trials
-    light = min((k[4] for k in design_set(design)), key=lambda c: c.mass, default=None)
-
-    def walk(chosen: dict[str, dict[str, Any]], joint: str) -> float:
-        """Walk ``chosen`` with both children; its row (``joint``: the joint varied, or
-        "all"); the larger child's sum of the joints' residuals (inf on a fault)."""
-        folder = work / f"trial-{len(trials)}"
-        for name, text in device_files(design, choose(design, found["rows"], chosen)).items():
-            (folder / name).parent.mkdir(parents=True, exist_ok=True)
-            (folder / name).write_text(text)
-        runs = {"": girl_walk(GIRL_STRIDES, design.stride_time, device=folder)[2]}
-        if light is not None:
-            runs["lightest_"] = transparent_walk(light, GIRL_STRIDES, design.stride_time,
-                                                 device=folder)[1]
-        row: dict[str, Any] = {"joint": joint, "chosen": False, "fault": any(
-            bool(np.any(r.safety_status & Limited.FAULT)) for r in runs.values()),
-            **{f"stiffness_Nm_per_rad_{j}": float(chosen[j]["stiffness_Nm_per_rad"])
-               for j in JOINTS}}
-        for who, r in runs.items():
-            row.update({f"{who}residual_Nm_per_kg_{j}": float(v)
-                        for j, v in zip(JOINTS, residual(r), strict=True)})
-        row["worse_sum_Nm_per_kg"] = max(sum(row[f"{who}residual_Nm_per_kg_{j}"]
-                                             for j in JOINTS) for who in runs)
-        trials.append(row)
-        return math.inf if row["fault"] else float(row["worse_sum_Nm_per_kg"])
-
-    best, least, at = dict(found["chosen"]), math.inf, -1
-    steps = max(len(rows) for rows in options.values())
-    for k in range(steps):  # every compliant joint's k-th spring (its stiffest past its own)
-        trial = {**found["chosen"], **{j: rows[min(k, len(rows) - 1)]
-                                       for j, rows in options.items()}}
-        if (total := walk(trial, "all")) < least:
-            best, least, at = trial, total, len(trials) - 1
-    for j, rows in options.items():  # then each joint's alone, from the best so far
-        start = dict(best)
-        for row in rows:
-            if row is start[j]:
-                continue
-            if (total := walk({**start, j: row}, j)) < least:
-                best, least, at = {**start, j: row}, total, len(trials) - 1
-    if at >= 0:
-        trials[at]["chosen"] = True
-        found.update(choose(design, found["rows"], best))
-    return trials
 
 
 def run(design: Any, device: Path, out: Path, scheduler: str | None = None,

@@ -175,49 +175,25 @@ class Transparency:
         return not self.fault and all(v <= GOAL_NM_PER_KG for v in last.values())
 
 
-def transparent_walk(child: Any, strides: int = 10, stride_time: float = 1.1,
-                     seed: int = 0, device: str | Path | None = None) -> tuple[Any, Any]:
-    """``child`` (a :class:`~exoleg.sizing.Child`) walking as an actor ``strides`` strides
-    of ``stride_time`` s in the transparent mode (the sensors at their datasheet noise),
-    on the device of the folder ``device`` (None: the shipped one): (their leg, the
-    :class:`~exoleg.sim.walk.WalkResult`)."""
+def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
+             device: str | Path | None = None) -> Transparency:
+    """The typically developing 10-year-old girl walking ``strides`` strides of
+    ``stride_time`` s in the transparent mode (the sensors at their datasheet noise), on
+    the device of the folder ``device`` (None: the shipped one)."""
     from exoleg.child.model import ChildModel
+    from exoleg.control.safety import Limited
     from exoleg.control.transparency import SupportMode
     from exoleg.sim.walk import simulate_walk
     from exoleg.sizing import personalized_leg
-
-    leg = personalized_leg(child)
-    return leg, simulate_walk(leg, child.mass, strides=strides, stride_time=stride_time,
-                              child=ChildModel.of(child), seed=seed,
-                              support_mode=SupportMode.TRANSPARENT, device=device)
-
-
-def girl_walk(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
-              device: str | Path | None = None) -> tuple[Any, Any, Any]:
-    """The typically developing 10-year-old girl (P50) in :func:`transparent_walk`: (the
-    child, her leg, the walk)."""
     from exoleg.sizing.child import population_child
-
-    c, _ = population_child(None, "female", 10.0, 50.0)
-    return (c, *transparent_walk(c, strides, stride_time, seed, device))
-
-
-def residual(r: Any) -> F64:
-    """The cuffs' RMS torque per kg a transparent walk ``r`` leaves per joint, from
-    :data:`SETTLE_STRIDES` strides after its start (:func:`contributions`' last row)."""
-    sel = r.t >= r.walk_start + SETTLE_STRIDES * r.stride_time
-    return np.asarray(np.sqrt(np.mean(r.interaction[sel] ** 2, axis=0)) / r.body_mass)
-
-
-def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
-             device: str | Path | None = None) -> Transparency:
-    """:func:`girl_walk`'s figures: the budget, the law's parts, the drives' saturation,
-    the floors."""
-    from exoleg.control.safety import Limited
     from exoleg.system.config import DeviceConfig
 
-    c, leg, r = girl_walk(strides, stride_time, seed, device)
+    c, _ = population_child(None, "female", 10.0, 50.0)
+    child = ChildModel.of(c)
+    leg = personalized_leg(c)
     config = DeviceConfig.load(device)
+    r = simulate_walk(leg, c.mass, strides=strides, stride_time=stride_time, child=child,
+                      seed=seed, support_mode=SupportMode.TRANSPARENT, device=device)
     sel = r.t >= r.walk_start + SETTLE_STRIDES * stride_time
     lim = np.array([a.torque_limit for a in config.actuators])
     at = np.abs(r.tau[sel]) >= 0.99 * lim
