@@ -293,7 +293,7 @@ def _answers_as_dask(address: str) -> None:
 
     try:
         who = asyncio.run(asyncio.wait_for(identity(), SCHEDULER_ANSWER_S))
-    except asyncio.TimeoutError:
+    except TimeoutError:  # asyncio.TimeoutError is this on Python 3.11+
         raise TimeoutError(f"the server accepted the connection but said nothing as Dask "
                            f"within {SCHEDULER_ANSWER_S:g} s") from None
     except Exception as e:  # the other end is not Dask's: what it did, in one line
