@@ -28,11 +28,12 @@ def _readings() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
 
 def test_each_kind_of_fault_as_defined() -> None:
     counts, gyro, acc, t = _readings()
-    c, g, a = faulted([SensorFault("heel", "dead", 1.0),
+    c, g, a, _ = faulted([SensorFault("heel", "dead", 1.0),
                        SensorFault("gyro", "frozen", 2.0),
                        SensorFault("met1", "offset", 3.0, 0.25),
                        SensorFault("hallux", "drift", 1.0, 0.5, end=4.0),
-                       SensorFault("accel", "missing", 4.0)], counts, gyro, acc, t, BOARD)
+                          SensorFault("accel", "missing", 4.0)], counts, gyro, acc, t,
+                         BOARD)
     assert c[:, 0].tolist() == [100.0, 0.0, 0.0, 0.0, 0.0]
     assert g.tolist() == pytest.approx([0.0, 0.1, 0.2, 0.2, 0.2])
     assert c[:, 1].tolist() == [200.0, 201.0, 202.0, 203.0 + 0.25 * TOP, 204.0 + 0.25 * TOP]
@@ -47,11 +48,34 @@ def test_each_kind_of_fault_as_defined() -> None:
 def test_a_fault_stays_within_the_sensor_range() -> None:
     # the ADC saturates at its top count and at 0; the gyroscope at its range
     counts, gyro, acc, t = _readings()
-    c, g, _ = faulted([SensorFault("fsrs", "offset", 0.0, 1.0),
-                       SensorFault("gyro", "dead", 0.0, 1e3)], counts, gyro, acc, t, BOARD)
+    c, g, _, _ = faulted([SensorFault("fsrs", "offset", 0.0, 1.0),
+                          SensorFault("gyro", "dead", 0.0, 1e3)], counts, gyro, acc, t,
+                         BOARD)
     assert np.all(c == TOP) and np.all(g == BOARD.gyro_range)
-    c, _, _ = faulted([SensorFault("board", "offset", 0.0, -1.0)], counts, gyro, acc, t, BOARD)
-    assert np.all(c == 0.0)
+    c, _, _, o = faulted([SensorFault("board", "offset", 0.0, -1.0)], counts, gyro, acc, t,
+                         BOARD, counts + 1000.0)
+    assert np.all(c == 0.0) and np.all(o == 0.0)
+
+
+def test_the_insole_is_a_channel_of_the_board() -> None:
+    # the unassisted foot's insole is read on the foot board's spare ADC channels
+    # (sensors.toml [other_foot]): the whole board's fault covers it, the "insole"
+    # channel is it alone, and no fault of the device's foot touches it
+    counts, gyro, acc, t = _readings()
+    other = counts[:, ::-1] + 50.0
+    c, g, a, o = faulted([SensorFault("insole", "dead", 2.0)], counts, gyro, acc, t, BOARD,
+                         other)
+    assert o[:2].tolist() == other[:2].tolist() and np.all(o[2:] == 0.0)
+    assert c.tolist() == counts.tolist() and g.tolist() == gyro.tolist()
+    _, _, _, o = faulted([SensorFault("board", "frozen", 1.0)], counts, gyro, acc, t, BOARD,
+                         other)
+    assert o.tolist() == [other[0].tolist()] + [other[1].tolist()] * 4
+    _, _, _, o = faulted([SensorFault("fsrs", "dead"), SensorFault("heel", "offset", 0.0, 0.5)],
+                         counts, gyro, acc, t, BOARD, other)
+    assert o.tolist() == other.tolist()
+    _, _, _, o = faulted([], counts, gyro, acc, t, BOARD)  # none fitted: no reading
+    assert np.all(np.isnan(o))
+    assert SensorFault.parse("insole:dead@2") == SensorFault("insole", "dead", 2.0)
 
 
 @pytest.mark.parametrize(("args", "field"), [

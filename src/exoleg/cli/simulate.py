@@ -394,7 +394,8 @@ def add_parser(sub: Any) -> None:
     s.add_argument("--sensor-fault", type=_sensor_fault, action="append", default=[],
                    metavar="SPEC", help="walk: a fault of the foot board's sensors, "
                    "repeatable: CHANNEL:KIND[@START[..END]][=VALUE] -- channel heel, met1, "
-                   "met5, hallux, fsrs, gyro, accel or board; kind dead (reads VALUE), "
+                   "met5, hallux, fsrs, gyro, accel, insole (the other foot's, when "
+                   "fitted) or board (all); kind dead (reads VALUE), "
                    "missing, frozen, offset (+VALUE) or drift (VALUE per s); times in s; an "
                    "FSR's VALUE a fraction of full scale, the gyroscope's rad/s, the "
                    "accelerometer's m/s^2. E.g. heel:dead@2")

@@ -5,8 +5,9 @@ reads it) and replayed over recorded readings (:func:`faulted`, the detector's t
 ``exoleg validate --gait-phase``).
 
 Channels: the four FSRs (``heel``, ``met1``, ``met5``, ``hallux``, or ``fsrs`` for all
-four), the foot's gyroscope (``gyro``), its accelerometer (``accel``: x and y), or the
-whole ``board``. Kinds:
+four), the foot's gyroscope (``gyro``), its accelerometer (``accel``: x and y), the
+unassisted foot's ``insole`` (its four FSRs, read on the board's spare ADC channels:
+``sensors.toml [other_foot]``), or the whole ``board`` (all of them). Kinds:
 
 * ``dead``: reads ``value`` (a failed sensor or an open cable reads 0);
 * ``missing``: no reading (NaN: the board does not send it);
@@ -40,12 +41,13 @@ F64 = NDArray[np.float64]
 
 #: the fields of a tick's readings (:data:`~exoleg.control.contract.SENSORS`) the foot
 #: board sends, and a fault may touch
-BOARD_FIELDS = ("fsr", "gyro", "accel")
+BOARD_FIELDS = ("fsr", "gyro", "accel", "fsr_other")
 #: a channel's name -> the (field, slot) pairs it covers; slot None: the whole field (the
 #: four FSRs named as :data:`~exoleg.control.contract.SENSOR_POINTS` names them)
 CHANNELS: dict[str, tuple[tuple[str, int | None], ...]] = {
     **{p: (("fsr", i),) for i, p in enumerate(SENSOR_POINTS)},
     "fsrs": (("fsr", None),), "gyro": (("gyro", None),), "accel": (("accel", None),),
+    "insole": (("fsr_other", None),),
     "board": tuple((n, None) for n in BOARD_FIELDS)}
 
 
@@ -107,7 +109,7 @@ class SensorFault:
         if not (self.start >= 0.0 and self.end > self.start):
             raise ParameterError(where, "start/end", f"expected 0 <= start < end, got "
                                  f"{self.start:g}, {self.end:g}")
-        fsr = all(field == "fsr" for field, _ in CHANNELS[self.channel])
+        fsr = all(field in ("fsr", "fsr_other") for field, _ in CHANNELS[self.channel])
         if not -1.0 <= self.value <= 1.0 and (self.kind == "drift" or fsr):
             what = "per s, a drift's" if self.kind == "drift" else "of the FSRs' full scale"
             raise ParameterError(where, "value", f"{self.value:g} is outside -1-1 (a "
@@ -152,7 +154,7 @@ def fault_records(faults: Sequence[SensorFault], board: FootSensors) -> NDArray[
         raise ParameterError("faults", "count", f"{len(faults)} faults; at most {MOST}")
     adc_counts = float(2**board.adc_bits - 1)
     # per field: the scale of a value (an FSR's is a fraction of full scale) and the range
-    ranges = {"fsr": (adc_counts, 0.0, adc_counts),
+    ranges = {"fsr": (adc_counts, 0.0, adc_counts), "fsr_other": (adc_counts, 0.0, adc_counts),
               "gyro": (1.0, -board.gyro_range, board.gyro_range),
               "accel": (1.0, -board.accel_range, board.accel_range)}
     out = np.zeros(len(faults), FAULT)
@@ -213,6 +215,11 @@ def apply_faults(F, sk, t):  # type: ignore[no-untyped-def]
                 o.accel[i], f.accel_held[i] = _fault(f.kind, o.accel[i], f.accel_value[i],
                                                      f.accel_held[i], f.accel_low,
                                                      f.accel_high, t, f.start)
+        for i in range(f.fsr_other_on.shape[0]):
+            if f.fsr_other_on[i] > 0.0:
+                o.fsr_other[i], f.fsr_other_held[i] = _fault(
+                    f.kind, o.fsr_other[i], f.fsr_other_value[i], f.fsr_other_held[i],
+                    f.fsr_other_low, f.fsr_other_high, t, f.start)
 
 
 @njit(cache=True)
@@ -222,14 +229,15 @@ def _faulted(F, S, t):  # type: ignore[no-untyped-def]
 
 
 def faulted(faults: Sequence[SensorFault], counts: F64, gyro: F64, accel: F64, t: F64,
-            board: FootSensors) -> tuple[F64, F64, F64]:
-    """Recorded readings -- FSR ``counts`` (n, 4), ``gyro`` (n,), ``accel`` (n, 2) at
-    times ``t`` (n,) -- as the foot ``board`` would have sent them with ``faults``; new
-    arrays."""
+            board: FootSensors, other: F64 | None = None) -> tuple[F64, F64, F64, F64]:
+    """Recorded readings -- FSR ``counts`` (n, 4), ``gyro`` (n,), ``accel`` (n, 2), the
+    insole's ``other`` (n, 4; None: none, NaN) at times ``t`` (n,) -- as the foot ``board``
+    would have sent them with ``faults``; new arrays (counts, gyro, accel, other)."""
     S = np.zeros(len(t), SENSORS)
     S["fsr"], S["gyro"], S["accel"] = counts, gyro, accel
+    S["fsr_other"] = np.nan if other is None else other
     _faulted(fault_records(faults, board), S, np.asarray(t, dtype=F8))
-    return S["fsr"].copy(), S["gyro"].copy(), S["accel"].copy()
+    return S["fsr"].copy(), S["gyro"].copy(), S["accel"].copy(), S["fsr_other"].copy()
 
 
 __all__ = ["BOARD_FIELDS", "CHANNELS", "FAULT", "KINDS", "SPEC", "Kind", "SensorFault",

@@ -248,10 +248,9 @@ def fault_cases(results: list[Any], stride_time: float = 1.1,
     for name in cases or tuple(FAULTS):
         series = []
         for r in results:
-            counts, gyro, accel = faulted(FAULTS[name], r.fsr, r.gyro, r.accel, r.t,
-                                          cfg.sensors)
-            other = (np.ascontiguousarray(r.fsr_other) if other_foot
-                     else np.full_like(counts, np.nan))
+            counts, gyro, accel, other = faulted(
+                FAULTS[name], r.fsr, r.gyro, r.accel, r.t, cfg.sensors,
+                np.ascontiguousarray(r.fsr_other) if other_foot else None)
             bits = detect_all(d, gp.new_state(d), counts, gyro, accel, r.t, other)
             walking = r.t >= r.walk_start
             series.append((r.t[walking], bits[walking], r.true_events()[walking]))
