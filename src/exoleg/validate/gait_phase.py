@@ -145,14 +145,15 @@ def evaluate(strides: int = 20, noise: tuple[float, ...] = NOISE,
     results: list[Any] = []  # (walk, run) at the expected stride
     runs: list[DetectionRun] = []
     slow_results: dict[float, list[Any]] = {s: [] for s in slow}
-    cases = tuple(FAULTS)[1:] if closed is None else closed
+    known = faults_for(other_foot)
+    cases = tuple(known)[1:] if closed is None else closed
     closed_walks: dict[str, list[Any]] = {c: [] for c in cases}
     stopped: dict[str, list[str]] = {c: [] for c in cases}
     for label, age, sex, gmfcs in children:
         leg, m, ankle, actor = _walker(age, sex, gmfcs, {"spasticity": SPASTICITY[gmfcs or 0]})
         for case in cases:
             r = walk(leg, m, strides=strides, seed=seed + 1, ankle_height=ankle,
-                              child=actor, faults=FAULTS[case])
+                              child=actor, faults=known[case])
             closed_walks[case].append(r)
             if np.any(r.safety_status & Limited.FAULT):
                 stopped[case].append(label)
@@ -221,6 +222,17 @@ FAULTS: dict[str, tuple[SensorFault, ...]] = {
     "preloaded metatarsal, gyroscope failed":
         (SensorFault("met1", "offset", value=0.25), SensorFault("gyro", "missing")),
 }
+#: The insole's own fault, a case where it is fitted (``other_foot``): its cable off, the
+#: device's foot's sensors alone once it is silent.
+INSOLE_FAULTS: dict[str, tuple[SensorFault, ...]] = {
+    "the other foot's insole reading zeros (its cable off)": (SensorFault("insole", "dead"),),
+}
+
+
+def faults_for(other_foot: bool) -> dict[str, tuple[SensorFault, ...]]:
+    """The sensor fault cases (:data:`FAULTS`, and :data:`INSOLE_FAULTS` with the
+    insole)."""
+    return {**FAULTS, **INSOLE_FAULTS} if other_foot else FAULTS
 
 
 #: The single sources, as :data:`FAULTS` cases: both, the FSRs alone, the IMU alone.
@@ -245,11 +257,12 @@ def fault_cases(results: list[Any], stride_time: float = 1.1,
     d = cfg.detector.record(cfg.fsr_floor_counts, stride_time, cfg.sensors.gyro_range,
                             cfg.sensors.accel_range, other_foot)
     out = {}
-    for name in cases or tuple(FAULTS):
+    known = faults_for(other_foot)
+    for name in cases or tuple(known):
         series = []
         for r in results:
             counts, gyro, accel, other = faulted(
-                FAULTS[name], r.fsr, r.gyro, r.accel, r.t, cfg.sensors,
+                known[name], r.fsr, r.gyro, r.accel, r.t, cfg.sensors,
                 np.ascontiguousarray(r.fsr_other) if other_foot else None)
             bits = detect_all(d, gp.new_state(d), counts, gyro, accel, r.t, other)
             walking = r.t >= r.walk_start
