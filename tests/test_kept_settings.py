@@ -77,7 +77,7 @@ def test_a_childs_settings_follow_them_to_their_next_session(tmp_path: Path) -> 
                   "support_min": [0.2, 0.3, 0.4]}
         assert hmi.api.check_gains(change) == ""
         hmi.api.link.web_gains(change)
-        why, _ = hmi.api.send("aan", "test")
+        why, _ = hmi.api.send("aan")
         assert why == ""
         kept = _ended(hmi, reg, cid, first)
         assert kept["support_mode"] == "aan"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import time
 from pathlib import Path
 from typing import Any
@@ -133,8 +134,8 @@ def transparency_floors(design: Any, device: Path) -> list[dict[str, Any]]:
     law = v.rows[-1]["rms_Nm_per_kg"]
     out = []
     for f in v.floors:
-        rotor = f["floor_rotor_Nm_per_kg"]
-        rotor = None if rotor != rotor else float(rotor)
+        rotor = None if math.isnan(f["floor_rotor_Nm_per_kg"]) else float(
+            f["floor_rotor_Nm_per_kg"])
         out.append({"joint": f["joint"], "law_Nm_per_kg": float(law[f["joint"]]),
                     "loop_Nm_per_kg": float(f["floor_loop_Nm_per_kg"]),
                     "rotor_Nm_per_kg": rotor,

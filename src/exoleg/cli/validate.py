@@ -4,6 +4,7 @@ phase``: the detector against the true contacts."""
 from __future__ import annotations
 
 import argparse
+import math
 from typing import Any
 
 from exoleg.cli._common import _count, _device_option, _say, _table
@@ -71,7 +72,7 @@ def _transparency(strides: int, device: Any) -> int:
                  "through the drive's torque loop); the rotor on the gear's stiffness "
                  "(bounding any torque loop's bandwidth); beside the law's residual on the "
                  "same motion")
-    behind = [b for b in v.floors if b["floor_rotor_Nm_per_kg"] == b["floor_rotor_Nm_per_kg"]]
+    behind = [b for b in v.floors if not math.isnan(b["floor_rotor_Nm_per_kg"])]
     if behind:
         _say("behind the series springs, their rotors must follow the links: what any law "
              "leaves the child -- even knowing the walk ahead, with the motors' current "

@@ -111,7 +111,7 @@ def apply_settings(api: OperatorRules, link: LoopLink, settings: dict[str, Any])
         why = why and f"outside the device's bounds now: {why}; the defaults stay"
     if not why:
         link.web_gains(settings["gains"])
-        why, rid = api.send(settings["support_mode"], "session")
+        why, rid = api.send(settings["support_mode"])
         while not why and (done := api.outcome(rid)) is None and time.monotonic() < deadline:
             api.poll_applied()  # (the server's task does too: whichever comes first)
             time.sleep(0.002)

@@ -286,7 +286,7 @@ class ControlAPI(OperatorRules):
                 refused = self.refusal(request, name)
                 if refused:
                     return refused
-            why, rid = self.send(name, source, clicked_at)
+            why, rid = self.send(name, clicked_at)
             if why:
                 self.record(source, name, False, why)
                 return JSONResponse({"error": why}, 409)

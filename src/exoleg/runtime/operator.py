@@ -287,9 +287,9 @@ class OperatorRules:
                 return
             self._unattended_sent = mode
         if mode == Mode.WALKING:
-            self.send("stand", "hmi")
+            self.send("stand")
         elif mode == Mode.STANDING:
-            self.send("disarm", "hmi")
+            self.send("disarm")
 
     def release(self, source: str) -> None:
         """The operator holding control gives it up (:meth:`authorise` first)."""
@@ -375,20 +375,15 @@ class OperatorRules:
     def public(op: dict[str, Any] | None) -> dict[str, Any] | None:
         return None if op is None else {k: op[k] for k in ("name", "source", "since")}
 
-    def send(self, name: str, source: str, clicked_at: float | None = None
-             ) -> tuple[str, int]:
-        """Queue ``name`` for the loop: ('' or why it cannot go, its request id, whose
-        outcome :meth:`outcome` gives once the loop has applied it)."""
-        return self._queue(name, clicked_at)
-
     def outcome(self, rid: int) -> tuple[bool, str] | None:
         """Whether the supervisor applied request ``rid`` and why not (None: not yet)."""
         with self.lock:
             return self.outcomes.get(rid)
 
-    def _queue(self, name: str, clicked_at: float | None = None,
-               click_to_come: bool = False) -> tuple[str, int]:
-        """Queue ``name``: ('' or why it cannot go, its request id), with the page's click
+    def send(self, name: str, clicked_at: float | None = None, click_to_come: bool = False
+             ) -> tuple[str, int]:
+        """Queue ``name`` for the loop: ('' or why it cannot go, its request id, whose
+        outcome :meth:`outcome` gives once the loop has applied it), with the page's click
         time (s, wall clock) when known, or to come (:meth:`clicked`)."""
         with self.lock:
             link = self.link
@@ -410,7 +405,7 @@ class OperatorRules:
         ('' or why it could not go -- no session --, its request id). With
         ``click_to_come`` the request's body (the page's click time) is read after it went
         and :meth:`clicked` must follow."""
-        return self._queue("estop", clicked_at, click_to_come)
+        return self.send("estop", clicked_at, click_to_come)
 
     def clicked(self, rid: int, clicked_at: float | None) -> None:
         """The click time (s, wall clock; None: the page sent none) of E-stop ``rid``, read

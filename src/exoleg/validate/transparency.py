@@ -260,21 +260,20 @@ def rotor_floor(act: Any, need: F64, q: F64, h: float, body_mass: float,
     n = len(need)
     K, c, B = act.series_stiffness, act.series_damping, act.reflected_inertia
     lim = act.current_limited_torque
-    dq = np.gradient(q, h)
-    # the spring's torque S r - sigma (the damper's rate a backward difference)
+    # the spring's torque S (r - q), the damper's rate a backward difference
     S = sparse.diags([np.full(n, K + c / h), np.full(n - 1, -c / h)], [0, -1], format="csc")
     S[0, 0] = K
-    target = need + K * q + c * dq
+    Sq = S @ q
+    target = need + Sq
     # the motor's torque D r - S's offset on the inner ticks: B (r+ - 2 r + r-) / h^2 + spring
     a = B / (h * h)
     D = (sparse.diags([np.full(n - 2, a), np.full(n - 2, -2 * a), np.full(n - 2, a)],
                       [0, 1, 2], shape=(n - 2, n)) + S[1:-1]).tocsc() / lim
-    off = (K * q + c * dq)[1:-1] / lim
+    off = Sq[1:-1] / lim
     lu = splu((S.T @ S + rho * (D.T @ D)).tocsc())
     z = np.zeros(n - 2)
     y = np.zeros(n - 2)
     Stb = S.T @ target
-    r = q + need / K
     scale = max(float(np.linalg.norm(Stb)), 1.0)
     for _ in range(20000):
         r = lu.solve(Stb + rho * (D.T @ (z - y + off)))
