@@ -56,6 +56,7 @@ def _folder(tmp_path: Path, name: str, text: str) -> Path:
     ("sensors.toml", "hallux_from = 0.5", "hallux_from = 0.5\nsize = 3", "size"),
     ("gait_phase.toml", "debounce_ms = 8.0", "debounce_ms = 1e9", "debounce_ms"),
     ("gait_phase.toml", "other_bears = 0.1", "other_bears = 1.5", "other_bears"),
+    ("gait_phase.toml", "other_full = 0.4", "other_full = 0.08", "other_full"),
     ("gait_phase.toml", "contact_off = 0.15", "contact_off = 0.5", "contact_on/contact_off"),
     ("walking_control.toml", "support = 1.0", "support = 7.0", "support"),
     ("walking_control.toml", "kp_swing = [765.0, 152.0, 420.0]", "kp_swing = [1, 2]",

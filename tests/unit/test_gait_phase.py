@@ -310,6 +310,82 @@ def test_the_imu_walks_on_when_the_fsrs_are_lost(fault: str) -> None:
     assert src[-1] == gp.Source.FSR_IMU  # the FSRs read again
 
 
+def test_a_stance_the_fsrs_held_ends_in_a_toe_off_when_the_imu_takes_over() -> None:
+    # reference: the gait's construction. The board frozen at a loaded reading from
+    # 2.15 s (15 % of a stance) is set aside frozen_ms later, at 2.65 s: after the IMU's
+    # own toe off (61.7 %, test above) and before the foot's forward swing could end the
+    # FSRs' stance (faster than 3 rad/s for 50 ms: past 75 %). The hand-over says the toe
+    # off the IMU passed then -- every stride keeps one toe off (the stride was left
+    # without one before) -- and the later ones are the IMU's own
+    counts, t = _walk(6)
+    counts = _noisy(counts, 4)
+    lost = t >= 2.15
+    counts[lost] = counts[np.argmax(lost)]
+    ev, src, _ = _fused(counts, _gyro(t), t)
+    handover = 2.15 + SET.frozen_time
+    assert t[np.argmax(src == gp.Source.IMU)] == pytest.approx(handover, abs=2e-3)
+    to = _times(ev, t, gp.Event.TO)
+    to_at = 0.5 + 0.14 / np.pi * (np.pi - np.pi / 6)
+    assert len(to) == 6, to
+    assert to[2] == pytest.approx(handover, abs=2e-3)
+    assert np.all((to[3:] % 1.0 >= to_at) & (to[3:] % 1.0 <= to_at + 2 * SET.slope_time)), to
+    assert len(_times(ev, t, gp.Event.IC)) == 6
+
+
+def _other_foot(t: np.ndarray, on: float, off: float, seed: int = 5) -> np.ndarray:
+    """The unassisted foot's insole (counts, (N, 4)) loaded from ``on`` to ``off`` of each
+    stride of :func:`_walk` (past 1: into the next), with the FSRs' noise."""
+    x = (t % 1.0)
+    down = (x >= on) | (x < off - 1.0) if off > 1.0 else (x >= on) & (x < off)
+    return _noisy(np.outer(down, [1500.0, 1200.0, 1000.0, 800.0]), seed)
+
+
+def _with_other(counts: np.ndarray, gyro: np.ndarray, t: np.ndarray,
+                other: np.ndarray) -> np.ndarray:
+    """Event bits per tick, the detector reading the other foot's insole too."""
+    d = SET.record(FLOOR, 1.0, other_foot=True)
+    st = gp.new_state(d)
+    return np.array([gp.detect(d, st, counts[k], gyro[k], NO_ACC, t[k], other[k])
+                     for k in range(len(t))])
+
+
+def test_the_other_foot_bearing_alone_ends_a_stance_a_preloaded_sensor_holds() -> None:
+    # reference: the gait's construction. The strap's preload of the test above, the
+    # gyroscope failed, the other foot's insole fitted (the other foot down from 50 % of
+    # the stride to 110 %: double support at each end). The FSRs alone missed the first
+    # swing's toe off; now the preloaded sensor, alone and settled since the lift (60 %)
+    # for min_swing while the other foot bears alone, is a swing: the toe off said at
+    # 60 % + min_swing, its reading then the sensor's offset; the later ones at the lift
+    counts, t = _walk(5)
+    counts[:, 1] = np.minimum(counts[:, 1] + 0.25 * 4095, 4095)
+    ev = _with_other(counts, np.full(len(t), np.nan), t, _other_foot(t, 0.5, 1.1))
+    to = _times(ev, t, gp.Event.TO)
+    assert len(to) == 5, to
+    assert to[0] == pytest.approx(0.6 + SET.min_swing, abs=2e-3)
+    assert np.allclose(to[1:] % 1.0, 0.6 + SET.debounce, atol=1.5e-3)
+    assert np.allclose(_times(ev, t, gp.Event.IC), np.arange(5) + SET.debounce, atol=1.5e-3)
+    # a push-off on the hallux alone, unloading slowly over 40-60 % while the other foot
+    # bears alone, is not a held sensor (it falls): the toe off stays at the lift
+    x = t % 1.0
+    push = np.stack([(x < 0.3) * 2000.0, (x >= 0.1) & (x < 0.4), (x >= 0.1) & (x < 0.4),
+                     (x >= 0.1) & (x < 0.6)], axis=1).astype(float)
+    push[:, 1:3] *= 1800.0
+    push[:, 3] *= np.where(x < 0.4, 1800.0, 1800.0 * (0.6 - x) / 0.2 + 300.0)
+    ev = _with_other(_noisy(push, 6), np.full(len(t), np.nan), t, _other_foot(t, 0.35, 1.1))
+    to = _times(ev, t, gp.Event.TO) % 1.0  # the hallux's last 300 counts in its noise
+    assert len(to) == 5 and np.all((to >= 0.6) & (to <= 0.6 + SET.debounce + 2e-3)), to
+
+
+def test_the_imu_says_no_toe_off_while_the_other_foot_is_off_the_ground() -> None:
+    # reference: the gait's construction; walking has no flight. The IMU alone (the FSRs
+    # failed) would say the toe off at 61.7 % (test above); with the other foot landing
+    # only at 65 %, the toe off waits for it (the toe-down turn still past its steepest)
+    counts, t = _walk(4)
+    ev = _with_other(np.full_like(counts, np.nan), _gyro(t), t, _other_foot(t, 0.65, 1.1))
+    to = _times(ev, t, gp.Event.TO)
+    assert len(to) >= 3 and np.allclose(to[-3:] % 1.0, 0.65, atol=2e-3), to
+
+
 def test_a_frozen_gyroscope_leaves_the_fsrs_alone() -> None:
     # the gyroscope held at its last reading from 1.5 s (a board repeating a stale
     # frame): after frozen_ms the FSRs decide alone, and say so

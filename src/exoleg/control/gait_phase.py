@@ -52,6 +52,15 @@ FSRs cannot: their readings missing (NaN), frozen (a loaded reading unchanged fo
 The gyroscope is not used when missing, saturated (at its range) or frozen; the FSRs then
 decide alone. The accelerometer is not used when missing or frozen (at its range it
 reads a strike). The state says which source it rests on (``source``: :class:`Source`).
+At a hand-over between the paths, an event the path taken over has passed and the other
+had not said (a toe off while the frozen board held the stance) is said then: every
+stance ends in a toe off, every swing in a contact.
+
+**The unassisted foot's insole**, when fitted (:func:`_other_bears`): walking has no
+flight, so while the other foot does not bear the body the device's foot does -- no
+lift its FSRs read, no toe off the IMU alone would say; while it bears the body alone
+(``other_full``), a sensor the FSRs alone hold since the lift (settled for
+``min_swing``) is a swing.
 
 The stride time is the mean of the last ``strides_averaged`` IC-to-IC intervals that lie
 within ``stride_accept`` times the expected one; the gait percentage is the time since
@@ -221,7 +230,12 @@ def _held_landing(D, s, counts, t):  # type: ignore[no-untyped-def]
                 / max(s.max[one] - s.held_min, D.floor) > D.held_band:
             s.held, s.held_since, s.held_t = one, t, t  # (again) from here
             s.held_mean = s.held_min = counts[one]
+            s.held_ref, s.held_low = counts[one], t
         s.held_min = min(s.held_min, s.held_mean)
+        # still falling (a push-off unloading slowly), by held_band of its span since
+        # held_low: not yet settled
+        if (s.held_ref - s.held_mean) / max(s.max[one] - s.held_min, D.floor) > D.held_band:
+            s.held_ref, s.held_low = s.held_mean, t
     else:
         s.held = -1
     return False
@@ -317,7 +331,14 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, strike, t, bears):  # type: ignore[no
                 or (s.lift_min <= D.push_depth * s.stance_min
                     and gyro >= s.lift_min + D.gyro_rise))
             to = to or gyro > D.gyro_turning
-        rebase = not to and swinging  # the gyroscope reads a swing the FSRs do not
+        # the FSRs alone, one sensor held since the lift (a strap's preload, drift:
+        # :func:`_held_landing`), settled (no longer falling) for a swing's first part
+        # (min_swing), while the other foot bears the body alone (``other_full`` of its
+        # largest load): the foot swings (a push-off on one sensor unloads it)
+        held_off = not gyro_ok and s.held >= 0 and t - s.held_low >= D.min_swing \
+            and s.other_share >= D.other_full
+        # the gyroscope or the other foot reads a swing the FSRs do not
+        rebase = not to and (swinging or held_off)
         if (to or rebase) and t - s.t_ic_f >= D.min_stance:
             ev |= Event.TO
             s.t_to_f = t
@@ -327,6 +348,9 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, strike, t, bears):  # type: ignore[no
             if rebase:  # the FSRs' readings now are their offsets
                 for i in range(4):
                     s.base[i] = counts[i]
+                if held_off:
+                    s.base[s.held] = s.held_min
+                s.held = -1
                 s.heel = s.fore = s.heel_raw = s.fore_raw = False
                 s.heel_since = s.fore_since = -1.0
         elif phase == Phase.LOADING and h and f:
@@ -340,11 +364,12 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, strike, t, bears):  # type: ignore[no
 
 
 @njit(inline="always")
-def _imu_path(D, s, gyro, acc_dev, strike, acc_ok, t):  # type: ignore[no-untyped-def]
+def _imu_path(D, s, gyro, acc_dev, strike, acc_ok, t, bears):  # type: ignore[no-untyped-def]
     """The foot IMU's path (a reading gyroscope; ``acc_dev``: the accelerometer's
     |specific force| less g, m/s^2, 0 without one; ``strike``: the foot striking the
-    ground, :func:`detect`; ``acc_ok``: whether the accelerometer reads): this tick's
-    events.
+    ground, :func:`detect`; ``acc_ok``: whether the accelerometer reads; ``bears``:
+    whether the other foot bears the body, :func:`_other_bears` -- no toe off while it
+    does not): this tick's events.
 
     A foot still (turning slower than ``gyro_still``, its specific force within
     ``accel_still`` of g) for ``still_time`` is flat on the ground; after a swing (the foot
@@ -408,8 +433,8 @@ def _imu_path(D, s, gyro, acc_dev, strike, acc_ok, t):  # type: ignore[no-untype
             s.turn_min = min(s.turn_min, gyro)
             s.steep_i = min(s.steep_i, s.slope)
             if s.turn_min < -D.gyro_turning and _eased(D, s.slope, s.steep_i) and \
-                    gyro < -D.gyro_turning and (phase == Phase.LOADING
-                                                or t - s.t_ho_i >= D.push_time):
+                    gyro < -D.gyro_turning and bears and (phase == Phase.LOADING
+                                                          or t - s.t_ho_i >= D.push_time):
                 ev |= Event.TO
                 s.t_to_i = t
                 s.push_last = s.turn_min
@@ -432,12 +457,14 @@ def _other_bears(D, s, other, t):  # type: ignore[no-untyped-def]
     which no swing lasts: a cable off; the foot's own sensors decide then, as without
     it (until it is silent, a dead insole holds the foot's stance: its first toe off is
     missed)."""
+    s.other_share = 0.0
     if D.other_foot == 0.0:
         return True
     total = other[0] + other[1] + other[2] + other[3]
     if not math.isfinite(total):
         return True
     s.other_max = max(s.other_max, total)
+    s.other_share = total / max(s.other_max, D.floor)
     if total >= max(D.floor, D.other_bears * s.other_max):
         s.other_t = t
         return True
@@ -517,7 +544,7 @@ def detect(d, st, counts, gyro, acc, t, other):  # type: ignore[no-untyped-def]
     ev_f = _fsr_path(D, s, counts, gyro, gyro_ok, strike, t, bears) if fsr_ok else 0
     ev_i = 0
     if gyro_ok:
-        ev_i = _imu_path(D, s, gyro, acc_dev, strike, acc_ok, t)
+        ev_i = _imu_path(D, s, gyro, acc_dev, strike, acc_ok, t, bears)
     # silent: the FSRs have read nothing loaded for fsr_silent_strides strides the IMU
     # has walked (their cable off, the board reading zeros)
     if fsr_ok and gyro_ok and s.t_ic_i > s.t_loaded:
@@ -525,6 +552,7 @@ def detect(d, st, counts, gyro, acc, t, other):  # type: ignore[no-untyped-def]
         if s.t_ic_i > s.t_loaded + 0.5 * T:
             fsr_ok = t - s.t_loaded < D.fsr_silent_strides * T
     s.bearing = False
+    was, imu_was = s.phase, s.source == Source.IMU
     if fsr_ok:
         ev = ev_f
         s.phase = s.phase_f
@@ -542,6 +570,15 @@ def detect(d, st, counts, gyro, acc, t, other):  # type: ignore[no-untyped-def]
         ev = 0
         s.phase = Phase.UNKNOWN
         s.source = Source.NONE
+    # a hand-over between the paths (the FSRs frozen or silent, or back): the path taken
+    # over may have passed an event the other had not yet said -- said now, so every
+    # stance ends in a toe off and every swing in an initial contact
+    if was != Phase.UNKNOWN and s.phase != Phase.UNKNOWN and \
+            imu_was != (s.source == Source.IMU):
+        if was >= Phase.LOADING and s.phase == Phase.SWING:
+            ev |= Event.TO
+        elif was == Phase.SWING and s.phase >= Phase.LOADING:
+            ev |= Event.IC
     if ev & Event.IC:
         dt = t - s.t_ic
         expected = _stride(D, s)

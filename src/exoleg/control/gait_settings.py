@@ -57,6 +57,7 @@ class DetectorSettings:
     frozen_time: float  # s
     fsr_silent_strides: float
     other_bears: float = 0.1  # of the other foot's span of load
+    other_full: float = 0.4  # of it: the other foot in single support
 
     def __post_init__(self) -> None:
         w = "DetectorSettings"
@@ -119,9 +120,15 @@ class DetectorSettings:
             "unload_turn": (0.05, 1.0, ""), "held_band": (0.0, 0.5, ""),
             "held_ms": (1.0, 500.0, "ms"), "held_swing": (0.1, 1.0, ""),
             "frozen_ms": (10.0, 10000.0, "ms"), "fsr_silent_strides": (1.0, 10.0, "")},
-            optional=("source", "other_bears"))
+            optional=("source", "other_bears", "other_full"))
         other = _check.within(where, "other_bears", d.get("other_bears", cls.other_bears),
                               0.05, 0.95, "")
+        full = _check.within(where, "other_full", d.get("other_full", cls.other_full),
+                             0.05, 0.95, "")
+        if full <= other:
+            raise ParameterError(where, "other_full",
+                                 f"{full:g} must be above other_bears ({other:g}): single "
+                                 "support is more load than bearing at all")
         if "stride_accept" not in d:
             raise ParameterError(where, "stride_accept", "missing ([lower, upper] multiples)")
         acc = _check.vector(where, "stride_accept", d["stride_accept"], 2)
@@ -151,7 +158,8 @@ class DetectorSettings:
                        held_band=v["held_band"], held_time=v["held_ms"] / 1e3,
                        held_swing=v["held_swing"],
                        frozen_time=v["frozen_ms"] / 1e3,
-                       fsr_silent_strides=v["fsr_silent_strides"], other_bears=other)
+                       fsr_silent_strides=v["fsr_silent_strides"], other_bears=other,
+                       other_full=full)
         except ParameterError as e:  # a rule across fields: name the file
             raise ParameterError(where, e.field, e.problem) from None
 
@@ -176,9 +184,9 @@ class DetectorSettings:
 #: The detector's settings as :func:`detect` reads them (:meth:`DetectorSettings.record`):
 #: thresholds (normalised), the calibration floor (ADC counts), times (s), the stride
 #: rules, the stride time expected before any is measured (s), the IMU's rules (rad/s,
-#: m/s^2, s) and ranges (a reading at its range is saturated), the share of its span of
-#: load above which the unassisted foot bears the body and whether its insole is fitted
-#: (1/0).
+#: m/s^2, s) and ranges (a reading at its range is saturated), the shares of its largest
+#: load above which the unassisted foot bears the body and bears it alone (single
+#: support), and whether its insole is fitted (1/0).
 SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("floor", F8),
                      ("debounce", F8), ("min_swing", F8), ("min_stance", F8),
                      ("strides_averaged", I8), ("accept_lo", F8), ("accept_hi", F8),
@@ -194,5 +202,6 @@ SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("floor", F8),
                      ("impact_time", F8), ("impact_swing", F8), ("unload_turn", F8),
                      ("held_band", F8), ("held_time", F8), ("held_swing", F8),
                      ("frozen_time", F8), ("fsr_silent_strides", F8), ("gyro_range", F8),
-                     ("accel_range", F8), ("other_bears", F8), ("other_foot", F8)])
+                     ("accel_range", F8), ("other_bears", F8), ("other_full", F8),
+                     ("other_foot", F8)])
 _RECORD_NAMES = frozenset(SETTINGS.names or ())

@@ -68,7 +68,8 @@ STATE = np.dtype([("phase", I8), ("bearing", np.bool_), ("t_ic", F8),
                   ("gyro_last", F8), ("gyro_same", F8), ("fsr_last", F8, 4),
                   ("fsr_same", F8), ("stance_mask", I8), ("held", I8), ("held_since", F8),
                   ("held_mean", F8), ("held_min", F8), ("held_t", F8), ("held_hit", F8),
-                  ("other_max", F8), ("other_t", F8)])
+                  ("held_ref", F8), ("held_low", F8),
+                  ("other_max", F8), ("other_t", F8), ("other_share", F8)])
 
 
 def new_state(settings: NDArray[np.void]) -> NDArray[np.void]:
