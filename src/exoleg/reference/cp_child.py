@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 from functools import cache
 from importlib import resources
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -59,10 +60,7 @@ def cp_child_gait() -> CPChildGait:
     CPChildGait
         100 samples over one cycle from the right initial contact.
     """
-    text = resources.files("exoleg").joinpath(
-        "data", "child", "predictcpgait_subject1_r.csv").read_text()
-    rows = list(csv.DictReader(ln for ln in text.splitlines() if not ln.startswith("#")))
-    c = {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+    c = _rows()
     sign = np.array([1.0, -1.0, 1.0])  # knee flexion is -q2
 
     def joints(suffix: str) -> F64:
@@ -79,6 +77,66 @@ def cp_child_gait() -> CPChildGait:
         / 100.0 * MASS_KG * G)
 
 
+#: The shipped columns of the 3D check and the subject's model's coordinates they hold
+#: (OpenSim's: degrees and metres as the source has them).
+COORDINATES = {"pelvis_list": "lower_torso_RX", "pelvis_rotation": "lower_torso_RY",
+               "pelvis_tilt": "lower_torso_RZ", "pelvis_x": "lower_torso_TX",
+               "pelvis_y": "lower_torso_TY", "pelvis_z": "lower_torso_TZ",
+               "hip": "hip_flex_r", "hip_adduction": "hip_add_r",
+               "hip_rotation": "hip_rot_r", "knee": "knee_flex_r", "ankle": "ankle_flex_r",
+               "subtalar": "subt_angle_r"}
+
+
+@dataclass(frozen=True)
+class CPChildMotion:
+    """The shipped gait as the subject's OpenSim model moves (its 3D check): per model
+    coordinate (:data:`COORDINATES`' values) its value, rate and acceleration over the
+    cycle (rad or m, and per s, s^2: OpenSim's signs), the inverse-dynamics moments of
+    the leg's six (N m, + in the coordinate's + direction), and the right foot's ground
+    reaction force (100, 3) N in the lab's x forward, y up, z to the right."""
+
+    q: dict[str, F64]
+    dq: dict[str, F64]
+    ddq: dict[str, F64]
+    moment: dict[str, F64]
+    grf: F64
+
+
+def _rows() -> dict[str, F64]:
+    text = resources.files("exoleg").joinpath(
+        "data", "child", "predictcpgait_subject1_r.csv").read_text()
+    rows = list(csv.DictReader(ln for ln in text.splitlines() if not ln.startswith("#")))
+    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+
+
+@cache
+def cp_child_motion() -> CPChildMotion:
+    """The shipped gait's every model coordinate (``predictcpgait_subject1_r.csv``)."""
+    c = _rows()
+    q, dq, ddq, moment = {}, {}, {}, {}
+    for col, name in COORDINATES.items():
+        unit = 1.0 if name[-2:] in ("TX", "TY", "TZ") else math.pi / 180.0
+        q[name], dq[name] = c[col] * unit, c[f"{col}_rate"] * unit
+        ddq[name] = c[f"{col}_acc"] * unit
+        if f"{col}_moment" in c:
+            moment[name] = c[f"{col}_moment"]
+    grf = np.stack([c["grf_fore_aft_pct_bw"], c["grf_vertical_pct_bw"],
+                    c["grf_lateral_pct_bw"]], axis=1) / 100.0 * MASS_KG * G
+    return CPChildMotion(q, dq, ddq, moment, grf)
+
+
+@cache
+def cp_child_model() -> dict[str, Any]:
+    """The subject's right leg as their OpenSim model holds it
+    (``data/child/predictcpgait_subject1_model.toml``: bodies, joints, the patella's
+    couplers; OpenSim's units and frames, the file's header)."""
+    import tomllib
+
+    text = resources.files("exoleg").joinpath(
+        "data", "child", "predictcpgait_subject1_model.toml").read_text()
+    return tomllib.loads(text)
+
+
 def toe_off_fraction() -> float:
     """The fraction of the cycle at which the shipped child's foot leaves the ground:
     the first sample after their stance whose vertical ground reaction force is below
@@ -88,4 +146,5 @@ def toe_off_fraction() -> float:
     return float(off[0] / (len(g.t) - 1))
 
 
-__all__ = ["CPChildGait", "HEIGHT_M", "MASS_KG", "cp_child_gait", "toe_off_fraction"]
+__all__ = ["COORDINATES", "CPChildGait", "CPChildMotion", "HEIGHT_M", "MASS_KG", "cp_child_gait",
+           "cp_child_model", "cp_child_motion", "toe_off_fraction"]

@@ -93,6 +93,196 @@ def inverse_dynamics(leg: Any = None, tilt_sign: float = 1.0) -> dict[str, Any]:
             "relative": err / size}
 
 
+def _spline(x: F64, y: F64) -> tuple[F64, F64, F64]:
+    """The cubic spline OpenSim's SimmSpline is (Forsythe, Malcolm & Moler 1977: each end's
+    third derivative that of the cubic through its four nearest points): the
+    coefficients (b, c, d) of y_i + b_i dx + c_i dx^2 + d_i dx^3 on each interval."""
+    n = len(x)
+    h = np.diff(x)
+    s = np.diff(y) / h
+    # the tridiagonal system in the second-derivative terms, FMM's end rows
+    a = np.zeros((n, n))
+    r = np.zeros(n)
+    a[0, :2] = -h[0], h[0]
+    a[-1, -2:] = h[-1], -h[-1]
+    r[0] = h[0] ** 2 * ((s[2] - s[1]) / (x[3] - x[1]) - (s[1] - s[0]) / (x[2] - x[0])) \
+        / (x[3] - x[0])
+    r[-1] = -h[-1] ** 2 * ((s[-1] - s[-2]) / (x[-1] - x[-3]) - (s[-2] - s[-3]) / (x[-2] - x[-4])) \
+        / (x[-1] - x[-4])
+    for i in range(1, n - 1):
+        a[i, i - 1:i + 2] = h[i - 1], 2.0 * (h[i - 1] + h[i]), h[i]
+        r[i] = s[i] - s[i - 1]
+    sig = np.linalg.solve(a, r)
+    b = s - h * (sig[1:] + 2.0 * sig[:-1])
+    return b, np.asarray(3.0 * sig[:-1], dtype=float), np.asarray(np.diff(sig) / h, dtype=float)
+
+
+def _function(spec: dict[str, Any]) -> Any:
+    """An OpenSim function of one coordinate (the model file's inline tables)."""
+    kind, scale = spec["kind"], float(spec.get("scale", 1.0))
+    if kind == "linear":
+        return lambda v: scale * (spec["slope"] * v + spec["offset"])
+    if kind == "constant":
+        return lambda v: scale * spec["value"]
+    x, y = np.asarray(spec["x"], float), np.asarray(spec["y"], float)
+    if kind == "linear_pieces":
+        return lambda v: scale * float(np.interp(v, x, y))
+    b, c, d = _spline(x, y)
+
+    def spline(v: float) -> float:
+        i = int(np.clip(np.searchsorted(x, v) - 1, 0, len(x) - 2))
+        dx = v - x[i]
+        return scale * float(y[i] + dx * (b[i] + dx * (c[i] + dx * d[i])))
+    return spline
+
+
+def _rotation(axis: Any, angle: float) -> F64:
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * k @ k
+
+
+def _vee(m: F64) -> F64:
+    return 0.5 * np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]])
+
+
+class SubjectLeg:
+    """The subject's right leg as their OpenSim model moves it
+    (:func:`~exoleg.reference.cp_child.cp_child_model`): the pelvis on its six
+    coordinates, then each body on its joint's transform (rotations body-fixed in order,
+    translations in the parent, the joint's frame oriented in the child), the patella on
+    its couplers. Checked against OpenSim's own (``tests/validation/test_cp_child.py``)."""
+
+    PELVIS = ("lower_torso_RX", "lower_torso_RY", "lower_torso_RZ", "lower_torso_TX",
+              "lower_torso_TY", "lower_torso_TZ")
+    #: the leg's coordinates whose moments the check computes
+    LEG = ("hip_flex_r", "hip_add_r", "hip_rot_r", "knee_flex_r", "ankle_flex_r",
+           "subt_angle_r")
+
+    def __init__(self, model: dict[str, Any] | None = None) -> None:
+        from exoleg.reference.cp_child import cp_child_model
+
+        m = cp_child_model() if model is None else model
+        self.bodies = m["body"]
+        self.axes = {name: [(a["name"].startswith("rotation"), a["coordinate"],
+                             np.asarray(a["axis"], float), _function(a["function"]))
+                            for a in b["axes"]] for name, b in self.bodies.items()}
+        self.couplers = {dep: (c["coordinate"], _function(c["function"]), c["scale"])
+                         for dep, c in m.get("coupler", {}).items()}
+        self.inertia = {}
+        for name, b in self.bodies.items():
+            xx, yy, zz, xy, xz, yz = b["inertia"]
+            self.inertia[name] = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+            o = b["orientation"]
+            self.bodies[name] = {**b, "_child": _rotation([1, 0, 0], o[0])
+                                 @ _rotation([0, 1, 0], o[1]) @ _rotation([0, 0, 1], o[2])}
+
+    def poses(self, q: dict[str, float]) -> dict[str, tuple[F64, F64]]:
+        """Each body's (rotation to ground, origin in ground) at the coordinates ``q``
+        (the pelvis's and the leg's; the patella's from its couplers)."""
+        q = dict(q)
+        for dep, (ind, f, scale) in self.couplers.items():
+            q[dep] = scale * f(q[ind])
+        r = np.eye(3)
+        for ax, name in zip(((1, 0, 0), (0, 1, 0), (0, 0, 1)), self.PELVIS[:3], strict=True):
+            r = r @ _rotation(ax, q[name])
+        out = {"pelvis": (r, np.array([q[n] for n in self.PELVIS[3:]]))}
+        for name, b in self.bodies.items():  # parents before children, as the file lists
+            rp, pp = out[b["parent"]]
+            rj, t = np.eye(3), np.zeros(3)
+            for rotates, coord, axis, f in self.axes[name]:
+                v = f(q.get(coord, 0.0) if coord else 0.0)
+                if rotates:
+                    rj = rj @ _rotation(axis, v)
+                else:
+                    t = t + v * axis
+            out[name] = (rp @ rj @ b["_child"].T, pp + rp @ (np.asarray(b["location_in_parent"])
+                                                           + t))
+        return out
+
+    def inverse_dynamics(self, q: dict[str, float], dq: dict[str, float],
+                         ddq: dict[str, float], grf: F64,
+                         known: dict[str, float]) -> tuple[dict[str, float], F64]:
+        """The leg's generalized forces (N m, :data:`LEG`) at one instant, by virtual
+        work: each body's inertial and gravity force and moment through its Jacobian
+        (central differences: along the motion, h = 1 ms; in each coordinate, 1e-6), the
+        ground's force ``grf`` (N) on the foot at a centre of pressure found so the
+        ankle's and subtalar's moments are ``known``'s (none is shipped; no free moment).
+        Returns the forces and the centre of pressure (NaN without load)."""
+        h, e = 1e-3, 1e-6
+        g = np.array([0.0, -9.80665, 0.0])
+        ahead = self.poses({c: q[c] + dq[c] * h + 0.5 * ddq[c] * h * h for c in q})
+        behind = self.poses({c: q[c] - dq[c] * h + 0.5 * ddq[c] * h * h for c in q})
+        now = self.poses(q)
+        moved = {c: (self.poses({**q, c: q[c] + e}), self.poses({**q, c: q[c] - e}))
+                 for c in self.LEG}
+        tau = dict.fromkeys(self.LEG, 0.0)
+
+        def com(p: dict[str, tuple[F64, F64]], name: str) -> F64:
+            return p[name][1] + p[name][0] @ np.asarray(self.bodies[name]["com"])
+
+        for name, b in self.bodies.items():
+            r = now[name][0]
+            acc = (com(ahead, name) - 2.0 * com(now, name) + com(behind, name)) / h ** 2
+            w = _vee((ahead[name][0] - behind[name][0]) / (2.0 * h) @ r.T)
+            alpha = _vee((ahead[name][0] - 2.0 * r + behind[name][0]) / h ** 2 @ r.T)
+            inertia = r @ self.inertia[name] @ r.T
+            force = b["mass"] * (acc - g)
+            moment = inertia @ alpha + np.cross(w, inertia @ w)
+            for c, (up, down) in moved.items():
+                tau[c] += force @ (com(up, name) - com(down, name)) / (2.0 * e) \
+                    + moment @ _vee((up[name][0] - down[name][0]) / (2.0 * e) @ r.T)
+        cop = np.full(3, np.nan)
+        if grf[1] > 1.0:  # N: below it, its moments are under 0.3 N m at the leg's length
+            rf, pf = now["foot_r"]
+
+            def lever(c: str) -> tuple[F64, F64]:  # the foot's point's motion per unit q_c
+                up, down = moved[c]
+                return ((up["foot_r"][1] - down["foot_r"][1]) / (2.0 * e),
+                        _vee((up["foot_r"][0] - down["foot_r"][0]) / (2.0 * e) @ rf.T))
+
+            # tau_c = inertial - grf . (dp + w_c x (cop - pf)), linear in cop's x and z
+            # on the floor (y = 0: any point of the force's line gives its moments)
+            rows, rhs = [], []
+            for c in ("ankle_flex_r", "subt_angle_r"):
+                dp, wc = lever(c)
+                v = np.cross(grf, wc)
+                rows.append([v[0], v[2]])
+                rhs.append(tau[c] - known[c] - grf @ dp + v @ pf)
+            x, z = np.linalg.solve(np.array(rows), np.array(rhs))
+            cop = np.array([x, 0.0, z])
+            for c in self.LEG:
+                dp, wc = lever(c)
+                tau[c] -= float(grf @ (dp + np.cross(wc, cop - pf)))
+        return tau, cop
+
+
+def inverse_dynamics_3d() -> dict[str, Any]:
+    """The leg's moments from the subject's own 3D model (:class:`SubjectLeg`) through
+    the shipped motion and ground reaction force, the ankle's and subtalar's given (they
+    place the centre of pressure), against the shipped moments: per coordinate of
+    :data:`SubjectLeg.LEG`, ``tau`` (100, 6), ``shipped``, ``rms_error``, ``rms_shipped``,
+    ``relative``; ``cop`` (100, 3) m."""
+    from exoleg.reference.cp_child import cp_child_motion
+
+    m = cp_child_motion()
+    leg = SubjectLeg()
+    taus, cops = [], []
+    for k in range(len(m.grf)):
+        at = {c: float(v[k]) for c, v in m.q.items()}
+        tau, cop = leg.inverse_dynamics(at, {c: float(v[k]) for c, v in m.dq.items()},
+                                        {c: float(v[k]) for c, v in m.ddq.items()},
+                                        m.grf[k], {c: float(v[k]) for c, v in m.moment.items()})
+        taus.append([tau[c] for c in leg.LEG])
+        cops.append(cop)
+    tau_ = np.array(taus)
+    shipped = np.stack([m.moment[c] for c in leg.LEG], axis=1)
+    err = np.sqrt(np.mean((tau_ - shipped) ** 2, axis=0))
+    size = np.sqrt(np.mean(shipped ** 2, axis=0))
+    return {"tau": tau_, "shipped": shipped, "rms_error": err, "rms_shipped": size,
+            "relative": err / size, "cop": np.array(cops), "coordinates": leg.LEG}
+
+
 @dataclass(frozen=True)
 class WalkMatch:
     """The simulated child intending the real child's gait, walked in the device:
