@@ -4,9 +4,14 @@ diplegic CP, shipped as ``data/child/predictcpgait_subject1_r.csv`` (their right
 angles over a gait cycle with the SD over 4 trials, rates and accelerations, the pelvis's
 motion, the inverse-dynamics moments and the foot's ground reaction force).
 
-Two checks, printed by ``exoleg validate --cp-child``:
+The checks, printed by ``exoleg validate --cp-child``:
 
-* **Inverse dynamics** (:func:`inverse_dynamics`): exoleg's leg for a child of the
+* **Inverse dynamics in 3D** (:func:`inverse_dynamics_3d`): the right leg of the subject's
+  own OpenSim model (``data/child/predictcpgait_subject1_model.toml``, :class:`SubjectLeg`)
+  through every shipped coordinate, loaded by the whole ground reaction force at the
+  centre of pressure the ankle's and subtalar's shipped moments place: the hip's and
+  knee's moments against the shipped ones.
+* **Inverse dynamics on the planar leg** (:func:`inverse_dynamics`): exoleg's leg for a child of the
   subject's size (33.1 kg, the model's mass; 1.375 m, the height whose (H / 1.75)^5 makes
   the child's generic hamstring moment 0.30x Riener's adults, child-references) moved
   through the shipped kinematics, its hip carried by the pelvis's measured acceleration,
@@ -27,6 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from exoleg.errors import ParameterError
 from exoleg.reference.cp_child import HEIGHT_M, MASS_KG, cp_child_gait
 
 F64 = NDArray[np.float64]
@@ -163,19 +169,23 @@ class SubjectLeg:
         from exoleg.reference.cp_child import cp_child_model
 
         m = cp_child_model() if model is None else model
-        self.bodies = m["body"]
+        self.bodies: dict[str, Any] = m["body"]
         self.axes = {name: [(a["name"].startswith("rotation"), a["coordinate"],
                              np.asarray(a["axis"], float), _function(a["function"]))
                             for a in b["axes"]] for name, b in self.bodies.items()}
         self.couplers = {dep: (c["coordinate"], _function(c["function"]), c["scale"])
                          for dep, c in m.get("coupler", {}).items()}
-        self.inertia = {}
+        self.inertia, self.frame = {}, {}  # each joint's frame turned in its body
         for name, b in self.bodies.items():
+            if any(b["location"]) or any(b["orientation_in_parent"]):
+                raise ParameterError("predictcpgait_subject1_model.toml", name,
+                                     "a joint placed in its body or turned in its parent is "
+                                     "not read (this model's are all zero)")
             xx, yy, zz, xy, xz, yz = b["inertia"]
             self.inertia[name] = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
             o = b["orientation"]
-            self.bodies[name] = {**b, "_child": _rotation([1, 0, 0], o[0])
-                                 @ _rotation([0, 1, 0], o[1]) @ _rotation([0, 0, 1], o[2])}
+            self.frame[name] = _rotation([1, 0, 0], o[0]) @ _rotation([0, 1, 0], o[1]) \
+                @ _rotation([0, 0, 1], o[2])
 
     def poses(self, q: dict[str, float]) -> dict[str, tuple[F64, F64]]:
         """Each body's (rotation to ground, origin in ground) at the coordinates ``q``
@@ -196,8 +206,8 @@ class SubjectLeg:
                     rj = rj @ _rotation(axis, v)
                 else:
                     t = t + v * axis
-            out[name] = (rp @ rj @ b["_child"].T, pp + rp @ (np.asarray(b["location_in_parent"])
-                                                           + t))
+            out[name] = (rp @ rj @ self.frame[name].T,
+                         pp + rp @ (np.asarray(b["location_in_parent"]) + t))
         return out
 
     def inverse_dynamics(self, q: dict[str, float], dq: dict[str, float],
