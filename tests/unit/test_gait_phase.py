@@ -332,6 +332,26 @@ def test_a_stance_the_fsrs_held_ends_in_a_toe_off_when_the_imu_takes_over() -> N
     assert len(_times(ev, t, gp.Event.IC)) == 6
 
 
+@pytest.mark.parametrize("fault", ["missing", "zeros", "frozen"])
+def test_the_fsrs_back_in_mid_stance_take_up_the_imus_phase(fault: str) -> None:
+    # reference: the gait's construction. The FSRs lost from 2 s (as above) and back at
+    # 6.3 s, 30 % into a stance the IMU is walking: their path takes up the IMU's phase,
+    # so the stance goes on -- one contact and one toe off a stride, at the FSRs' and the
+    # fused times (before, their path, left in its swing from before, said a second
+    # contact there, and the hand-over a toe off)
+    counts, t = _walk(9)
+    counts = _noisy(counts, 1)
+    lost = (t >= 2.0) & (t < 6.3)
+    counts[lost] = {"missing": np.nan, "zeros": 0.0}.get(fault, counts[np.argmax(t >= 1.5)])
+    ev, src, _ = _fused(counts, _gyro(t), t)
+    assert src[-1] == gp.Source.FSR_IMU
+    late = t >= 5.8
+    ic, to = _times(ev[late], t[late], gp.Event.IC), _times(ev[late], t[late], gp.Event.TO)
+    assert np.allclose(ic, [6.0 + SET.debounce, 7.0 + SET.debounce, 8.0 + SET.debounce],
+                       atol=2e-3), ic
+    assert len(to) == 3 and np.all((to % 1.0 >= _TO) & (to % 1.0 <= _TO + 2 * SET.slope_time)), to
+
+
 def _other_foot(t: np.ndarray, on: float, off: float, seed: int = 5) -> np.ndarray:
     """The unassisted foot's insole (counts, (N, 4)) loaded from ``on`` to ``off`` of each
     stride of :func:`_walk` (past 1: into the next), with the FSRs' noise."""

@@ -52,9 +52,10 @@ FSRs cannot: their readings missing (NaN), frozen (a loaded reading unchanged fo
 The gyroscope is not used when missing, saturated (at its range) or frozen; the FSRs then
 decide alone. The accelerometer is not used when missing or frozen (at its range it
 reads a strike). The state says which source it rests on (``source``: :class:`Source`).
-At a hand-over between the paths, an event the path taken over has passed and the other
-had not said (a toe off while the frozen board held the stance) is said then: every
-stance ends in a toe off, every swing in a contact.
+When the IMU takes over, an event its path has passed and the FSRs' had not said (a toe
+off while the frozen board held the stance) is said then: every stance ends in a toe
+off, every swing in a contact; when the FSRs are back, their path takes up the IMU's
+phase (its own is from before they were lost).
 
 **The unassisted foot's insole**, when fitted (:func:`_other_bears`): walking has no
 flight, so while the other foot does not bear the body the device's foot does -- no
@@ -570,15 +571,22 @@ def detect(d, st, counts, gyro, acc, t, other):  # type: ignore[no-untyped-def]
         ev = 0
         s.phase = Phase.UNKNOWN
         s.source = Source.NONE
-    # a hand-over between the paths (the FSRs frozen or silent, or back): the path taken
-    # over may have passed an event the other had not yet said -- said now, so every
-    # stance ends in a toe off and every swing in an initial contact
-    if was != Phase.UNKNOWN and s.phase != Phase.UNKNOWN and \
-            imu_was != (s.source == Source.IMU):
-        if was >= Phase.LOADING and s.phase == Phase.SWING:
-            ev |= Event.TO
-        elif was == Phase.SWING and s.phase >= Phase.LOADING:
-            ev |= Event.IC
+    imu_now = s.source == Source.IMU
+    if was != Phase.UNKNOWN and s.phase != Phase.UNKNOWN and imu_was != imu_now:
+        if imu_now:
+            # the IMU takes over (the FSRs frozen, silent or missing): an event its path
+            # passed that the FSRs' had not said is said now, so every stance ends in a
+            # toe off and every swing in an initial contact
+            if was >= Phase.LOADING and s.phase == Phase.SWING:
+                ev |= Event.TO
+            elif was == Phase.SWING and s.phase >= Phase.LOADING:
+                ev |= Event.IC
+        else:
+            # the FSRs back: their path takes up the IMU's phase (its own is from before
+            # they were lost), this tick still the IMU's
+            s.phase_f, s.t_ic_f, s.t_to_f = s.phase_i, s.t_ic_i, s.t_to_i
+            s.phase, ev = s.phase_i, ev_i
+            s.bearing = s.phase >= Phase.LOADING
     if ev & Event.IC:
         dt = t - s.t_ic
         expected = _stride(D, s)
