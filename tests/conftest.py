@@ -129,3 +129,10 @@ def tile_session(session: Path, seconds: float, dest: Path) -> tuple[dict[str, A
             f.write(last.tobytes())
     shutil.copy(session / "run.json", dest / "run.json")
     return header, copies * n, last[-1]
+
+
+def children(pid: int) -> list[int]:
+    """The processes ``pid`` started, from any of its threads (a server starts sessions
+    from a worker thread; /proc lists a child under the thread that started it)."""
+    return [int(k) for task in Path(f"/proc/{pid}/task").iterdir()
+            for k in (task / "children").read_text().split()]

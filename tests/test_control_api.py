@@ -223,14 +223,67 @@ def test_an_estop_applied_before_its_click_time_is_read_is_logged_with_it(tmp_pa
         loop = [a for a in api.actions if a["source"] == "loop" and a["request"] == rid]
         assert len(loop) == 1, loop
         a = loop[0]
-        # the sleep's 20 ms from the request; 50 ms more from the press, plus the time
-        # between reading the clock for the press and for the request (measured 0.02-0.11
-        # ms quiet; 5 ms leaves room for this thread descheduled beside a busy suite)
+        # the time from the press is the applied tick's from the click time the request
+        # carried (to the record's rounding, 1 us); the sleep's 20 ms from the request and
+        # 50 ms more from the press at least (plus the time between reading the clock for
+        # the press and for the request: 0.02-0.11 ms quiet, 8 ms beside two CPU-bound
+        # processes -- no bound of the system's, so none asserted)
+        assert a["after_click_ms"] == pytest.approx((a["applied"] - pressed) * 1e3, abs=2e-3)
         assert 20.0 <= a["after_request_ms"] < a["after_click_ms"], a
-        assert a["after_click_ms"] - a["after_request_ms"] == pytest.approx(50.0, abs=5.0)
+        assert a["after_click_ms"] - a["after_request_ms"] >= 50.0 - 2e-3, a
     logged = [json.loads(x) for x in (tmp_path / "control.log").read_text().splitlines()]
     assert [a["request"] for a in logged if a["source"] == "loop"] == [1, 2]
     assert all("after_click_ms" in a for a in logged if a["source"] == "loop")
+
+
+class _Writing:
+    """A session's process still writing its records for ``for_s`` s after its loop
+    ended (as :meth:`HMI.start` sees it: alive or not)."""
+
+    def __init__(self, for_s: float) -> None:
+        self.until = time.time() + for_s
+
+    def is_alive(self) -> bool:
+        return time.time() < self.until
+
+
+def test_a_start_as_the_last_session_writes_its_records_waits_for_them(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # the page offers Start once the loop says it ended; the session's process may still
+    # be writing its records (run.json, figures.json): a start then waits for them and
+    # goes on (here to the duration's check, which answers without starting anything);
+    # a session whose loop still runs is refused at once; records that take longer than
+    # RECORDS_WAIT_S are said as such (a CI run beside two CPU-bound processes met the
+    # old refusal, "session ... is running; end it first", after the page showed it ended)
+    import threading
+
+    from exoleg.hmi import server
+
+    hmi = server.HMI(tmp_path / "sessions")
+
+    def session(writing_s: float, ended: bool) -> None:
+        hmi.proc = _Writing(writing_s)
+        hmi.watcher = threading.Thread(target=time.sleep, args=(writing_s,), daemon=True)
+        hmi.watcher.start()
+        link = LoopLink.new()
+        hmi.api.attach(link, tmp_path / "s")
+        if ended:
+            link.loop_ended()
+
+    session(0.5, ended=True)
+    t0 = time.time()
+    status, out = hmi.start(0.5, "test")
+    assert status == 422 and "Duration (s): 0.5 is outside" in out["error"], out
+    assert time.time() - t0 >= 0.45
+    session(0.5, ended=False)
+    t0 = time.time()
+    status, out = hmi.start(0.5, "test")
+    assert status == 409 and out["error"].endswith("is running; end it first"), out
+    assert time.time() - t0 < 0.2
+    monkeypatch.setattr(server, "RECORDS_WAIT_S", 0.1)
+    session(2.0, ended=True)
+    status, out = hmi.start(0.5, "test")
+    assert status == 409 and "has ended and is still writing its records" in out["error"]
 
 
 def test_bind_elsewhere_needs_tls_or_says_so(tmp_path: Path) -> None:
@@ -384,8 +437,10 @@ def test_the_estop_cannot_fail(tmp_path: Path) -> None:
 def _spawned(pid: int) -> list[int]:
     """The processes ``pid`` started with multiprocessing's spawn (not its resource
     tracker)."""
-    kids = [int(x) for x in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()]
-    return [k for k in kids if b"spawn_main" in Path(f"/proc/{k}/cmdline").read_bytes()]
+    from conftest import children
+
+    return [k for k in children(pid)
+            if b"spawn_main" in Path(f"/proc/{k}/cmdline").read_bytes()]
 
 
 def test_run_hmi_comes_to_a_controlled_stop_when_its_interface_dies(tmp_path: Path) -> None:

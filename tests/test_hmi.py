@@ -417,16 +417,16 @@ def _server_keeps_off_the_loops_cpu(server: int) -> None:
     the session's process has the CPUs the server was started with (this test's)."""
     import os
 
+    from conftest import children
     from exoleg.runtime.realtime import isolated_cpus
 
     cpus = os.sched_getaffinity(0)
     if len(cpus) < 2 or isolated_cpus():
         return
     assert os.sched_getaffinity(server) == cpus - {max(cpus)}
-    kids = Path(f"/proc/{server}/task/{server}/children").read_text().split()
-    sessions = [int(k) for k in kids
+    sessions = [k for k in children(server)
                 if b"resource_tracker" not in Path(f"/proc/{k}/cmdline").read_bytes()]
-    assert len(sessions) == 1, kids
+    assert len(sessions) == 1, sessions
     assert os.sched_getaffinity(sessions[0]) == cpus
 
 

@@ -123,9 +123,9 @@ class Console:
     def session_pid(self) -> int:
         """The session's own process (the server's child that is not its resource
         tracker)."""
-        server = self.s.process.pid
-        kids = Path(f"/proc/{server}/task/{server}/children").read_text().split()
-        (pid,) = [int(k) for k in kids
+        from conftest import children
+
+        (pid,) = [k for k in children(self.s.process.pid)
                   if b"resource_tracker" not in Path(f"/proc/{k}/cmdline").read_bytes()]
         return pid
 

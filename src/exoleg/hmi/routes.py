@@ -117,8 +117,10 @@ def app(hmi: HMI) -> Any:
         except ValueError as e:
             api.record(source_of(request), what, False, str(e))
             return JSONResponse({"error": str(e)}, 422)
-        status, out = hmi.start(length, source_of(request), arm=body.get("arm") is True,
-                                identify=identify, request=started_by)
+        # off the event loop: a start may wait for the last session's records
+        status, out = await run_in_threadpool(hmi.start, length, source_of(request),
+                                              arm=body.get("arm") is True,
+                                              identify=identify, request=started_by)
         if status != 200:
             api.record(source_of(request), what, False, out["error"])
         return JSONResponse(out, status)

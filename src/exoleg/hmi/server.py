@@ -54,6 +54,11 @@ MAX_DURATION = 3600.0
 NOTE_LIMIT = 2000
 #: an identification's plan, s (exoleg.identify.plan.design_plan's range)
 PLAN_RANGE = (10.0, 120.0)
+#: how long a start waits for the last session's process to write its records once its
+#: loop has ended, s: the page offers Start as the loop ends. Measured: a 35 s session's
+#: figures take 0.03-0.23 s quiet; beside two CPU-bound processes and a busy suite a start
+#: came while the process was still at them (refused then as a running session's)
+RECORDS_WAIT_S = 30.0
 
 
 class HMI:
@@ -91,6 +96,7 @@ class HMI:
                                                          legacy=self.root / "children")
         self.kept: dict[str, Any] | None = None  # the fit the next session runs on
         self.proc: Any = None
+        self.watcher: threading.Thread | None = None  # the running session's (_watch)
         # the page's id of the start that began the running session, and its answer: a
         # start sent again with the same id (a browser resends a request whose reused
         # connection dropped before the answer) is answered again, not refused
@@ -116,7 +122,10 @@ class HMI:
         the session plays identification's plan (``duration`` s of it; the operator starts
         it with Walk) and the identified leg is kept for the sessions after. ``request``:
         the page's id for this start; the same id again while its session runs gets the
-        same answer (the start is not repeated, nor refused as another's)."""
+        same answer (the start is not repeated, nor refused as another's). A session
+        whose loop has ended -- the page shows it ended -- while its process still writes
+        its records is waited for (up to :data:`RECORDS_WAIT_S`), not refused."""
+        self._wait_for_records()
         with self.lock:
             running = self.proc is not None and self.proc.is_alive()
             if running and request is not None and self.started is not None \
@@ -130,8 +139,11 @@ class HMI:
                 return 409, {"error": "this HMI serves one session run by `exoleg run`; it "
                                       "cannot start another"}
             if running:
-                return 409, {"error": f"session {self.session.name if self.session else ''}"
-                                      " is running; end it first"}
+                name = self.session.name if self.session else ""
+                if self._loop_ended():
+                    return 409, {"error": f"session {name} has ended and is still writing "
+                                          "its records; start again in a moment"}
+                return 409, {"error": f"session {name} is running; end it first"}
             lo, hi, label = ((*PLAN_RANGE, "Plan (s)") if identify
                              else (1.0, MAX_DURATION, "Duration (s)"))
             if not (np.isfinite(duration) and lo <= duration <= hi):
@@ -185,11 +197,26 @@ class HMI:
                             f"({what}, {self.backend}{', armed at start' if arm else ''})",
                             True)
             settings = None if identify else runs_on["settings"]
-            threading.Thread(target=self._watch, daemon=True,
-                             args=(self.proc, link, folder, identify, settings)).start()
+            self.watcher = threading.Thread(target=self._watch, daemon=True,
+                                            args=(self.proc, link, folder, identify, settings))
+            self.watcher.start()
             out = {"session": name, **runs_on, "identify": identify}
             self.started = None if request is None else (request, out)
             return 200, out
+
+    def _loop_ended(self) -> bool:
+        """Whether the attached session's loop has said it ended (its process may still
+        be writing its records)."""
+        link = self.api.link
+        return link is not None and LoopLink.running(link.web_copy()) == "ended"
+
+    def _wait_for_records(self) -> None:
+        """A session whose loop has ended: its process and the watcher after it (the
+        session's end in its control.log and the records) finish first -- outside the
+        lock, which the watcher takes as it ends."""
+        watcher = self.watcher
+        if watcher is not None and watcher.is_alive() and self._loop_ended():
+            watcher.join(timeout=RECORDS_WAIT_S)
 
     def _child_file(self, kept: dict[str, Any], folder: Path, wanted: bool = False
                     ) -> str | None:
