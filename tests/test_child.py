@@ -388,8 +388,8 @@ def test_with_both_feets_fsrs_no_contact_or_toe_off_is_missed_or_added() -> None
     # Measured: none, in every table -- the walks, each fault replayed and injected, the
     # single sources at 2 and 4 s strides and for the harder walkers -- but one: the IMU
     # alone at 4 s strides, 3 + 3 of 63 (each walk's first toe off, 270-316 ms before the
-    # toes leave: the heel rise's toe-down turn, while the other foot's largest load read
-    # is its standing one, about 90 of the 3,800 counts it reaches walking). Before the hand-over between the detector's paths and the other foot's
+    # toes leave: the heel rise's toe-down turn, in the first step's long double support,
+    # the other foot down and bearing). Before the hand-over between the detector's paths and the other foot's
     # bounds (stop 57): the board frozen 11 + 2, a preloaded sensor with the gyroscope
     # failed 9 + 0, the FSRs failed 2 + 2 (replayed; in the loop 3 and 3 missed), the IMU
     # alone at 4 s strides 43 + 43
