@@ -11,6 +11,17 @@ from exoleg.control.gait_state import Event, Phase
 
 
 @njit(inline="always")
+def _lasting(cond, since, t, need):  # type: ignore[no-untyped-def]
+    """A condition that must hold ``need`` s: (held that long, its start: -1 when it does
+    not hold)."""
+    if not cond:
+        return False, -1.0
+    if since < 0.0:
+        since = t
+    return t - since >= need - 1e-12, since
+
+
+@njit(inline="always")
 def _eased(D, slope, steepest):  # type: ignore[no-untyped-def]
     """A toe-down turn past its steepest: its rate of change (``slope``, rad/s^2) eased to
     ``slope_eased`` of the ``steepest`` since, which was beyond ``slope_floor``."""
@@ -36,13 +47,8 @@ def _imu_path(D, s, gyro, acc_dev, strike, acc_ok, t, bears):  # type: ignore[no
     ``gyro_turning`` is toe off, no sooner than ``push_ms`` after heel off; a foot still
     again since heel off is flat (a jolt as walking starts is not a
     push-off)."""
-    still = abs(gyro) < D.gyro_still and abs(acc_dev) < D.accel_still
-    if still:
-        if s.still_since < 0.0:
-            s.still_since = t
-        still = t - s.still_since >= D.still_time - 1e-12
-    else:
-        s.still_since = -1.0
+    still, s.still_since = _lasting(abs(gyro) < D.gyro_still and abs(acc_dev) < D.accel_still,
+                                    s.still_since, t, D.still_time)
     phase = s.phase_i
     ev = 0
     if phase <= Phase.SWING:

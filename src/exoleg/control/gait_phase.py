@@ -44,9 +44,9 @@ Catalfamo et al. 2010; in children with CP, Behboodi et al. 2019):
   when the heel's sensor read no load last stance (failed, or a child landing on the
   forefoot: the FSRs would see the contact only as the forefoot loads).
 
-**The IMU alone** (:func:`~exoleg.control.gait_imu._imu_path`, its own phases from the gyroscope and the
-accelerometer; its initial contact the strike) runs beside them and decides when the
-FSRs cannot: their readings missing (NaN), frozen (a loaded reading unchanged for
+**The IMU alone** (:func:`~exoleg.control.gait_imu._imu_path`, its own phases from the
+gyroscope and the accelerometer; its initial contact the strike) runs beside them and
+decides when the FSRs cannot: their readings missing (NaN), frozen (a loaded reading unchanged for
 ``frozen_ms``: noise always moves a live one) or silent (nothing loaded for
 ``fsr_silent_strides`` strides the IMU has walked).
 The gyroscope is not used when missing, saturated (at its range) or frozen; the FSRs then
@@ -76,7 +76,7 @@ import math
 import numpy as np
 from numba import njit
 
-from exoleg.control.gait_imu import _eased, _imu_path
+from exoleg.control.gait_imu import _eased, _imu_path, _lasting
 from exoleg.control.gait_settings import SETTINGS, DetectorSettings
 from exoleg.control.gait_state import (
     EVENT_NAMES,
@@ -268,13 +268,8 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, strike, t, bears):  # type: ignore[no
     # threshold, is still a foot on the ground
     lifted = bears and not h and not f and \
         (total - base) / max(s.total_max - base, D.floor) < D.contact_off
-    swinging = False
-    if gyro_ok and gyro > _swing_level(D, s):
-        if s.swing_since < 0.0:
-            s.swing_since = t
-        swinging = t - s.swing_since >= D.gyro_swing_time - 1e-12
-    else:
-        s.swing_since = -1.0
+    swinging, s.swing_since = _lasting(gyro_ok and gyro > _swing_level(D, s), s.swing_since,
+                                       t, D.gyro_swing_time)
     phase = s.phase_f
     if phase == Phase.SWING:  # a reading in swing is at most the sensor's offset
         for i in range(4):
