@@ -3,10 +3,10 @@ CP; Falisse et al. 2020, Front Hum Neurosci 14:40; repository antoinefalisse/pre
 commit 93588fe, MIT licence) from its experimental data (``ExperimentalData_r.mat``: one
 gait cycle from the right initial contact, 100 samples, 4 trials) into
 ``src/exoleg/data/child/predictcpgait_subject1_r.csv``: the right hip, knee and ankle's
-angles (mean and SD over the trials), rates and accelerations, inverse-dynamics moments
-(mean and SD), the pelvis's tilt and translations with their rates and accelerations,
-and the right foot's ground reaction force -- values as the source holds them, rounded to
-6 significant digits; with the subject's OpenSim model (``OpenSimModel/subject1/
+angles (mean and SD over the trials; each trial's, with its pelvis tilt), rates and
+accelerations, inverse-dynamics moments (mean and SD), the pelvis's tilt and
+translations with their rates and accelerations, and the right foot's ground reaction
+force -- values as the source holds them, rounded to 6 significant digits; with the subject's OpenSim model (``OpenSimModel/subject1/
 subject1_MRI.osim``, the model their inverse dynamics used), also the pelvis's other
 coordinates, the hip's adduction and rotation and the subtalar joint (with their moments)
 and the force's lateral part into the same file, and the right leg's bodies and joints
@@ -53,7 +53,8 @@ HEADER = """\
 # rotation (OpenSim's body-fixed x-y-z sequence with the tilt: about x forward, then y up)
 # and sideways place (z, to the right), the hip's adduction and rotation and the subtalar
 # angle (deg, OpenSim's + directions) with their moments, and the lateral ground reaction
-# force (+ to the right, % body weight).
+# force (+ to the right, % body weight). Each of the 4 trials' hip, knee and ankle angles and
+# pelvis tilt (deg; hip_trial1 ... pelvis_tilt_trial4).
 """
 
 
@@ -149,6 +150,11 @@ def main() -> None:
         if name in joints:
             out[f"{name}_moment"] = tau.mean[:, list(tau.colheaders).index(c)]
             out[f"{name}_moment_sd"] = tau.std[:, list(tau.colheaders).index(c)]
+    # each trial's sagittal angles and pelvis tilt: the spread a mean +- SD band leaves
+    # the child's own walks
+    for name, c in {**JOINTS, "pelvis_tilt": PELVIS["pelvis_tilt"]}.items():
+        for k in range(q.Qs.all.shape[2]):
+            out[f"{name}_trial{k + 1}"] = q.Qs.all[:, cols.index(c), k]
     out["grf_fore_aft_pct_bw"] = grf.mean[:, gcols.index("Fore-aft-r")]
     out["grf_vertical_pct_bw"] = grf.mean[:, gcols.index("Vertical-r")]
     if three_d:

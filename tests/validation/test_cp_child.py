@@ -234,7 +234,8 @@ def test_the_simulated_child_walks_the_real_childs_pattern() -> None:
     # contacts, no fault. Against the real child's mean +- 1 SD (measured over 12
     # strides, exoleg validate --cp-child: 68 / 77 / 60 % of the cycle at hip / knee /
     # ankle, RMS 2.4 / 3.0 / 4.5 deg; on the normative gait's treadmill 50 / 31 / 44 %,
-    # 5.1 / 7.3 / 5.7 deg): the 90 % is not reached; bounds as measured here
+    # 5.1 / 7.3 / 5.7 deg): the 90 % is not reached -- nor by any of the real
+    # child's own trials (the next test); bounds as measured here
     from exoleg.validate.cp_child import walk_match
 
     w = walk_match(strides=12)
@@ -270,3 +271,25 @@ def test_the_detector_finds_a_forefoot_first_childs_contacts() -> None:
         row = rows[event]
         assert row["true"] >= 10 and row["missed_rate"] == 0 and row["false_rate"] == 0
         assert row["median_abs_error_ms"] <= 20 and row["p95_abs_error_ms"] <= 20, row
+
+
+def test_the_real_childs_own_trials_spread_about_their_band() -> None:
+    # the shipped trials are the ones the shipped mean and SD were taken over (the
+    # source's .mat: Qs.mean and Qs.std, the SD with n - 1; rounded to 6 significant
+    # digits), and the band the simulated child is judged against (mean +- 1 SD) holds
+    # the child's own trials at 49-100 % of the cycle at the hip (from the vertical,
+    # each trial's own tilt), 10-97 % at the knee, 30-98 % at the ankle: none of the
+    # four meets the 90 % at every joint (measured from the source's .mat with
+    # scipy, the same figures)
+    from exoleg.validate.cp_child import real_trials, within_band
+
+    g = cp_child_gait()
+    assert g.q_trials.shape == (4, 100, 3) and g.tilt_trials.shape == (4, 100)
+    tol = 1e-6 * np.radians(180.0)
+    np.testing.assert_allclose(g.q_trials.mean(axis=0), g.q, atol=tol)
+    np.testing.assert_allclose(g.q_trials.std(axis=0, ddof=1), g.q_sd, atol=tol)
+    np.testing.assert_allclose(g.tilt_trials.mean(axis=0), g.tilt, atol=tol)
+    own = within_band(real_trials())
+    np.testing.assert_allclose(100 * own, [[77, 97, 98], [100, 10, 30], [80, 69, 66],
+                                           [49, 80, 52]])
+    assert not np.any(np.all(own >= 0.9, axis=1))

@@ -35,7 +35,9 @@ class CPChildGait:
     ankle dorsiflexion; a torque + moves q +): time (s), q, its SD, dq, ddq (rad, rad/s,
     rad/s^2; hip from the pelvis), the joint moments and their SD (N m), the pelvis's
     tilt (rad, + anticlockwise seen from the right) with its rates, its origin's
-    acceleration (m/s^2, x forward, y up), and the ground reaction force (N)."""
+    acceleration (m/s^2, x forward, y up), and the ground reaction force (N); each
+    trial's angles (trials, samples, joint; rad, as ``q``) and pelvis tilt (trials,
+    samples; rad): the spread of the child's own walks about the mean."""
 
     t: F64
     q: F64
@@ -49,6 +51,8 @@ class CPChildGait:
     tilt_acc: F64
     pelvis_acc: F64
     grf: F64
+    q_trials: F64
+    tilt_trials: F64
 
 
 @cache
@@ -67,6 +71,9 @@ def cp_child_gait() -> CPChildGait:
         return np.stack([c[f"{j}{suffix}"] for j in JOINTS], axis=1) * sign
 
     rad = math.pi / 180.0
+    n = sum(1 for k in c if k.startswith("hip_trial"))
+    trials = np.stack([np.stack([c[f"{j}_trial{k}"] for j in JOINTS], axis=1) * sign
+                       for k in range(1, n + 1)]) * rad
     return CPChildGait(
         t=c["time_s"], q=joints("") * rad, q_sd=np.abs(joints("_sd")) * rad,
         dq=joints("_rate") * rad, ddq=joints("_acc") * rad, tau=joints("_moment"),
@@ -74,7 +81,9 @@ def cp_child_gait() -> CPChildGait:
         tilt_rate=c["pelvis_tilt_rate"] * rad, tilt_acc=c["pelvis_tilt_acc"] * rad,
         pelvis_acc=np.stack([c["pelvis_x_acc"], c["pelvis_y_acc"]], axis=1),
         grf=np.stack([c["grf_fore_aft_pct_bw"], c["grf_vertical_pct_bw"]], axis=1)
-        / 100.0 * MASS_KG * G)
+        / 100.0 * MASS_KG * G,
+        q_trials=trials,
+        tilt_trials=np.stack([c[f"pelvis_tilt_trial{k}"] for k in range(1, n + 1)]) * rad)
 
 
 #: The shipped columns of the 3D check and the subject's model's coordinates they hold

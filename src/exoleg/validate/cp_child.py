@@ -302,7 +302,8 @@ class WalkMatch:
     ``real_pattern`` (Sangeux 2015's class of each), ``fault`` whether the safety layer
     stopped the walk, ``forefoot_first`` the share of contacts made with the forefoot,
     ``detection`` the gait-phase detector's rows for initial contact and toe off
-    (:func:`exoleg.sim.metrics.detection_table`)."""
+    (:func:`exoleg.sim.metrics.detection_table`); ``trials_within`` (trials, joint) the
+    same share for each of the real child's own trials, judged the same way."""
 
     cycle: F64
     within: F64
@@ -313,6 +314,31 @@ class WalkMatch:
     fault: bool
     forefoot_first: float
     detection: list[dict[str, Any]]
+    trials_within: F64
+
+
+def real_trials() -> F64:
+    """The real child's own trials (trials, samples, joint; rad) as a walk is judged:
+    the hip from the vertical (its angle from the pelvis plus the trial's tilt)."""
+    g = cp_child_gait()
+    q = g.q_trials.copy()
+    q[:, :, 0] += g.tilt_trials
+    return q
+
+
+def within_band(q: F64) -> F64:
+    """The share of the samples of cycles ``q`` (..., samples, joint; rad, the hip from
+    the vertical, on the shipped gait's samples) within the real child's mean +- 1 SD,
+    per joint (and per cycle)."""
+    return np.mean(np.abs(q - _mean_cycle()) <= cp_child_gait().q_sd, axis=-2)
+
+
+def _mean_cycle() -> F64:
+    """The real child's mean cycle as a walk is judged (the hip from the vertical)."""
+    g = cp_child_gait()
+    want = g.q.copy()
+    want[:, 0] += g.tilt
+    return want
 
 
 def walk_match(strides: int = 12, spasticity: str = "mild",
@@ -356,14 +382,13 @@ def walk_match(strides: int = 12, spasticity: str = "mild",
     for a, b in zip(keep[:-1], keep[1:], strict=False):
         tt = (r.t[a:b] - r.t[a]) / (r.t[b] - r.t[a])
         cycles.append(np.stack([np.interp(x, tt, r.q[a:b, j]) for j in range(3)], axis=1))
-    want = g.q.copy()
-    want[:, 0] += g.tilt
+    want = _mean_cycle()
     cycle = np.mean(cycles, axis=0) if cycles else np.full_like(want, np.nan)
     on_grid = [np.stack([np.interp(PERCENT / 100, x, v[:, j]) for j in range(3)], axis=1)
                for v in (cycle, g.q)]
     fore = r.contact_force[np.array(keep, dtype=int)]
     return WalkMatch(
-        cycle=cycle, within=np.mean(np.abs(cycle - want) <= g.q_sd, axis=0),
+        cycle=cycle, within=within_band(cycle),
         rms_deg=np.degrees(np.sqrt(np.mean((cycle - want) ** 2, axis=0))),
         strides=max(0, len(keep) - 1),
         pattern=sagittal_pattern(clinical_degrees(on_grid[0]))[0] if cycles else "-",
@@ -372,4 +397,5 @@ def walk_match(strides: int = 12, spasticity: str = "mild",
         forefoot_first=float(np.mean((fore[:, 1:].max(axis=1) > 5.0) & (fore[:, 0] <= 5.0)))
         if len(keep) else math.nan,
         detection=[row for row in detection_table([r])
-                   if row["event"] in ("initial contact", "toe off")])
+                   if row["event"] in ("initial contact", "toe off")],
+        trials_within=within_band(real_trials()))
