@@ -1,16 +1,17 @@
 """Extract the sagittal gait of predictcpgait's subject 1 (a child with spastic diplegic
-CP; Falisse et al. 2020, Front Hum Neurosci 14:40; repository antoinefalisse/predictcpgait,
-commit 93588fe, MIT licence) from its experimental data (``ExperimentalData_r.mat``: one
-gait cycle from the right initial contact, 100 samples, 4 trials) into
-``src/exoleg/data/child/predictcpgait_subject1_r.csv``: the right hip, knee and ankle's
-angles (mean and SD over the trials; each trial's, with its pelvis tilt), rates and
-accelerations, inverse-dynamics moments (mean and SD), the pelvis's tilt and
-translations with their rates and accelerations, and the right foot's ground reaction
-force -- values as the source holds them, rounded to 6 significant digits; with the subject's OpenSim model (``OpenSimModel/subject1/
-subject1_MRI.osim``, the model their inverse dynamics used), also the pelvis's other
-coordinates, the hip's adduction and rotation and the subtalar joint (with their moments)
-and the force's lateral part into the same file, and the right leg's bodies and joints
-into ``predictcpgait_subject1_model.toml`` (exoleg's 3D check of their inverse dynamics,
+CP; Falisse et al. 2020, Front Hum Neurosci 14:40; repository
+antoinefalisse/predictcpgait, commit 93588fe, MIT licence) from its experimental data
+(``ExperimentalData_r.mat``: one gait cycle from the right initial contact, 100 samples,
+4 trials) into ``src/exoleg/data/child/predictcpgait_subject1_r.csv``: the right hip,
+knee and ankle's angles (mean and SD over the trials; each trial's, with its pelvis
+tilt), rates and accelerations, inverse-dynamics moments (mean and SD), the pelvis's
+tilt and translations with their rates and accelerations, and the right foot's ground
+reaction force -- values as the source holds them, rounded to 6 significant digits; with
+the subject's OpenSim model (``OpenSimModel/subject1/subject1_MRI.osim``, the model
+their inverse dynamics used), also the pelvis's other coordinates, the hip's adduction
+and rotation and the subtalar joint (with their moments) and the force's lateral part
+into the same file, and the right leg's bodies and joints into
+``predictcpgait_subject1_model.toml`` (exoleg's 3D check of their inverse dynamics,
 :mod:`exoleg.validate.cp_child`). Needs scipy (a development tool).
 
     python tools/extract_predictcpgait.py PATH/TO/ExperimentalData_r.mat [PATH/TO/subject1_MRI.osim]
