@@ -149,28 +149,32 @@ def _support(r: Any) -> list[float]:
     return support_by_stride(r.t, r.support_level, r.strikes())
 
 
-def test_the_support_falls_for_a_child_who_tracks_well_and_not_for_a_spastic_crouch() -> None:
+def test_the_support_falls_for_a_child_who_tracks_well_and_not_for_a_weaker_one() -> None:
     # The issue's goal over 40 strides: the support falls by 30 % or more for a typically
     # developing child (the 50th-percentile girl of 10, learning: f 0.97) -- measured
-    # 0.96 -> 0.22 -- and stays higher for a GMFCS III girl with moderate spasticity,
-    # contracture and crouch (cluster 3): issue 38's 1.5x the typically developing
-    # child's -- measured 0.375, 1.69x (0.52 before the passive field was made
-    # conservative and the spasticity velocity-dependent, issue 41). Never outside the bounds, no
-    # fault, the range of motion never left; the safety layer's torque clip, rate limit
-    # and the gears' protection do act (the gears' 54 N m, reached in every mode:
-    # impedance 20338 ticks, this 13815 of 44000; a slowing rotor's load held at it), and
-    # the cuffs' limit on the crouching girl (her pushes beyond what walking asks of her
-    # joints lower the support there for a moment: her support still ends 1.5x higher)
+    # 0.96 -> 0.22 -- and ends 1.5x higher or more for the issue's child, a GMFCS III girl
+    # of 10 (50th percentile) with moderate spasticity, not learning -- measured 0.348,
+    # 1.57x (1.15x before her stance loop's stiffness was scaled with her strength,
+    # effort.toml: she tracked as well as the typically developing girl on a loop as
+    # stiff as hers) -- and for one with contracture and crouch too (cluster 3): 0.355,
+    # 1.60x (1.69x before). Never outside the bounds, no fault, the range of motion never
+    # left; the safety layer's torque clip, rate limit and the gears' protection do act
+    # (the gears' 54 N m, reached in every mode: impedance 20338 ticks, this 13815 of
+    # 44000; a slowing rotor's load held at it), and the cuffs' limit on the weaker girls
+    # (the device pushing a leg that lags lowers the support there for a moment: their
+    # support still ends 1.5x higher)
     from exoleg.sim.metrics import safety_events
 
     td = _walk(None, {}, learning=0.97)
     s = _support(td)
     assert len(s) >= 38 and s[-1] <= 0.7 * s[0], s
-    crouch = _walk(3, {"contracture": "predictcpgait", "spasticity": "moderate",
-                       "crouch": 3})
-    c = _support(crouch)
-    assert c[-1] >= 1.5 * s[-1], (c[-1], s[-1])
-    for r in (td, crouch):
+    weaker = [_walk(3, {"spasticity": "moderate"}),
+              _walk(3, {"contracture": "predictcpgait", "spasticity": "moderate",
+                        "crouch": 3})]
+    for r in weaker:
+        c = _support(r)
+        assert len(c) >= 38 and c[-1] >= 1.5 * s[-1], (c[-1], s[-1])
+    for r in (td, *weaker):
         assert not np.any(r.fault)
         assert np.all((r.support_level >= 0.0) & (r.support_level <= 1.0))
         fired = {e["event"] for e in safety_events(r.t, r.safety_status, r.walk_start)}

@@ -232,18 +232,20 @@ def test_the_simulated_child_walks_the_real_childs_pattern() -> None:
     # gait (the belt's speed and the other leg's support from its stance and swing): the
     # same sagittal pattern as the real child (Sangeux 2015: apparent equinus), forefoot
     # contacts, no fault. Against the real child's mean +- 1 SD (measured over 12
-    # strides, exoleg validate --cp-child: 68 / 77 / 60 % of the cycle at hip / knee /
-    # ankle, RMS 2.4 / 3.0 / 4.5 deg; on the normative gait's treadmill 50 / 31 / 44 %,
-    # 5.1 / 7.3 / 5.7 deg): the issue's 90 % is not reached -- nor by any of the real
-    # child's own trials (the next test); bounds as measured here
+    # strides, exoleg validate --cp-child: 63 / 70 / 54 % of the cycle at hip / knee /
+    # ankle, RMS 2.6 / 3.5 / 4.4 deg -- 68 / 77 / 60 %, 2.4 / 3.0 / 4.5 deg before the
+    # child's stance loop was scaled with their strength, issue 38; on the normative
+    # gait's treadmill 50 / 31 / 44 %, 5.1 / 7.3 / 5.7 deg): the issue's 90 % is not
+    # reached -- nor by any of the real child's own trials (49-100 / 10-97 / 30-98 %,
+    # the last test); bounds as measured here
     from exoleg.validate.cp_child import walk_match
 
     w = walk_match(strides=12)
     assert w.strides >= 8 and not w.fault
     assert w.pattern == w.real_pattern == "apparent equinus"
     assert w.forefoot_first >= 0.9
-    assert np.all(w.rms_deg <= [2.6, 3.3, 4.8]), w.rms_deg
-    assert np.all(w.within >= [0.65, 0.7, 0.55]), w.within
+    assert np.all(w.rms_deg <= [2.8, 3.8, 4.7]), w.rms_deg
+    assert np.all(w.within >= [0.6, 0.65, 0.5]), w.within
 
 
 def test_the_detector_finds_a_forefoot_first_childs_contacts() -> None:
@@ -251,7 +253,7 @@ def test_the_detector_finds_a_forefoot_first_childs_contacts() -> None:
     # simulated child walking the real CP child's gait lands forefoot first every stride
     # (above); noise-free, in the loop, the detector's initial contacts and toe offs
     # against the true ones (exoleg.sim.events: the contact forces): none missed, none
-    # false, within the issue's 20 ms (measured: median 11 / 17 ms, p95 12 / 17 ms)
+    # false, within the issue's 20 ms (measured: median 11 / 13 ms, p95 11 / 13 ms)
     from exoleg.child.model import Spasticity
     from exoleg.child.passive import Contracture
     from exoleg.control.transparency import SupportMode

@@ -110,7 +110,11 @@ def child_records(child: ChildModel | None, h: float, stride_time: float = 1.1,
         r[name] = n
     e = child_data("effort.toml")
     L = 0.53 * child.height if leg_length is None else leg_length
-    kp = np.array(e["stiffness"]) * child.mass * 9.81 * L
+    # the stance loop's stiffness is the antigravity muscles' response, which scales
+    # with the force they can give (effort.toml's stiffness, a typically developing
+    # child's, times the child's strength fraction); the swing loop's (below) moves
+    # the leg's own inertia, far within any child's strength
+    kp = np.array(e["stiffness"]) * child.mass * 9.81 * L * child.strength_fraction
     r["effort"] = 1.0 if child.effort else 0.0
     r["kp"][0], r["kd"][0] = kp, kp * np.array(e["damping_s"])
     wn = 2 * math.pi * float(e["swing_bandwidth_hz"])
