@@ -152,11 +152,7 @@ class TrackingController:
         self._held: tuple[float, Any, Any, Any] | None = None  # the reference at rest
         self._own = None if isinstance(law, LawRecord) else law
         if isinstance(law, LawRecord):
-            # the law's gains, model coefficients and limits as arrays: a tuple of floats
-            # costs numba microseconds to type at every call from Python
-            kp, kd, kc, scale, limit = law.law_args()
-            self._args = (int(law.kind), np.array(kp), np.array(kd), np.array(kc),
-                          float(scale), np.array(limit))
+            self._args = law.call_args()  # arrays: typed in C at each call from Python
 
     def warm_up(self) -> None:
         """Compile (or load from numba's cache) on copies of the state."""

@@ -121,7 +121,7 @@ class MujocoLeg:
         d.qpos[:], d.qvel[:] = q0, dq0
         out = np.empty((len(q_ref), 3))
         out[0] = d.qpos
-        args = (controller.kind, *controller.law_args())
+        args = controller.call_args()
         u = np.zeros(3)
         qpos, qvel = d.qpos, d.qvel  # views into MuJoCo's state
         for k in range(len(q_ref) - 1):
