@@ -218,6 +218,13 @@ CASES: list[tuple[str, list[str], str]] = [
     ("design workers and a scheduler", ["design", "{folder}/none.toml", "--workers", "2",
                                         "--scheduler", "tcp://127.0.0.1:1"],
      "sizes the local cluster"),
+    # a validation with too few strides to judge (the first ones are left out): it once
+    # printed NaN (the real CP child's match at 3 strides) or failed inside (transparency
+    # at 1)
+    ("validate transparency 2 strides", ["validate", "--transparency", "--strides", "2"],
+     "strides: 2: the first 2 are left out (the child settles into the walk); allowed 3-1000"),
+    ("validate cp-child 3 strides", ["validate", "--cp-child", "--strides", "3"],
+     "allowed 4-1000"),
     # any command
     ("unknown option", ["validate", "--bogus"], "unrecognized arguments"),
     ("no command", [], "required"),

@@ -115,6 +115,7 @@ def _cp_child(strides: int) -> int:
         walk_match,
     )
 
+    w = walk_match(strides=strides)  # first: a count it refuses is said before any table
     three = inverse_dynamics_3d()
     names = {"hip_flex_r": "hip flexion", "hip_add_r": "hip adduction",
              "hip_rot_r": "hip rotation", "knee_flex_r": "knee flexion"}
@@ -138,7 +139,6 @@ def _cp_child(strides: int) -> int:
     _, gps = gait_scores(cyc)
     _say(f"the real child: GPS (3 sagittal variables) {gps:.1f} deg; {pattern} (Sangeux "
          f"2015: ankle {za:+.1f}, knee {zk:+.1f} SD in mid-stance)")
-    w = walk_match(strides=strides)
     own = w.trials_within
     _table([[j, f"{100 * w.within[i]:.0f} %", f"{w.rms_deg[i]:.1f}",
              " / ".join(f"{100 * v:.0f}" for v in own[:, i]) + " %"]
@@ -264,8 +264,9 @@ def add_parser(sub: Any) -> None:
                    help="with --gait-phase: the unassisted foot's insole fitted too (both "
                         "feet's FSRs) in every walk and replay")
     v.add_argument("--strides", type=_count(1, 1000), metavar="N",
-                   help="with --gait-phase (default 20), --transparency (default 10) or "
-                        "--cp-child (default 12): strides per walk, 1-1000")
+                   help="with --gait-phase (default 20), --transparency (default 10, at "
+                        "least 3) or --cp-child (default 12, at least 4): strides per "
+                        "walk, 1-1000")
     v.add_argument("--transparency", action="store_true",
                    help="the transparent mode: the device's budget and a typically "
                         "developing child walking in it")

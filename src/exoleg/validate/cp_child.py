@@ -341,6 +341,11 @@ def _mean_cycle() -> F64:
     return want
 
 
+#: The fewest strides :func:`walk_match` judges a cycle from (two left out, then one
+#: contact to the next; three strides' contacts leave none after the first two).
+MIN_STRIDES = 4
+
+
 def walk_match(strides: int = 12, spasticity: str = "mild",
                contracture: str = "predictcpgait") -> WalkMatch:
     """The simulated child of the subject's size, GMFCS II, with ``contracture`` and
@@ -358,6 +363,10 @@ def walk_match(strides: int = 12, spasticity: str = "mild",
     from exoleg.sim.walk import simulate_walk
     from exoleg.sizing import Child, personalized_leg
 
+    if not (isinstance(strides, int) and MIN_STRIDES <= strides <= 1000):
+        raise ParameterError("validate.cp_child", "strides",
+                             f"{strides!r}: the first 2 are left out and a cycle runs from "
+                             f"one contact to the next; allowed {MIN_STRIDES}-1000")
     g = cp_child_gait()
     stride = float(g.t[-1])
     c = Child(age=10, sex="male", height=HEIGHT_M, mass=MASS_KG, gmfcs=2,

@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 
 from exoleg.device.drive import current_loop, drive_limit
 from exoleg.dynamics.kernels import mass_height_terms
+from exoleg.errors import ParameterError
 from exoleg.params.records import JOINTS
 
 F64 = NDArray[np.float64]
@@ -188,6 +189,10 @@ def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
     from exoleg.sizing.child import population_child
     from exoleg.system.config import DeviceConfig
 
+    if not (isinstance(strides, int) and SETTLE_STRIDES < strides <= 1000):
+        raise ParameterError("validate.transparency", "strides",
+                             f"{strides!r}: the first {SETTLE_STRIDES} are left out (the "
+                             f"child settles into the walk); allowed {SETTLE_STRIDES + 1}-1000")
     c, _ = population_child(None, "female", 10.0, 50.0)
     child = ChildModel.of(c)
     leg = personalized_leg(c)
