@@ -175,6 +175,14 @@ def test_child_file_round_trip_and_bad_files(tmp_path) -> None:  # type: ignore[
         with pytest.raises(ParameterError) as e:
             ChildModel.load(tmp_path / "bad.toml")
         assert "bad.toml" in str(e.value)
+    # a contracture's level is checked with no contracture too (it was ignored: -1 or
+    # nan read as a child without one)
+    ChildModel("b", 9.5, 1.32, 27.0, 2).save(tmp_path / "none.toml")
+    for level, match in (("-1", "level: -1 is outside 0-1.5"), ("nan", "level: must be")):
+        (tmp_path / "bad.toml").write_text((tmp_path / "none.toml").read_text().replace(
+            "contracture_level = 0 ", f"contracture_level = {level} "))
+        with pytest.raises(ParameterError, match=f"bad.toml.*{match}"):
+            ChildModel.load(tmp_path / "bad.toml")
     (tmp_path / "bin.toml").write_bytes(b"\x00\x01\xff")
     with pytest.raises(ParameterError):
         ChildModel.load(tmp_path / "bin.toml")

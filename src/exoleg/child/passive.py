@@ -182,6 +182,7 @@ class Contracture:
         Contracture
         """
         if name == "none":
+            cls("none", {}, level)  # a level given with it is checked all the same
             return cls.none()
         d = child_data("contracture.toml")
         if name not in d:
