@@ -57,6 +57,7 @@ def cli(*args: str, **kw: object) -> subprocess.CompletedProcess[str]:
     ("[axes]\nheight_cm = [120]\n", "axes.height_cm"),                  # unknown axis
     ("[axes]\nage = []\n", "axes.age"),                                 # empty grid
     ("[axes]\nage = [30]\n", "axes.age"),                               # out of range
+    ("[axes]\nspeed = [\"Slow\", \"Slow\"]\n", "axes.speed"),            # the runs twice
     ("[axes]\nhip_motor = [\"ec90flat-220w\"]\n", "axes.hip_motor"),    # not a variant
     ("[axes]\nhip_ratio = [80]\n", "axes.hip_ratio"),                   # no ratings for 80
     ("[study]\nsampling = \"sobol\"\n", "study.sampling"),

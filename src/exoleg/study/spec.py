@@ -128,6 +128,7 @@ MAX_RUNS = 2_000_000
 ROW_BYTES = 1000
 _STUDY_KEYS = {"name": str, "sampling": str, "samples": int, "seed": int, "strides": int,
                "runs_per_task": int, "partition_by": str, "description": str}
+_KIND_NAMES = {str: "text", int: "a whole number"}
 
 
 @dataclass(frozen=True)
@@ -273,7 +274,8 @@ def parse_study(text: str, where: str = "study") -> Study:
                                  + ", ".join(_STUDY_KEYS) + ")")
         kind = _STUDY_KEYS[k]
         if not isinstance(v, kind) or isinstance(v, bool):
-            raise ParameterError(where, f"study.{k}", f"expected a {kind.__name__}, got {v!r}")
+            raise ParameterError(where, f"study.{k}", f"expected {_KIND_NAMES[kind]}, got "
+                                 f"{v!r}")
     sampling = head.get("sampling", "grid")
     if sampling not in SAMPLINGS:
         raise ParameterError(where, "study.sampling", f"{sampling!r}: allowed "
@@ -393,7 +395,13 @@ def _axis_values(where: str, name: str, v: Any, sampling: str) -> Any:
     if isinstance(v, list):
         if not v:
             raise ParameterError(where, key, "empty: give at least one value")
-        return [_value(where, key, name, x) for x in v]
+        vals = [_value(where, key, name, x) for x in v]
+        if sampling == "grid":
+            twice = next((x for i, x in enumerate(vals) if x in vals[:i]), None)
+            if twice is not None:
+                raise ParameterError(where, key, f"lists {twice!r} twice: the grid would "
+                                     "walk the same runs twice (repeats: the seed axis)")
+        return vals
     if isinstance(v, dict):
         if AXES[name].kind == "choice":
             raise ParameterError(where, key, "a choice takes a list of values, not a range")
