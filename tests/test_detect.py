@@ -164,6 +164,9 @@ BAD: list[tuple[str, str, str]] = [
      "t: row 4: the times must increase"),
     ("too slow", "t,heel,met1,met5,hallux\n0,1,1,1,1\n0.1,1,1,1,1\n",
      "at 50 Hz or faster"),
+    # the first gap too long is named, not the longest (which was row 4 here)
+    ("too slow from the start", "t,heel,met1,met5,hallux\n0,1,1,1,1\n0.05,1,1,1,1\n"
+     "0.11,1,1,1,1\n", "t: row 3: 50 ms after the last sample"),
     ("counts given as forces", "t,heel,met1,met5,hallux\n0,1,1,1,1\n0.01,4000,9000,1,1\n",
      "met1: row 3: 9000 N is outside -20-5000 N (ADC counts? give --counts)"),
     ("a bad reference", "t,heel,met1,met5,hallux,reference\n0,1,1,1,1,IC\n0.01,1,1,1,1,XX\n",

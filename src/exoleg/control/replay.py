@@ -151,10 +151,11 @@ def _read_csv(path: Path, counts: bool
     if np.any(np.diff(t) <= 0):
         k = int(np.argmax(np.diff(t) <= 0)) + 3
         raise ParameterError(where, "t", f"row {k}: the times must increase")
-    gaps = np.diff(t)
-    if float(np.max(gaps)) > 1.0 / MIN_RATE_HZ + 1e-9:
-        k = int(np.argmax(gaps)) + 3
-        raise ParameterError(where, "t", f"row {k}: {gaps.max() * 1e3:.4g} ms after the "
+    late = np.diff(t) > 1.0 / MIN_RATE_HZ + 1e-9
+    if np.any(late):
+        i = int(np.argmax(late))  # the first sample too late
+        k = i + 3
+        raise ParameterError(where, "t", f"row {k}: {(t[i + 1] - t[i]) * 1e3:.4g} ms after the "
                              f"last sample; samples must come at {MIN_RATE_HZ:g} Hz or "
                              f"faster ({1e3 / MIN_RATE_HZ:g} ms apart at most)")
     sensors = np.stack([np.array(values[c]) for c in SENSOR_COLUMNS], axis=1)
