@@ -142,6 +142,12 @@ def test_design_screens_chooses_writes_a_device_and_walks_it(tmp_path: Path) -> 
 @pytest.mark.parametrize(("old", "new", "says"), [
     ('sexes = ["female"]', 'sexes = ["girl"]', "[population]: sexes: ['girl']: allowed female"),
     ("alpha = [0.5, 0.5, 0.5]", "alpha = [0.5, 0.5]", "[assistance]: alpha: 3 shares"),
+    # a child or a bus listed twice counted twice in every share (was accepted)
+    ("ages = [9.0, 11.0]", "ages = [9.0, 9]", "[population]: ages: lists 9 twice"),
+    ('sexes = ["female"]', 'sexes = ["female", "female"]', "sexes: ['female', 'female']: "
+     "each at most once"),
+    ("bus_voltage = [24.0, 48.0]", "bus_voltage = [48.0, 48.0]", "lists 48 twice"),
+    ("groups = [0, 3]", "groups = [0, 5]", "[population]: groups: 5 is outside 0-4"),
     ("bus_voltage = [24.0, 48.0]", "bus_voltage = [24.0, 60.0]", "bus_voltage"),
     ("[verify]", "[verifi]", "verify"),
     ("strides = 2", "strides = 2\nmass_kg = [40.0, 20.0]", "mass_kg: 40 is not below 20"),

@@ -88,21 +88,30 @@ class Design:
             _check.keys(f"{where} [{name}]", d[name], req, opt)
         p, a, c, v = (d[k] for k in TABLES)
 
-        def numbers(table: str, key: str, lo: float, hi: float, unit: str) -> tuple[float, ...]:
+        def numbers(table: str, key: str, lo: float, hi: float, unit: str,
+                    distinct: bool = True) -> tuple[float, ...]:
             raw = d[table][key]
             vals = raw if isinstance(raw, list) else [raw]
             if not vals:
                 raise ParameterError(f"{where} [{table}]", key, "needs at least one value")
-            return tuple(_check.within(f"{where} [{table}]", key, x, lo, hi, unit) for x in vals)
+            out = tuple(_check.within(f"{where} [{table}]", key, x, lo, hi, unit) for x in vals)
+            twice = next((x for i, x in enumerate(out) if x in out[:i]), None)
+            if distinct and twice is not None:  # a child or a bus counted twice in each share
+                raise ParameterError(f"{where} [{table}]", key, f"lists {twice:g} twice")
+            return out
 
         sexes = tuple(p["sexes"]) if isinstance(p["sexes"], list) else (p["sexes"],)
         if not sexes or any(s not in ("female", "male") for s in sexes):
             raise ParameterError(f"{where} [population]", "sexes", f"{p['sexes']!r}: "
                                  "allowed female, male")
-        groups = numbers("population", "groups", 0, 4, "(0: typically developing, 1-4 GMFCS)")
+        if len(set(sexes)) < len(sexes):
+            raise ParameterError(f"{where} [population]", "sexes", f"{p['sexes']!r}: "
+                                 "each at most once")
+        groups = numbers("population", "groups", 0, 4, "")
         if any(g != int(g) for g in groups):
-            raise ParameterError(f"{where} [population]", "groups", "whole numbers 0-4")
-        alpha = numbers("assistance", "alpha", 0.0, 1.0, "")
+            raise ParameterError(f"{where} [population]", "groups", "whole numbers: 0 "
+                                 "(typically developing), 1-4 (GMFCS level)")
+        alpha = numbers("assistance", "alpha", 0.0, 1.0, "", distinct=False)  # per joint
         if len(alpha) != 3:
             raise ParameterError(f"{where} [assistance]", "alpha", "3 shares (hip, knee, "
                                  "ankle), each 0-1")
