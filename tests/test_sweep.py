@@ -58,6 +58,7 @@ def cli(*args: str, **kw: object) -> subprocess.CompletedProcess[str]:
     ("[axes]\nage = []\n", "axes.age"),                                 # empty grid
     ("[axes]\nage = [30]\n", "axes.age"),                               # out of range
     ("[axes]\nspeed = [\"Slow\", \"Slow\"]\n", "axes.speed"),            # the runs twice
+    ("[axes]\nseed = {min = 0, max = 2, steps = 5}\n", "axes.seed"),  # 0, 0 (rounded), ...
     ("[axes]\nhip_motor = [\"ec90flat-220w\"]\n", "axes.hip_motor"),    # not a variant
     ("[axes]\nhip_ratio = [80]\n", "axes.hip_ratio"),                   # no ratings for 80
     ("[study]\nsampling = \"sobol\"\n", "study.sampling"),

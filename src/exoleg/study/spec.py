@@ -388,6 +388,18 @@ def _value(where: str, key: str, name: str, v: Any) -> Any:
     return float(v)
 
 
+def _once(where: str, key: str, values: list[Any], sampling: str) -> list[Any]:
+    """A grid axis's values, each once: a value twice walks the same runs twice (a whole
+    axis's range with more steps than whole numbers in it, too)."""
+    if sampling == "grid":
+        twice = next((x for i, x in enumerate(values) if x in values[:i]), None)
+        if twice is not None:
+            raise ParameterError(where, key, f"lists {twice!r} twice: the grid would walk "
+                                 "the same runs twice" + ("" if key == "axes.seed" else
+                                                          " (repeats: the seed axis)"))
+    return values
+
+
 def _axis_values(where: str, name: str, v: Any, sampling: str) -> Any:
     key = f"axes.{name}"
     if name not in AXES:
@@ -395,13 +407,7 @@ def _axis_values(where: str, name: str, v: Any, sampling: str) -> Any:
     if isinstance(v, list):
         if not v:
             raise ParameterError(where, key, "empty: give at least one value")
-        vals = [_value(where, key, name, x) for x in v]
-        if sampling == "grid":
-            twice = next((x for i, x in enumerate(vals) if x in vals[:i]), None)
-            if twice is not None:
-                raise ParameterError(where, key, f"lists {twice!r} twice: the grid would "
-                                     "walk the same runs twice (repeats: the seed axis)")
-        return vals
+        return _once(where, key, [_value(where, key, name, x) for x in v], sampling)
     if isinstance(v, dict):
         if AXES[name].kind == "choice":
             raise ParameterError(where, key, "a choice takes a list of values, not a range")
@@ -417,8 +423,9 @@ def _axis_values(where: str, name: str, v: Any, sampling: str) -> Any:
                 raise ParameterError(where, f"{key}.steps", "a grid's range needs steps = "
                                      "2-10000")
             vals = np.linspace(lo, hi, steps)
-            return [_value(where, key, name, round(float(x), 12) if AXES[name].kind ==
-                           "number" else int(round(x))) for x in vals]
+            return _once(where, key, [_value(where, key, name, round(float(x), 12)
+                                             if AXES[name].kind == "number" else
+                                             int(round(x))) for x in vals], sampling)
         if "steps" in v:
             raise ParameterError(where, f"{key}.steps", f"goes with grid sampling, not "
                                  f"{sampling!r}")
