@@ -210,8 +210,15 @@ def test_files_that_are_not_recordings(tmp_path: Path) -> None:
     binary.write_bytes(bytes(range(256)))
     good = tmp_path / "good.csv"
     good.write_text("t,heel,met1,met5,hallux\n0,1,1,1,1\n0.01,1,1,1,1\n")
+    # a session's folder whose log is damaged is said to be that, not "a folder" (it was)
+    session = tmp_path / "session"
+    session.mkdir()
+    (session / "session.log").write_bytes(b"garbage\n\x00")
     for args, said in (([str(binary), "--out", str(tmp_path / "e.csv")], "binary file"),
-                       ([str(tmp_path), "--out", str(tmp_path / "e.csv")], "is a folder"),
+                       ([str(tmp_path), "--out", str(tmp_path / "e.csv")],
+                        "is a folder with no session.log"),
+                       ([str(session), "--out", str(tmp_path / "e.csv")],
+                        "session.log: (log): is not an exoleg session log"),
                        ([str(tmp_path / "none.csv"), "--out", str(tmp_path / "e.csv")],
                         "no such file"),
                        ([str(good), "--out", str(good)], "is the recording being read"),

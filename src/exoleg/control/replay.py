@@ -221,7 +221,10 @@ def read_recording(path: str | Path, counts: bool = False, control_dt: float = 1
     from exoleg.device.sensors import FootSensors
 
     p = Path(path)
-    if is_session_log(p):
+    if p.is_dir() and not (p / "session.log").exists():
+        raise ParameterError(str(p), "(file)", "is a folder with no session.log; expected a "
+                             "session (its folder or its session.log) or a CSV")
+    if p.is_dir() or is_session_log(p):  # a session's folder: its log, or what is wrong
         t, c, gyro, acc, other = _read_log(p)
         ref = None
     else:
