@@ -128,10 +128,16 @@ class Controller:
                 self.scale, tuple(map(float, self.saturation)))
 
     def call_args(self) -> tuple[int, F64, F64, F64, float, F64]:
-        """(law, Kp, Kd, model coefficients, scale, saturation) as
-        :func:`exoleg.control.laws.control_law` takes them when called from Python each
-        tick: arrays, not :meth:`law_args`' tuples -- numba types a tuple of floats (and
-        the law's enum) in Python at every call (60 us measured), arrays in C (1 us)."""
+        """The record as :func:`exoleg.control.laws.control_law` takes it when called
+        from Python each tick: arrays, not :meth:`law_args`' tuples -- numba types a
+        tuple of floats (and the law's enum) in Python at every call (60 us measured),
+        arrays in C (1 us).
+
+        Returns
+        -------
+        tuple
+            (law, Kp, Kd, model coefficients, scale, saturation).
+        """
         kp, kd, kc, scale, limit = self.law_args()
         return (int(self.kind), np.array(kp), np.array(kd), np.array(kc), float(scale),
                 np.array(limit))
