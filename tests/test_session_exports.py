@@ -118,11 +118,14 @@ def test_csv_has_units_and_decimates_by_block_means(session: Path, tmp_path: Pat
     assert np.allclose(np.diff(data[:, 0]), 0.004)
     for bad, said in ((["--rate", "300"], "divided by a whole number"),
                       (["--csv", str(tmp_path / "x.txt")], "name a .csv file"),
-                      ([], "give one of them")):
+                      ([], "give one of them"),
+                      # a dataset written into the recording's own folder (it was)
+                      (["--bids", str(session / "bids")], "in the session's own folder")):
         args = [str(session), *bad] if bad[:1] != ["--rate"] else [
             str(session), "--csv", str(tmp_path / "y.csv"), *bad]
         r = cli(*args)
         assert r.returncode == 2 and said in r.stderr and "Traceback" not in r.stderr, r.stderr
+    assert not (session / "bids").exists()
 
 
 def test_a_thirty_minute_session_exports(session: Path, tmp_path: Path) -> None:

@@ -76,6 +76,13 @@ def cmd_log_export(args: argparse.Namespace) -> int:
         if path is not None and path.suffix.lower() != suffix:
             raise ParameterError("exoleg log export", option, f"{path.name}: name a "
                                  f"{suffix} file")
+    if args.bids is not None:  # a dataset of its own: not mixed into the recording's files
+        session = (args.session if args.session.is_dir() else args.session.parent).resolve()
+        bids = args.bids.resolve()
+        if bids == session or session in bids.parents:
+            raise ParameterError("exoleg log export", "--bids", f"{args.bids} is in the "
+                                 "session's own folder: name a folder outside it (nothing "
+                                 "was written)")
     exp = session_export(args.session, args.rate)
     if args.c3d:
         written = write_c3d(exp, args.c3d)
