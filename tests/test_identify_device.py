@@ -123,7 +123,11 @@ def test_identify_refuses_what_it_cannot_do(tmp_path: Path) -> None:
              "--sim-leg: the simulated device's leg"),
             (("--channel", "can0",), "--channel: goes with --backend canopen or ethercat"),
             (("--duration", "300",), "300 is outside 10-120"),
-            (("--leg", str(tmp_path)), "is a folder")):
+            (("--leg", str(tmp_path)), "is a folder"),
+            # a folder with no identification of the device alone in it
+            (("--identified-device", str(tmp_path)), "no such file (expected a record of "
+             "an identification of the device alone, written by exoleg identify "
+             "--device-alone)")):
         r = run(*args)
         assert r.returncode == 2, (args, r.stdout, r.stderr)
         assert text in r.stderr, (args, r.stderr)

@@ -200,7 +200,8 @@ def load_device(folder: str | Path) -> tuple[LegModel, F64]:
 
     where = "exoleg identify --identified-device"
     d = Path(folder)
-    text = read_text(d / "identify.json", where)
+    text = read_text(d / "identify.json", "record of an identification of the device "
+                     "alone, written by exoleg identify --device-alone")
     try:
         info = json.loads(text)
     except ValueError as e:
