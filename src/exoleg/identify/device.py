@@ -269,12 +269,12 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
         raise ParameterError(where, "--device-alone", "no child is in the device alone (no "
                              "--child), and it is the first stage (no "
                              "--identified-device)")
+    # the first stage's record read before anything is written
+    first = None if identified_device is None else load_device(identified_device)
     folder = Path(out)
     # before the plan: a fit's leg.toml, or any file of the user's, in the folder asked
     # is kept, and so is a recorded session
     refuse_overwrite(folder, "exoleg identify", IDENTIFY_FILES)
-    session = folder / "session" if session is None else Path(session)
-    check_folder(session)
     leg = exoleg.paper_leg() if leg is None else leg
     config = DeviceConfig.load(device)
     acts = config.actuators
@@ -291,10 +291,10 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
     if device_alone:
         fitted = device_leg(fitted, acts)
         leg = LegModel(fitted.links, g=fitted.g, name=f"{fitted.name} ({leg.name})")
-    elif identified_device is not None:
+    elif first is not None:
         from exoleg.identify.staged import staged_prior
 
-        dev, dev_sd = load_device(identified_device)
+        dev, dev_sd = first
         fitted, prior_sds = staged_prior(fitted, device_leg(fitted, acts), dev, dev_sd)
         stage = "leg on the identified device"
     mass = (child.mass if child is not None else DEFAULT_BODY_MASS) if body_mass is None \
@@ -307,6 +307,8 @@ def identify_device(backend: str, out: str | Path, leg: LegModel | None = None,
     if problems:
         raise ParameterError(where, "plan", "; ".join(problems))
     relaxed = None if child is None else dataclasses.replace(child, effort=False)
+    session = folder / "session" if session is None else Path(session)
+    check_folder(session)  # made once everything asked is known to be right
     wait = START_AFTER_S if link is None else OPERATOR_WAIT_S
     res, path = run(backend, wait + ref.duration + 1.0, session,
                     arm=arm or link is None, walk_after=START_AFTER_S if link is None else None,
