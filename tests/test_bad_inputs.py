@@ -154,6 +154,11 @@ CASES: list[tuple[str, list[str], str]] = [
     # population
     ("ages out of the charts", ["population", "--ages", "30", "--no-simulate"], "2-20 years"),
     ("percentiles 0", ["population", "--percentiles", "0,50", "--no-simulate"], "between 0"),
+    # a value twice counted its children twice in every share (was accepted)
+    ("ages twice", ["population", "--ages", "8,9,8.0", "--no-simulate"],
+     "8 is given twice (each age once)"),
+    ("percentiles twice", ["population", "--percentiles", "50,50", "--no-simulate"],
+     "50 is given twice (each percentile once)"),
     ("population stride", ["population", "--stride-time", "0", "--no-simulate"], "outside"),
     # export
     ("assess child binary", ["assess", "--child", "{binary}", "--test", "pendulum", "--out",

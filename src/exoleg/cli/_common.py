@@ -134,13 +134,22 @@ def _percentile(text: str) -> float:
     return v
 
 
+def _once(vals: list[float], what: str) -> list[float]:
+    """A list of a population's values, each once (a value twice counts its children
+    twice in every share)."""
+    twice = next((v for i, v in enumerate(vals) if v in vals[:i]), None)
+    if twice is not None:
+        raise argparse.ArgumentTypeError(f"{twice:g} is given twice (each {what} once)")
+    return vals
+
+
 def _percentiles(text: str) -> list[float]:
     vals = _floats(text)
     bad = [v for v in vals if not 0.0 < v < 100.0]
     if bad:
         raise argparse.ArgumentTypeError(
             f"percentiles are between 0 and 100 (exclusive), got {bad[0]:g}")
-    return vals
+    return _once(vals, "percentile")
 
 
 def _ages(text: str) -> list[float]:
@@ -148,7 +157,7 @@ def _ages(text: str) -> list[float]:
     bad = [v for v in vals if not 2.0 <= v <= 20.0]
     if bad:
         raise argparse.ArgumentTypeError(f"ages are 2-20 years (the growth charts), got {bad[0]:g}")
-    return vals
+    return _once(vals, "age")
 
 
 class _Progress:
