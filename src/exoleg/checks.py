@@ -84,6 +84,11 @@ def reading(where: str, field: str, value: Any, n: int) -> NDArray[np.float64]:
     return a if a.dtype == np.float64 else a.astype(np.float64)
 
 
+def repeated(values: Sequence[Any]) -> Any:
+    """The first value listed again in ``values`` (equal, as 8 and 8.0 are), or None."""
+    return next((v for i, v in enumerate(values) if v in values[:i]), None)
+
+
 def keys(where: str, table: Mapping[str, Any], required: Iterable[str],
          optional: Iterable[str] = ()) -> None:
     """Check a table has every required key and no unknown one (and is a table)."""

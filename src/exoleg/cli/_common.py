@@ -137,7 +137,9 @@ def _percentile(text: str) -> float:
 def _once(vals: list[float], what: str) -> list[float]:
     """A list of a population's values, each once (a value twice counts its children
     twice in every share)."""
-    twice = next((v for i, v in enumerate(vals) if v in vals[:i]), None)
+    from exoleg.checks import repeated
+
+    twice = repeated(vals)
     if twice is not None:
         raise argparse.ArgumentTypeError(f"{twice:g} is given twice (each {what} once)")
     return vals

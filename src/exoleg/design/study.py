@@ -95,7 +95,7 @@ class Design:
             if not vals:
                 raise ParameterError(f"{where} [{table}]", key, "needs at least one value")
             out = tuple(_check.within(f"{where} [{table}]", key, x, lo, hi, unit) for x in vals)
-            twice = next((x for i, x in enumerate(out) if x in out[:i]), None)
+            twice = _check.repeated(out)
             if distinct and twice is not None:  # a child or a bus counted twice in each share
                 raise ParameterError(f"{where} [{table}]", key, f"lists {twice:g} twice")
             return out
@@ -104,7 +104,7 @@ class Design:
         if not sexes or any(s not in ("female", "male") for s in sexes):
             raise ParameterError(f"{where} [population]", "sexes", f"{p['sexes']!r}: "
                                  "allowed female, male")
-        if len(set(sexes)) < len(sexes):
+        if _check.repeated(sexes) is not None:
             raise ParameterError(f"{where} [population]", "sexes", f"{p['sexes']!r}: "
                                  "each at most once")
         groups = numbers("population", "groups", 0, 4, "")

@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from exoleg.checks import repeated
 from exoleg.child.model import CROUCH_CLUSTERS, LEVELS, STRENGTH_SCALE
 from exoleg.entry import ASSIST_LAWS, HIP_VARIANTS, SUPPORT_MODES
 from exoleg.errors import ParameterError
@@ -392,7 +393,7 @@ def _once(where: str, key: str, values: list[Any], sampling: str) -> list[Any]:
     """A grid axis's values, each once: a value twice walks the same runs twice (a whole
     axis's range with more steps than whole numbers in it, too)."""
     if sampling == "grid":
-        twice = next((x for i, x in enumerate(values) if x in values[:i]), None)
+        twice = repeated(values)
         if twice is not None:
             raise ParameterError(where, key, f"lists {twice!r} twice: the grid would walk "
                                  "the same runs twice" + ("" if key == "axes.seed" else
