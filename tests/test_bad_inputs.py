@@ -175,6 +175,8 @@ CASES: list[tuple[str, list[str], str]] = [
     ("simulate child without walk", ["simulate", "--child", "{heavy}"], "--walk"),
     ("fit crouch out of range", FIT + ["--crouch", "7"], "invalid choice"),
     ("fit spasticity unknown", FIT + ["--spasticity", "extreme"], "invalid choice"),
+    # a blank name was written into the child's files as their name
+    ("fit blank name", FIT + ["--name", "  "], "'  ' is blank: give the child's name"),
     ("export leg binary", ["export", "--leg", "{binary}", "--out", "{folder}/x.urdf"], "binary"),
     ("export out is a folder", ["export", "--out", "{folder}"], "is a folder"),
     # the operator interface (each refused before it listens)

@@ -20,6 +20,14 @@ from exoleg.entry import CHILD_ENTRY, MEASURED
 
 
 # --------------------------------------------------------------------------- fit
+def _name(text: str) -> str:
+    """A child's name as typed: not blank (left out, it is 'child')."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"{text!r} is blank: give the child's name, or "
+                                         "leave --name out ('child')")
+    return text
+
+
 def cmd_fit(args: argparse.Namespace) -> int:
     import warnings
 
@@ -158,7 +166,8 @@ def add_parser(sub: Any) -> None:
     f.add_argument("--contracture", choices=["none", "predictcpgait"], default="none",
                    help="the child model's contracture preset (child.toml): none, or the "
                         "predictcpgait child's (Falisse et al. 2020)")
-    f.add_argument("--name", default="child")
+    f.add_argument("--name", type=_name, default="child",
+                   help="the child's name in their files (default 'child')")
     f.add_argument("--out", type=Path, default=Path("exoleg-fit"))
     _device_option(f, "the actuators the child's demand is judged against")
     f.set_defaults(func=cmd_fit)
