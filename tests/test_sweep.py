@@ -331,6 +331,14 @@ def test_the_small_sweep_on_three_schedulers_interrupted_and_resumed(
     assert len(lines) == 1 + 4 * 2  # ages x groups
     r = cli("sweep", "--summary", str(out), "--x", "colour")
     assert r.returncode == 2 and "--x: 'colour' is not a column" in r.stderr
+    # one axis twice is refused; one axis given, the other is a default that differs (the
+    # study sweeps hip_motor, speed, ...: --y hip_motor alone tabled hip_motor twice)
+    from exoleg.study.summary import summarise
+
+    with pytest.raises(ParameterError, match="--y: 'age' is --x too"):
+        summarise(out, "age", "age")
+    assert (summarise(out, y="hip_motor").x, summarise(out, x="speed").y) == ("speed",
+                                                                              "hip_motor")
 
 
 @needs_dask

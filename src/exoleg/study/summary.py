@@ -68,9 +68,15 @@ def summarise(out: str | Path, x: str | None = None, y: str | None = None) -> Su
     from exoleg.study.engine import read_results
 
     table = read_results(out)
+    if x is not None and x == y:
+        raise ParameterError("exoleg sweep --summary", "--y", f"{y!r} is --x too: a table "
+                             "over one axis twice is its diagonal (name two axes)")
     if x is None or y is None:
         dx, dy = default_axes(out)
-        x, y = x or dx, y or dy
+        if x is None:
+            x = dx if dx != y else dy
+        if y is None:
+            y = dy if dy != x else dx
     for name, axis in (("--x", x), ("--y", y)):
         if axis not in table.column_names:
             raise ParameterError("exoleg sweep --summary", name, f"{axis!r} is not a column "
