@@ -283,7 +283,7 @@ def test_the_real_childs_own_trials_spread_about_their_band() -> None:
     # each trial's own tilt), 10-97 % at the knee, 30-98 % at the ankle: none of the
     # four meets the 90 % at every joint (measured from the source's .mat with
     # scipy, the same figures)
-    from exoleg.validate.cp_child import real_trials, within_band
+    from exoleg.validate.cp_child import within_band
 
     g = cp_child_gait()
     assert g.q_trials.shape == (4, 100, 3) and g.tilt_trials.shape == (4, 100)
@@ -291,7 +291,7 @@ def test_the_real_childs_own_trials_spread_about_their_band() -> None:
     np.testing.assert_allclose(g.q_trials.mean(axis=0), g.q, atol=tol)
     np.testing.assert_allclose(g.q_trials.std(axis=0, ddof=1), g.q_sd, atol=tol)
     np.testing.assert_allclose(g.tilt_trials.mean(axis=0), g.tilt, atol=tol)
-    own = within_band(real_trials())
+    own = within_band(g.q_trials_vertical)
     np.testing.assert_allclose(100 * own, [[77, 97, 98], [100, 10, 30], [80, 69, 66],
                                            [49, 80, 52]])
     assert not np.any(np.all(own >= 0.9, axis=1))

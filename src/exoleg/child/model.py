@@ -503,8 +503,7 @@ def real_gait(x: F64, stride_time: float, mass: float, harmonics: int = 12
 
     g = cp_child_gait()
     n = len(g.t) - 1  # the last sample closes the cycle onto the first
-    q = g.q[:n].copy()
-    q[:, 0] += g.tilt[:n]
+    q = g.q_vertical[:n]
     c = np.fft.rfft(q, axis=0) / n
     k = np.arange(harmonics + 1)
     phase = np.exp(2j * np.pi * np.outer(np.mod(x, 1.0), k))

@@ -54,6 +54,25 @@ class CPChildGait:
     q_trials: F64
     tilt_trials: F64
 
+    @property
+    def q_vertical(self) -> F64:
+        """``q`` with the hip from the vertical (the pelvis's tilt added): as exoleg's
+        upright hip reads it, and as a walk is judged against this gait."""
+        return _hip_from_vertical(self.q, self.tilt)
+
+    @property
+    def q_trials_vertical(self) -> F64:
+        """``q_trials`` with each trial's hip from the vertical (its own tilt added)."""
+        return _hip_from_vertical(self.q_trials, self.tilt_trials)
+
+
+def _hip_from_vertical(q: F64, tilt: F64) -> F64:
+    """Angles (..., samples, joint) with the hip's (joint 0) the pelvis's ``tilt``
+    (..., samples) added."""
+    out = q.copy()
+    out[..., 0] += tilt
+    return out
+
 
 @cache
 def cp_child_gait() -> CPChildGait:

@@ -317,28 +317,12 @@ class WalkMatch:
     trials_within: F64
 
 
-def real_trials() -> F64:
-    """The real child's own trials (trials, samples, joint; rad) as a walk is judged:
-    the hip from the vertical (its angle from the pelvis plus the trial's tilt)."""
-    g = cp_child_gait()
-    q = g.q_trials.copy()
-    q[:, :, 0] += g.tilt_trials
-    return q
-
-
 def within_band(q: F64) -> F64:
     """The share of the samples of cycles ``q`` (..., samples, joint; rad, the hip from
     the vertical, on the shipped gait's samples) within the real child's mean +- 1 SD,
     per joint (and per cycle)."""
-    return np.mean(np.abs(q - _mean_cycle()) <= cp_child_gait().q_sd, axis=-2)
-
-
-def _mean_cycle() -> F64:
-    """The real child's mean cycle as a walk is judged (the hip from the vertical)."""
     g = cp_child_gait()
-    want = g.q.copy()
-    want[:, 0] += g.tilt
-    return want
+    return np.mean(np.abs(q - g.q_vertical) <= g.q_sd, axis=-2)
 
 
 #: The fewest strides :func:`walk_match` judges a cycle from (two left out, then one
@@ -391,7 +375,7 @@ def walk_match(strides: int = 12, spasticity: str = "mild",
     for a, b in zip(keep[:-1], keep[1:], strict=False):
         tt = (r.t[a:b] - r.t[a]) / (r.t[b] - r.t[a])
         cycles.append(np.stack([np.interp(x, tt, r.q[a:b, j]) for j in range(3)], axis=1))
-    want = _mean_cycle()
+    want = g.q_vertical
     cycle = np.mean(cycles, axis=0) if cycles else np.full_like(want, np.nan)
     on_grid = [np.stack([np.interp(PERCENT / 100, x, v[:, j]) for j in range(3)], axis=1)
                for v in (cycle, g.q)]
@@ -407,4 +391,4 @@ def walk_match(strides: int = 12, spasticity: str = "mild",
         if len(keep) else math.nan,
         detection=[row for row in detection_table([r])
                    if row["event"] in ("initial contact", "toe off")],
-        trials_within=within_band(real_trials()))
+        trials_within=within_band(g.q_trials_vertical))
