@@ -153,6 +153,19 @@ def test_design_screens_chooses_writes_a_device_and_walks_it(tmp_path: Path) -> 
     ("strides = 2", "strides = 2\nmass_kg = [40.0, 20.0]", "mass_kg: 40 is not below 20"),
     ("transparency_Nm_per_kg = 0.036", "transparency_Nm_per_kg = 0.036\ntorque_loop_hz = 0",
      "torque_loop_hz"),
+    # one number given as a list took its first, a fraction of a stride was cut, and a
+    # held-out child's fields reached the growth chart unchecked (the error named neither
+    # file nor child; group 2.5 walked as GMFCS II)
+    ("percentiles = [25.0, 75.0]", "percentiles = [25.0, 75.0]\nstride_time = [1.0, 1.2]",
+     "[population]: stride_time: "
+     "expected a number, got [1.0, 1.2]"),
+    ("strides = 2", "strides = 2.5", "[verify]: strides: 2.5: expected a whole number 1-100"),
+    ("group = 2,", "group = 2.5,", "held_out[0]: group: 2.5: expected a whole number 0-4"),
+    ("age = 10.0", "age = nan", "held_out[0]: age: must be a finite number, got nan"),
+    ('sex = "male"', 'sex = "boy"', "held_out[0]: sex: 'boy': allowed female, male"),
+    ("[population]", 'description = 3\n[population]', "description: 3: expected text"),
+    ("groups = [0, 3]", 'groups = [0, 3]\nspeed = "Quick"', "speed: 'Quick': allowed "
+     "VerySlow"),
 ])
 def test_a_bad_design_file_is_named(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                     old: str, new: str, says: str) -> None:

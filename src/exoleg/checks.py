@@ -27,6 +27,16 @@ def finite(where: str, field: str, value: Any) -> float:
     return x
 
 
+def whole(where: str, field: str, value: Any, lo: int, hi: int) -> int:
+    """Return ``value`` as an int; it must be a whole number within ``lo``-``hi`` (6.0 is,
+    6.5 and ``true`` are not)."""
+    x = finite(where, field, value)
+    if x != int(x) or not lo <= x <= hi:
+        raise ParameterError(where, field, f"{value!r}: expected a whole number "
+                             f"{lo}-{hi}")
+    return int(x)
+
+
 def positive(where: str, field: str, value: Any, unit: str = "") -> float:
     """Return ``value`` as a float; it must be finite and > 0."""
     x = finite(where, field, value)

@@ -39,7 +39,11 @@ from exoleg.design.catalogue import (
 )
 from exoleg.errors import ParameterError
 from exoleg.params.records import JOINTS
+from exoleg.reference.gait import SPEED_GROUPS
 
+SEXES = ("female", "male")
+#: The ages (y) and growth-chart percentiles a design's children may take
+AGES, PERCENTILES = (5.0, 18.0), (1.0, 99.0)
 #: The design file's tables and their fields (required, optional).
 TABLES = {"population": (["ages", "sexes", "groups", "percentiles"], ["speed", "stride_time"]),
           "assistance": (["alpha"], []),
@@ -100,8 +104,19 @@ class Design:
                 raise ParameterError(f"{where} [{table}]", key, f"lists {twice:g} twice")
             return out
 
+        def one(table: str, key: str, lo: float, hi: float, unit: str,
+                default: float) -> float:  # a single number: a list is not one
+            t = d[table]
+            return default if key not in t else _check.within(f"{where} [{table}]", key,
+                                                               t[key], lo, hi, unit)
+
+        def count(table: str, key: str, hi: int, default: int) -> int:
+            t = d[table]
+            return default if key not in t else _check.whole(f"{where} [{table}]", key,
+                                                              t[key], 1, hi)
+
         sexes = tuple(p["sexes"]) if isinstance(p["sexes"], list) else (p["sexes"],)
-        if not sexes or any(s not in ("female", "male") for s in sexes):
+        if not sexes or any(s not in SEXES for s in sexes):
             raise ParameterError(f"{where} [population]", "sexes", f"{p['sexes']!r}: "
                                  "allowed female, male")
         if _check.repeated(sexes) is not None:
@@ -111,6 +126,12 @@ class Design:
         if any(g != int(g) for g in groups):
             raise ParameterError(f"{where} [population]", "groups", "whole numbers: 0 "
                                  "(typically developing), 1-4 (GMFCS level)")
+        speed = p.get("speed", "Free")
+        if speed not in SPEED_GROUPS:
+            raise ParameterError(f"{where} [population]", "speed", f"{speed!r}: allowed "
+                                 f"{', '.join(SPEED_GROUPS)} (Schwartz et al. 2008's groups)")
+        if not isinstance(d.get("description", ""), str):
+            raise ParameterError(where, "description", f"{d['description']!r}: expected text")
         alpha = numbers("assistance", "alpha", 0.0, 1.0, "", distinct=False)  # per joint
         if len(alpha) != 3:
             raise ParameterError(f"{where} [assistance]", "alpha", "3 shares (hip, knee, "
@@ -120,32 +141,25 @@ class Design:
                                                             for h in held):
             raise ParameterError(f"{where} [verify]", "held_out", "a list of children: "
                                  "{age, sex, group, percentile}")
-        for i, h in enumerate(held):
-            _check.keys(f"{where} [verify] held_out[{i}]", h,
-                        ["age", "sex", "group", "percentile"])
-        return cls(ages=numbers("population", "ages", 5.0, 18.0, "y"), sexes=sexes,
+        return cls(ages=numbers("population", "ages", *AGES, "y"), sexes=sexes,
                    groups=tuple(int(g) for g in groups),
-                   percentiles=numbers("population", "percentiles", 1.0, 99.0, ""),
+                   percentiles=numbers("population", "percentiles", *PERCENTILES, ""),
                    alpha=(alpha[0], alpha[1], alpha[2]),
                    buses=numbers("constraints", "bus_voltage", *BUS_RANGE, "V"),
-                   goal=numbers("constraints", "transparency_Nm_per_kg", 0.001, 1.0,
-                                "N m/kg")[0],
-                   held_out=tuple(held), speed=str(p.get("speed", "Free")),
-                   stride_time=numbers("population", "stride_time", 0.6, 2.0, "s")[0]
-                   if "stride_time" in p else 1.1,
-                   ambient=numbers("constraints", "ambient", -20.0, 60.0, "degC")[0]
-                   if "ambient" in c else 25.0,
-                   strides=int(numbers("verify", "strides", 1, 100, "")[0])
-                   if "strides" in v else 10, source=where,
-                   loop_hz=numbers("constraints", "torque_loop_hz", 1.0, 1000.0, "Hz")[0]
-                   if "torque_loop_hz" in c else 30.0,
-                   deflection_deg=numbers("constraints", "spring_deflection_deg", 0.5, 45.0,
-                                          "deg")[0] if "spring_deflection_deg" in c else 10.0,
-                   verify_mass=_mass_window(where, v), strides_transparent=int(
-                       numbers("verify", "strides_transparent", 1, 200, "")[0])
-                   if "strides_transparent" in v else 10, strides_assist=int(
-                       numbers("verify", "strides_assist", 1, 200, "")[0])
-                   if "strides_assist" in v else 40)
+                   goal=_check.within(f"{where} [constraints]", "transparency_Nm_per_kg",
+                                      c["transparency_Nm_per_kg"], 0.001, 1.0, "N m/kg"),
+                   held_out=tuple(_held_out(f"{where} [verify] held_out[{i}]", h)
+                                  for i, h in enumerate(held)),
+                   speed=speed, stride_time=one("population", "stride_time", 0.6, 2.0, "s",
+                                                1.1),
+                   ambient=one("constraints", "ambient", -20.0, 60.0, "degC", 25.0),
+                   strides=count("verify", "strides", 100, 10), source=where,
+                   loop_hz=one("constraints", "torque_loop_hz", 1.0, 1000.0, "Hz", 30.0),
+                   deflection_deg=one("constraints", "spring_deflection_deg", 0.5, 45.0,
+                                      "deg", 10.0),
+                   verify_mass=_mass_window(where, v),
+                   strides_transparent=count("verify", "strides_transparent", 200, 10),
+                   strides_assist=count("verify", "strides_assist", 200, 40))
 
     def children(self) -> list[Any]:
         """The population, each child from the growth charts."""
@@ -162,6 +176,16 @@ SPRING_STEPS = 8
 #: lies within its first ten: below 9 Hz at a 1.1 s stride; the digitised curves' higher
 #: harmonics are their 2 % sampling's, which differentiating twice would amplify).
 MOMENT_HARMONICS = 10
+
+
+def _held_out(where: str, h: dict[str, Any]) -> dict[str, Any]:
+    """A held-out child of [verify] held_out, each field checked as the population's."""
+    _check.keys(where, h, ["age", "sex", "group", "percentile"])
+    if h["sex"] not in SEXES:
+        raise ParameterError(where, "sex", f"{h['sex']!r}: allowed female, male")
+    return {"age": _check.within(where, "age", h["age"], *AGES, "y"), "sex": h["sex"],
+            "group": _check.whole(where, "group", h["group"], 0, 4),
+            "percentile": _check.within(where, "percentile", h["percentile"], *PERCENTILES)}
 
 
 def _mass_window(where: str, v: dict[str, Any]) -> tuple[float, float]:
@@ -295,8 +319,7 @@ def verify(design: Design, device: Path | None) -> list[dict[str, Any]]:
 
     out = []
     for h in design.held_out:
-        c, _ = population_child(int(h["group"]) or None, str(h["sex"]), float(h["age"]),
-                                float(h["percentile"]))
+        c, _ = population_child(h["group"] or None, h["sex"], h["age"], h["percentile"])
         r = simulate_walk(personalized_leg(c), c.mass, strides=design.strides,
                           stride_time=design.stride_time, device=device,
                           child=ChildModel.of(c), support_mode=SupportMode.AAN)
@@ -304,8 +327,8 @@ def verify(design: Design, device: Path | None) -> list[dict[str, Any]]:
         faults = sorted({Fault(int(f)).name for f in r.fault[r.fault != 0]})
         err = np.degrees(np.sqrt(np.mean((r.q - r.q_ref)[walking] ** 2, axis=0)))
         out.append({"device": "designed" if device is not None else "shipped",
-                    "age": c.age, "sex": c.sex, "group": int(h["group"]),
-                    "percentile": float(h["percentile"]), "mass_kg": c.mass,
+                    "age": c.age, "sex": c.sex, "group": h["group"],
+                    "percentile": h["percentile"], "mass_kg": c.mass,
                     "fault": ", ".join(faults), "walked": not faults,
                     **{f"tracking_rms_deg_{j}": float(err[i]) for i, j in enumerate(JOINTS)},
                     **{f"winding_max_C_{j}": float(np.max(r.winding_temp[:, i]))
