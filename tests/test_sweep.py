@@ -64,6 +64,7 @@ def cli(*args: str, **kw: object) -> subprocess.CompletedProcess[str]:
     ("[study]\nsampling = \"sobol\"\n", "study.sampling"),
     ("[study]\nsampling = \"lhs\"\n[axes]\nage = {min = 8, max = 12}\n", "study.samples"),
     ("[study]\nstrides = 0\n", "study.strides"),
+    ("[study]\nname = \"  \"\n", "study.name"),                   # blank (was accepted)
     ("[study]\nwho = 1\n", "study.who"),
     ("[axes]\nage = {min = 8, max = 12}\n", "axes.age.steps"),           # a grid's range
     ("[axes]\nseed = {min = 0, max = 2000000, steps = 2000000}\n"

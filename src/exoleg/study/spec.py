@@ -277,6 +277,9 @@ def parse_study(text: str, where: str = "study") -> Study:
         if not isinstance(v, kind) or isinstance(v, bool):
             raise ParameterError(where, f"study.{k}", f"expected {_KIND_NAMES[kind]}, got "
                                  f"{v!r}")
+    if "name" in head and not head["name"].strip():
+        raise ParameterError(where, "study.name", "blank: a name to tell the study by (or "
+                             "leave it out: the file's name)")
     sampling = head.get("sampling", "grid")
     if sampling not in SAMPLINGS:
         raise ParameterError(where, "study.sampling", f"{sampling!r}: allowed "
