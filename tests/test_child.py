@@ -168,13 +168,19 @@ def test_child_file_round_trip_and_bad_files(tmp_path) -> None:  # type: ignore[
     assert back == ch
     bad = {"gmfcs = 2": "gmfcs = 7", 'level = "moderate"': 'level = "extreme"',
            "crouch = 3": "crouch = 9", "height_m = 1.32": "height_m = 13.2",
-           "strength = 0.8": "strength = 3"}
+           "strength = 0.8": "strength = 3",
+           # a blank or numeric name was taken as the child's (the fit refuses it blank)
+           'name = "a"': 'name = " "'}
     for old, new in bad.items():
         (tmp_path / "bad.toml").write_text((tmp_path / "child.toml").read_text()
                                            .replace(old, new))
         with pytest.raises(ParameterError) as e:
             ChildModel.load(tmp_path / "bad.toml")
         assert "bad.toml" in str(e.value)
+    (tmp_path / "bad.toml").write_text((tmp_path / "child.toml").read_text()
+                                       .replace('name = "a"', "name = 7"))
+    with pytest.raises(ParameterError, match="bad.toml: name: 7: the child's name as text"):
+        ChildModel.load(tmp_path / "bad.toml")
     # a contracture's level is checked with no contracture too (it was ignored: -1 or
     # nan read as a child without one)
     ChildModel("b", 9.5, 1.32, 27.0, 2).save(tmp_path / "none.toml")
