@@ -223,12 +223,16 @@ def test_files_that_are_not_recordings(tmp_path: Path) -> None:
                         "no such file"),
                        ([str(good), "--out", str(good)], "is the recording being read"),
                        ([str(good), "--out", str(tmp_path)], "is a folder"),
+                       # a session's own log was written over with the events (exit 0)
+                       ([str(session), "--out", str(session / "session.log")],
+                        "session.log: the events are a CSV"),
                        ([str(good), "--out", str(tmp_path / "e.csv"), "--stride", "9"],
                         "outside 0.4-4 s")):
         r = _detect(*args)
         assert r.returncode == 2 and said in r.stderr and "Traceback" not in r.stderr, \
             (args, r.stderr)
     assert good.read_text().startswith("t,heel")  # nothing a user wrote is lost
+    assert (session / "session.log").read_bytes() == b"garbage\n\x00"
 
 
 def test_an_event_at_the_recordings_edge_is_neither_missed_nor_false() -> None:

@@ -117,6 +117,8 @@ def test_csv_has_units_and_decimates_by_block_means(session: Path, tmp_path: Pat
     assert np.allclose(data[:, 1:4], q[:n].reshape(-1, 4, 3).mean(axis=1), rtol=1e-8)
     assert np.allclose(np.diff(data[:, 0]), 0.004)
     for bad, said in ((["--rate", "300"], "divided by a whole number"),
+                      # 0 Hz was an internal error (a division by zero)
+                      (["--rate", "0"], "0 Hz: the tick rate (1000 Hz) divided"),
                       (["--csv", str(tmp_path / "x.txt")], "name a .csv file"),
                       ([], "give one of them"),
                       # a dataset written into the recording's own folder (it was)

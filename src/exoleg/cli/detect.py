@@ -28,6 +28,10 @@ def cmd_detect(args: argparse.Namespace) -> int:
     from exoleg.io import atomic_path, write_csv_table
 
     out = Path(args.out)
+    if not out.is_dir() and out.suffix.lower() != ".csv":  # a session's session.log was
+        raise ParameterError("exoleg detect", "--out", f"{out.name}: the events are a CSV "
+                             "(name a .csv file; a session's own records are never written "
+                             "over)")
     if out.exists() and out.resolve() == Path(args.file).resolve():
         raise ParameterError("exoleg detect", "--out", f"{out} is the recording being read: "
                              "name another file (nothing was written)")

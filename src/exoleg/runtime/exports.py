@@ -89,8 +89,8 @@ def session_export(folder: str | Path, rate_hz: float | None = None) -> SessionE
     period = float(header.get("period", 1e-3))
     k = 1
     if rate_hz is not None:
-        ratio = 1.0 / (period * rate_hz)
-        if not (rate_hz > 0 and ratio >= 1 and abs(ratio - round(ratio)) < 1e-9):
+        ratio = 1.0 / (period * rate_hz) if rate_hz > 0 else 0.0  # (0 divided; nan fails)
+        if not (ratio >= 1 and abs(ratio - round(ratio)) < 1e-9):
             raise ParameterError("export", "--rate", f"{rate_hz:g} Hz: the tick rate "
                                  f"({1 / period:g} Hz) divided by a whole number")
         k = int(round(ratio))
