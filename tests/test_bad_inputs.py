@@ -179,6 +179,9 @@ CASES: list[tuple[str, list[str], str]] = [
     ("fit blank name", FIT + ["--name", "  "], "'  ' is blank: give the child's name"),
     ("export leg binary", ["export", "--leg", "{binary}", "--out", "{folder}/x.urdf"], "binary"),
     ("export out is a folder", ["export", "--out", "{folder}"], "is a folder"),
+    # a session's log was written over with the URDF (exit 0)
+    ("export over a log", ["export", "--out", "{folder}/session.log"], "session.log: the leg "
+     "is written as a .urdf or .xml file"),
     # the operator interface (each refused before it listens)
     ("hmi port 80", ["hmi", "--port", "80"], "outside 1024-65535"),
     ("hmi sessions is a file", ["hmi", "--sessions", "{afile}"], "not a folder"),

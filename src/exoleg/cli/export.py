@@ -16,6 +16,11 @@ def cmd_export(args: argparse.Namespace) -> int:
     from exoleg.errors import ParameterError
     from exoleg.export import writers
 
+    if not args.out.is_dir() and args.out.suffix.lower() not in (".urdf", ".xml"):
+        # a session's session.log was written over with the URDF (exit 0)
+        raise ParameterError("exoleg export", "--out", f"{args.out.name}: the leg is written "
+                             "as a .urdf or .xml file (name one; nothing else is written "
+                             "over)")
     if args.leg and args.variant is not None:
         raise ParameterError("exoleg export", "--variant", "chooses the paper's leg: not "
                              "with --leg (the file is the leg)")
