@@ -441,6 +441,38 @@ def test_a_typically_developing_child_walks_in_the_transparent_mode() -> None:
         assert np.isnan(f["floor_rotor_Nm_per_kg"])  # rigid: no rotor behind a spring
     pelvis = [f["pelvis_Nm_per_kg"] for f in v.floors]
     assert pelvis[0] > pelvis[1] > pelvis[2] > 0.0  # the links' mass above each joint
+    assert all(0.0 <= f["gear_floor_at_landing"] <= 1.0 for f in v.floors)
+    assert v.loading["contacts"] >= 6  # 10 strides, the first 2 left out
+
+
+def test_the_heel_strikes_loading_is_read_as_a_force_plate_would() -> None:
+    # heel_strike_loading on a constructed walk: contacts at 1.0 s and 2.1 s, the load
+    # rising linearly to 1.2 body weights over 120 ms, held, lifted at 60 % of the stride.
+    # By hand: 2 % of a 1.1 s stride is 22 ms after contact -> 0.22 BW; one body weight
+    # at 100 ms (within 101: the contact began between two samples). The source's figures
+    # are the shipped Schwartz et al. 2008 workbook's (free speed: 0.4672 +- 0.1413 BW at
+    # 2 %, its mean at or above 1 BW first at 12 % -> 132 ms of a 1.1 s stride)
+    from types import SimpleNamespace
+
+    from exoleg.validate.transparency import heel_strike_loading
+
+    dt, stride, mass = 1e-3, 1.1, 30.0
+    t = np.arange(0.0, 3.5, dt)
+    load = np.zeros_like(t)
+    for start in (1.0, 2.1):
+        s_ = t - start
+        on = (s_ > 0.0) & (s_ < 0.6 * stride)
+        load[on] = np.minimum(1.2, 1.2 * s_[on] / 0.12)
+    forces = np.zeros((len(t), 4))
+    forces[:, 0] = load * mass * 9.81
+    r = SimpleNamespace(t=t, contact_force=forces, body_mass=mass, walk_start=0.0,
+                        stride_time=stride)
+    h = heel_strike_loading(r, after=0.5)
+    assert h["contacts"] == 2
+    assert h["at_2pct_bw"] == pytest.approx(0.22, abs=0.011)  # a sample's 10 mBW
+    assert h["to_1bw_ms"] == pytest.approx(101.0, abs=1.0)
+    assert (h["source_2pct_bw"], h["source_2pct_sd"]) == (0.4672, 0.1413)
+    assert h["source_to_1bw_ms"] == pytest.approx(132.0)
 
 
 def test_the_loops_floor_is_a_first_orders_lag_on_a_ramp() -> None:

@@ -90,6 +90,15 @@ def _transparency(strides: int, device: Any) -> int:
            title=f"the cuffs' torque RMS over {strides} strides in the transparent mode "
                  f"(the first {SETTLE_STRIDES} left out), on the same motion without the "
                  "parts after each row's")
+    h = v.loading
+    _say(f"the heel strike: the sole's vertical load {h['at_2pct_bw']:.2f} body weights 2 % "
+         f"of the stride after contact (Schwartz et al. 2008, free speed: "
+         f"{h['source_2pct_bw']:.2f} +- {h['source_2pct_sd']:.2f}), one body weight "
+         f"within {h['to_1bw_ms']:.0f} ms of it (theirs ~{h['source_to_1bw_ms']:.0f} ms; median "
+         f"of {h['contacts']:.0f} contacts, the device's weight included): the simulated "
+         "child lands harder than the children measured; the 45 ms after each contact hold "
+         + ", ".join(f"{b['joint']} {100 * b['gear_floor_at_landing']:.0f} %" for b in v.floors)
+         + " of the floor beyond the gears' repeated peak (the plant's landing, not the law)")
     _say("at the drive's limit: " + ", ".join(f"{j} {100 * x:.0f} %"
                                             for j, x in v.saturated.items())
          + ("; the safety layer stopped the walk" if v.fault else "; no safety event"))

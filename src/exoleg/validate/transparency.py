@@ -168,6 +168,7 @@ class Transparency:
     fault: bool
     run: Any
     floors: list[dict[str, Any]]
+    loading: dict[str, float]
 
     @property
     def met(self) -> bool:
@@ -207,7 +208,45 @@ def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
                         rows=contributions(r), fault=bool(np.any(r.safety_status
                                                                  & Limited.FAULT)),
                         saturated=dict(zip(JOINTS, at.mean(axis=0).tolist(), strict=True)),
-                        run=r, floors=walk_floors(r, leg, config))
+                        run=r, floors=walk_floors(r, leg, config),
+                        loading=heel_strike_loading(r))
+
+
+#: the landing's window after each initial contact, s (the knee's deceleration and the
+#: cuffs' peaks of the simulated heel strike lie within it)
+LANDING_S = 0.045
+
+
+def _contacts(load: F64) -> NDArray[np.intp]:
+    """The samples at which the sole's vertical ``load`` becomes non-zero."""
+    return np.flatnonzero((load[1:] > 0.0) & (load[:-1] <= 0.0)) + 1
+
+
+def heel_strike_loading(r: Any, after: float | None = None) -> dict[str, float]:
+    """How hard the walk ``r`` lands, beside Schwartz et al. 2008's children (free speed):
+    at each initial contact of the device's foot from ``after`` s (default: as
+    :func:`walk_floors`), the sole's vertical load 2 % of the stride after it
+    (``at_2pct_bw``, in the child's body weight; theirs ``source_2pct_bw`` +- ``_sd``),
+    the time within which it reaches one body weight (``to_1bw_ms``; theirs, at the first
+    %-step their mean reaches 1 BW: ``source_to_1bw_ms``); medians over the contacts.
+    The device's own weight is in the load: the source's children carried none."""
+    from exoleg.reference.gait import schwartz2008
+
+    t0 = r.walk_start + SETTLE_STRIDES * r.stride_time if after is None else after
+    load = r.contact_force.sum(axis=1) / (r.body_mass * 9.81)
+    dt = float(r.t[1] - r.t[0])
+    onsets = _contacts(load)
+    onsets = onsets[(r.t[onsets] >= t0) & (onsets + int(0.2 * r.stride_time / dt) < len(load))]
+    at2 = [load[k + int(round(0.02 * r.stride_time / dt))] for k in onsets]
+    to1 = [dt * (int(np.argmax(load[k:] >= 1.0)) + 1) * 1e3 for k in onsets
+           if np.any(load[k:k + int(0.5 * r.stride_time / dt)] >= 1.0)]
+    pct, mean, sd = schwartz2008("grf_vertical")
+    first = int(np.argmax(mean >= 1.0))
+    return {"contacts": float(len(onsets)), "at_2pct_bw": float(np.median(at2)) if at2
+            else float("nan"), "to_1bw_ms": float(np.median(to1)) if to1 else float("nan"),
+            "source_2pct_bw": float(np.interp(2.0, pct, mean)),
+            "source_2pct_sd": float(np.interp(2.0, pct, sd)),
+            "source_to_1bw_ms": float(pct[first] / 100.0 * r.stride_time * 1e3)}
 
 
 def loop_floor(act: Any, need: F64, w: F64, h: float, body_mass: float) -> float:
@@ -315,7 +354,9 @@ def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None
     law's residual on that walk is to be judged against (``floor_loop_Nm_per_kg``: every
     limit and the loop's lag together); ``floor_rotor_Nm_per_kg``, a compliant unit's
     :func:`rotor_floor` on its links' need (NaN for a rigid unit); ``pelvis_Nm_per_kg``,
-    the RMS of the need's part from the pelvis's vertical acceleration."""
+    the RMS of the need's part from the pelvis's vertical acceleration;
+    ``gear_floor_at_landing``, the share of the gear's floor (its square) in the
+    :data:`LANDING_S` after each initial contact."""
     from exoleg.child.interaction import device_leg
     from exoleg.device.actuator import params_array
     from exoleg.device.drive import friction
@@ -338,7 +379,16 @@ def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None
         links = np.zeros_like(q)
         _pelvis_terms(q, dq, dl.p, ddy, links)
         links += dl.inverse_dynamics(q, dq, ddq)
+    landing = np.zeros(len(q), dtype=bool)  # the LANDING_S after each contact
+    for k in _contacts(r.contact_force[sel].sum(axis=1)):
+        landing[k:k + int(round(LANDING_S / dt))] = True
+
+    def at_landing(j: int, act: Any) -> float:
+        beyond = np.maximum(np.abs(need[:, j]) - act.repeated_peak_torque, 0.0) ** 2
+        return float(beyond[landing].sum() / beyond.sum()) if beyond.sum() > 0 else 0.0
+
     return [{"joint": joint, **limit_floors(act, need[:, j], dq[:, j], r.body_mass),
+             "gear_floor_at_landing": at_landing(j, act),
              "floor_loop_Nm_per_kg": loop_floor(act, need[:, j], dq[:, j], dt, r.body_mass),
              "floor_rotor_Nm_per_kg": (rotor_floor(act, links[:, j], q[:, j], dt, r.body_mass)
                                        if act.compliant and links is not None else np.nan),
