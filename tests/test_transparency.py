@@ -465,14 +465,26 @@ def test_the_heel_strikes_loading_is_read_as_a_force_plate_would() -> None:
         load[on] = np.minimum(1.2, 1.2 * s_[on] / 0.12)
     forces = np.zeros((len(t), 4))
     forces[:, 0] = load * mass * 9.81
+    # the cuffs' knee torque 1 N m, 3 N m in the 45 ms after each contact: of 3,000
+    # samples from 0.5 s, 2 x 45 there -> a share 810 / (810 + 2910) = 0.2177 of its
+    # square, 1 N m / 30 kg outside
+    cuffs = np.zeros((len(t), 3))
+    cuffs[:, 1] = 1.0
+    for start in (1.0, 2.1):
+        k = int(round(start / dt)) + 1
+        cuffs[k:k + 45, 1] = 3.0
     r = SimpleNamespace(t=t, contact_force=forces, body_mass=mass, walk_start=0.0,
-                        stride_time=stride)
+                        stride_time=stride, interaction=cuffs)
     h = heel_strike_loading(r, after=0.5)
     assert h["contacts"] == 2
     assert h["at_2pct_bw"] == pytest.approx(0.22, abs=0.011)  # a sample's 10 mBW
     assert h["to_1bw_ms"] == pytest.approx(101.0, abs=1.0)
     assert (h["source_2pct_bw"], h["source_2pct_sd"]) == (0.4672, 0.1413)
     assert h["source_to_1bw_ms"] == pytest.approx(132.0)
+    assert h["landing_share"] == pytest.approx(90 / 3000)
+    assert h["cuffs_at_landing"]["knee"] == pytest.approx(810 / 3720)
+    assert h["cuffs_at_landing"]["hip"] == 0.0
+    assert h["cuffs_outside_Nm_per_kg"]["knee"] == pytest.approx(1 / 30)
 
 
 def test_the_loops_floor_is_a_first_orders_lag_on_a_ramp() -> None:

@@ -99,6 +99,11 @@ def _transparency(strides: int, device: Any) -> int:
          "child lands harder than the children measured; the 45 ms after each contact hold "
          + ", ".join(f"{b['joint']} {100 * b['gear_floor_at_landing']:.0f} %" for b in v.floors)
          + " of the floor beyond the gears' repeated peak (the plant's landing, not the law)")
+    _say(f"the same {100 * h['landing_share']:.0f} % of the walk hold "
+         + ", ".join(f"{j} {100 * x:.0f} %" for j, x in h["cuffs_at_landing"].items())
+         + " of the cuffs' torque (squared); outside them the law leaves "
+         + ", ".join(f"{j} {x:.3f}" for j, x in h["cuffs_outside_Nm_per_kg"].items())
+         + " N m/kg RMS")
     _say("at the drive's limit: " + ", ".join(f"{j} {100 * x:.0f} %"
                                             for j, x in v.saturated.items())
          + ("; the safety layer stopped the walk" if v.fault else "; no safety event"))

@@ -168,7 +168,7 @@ class Transparency:
     fault: bool
     run: Any
     floors: list[dict[str, Any]]
-    loading: dict[str, float]
+    loading: dict[str, Any]
 
     @property
     def met(self) -> bool:
@@ -222,14 +222,18 @@ def _contacts(load: F64) -> NDArray[np.intp]:
     return np.flatnonzero((load[1:] > 0.0) & (load[:-1] <= 0.0)) + 1
 
 
-def heel_strike_loading(r: Any, after: float | None = None) -> dict[str, float]:
+def heel_strike_loading(r: Any, after: float | None = None) -> dict[str, Any]:
     """How hard the walk ``r`` lands, beside Schwartz et al. 2008's children (free speed):
     at each initial contact of the device's foot from ``after`` s (default: as
     :func:`walk_floors`), the sole's vertical load 2 % of the stride after it
     (``at_2pct_bw``, in the child's body weight; theirs ``source_2pct_bw`` +- ``_sd``),
     the time within which it reaches one body weight (``to_1bw_ms``; theirs, at the first
     %-step their mean reaches 1 BW: ``source_to_1bw_ms``); medians over the contacts.
-    The device's own weight is in the load: the source's children carried none."""
+    The device's own weight is in the load: the source's children carried none. And the
+    landing's part of the cuffs' torque: the share of the walk in the :data:`LANDING_S`
+    after each contact (``landing_share``), per joint the share of the cuffs' torque
+    (squared) there (``cuffs_at_landing``) and its RMS per kg outside
+    (``cuffs_outside_Nm_per_kg``)."""
     from exoleg.reference.gait import schwartz2008
 
     t0 = r.walk_start + SETTLE_STRIDES * r.stride_time if after is None else after
@@ -242,7 +246,17 @@ def heel_strike_loading(r: Any, after: float | None = None) -> dict[str, float]:
            if np.any(load[k:k + int(0.5 * r.stride_time / dt)] >= 1.0)]
     pct, mean, sd = schwartz2008("grf_vertical")
     first = int(np.argmax(mean >= 1.0))
-    return {"contacts": float(len(onsets)), "at_2pct_bw": float(np.median(at2)) if at2
+    sel = r.t >= t0  # the cuffs' torque in the LANDING_S after each contact, and outside
+    landing = np.zeros(int(sel.sum()), dtype=bool)
+    for k in _contacts(load[sel]):
+        landing[k:k + int(round(LANDING_S / dt))] = True
+    sq = np.square(r.interaction[sel])
+    share = sq[landing].sum(axis=0) / np.maximum(sq.sum(axis=0), 1e-300)
+    outside = np.sqrt(sq[~landing].mean(axis=0)) / r.body_mass
+    return {"landing_share": float(landing.mean()),
+            "cuffs_at_landing": dict(zip(JOINTS, share.tolist(), strict=True)),
+            "cuffs_outside_Nm_per_kg": dict(zip(JOINTS, outside.tolist(), strict=True)),
+            "contacts": float(len(onsets)), "at_2pct_bw": float(np.median(at2)) if at2
             else float("nan"), "to_1bw_ms": float(np.median(to1)) if to1 else float("nan"),
             "source_2pct_bw": float(np.interp(2.0, pct, mean)),
             "source_2pct_sd": float(np.interp(2.0, pct, sd)),
