@@ -209,7 +209,7 @@ def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
                                                                  & Limited.FAULT)),
                         saturated=dict(zip(JOINTS, at.mean(axis=0).tolist(), strict=True)),
                         run=r, floors=walk_floors(r, leg, config),
-                        loading=heel_strike_loading(r))
+                        loading=heel_strike_loading(r, g=leg.g))
 
 
 #: the landing's window after each initial contact, s (the knee's deceleration and the
@@ -222,13 +222,24 @@ def _contacts(load: F64) -> NDArray[np.intp]:
     return np.flatnonzero((load[1:] > 0.0) & (load[:-1] <= 0.0)) + 1
 
 
-def heel_strike_loading(r: Any, after: float | None = None) -> dict[str, Any]:
+def _landing(load: F64, dt: float) -> NDArray[np.bool_]:
+    """The samples of the sole's ``load`` (sampled every ``dt`` s) in the
+    :data:`LANDING_S` after each contact."""
+    landing = np.zeros(len(load), dtype=bool)
+    for k in _contacts(load):
+        landing[k:k + int(round(LANDING_S / dt))] = True
+    return landing
+
+
+def heel_strike_loading(r: Any, after: float | None = None, g: float = 9.81
+                        ) -> dict[str, Any]:
     """How hard the walk ``r`` lands, beside Schwartz et al. 2008's children (free speed):
     at each initial contact of the device's foot from ``after`` s (default: as
     :func:`walk_floors`), the sole's vertical load 2 % of the stride after it
     (``at_2pct_bw``, in the child's body weight; theirs ``source_2pct_bw`` +- ``_sd``),
     the time within which it reaches one body weight (``to_1bw_ms``; theirs, at the first
-    %-step their mean reaches 1 BW: ``source_to_1bw_ms``); medians over the contacts.
+    %-step their mean reaches 1 BW: ``source_to_1bw_ms``); medians over the contacts
+    (the body weight at gravity ``g``, m/s^2).
     The device's own weight is in the load: the source's children carried none. And the
     landing's part of the cuffs' torque: the share of the walk in the :data:`LANDING_S`
     after each contact (``landing_share``), per joint the share of the cuffs' torque
@@ -237,7 +248,7 @@ def heel_strike_loading(r: Any, after: float | None = None) -> dict[str, Any]:
     from exoleg.reference.gait import schwartz2008
 
     t0 = r.walk_start + SETTLE_STRIDES * r.stride_time if after is None else after
-    load = r.contact_force.sum(axis=1) / (r.body_mass * 9.81)
+    load = r.contact_force.sum(axis=1) / (r.body_mass * g)
     dt = float(r.t[1] - r.t[0])
     onsets = _contacts(load)
     onsets = onsets[(r.t[onsets] >= t0) & (onsets + int(0.2 * r.stride_time / dt) < len(load))]
@@ -247,9 +258,7 @@ def heel_strike_loading(r: Any, after: float | None = None) -> dict[str, Any]:
     pct, mean, sd = schwartz2008("grf_vertical")
     first = int(np.argmax(mean >= 1.0))
     sel = r.t >= t0  # the cuffs' torque in the LANDING_S after each contact, and outside
-    landing = np.zeros(int(sel.sum()), dtype=bool)
-    for k in _contacts(load[sel]):
-        landing[k:k + int(round(LANDING_S / dt))] = True
+    landing = _landing(load[sel], dt)
     sq = np.square(r.interaction[sel])
     share = sq[landing].sum(axis=0) / np.maximum(sq.sum(axis=0), 1e-300)
     outside = np.sqrt(sq[~landing].mean(axis=0)) / r.body_mass
@@ -393,9 +402,7 @@ def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None
         links = np.zeros_like(q)
         _pelvis_terms(q, dq, dl.p, ddy, links)
         links += dl.inverse_dynamics(q, dq, ddq)
-    landing = np.zeros(len(q), dtype=bool)  # the LANDING_S after each contact
-    for k in _contacts(r.contact_force[sel].sum(axis=1)):
-        landing[k:k + int(round(LANDING_S / dt))] = True
+    landing = _landing(r.contact_force[sel].sum(axis=1), dt)
 
     def at_landing(j: int, act: Any) -> float:
         beyond = np.maximum(np.abs(need[:, j]) - act.repeated_peak_torque, 0.0) ** 2
