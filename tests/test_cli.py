@@ -214,7 +214,15 @@ def test_simulate_walk_bad_options(tmp_path):
                        (["--walk", "--sensor-fault", "toe:dead"], "'toe' is not one of heel"),
                        (["--walk", "--sensor-fault", "heel:dead@soon"], "not a number"),
                        (["--walk", "--sensor-fault", "heel:offset=2"], "2 is outside -1-1"),
-                       (["--walk", "--sensor-fault", "heel dead"], "no ':' between")):
+                       (["--walk", "--sensor-fault", "heel dead"], "no ':' between"),
+                       # accepted, and changed nothing: a value the kind has no use for, a
+                       # fault after the walk, an insole the other foot does not wear
+                       (["--walk", "--sensor-fault", "heel:missing=0.5"], "missing takes no "
+                        "value"),
+                       (["--walk", "--strides", "2", "--sensor-fault", "heel:dead@9"],
+                        "starts after the walk ends (3.2 s)"),
+                       (["--walk", "--strides", "2", "--sensor-fault", "insole:dead@1"],
+                        "no insole is fitted to the other foot")):
         r = run("simulate", "--out", str(tmp_path), *args)
         assert r.returncode == 2 and text in r.stderr, (args, r.stderr)
         assert len(r.stderr.strip().splitlines()) == 1

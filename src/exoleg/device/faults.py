@@ -128,6 +128,8 @@ class SensorFault:
         if not sep:
             raise bad("no ':' between the channel and the kind")
         start, _, end = when.partition("..")
+        if value.strip() and kind.strip() in ("missing", "frozen"):
+            raise bad(f"{kind.strip()} takes no value (dead, offset and drift do)")
         try:
             numbers = [float(x) if x.strip() else d
                        for x, d in ((start, 0.0), (end, math.inf), (value, 0.0))]

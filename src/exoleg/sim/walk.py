@@ -358,6 +358,13 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     elif np.shape(commands) != (n + 1,):
         raise ParameterError("simulate_walk", "commands", f"expected one per tick ({n + 1}), "
                              f"got shape {np.shape(commands)}")
+    for f in faults:  # a fault that would change nothing is a mistake, said
+        if f.start >= n * control_dt:
+            raise ParameterError("simulate_walk", "faults", f"{f}: starts after the walk "
+                                 f"ends ({n * control_dt:g} s)")
+        if f.channel == "insole" and not sens.other_foot:
+            raise ParameterError("simulate_walk", "faults", f"{f}: no insole is fitted to "
+                                 "the other foot (sensors.toml [other_foot] fitted)")
     X = np.zeros((n + 1, 8))
     X[0] = dev.x0
     fsr_noise, imu_noise, bias = draw_noise(sens, n + 1, seed)
