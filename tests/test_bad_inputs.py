@@ -59,6 +59,9 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     out["bad_records"].mkdir()
     (out["bad_records"] / "records.sqlite").write_bytes(b"not sqlite\0" * 50)
     # a leg for a child the device does not fit (exoleg fit --write-leg)
+    out["child_file"] = d / "child.toml"
+    out["child_file"].write_text('[child]\nage_years = 10\nheight_m = 1.38\nmass_kg = 32\n'
+                                 'sex = "female"\n')
     out["unfit"] = d / "unfit.toml"
     out["unfit"].write_text(format_leg(exoleg.paper_leg().links, 9.81, "tall", fit={
         "fits": False, "note": "thigh 45 cm is beyond the upper telescope (27-40 cm)"}))
@@ -179,6 +182,10 @@ CASES: list[tuple[str, list[str], str]] = [
     ("fit blank name", FIT + ["--name", "  "], "'  ' is blank: give the child's name"),
     ("export leg binary", ["export", "--leg", "{binary}", "--out", "{folder}/x.urdf"], "binary"),
     ("export out is a folder", ["export", "--out", "{folder}"], "is a folder"),
+    # a child file given as the leg: "link: missing (required fields: link)"
+    ("export a child file as the leg", ["export", "--leg", "{child_file}", "--out",
+                                        "{folder}/x.urdf"], "a child file (exoleg fit's "
+     "child.toml), not a leg file"),
     # a session's log was written over with the URDF (exit 0)
     ("export over a log", ["export", "--out", "{folder}/session.log"], "session.log: the leg "
      "is written as a .urdf or .xml file"),

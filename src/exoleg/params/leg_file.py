@@ -75,6 +75,10 @@ def _body(where: str, t: dict[str, Any], name: str) -> RigidBody:
 
 def parse_leg(data: dict[str, Any], where: str) -> tuple[list[Link], float, str]:
     """Links, g and name from a parsed leg file (``where`` names it in errors)."""
+    if isinstance(data, dict) and "child" in data and "link" not in data:
+        raise ParameterError(where, "(file)", "a child file (exoleg fit's child.toml), not "
+                             "a leg file: the leg is fit's leg.toml (a child file goes with "
+                             "--child)")
     _check.keys(where, data, ["link"], ["g", "name", "fit", "armature"])
     g = _check.finite(where, "g", data.get("g", 9.81))
     lo, hi = PLAUSIBLE["g"]
