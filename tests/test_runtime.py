@@ -111,6 +111,7 @@ def test_the_first_session_compiles_nothing_after_the_clock_starts(
                         "1.5", "--arm", "--walk-after", "0.5", "--no-realtime", "--out",
                         str(tmp_path / "s")], capture_output=True, text=True, timeout=300,
                        check=False)
+    assert r.stdout.strip(), r.stderr[-800:]  # it ended before its report
     said = json.loads(r.stdout.strip().splitlines()[-1])
     assert said["exit"] == 0 and said["watched"] > 100, (said, r.stderr[-500:])
     assert said["late"] == [], said
