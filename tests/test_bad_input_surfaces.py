@@ -119,6 +119,23 @@ def test_a_childs_name_survives_its_own_file(tmp_path: Path, name: str) -> None:
     assert name in leg.name
 
 
+def test_a_blank_name_in_the_console_is_the_default_and_its_child_file_loads(
+        tmp_path: Path) -> None:
+    # every child model now refuses a blank name (a child file with one loaded as the
+    # child's name): the console's form, which kept "   " as the name, writes 'child',
+    # and a record kept with one before still makes a child model
+    from exoleg.child.model import ChildModel
+    from exoleg.hmi.child_form import actor_model, fit_of_form
+
+    child, _, actor, _ = fit_of_form({"age": "10", "height": "140", "mass": "32",
+                                      "sex": "male", "name": "   "})
+    assert child.name == "child"
+    model = actor_model({"name": "  ", "age": 10, "height": 1.4, "mass": 32, "sex": "male",
+                         "gmfcs": 0}, actor)
+    model.save(tmp_path / "child.toml")
+    assert ChildModel.load(tmp_path / "child.toml").name == "child"
+
+
 @pytest.mark.parametrize("command", [["run", "--backend", "sim", "--duration", "0.1",
                                       "--no-realtime"], ["simulate", "--walk", "--strides", "1"]])
 def test_a_body_mass_beside_a_child_file_that_says_otherwise_is_refused(

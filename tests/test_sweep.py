@@ -65,6 +65,8 @@ def cli(*args: str, **kw: object) -> subprocess.CompletedProcess[str]:
     ("[study]\nsampling = \"lhs\"\n[axes]\nage = {min = 8, max = 12}\n", "study.samples"),
     ("[study]\nstrides = 0\n", "study.strides"),
     ("[study]\nname = \"  \"\n", "study.name"),                   # blank (was accepted)
+    ("[[profiles]]\nname = \"\"\nage = 9\nsex = \"female\"\nheight = 1.3\nmass = 27\n",
+     "profiles[0].name"),                                             # blank: failed in a run
     ("[study]\nwho = 1\n", "study.who"),
     ("[axes]\nage = {min = 8, max = 12}\n", "axes.age.steps"),           # a grid's range
     ("[axes]\nseed = {min = 0, max = 2000000, steps = 2000000}\n"

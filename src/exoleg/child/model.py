@@ -193,6 +193,9 @@ class ChildModel:
         from exoleg.sizing.growth import check_bmi
 
         check_bmi(w, self.sex, self.age, self.height, self.mass)
+        if not isinstance(self.name, str) or not self.name.strip():  # (save writes it)
+            raise ParameterError(w, "name", f"{self.name!r}: the child's name as text, not "
+                                 "blank (left out of a child file, it is 'child')")
         if self.gmfcs not in (0, 1, 2, 3, 4):
             raise ParameterError(w, "gmfcs", f"{self.gmfcs!r}: allowed 0 (typically "
                                  "developing), 1-4 (the device's users)")
@@ -400,7 +403,7 @@ class ChildModel:
         try:
             con = Contracture.preset(str(p.get("contracture", "none")),
                                      float(p.get("contracture_level", 1.0)))
-            return cls(name=_name(where, c.get("name", "child")), age=c["age_years"],
+            return cls(name=c.get("name", "child"), age=c["age_years"],
                        height=c["height_m"], mass=c["mass_kg"],
                        gmfcs=_int(where, "gmfcs", c.get("gmfcs", 0)), contracture=con,
                        spasticity=Spasticity.preset(str(s.get("level", "none"))),
@@ -431,13 +434,6 @@ class ChildModel:
 def _int(where: str, name: str, v: Any) -> int:
     if isinstance(v, bool) or not isinstance(v, int):
         raise ParameterError(where, name, f"{v!r} is not a whole number")
-    return v
-
-
-def _name(where: str, v: Any) -> str:
-    if not isinstance(v, str) or not v.strip():
-        raise ParameterError(where, "name", f"{v!r}: the child's name as text, not blank "
-                             "(left out, it is 'child')")
     return v
 
 

@@ -70,7 +70,7 @@ def actor_model(child: dict[str, Any], actor: dict[str, Any]) -> Any:
     if gm > 4:
         return None
     a = {**ACTOR_DEFAULTS, **actor}
-    return ChildModel(str(child.get("name") or "child"), float(child["age"]),
+    return ChildModel(str(child.get("name") or "").strip() or "child", float(child["age"]),
                       float(child["height"]), float(child["mass"]), gm,
                       Contracture.preset(a["contracture"], float(a["contracture_level"])),
                       Spasticity.preset(a["spasticity"]), True, int(a["crouch"]),
@@ -129,7 +129,7 @@ def fit_of_form(body: dict[str, Any], device_dir: str | None = None
                       height=values.pop("height") / 100, mass=values.pop("mass"),
                       gmfcs=int(gmfcs) or None,
                       affected_side=str(body.get("side", "right")),  # type: ignore[arg-type]
-                      name=str(body.get("name", "child"))[:60] or "child",
+                      name=str(body.get("name") or "").strip()[:60] or "child",
                       **values)  # Child checks sex and side and names what is allowed
     rep = fit_report(child, actuators=None if device_dir is None
                      else paper_actuators(device_dir))
