@@ -83,10 +83,15 @@ def test_the_command_lists_shows_and_exports(records: tuple[Path, str], tmp_path
         child_history(root, cid)["sessions"][0]["gps_deg"])
     r = cli("export", cid, "--out", str(tmp_path / "h.json"))
     assert json.loads((tmp_path / "h.json").read_text())["name"] is None  # not asked
+    run = next(root.glob("*/run.json"))  # a session's own record (it was written over)
+    kept = run.read_bytes()
     for bad, said in ((("show", "Cffffffff"), "no such child"),
-                      (("export", cid, "--out", str(tmp_path / "h.txt")), "a .csv or .json")):
+                      (("export", cid, "--out", str(tmp_path / "h.txt")), "a .csv or .json"),
+                      (("export", cid, "--out", str(run)), "run.json is the name of a "
+                       "session's own record")):
         r = cli(*bad)
         assert r.returncode == 2 and said in r.stderr and "Traceback" not in r.stderr
+    assert run.read_bytes() == kept
 
 
 def test_a_sessions_report_shows_the_childs_sessions_up_to_it(records: tuple[Path, str],

@@ -67,6 +67,11 @@ def cmd_child(args: argparse.Namespace) -> int:
     if out.suffix.lower() not in (".csv", ".json"):
         raise ParameterError("exoleg child export", "--out", f"{out.name}: a .csv or .json "
                              "file")
+    from exoleg.runtime.session import SESSION_FILES
+
+    if out.name in SESSION_FILES:  # a session's run.json was written over (exit 0)
+        raise ParameterError("exoleg child export", "--out", f"{out.name} is the name of a "
+                             "session's own record: name another file (nothing was written)")
     from exoleg.io import atomic_path, write_json
 
     if out.suffix.lower() == ".json":
