@@ -103,6 +103,8 @@ def test_stops_in_a_clinicians_words() -> None:
         .startswith("The device stopped itself on a fault")
     assert stop_in_words("loop overrun: tick 5 started 60 ms late") \
         .startswith("The control computer stopped the session")
+    # no run.json (a killed session) or an unreadable one said "The session ended."
+    assert stop_in_words("").startswith("Not recorded: the session's run.json is missing")
 
 
 def test_a_report_is_a_pdf_and_never_over_a_record(session: Path, tmp_path: Path) -> None:

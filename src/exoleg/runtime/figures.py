@@ -44,6 +44,9 @@ def stop_in_words(stopped_by: str) -> str:
         One sentence; the runtime's words follow it in the report.
     """
     s = stopped_by.lower()
+    if not s.strip():  # (a killed session's process writes no run.json)
+        return ("Not recorded: the session's run.json is missing or unreadable (its "
+                "process may have been stopped before it ended).")
     if "e-stop" in s or "estop" in s:
         first = "stopped by the emergency stop: the motors were switched off at once"
     elif "a fault" in s or "device fault" in s:
