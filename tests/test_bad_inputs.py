@@ -242,6 +242,16 @@ CASES: list[tuple[str, list[str], str]] = [
      "strides: 2: the first 2 are left out (the child settles into the walk); allowed 3-1000"),
     ("validate cp-child 3 strides", ["validate", "--cp-child", "--strides", "3"],
      "allowed 4-1000"),
+    # validate: one check at a time, each option with a check that takes it (a second
+    # check, --children or --strides without theirs, --quick beside a check: dropped)
+    ("validate two checks", ["validate", "--cp-child", "--identify"],
+     "--identify: one check at a time: --cp-child and --identify were both given"),
+    ("validate children alone", ["validate", "--children", "3"],
+     "--children: goes with --identify"),
+    ("validate strides alone", ["validate", "--strides", "5"],
+     "--strides: goes with --gait-phase or --transparency or --cp-child"),
+    ("validate quick with a check", ["validate", "--transparency", "--quick"],
+     "--quick: goes with the model's checks (exoleg validate alone)"),
     # any command
     ("unknown option", ["validate", "--bogus"], "unrecognized arguments"),
     ("no command", [], "required"),

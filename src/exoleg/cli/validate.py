@@ -180,7 +180,33 @@ def _cp_child(strides: int) -> int:
     return 0 if goal_id and goal_walk else 1
 
 
+#: validate's checks (one at a time; none: the model's) and the options each takes
+MODES = {"gait_phase": ("strides", "other_foot"), "transparency": ("strides", "device"),
+         "cp_child": ("strides",), "identify": ("children",), "": ("quick",)}
+
+
+def _check_options(args: argparse.Namespace) -> None:
+    """One check at a time, and each option with a check that takes it (a second check
+    or an option no check takes was dropped without a word)."""
+    def flag(name: str) -> str:
+        return "--" + name.replace("_", "-")
+
+    modes = [m for m in MODES if m and getattr(args, m)]
+    if len(modes) > 1:
+        raise ParameterError("exoleg validate", flag(modes[1]), f"one check at a time: "
+                             f"{flag(modes[0])} and {flag(modes[1])} were both given")
+    mode = modes[0] if modes else ""
+    for option in ("quick", "strides", "children", "other_foot", "device"):
+        given = getattr(args, option) not in (None, False)
+        if given and option not in MODES[mode]:
+            takers = [flag(m) if m else "the model's checks (exoleg validate alone)"
+                      for m, o in MODES.items() if option in o]
+            raise ParameterError("exoleg validate", flag(option), "goes with "
+                                 + " or ".join(takers))
+
+
 def cmd_validate(args: argparse.Namespace) -> int:
+    _check_options(args)
     if args.cp_child:
         return _cp_child(args.strides or 12)
     if args.identify:
@@ -190,7 +216,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
         progress = _Progress()
         try:
-            done = identify_children(args.children,
+            done = identify_children(args.children or 100,
                                      progress=lambda f: progress("identify", f))
         finally:
             progress.stop()
@@ -208,13 +234,6 @@ def cmd_validate(args: argparse.Namespace) -> int:
         ok = all(r.g_max_pct <= 3.0 and r.g_rms_pct <= 1.0 for r in done) and all(
             r.walk_identified_pct <= 10.0 for r in carried)
         return 0 if ok else 1
-    if args.other_foot and not args.gait_phase:
-        raise ParameterError("exoleg validate", "--other-foot", "goes with --gait-phase "
-                             "(the detector's check with both feet's FSRs)")
-    if args.device is not None and not args.transparency:
-        raise ParameterError("exoleg validate", "--device", "goes with --transparency (the "
-                             "other checks are of the model, the detector and the shipped "
-                             "device's identification)")
     if args.transparency:
         return _transparency(args.strides or 10, args.device)
     if args.gait_phase:
@@ -291,6 +310,6 @@ def add_parser(sub: Any) -> None:
     v.add_argument("--identify", action="store_true",
                    help="identification of the leg over simulated children of the design "
                         "range (offline)")
-    v.add_argument("--children", type=_count(1, 10000), default=100, metavar="N",
+    v.add_argument("--children", type=_count(1, 10000), metavar="N",
                    help="with --identify: how many children, 1-10000 (default 100)")
     v.set_defaults(func=cmd_validate)
