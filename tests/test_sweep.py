@@ -334,6 +334,9 @@ def test_the_small_sweep_on_three_schedulers_interrupted_and_resumed(
     assert len(lines) == 1 + 4 * 2  # ages x groups
     r = cli("sweep", "--summary", str(out), "--x", "colour")
     assert r.returncode == 2 and "--x: 'colour' is not a column" in r.stderr
+    # a device beside a summary was dropped without a word (the runs hold theirs)
+    r = cli("sweep", "--summary", str(out), "--device", str(tmp_path))
+    assert r.returncode == 2 and "--workers or --device (the study's runs" in r.stderr
     # one axis twice is refused; one axis given, the other is a default that differs (the
     # study sweeps hip_motor, speed, ...: --y hip_motor alone tabled hip_motor twice)
     from exoleg.study.summary import summarise

@@ -18,10 +18,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from exoleg.errors import ParameterError
 
     if args.summary:
-        if args.study or args.out or args.scheduler or args.workers:
+        if args.study or args.out or args.scheduler or args.workers or args.device:
             raise ParameterError("exoleg sweep", "--summary", "reads a study's folder: give "
                                  "it alone (with --x, --y), not a study file, --out, "
-                                 "--scheduler or --workers")
+                                 "--scheduler, --workers or --device (the study's runs "
+                                 "already hold their device)")
         return _summary(args)
     if args.x or args.y:
         raise ParameterError("exoleg sweep", "--x/--y", "go with --summary DIR")
