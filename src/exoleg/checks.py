@@ -37,6 +37,13 @@ def whole(where: str, field: str, value: Any, lo: int, hi: int) -> int:
     return int(x)
 
 
+def name(where: str, field: str, value: Any) -> str:
+    """Return ``value``, a child's name: text, not blank (in their files and records)."""
+    if not isinstance(value, str) or not value.strip():
+        raise ParameterError(where, field, f"{value!r}: the child's name as text, not blank")
+    return value
+
+
 def positive(where: str, field: str, value: Any, unit: str = "") -> float:
     """Return ``value`` as a float; it must be finite and > 0."""
     x = finite(where, field, value)

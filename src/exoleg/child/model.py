@@ -193,9 +193,7 @@ class ChildModel:
         from exoleg.sizing.growth import check_bmi
 
         check_bmi(w, self.sex, self.age, self.height, self.mass)
-        if not isinstance(self.name, str) or not self.name.strip():  # (save writes it)
-            raise ParameterError(w, "name", f"{self.name!r}: the child's name as text, not "
-                                 "blank (left out of a child file, it is 'child')")
+        _check.name(w, "name", self.name)  # (save writes it: its load reads it back)
         if self.gmfcs not in (0, 1, 2, 3, 4):
             raise ParameterError(w, "gmfcs", f"{self.gmfcs!r}: allowed 0 (typically "
                                  "developing), 1-4 (the device's users)")

@@ -90,8 +90,7 @@ class Child:
                                      "is not a GMFCS level (allowed: an integer 1-5, or 0 or "
                                      "None for typically developing)")
             object.__setattr__(self, "gmfcs", int(self.gmfcs) or None)
-        if not isinstance(self.name, str):
-            raise ParameterError(w, "name", f"expected a string, got {self.name!r}")
+        _check.name(w, "name", self.name)
         if not isinstance(self.accept_unusual, bool):
             raise ParameterError(w, "accept_unusual", f"expected True or False, got "
                                  f"{self.accept_unusual!r}")

@@ -447,9 +447,6 @@ def _profile(where: str, i: int, p: dict[str, Any]) -> dict[str, Any]:
     missing = [k for k in ("age", "sex", "height", "mass") if k not in p]
     if missing:
         raise ParameterError(where, f"{key}.{missing[0]}", "missing")
-    if "name" in p and not (isinstance(p["name"], str) and p["name"].strip()):
-        raise ParameterError(where, f"{key}.name", f"{p['name']!r}: a name as text, not "
-                             "blank (or leave it out)")
     from exoleg.sizing import Child
 
     try:  # the child's own checks: ranges, growth charts
