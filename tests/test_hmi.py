@@ -712,7 +712,9 @@ def test_a_childs_record_and_settings_follow_them(hmi: Any, operator: Any) -> No
     # Ada again, from the list: her last fit (the identified leg), not a new one
     d.execute_script("[...document.querySelectorAll('#children a')].find("
                      "(a) => a.textContent.startsWith('Ada (')).click()")
-    wait_until("her history", lambda: d.find_element("id", "keep-child").is_displayed())
+    # the button names the child it keeps: the last child's history is gone the moment
+    # Ada is picked, and only hers comes back
+    wait_until("her history", lambda: "Keep Ada's" in d.find_element("id", "child-history").text)
     press(d, "keep-child")
     on = wait_until("Ada kept", lambda: runs_on().startswith("Ada (") and runs_on())
     assert "(identified)" in on and ada()["fits"] == fits

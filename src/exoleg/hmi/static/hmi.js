@@ -18,6 +18,7 @@ const S = {
   token: "", operator: sessionStorage.getItem("exoleg-operator") || "",
   info: null, state: null, hist: [], events: [], updates: [], lastMode: null,
   lastMsg: 0, lastEvent: -1, eventCount: 0, estopFailed: false, estopPending: 0, startPending: false,
+  historyOf: null,
 };
 const ESTOP_KEY = "F2";
 const ESTOP_WAIT_MS = 300;  // an E-stop unanswered this long: said at once, and sent again
@@ -477,8 +478,14 @@ async function refreshInfo() {
 
 // the child's sessions over time, from the records (the figures kept when each ended),
 // what their next session starts with, and the button that keeps their last fit
-async function showHistory(id) {
+// The last child's history leaves the page the moment another child is picked (its
+// "Keep ..." button must never be pressed for the wrong child), and an answer for a
+// child picked before the current one is dropped.
+async function showHistory(id, name) {
+  S.historyOf = id;
+  $("child-history").innerHTML = `<p class="muted">${esc(name)}'s sessions: reading the records...</p>`;
   const r = await call("GET", "/api/children/" + encodeURIComponent(id) + "/history");
+  if (S.historyOf !== id) return;
   if (!r.ok) { $("child-history").innerHTML = ""; return; }
   const h = r.data, n = (x, d, u) => x === null || x === undefined ? "-" : x.toFixed(d) + (u || "");
   const helped = (a) => a ? JOINTS.map((j) => a[j] === null ? "-" : Math.round(100 * a[j])).join(" / ") + " %" : "-";
@@ -499,7 +506,7 @@ async function showHistory(id) {
 }
 
 function pickChild(rec) {
-  showHistory(rec.id);
+  showHistory(rec.id, rec.name);
   const f = $("child-form"), c = rec.child;
   f.elements.child_id.value = rec.id;
   $("child-record").textContent = `${rec.name} (${rec.id}): a new fit of this child's record.`;
