@@ -118,3 +118,41 @@ def test_a_report_is_a_pdf_and_never_over_a_record(session: Path, tmp_path: Path
     r = subprocess.run([sys.executable, "-m", "exoleg.cli", "report", str(tmp_path)],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and "no session log here" in r.stderr
+
+
+def test_a_damaged_run_record_or_a_vanished_device_folder_keeps_the_figures(
+        session: Path, tmp_path: Path) -> None:
+    """run.json a list, or its fields of other types (a hand-edited or damaged record),
+    was an internal error that lost the whole report; the session's device folder since
+    moved or deleted would have been too. The figures come from the log; how the session
+    ended reads as not recorded; the cuffs' limit is the one the log's header recorded
+    as the session started (the shipped safety.toml's [cuffs] here: 2.5 / 1.3 / 1.9)."""
+    import json
+    import shutil
+
+    copy = tmp_path / "s"
+    shutil.copytree(session, copy)
+    whole = session_figures(session)
+    limits = [whole["cuffs"][j]["limit_Nm_per_kg"] for j in ("hip", "knee", "ankle")]
+    assert limits == [2.5, 1.3, 1.9]
+    for damaged in ([1, 2], {"stopped_by": 7, "device": "my-device"}, "{\"stopped_by\": "):
+        (copy / "run.json").write_text(damaged if isinstance(damaged, str)
+                                       else json.dumps(damaged))
+        fig = session_figures(copy)
+        assert fig["steps"] == whole["steps"] and fig["gps_deg"] == whole["gps_deg"]
+        assert fig["stopped_in_words"].startswith("Not recorded"), damaged
+        assert [fig["cuffs"][j]["limit_Nm_per_kg"] for j in ("hip", "knee", "ankle")] == \
+            limits
+    # a log from before the header recorded the limit, its device folder since deleted:
+    # the limit is not known, said as such (None), and the rest of the report stands
+    from exoleg.session_log import read_header
+
+    header, _ = read_header(copy / "session.log")
+    assert header["device"]["cuff_limit_Nm_per_kg"] == limits
+    from exoleg.runtime import figures
+
+    gone = {"device": {"folder": str(tmp_path / "moved-away")}}
+    assert all(np.isnan(figures._cuff_limits(gone, {})))
+    r = subprocess.run([sys.executable, "-m", "exoleg.cli", "report", str(copy), "--out",
+                        str(tmp_path / "r.pdf")], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr

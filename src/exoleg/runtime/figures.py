@@ -83,6 +83,44 @@ def _strides(t: np.ndarray, events: np.ndarray, walking: np.ndarray
     return t[k_ic], np.array(whole).reshape(-1, 2), stance
 
 
+def _run_record(root: Path) -> dict[str, Any]:
+    """A session's ``run.json`` as the figures read it: ``stopped_by`` a text and
+    ``device`` a record, or left out -- a missing, unreadable or damaged file (a list, a
+    field of another type) reads as not recorded, which the report says
+    (:func:`stop_in_words`), never an error that loses the session's other figures."""
+    try:
+        run = json.loads((root / "run.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError, UnicodeDecodeError, RecursionError):
+        return {}
+    if not isinstance(run, dict):
+        return {}
+    return {k: v for k, v in run.items()
+            if not (k == "stopped_by" and not isinstance(v, str))
+            and not (k == "device" and not isinstance(v, dict))}
+
+
+def _cuff_limits(header: dict[str, Any], run: dict[str, Any]) -> list[float]:
+    """The cuffs' torque limit per joint (N m/kg; nan: not watched or not known) the
+    session ran with: its log's record of the device (written as it started), else its
+    device folder's safety file as it is now (a log from before the limit was recorded),
+    else not known -- a folder since moved or changed does not stop the report."""
+    from exoleg.control.safety import SafetyLimits
+
+    for device in (header.get("device"), run.get("device")):
+        said = device.get("cuff_limit_Nm_per_kg") if isinstance(device, dict) else None
+        if isinstance(said, list) and len(said) == len(JOINTS):
+            return [float(x) if isinstance(x, (int, float)) and not isinstance(x, bool)
+                    and math.isfinite(x) and x > 0 else math.nan for x in said]
+    device = next((d for d in (header.get("device"), run.get("device"))
+                   if isinstance(d, dict)), {})
+    folder = device.get("folder")
+    try:
+        return [float(x) for x in SafetyLimits.paper(
+            folder=folder if isinstance(folder, str) else None).cuff_limit]
+    except ParameterError:
+        return [math.nan] * len(JOINTS)
+
+
 def session_figures(folder: str | Path) -> dict[str, Any]:
     """The clinician's figures of one recorded session.
 
@@ -106,7 +144,6 @@ def session_figures(folder: str | Path) -> dict[str, Any]:
         full support, 0 transparent), ``cuffs`` (per joint: peak and RMS N m/kg against
         the limit), ``stopped_by`` and ``stopped_in_words``, ``safety_events``.
     """
-    from exoleg.control.safety import SafetyLimits
     from exoleg.sim.metrics import safety_events
 
     root = Path(folder)
@@ -117,10 +154,7 @@ def session_figures(folder: str | Path) -> dict[str, Any]:
     header, cols, _ = read_log(path)
     check_session(path, header)
     check_records(path, cols)
-    try:
-        run = json.loads((root / "run.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        run = {}
+    run = _run_record(root)
     t, mode = cols["t"], cols["mode"].astype(np.int64)
     period = float(header.get("period", 1e-3))
     walking = np.isin(mode, [int(m) for m in WALKING_MODES])
@@ -167,8 +201,7 @@ def session_figures(folder: str | Path) -> dict[str, Any]:
         out["assistance"] = None
     mass = float(header.get("body_mass", math.nan))
     cuff = [f"cuff_{j}" for j in JOINTS]
-    device = (run.get("device") or {}).get("folder")
-    limits = SafetyLimits.paper(folder=device).cuff_limit
+    limits = _cuff_limits(header, run)
     if all(n in cols for n in cuff) and mass > 0 and np.any(np.isfinite(cols[cuff[0]])):
         out["cuffs"] = {
             j: {"peak_Nm_per_kg": float(np.nanmax(np.abs(cols[c])) / mass),

@@ -11,6 +11,7 @@ against the range of motion), so configuring real drives never builds a simulato
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -81,11 +82,15 @@ class DeviceConfig:
 
     def summary(self) -> dict[str, object]:
         """What a run's record says of the device it ran on: its folder (None: the shipped
-        files) and each actuation unit's motor, gear, ratio and torque limit (N m)."""
+        files), each actuation unit's motor, gear, ratio and torque limit (N m), and the
+        cuffs' torque limit per joint it watched (N m/kg; None: not watched) -- so a
+        session's report reads the limit it ran with, whatever became of the folder."""
         return {"folder": None if self.folder is None else str(self.folder),
                 "actuators": [{"joint": a.joint, "motor": a.motor, "gear": a.gear,
                                "ratio": a.ratio, "torque_limit_Nm": a.torque_limit}
-                              for a in self.actuators]}
+                              for a in self.actuators],
+                "cuff_limit_Nm_per_kg": [float(x) if math.isfinite(x) else None
+                                         for x in self.safety.cuff_limit]}
 
     def leg(self, leg: LegModel) -> LegModel:
         """``leg`` with the actuators' reflected inertia (the device's leg model)."""
