@@ -184,7 +184,11 @@ def test_child_file_round_trip_and_bad_files(tmp_path) -> None:  # type: ignore[
     # a contracture's level is checked with no contracture too (it was ignored: -1 or
     # nan read as a child without one)
     ChildModel("b", 9.5, 1.32, 27.0, 2).save(tmp_path / "none.toml")
-    for level, match in (("-1", "level: -1 is outside 0-1.5"), ("nan", "level: must be")):
+    # ... and a level that is not a number named as the file's field ("x" said only
+    # "(value): could not convert string to float"; true read as 1)
+    for level, match in (("-1", "level: -1 is outside 0-1.5"), ("nan", "level: must be"),
+                         ('"x"', "contracture_level: expected a number, got 'x'"),
+                         ("true", "contracture_level: expected a number, got True")):
         (tmp_path / "bad.toml").write_text((tmp_path / "none.toml").read_text().replace(
             "contracture_level = 0 ", f"contracture_level = {level} "))
         with pytest.raises(ParameterError, match=f"bad.toml.*{match}"):

@@ -400,7 +400,8 @@ class ChildModel:
                                                   "gait"])
         try:
             con = Contracture.preset(str(p.get("contracture", "none")),
-                                     float(p.get("contracture_level", 1.0)))
+                                     _check.finite(where, "contracture_level",
+                                                   p.get("contracture_level", 1.0)))
             return cls(name=c.get("name", "child"), age=c["age_years"],
                        height=c["height_m"], mass=c["mass_kg"],
                        gmfcs=_int(where, "gmfcs", c.get("gmfcs", 0)), contracture=con,
