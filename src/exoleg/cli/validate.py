@@ -37,6 +37,17 @@ def _fault_table(cases: dict[str, list[dict[str, Any]]], title: str) -> None:
             "extra", "in strides"], title=title)
 
 
+
+def _landing_in_words(h: dict[str, float]) -> str:
+    """The heel strike's load against the children measured: at 2 % of the stride
+    within one SD of theirs, or harder or softer; one body weight sooner or later."""
+    d = h["at_2pct_bw"] - h["source_2pct_bw"]
+    at2 = ("lands within one SD of the children measured" if abs(d) <= h["source_2pct_sd"]
+           else "lands harder than the children measured" if d > 0
+           else "lands softer than the children measured")
+    return at2 + (", reaching one body weight sooner" if h["to_1bw_ms"] < h["source_to_1bw_ms"]
+                  else ", reaching one body weight no sooner")
+
 def _transparency(strides: int, device: Any) -> int:
     """``validate --transparency``: the budget and the walk's table
     (:mod:`exoleg.validate.transparency`) on the shipped device or the folder ``device``;
@@ -96,7 +107,7 @@ def _transparency(strides: int, device: Any) -> int:
          f"{h['source_2pct_bw']:.2f} +- {h['source_2pct_sd']:.2f}), one body weight "
          f"within {h['to_1bw_ms']:.0f} ms of it (theirs ~{h['source_to_1bw_ms']:.0f} ms; median "
          f"of {h['contacts']:.0f} contacts, the device's weight included): the simulated "
-         "child lands harder than the children measured; the 45 ms after each contact hold "
+         f"child {_landing_in_words(h)}; the 45 ms after each contact hold "
          + ", ".join(f"{b['joint']} {100 * b['gear_floor_at_landing']:.0f} %" for b in v.floors)
          + " of the floor beyond the gears' repeated peak (the plant's landing, not the law)")
     _say(f"the same {100 * h['landing_share']:.0f} % of the walk hold "
