@@ -556,3 +556,18 @@ def test_the_rotors_floor_is_the_quadratic_programmes_optimum() -> None:
     with pytest.raises(ValueError, match="rigid"):
         rotor_floor(paper_hip := _device()[2].actuators[0], need, q, h, 1.0)
     assert not paper_hip.compliant
+
+
+def test_the_landing_is_said_from_its_figures() -> None:
+    """``validate --transparency`` said "lands harder than the children measured" whatever
+    the figures; it is now read from them against the source's mean and SD (Schwartz et
+    al. 2008 at 2 % of the stride: 0.47 +- 0.14) and its time to one body weight."""
+    from exoleg.cli.validate import _landing_in_words
+
+    src = {"source_2pct_bw": 0.47, "source_2pct_sd": 0.14, "source_to_1bw_ms": 132.0}
+    assert _landing_in_words({**src, "at_2pct_bw": 1.05, "to_1bw_ms": 1.0}) == \
+        "lands harder than the children measured, reaching one body weight sooner"
+    assert _landing_in_words({**src, "at_2pct_bw": 0.58, "to_1bw_ms": 86.0}).startswith(
+        "lands within one SD of the children measured")
+    assert _landing_in_words({**src, "at_2pct_bw": 0.30, "to_1bw_ms": 150.0}) == \
+        "lands softer than the children measured, reaching one body weight no sooner"
