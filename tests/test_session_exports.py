@@ -147,3 +147,33 @@ def test_a_thirty_minute_session_exports(session: Path, tmp_path: Path) -> None:
     last = ezc3d.c3d(str(files[-1]))["data"]["points"][0, 0, -1]
     assert last == pytest.approx(np.degrees(final[header["columns"].index("q_meas_hip")]),
                                  rel=1e-6)
+
+
+def test_a_session_with_no_tick_or_a_damaged_child_record_is_said(session: Path,
+                                                                   tmp_path: Path) -> None:
+    """A session killed as it started (its log's header and no tick) exported "wrote "
+    with no C3D file and exit 0, and a BIDS dataset of no samples; a child.json that is
+    not a record (a list) was an internal error. Now: nothing to export, said; the
+    damaged record exported without its details (the side's default, subject unknown)."""
+    import json
+    import shutil
+
+    from exoleg.runtime.exports import session_export
+
+    empty = tmp_path / "empty"
+    shutil.copytree(session, empty)
+    log = (session / "session.log").read_bytes()
+    (empty / "session.log").write_bytes(log[:log.index(b"\n") + 1])
+    for args in (["--c3d", str(tmp_path / "e.c3d")], ["--bids", str(tmp_path / "eb")],
+                 ["--csv", str(tmp_path / "e.csv")]):
+        r = cli(str(empty), *args)
+        assert r.returncode == 2 and "0 ticks recorded: nothing to export" in r.stderr \
+            and "Traceback" not in r.stderr, r.stderr
+    assert not any((tmp_path / n).exists() for n in ("e.c3d", "eb", "e.csv"))
+    damaged = tmp_path / "damaged"
+    shutil.copytree(session, damaged)
+    for record in ([1, 2], {"affected_side": 3, "child_id": "../x"}):
+        (damaged / "child.json").write_text(json.dumps(record))
+        exp = session_export(damaged)
+        assert exp.subject in ("unknown", "../x")
+        assert exp.channels[0].tracked_point.startswith("Right")

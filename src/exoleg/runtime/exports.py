@@ -94,11 +94,18 @@ def session_export(folder: str | Path, rate_hz: float | None = None) -> SessionE
             raise ParameterError("export", "--rate", f"{rate_hz:g} Hz: the tick rate "
                                  f"({1 / period:g} Hz) divided by a whole number")
         k = int(round(ratio))
+    ticks = len(cols["t"])
+    if ticks < k:  # (a session killed as it started: its header and no tick)
+        raise ParameterError(str(path), "t", f"{ticks} ticks recorded: nothing to export"
+                             + (f" at {rate_hz:g} Hz (one sample is {k} ticks)" if k > 1
+                                else ""))
     try:
         child = json.loads((root / "child.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    except (OSError, ValueError, UnicodeDecodeError, RecursionError):
         child = {}
-    side = str(child.get("affected_side", "right")).capitalize()
+    if not isinstance(child, dict):  # a damaged record: exported without its details
+        child = {}
+    side = "Left" if child.get("affected_side") == "left" else "Right"  # (the default)
     chans: list[Channel] = []
     names = [f"q_meas_{j}" for j in JOINTS]
     if all(n in cols for n in names):
