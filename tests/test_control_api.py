@@ -280,6 +280,13 @@ def test_a_start_as_the_last_session_writes_its_records_waits_for_them(
     status, out = hmi.start(0.5, "test")
     assert status == 409 and out["error"].endswith("is running; end it first"), out
     assert time.time() - t0 < 0.2
+    # ... and once End was pressed (its controlled stop runs), "end it first" was wrong
+    hmi.session = tmp_path / "s"
+    assert hmi.end("test")[0] == 200
+    status, out = hmi.start(0.5, "test")
+    assert status == 409 and out["error"] == ("session s is ending (its controlled stop, "
+                                              "then its records); start again once it has "
+                                              "ended"), out
     monkeypatch.setattr(server, "RECORDS_WAIT_S", 0.1)
     session(2.0, ended=True)
     status, out = hmi.start(0.5, "test")

@@ -102,6 +102,7 @@ class HMI:
         # connection dropped before the answer) is answered again, not refused
         self.started: tuple[str, dict[str, Any]] | None = None
         self.session: Path | None = None
+        self.ending: Path | None = None  # the session an End was sent to (it stops itself)
         self.leg = leg if leg is not None else exoleg.paper_leg()
         if self.registry is not None and leg is None:
             self._keep(self.registry.kept())
@@ -143,6 +144,10 @@ class HMI:
                 if self._loop_ended():
                     return 409, {"error": f"session {name} has ended and is still writing "
                                           "its records; start again in a moment"}
+                if self.session is not None and self.ending == self.session:
+                    return 409, {"error": f"session {name} is ending (its controlled stop, "
+                                          "then its records); start again once it has "
+                                          "ended"}
                 return 409, {"error": f"session {name} is running; end it first"}
             lo, hi, label = ((*PLAN_RANGE, "Plan (s)") if identify
                              else (1.0, MAX_DURATION, "Duration (s)"))
@@ -320,6 +325,7 @@ class HMI:
             if link is None:
                 return 409, {"error": "no session is running"}
         link.web_end()
+        self.ending = self.session
         self.api.record(source, "end session", True)
         return 200, {"ending": self.session.name if self.session else ""}
 
