@@ -153,6 +153,7 @@ def test_a_damaged_run_record_or_a_vanished_device_folder_keeps_the_figures(
 
     gone = {"device": {"folder": str(tmp_path / "moved-away")}}
     assert all(np.isnan(figures._cuff_limits(gone, {})))
+    (copy / "child.json").write_text("[1]")  # (a list: the report's name line failed)
     r = subprocess.run([sys.executable, "-m", "exoleg.cli", "report", str(copy), "--out",
                         str(tmp_path / "r.pdf")], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr

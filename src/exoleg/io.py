@@ -133,6 +133,20 @@ def write_json(path: str | Path, record: Any) -> Path:
     return Path(path)
 
 
+def read_record(path: str | Path) -> dict[str, Any]:
+    """A session's JSON record (``run.json``, ``child.json``, ``figures.json``) as
+    :func:`write_json` wrote it: a JSON object, or {} when it is missing, unreadable or
+    damaged (not JSON, not an object) -- what the record would have said is then not
+    known, and every reader says so rather than fails."""
+    import json
+
+    try:
+        record = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError, UnicodeDecodeError, RecursionError):
+        return {}
+    return record if isinstance(record, dict) else {}
+
+
 def write_csv_table(table: pa.Table, path: str | Path) -> Path:
     """An Arrow table as CSV with an unquoted header line; each number the shortest
     decimal that reads back as the same float (nothing recorded is lost); written whole

@@ -37,7 +37,6 @@ def _fault_table(cases: dict[str, list[dict[str, Any]]], title: str) -> None:
             "extra", "in strides"], title=title)
 
 
-
 def _landing_in_words(h: dict[str, float]) -> str:
     """The heel strike's load against the children measured: at 2 % of the stride
     within one SD of theirs, or harder or softer; one body weight sooner or later."""
@@ -47,6 +46,7 @@ def _landing_in_words(h: dict[str, float]) -> str:
            else "lands softer than the children measured")
     return at2 + (", reaching one body weight sooner" if h["to_1bw_ms"] < h["source_to_1bw_ms"]
                   else ", reaching one body weight no sooner")
+
 
 def _transparency(strides: int, device: Any) -> int:
     """``validate --transparency``: the budget and the walk's table

@@ -5,7 +5,6 @@ changed beyond the Gait Profile Score's minimal clinically important difference.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -13,6 +12,7 @@ import numpy as np
 
 from exoleg.errors import ExolegError, ParameterError
 from exoleg.hmi.settings import kept_settings
+from exoleg.io import read_record
 from exoleg.reference.scores import GPS_MCID_DEG
 
 #: the figures a child's history trends, by their key in a session's figures
@@ -25,10 +25,9 @@ def kept_figures(folder: Path) -> dict[str, Any] | None:
     a log that holds nothing to read."""
     from exoleg.runtime.figures import session_figures
 
-    try:
-        return dict(json.loads((folder / "figures.json").read_text(encoding="utf-8")))
-    except (OSError, ValueError, TypeError):  # absent, or damaged: from the log
-        pass
+    kept = read_record(folder / "figures.json")
+    if kept:
+        return kept  # (absent or damaged: from the log)
     try:
         return session_figures(folder)
     except (ExolegError, ValueError):

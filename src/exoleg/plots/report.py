@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import datetime
 import io
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from exoleg.io import read_record
 from exoleg.params.records import JOINTS
 from exoleg.reference import scores
 
@@ -55,10 +55,7 @@ def _who(folder: Path, fig: dict[str, Any], name: bool,
          history: dict[str, Any] | None) -> str:
     """The child as the report names them: the records' pseudonymous id, the name if
     asked."""
-    try:
-        child = json.loads((folder / "child.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        child = {}
+    child = read_record(folder / "child.json")
     if history and not child:
         child = {"child_id": history["child_id"], "name": history["name"]}
     cid = child.get("child_id")

@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from exoleg.errors import ParameterError
+from exoleg.io import read_record
 from exoleg.params.records import JOINTS
 from exoleg.reference.scores import clinical_degrees
 from exoleg.session_log import check_records, check_session, read_log
@@ -99,12 +100,7 @@ def session_export(folder: str | Path, rate_hz: float | None = None) -> SessionE
         raise ParameterError(str(path), "t", f"{ticks} ticks recorded: nothing to export"
                              + (f" at {rate_hz:g} Hz (one sample is {k} ticks)" if k > 1
                                 else ""))
-    try:
-        child = json.loads((root / "child.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError, UnicodeDecodeError, RecursionError):
-        child = {}
-    if not isinstance(child, dict):  # a damaged record: exported without its details
-        child = {}
+    child = read_record(root / "child.json")  # damaged: exported without its details
     side = "Left" if child.get("affected_side") == "left" else "Right"  # (the default)
     chans: list[Channel] = []
     names = [f"q_meas_{j}" for j in JOINTS]

@@ -12,7 +12,6 @@ torques per kg of the child's body mass; times in s and min.
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Any
@@ -20,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from exoleg.errors import ParameterError
+from exoleg.io import read_record
 from exoleg.params.records import JOINTS
 from exoleg.reference import scores
 from exoleg.session_log import check_records, check_session, read_log
@@ -88,13 +88,7 @@ def _run_record(root: Path) -> dict[str, Any]:
     ``device`` a record, or left out -- a missing, unreadable or damaged file (a list, a
     field of another type) reads as not recorded, which the report says
     (:func:`stop_in_words`), never an error that loses the session's other figures."""
-    try:
-        run = json.loads((root / "run.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError, UnicodeDecodeError, RecursionError):
-        return {}
-    if not isinstance(run, dict):
-        return {}
-    return {k: v for k, v in run.items()
+    return {k: v for k, v in read_record(root / "run.json").items()
             if not (k == "stopped_by" and not isinstance(v, str))
             and not (k == "device" and not isinstance(v, dict))}
 
