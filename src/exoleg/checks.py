@@ -8,7 +8,6 @@ traceback from deep inside numpy or as a silent NaN.
 from __future__ import annotations
 
 import math
-import unicodedata
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
@@ -40,32 +39,18 @@ def whole(where: str, field: str, value: Any, lo: int, hi: int) -> int:
 
 def name(where: str, field: str, value: Any) -> str:
     """Return ``value``, a child's name: text, not blank, at most :data:`NAME_MAX`
-    characters, none a control character or a line separator (a line break or NUL in a
-    name breaks the lines of their records, reports and logs; the zero-width joiners
-    some scripts write names with are allowed)."""
+    characters (any characters: their files escape them, ``tests/test_bad_input_
+    surfaces.py``)."""
     if not isinstance(value, str) or not value.strip():
         raise ParameterError(where, field, f"{value!r}: the child's name as text, not blank")
     if len(value) > NAME_MAX:
         raise ParameterError(where, field, f"{len(value)} characters: a child's name has at "
                                            f"most {NAME_MAX}")
-    bad = sorted({c for c in value if unicodedata.category(c) in ("Cc", "Zl", "Zp")})
-    if bad:
-        raise ParameterError(where, field, f"{value!r}: a name without control characters "
-                                           f"(found {', '.join(repr(c) for c in bad)})")
     return value
 
 
 #: The longest child's name the records take, in characters.
 NAME_MAX = 100
-
-
-def recorded_name(value: Any) -> str:
-    """A name kept in a record before :func:`name` checked it, made one it passes: its
-    control characters and line separators as spaces, cut to :data:`NAME_MAX`; blank:
-    'child'. The record itself is left as it was written."""
-    text = "".join(" " if unicodedata.category(c) in ("Cc", "Zl", "Zp") else c
-                   for c in str(value or ""))
-    return text.strip()[:NAME_MAX].strip() or "child"
 
 
 def positive(where: str, field: str, value: Any, unit: str = "") -> float:

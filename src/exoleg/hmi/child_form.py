@@ -63,7 +63,6 @@ def actor_model(child: dict[str, Any], actor: dict[str, Any]) -> Any:
     """The fitted child (a fit record's ``child``) as the simulated device carries them
     (:class:`~exoleg.child.model.ChildModel`) with the form's ``actor`` settings; None
     for GMFCS V, which the child model does not cover."""
-    from exoleg.checks import recorded_name
     from exoleg.child.model import ChildModel, Spasticity
     from exoleg.child.passive import Contracture
 
@@ -71,7 +70,7 @@ def actor_model(child: dict[str, Any], actor: dict[str, Any]) -> Any:
     if gm > 4:
         return None
     a = {**ACTOR_DEFAULTS, **actor}
-    return ChildModel(recorded_name(child.get("name")), float(child["age"]),
+    return ChildModel(str(child.get("name") or "").strip() or "child", float(child["age"]),
                       float(child["height"]), float(child["mass"]), gm,
                       Contracture.preset(a["contracture"], float(a["contracture_level"])),
                       Spasticity.preset(a["spasticity"]), True, int(a["crouch"]),
