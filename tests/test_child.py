@@ -370,7 +370,8 @@ def test_with_the_child_every_walk_goes_on_and_foot_flat_and_heel_off_are_seen()
     # FSRs failed or reading zeros): 0 / 1 and 3 / 6 ms -- 32 / 41 ms before its stance
     # model ended as the push-off's turn passes unload_turn. Not met, and so not asserted
     # for the toe off: the single sources replayed over walks the other source led (docs:
-    # the FSRs cannot see the toes' tips; the IMU alone at slow strides).
+    # the FSRs cannot see the toes' tips). The IMU alone at slow strides is asserted below
+    # against the published foot-off bound.
     sensor = ("none", "every", "first", "hallux", "heel")
     tables = [faults[c] for c in FAULTS if c.startswith(sensor)]
     tables += [v.closed[c] for c in v.closed if c.startswith((*sensor, "FSRs"))]
@@ -397,6 +398,14 @@ def test_with_the_child_every_walk_goes_on_and_foot_flat_and_heel_off_are_seen()
         if r["event"] in events:
             assert r["median_abs_error_ms"] <= 20.0 and r["p95_abs_error_ms"] <= 40.0, r
             assert r["missed"] + r["false"] <= 0.01 * r["true"], r
+    # the IMU alone at slow strides (the FSRs failed): its toe off within Catalfamo et al.
+    # 2010's foot-off bound (< 75 ms), none missed. Measured: 11 / 14 ms (median / p95)
+    # at 2 s, 47 / 59 ms at 4 s -- it said toe off at the heel's rise, 81 / 89 and 180 /
+    # 197 ms early, 3 of 63 missed at 4 s, before the slow strides' rule
+    # (gait_phase.toml imu_toe_eased)
+    for stride, by_source in v.slow_sources.items():
+        to = next(r for r in by_source[SOURCES[2]] if r["event"] == "toe off")
+        assert to["p95_abs_error_ms"] < 75.0 and to["missed"] + to["false"] == 0, (stride, to)
 
 
 def test_with_both_feets_fsrs_no_contact_or_toe_off_is_missed_or_added() -> None:
@@ -404,17 +413,16 @@ def test_with_both_feets_fsrs_no_contact_or_toe_off_is_missed_or_added() -> None
     # contacts and toe offs <= 1 % of the true ones on every walk and fault case of
     # `exoleg validate --gait-phase --other-foot` (reference: the walks' true contacts).
     # Measured: none, in every table -- the walks, each fault replayed and injected, the
-    # single sources at 2 and 4 s strides and for the harder walkers -- but one: the IMU
-    # alone at 4 s strides, 3 + 3 of 63 (each walk's first toe off, 270-316 ms before the
-    # toes leave: the heel rise's toe-down turn, in the first step's long double support,
-    # the other foot down and bearing). Before the hand-over between the detector's paths and the other foot's
-    # bounds (stop 57): the board frozen 11 + 2, a preloaded sensor with the gyroscope
-    # failed 9 + 0, the FSRs failed 2 + 2 (replayed; in the loop 3 and 3 missed), the IMU
-    # alone at 4 s strides 43 + 43
-    from exoleg.validate.gait_phase import SOURCES, evaluate
+    # single sources at 2 and 4 s strides and for the harder walkers. Before the IMU
+    # alone's slow strides' rule (gait_phase.toml imu_toe_eased) the IMU alone at 4 s
+    # strides missed 3 + 3 of 63 (each walk's first toe off, 270-330 ms before the toes
+    # leave: the heel rise's toe-down turn); before the hand-over between the detector's
+    # paths and the other foot's bounds (stop 57): the board frozen 11 + 2, a preloaded
+    # sensor with the gyroscope failed 9 + 0, the FSRs failed 2 + 2 (replayed; in the loop
+    # 3 and 3 missed), the IMU alone at 4 s strides 43 + 43
+    from exoleg.validate.gait_phase import evaluate
 
     v = evaluate(strides=20, other_foot=True)
-    slow_imu = v.slow_sources[4.0].pop(SOURCES[2])
     tables = [v.rows, *v.faults.values(), *v.closed.values(), *v.slow.values(),
               *(t for by in (*v.slow_sources.values(), *v.worst.values())
                 for t in by.values())]
@@ -422,8 +430,6 @@ def test_with_both_feets_fsrs_no_contact_or_toe_off_is_missed_or_added() -> None
         for r in table:
             if r["event"] in ("initial contact", "toe off"):
                 assert r["missed"] + r["false"] <= 0.01 * r["true"], r
-    to = next(r for r in slow_imu if r["event"] == "toe off")
-    assert to["missed"] <= 3 and to["false"] <= 3, to
     assert not any(v.closed_stopped.values()), v.closed_stopped
 
 

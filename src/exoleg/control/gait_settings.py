@@ -58,6 +58,8 @@ class DetectorSettings:
     fsr_silent_strides: float
     other_bears: float = 0.1  # of the other foot's span of load
     other_full: float = 0.4  # of it: the other foot in single support
+    imu_slow_stride: float = 1.5  # s: from this planned stride the IMU alone waits for ...
+    imu_toe_eased: float = 0.6  # ... the toe-down turn eased to this of its deepest
 
     def __post_init__(self) -> None:
         w = "DetectorSettings"
@@ -84,7 +86,8 @@ class DetectorSettings:
                              ("held_band", 0.0, 0.5), ("held_time", 1e-3, 0.5),
                              ("held_swing", 0.1, 1.0),
                              ("frozen_time", 0.01, 10.0),
-                             ("fsr_silent_strides", 1.0, 10.0)):
+                             ("fsr_silent_strides", 1.0, 10.0),
+                             ("imu_slow_stride", 0.4, 10.0), ("imu_toe_eased", 0.1, 1.0)):
             v = _check.finite(w, name, getattr(self, name))
             if not lo <= v <= hi:
                 raise ParameterError(w, name, f"{v:g} is outside {lo:g}-{hi:g}")
@@ -120,11 +123,16 @@ class DetectorSettings:
             "unload_turn": (0.05, 1.0, ""), "held_band": (0.0, 0.5, ""),
             "held_ms": (1.0, 500.0, "ms"), "held_swing": (0.1, 1.0, ""),
             "frozen_ms": (10.0, 10000.0, "ms"), "fsr_silent_strides": (1.0, 10.0, "")},
-            optional=("source", "other_bears", "other_full"))
+            optional=("source", "other_bears", "other_full", "imu_slow_stride_s",
+                      "imu_toe_eased"))
         other = _check.within(where, "other_bears", d.get("other_bears", cls.other_bears),
                               0.05, 0.95, "")
         full = _check.within(where, "other_full", d.get("other_full", cls.other_full),
                              0.05, 0.95, "")
+        slow = _check.within(where, "imu_slow_stride_s",
+                             d.get("imu_slow_stride_s", cls.imu_slow_stride), 0.4, 10.0, "s")
+        eased = _check.within(where, "imu_toe_eased", d.get("imu_toe_eased", cls.imu_toe_eased),
+                              0.1, 1.0, "")
         if full <= other:
             raise ParameterError(where, "other_full",
                                  f"{full:g} must be above other_bears ({other:g}): single "
@@ -159,7 +167,7 @@ class DetectorSettings:
                        held_swing=v["held_swing"],
                        frozen_time=v["frozen_ms"] / 1e3,
                        fsr_silent_strides=v["fsr_silent_strides"], other_bears=other,
-                       other_full=full)
+                       other_full=full, imu_slow_stride=slow, imu_toe_eased=eased)
         except ParameterError as e:  # a rule across fields: name the file
             raise ParameterError(where, e.field, e.problem) from None
 
@@ -186,7 +194,9 @@ class DetectorSettings:
 #: rules, the stride time expected before any is measured (s), the IMU's rules (rad/s,
 #: m/s^2, s) and ranges (a reading at its range is saturated), the shares of its largest
 #: load above which the unassisted foot bears the body and bears it alone (single
-#: support), and whether its insole is fitted (1/0).
+#: support), whether its insole is fitted (1/0), and the IMU alone's slow-walking toe off
+#: (from a planned stride of ``imu_slow_stride`` s: the turn eased to ``imu_toe_eased`` of its
+#: deepest).
 SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("floor", F8),
                      ("debounce", F8), ("min_swing", F8), ("min_stance", F8),
                      ("strides_averaged", I8), ("accept_lo", F8), ("accept_hi", F8),
@@ -203,5 +213,5 @@ SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("floor", F8),
                      ("held_band", F8), ("held_time", F8), ("held_swing", F8),
                      ("frozen_time", F8), ("fsr_silent_strides", F8), ("gyro_range", F8),
                      ("accel_range", F8), ("other_bears", F8), ("other_full", F8),
-                     ("other_foot", F8)])
+                     ("other_foot", F8), ("imu_slow_stride", F8), ("imu_toe_eased", F8)])
 _RECORD_NAMES = frozenset(SETTINGS.names or ())
