@@ -29,7 +29,7 @@ def _eased(D, slope, steepest):  # type: ignore[no-untyped-def]
 
 
 @njit(inline="always")
-def _imu_path(D, s, gyro, acc_dev, strike, acc_ok, t, bears, slow):  # type: ignore[no-untyped-def]
+def _imu_path(D, s, gyro, acc_dev, strike, acc_ok, t, bears):  # type: ignore[no-untyped-def]
     """The foot IMU's path (a reading gyroscope; ``acc_dev``: the accelerometer's
     |specific force| less g, m/s^2, 0 without one; ``strike``: the foot striking the
     ground, :func:`detect`; ``acc_ok``: whether the accelerometer reads; ``bears``:
@@ -45,12 +45,12 @@ def _imu_path(D, s, gyro, acc_dev, strike, acc_ok, t, bears, slow):  # type: ign
     faster than ``gyro_heel_off`` is heel off; from heel off, the toe-down turn past its
     steepest (as the fused toe off, :func:`detect`) and still faster than
     ``gyro_turning`` is toe off, no sooner than ``push_ms`` after heel off -- and, when
-    ``slow`` (the walk's planned stride at ``imu_slow_stride`` or longer), once the turn has also
-    eased to ``imu_toe_eased`` of its deepest: slow walking turns toe-down twice, the
-    heel's rise and then the toes' roll-off, and the toes leave at the second (the
-    steepest rule alone said toe off at the first, 170-330 ms early at 4 s strides); a
-    foot still again since heel off is flat (a jolt as walking starts is not a
-    push-off)."""
+    the walk's planned stride (``expected_stride``) is ``imu_slow_stride`` or longer,
+    once the turn has also eased to ``imu_toe_eased`` of its deepest: slow walking turns
+    toe-down twice, the heel's rise and then the toes' roll-off, and the toes leave at
+    the second (the steepest rule alone said toe off at the first, 170-330 ms early at
+    4 s strides); a foot still again since heel off is flat (a jolt as walking starts is
+    not a push-off)."""
     still, s.still_since = _lasting(abs(gyro) < D.gyro_still and abs(acc_dev) < D.accel_still,
                                     s.still_since, t, D.still_time)
     phase = s.phase_i
@@ -99,7 +99,8 @@ def _imu_path(D, s, gyro, acc_dev, strike, acc_ok, t, bears, slow):  # type: ign
             if s.turn_min < -D.gyro_turning and _eased(D, s.slope, s.steep_i) and \
                     gyro < -D.gyro_turning and bears and (phase == Phase.LOADING
                                                           or t - s.t_ho_i >= D.push_time) \
-                    and (not slow or gyro > D.imu_toe_eased * s.turn_min):
+                    and (D.expected_stride < D.imu_slow_stride
+                         or gyro > D.imu_toe_eased * s.turn_min):
                 ev |= Event.TO
                 s.t_to_i = t
                 s.push_last = s.turn_min

@@ -451,8 +451,7 @@ def detect(d, st, counts, gyro, acc, t, other):  # type: ignore[no-untyped-def]
     ev_f = _fsr_path(D, s, counts, gyro, gyro_ok, strike, t, bears) if fsr_ok else 0
     ev_i = 0
     if gyro_ok:
-        ev_i = _imu_path(D, s, gyro, acc_dev, strike, acc_ok, t, bears,
-                         D.expected_stride >= D.imu_slow_stride)
+        ev_i = _imu_path(D, s, gyro, acc_dev, strike, acc_ok, t, bears)
     # silent: the FSRs have read nothing loaded for fsr_silent_strides strides the IMU
     # has walked (their cable off, the board reading zeros)
     if fsr_ok and gyro_ok and s.t_ic_i > s.t_loaded:
