@@ -60,7 +60,7 @@ JOBS: tuple[tuple[str, tuple[str, ...]], ...] = (
                             "--duration", "0.3", "--arm", "--no-realtime", "--out", "{d}")),
     ("identification", ("identify", "--backend", "sim", "--duration", "10", "--no-realtime",
                         "--out", "{d}")),
-    ("the detector", ("detect", "{d0}", "--out", "{d}")),
+    ("the detector", ("detect", "{d0}", "--out", "{d}.csv")),
 )
 #: the job that writes the child file the others use
 FIT = ("fit", "--age", "10", "--sex", "female", "--height", "138", "--mass", "32",
