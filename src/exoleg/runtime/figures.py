@@ -100,14 +100,13 @@ def _cuff_limits(header: dict[str, Any], run: dict[str, Any]) -> list[float]:
     else not known -- a folder since moved or changed does not stop the report."""
     from exoleg.control.safety import SafetyLimits
 
-    for device in (header.get("device"), run.get("device")):
-        said = device.get("cuff_limit_Nm_per_kg") if isinstance(device, dict) else None
+    devices = [d for d in (header.get("device"), run.get("device")) if isinstance(d, dict)]
+    for device in devices:
+        said = device.get("cuff_limit_Nm_per_kg")
         if isinstance(said, list) and len(said) == len(JOINTS):
             return [float(x) if isinstance(x, (int, float)) and not isinstance(x, bool)
                     and math.isfinite(x) and x > 0 else math.nan for x in said]
-    device = next((d for d in (header.get("device"), run.get("device"))
-                   if isinstance(d, dict)), {})
-    folder = device.get("folder")
+    folder = devices[0].get("folder") if devices else None
     try:
         return [float(x) for x in SafetyLimits.paper(
             folder=folder if isinstance(folder, str) else None).cuff_limit]
