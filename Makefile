@@ -36,11 +36,10 @@ browser:
 	  else echo "make: no Chromium and no root to install it: the browser tests will skip"; fi; \
 	fi
 
-# The suite runs on every core (pytest-xdist), a file's tests on one worker in their order.
-# A worker more would fill the third of the workers' time spent waiting on the wall clock
-# (real-time sessions, the browser): 414 s instead of 469 s on 2 cores, warm cache; but
-# with two CPU-bound processes beside it a browser session then did not reach STANDING
-# within 60 s, and with 4 workers a walk stopped under the request burst. Not taken.
+# The suite runs on every core (pytest-xdist), a file's tests on one worker in their order;
+# on idle cores one worker more fills the third of the workers' time spent waiting on the
+# wall clock (real-time sessions, the browser): tests/conftest.py's
+# pytest_xdist_auto_num_workers says how much it gains and why not on a busy machine.
 test: setup browser
 	$(BIN)/python -m pytest -n auto --dist loadfile $(ARGS)
 

@@ -18,6 +18,38 @@ from typing import Any
 import pytest
 
 
+def _idle_cores(seconds: float) -> float:
+    """How many of this machine's cores were idle over the next ``seconds`` (/proc/stat's
+    idle and iowait time; 0 where it cannot be read)."""
+    import time
+
+    def sample() -> tuple[int, int]:
+        with open("/proc/stat") as f:
+            v = [int(x) for x in f.readline().split()[1:]]
+        return v[3] + v[4], sum(v)
+
+    try:
+        i0, t0 = sample()
+        time.sleep(seconds)
+        i1, t1 = sample()
+    except (OSError, ValueError, IndexError):
+        return 0.0
+    return (os.cpu_count() or 1) * (i1 - i0) / max(1, t1 - t0)
+
+
+def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
+    """``-n auto`` (the README's ``make test``): a worker per core, and one more when the
+    cores are idle. The workers spend about a third of their time waiting on the wall
+    clock (sessions at real time, the browser, servers); a third worker fills it: the
+    suite took 458 s on 2 idle cores against 557 s with two workers (and 536 s with
+    four, whose CPU time grew by 10 %). On a machine already busy (two CPU-bound
+    processes beside the suite, issue 37) that worker would only share the cores: then
+    a browser session once did not reach STANDING within 60 s; two workers pass
+    there (1,260 s)."""
+    n = len(os.sched_getaffinity(0))
+    return n + 1 if _idle_cores(0.5) >= n - 0.5 else n
+
+
 def pytest_sessionstart(session):
     """In CI the independent engines must be present: their tests must run, not skip."""
     if os.environ.get("CI", "").lower() in ("1", "true", "yes"):
@@ -99,6 +131,30 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
                     len(LONG_FIRST))
 
     items.sort(key=rank)  # stable: each file's tests stay together, in their order
+
+
+@pytest.fixture
+def here(capfd: pytest.CaptureFixture[str]) -> Any:
+    """``here(*args)``: ``exoleg ARGS`` run in this process as the console command runs it
+    (:func:`exoleg.cli.main`, argparse's own refusal as its exit status), returned as a
+    ``subprocess.CompletedProcess`` with what it wrote to the descriptors. For commands
+    that end before they start anything (a refusal, a table): a process of their own
+    costs 0.2-1.5 s of interpreter, imports and numba's cache each, which the suite's
+    tables of bad options paid a hundred times."""
+    import subprocess
+
+    from exoleg.cli import main
+
+    def run(*args: str) -> subprocess.CompletedProcess[str]:
+        capfd.readouterr()
+        try:
+            code = main(list(args))
+        except SystemExit as e:
+            code = e.code if isinstance(e.code, int) else 1
+        out, err = capfd.readouterr()
+        return subprocess.CompletedProcess(list(args), code, out, err)
+
+    return run
 
 
 def tile_session(session: Path, seconds: float, dest: Path) -> tuple[dict[str, Any], int, Any]:

@@ -14,6 +14,7 @@ import re
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -260,13 +261,14 @@ CASES: list[tuple[str, list[str], str]] = [
 
 @pytest.mark.parametrize("case,args,text", CASES, ids=[c[0] for c in CASES])
 def test_bad_input_is_one_line_exit_2(files: dict[str, Path], tmp_path: Path, case: str,
-                                      args: list[str], text: str) -> None:
+                                      args: list[str], text: str, here: Any) -> None:
     argv = [a.format(**{k: str(v) for k, v in files.items()}) for a in args]
     if argv and argv[0] in ("simulate", "fit", "population") and "--out" not in argv:
         argv += ["--out", str(tmp_path / "out")]
     if argv and argv[0] == "simulate" and "--walk" not in argv:
         argv.append("--no-engine")
-    r = _run(argv)
+    # in this process (the ``here`` fixture): each is refused before it starts anything
+    r = here(*argv)
     assert r.returncode == 2, (case, r.returncode, r.stdout, r.stderr)
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(("exoleg: error:", "usage:")) or (

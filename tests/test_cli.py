@@ -1,4 +1,6 @@
-"""The command line: exit codes and messages."""
+"""The command line: exit codes and messages. Each command that works runs as a user runs
+it, in a process of its own; the refusals run in this one (the ``here`` fixture), as each
+ends before it starts anything."""
 
 import subprocess
 import sys
@@ -45,11 +47,11 @@ def test_simulate_gait_with_leg_file(tmp_path):
     assert "within Table 2" in r.stdout
 
 
-def test_simulate_bad_options_are_one_line_exit_2(tmp_path):
+def test_simulate_bad_options_are_one_line_exit_2(tmp_path, here):
     for args in (["--kp", "1,2"], ["--dt", "-1"], ["--reference", "jog"],
                  ["--leg", str(tmp_path / "missing.toml")],
                  ["--kd", "12,12,40"]):
-        r = run("simulate", "--out", str(tmp_path), "--no-engine", *args)
+        r = here("simulate", "--out", str(tmp_path), "--no-engine", *args)
         assert r.returncode == 2, (args, r.stderr)
         assert len(r.stderr.strip().splitlines()) == 1 and "error" in r.stderr, (args, r.stderr)
 
@@ -66,8 +68,8 @@ def test_fit_writes_leg_file_that_simulate_accepts(tmp_path):
     assert (tmp_path / "fit.json").exists()
 
 
-def test_fit_bad_child_is_one_line_exit_2(tmp_path):
-    r = run("fit", "--age", "9", "--sex", "female", "--height", "200", "--mass", "24",
+def test_fit_bad_child_is_one_line_exit_2(tmp_path, here):
+    r = here("fit", "--age", "9", "--sex", "female", "--height", "200", "--mass", "24",
             "--gmfcs", "3", "--out", str(tmp_path))
     assert r.returncode == 2 and "height" in r.stderr and len(r.stderr.strip().splitlines()) == 1
 
@@ -117,10 +119,10 @@ def test_simulate_with_a_hip_variant(tmp_path):
     assert r.returncode == 2 and "goes with --walk or --actuators" in r.stderr
 
 
-def test_simulate_with_actuators_bad_options(tmp_path):
+def test_simulate_with_actuators_bad_options(tmp_path, here):
     for args, text in ((["--saturate"], "does not apply with --actuators"),
                        (["--dt", "0.0003"], "must divide the control period")):
-        r = run("simulate", "--actuators", "--out", str(tmp_path), *args)
+        r = here("simulate", "--actuators", "--out", str(tmp_path), *args)
         assert r.returncode == 2 and text in r.stderr, r.stderr
 
 
@@ -157,7 +159,7 @@ def test_simulate_walk_with_a_sensor_fault(tmp_path):
     assert np.all(data["fsr_heel"][after] == 0.0) and data["fsr_heel"][~after].max() > 100.0
 
 
-def test_simulate_walk_with_a_child_under_assist_as_needed(tmp_path):
+def test_simulate_walk_with_a_child_under_assist_as_needed(tmp_path, here):
     # the issue's summary fields and figures: the cuffs' torque per kg per joint, one
     # support value per stride (0-1), the safety layer's events (a list)
     import json
@@ -196,11 +198,11 @@ def test_simulate_walk_with_a_child_under_assist_as_needed(tmp_path):
     for args, text in ((["--controller", "aan"], "does not go with the paper's scenario"),
                        (["--walk", "--controller", "pd"], "does not go with --walk"),
                        (["--walk", "--controller", "transparent"], "give --child")):
-        r = run("simulate", *args, "--out", str(tmp_path / "x"))
+        r = here("simulate", *args, "--out", str(tmp_path / "x"))
         assert r.returncode == 2 and text in r.stderr, (args, r.stderr)
 
 
-def test_simulate_walk_bad_options(tmp_path):
+def test_simulate_walk_bad_options(tmp_path, here):
     for args, text in ((["--walk", "--kp", "1,2,3"], "does not apply with --walk"),
                        (["--walk", "--reference", "gait"], "does not apply with --walk"),
                        (["--walk", "--duration", "5"], "does not apply with --walk"),
@@ -223,7 +225,7 @@ def test_simulate_walk_bad_options(tmp_path):
                         "starts after the walk ends (3.2 s)"),
                        (["--walk", "--strides", "2", "--sensor-fault", "insole:dead@1"],
                         "no insole is fitted to the other foot")):
-        r = run("simulate", "--out", str(tmp_path), *args)
+        r = here("simulate", "--out", str(tmp_path), *args)
         assert r.returncode == 2 and text in r.stderr, (args, r.stderr)
         assert len(r.stderr.strip().splitlines()) == 1
 
