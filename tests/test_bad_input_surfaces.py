@@ -16,6 +16,7 @@ import signal
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -509,7 +510,8 @@ def test_a_study_of_a_million_runs_starts_at_once(tmp_path: Path) -> None:
                 run["speed"]) == grid[i]
 
 
-def test_a_studys_cost_is_said_before_it_starts(tmp_path: Path) -> None:
+def test_a_studys_cost_is_said_before_it_starts(tmp_path: Path,
+                                                terminal_ctrl_c: Any) -> None:
     # Issue 44: a study's cost (runs, memory, time) said before it starts. A study of
     # TIME_FROM_RUNS runs or more has one run timed here first; the line comes before
     # the cluster (its dashboard's line).
@@ -526,7 +528,7 @@ def test_a_studys_cost_is_said_before_it_starts(tmp_path: Path) -> None:
     # lines are what comes before it (run whole, its 200 runs took 18 s of the suite)
     p = subprocess.Popen([sys.executable, "-m", "exoleg.cli", "sweep", str(study), "--out",
                           str(tmp_path / "out"), "--workers", "1"], stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True,
+                         stderr=subprocess.PIPE, text=True, preexec_fn=terminal_ctrl_c,
                          env={**os.environ, "PYTHONUNBUFFERED": "1"})
     try:
         lines = [p.stdout.readline().rstrip("\n") for _ in range(3)]  # type: ignore[union-attr]
