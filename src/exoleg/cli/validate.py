@@ -95,12 +95,16 @@ def _transparency(strides: int, device: Any) -> int:
          + ", ".join(f"{b['joint']} {b['pelvis_Nm_per_kg']:.3f}" for b in v.floors)
          + " N m/kg RMS: the transparent law leaves it to the child (no sensor on the "
            "device reads it)")
-    _table([[r["parts"], *(f"{r['rms_Nm_per_kg'][j]:.3f} ({r['rms_Nm'][j]:.1f})"
-                           for j in JOINTS)] for r in v.rows],
-           ["transparent law's parts", *(f"{j} N m/kg (N m)" for j in JOINTS)],
+    _table([[r["parts"] + (" (stopped)" if r["stopped"] else ""),
+             *(f"{r['walked_Nm_per_kg'][j]:.3f}" for j in JOINTS),
+             *(f"{r['rms_Nm_per_kg'][j]:.3f}" for j in JOINTS)] for r in v.rows],
+           ["transparent law's parts", *(f"{j} walked" for j in JOINTS),
+            *(f"{j} same motion" for j in JOINTS)],
            title=f"the cuffs' torque RMS over {strides} strides in the transparent mode "
-                 f"(the first {SETTLE_STRIDES} left out), on the same motion without the "
-                 "parts after each row's")
+                 f"(the first {SETTLE_STRIDES} left out), N m/kg, with only each row's parts: "
+                 "walked so (a walk each), and on the law's own walk less the parts after "
+                 "the row's (a what-if: the child walks otherwise without them, and the "
+                 "cuffs' feedback reacts to the walk it is in)")
     h = v.loading
     _say(f"the heel strike: the sole's vertical load {h['at_2pct_bw']:.2f} body weights 2 % "
          f"of the stride after contact (Schwartz et al. 2008, free speed: "

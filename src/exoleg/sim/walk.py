@@ -35,7 +35,7 @@ from exoleg.child.model import ChildModel
 from exoleg.child.passive import passive_moments
 from exoleg.control.hierarchy import WalkController, WalkGains, walk_control_step
 from exoleg.control.safety import SafetyLimits
-from exoleg.control.transparency import PARTS, SupportMode
+from exoleg.control.transparency import PARTS, SupportMode, TransparencySettings
 from exoleg.device.actuator import ActuatorModel
 from exoleg.device.drive import drive_limit
 from exoleg.device.faults import SensorFault, apply_faults, fault_records
@@ -314,7 +314,8 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                   commands: NDArray[np.int64] | None = None, model: LegModel | None = None,
                   support_mode: SupportMode = SupportMode.IMPEDANCE,
                   assist_law: str | None = None,
-                  faults: Sequence[SensorFault] = ()) -> WalkResult:
+                  faults: Sequence[SensorFault] = (),
+                  transparency: TransparencySettings | None = None) -> WalkResult:
     """Walk ``leg`` (without actuators; theirs are added) on the treadmill for ``strides``
     strides of ``stride_time`` s after ``standing`` s of quiet stance; ``body_mass`` is
     the child's (the pelvis carries :func:`exoleg.world.plant.body_weight_share`).
@@ -329,7 +330,9 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     device transparent, or assist-as-needed); ``assist_law``: assist-as-needed's law
     (:data:`~exoleg.control.assist.LAWS`; None: the device folder's ``assist.toml``).
     ``faults``: the foot board's sensor faults (:class:`~exoleg.device.faults.SensorFault`)
-    in what the controller reads; the result's readings are the faulted ones."""
+    in what the controller reads; the result's readings are the faulted ones.
+    ``transparency``: the transparent law's settings (None: the device folder's
+    ``transparency.toml``), e.g. with some of its parts left out."""
     if not (isinstance(strides, int) and 1 <= strides <= 10000):
         raise ParameterError("simulate_walk", "strides", f"expected 1-10000, got {strides!r}")
     if not (isinstance(substeps, int) and 1 <= substeps <= 100):
@@ -342,6 +345,11 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     cfg = DeviceConfig.load(device, control_dt, noise_scale, actuators, safety, sensors, gains)
     if assist_law is not None:
         cfg = dataclasses.replace(cfg, assist=cfg.assist.with_law(assist_law))
+    if transparency is not None:
+        if not isinstance(transparency, TransparencySettings):
+            raise ParameterError("simulate_walk", "transparency", "expected "
+                                 "TransparencySettings, got " + type(transparency).__name__)
+        cfg = dataclasses.replace(cfg, transparency=transparency)
     system = build(cfg, leg, body_mass, SupportMode(support_mode).name.lower(), child=child,
                    model=model, speed=speed, stride_time=stride_time,
                    ankle_height=ankle_height, ground=ground)

@@ -23,6 +23,7 @@ knee exoskeleton: under 1.8 N m in its zero mode), ``shared/design/child-referen
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -130,26 +131,46 @@ def limit_floors(act: Any, need: F64, w: F64, body_mass: float) -> dict[str, Any
                                   / (2 * np.pi))}
 
 
-def contributions(r: Any, after: float | None = None) -> list[dict[str, Any]]:
+def contributions(r: Any, after: float | None = None, walks: Sequence[Any] = (),
+                  acting: Sequence[str] | None = None) -> list[dict[str, Any]]:
     """The cuffs' torque a walk in the transparent mode leaves (``r``: a
     :class:`~exoleg.sim.walk.WalkResult`), and what it would be on the same motion
     without the law's parts, left out from the last: rows (``parts``, RMS N m and N m/kg
     per joint) over the walk from ``after`` s (default: :data:`SETTLE_STRIDES` strides
-    after its start)."""
+    after its start), a row per part ``acting`` in the walk (default: all of
+    :data:`~exoleg.control.transparency.PARTS`). The same motion is a what-if: the
+    child walks otherwise when a part is left out (the cuffs' feedback above all, which
+    reacts to the walk it is in). With ``walks`` -- the same walk with only each row's
+    parts acting, one walk per row but the last (whose walk is ``r``) -- each row also
+    says what its walk left (``walked_Nm_per_kg``, per joint) and whether the safety
+    layer stopped it (``stopped``)."""
     from exoleg.control.transparency import PARTS
 
+    acting = list(PARTS if acting is None else acting)
     t0 = r.walk_start + SETTLE_STRIDES * r.stride_time if after is None else after
     sel = r.t >= t0
     it = r.interaction[sel]
     parts = r.transparent_parts[sel]
+    if walks and len(walks) != len(acting):
+        raise ParameterError("contributions", "walks", f"{len(walks)} walks: one per row "
+                             f"but the last, {len(acting)}")
+    every = [*walks, r] if walks else []
     rows = []
-    for n in range(len(PARTS) + 1):
-        left_out = parts[:, n:].sum(axis=1)
+    for n in range(len(acting) + 1):
+        left_out = parts[:, [PARTS.index(p) for p in acting[n:]]].sum(axis=1)
         rms = np.sqrt(np.mean((it + left_out) ** 2, axis=0))
-        rows.append({"parts": "none" if n == 0 else " + ".join(PARTS[:n]),
-                     "rms_Nm": dict(zip(JOINTS, rms.tolist(), strict=True)),
-                     "rms_Nm_per_kg": dict(zip(JOINTS, (rms / r.body_mass).tolist(),
-                                               strict=True))})
+        row: dict[str, Any] = {"parts": " + ".join(acting[:n]) or "none",
+                               "rms_Nm": dict(zip(JOINTS, rms.tolist(), strict=True)),
+                               "rms_Nm_per_kg": dict(zip(JOINTS, (rms / r.body_mass).tolist(),
+                                                         strict=True))}
+        if every:
+            w = every[n]
+            own = w.interaction[w.t >= (w.walk_start + SETTLE_STRIDES * w.stride_time
+                                        if after is None else after)]
+            walked = np.sqrt(np.mean(own ** 2, axis=0)) / w.body_mass
+            row["walked_Nm_per_kg"] = dict(zip(JOINTS, walked.tolist(), strict=True))
+            row["stopped"] = bool(np.any(w.fault))
+        rows.append(row)
     return rows
 
 
@@ -184,7 +205,7 @@ def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
     the device of the folder ``device`` (None: the shipped one)."""
     from exoleg.child.model import ChildModel
     from exoleg.control.safety import Limited
-    from exoleg.control.transparency import SupportMode
+    from exoleg.control.transparency import PARTS, SupportMode
     from exoleg.sim.walk import simulate_walk
     from exoleg.sizing import personalized_leg
     from exoleg.sizing.child import population_child
@@ -200,12 +221,19 @@ def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
     config = DeviceConfig.load(device)
     r = simulate_walk(leg, c.mass, strides=strides, stride_time=stride_time, child=child,
                       seed=seed, support_mode=SupportMode.TRANSPARENT, device=device)
+    # the same walk with only the parts up to each row's acting (those the file has on)
+    on = [p for p, is_on in zip(PARTS, config.transparency.parts, strict=True) if is_on]
+    walks = [simulate_walk(leg, c.mass, strides=strides, stride_time=stride_time,
+                           child=child, seed=seed, support_mode=SupportMode.TRANSPARENT,
+                           device=device,
+                           transparency=config.transparency.with_parts(*on[:n]))
+             for n in range(len(on))]
     sel = r.t >= r.walk_start + SETTLE_STRIDES * stride_time
     lim = np.array([a.torque_limit for a in config.actuators])
     at = np.abs(r.tau[sel]) >= 0.99 * lim
     return Transparency(child=c.name or "child", body_mass=c.mass,
                         budget=budget(leg, config, c.mass, stride_time),
-                        rows=contributions(r), fault=bool(np.any(r.safety_status
+                        rows=contributions(r, walks=walks, acting=on), fault=bool(np.any(r.safety_status
                                                                  & Limited.FAULT)),
                         saturated=dict(zip(JOINTS, at.mean(axis=0).tolist(), strict=True)),
                         run=r, floors=walk_floors(r, leg, config),
