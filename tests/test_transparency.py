@@ -388,6 +388,10 @@ def test_the_contributions_add_the_parts_left_out_to_the_cuffs_torque() -> None:
         np.sqrt(np.mean(want ** 2, axis=0)), rel=1e-12)
     with pytest.raises(ParameterError, match="one per row but the last, 3"):
         contributions(r, walks=walks[:2], acting=acting)
+    # a law with every part off (a device folder may say so): one row, the walk's own
+    rows = contributions(r, walks=[], acting=[])
+    assert [row["parts"] for row in rows] == ["none"]
+    assert rows[0]["walked_Nm_per_kg"] == pytest.approx(rows[0]["rms_Nm_per_kg"], rel=1e-12)
 
 
 def test_the_transparent_law_walked_without_its_feedback_leaves_more() -> None:

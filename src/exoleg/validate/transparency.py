@@ -131,7 +131,7 @@ def limit_floors(act: Any, need: F64, w: F64, body_mass: float) -> dict[str, Any
                                   / (2 * np.pi))}
 
 
-def contributions(r: Any, after: float | None = None, walks: Sequence[Any] = (),
+def contributions(r: Any, after: float | None = None, walks: Sequence[Any] | None = None,
                   acting: Sequence[str] | None = None) -> list[dict[str, Any]]:
     """The cuffs' torque a walk in the transparent mode leaves (``r``: a
     :class:`~exoleg.sim.walk.WalkResult`), and what it would be on the same motion
@@ -151,10 +151,10 @@ def contributions(r: Any, after: float | None = None, walks: Sequence[Any] = (),
     sel = r.t >= t0
     it = r.interaction[sel]
     parts = r.transparent_parts[sel]
-    if walks and len(walks) != len(acting):
+    if walks is not None and len(walks) != len(acting):
         raise ParameterError("contributions", "walks", f"{len(walks)} walks: one per row "
                              f"but the last, {len(acting)}")
-    every = [*walks, r] if walks else []
+    every = [] if walks is None else [*walks, r]
     rows = []
     for n in range(len(acting) + 1):
         left_out = parts[:, [PARTS.index(p) for p in acting[n:]]].sum(axis=1)
