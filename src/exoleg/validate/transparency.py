@@ -146,9 +146,12 @@ def contributions(r: Any, after: float | None = None, walks: Sequence[Any] | Non
     layer stopped it (``stopped``)."""
     from exoleg.control.transparency import PARTS
 
+    def settled(w: Any) -> Any:
+        return w.t >= (w.walk_start + SETTLE_STRIDES * w.stride_time if after is None
+                       else after)
+
     acting = list(PARTS if acting is None else acting)
-    t0 = r.walk_start + SETTLE_STRIDES * r.stride_time if after is None else after
-    sel = r.t >= t0
+    sel = settled(r)
     it = r.interaction[sel]
     parts = r.transparent_parts[sel]
     if walks is not None and len(walks) != len(acting):
@@ -165,9 +168,7 @@ def contributions(r: Any, after: float | None = None, walks: Sequence[Any] | Non
                                                          strict=True))}
         if every:
             w = every[n]
-            own = w.interaction[w.t >= (w.walk_start + SETTLE_STRIDES * w.stride_time
-                                        if after is None else after)]
-            walked = np.sqrt(np.mean(own ** 2, axis=0)) / w.body_mass
+            walked = np.sqrt(np.mean(w.interaction[settled(w)] ** 2, axis=0)) / w.body_mass
             row["walked_Nm_per_kg"] = dict(zip(JOINTS, walked.tolist(), strict=True))
             row["stopped"] = bool(np.any(w.fault))
         rows.append(row)
