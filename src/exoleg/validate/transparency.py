@@ -234,8 +234,8 @@ def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
     at = np.abs(r.tau[sel]) >= 0.99 * lim
     return Transparency(child=c.name or "child", body_mass=c.mass,
                         budget=budget(leg, config, c.mass, stride_time),
-                        rows=contributions(r, walks=walks, acting=on), fault=bool(np.any(r.safety_status
-                                                                 & Limited.FAULT)),
+                        rows=contributions(r, walks=walks, acting=on),
+                        fault=bool(np.any(r.safety_status & Limited.FAULT)),
                         saturated=dict(zip(JOINTS, at.mean(axis=0).tolist(), strict=True)),
                         run=r, floors=walk_floors(r, leg, config),
                         loading=heel_strike_loading(r, g=leg.g))
