@@ -125,6 +125,35 @@ class _AfterCaching:
         return spec
 
 
+#: the lock file under which one process at a time builds a cache folder's gufuncs
+BUILD_LOCK_NAME = ".exoleg-gufunc.lock"
+
+
+@contextlib.contextmanager
+def building(folder: Path) -> Any:
+    """Hold ``folder``'s gufunc build lock, exclusive, across processes. A gufunc's
+    cache is two entries -- its kernel and the wrapper that calls it by a symbol whose
+    tag counts the functions its process compiled before -- and numba saves each on its
+    own: two processes building one gufunc at once can leave one's kernel beside the
+    other's wrapper, which then calls a symbol nothing defines, and every later process
+    crashes (numba issue #10128, open; found as a segmentation fault in the inverse
+    dynamics' gufunc after a source change, the suite's workers and a study's building
+    it at once). Under this lock a process builds, or loads, both from one process's
+    build. Numba's own per-entry lock (:data:`LOCK_NAME`) is another file: this one is
+    held around it. Without fcntl, or a folder this user cannot write, no lock."""
+    try:
+        import fcntl
+
+        folder.mkdir(exist_ok=True)
+        f = open(folder / BUILD_LOCK_NAME, "a")  # noqa: SIM115
+    except (ImportError, OSError):
+        yield
+        return
+    with f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        yield
+
+
 def guard() -> None:
     """Drop the package's numba cache when any source changed since it was written;
     make numba's cache safe across processes (:func:`process_safe`, now or when numba

@@ -54,3 +54,29 @@ def test_a_save_waits_for_the_lock(tmp_path: Path) -> None:
         assert not (tmp_path / "f.nbi").exists()
     assert p.wait(timeout=60) == 0
     assert (tmp_path / "f.nbi").exists()
+
+
+def test_a_gufunc_is_built_by_one_process_at_a_time() -> None:
+    # numba issue #10128 (open): a gufunc's kernel and its wrapper, cached by two
+    # processes building it at once, mismatch -- the wrapper calls a kernel's symbol
+    # nothing defines -- and every later process crashes calling it. Measured before
+    # the build lock: after a source change, `pytest -n 2 tests/test_design.py` crashed
+    # (a segmentation fault in the inverse dynamics' gufunc) in 4 of 5 runs, and the
+    # cache stayed broken for every later run; with it, none in 5 runs (and 2 of
+    # test_transparency + test_design + test_bad_inputs). Here: a process building a
+    # gufunc waits while another holds the folder's build lock.
+    import fcntl
+    import time
+
+    from exoleg._cache import BUILD_LOCK_NAME
+    from exoleg.dynamics.kernels import _CACHE_FOLDER
+
+    code = ("import time; from exoleg.dynamics import kernels; "
+            "kernels.gufunc('potential_energy'); print(time.time())")
+    with open(_CACHE_FOLDER / BUILD_LOCK_NAME, "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+        time.sleep(2.0)  # (unlocked, it is built in about 0.6 s)
+        released = time.time()
+    out, _ = p.communicate(timeout=120)
+    assert p.returncode == 0 and float(out) >= released  # built once the lock was free

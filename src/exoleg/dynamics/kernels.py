@@ -15,11 +15,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import cache
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numba import guvectorize, njit
 
+from exoleg._cache import building
 from exoleg.dynamics._generated import (
     BARYCENTRIC,
     JOINT_PARAMS,
@@ -177,7 +179,14 @@ _BUILDERS: dict[str, Callable[[], Any]] = {
 }
 
 
+#: where numba caches this module's gufuncs (beside its source)
+_CACHE_FOLDER = Path(__file__).resolve().parent / "__pycache__"
+
+
 @cache
 def gufunc(name: str) -> Any:
-    """The broadcasting gufunc of kernel ``name`` (e.g. ``"mass_matrix"``), built once."""
-    return _BUILDERS[name]()
+    """The broadcasting gufunc of kernel ``name`` (e.g. ``"mass_matrix"``), built once,
+    one process at a time (:func:`exoleg._cache.building`: numba's gufunc cache is not
+    safe when two processes build the same gufunc at once)."""
+    with building(_CACHE_FOLDER):
+        return _BUILDERS[name]()
