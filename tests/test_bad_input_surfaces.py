@@ -22,7 +22,13 @@ import numpy as np
 import pytest
 
 import exoleg
+from conftest import REALTIME
 from exoleg.cli import main
+
+#: sessions of seconds ask for the loop's real-time settings where the OS permits them
+#: (conftest.REALTIME; at normal priority a session elsewhere in the suite was stalled
+#: 292 ms with its workers on both cores, beyond the 250 ms overrun limit)
+NO_RT = [] if REALTIME else ["--no-realtime"]
 
 
 def _exoleg(*args: str, timeout: float = 60) -> subprocess.CompletedProcess[str]:
@@ -258,7 +264,7 @@ def test_a_log_summary_reads_as_people_read(tmp_path: Path,
     # before: raw dictionaries, mode numbers and unrounded floats
     # ("late_p50_us 0.028016...")
     assert main(["run", "--backend", "sim", "--duration", "3", "--arm", "--walk-after", "1",
-                 "--no-realtime", "--out", str(tmp_path / "s")]) == 0
+                 *NO_RT, "--out", str(tmp_path / "s")]) == 0
     capsys.readouterr()
     assert main(["log", "summary", str(tmp_path / "s")]) == 0
     out = capsys.readouterr().out
@@ -287,7 +293,7 @@ def test_a_walk_asked_at_once_waits_for_the_foots_contact(tmp_path: Path,
     from exoleg.tick import Command, Fault, Mode, Phase
 
     assert main(["run", "--backend", "sim", "--arm", "--walk-after", "0", "--duration", "2",
-                 "--no-realtime", "--out", str(tmp_path / "run")]) == 0
+                 *NO_RT, "--out", str(tmp_path / "run")]) == 0
     assert "FAULT" not in capsys.readouterr().out
     ctl = WalkController(with_actuators(exoleg.paper_leg()), 20.0)
     q = ctl.gains.standing.copy()
