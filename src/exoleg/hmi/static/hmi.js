@@ -18,12 +18,19 @@ const S = {
   token: "", operator: sessionStorage.getItem("exoleg-operator") || "",
   info: null, state: null, hist: [], events: [], updates: [], lastMode: null,
   lastMsg: 0, lastEvent: -1, eventCount: 0, estopFailed: false, estopPending: 0, startPending: false,
-  historyOf: null,
+  historyOf: null, drawnMsg: 0, drawnAt: -Infinity,
 };
 const ESTOP_KEY = "F2";
 const ESTOP_WAIT_MS = 300;  // an E-stop unanswered this long: said at once, and sent again
 const ESTOP_RETRY_S = 10;  // ... for this long
 const STALE_MS = 1000;  // no update for this long: the page says the link is lost
+// The page is drawn when the stream brought something new, at most every DRAW_MS (the
+// stream comes at 50 Hz), and every IDLE_DRAW_MS without it, so a silent link is said
+// within that of STALE_MS. Drawn on every animation frame (60 Hz), a headless Chromium
+// spent 0.68 of a core on this page while the device walked and 0.23 with no session;
+// drawn so, 0.27 and 0.12.
+const DRAW_MS = 40;
+const IDLE_DRAW_MS = 100;
 
 // ---------------------------------------------------------------- plumbing
 const $ = (id) => document.getElementById(id);
@@ -394,7 +401,16 @@ function drawCuffs(s) {
   return true;
 }
 
-function frame() {
+function frame(now) {
+  requestAnimationFrame(frame);
+  const news = S.lastMsg !== S.drawnMsg;
+  if (now - S.drawnAt < (news ? DRAW_MS : IDLE_DRAW_MS)) return;
+  S.drawnAt = now;
+  S.drawnMsg = S.lastMsg;
+  draw();
+}
+
+function draw() {
   const s = S.state;
   const fresh = linkState(s);
   if (s && S.info) {
@@ -442,7 +458,6 @@ function frame() {
       $("missed").textContent = s.missed;
     }
   }
-  requestAnimationFrame(frame);
 }
 
 // ---------------------------------------------------------------- control
