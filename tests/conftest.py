@@ -137,20 +137,26 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 def here(capfd: pytest.CaptureFixture[str]) -> Any:
     """``here(*args)``: ``exoleg ARGS`` run in this process as the console command runs it
     (:func:`exoleg.cli.main`, argparse's own refusal as its exit status), returned as a
-    ``subprocess.CompletedProcess`` with what it wrote to the descriptors. For commands
-    that end before they start anything (a refusal, a table): a process of their own
-    costs 0.2-1.5 s of interpreter, imports and numba's cache each, which the suite's
-    tables of bad options paid a hundred times."""
+    ``subprocess.CompletedProcess`` with what it wrote to the descriptors. A process of
+    its own costs 0.5-1.5 s of interpreter, imports and numba's cache loaded again, which
+    the suite paid a few hundred times; in the worker they are loaded once. Commands
+    whose point is the process itself (Ctrl-C, a closed pipe, SIGTERM, a server, a crash)
+    still run in one."""
     import subprocess
 
     from exoleg.cli import main
 
-    def run(*args: str) -> subprocess.CompletedProcess[str]:
+    def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
         capfd.readouterr()
+        before = os.getcwd()
         try:
+            if cwd is not None:
+                os.chdir(cwd)
             code = main(list(args))
         except SystemExit as e:
             code = e.code if isinstance(e.code, int) else 1
+        finally:
+            os.chdir(before)
         out, err = capfd.readouterr()
         return subprocess.CompletedProcess(list(args), code, out, err)
 

@@ -1,34 +1,27 @@
-"""The command line: exit codes and messages. Each command that works runs as a user runs
-it, in a process of its own; the refusals run in this one (the ``here`` fixture), as each
-ends before it starts anything."""
-
-import subprocess
-import sys
+"""The command line: exit codes and messages, each command run as the console command
+runs it (the ``here`` fixture: :func:`exoleg.cli.main` in this process, its output read at
+the descriptors). What only a process of its own shows (Ctrl-C, a closed pipe, SIGTERM) is
+in tests/test_honest_outputs.py and tests/test_bad_inputs.py."""
 
 import numpy as np
 import pytest
 
 
-def run(*args):
-    return subprocess.run([sys.executable, "-m", "exoleg.cli", *args], capture_output=True, check=False,
-                          text=True)
-
-
-def test_validate_passes_and_prints_table():
-    r = run("validate", "--quick")
+def test_validate_passes_and_prints_table(here):
+    r = here("validate", "--quick")
     assert r.returncode == 0, r.stdout + r.stderr
     assert "M vs Appendix B" in r.stdout and "0 failed" in r.stdout
 
 
-def test_bad_option_exits_2():
-    r = run("validate", "--bogus")
+def test_bad_option_exits_2(here):
+    r = here("validate", "--bogus")
     assert r.returncode == 2 and "unrecognized arguments" in r.stderr
 
 
-def test_simulate_default_writes_everything(tmp_path):
+def test_simulate_default_writes_everything(tmp_path, here):
     import json
 
-    r = run("simulate", "--out", str(tmp_path), "--duration", "6")
+    r = here("simulate", "--out", str(tmp_path), "--duration", "6")
     assert r.returncode == 0, r.stderr
     for name in ("timeseries.csv", "summary.json", "fig13.png", "fig14.png", "fig15.png"):
         assert (tmp_path / name).exists(), name
@@ -37,11 +30,11 @@ def test_simulate_default_writes_everything(tmp_path):
     assert "detailed (2x torque) vs simplified" in r.stdout
 
 
-def test_simulate_gait_with_leg_file(tmp_path):
+def test_simulate_gait_with_leg_file(tmp_path, here):
     import exoleg
 
     leg = exoleg.save_leg(exoleg.paper_leg(), tmp_path / "leg.toml")
-    r = run("simulate", "--reference", "gait", "--stride-time", "1.5", "--duration", "3",
+    r = here("simulate", "--reference", "gait", "--stride-time", "1.5", "--duration", "3",
             "--leg", str(leg), "--out", str(tmp_path / "o"), "--no-engine")
     assert r.returncode == 0, r.stderr
     assert "within Table 2" in r.stdout
@@ -56,10 +49,10 @@ def test_simulate_bad_options_are_one_line_exit_2(tmp_path, here):
         assert len(r.stderr.strip().splitlines()) == 1 and "error" in r.stderr, (args, r.stderr)
 
 
-def test_fit_writes_leg_file_that_simulate_accepts(tmp_path):
+def test_fit_writes_leg_file_that_simulate_accepts(tmp_path, here):
     import exoleg
 
-    r = run("fit", "--age", "8", "--sex", "female", "--height", "110", "--mass", "19.1",
+    r = here("fit", "--age", "8", "--sex", "female", "--height", "110", "--mass", "19.1",
             "--gmfcs", "4", "--out", str(tmp_path), "--no-simulate", "--write-leg")
     assert r.returncode == 0, r.stderr
     assert "DOES NOT FIT" in r.stdout and "62.8 cm" in r.stdout  # Table 1 rule: 62.8 cm
@@ -74,18 +67,18 @@ def test_fit_bad_child_is_one_line_exit_2(tmp_path, here):
     assert r.returncode == 2 and "height" in r.stderr and len(r.stderr.strip().splitlines()) == 1
 
 
-def test_population_writes_table_and_plot(tmp_path):
-    r = run("population", "--ages", "8,12", "--percentiles", "10,50,90", "--no-simulate",
+def test_population_writes_table_and_plot(tmp_path, here):
+    r = here("population", "--ages", "8,12", "--percentiles", "10,50,90", "--no-simulate",
             "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "coverage.csv").exists() and (tmp_path / "coverage.png").exists()
     assert "GMFCS IV female 8 y" in r.stdout
 
 
-def test_simulate_with_actuators(tmp_path):
+def test_simulate_with_actuators(tmp_path, here):
     import json
 
-    r = run("simulate", "--actuators", "--duration", "3", "--out", str(tmp_path))
+    r = here("simulate", "--actuators", "--duration", "3", "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr
     for name in ("timeseries.csv", "summary.json", "actuators.png"):
         assert (tmp_path / name).exists(), name
@@ -103,19 +96,19 @@ def test_simulate_with_actuators(tmp_path):
     assert all(25.0 <= p["winding_max_C"] < p["winding_limit_C"] for p in figs["peaks"])
 
 
-def test_simulate_with_a_hip_variant(tmp_path):
+def test_simulate_with_a_hip_variant(tmp_path, here):
     import json
 
     # Reference: data/device/hip-variants/ec90flat-90w.toml (S1: the 90 W frame's 3060
     # g cm^2 rotor, reflected through 1:100 with the gear's 79 g cm^2: 3.139 kg m^2)
-    r = run("simulate", "--actuators", "--duration", "1", "--no-engine",
+    r = here("simulate", "--actuators", "--duration", "1", "--no-engine",
             "--hip-motor", "ec90flat-90w", "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert "90 W" in summary["actuators"][0]["motor"]
     hip = summary["figures"]["peaks"][0]
     assert hip["reflected_inertia_kg_m2"] == pytest.approx(100**2 * (3060e-7 + 0.079e-4))
-    r = run("simulate", "--hip-motor", "ec90flat-90w", "--out", str(tmp_path / "x"))
+    r = here("simulate", "--hip-motor", "ec90flat-90w", "--out", str(tmp_path / "x"))
     assert r.returncode == 2 and "goes with --walk or --actuators" in r.stderr
 
 
@@ -126,10 +119,10 @@ def test_simulate_with_actuators_bad_options(tmp_path, here):
         assert r.returncode == 2 and text in r.stderr, r.stderr
 
 
-def test_simulate_walk(tmp_path):
+def test_simulate_walk(tmp_path, here):
     import json
 
-    r = run("simulate", "--walk", "--strides", "3", "--out", str(tmp_path))
+    r = here("simulate", "--walk", "--strides", "3", "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr
     for name in ("timeseries.csv", "summary.json", "walk.png"):
         assert (tmp_path / name).exists(), name
@@ -143,12 +136,12 @@ def test_simulate_walk(tmp_path):
     assert "gait-phase detection" in r.stdout
 
 
-def test_simulate_walk_with_a_sensor_fault(tmp_path):
+def test_simulate_walk_with_a_sensor_fault(tmp_path, here):
     # the heel's sensor dead from 1.5 s: the controller read 0 from then (the
     # timeseries' readings are what it read) and summary.json names the fault
     import json
 
-    r = run("simulate", "--walk", "--strides", "2", "--sensor-fault", "heel:dead@1.5",
+    r = here("simulate", "--walk", "--strides", "2", "--sensor-fault", "heel:dead@1.5",
             "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr
     assert "heel reads 0 from 1.5 s" in r.stdout
@@ -167,7 +160,7 @@ def test_simulate_walk_with_a_child_under_assist_as_needed(tmp_path, here):
     from exoleg.child.model import ChildModel
 
     ChildModel("c", 10.0, 1.4, 32.0).save(tmp_path / "child.toml")
-    r = run("simulate", "--walk", "--child", str(tmp_path / "child.toml"), "--controller",
+    r = here("simulate", "--walk", "--child", str(tmp_path / "child.toml"), "--controller",
             "aan", "--strides", "6", "--out", str(tmp_path / "w"))
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "w" / "support.png").exists()
@@ -188,7 +181,7 @@ def test_simulate_walk_with_a_child_under_assist_as_needed(tmp_path, here):
     dev.mkdir()
     text = resources.files("exoleg").joinpath("data", "device", "assist.toml").read_text()
     (dev / "assist.toml").write_text(text.replace('law = "error"', 'law = "proportional"'))
-    r = run("simulate", "--walk", "--child", str(tmp_path / "child.toml"), "--controller",
+    r = here("simulate", "--walk", "--child", str(tmp_path / "child.toml"), "--controller",
             "aan", "--strides", "3", "--device", str(dev), "--out", str(tmp_path / "p"))
     assert r.returncode == 0, r.stderr
     figs = json.loads((tmp_path / "p" / "summary.json").read_text())["figures"]
@@ -230,8 +223,8 @@ def test_simulate_walk_bad_options(tmp_path, here):
         assert len(r.stderr.strip().splitlines()) == 1
 
 
-def test_validate_gait_phase_table():
-    r = run("validate", "--gait-phase", "--strides", "3")
+def test_validate_gait_phase_table(here):
+    r = here("validate", "--gait-phase", "--strides", "3")
     assert r.returncode in (0, 1), r.stderr  # 1: a walk was stopped by the safety layer
     assert "gait-phase detection (FSRs and the foot's gyroscope) against the true " \
         "contacts" in r.stdout

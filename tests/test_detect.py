@@ -10,6 +10,7 @@ from __future__ import annotations
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -27,9 +28,8 @@ from exoleg.tick import SENSOR_POINTS
 NO_RT = [] if REALTIME else ["--no-realtime"]
 
 
-def _detect(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "exoleg.cli", "detect", *args],
-                          capture_output=True, text=True, check=False, timeout=300)
+def _detect(here: Any, *args: str) -> subprocess.CompletedProcess[str]:
+    return here("detect", *args)  # type: ignore[no-any-return]
 
 
 def _events(bits: np.ndarray, t: np.ndarray) -> list[tuple[float, str]]:
@@ -49,7 +49,7 @@ def _write(path: Path, cols: dict[str, np.ndarray], fmt: dict[str, str]) -> None
             f.write(",".join(format(cols[n][k], fmt.get(n, ".9g")) for n in names) + "\n")
 
 
-def test_the_walks_own_counts_give_the_walks_own_events(walk, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+def test_the_walks_own_counts_give_the_walks_own_events(here: Any, walk, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     # The same detector on the same counts and IMU readings: the events the simulated
     # device's controller detected while walking, tick for tick.
     cols = {"t": walk.t, **{s: walk.fsr[:, i] for i, s in enumerate(SENSOR_POINTS)},
@@ -58,7 +58,7 @@ def test_the_walks_own_counts_give_the_walks_own_events(walk, tmp_path: Path) ->
     _write(rec, cols, {s: ".0f" for s in SENSOR_POINTS} | {
         s: ".17g" for s in ("gyro", "acc_x", "acc_y")})
     out = tmp_path / "events.csv"
-    r = _detect(str(rec), "--counts", "--out", str(out))
+    r = _detect(here, str(rec), "--counts", "--out", str(out))
     assert r.returncode == 0, r.stderr
     pd = pytest.importorskip("pandas", reason="pandas (exoleg[dev])")
     got = pd.read_csv(out)
@@ -66,7 +66,7 @@ def test_the_walks_own_counts_give_the_walks_own_events(walk, tmp_path: Path) ->
     assert list(zip(got.t.round(6), got.event, strict=True)) == _events(walk.events, walk.t)
 
 
-def test_forces_at_100_hz_against_the_true_contacts(walk, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+def test_forces_at_100_hz_against_the_true_contacts(here: Any, walk, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     # A recording as a lab's would be: forces in N at 100 Hz (the true loads under the
     # sensors' regions: a dense insole's, the toes' tips among them), the true events as
     # the reference column. The board holds each sample for 10 ticks: initial contact is
@@ -82,7 +82,7 @@ def test_forces_at_100_hz_against_the_true_contacts(walk, tmp_path: Path) -> Non
     rec = tmp_path / "forces.csv"
     _write(rec, cols, {"reference": "d"})
     out = tmp_path / "events.csv"
-    r = _detect(str(rec), "--out", str(out))
+    r = _detect(here, str(rec), "--out", str(out))
     assert r.returncode == 0, r.stderr
     assert "samples at 100 Hz" in r.stdout and "against the reference column" in r.stdout
     from exoleg.control.replay import detect_events, event_rows, read_recording
@@ -123,7 +123,8 @@ def test_the_device_readings_at_100_hz_against_the_true_contacts(walk, tmp_path:
 
 
 @pytest.mark.parametrize("insole", [False, True], ids=["one foot", "both feet"])
-def test_a_session_log_gives_the_sessions_own_events(tmp_path: Path, insole: bool) -> None:
+def test_a_session_log_gives_the_sessions_own_events(here: Any, tmp_path: Path,
+                                                     insole: bool) -> None:
     # exoleg run on the simulated device logs the events its controller detected each
     # tick; the same detector over the log's counts finds them again -- with the
     # unassisted foot's insole fitted too (a device folder's sensors.toml [other_foot]):
@@ -144,7 +145,7 @@ def test_a_session_log_gives_the_sessions_own_events(tmp_path: Path, insole: boo
                         *device], capture_output=True, text=True, timeout=300, check=False)
     assert r.returncode == 0, (r.stdout[:300], r.stderr)
     out = tmp_path / "events.csv"
-    r = _detect(str(session), "--out", str(out))
+    r = _detect(here, str(session), "--out", str(out))
     assert r.returncode == 0, r.stderr
     from exoleg.session_log import read_log
 
@@ -185,12 +186,13 @@ BAD: list[tuple[str, str, str]] = [
 
 
 @pytest.mark.parametrize("case,text,said", BAD, ids=[c[0] for c in BAD])
-def test_a_bad_recording_is_one_line_naming_the_column_or_value(tmp_path: Path, case: str,
-                                                               text: str, said: str) -> None:
+def test_a_bad_recording_is_one_line_naming_the_column_or_value(here: Any, tmp_path: Path,
+                                                               case: str, text: str,
+                                                               said: str) -> None:
     rec = tmp_path / "rec.csv"
     rec.write_text(text)
     out = tmp_path / "events.csv"
-    r = _detect(str(rec), "--out", str(out))
+    r = _detect(here, str(rec), "--out", str(out))
     assert r.returncode == 2, (case, r.stdout, r.stderr)
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("exoleg: error:"), (case, r.stderr)
@@ -212,7 +214,7 @@ def test_an_absurdly_long_recording_is_refused(tmp_path: Path, monkeypatch) -> N
         replay.read_recording(rec)
 
 
-def test_files_that_are_not_recordings(tmp_path: Path) -> None:
+def test_files_that_are_not_recordings(here: Any, tmp_path: Path) -> None:
     binary = tmp_path / "b.csv"
     binary.write_bytes(bytes(range(256)))
     good = tmp_path / "good.csv"
@@ -235,7 +237,7 @@ def test_files_that_are_not_recordings(tmp_path: Path) -> None:
                         "session.log: the events are a CSV"),
                        ([str(good), "--out", str(tmp_path / "e.csv"), "--stride", "9"],
                         "outside 0.4-4 s")):
-        r = _detect(*args)
+        r = _detect(here, *args)
         assert r.returncode == 2 and said in r.stderr and "Traceback" not in r.stderr, \
             (args, r.stderr)
     assert good.read_text().startswith("t,heel")  # nothing a user wrote is lost

@@ -27,7 +27,7 @@ FENCE = re.compile(r"^```(\w*)\n(.*?)^```", re.S | re.M)
 #: runs one page's blocks in order in this (fresh) interpreter: Python blocks in one
 #: namespace, shell lines as exoleg commands, a server started, asked and interrupted
 RUNNER = r'''
-import json, os, re, shlex, signal, subprocess, sys, time
+import contextlib, io, json, os, re, shlex, signal, subprocess, sys, time
 blocks = json.loads(sys.argv[1])
 ns = {"__name__": "__main__"}
 for i, (lang, code) in enumerate(blocks):
@@ -44,10 +44,17 @@ for i, (lang, code) in enumerate(blocks):
         expected = int(said.group(1)) if said else 0
         argv = [sys.executable, "-m", "exoleg.cli", *shlex.split(line)[1:]]
         if argv[3] != "hmi":
-            r = subprocess.run(argv, capture_output=True, text=True)
-            if r.returncode != expected:
-                sys.exit(f"{line}\nexit {r.returncode}, the page says {expected}\n"
-                         f"{r.stderr}\n{r.stdout[-1500:]}")
+            # as the console command runs it (exoleg.cli.main), in this interpreter
+            from exoleg.cli import main
+            out, err = io.StringIO(), io.StringIO()
+            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+                try:
+                    code = main(argv[3:])
+                except SystemExit as e:
+                    code = e.code if isinstance(e.code, int) else 1
+            if code != expected:
+                sys.exit(f"{line}\nexit {code}, the page says {expected}\n"
+                         f"{err.getvalue()}\n{out.getvalue()[-1500:]}")
             continue
         import httpx
         with open("hmi.txt", "w") as f:

@@ -31,11 +31,6 @@ LEG = exoleg.paper_leg()
 HOLD = np.zeros((2, 3))
 
 
-def _cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "exoleg.cli", *args], capture_output=True,
-                          text=True, check=False, cwd=cwd, timeout=300)
-
-
 # ------------------------------------------------------------------ refused before the run
 @pytest.mark.parametrize("kwargs,text", [
     ({"duration": 1e-9}, "less than one step"),             # wrote uninitialised memory
@@ -156,12 +151,12 @@ def test_growth_beyond_3_sd_is_linear() -> None:
 
 
 # ------------------------------------------------------------------- verdicts and leg files
-def test_fit_states_demand_over_the_device_apart_from_geometry(tmp_path: Path) -> None:
+def test_fit_states_demand_over_the_device_apart_from_geometry(tmp_path: Path, here: Any) -> None:
     # This child fits geometrically, but normative gait asks the ankle for more speed than
     # its motor reaches at 24 V (218 deg/s = V / (k_t N), device-datasheets.md D), and the
     # simulated gait on the device (its reflected inertia) more knee torque than the
     # knee's 2 x I_N current limit gives (30.45 N m): "FITS" alone would hide that.
-    r = _cli("fit", "--age", "9.5", "--sex", "female", "--height", "125", "--mass", "24",
+    r = here("fit", "--age", "9.5", "--sex", "female", "--height", "125", "--mass", "24",
              "--gmfcs", "3", "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr
     assert "geometric fit: FITS" in r.stdout
@@ -180,18 +175,18 @@ def test_fit_states_demand_over_the_device_apart_from_geometry(tmp_path: Path) -
     assert meta["fits"] and "ankle speed" in meta["note"]
 
 
-def test_leg_for_a_child_who_does_not_fit_only_on_request(tmp_path: Path) -> None:
+def test_leg_for_a_child_who_does_not_fit_only_on_request(tmp_path: Path, here: Any) -> None:
     args = ["fit", "--age", "8", "--sex", "female", "--height", "110", "--mass", "19.1",
             "--gmfcs", "4", "--no-simulate"]
-    r = _cli(*args, "--out", str(tmp_path / "a"))
+    r = here(*args, "--out", str(tmp_path / "a"))
     assert r.returncode == 0 and "DOES NOT FIT" in r.stdout
     assert not (tmp_path / "a" / "leg.toml").exists()
     assert (tmp_path / "a" / "fit.json").exists()
-    r = _cli(*args, "--out", str(tmp_path / "b"), "--write-leg")
+    r = here(*args, "--out", str(tmp_path / "b"), "--write-leg")
     leg_file = tmp_path / "b" / "leg.toml"
     assert "THE DEVICE DOES NOT FIT THIS CHILD" in leg_file.read_text()
     assert read_leg_file(leg_file)[3]["fits"] is False
-    s = _cli("simulate", "--leg", str(leg_file), "--duration", "0.5", "--no-engine",
+    s = here("simulate", "--leg", str(leg_file), "--duration", "0.5", "--no-engine",
              "--out", str(tmp_path / "s"))
     assert s.returncode == 0 and "warning:" in s.stdout and "does not fit" in s.stdout
     notes = json.loads((tmp_path / "s" / "summary.json").read_text())["notes"]
@@ -207,8 +202,8 @@ def test_population_rows_and_heat_map_tell_demand_apart() -> None:
     assert r.margin < 1 and not r.within_limits and "ankle speed" in r.exceeds_where
 
 
-def test_summary_compares_with_the_paper_only_on_its_scenario(tmp_path: Path) -> None:
-    r = _cli("simulate", "--reference", "gait", "--duration", "1.2", "--no-engine",
+def test_summary_compares_with_the_paper_only_on_its_scenario(tmp_path: Path, here: Any) -> None:
+    r = here("simulate", "--reference", "gait", "--duration", "1.2", "--no-engine",
              "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr
     assert "Fig. 13" not in r.stdout and "Fig. 14" not in r.stdout
@@ -216,17 +211,17 @@ def test_summary_compares_with_the_paper_only_on_its_scenario(tmp_path: Path) ->
     assert json.loads((tmp_path / "summary.json").read_text())["paper_scenario"] is False
 
 
-def test_svg_figures(tmp_path: Path) -> None:
+def test_svg_figures(tmp_path: Path, here: Any) -> None:
     import xml.etree.ElementTree as ET
 
-    r = _cli("simulate", "--svg", "--duration", "3", "--no-engine", "--out", str(tmp_path))
+    r = here("simulate", "--svg", "--duration", "3", "--no-engine", "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr  # crashed: print_svg() got 'pil_kwargs'
     for n in (13, 14, 15):
         assert ET.parse(tmp_path / f"fig{n}.svg").getroot().tag.endswith("svg")
     assert (tmp_path / "summary.json").exists()
 
 
-def test_names_round_trip_through_toml(tmp_path: Path) -> None:
+def test_names_round_trip_through_toml(tmp_path: Path, here: Any) -> None:
     name = 'leg "A" \\ b\nc \u00e9'
     links = [exoleg.Link(lk.mass, lk.length, lk.com, lk.izz, name=f'{lk.name} "x"')
              for lk in LEG.links]
@@ -238,8 +233,7 @@ def test_names_round_trip_through_toml(tmp_path: Path) -> None:
 
 # --------------------------------------------------------------- outputs whole or not at all
 def _previous(out: Path) -> dict[str, str]:
-    r = _cli("simulate", "--duration", "0.5", "--no-engine", "--out", str(out))
-    assert r.returncode == 0, r.stderr
+    assert main(["simulate", "--duration", "0.5", "--no-engine", "--out", str(out)]) == 0
     (out / "mine.txt").write_text("the user's own file")
     return {p.name: p.read_text(errors="replace") for p in out.iterdir()}
 
@@ -255,6 +249,7 @@ def test_interrupt_while_writing_keeps_the_previous_output(
         raise KeyboardInterrupt
 
     monkeypatch.setattr(exoleg.SimResult, "to_csv", half_then_interrupt)
+    capsys.readouterr()
     assert main(["simulate", "--duration", "1", "--no-engine", "--out", str(out)]) == 130
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "interrupted" in err

@@ -14,6 +14,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -24,11 +25,6 @@ from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, run_session
 from exoleg.runtime.sim_backend import SimBackend
 from exoleg.session_log import MAX_LOSS_TICKS, SessionLog, read_log
 from exoleg.tick import Command
-
-
-def _cli(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "exoleg.cli", *args], capture_output=True,
-                          text=True, check=False, timeout=300)
 
 
 @pytest.fixture(scope="module")
@@ -45,15 +41,15 @@ def _session(tmp_path: Path, backend: SimBackend, controller, duration: float,  
     return res, read_log(tmp_path / "s.log")[1]
 
 
-def test_cli_run_and_log_summary(tmp_path: Path) -> None:
-    r = _cli("run", "--backend", "sim", "--duration", "2", "--arm", "--walk-after", "1",
+def test_cli_run_and_log_summary(tmp_path: Path, here: Any) -> None:
+    r = here("run", "--backend", "sim", "--duration", "2", "--arm", "--walk-after", "1",
              "--no-realtime", "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr
     run = json.loads((tmp_path / "run.json").read_text())
     # walking at the end of the duration: a controlled stop, then the torque off
     assert run["stopped_by"].startswith("duration, after a controlled stop to STANDING")
     assert 2000 < run["ticks"] <= 2000 + 5000
-    s = _cli("log", "summary", str(tmp_path), "--csv", str(tmp_path / "series.csv"))
+    s = here("log", "summary", str(tmp_path), "--csv", str(tmp_path / "series.csv"))
     assert s.returncode == 0, s.stderr
     header = (tmp_path / "series.csv").read_text().splitlines()[0].split(",")
     assert {"t", "q_meas_knee", "fsr_heel", "u_ankle", "mode", "safety_status"} <= set(header)
@@ -198,23 +194,23 @@ def test_log_survives_sigkill(tmp_path: Path) -> None:
     assert header["max_loss_ticks"] == MAX_LOSS_TICKS
 
 
-def test_log_summary_of_a_cut_and_of_a_bad_file(tmp_path: Path) -> None:
-    r = _cli("run", "--duration", "0.5", "--no-realtime", "--out", str(tmp_path))
+def test_log_summary_of_a_cut_and_of_a_bad_file(tmp_path: Path, here: Any) -> None:
+    r = here("run", "--duration", "0.5", "--no-realtime", "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr
     log = tmp_path / "session.log"
     data = log.read_bytes()
     log.write_bytes(data[:-13])  # a record cut short, as a crash mid-write would
-    s = _cli("log", "summary", str(log))
+    s = here("log", "summary", str(log))
     assert s.returncode == 0 and "cut_record_bytes" in s.stdout
     (tmp_path / "bad.log").write_bytes(b"\x00\x01binary")
     for bad, text in ((tmp_path / "bad.log", "not an exoleg session log"),
                       (tmp_path / "missing.log", "no such session log")):
-        s = _cli("log", "summary", str(bad))
+        s = here("log", "summary", str(bad))
         assert s.returncode == 2 and text in s.stderr and len(s.stderr.splitlines()) == 1
 
 
-def test_run_refuses_walking_without_arming(tmp_path: Path) -> None:
-    r = _cli("run", "--duration", "1", "--walk-after", "0.5", "--out", str(tmp_path))
+def test_run_refuses_walking_without_arming(tmp_path: Path, here: Any) -> None:
+    r = here("run", "--duration", "1", "--walk-after", "0.5", "--out", str(tmp_path))
     assert r.returncode == 2 and "needs --arm" in r.stderr
 
 
@@ -423,17 +419,17 @@ def _files(folder: Path) -> dict[str, bytes]:
     return {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if p.is_file()}
 
 
-def test_a_recorded_session_is_never_written_over(tmp_path: Path) -> None:
+def test_a_recorded_session_is_never_written_over(tmp_path: Path, here: Any) -> None:
     # Issue 20, point 5: `exoleg run --out DIR` silently overwrote an earlier session;
     # two runs into one folder interleaved; a SIGTERM in the first ~40 ms wiped the
     # earlier session; `log summary --csv DIR/session.log` overwrote its own input.
     from exoleg.runtime.session import LOCK_FILE, claim_folder
 
     earlier = tmp_path / "earlier"
-    assert _cli("run", "--duration", "0.3", "--no-realtime", "--out",
+    assert here("run", "--duration", "0.3", "--no-realtime", "--out",
                 str(earlier)).returncode == 0
     before = _files(earlier)
-    r = _cli("run", "--duration", "0.3", "--no-realtime", "--out", str(earlier))
+    r = here("run", "--duration", "0.3", "--no-realtime", "--out", str(earlier))
     assert r.returncode == 2 and "holds a recorded session (session.log, run.json)" in \
         r.stderr and len(r.stderr.splitlines()) == 1, r.stderr
     # signals at start-up, as early as a person's Ctrl-C or a supervisor's SIGTERM
@@ -450,7 +446,7 @@ def test_a_recorded_session_is_never_written_over(tmp_path: Path) -> None:
     busy = tmp_path / "busy"
     folder, lock = claim_folder(busy)
     try:
-        r = _cli("run", "--duration", "0.3", "--no-realtime", "--out", str(busy))
+        r = here("run", "--duration", "0.3", "--no-realtime", "--out", str(busy))
         assert r.returncode == 2 and "is in use by another run (process " \
             f"{os.getpid()})" in r.stderr, r.stderr
     finally:
@@ -458,7 +454,7 @@ def test_a_recorded_session_is_never_written_over(tmp_path: Path) -> None:
     assert _files(busy) == {LOCK_FILE: str(os.getpid()).encode()}  # nothing else written
     # an export never writes over its own input nor a session's records
     for target in ("session.log", "run.json", "control.log"):
-        r = _cli("log", "summary", str(earlier), "--csv", str(earlier / target))
+        r = here("log", "summary", str(earlier), "--csv", str(earlier / target))
         assert r.returncode == 2 and "name another file" in r.stderr, r.stderr
     assert _files(earlier) == before
 
