@@ -12,8 +12,8 @@ from __future__ import annotations
 import csv
 import json
 import subprocess
-import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -63,12 +63,12 @@ def test_the_history_carries_each_sessions_figures(records: tuple[Path, str]) ->
     assert h["sessions"][0]["note"] == "first session; tolerated well"
 
 
-def test_the_command_lists_shows_and_exports(records: tuple[Path, str], tmp_path: Path) -> None:
+def test_the_command_lists_shows_and_exports(records: tuple[Path, str], tmp_path: Path,
+                                             here: Any) -> None:
     root, cid = records
 
     def cli(*a: str) -> subprocess.CompletedProcess[str]:
-        return subprocess.run([sys.executable, "-m", "exoleg.cli", "child", *a, "--sessions",
-                               str(root)], capture_output=True, text=True, timeout=120)
+        return here("child", *a, "--sessions", str(root))
 
     r = cli("list")
     assert r.returncode == 0 and cid in r.stdout and "Ada" not in r.stdout, r.stdout
@@ -95,7 +95,8 @@ def test_the_command_lists_shows_and_exports(records: tuple[Path, str], tmp_path
 
 
 def test_a_sessions_report_shows_the_childs_sessions_up_to_it(records: tuple[Path, str],
-                                                               tmp_path: Path) -> None:
+                                                               tmp_path: Path,
+                                                               here: Any) -> None:
     pypdf = pytest.importorskip("pypdf", reason="pypdf (exoleg[dev])")
     root, cid = records
     h = child_history(root, cid)
@@ -103,9 +104,7 @@ def test_a_sessions_report_shows_the_childs_sessions_up_to_it(records: tuple[Pat
 
     def text(session: str) -> str:
         out = tmp_path / f"{session}.pdf"
-        r = subprocess.run([sys.executable, "-m", "exoleg.cli", "report",
-                            str(root / session), "--out", str(out)], capture_output=True,
-                           text=True, timeout=120)
+        r = here("report", str(root / session), "--out", str(out))
         assert r.returncode == 0, r.stderr
         return "\n".join(p.extract_text() for p in pypdf.PdfReader(out).pages)
 

@@ -29,7 +29,7 @@ NO_RT = [] if REALTIME else ["--no-realtime"]
 
 
 def _detect(here: Any, *args: str) -> subprocess.CompletedProcess[str]:
-    return here("detect", *args)  # type: ignore[no-any-return]
+    return here("detect", *args)
 
 
 def _events(bits: np.ndarray, t: np.ndarray) -> list[tuple[float, str]]:

@@ -13,6 +13,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -107,21 +108,20 @@ def test_stops_in_a_clinicians_words() -> None:
     assert stop_in_words("").startswith("Not recorded: the session's run.json is missing")
 
 
-def test_a_report_is_a_pdf_and_never_over_a_record(session: Path, tmp_path: Path) -> None:
+def test_a_report_is_a_pdf_and_never_over_a_record(session: Path, tmp_path: Path,
+                                                   here: Any) -> None:
     for target, said in ((tmp_path / "r.txt", "a report is a PDF"),
                          (session / "run.json", "a report is a PDF"),
                          (tmp_path, "a report is a PDF")):
-        r = subprocess.run([sys.executable, "-m", "exoleg.cli", "report", str(session),
-                            "--out", str(target)], capture_output=True, text=True, timeout=120)
+        r = here("report", str(session), "--out", str(target))
         assert r.returncode == 2 and said in r.stderr and "Traceback" not in r.stderr, \
             r.stderr
-    r = subprocess.run([sys.executable, "-m", "exoleg.cli", "report", str(tmp_path)],
-                       capture_output=True, text=True, timeout=120)
+    r = here("report", str(tmp_path))
     assert r.returncode == 2 and "no session log here" in r.stderr
 
 
 def test_a_damaged_run_record_or_a_vanished_device_folder_keeps_the_figures(
-        session: Path, tmp_path: Path) -> None:
+        session: Path, tmp_path: Path, here: Any) -> None:
     """run.json a list, or its fields of other types (a hand-edited or damaged record),
     was an internal error that lost the whole report; the session's device folder since
     moved or deleted would have been too. The figures come from the log; how the session
@@ -154,6 +154,5 @@ def test_a_damaged_run_record_or_a_vanished_device_folder_keeps_the_figures(
     gone = {"device": {"folder": str(tmp_path / "moved-away")}}
     assert all(np.isnan(figures._cuff_limits(gone, {})))
     (copy / "child.json").write_text("[1]")  # (a list: the report's name line failed)
-    r = subprocess.run([sys.executable, "-m", "exoleg.cli", "report", str(copy), "--out",
-                        str(tmp_path / "r.pdf")], capture_output=True, text=True, timeout=120)
+    r = here("report", str(copy), "--out", str(tmp_path / "r.pdf"))
     assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr

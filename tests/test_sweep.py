@@ -86,21 +86,21 @@ def test_a_bad_study_is_refused_naming_the_key(text: str, key: str) -> None:
     assert e.value.field.startswith(key), (e.value.field, str(e.value))
 
 
-def test_a_bad_study_file_is_one_line_exit_2(tmp_path: Path) -> None:
+def test_a_bad_study_file_is_one_line_exit_2(tmp_path: Path, here: Any) -> None:
     bad = tmp_path / "bad.toml"
     bad.write_text("[axes]\nage = [30]\n")
-    r = cli("sweep", str(bad), "--out", str(tmp_path / "o"))
+    r = here("sweep", str(bad), "--out", str(tmp_path / "o"))
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
     assert "axes.age: 30 is outside 2-20" in r.stderr
     assert not (tmp_path / "o").exists()  # nothing written
     binary = tmp_path / "bin.toml"
     binary.write_bytes(b"\x00\x01\xff" * 10)
-    r = cli("sweep", str(binary), "--out", str(tmp_path / "o"))
+    r = here("sweep", str(binary), "--out", str(tmp_path / "o"))
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
     good = tmp_path / "good.toml"
     good.write_text(TINY)
     (tmp_path / "afile").write_text("x")
-    r = cli("sweep", str(good), "--out", str(tmp_path / "afile"))
+    r = here("sweep", str(good), "--out", str(tmp_path / "afile"))
     assert r.returncode == 2 and "--out: is a file" in r.stderr, r.stderr
 
 
@@ -276,7 +276,7 @@ def _write(path: Path, text: str) -> Path:
 
 @needs_dask
 def test_the_small_sweep_on_three_schedulers_interrupted_and_resumed(
-        tmp_path: Path, terminal_ctrl_c: Any) -> None:
+        tmp_path: Path, terminal_ctrl_c: Any, here: Any) -> None:
     """The shipped small study (64 runs in 16 tasks) three times: (1) on the default
     LocalCluster through the command line, interrupted by a real SIGINT once some tasks
     are done and run again -- every task computed exactly once, counted in tasks.log;
@@ -325,17 +325,17 @@ def test_the_small_sweep_on_three_schedulers_interrupted_and_resumed(
     meta = pq.read_schema(part).metadata
     assert meta[b"exoleg.study"].decode() == small and meta[b"exoleg.version"]
     # another study in the same folder is refused; the summary reads it
-    r = cli("sweep", str(_write(tmp_path / "t.toml", TINY)), "--out", str(out))
+    r = here("sweep", str(_write(tmp_path / "t.toml", TINY)), "--out", str(out))
     assert r.returncode == 2 and "holds another study" in r.stderr
-    r = cli("sweep", "--summary", str(out), "--x", "age", "--y", "group")
+    r = here("sweep", "--summary", str(out), "--x", "age", "--y", "group")
     assert r.returncode == 0, r.stderr
     assert (out / "summary-age-group.csv").exists() and (out / "summary-age-group.png").exists()
     lines = (out / "summary-age-group.csv").read_text().splitlines()
     assert len(lines) == 1 + 4 * 2  # ages x groups
-    r = cli("sweep", "--summary", str(out), "--x", "colour")
+    r = here("sweep", "--summary", str(out), "--x", "colour")
     assert r.returncode == 2 and "--x: 'colour' is not a column" in r.stderr
     # a device beside a summary was dropped without a word (the runs hold theirs)
-    r = cli("sweep", "--summary", str(out), "--device", str(tmp_path))
+    r = here("sweep", "--summary", str(out), "--device", str(tmp_path))
     assert r.returncode == 2 and "--workers or --device (the study's runs" in r.stderr
     # one axis twice is refused; one axis given, the other is a default that differs (the
     # study sweeps hip_motor, speed, ...: --y hip_motor alone tabled hip_motor twice)
