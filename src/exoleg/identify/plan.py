@@ -82,13 +82,23 @@ class Plan:
         return self.at(np.arange(0.0, self.duration + 0.5 * dt, dt))
 
     def at(self, t: F64) -> tuple[F64, F64, F64, F64]:
-        """(t, q, dq, ddq) at the times ``t`` (s from the plan's start)."""
+        """(t, q, dq, ddq) at the times ``t`` (s from the plan's start). The harmonics'
+        sines and cosines by the angle-addition recurrence from the first's (a sine and a
+        cosine per sample, not one per harmonic: the plan's checks sample two minutes at
+        1 kHz hundreds of times; within 1e-12 rad of the direct ones)."""
         w = 2 * np.pi / self.period
-        k = np.arange(1, self.a.shape[1] + 1)
-        s, c = np.sin(np.outer(t, k) * w), np.cos(np.outer(t, k) * w)
+        n = self.a.shape[1]
+        kw = np.arange(1, n + 1) * w
+        x = w * np.asarray(t, dtype=float)
+        s, c = np.empty((x.size, n)), np.empty((x.size, n))
+        s1, c1 = np.sin(x), np.cos(x)
+        s[:, 0], c[:, 0] = s1, c1
+        for j in range(1, n):
+            s[:, j] = s[:, j - 1] * c1 + c[:, j - 1] * s1
+            c[:, j] = c[:, j - 1] * c1 - s[:, j - 1] * s1
         q = self.centre + s @ self.a.T + c @ self.b.T
-        dq = (c * k * w) @ self.a.T - (s * k * w) @ self.b.T
-        ddq = -(s * (k * w) ** 2) @ self.a.T - (c * (k * w) ** 2) @ self.b.T
+        dq = c @ (self.a * kw).T - s @ (self.b * kw).T
+        ddq = -(s @ (self.a * kw**2).T + c @ (self.b * kw**2).T)
         return t, q, dq, ddq
 
 
