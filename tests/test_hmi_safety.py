@@ -505,6 +505,38 @@ def test_the_heartbeat_outlives_a_busy_server_not_a_hung_one(tmp_path: Path) -> 
     assert api.stall_max_s >= 2 * LINK_TIMEOUT_S  # the busy stall, measured by the watch
 
 
+def test_the_heartbeat_outlives_a_loop_frozen_mid_write(tmp_path: Path) -> None:
+    # Found in a serial run of the browser tests: a session's process stopped by the OS
+    # while it wrote the shared block (the overrun case of the test above froze it so)
+    # left the block mid-write past the web side's 10 ms of retries; the copy's error
+    # ended the heartbeat's thread, and from then on no session of that console was
+    # beaten: one started later never saw its link lost when the server froze (a link
+    # never beaten is not lost), and the loop's answers went unlogged. Fault injection:
+    # the block held mid-write for 0.2 s, then released -- the heartbeat goes on, the
+    # failure said once in the session's log.
+    from exoleg.runtime.control_api import ControlAPI
+    from exoleg.runtime.link import LoopLink
+
+    api, link = ControlAPI(folder=tmp_path), LoopLink.new()
+    api.attach(link, tmp_path)
+    seen: dict[str, bool] = {}
+
+    async def server() -> None:
+        watch = asyncio.create_task(api.watch())
+        await asyncio.sleep(0.05)
+        link.view["seq"] += 1.0  # odd: the loop is writing it
+        await asyncio.sleep(0.2)
+        link.view["seq"] += 1.0  # written
+        await asyncio.sleep(2 * LINK_TIMEOUT_S)
+        seen["lost"] = link.link_lost()
+        watch.cancel()
+
+    asyncio.run(server())
+    assert seen == {"lost": False}
+    said = [a for a in actions(tmp_path) if a["command"] == "watch failed"]
+    assert len(said) == 1 and "mid-write" in said[0]["why"], said
+
+
 def test_one_real_device_one_process(tmp_path: Path) -> None:
     # Issue 36: two `exoleg hmi` could start sessions on the same device at once. A real
     # interface is held by the first process; the second, whatever its command, is

@@ -362,8 +362,22 @@ class ControlAPI(OperatorRules):
         self.stall_max_s = 0.0
 
         def beat() -> None:
+            # the watch beats first; what fails after it (a copy of the shared block torn
+            # past its retries by a loop the OS stopped mid-write) is said once in the
+            # log, and the watch goes on: a thread ended by it would leave every later
+            # session of this server unbeaten, and a link never beaten is never lost
+            said = ""
             while not stop.wait(0.005):
-                self.watch_once(beat=time.monotonic() - self._turned < EVENT_LOOP_STALL_S)
+                try:
+                    self.watch_once(
+                        beat=time.monotonic() - self._turned < EVENT_LOOP_STALL_S)
+                except Exception as e:
+                    text = f"{type(e).__name__}: {e}"
+                    if text != said:
+                        said = text
+                        self.record("hmi", "watch failed", False,  # (no copy needed)
+                                    why=f"{text} (the heartbeat goes on)",
+                                    log=self.log_path("session"))
 
         watcher = threading.Thread(target=beat, name="exoleg-heartbeat", daemon=True)
         watcher.start()
