@@ -26,6 +26,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Awaitable, Callable
 from pathlib import Path
 from typing import Any
 
@@ -477,30 +478,43 @@ def test_a_request_burst_during_a_walk(console: Any) -> None:
     c.release()
 
 
+def _watched(tmp_path: Path, scene: Callable[[Any], Awaitable[None]]) -> Any:
+    """A console's watch (:meth:`ControlAPI.watch` on an event loop) over a new session's
+    link while ``scene(link)`` runs beside it; the console."""
+    from exoleg.runtime.control_api import ControlAPI
+    from exoleg.runtime.link import LoopLink
+
+    api, link = ControlAPI(folder=tmp_path), LoopLink.new()
+    api.attach(link, tmp_path)
+
+    async def server() -> None:
+        watch = asyncio.create_task(api.watch())
+        await asyncio.sleep(0.05)
+        await scene(link)
+        watch.cancel()
+
+    asyncio.run(server())
+    return api
+
+
 def test_the_heartbeat_outlives_a_busy_server_not_a_hung_one(tmp_path: Path) -> None:
     # Issue 36: the heartbeat beat on the server's event loop, so a burst of requests
     # that held the event loop up for a second ended a walking session as a lost link.
     # Fault injection: the event loop held up (blocking work in it) for twice the link's
     # timeout -- the heartbeat goes on; held up past EVENT_LOOP_STALL_S -- a hung server,
     # the heartbeat stops and the link is lost (a dead or frozen process: at once).
-    from exoleg.runtime.control_api import EVENT_LOOP_STALL_S, ControlAPI
-    from exoleg.runtime.link import LoopLink
+    from exoleg.runtime.control_api import EVENT_LOOP_STALL_S
 
-    api, link = ControlAPI(folder=tmp_path), LoopLink.new()
-    api.attach(link, tmp_path)
     seen: dict[str, bool] = {}
 
-    async def server() -> None:
-        watch = asyncio.create_task(api.watch())
-        await asyncio.sleep(0.05)
+    async def busy_then_hung(link: Any) -> None:
         time.sleep(2 * LINK_TIMEOUT_S)  # busy: the event loop does not turn for 2 s
         seen["busy"] = link.link_lost()
         await asyncio.sleep(0.05)
         time.sleep(EVENT_LOOP_STALL_S + LINK_TIMEOUT_S + 0.5)  # hung
         seen["hung"] = link.link_lost()
-        watch.cancel()
 
-    asyncio.run(server())
+    api = _watched(tmp_path, busy_then_hung)
     assert seen == {"busy": False, "hung": True}
     assert api.stall_max_s >= 2 * LINK_TIMEOUT_S  # the busy stall, measured by the watch
 
@@ -514,24 +528,16 @@ def test_the_heartbeat_outlives_a_loop_frozen_mid_write(tmp_path: Path) -> None:
     # never beaten is not lost), and the loop's answers went unlogged. Fault injection:
     # the block held mid-write for 0.2 s, then released -- the heartbeat goes on, the
     # failure said once in the session's log.
-    from exoleg.runtime.control_api import ControlAPI
-    from exoleg.runtime.link import LoopLink
-
-    api, link = ControlAPI(folder=tmp_path), LoopLink.new()
-    api.attach(link, tmp_path)
     seen: dict[str, bool] = {}
 
-    async def server() -> None:
-        watch = asyncio.create_task(api.watch())
-        await asyncio.sleep(0.05)
+    async def torn(link: Any) -> None:
         link.view["seq"] += 1.0  # odd: the loop is writing it
         await asyncio.sleep(0.2)
         link.view["seq"] += 1.0  # written
         await asyncio.sleep(2 * LINK_TIMEOUT_S)
         seen["lost"] = link.link_lost()
-        watch.cancel()
 
-    asyncio.run(server())
+    _watched(tmp_path, torn)
     assert seen == {"lost": False}
     said = [a for a in actions(tmp_path) if a["command"] == "watch failed"]
     assert len(said) == 1 and "mid-write" in said[0]["why"], said
