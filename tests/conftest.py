@@ -146,17 +146,12 @@ def here(capfd: pytest.CaptureFixture[str]) -> Any:
 
     from exoleg.cli import main
 
-    def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
+    def run(*args: str) -> subprocess.CompletedProcess[str]:
         capfd.readouterr()
-        before = os.getcwd()
         try:
-            if cwd is not None:
-                os.chdir(cwd)
             code = main(list(args))
         except SystemExit as e:
             code = e.code if isinstance(e.code, int) else 1
-        finally:
-            os.chdir(before)
         out, err = capfd.readouterr()
         return subprocess.CompletedProcess(list(args), code, out, err)
 

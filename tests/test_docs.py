@@ -1,9 +1,9 @@
 """The README's and the guides' examples run exactly as written: each page's blocks in
 its order, from a fresh folder holding the checkout's ``examples/``, as a user pasting
 them would -- its Python blocks in one fresh interpreter (after a plain ``import
-exoleg``, which the page's first block does), its shell lines calling
-``.venv/bin/exoleg`` with this interpreter's exoleg, each of which must succeed (or
-end as its comment says: ``# exit 1: ...``).
+exoleg``, which the page's first block does), its ``.venv/bin/exoleg`` lines run in the
+same interpreter as the console command runs them (:func:`exoleg.cli.main`), each of
+which must succeed (or end as its comment says: ``# exit 1: ...``).
 ``make`` lines are what CI itself runs and are not repeated here; ``exoleg hmi`` (a
 server) must start, answer and stop on Ctrl-C."""
 
