@@ -526,13 +526,17 @@ def test_the_heartbeat_outlives_a_loop_frozen_mid_write(tmp_path: Path) -> None:
     # ended the heartbeat's thread, and from then on no session of that console was
     # beaten: one started later never saw its link lost when the server froze (a link
     # never beaten is not lost), and the loop's answers went unlogged. Fault injection:
-    # the block held mid-write for 0.2 s, then released -- the heartbeat goes on, the
-    # failure said once in the session's log.
+    # the block held mid-write until the watch's copy has given up (its retries are
+    # counted, so their time grows with the machine's load: 0.2 s was not enough once in
+    # CI), then released -- the heartbeat goes on, the failure said once in the log.
     seen: dict[str, bool] = {}
 
     async def torn(link: Any) -> None:
         link.view["seq"] += 1.0  # odd: the loop is writing it
-        await asyncio.sleep(0.2)
+        deadline = time.monotonic() + 30.0
+        while not (tmp_path / "control.log").exists() and time.monotonic() < deadline:
+            await asyncio.sleep(0.05)
+        await asyncio.sleep(0.2)  # the watch goes on failing meanwhile: said once
         link.view["seq"] += 1.0  # written
         await asyncio.sleep(2 * LINK_TIMEOUT_S)
         seen["lost"] = link.link_lost()
