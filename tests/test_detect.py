@@ -49,7 +49,8 @@ def _write(path: Path, cols: dict[str, np.ndarray], fmt: dict[str, str]) -> None
             f.write(",".join(format(cols[n][k], fmt.get(n, ".9g")) for n in names) + "\n")
 
 
-def test_the_walks_own_counts_give_the_walks_own_events(here: Any, walk, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+def test_the_walks_own_counts_give_the_walks_own_events(here: Any, walk: Any,
+                                                        tmp_path: Path) -> None:
     # The same detector on the same counts and IMU readings: the events the simulated
     # device's controller detected while walking, tick for tick.
     cols = {"t": walk.t, **{s: walk.fsr[:, i] for i, s in enumerate(SENSOR_POINTS)},
@@ -66,7 +67,7 @@ def test_the_walks_own_counts_give_the_walks_own_events(here: Any, walk, tmp_pat
     assert list(zip(got.t.round(6), got.event, strict=True)) == _events(walk.events, walk.t)
 
 
-def test_forces_at_100_hz_against_the_true_contacts(here: Any, walk, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+def test_forces_at_100_hz_against_the_true_contacts(here: Any, walk: Any, tmp_path: Path) -> None:
     # A recording as a lab's would be: forces in N at 100 Hz (the true loads under the
     # sensors' regions: a dense insole's, the toes' tips among them), the true events as
     # the reference column. The board holds each sample for 10 ticks: initial contact is
