@@ -224,7 +224,9 @@ def test_a_walking_session_survives_a_request_burst_and_a_browser_starting(
             browser = None if browser_missing() else chromium()
             if browser is not None:
                 browser.get(hmi.url)
-            answered = json.loads(clients.communicate(timeout=300)[0])
+            said = clients.communicate(timeout=300)[0]
+            assert clients.returncode == 0, said  # (its error on this test's stderr)
+            answered = json.loads(said)
         finally:
             done.set()
             keeper.join()
