@@ -20,7 +20,7 @@ import pytest
 import exoleg
 from conftest import REALTIME
 from exoleg.runtime.contract import check_device
-from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, run_session
+from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, OVERRUN_S, run_session
 from exoleg.runtime.session import simulated_overrun
 from exoleg.runtime.sim_backend import SimBackend
 from exoleg.session_log import SessionLog, read_log
@@ -142,7 +142,7 @@ def _session(device: Any, sim: SimBackend, path: Path) -> dict[str, np.ndarray]:
 
     res = run_session(device, sim.controller, 2.0, 1e-3, log,
                       {0: int(Command.ARM), 500: int(Command.WALK)}, realtime=REALTIME,
-                      scenery=scenery)
+                      overrun=simulated_overrun() or OVERRUN_S, scenery=scenery)
     device.deactivate()
     assert res.stopped_by.startswith("duration"), res.stopped_by
     return read_log(path)[1]
