@@ -122,3 +122,44 @@ def test_a_childs_settings_follow_them_to_their_next_session(tmp_path: Path) -> 
     finally:
         hmi.close()
         reg.close()
+
+
+def test_a_session_killed_mid_write_ends_and_nothing_is_kept_from_it(tmp_path: Path) -> None:
+    # A session's process ended by the OS while it wrote the shared block (SIGKILL: the
+    # OOM killer, a crash) left the block mid-write for good: every copy of it failed,
+    # so the console's watch of the session ended at the settings it read at the end --
+    # the session was never said ended nor let go, and settings read from a torn block
+    # could mix two writes. Fault injection: the session's process stopped (SIGSTOP),
+    # its block marked mid-write, then killed. The console ends it, says so in its
+    # control.log, keeps nothing of it, and the child's next session starts and ends
+    # as any does.
+    import os
+    import signal
+
+    hmi = HMI(tmp_path)
+    reg = hmi.registry
+    assert reg is not None
+    try:
+        status, rec = hmi.fit({"name": "Ben", "age": 9, "sex": "male", "height": 133,
+                               "mass": 29}, "test")
+        assert status == 200, rec
+        cid = rec["child_id"]
+        name, folder = _session(hmi, 30.0)
+        link, pid = hmi.api.link, hmi.proc.pid
+        os.kill(pid, signal.SIGSTOP)
+        if float(link.view["seq"]) % 2 == 0:
+            link.view["seq"] += 1.0  # odd: stopped while writing
+        os.kill(pid, signal.SIGKILL)
+        _until("the session let go", lambda: hmi.api.link is None)
+        lines = [json.loads(x) for x in (folder / "control.log").read_text().splitlines()]
+        (torn,) = [a for a in lines if a["command"] == "session ended mid-write"]
+        assert not torn["accepted"] and f"exit code -{signal.SIGKILL.value}" in torn["why"]
+        assert "the settings it ended with are not kept" in torn["why"], torn
+        assert [a["command"] for a in lines][-1] == "session ended"
+        assert hmi.api.state()["running"] == "none"
+        assert reg.kept_settings(cid) is None  # nothing taken from the torn block
+        second, _ = _session(hmi, 2.0)
+        assert _ended(hmi, reg, cid, second)["support_mode"] == "impedance"
+    finally:
+        hmi.close()
+        reg.close()

@@ -275,11 +275,18 @@ class HMI:
         to it as it starts (:func:`~exoleg.hmi.settings.apply_settings`); when its process
         ends, the settings it ended with kept in the records, its last applied commands
         and how it ended in its control.log, and the page sees no session; an
-        identification's leg is kept for the sessions after (:meth:`keep_identified`)."""
+        identification's leg is kept for the sessions after (:meth:`keep_identified`). A
+        process that ended while writing the shared block leaves it sealed
+        (:meth:`~exoleg.runtime.link.LoopLink.web_seal`): nothing kept from it, said."""
         if settings is not None:
-            apply_settings(self.api, link, settings)
+            try:
+                apply_settings(self.api, link, settings)
+            except RuntimeError as e:  # the block mid-write past the copy's retries
+                self.api.record("session", "kept settings", False,
+                                why=f"not given: {e}; the defaults stay")
         proc.join()
-        ended_with = settings_at_end(link)
+        torn = link.web_seal()
+        ended_with = None if torn else settings_at_end(link)
         if ended_with is not None and self.registry is not None:
             self.registry.keep_settings(folder.name, ended_with)
         with self.lock:
@@ -287,6 +294,12 @@ class HMI:
                 self.keep_identified(folder)
             if self.api.link is not link:  # a new session started in between
                 return
+            if torn:
+                self.api.record("session", "session ended mid-write", False,
+                                why=f"its process ended (exit code {proc.exitcode}) while "
+                                    "writing its state for the console: the state shown "
+                                    "last may mix two ticks, and the settings it ended "
+                                    "with are not kept")
             self.api.poll_applied()
             stopped_by = self.archive.summary(folder)["stopped_by"]
             self.api.record("session", "session ended", True, why=stopped_by)

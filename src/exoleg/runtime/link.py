@@ -238,6 +238,19 @@ class LoopLink:
         return beat > 0.0 and time.monotonic() - beat > LINK_TIMEOUT_S
 
     # ------------------------------------------------------------ the web side
+    def web_seal(self) -> bool:
+        """After the loop's process has ended (and only then): a block it left mid-write
+        -- killed while writing, an odd sequence -- can never be completed, and every copy
+        of it would go on failing; sealed, marked ended with an even sequence, it reads
+        again. Returns whether it was torn: its fields may then mix two writes, so nothing
+        in it is taken as the session's own (the settings it ended with)."""
+        v = self.view
+        if float(v["seq"]) % 2 == 0:
+            return False
+        v["running"] = 2.0
+        v["seq"] += 1.0
+        return True
+
     def web_beat(self) -> None:
         """The web side is alive (its event loop calls this every few ms)."""
         self.beat.value = time.monotonic()
