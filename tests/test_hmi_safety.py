@@ -525,7 +525,7 @@ def test_the_heartbeat_outlives_a_loop_frozen_mid_write(tmp_path: Path) -> None:
     # left the block mid-write past the web side's 10 ms of retries; the copy's error
     # ended the heartbeat's thread, and from then on no session of that console was
     # beaten: one started later never saw its link lost when the server froze (a link
-    # never beaten is not lost), and the loop's answers went unlogged. Fault injection:
+    # never beaten was not lost then), and the loop's answers went unlogged. Fault injection:
     # the block held mid-write until the watch's copy has given up (its retries are
     # counted, so their time grows with the machine's load: 0.2 s was not enough once in
     # CI), then released -- the heartbeat goes on, the failure said once in the log.

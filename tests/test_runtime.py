@@ -505,3 +505,32 @@ def test_the_simulated_overrun_limit_is_read_checked_and_recorded(tmp_path: Path
                            env={**os.environ, "EXOLEG_SIM_OVERRUN_MS": bad}, check=False)
         assert r.returncode == 2 and "EXOLEG_SIM_OVERRUN_MS" in r.stderr and says in \
             r.stderr, r.stderr
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_a_link_never_beaten_is_lost(tmp_path: Path, compiled: bool) -> None:
+    """A session whose operator's side never beats its link (a server hung before its
+    first beat): lost within LINK_TIMEOUT_S of the loop's first look at it (every
+    BEAT_CHECK_TICKS ticks), as a link whose beats stopped is -- a controlled stop, then
+    the torque off. Before, a link never beaten was never lost: the session walked on
+    with nobody able to stop it from a page. Reference: the link's own rule (1 s)."""
+    from exoleg.runtime.link import BEAT_CHECK_TICKS, LINK_TIMEOUT_S, LoopLink
+    from exoleg.runtime.session import run
+    from exoleg.tick import Mode
+
+    res, log = run("sim", 6.0, tmp_path / "s", arm=True, walk_after=0.5,
+                   realtime=REALTIME, link=LoopLink.new(), overrun=OVERRUN,
+                   compiled=compiled)
+    assert res.stopped_by.startswith("link lost") and res.stopped_by.endswith("torque off")
+    cols = read_log(log)[1]
+    modes = [Mode(int(m)).name for m in cols["mode"]]
+    assert list(dict.fromkeys(modes)) == ["STANDING", "WALKING", "STOPPING"], modes
+    # the controlled stop begins at the first look 1 s after the loop's first, which is
+    # within BEAT_CHECK_TICKS of its start (the compiled loop's outside looks from before
+    # its first tick): measured at ticks 1,018 and 1,100 of 1,571; the ticks keep the
+    # wall clock's time when none was missed
+    stop = modes.index("STOPPING")
+    timeout = round(LINK_TIMEOUT_S / 1e-3)
+    assert stop <= timeout + 2 * BEAT_CHECK_TICKS, stop
+    if res.timing["missed"] == 0:
+        assert timeout - BEAT_CHECK_TICKS <= stop, stop

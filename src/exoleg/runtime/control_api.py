@@ -365,7 +365,7 @@ class ControlAPI(OperatorRules):
             # the watch beats first; what fails after it (a copy of the shared block torn
             # past its retries by a loop the OS stopped mid-write) is said once in the
             # log, and the watch goes on: a thread ended by it would leave every later
-            # session of this server unbeaten, and a link never beaten is never lost
+            # session of this server unbeaten (each then lost 1 s into its loop)
             said = ""
             while not stop.wait(0.005):
                 try:

@@ -14,10 +14,12 @@ blocking:
   in the pipe goes before anything queued with it;
 * a **heartbeat** the web side's event loop beats every few milliseconds
   (:meth:`LoopLink.web_beat`, the system's monotonic clock, shared by every process):
-  once it has beaten, a heartbeat older than :data:`LINK_TIMEOUT_S` -- the server's
-  process dead or hung, under ``exoleg hmi`` and under ``exoleg run --hmi`` alike -- is a
-  lost link (:data:`~exoleg.runtime.loop.LINK_LOST`): nobody could stop the device from a
-  page, so the session comes to a controlled stop and the torque goes off.
+  a heartbeat older than :data:`LINK_TIMEOUT_S` -- the server's process dead or hung,
+  under ``exoleg hmi`` and under ``exoleg run --hmi`` alike -- is a lost link
+  (:data:`~exoleg.runtime.loop.LINK_LOST`): nobody could stop the device from a page, so
+  the session comes to a controlled stop and the torque goes off. So is a link the web
+  side has not beaten within :data:`LINK_TIMEOUT_S` of the loop's first look at it (a
+  server that hung before its first beat).
 
 :class:`LoopLink` is picklable (its parts are ``multiprocessing`` objects): made in one
 process, passed to the other as a ``Process`` argument.
@@ -104,6 +106,7 @@ class LoopLink:
         self._late_max = 0.0
         self._missed = 0
         self._polls = 0
+        self._first_look: float | None = None  # the loop's first look at the heartbeat
 
     @classmethod
     def new(cls) -> LoopLink:
@@ -233,9 +236,15 @@ class LoopLink:
         v["seq"] += 1.0
 
     def link_lost(self) -> bool:
-        """Whether the web side, once it beat, has not beaten for :data:`LINK_TIMEOUT_S`."""
-        beat = float(self.beat.value)
-        return beat > 0.0 and time.monotonic() - beat > LINK_TIMEOUT_S
+        """Whether the web side has not beaten for :data:`LINK_TIMEOUT_S` -- or, never
+        having beaten, within that of this side's first look (the loop's; a link made
+        for a server that hung before it beat would otherwise never be lost)."""
+        beat, now = float(self.beat.value), time.monotonic()
+        if beat > 0.0:
+            return now - beat > LINK_TIMEOUT_S
+        if self._first_look is None:
+            self._first_look = now
+        return now - self._first_look > LINK_TIMEOUT_S
 
     # ------------------------------------------------------------ the web side
     def web_seal(self) -> bool:
