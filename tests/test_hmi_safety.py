@@ -522,13 +522,13 @@ def test_the_heartbeat_outlives_a_busy_server_not_a_hung_one(tmp_path: Path) -> 
 def test_the_heartbeat_outlives_a_loop_frozen_mid_write(tmp_path: Path) -> None:
     # Found in a serial run of the browser tests: a session's process stopped by the OS
     # while it wrote the shared block (the overrun case of the test above froze it so)
-    # left the block mid-write past the web side's retries (1000 copies: 60-100 ms); the copy's error
-    # ended the heartbeat's thread, and from then on no session of that console was
-    # beaten: one started later never saw its link lost when the server froze (a link
-    # never beaten was not lost then), and the loop's answers went unlogged. Fault injection:
-    # the block held mid-write until the watch's copy has given up (its retries are
-    # counted, so their time grows with the machine's load: 0.2 s was not enough once in
-    # CI), then released -- the heartbeat goes on, the failure said once in the log.
+    # left the block mid-write past the web side's retries (1000 copies: 60-100 ms); the
+    # copy's error ended the heartbeat's thread, and from then on no session of that
+    # console was beaten: one started later never saw its link lost when the server froze
+    # (a link never beaten was not lost then), and the loop's answers went unlogged. Fault
+    # injection: the block held mid-write until the watch's copy has given up (its
+    # retries are counted, so their time grows with the machine's load: 0.2 s was not
+    # enough once in CI), then released -- the heartbeat goes on, the failure said once.
     seen: dict[str, bool] = {}
 
     async def torn(link: Any) -> None:
