@@ -27,7 +27,7 @@ from exoleg.cli import main
 
 #: sessions of seconds ask for the loop's real-time settings where the OS permits them
 #: (conftest.REALTIME; at normal priority a session elsewhere in the suite was stalled
-#: 292 ms with its workers on both cores, beyond the 250 ms overrun limit)
+#: 292 ms with its workers on both cores, beyond the then 250 ms overrun limit)
 NO_RT = [] if REALTIME else ["--no-realtime"]
 
 

@@ -24,7 +24,7 @@ from exoleg.tick import SENSOR_POINTS
 #: a session of several seconds asks for the loop's real-time settings where the OS
 #: permits them (conftest.REALTIME): at normal priority, with the suite's workers on
 #: both cores, one was stalled 292 ms (CI of a fresh clone), beyond the simulated
-#: device's 250 ms overrun limit
+#: device's then 250 ms overrun limit
 NO_RT = [] if REALTIME else ["--no-realtime"]
 
 

@@ -38,6 +38,7 @@ httpx = pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
 from exoleg.hmi.testing import browser_missing, chromium, served_hmi, wait_until  # noqa: E402
 from exoleg.runtime.link import LINK_TIMEOUT_S  # noqa: E402
 from exoleg.runtime.operator import LEASE_S  # noqa: E402
+from exoleg.runtime.session import simulated_overrun  # noqa: E402
 
 missing = browser_missing()
 browser = pytest.mark.skipif(bool(missing), reason=f"no headless browser: {missing}")
@@ -332,9 +333,10 @@ def test_every_stop_is_explained_on_every_page(console: Any) -> None:
         assert not desk.find_element("id", "ended-banner").is_displayed()
         assert phone.find_element("id", "ended-banner").is_displayed()
 
-        # 2. a loop overrun: the session's process stalled past the overrun limit
+        # 2. a loop overrun: the session's process stalled past the overrun limit (the
+        # suite's for simulated devices, conftest)
         folder = c.start()
-        _freeze(c.session_pid(), 0.6)
+        _freeze(c.session_pid(), (simulated_overrun() or 0.05) + 0.35)
         run = ended(folder, c)
         assert run["stopped_by"].startswith("loop overrun")
         on_every_page(folder, run, "overrun")
