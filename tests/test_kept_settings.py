@@ -50,24 +50,29 @@ def _session(hmi: HMI, seconds: float = 3.0) -> tuple[str, Path]:
 
 
 @contextlib.contextmanager
-def _served(hmi: HMI) -> Iterator[HMI]:
-    """``hmi`` with the console's watch running beside it, as its server runs it (on an
-    event loop of its own): the heartbeat its sessions' loops look for -- a link nobody
-    beats is lost 1 s into the session; closed with its records after."""
+def _console(tmp_path: Path, child: dict[str, Any]) -> Iterator[tuple[HMI, Registry, str]]:
+    """A console (its records in ``tmp_path``) with ``child`` fitted and kept, and its
+    watch running beside it as its server runs it (on an event loop of its own): the
+    heartbeat its sessions' loops look for -- a link nobody beats is lost 1 s into the
+    session; (the console, its records, the child's id), closed after."""
+    hmi = HMI(tmp_path)
+    reg = hmi.registry
+    assert reg is not None
     loop = asyncio.new_event_loop()
     watch = loop.create_task(hmi.api.watch())
     thread = threading.Thread(target=lambda: loop.run_until_complete(
         asyncio.wait([watch])), daemon=True)
     thread.start()
     try:
-        yield hmi
+        status, rec = hmi.fit(child, "test")
+        assert status == 200, rec
+        yield hmi, reg, rec["child_id"]
     finally:
         loop.call_soon_threadsafe(watch.cancel)
         thread.join(timeout=10)
         loop.close()
         hmi.close()
-        if hmi.registry is not None:
-            hmi.registry.close()
+        reg.close()
 
 
 def _ended(hmi: HMI, reg: Registry, cid: str, name: str) -> dict[str, Any]:
@@ -86,14 +91,8 @@ def _kept_lines(folder: Path) -> list[dict[str, Any]]:
 
 
 def test_a_childs_settings_follow_them_to_their_next_session(tmp_path: Path) -> None:
-    hmi = HMI(tmp_path)
-    reg = hmi.registry
-    assert reg is not None
-    with _served(hmi):
-        status, rec = hmi.fit({"name": "Ada", "age": 8, "sex": "female", "height": 126,
-                               "mass": 25}, "test")
-        assert status == 200, rec
-        cid = rec["child_id"]
+    ada = {"name": "Ada", "age": 8, "sex": "female", "height": 126, "mass": 25}
+    with _console(tmp_path, ada) as (hmi, reg, cid):
         on = hmi.runs_on()
         assert on["settings"] is None and "default settings (no session of theirs yet)" \
             in on["text"]
@@ -161,16 +160,11 @@ def test_a_session_killed_mid_write_ends_and_nothing_is_kept_from_it(tmp_path: P
     import os
     import signal
 
-    hmi = HMI(tmp_path)
-    reg = hmi.registry
-    assert reg is not None
-    with _served(hmi):
-        status, rec = hmi.fit({"name": "Ben", "age": 9, "sex": "male", "height": 133,
-                               "mass": 29}, "test")
-        assert status == 200, rec
-        cid = rec["child_id"]
+    ben = {"name": "Ben", "age": 9, "sex": "male", "height": 133, "mass": 29}
+    with _console(tmp_path, ben) as (hmi, reg, cid):
         name, folder = _session(hmi, 30.0)
         link, pid = hmi.api.link, hmi.proc.pid
+        assert link is not None
         os.kill(pid, signal.SIGSTOP)
         if float(link.view["seq"]) % 2 == 0:
             link.view["seq"] += 1.0  # odd: stopped while writing
