@@ -18,10 +18,9 @@ import numpy as np
 import pytest
 
 import exoleg
-from conftest import REALTIME
+from conftest import REALTIME, SIM_OVERRUN
 from exoleg.runtime.contract import check_device
-from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, OVERRUN_S, run_session
-from exoleg.runtime.session import simulated_overrun
+from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, run_session
 from exoleg.runtime.sim_backend import SimBackend
 from exoleg.session_log import SessionLog, read_log
 from exoleg.system.config import DeviceConfig
@@ -49,7 +48,7 @@ def test_the_canopen_master_keeps_the_contract() -> None:
     rig = SimulatedRig(sim, "virtual", "contract-suite")
     try:
         master = CanopenBackend(CONFIG.actuators, 1e-3, "virtual", "contract-suite",
-                                simulated_overrun() or 0.05)
+                                SIM_OVERRUN)
         assert check_device(master, CONFIG.safety) == []
     finally:
         rig.close()
@@ -65,7 +64,7 @@ def test_the_ethercat_master_keeps_the_contract() -> None:
     seg = SimulatedSegment(sim)
     try:
         master = EthercatBackend(CONFIG.actuators, 1e-3, "fake", master=seg,
-                                 timeout=simulated_overrun() or 0.05)
+                                 timeout=SIM_OVERRUN)
         assert check_device(master, CONFIG.safety) == []
     finally:
         seg.close()
@@ -142,7 +141,7 @@ def _session(device: Any, sim: SimBackend, path: Path) -> dict[str, np.ndarray]:
 
     res = run_session(device, sim.controller, 2.0, 1e-3, log,
                       {0: int(Command.ARM), 500: int(Command.WALK)}, realtime=REALTIME,
-                      overrun=simulated_overrun() or OVERRUN_S, scenery=scenery)
+                      overrun=SIM_OVERRUN, scenery=scenery)
     device.deactivate()
     assert res.stopped_by.startswith("duration"), res.stopped_by
     return read_log(path)[1]

@@ -35,10 +35,10 @@ import pytest
 pytest.importorskip("starlette", reason="starlette (exoleg[api])")
 httpx = pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
 
+from conftest import SIM_OVERRUN  # noqa: E402
 from exoleg.hmi.testing import browser_missing, chromium, served_hmi, wait_until  # noqa: E402
 from exoleg.runtime.link import LINK_TIMEOUT_S  # noqa: E402
 from exoleg.runtime.operator import LEASE_S  # noqa: E402
-from exoleg.runtime.session import simulated_overrun  # noqa: E402
 
 missing = browser_missing()
 browser = pytest.mark.skipif(bool(missing), reason=f"no headless browser: {missing}")
@@ -336,7 +336,7 @@ def test_every_stop_is_explained_on_every_page(console: Any) -> None:
         # 2. a loop overrun: the session's process stalled past the overrun limit (the
         # suite's for simulated devices, conftest)
         folder = c.start()
-        _freeze(c.session_pid(), (simulated_overrun() or 0.05) + 0.35)
+        _freeze(c.session_pid(), SIM_OVERRUN + 0.35)
         run = ended(folder, c)
         assert run["stopped_by"].startswith("loop overrun")
         on_every_page(folder, run, "overrun")

@@ -20,9 +20,8 @@ import numpy as np
 import pytest
 
 import exoleg
-from conftest import REALTIME
+from conftest import REALTIME, SIM_OVERRUN
 from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, OVERRUN_S, run_session
-from exoleg.runtime.session import simulated_overrun
 from exoleg.runtime.sim_backend import SimBackend
 from exoleg.session_log import MAX_LOSS_TICKS, SessionLog, read_log
 from exoleg.tick import Command
@@ -34,15 +33,11 @@ def backend_factory():  # type: ignore[no-untyped-def]
     return lambda: SimBackend.built(leg, 30.0)
 
 
-#: The overrun limit of the sessions run here: the suite's for simulated devices
-#: (conftest: the shared machine stalls a process now and then -- a tick 100 ms late at
-#: tick 23 of a 1 s session here once, beside the suite's browser tests); the overrun's
-#: own test keeps the device's (OVERRUN_S).
-OVERRUN = simulated_overrun() or OVERRUN_S
-
-
+# The sessions here take the suite's overrun limit for simulated devices (conftest: a
+# tick 100 ms late at tick 23 of a 1 s session here once, beside the suite's browser
+# tests, stopped one at the device's 50 ms); the overrun's own test keeps the device's.
 def _session(tmp_path: Path, backend: SimBackend, controller, duration: float,  # type: ignore[no-untyped-def]
-             commands: dict[int, int], overrun: float = OVERRUN):
+             commands: dict[int, int], overrun: float = SIM_OVERRUN):
     log = SessionLog(tmp_path / "s.log", LOG_HEAD + backend.columns + LOG_TAIL,
                      {"period": 1e-3})
     res = run_session(backend, controller, duration, 1e-3, log, commands, realtime=REALTIME,
@@ -295,7 +290,7 @@ def test_realtime_settings_raise_the_bus_threads_and_are_undone(tmp_path: Path,
     b = Watching.built(exoleg.paper_leg(), 30.0, 1e-3)
     log = SessionLog(tmp_path / "s.log", LOG_HEAD + b.columns + LOG_TAIL, {"period": 1e-3})
     res = run_session(b, b.controller, 0.05, 1e-3, log, realtime=True, io_threads=[bus],
-                      overrun=OVERRUN)
+                      overrun=SIM_OVERRUN)
     release.set()
     assert res.stopped_by == "duration"
     assert seen == {"loop": LOOP_PRIORITY, "bus": IO_PRIORITY, "bus_policy": os.SCHED_FIFO}
@@ -336,7 +331,7 @@ def test_any_failure_in_the_tick_takes_torque_off(tmp_path: Path, backend_factor
     b = backend_factory()
     log = FullDisk(tmp_path / "s.log", LOG_HEAD + b.columns + LOG_TAIL, {"period": 1e-3})
     res = run_session(b, b.controller, 1.0, 1e-3, log, {0: Command.ARM}, realtime=REALTIME,
-                      overrun=OVERRUN, on_tick=on_tick)
+                      overrun=SIM_OVERRUN, on_tick=on_tick)
     assert res.stopped_by == {"log": "loop error: OSError: [Errno 28] No space left on "
                                      "device: torque off",
                               "operator link": "loop error: BrokenPipeError: the operator's "
@@ -386,7 +381,7 @@ def test_the_operators_end_is_a_controlled_stop_while_walking(tmp_path: Path, ba
 
     log = SessionLog(tmp_path / "s.log", LOG_HEAD + b.columns + LOG_TAIL, {"period": 1e-3})
     res = run_session(b, b.controller, 10.0, 1e-3, log, {0: Command.ARM, 1000: Command.WALK},
-                      realtime=REALTIME, overrun=OVERRUN, on_tick=on_tick,
+                      realtime=REALTIME, overrun=SIM_OVERRUN, on_tick=on_tick,
                       scenery=treadmill)
     cols = read_log(tmp_path / "s.log")[1]
     assert np.array_equal(b.u, np.zeros(3))  # the drives were told zero at the end
@@ -421,7 +416,7 @@ def test_a_slow_disk_does_not_stall_the_loop(tmp_path: Path, backend_factory,  #
     log = SessionLog(tmp_path / "s.log", LOG_HEAD + b.columns + LOG_TAIL, {"period": 1e-3},
                      fsync_every=5)  # an fsync every 100 ticks
     res = run_session(b, b.controller, 1.0, 1e-3, log, {0: Command.ARM}, realtime=REALTIME,
-                      overrun=OVERRUN)
+                      overrun=SIM_OVERRUN)
     assert res.stopped_by == "duration", res.stopped_by
     assert len(read_log(tmp_path / "s.log")[1]["t"]) == 1000
 
@@ -482,7 +477,7 @@ def test_how_a_session_ended_is_said_truly(tmp_path: Path, backend_factory) -> N
     log = SessionLog(tmp_path / "t.log", LOG_HEAD + b.columns + LOG_TAIL, {"period": 1e-3})
     b = backend_factory()
     res = run_session(b, b.controller, 3.0, 1e-3, log, {0: Command.ARM, 500: Command.ESTOP},
-                      realtime=REALTIME, overrun=OVERRUN,
+                      realtime=REALTIME, overrun=SIM_OVERRUN,
                       on_tick=lambda k, *a: END_SESSION if k == 900 else None)
     assert res.stopped_by == ("the operator ended the session: torque off (after an E-stop "
                               "at 0.500 s)")
@@ -519,7 +514,7 @@ def test_a_link_never_beaten_is_lost(tmp_path: Path, compiled: bool) -> None:
     from exoleg.tick import Mode
 
     res, log = run("sim", 6.0, tmp_path / "s", arm=True, walk_after=0.5,
-                   realtime=REALTIME, link=LoopLink.new(), overrun=OVERRUN,
+                   realtime=REALTIME, link=LoopLink.new(), overrun=SIM_OVERRUN,
                    compiled=compiled)
     assert res.stopped_by.startswith("link lost") and res.stopped_by.endswith("torque off")
     cols = read_log(log)[1]
