@@ -58,7 +58,7 @@ from exoleg.world.treadmill import SWING, belt_speed_for, other_leg_support
 F64 = NDArray[np.float64]
 
 
-@njit(inline="always")
+@njit(inline="always", cache=True)
 def _imu_point(p, x, px, py):  # type: ignore[no-untyped-def]
     """Velocity (vx, vy) of the point (px, py) of the foot frame, world frame, and the
     foot's angle, for the plant state x (the generated kinematics)."""
