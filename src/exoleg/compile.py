@@ -16,10 +16,16 @@ sessions on the simulated device and both simulated buses, the population batch,
 identification, the detector (:data:`JOBS`) -- in as many processes at once as CPUs
 (numba's cache is safe across processes: :mod:`exoleg._cache`). The kernels are those
 the commands use, with the types they are called with; a source edited later recompiles
-on its next use as before. Its own output goes to a temporary folder and is removed."""
+on its next use as before. Its own output goes to a temporary folder and is removed.
+
+It byte-compiles the package's sources first (:func:`byte_compile`): an editable install
+has none, and with ``PYTHONDONTWRITEBYTECODE`` set no process writes them, so every
+process that imports exoleg (a session, the console, each command) would compile its
+sources again -- 0.1 s of CPU each, measured on the console's and a session's imports."""
 
 from __future__ import annotations
 
+import compileall
 import logging
 import os
 import subprocess
@@ -73,6 +79,13 @@ def _exoleg(args: list[str], env: dict[str, str]) -> tuple[int, str]:
     return r.returncode, (r.stderr.strip().splitlines() or [""])[-1]
 
 
+def byte_compile() -> bool:
+    """Write the package's bytecode beside its sources (``__pycache__``, as an install
+    from a wheel does; a source edited later is compiled again on import as before);
+    whether every file compiled."""
+    return bool(compileall.compile_dir(Path(__file__).parent, quiet=1))
+
+
 def compile_all(jobs: int | None = None) -> list[str]:
     """Run :data:`JOBS` in ``jobs`` processes at once (default: the CPUs this process
     may use), each said as it ends (logging, INFO); returns the jobs that failed, each
@@ -80,7 +93,7 @@ def compile_all(jobs: int | None = None) -> list[str]:
     use: nothing else depends on it)."""
     jobs = jobs or len(os.sched_getaffinity(0))
     env = {**os.environ, "MPLBACKEND": "Agg"}
-    failed: list[str] = []
+    failed: list[str] = [] if byte_compile() else ["byte-compiling the sources"]
     with tempfile.TemporaryDirectory(prefix="exoleg-compile-") as tmp:
         root = Path(tmp)
         t0 = time.perf_counter()

@@ -34,3 +34,19 @@ def test_the_detectors_job_runs(tmp_path: Path) -> None:
                  "--arm", "--walk-after", "0.1", "--out", str(tmp_path / "s")]) == 0
     argv = [a.format(d=tmp_path / "d", d0=tmp_path / "s" / "session.log") for a in args]
     assert main(argv) == 0, label
+
+
+def test_the_sources_are_byte_compiled() -> None:
+    """Every module of the package has its bytecode beside it afterwards, at the path the
+    import system reads it from (importlib's cache_from_source): with
+    PYTHONDONTWRITEBYTECODE set (as on this machine) no process writes it on import."""
+    import importlib.util
+
+    import exoleg
+    from exoleg.compile import byte_compile
+
+    assert byte_compile()
+    sources = list(Path(exoleg.__file__).parent.rglob("*.py"))
+    assert len(sources) > 150  # the package, not an empty walk
+    missing = [s for s in sources if not Path(importlib.util.cache_from_source(str(s))).exists()]
+    assert not missing, missing[:5]
