@@ -79,11 +79,11 @@ def _exoleg(args: list[str], env: dict[str, str]) -> tuple[int, str]:
     return r.returncode, (r.stderr.strip().splitlines() or [""])[-1]
 
 
-def byte_compile() -> bool:
-    """Write the package's bytecode beside its sources (``__pycache__``, as an install
-    from a wheel does; a source edited later is compiled again on import as before);
-    whether every file compiled."""
-    return bool(compileall.compile_dir(Path(__file__).parent, quiet=1))
+def byte_compile(root: Path = Path(__file__).parent) -> bool:
+    """Write the bytecode of the sources under ``root`` (default: the package) beside them
+    (``__pycache__``, as an install from a wheel does; a source edited later is compiled
+    again on import as before); whether every file compiled."""
+    return bool(compileall.compile_dir(root, quiet=1))
 
 
 def compile_all(jobs: int | None = None) -> list[str]:
