@@ -113,6 +113,20 @@ def test_envelope_against_the_motor_equations() -> None:
                                                                    1.001 * w_max) == 0
 
 
+def test_the_consoles_envelope_is_the_drives() -> None:
+    """The console draws each drive's envelope (/api/info) from the envelope's Python
+    source, not its compiled code (the console's start loads none of numba): to the bit
+    the compiled function the loop limits torque with, at every speed it sends, from
+    stall to beyond the drive's top speed."""
+    import exoleg
+    from exoleg.hmi.views import device_info
+
+    for a, shown in zip(ACTS, device_info(exoleg.paper_leg())["actuators"], strict=True):
+        want = [envelope(a.record(), w) for w in shown["envelope_speed"]]
+        assert shown["envelope_torque"] == want, a.joint
+        assert want[0] > 0.0 and want[-1] == 0.0
+
+
 @given(w=st.floats(-40.0, 40.0), u=st.floats(-200.0, 200.0))
 def test_the_drive_brakes_at_any_speed(w: float, u: float) -> None:
     # Reference: a DC motor's four quadrants. Motoring (torque along the speed) the
