@@ -52,7 +52,7 @@ def device_info(leg: Any, folder: str | None = None) -> dict[str, Any]:
         "device_folder": folder}
     for a in acts:
         # the envelope's own Python source on a record view: 60 points need none of
-        # numba's machinery, whose first load was 0.4 s of the console's 1.1 s start
+        # numba's machinery, whose first load was 0.7 s of the console's 1.1 s start
         # (the same operations on doubles: the compiled function's values to the bit)
         par = a.record().view(np.recarray)
         w = np.linspace(0.0, 1.05 * a.max_velocity, 60)
