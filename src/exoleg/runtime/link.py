@@ -86,6 +86,7 @@ _SNAPSHOT = ("t", *PUBLISHED, *READINGS, "late_us", "late_max_us", "missed", "ti
 _INTS = {"mode", "phase", "gait_source", "events", "safety_status", "fault", "fault_joint",
          "refused", "missed", "tick", "support_mode"}
 _RUNNING = ("starting", "running", "ended")
+_TICKING, _ENDED = float(_RUNNING.index("running")), float(_RUNNING.index("ended"))
 
 
 class LoopLink:
@@ -146,7 +147,7 @@ class LoopLink:
     def loop_ended(self) -> None:
         """The session is over (``running``: 0 before the first tick, 1 from it on)."""
         v = self._begin()
-        v["running"] = 2.0
+        v["running"] = _ENDED
         v["seq"] += 1.0
 
     def loop_poll(self) -> tuple[int, dict[str, list[float]] | None]:
@@ -230,7 +231,7 @@ class LoopLink:
             v["late_max_us"] = self._late_max * 1e6
             v["missed"] = self._missed
             v["tick"] = k
-            v["running"] = 1.0
+            v["running"] = _TICKING
             self._events = self._status = 0
             self._late_max = 0.0
         v["seq"] += 1.0
@@ -256,7 +257,7 @@ class LoopLink:
         v = self.view
         if float(v["seq"]) % 2 == 0:
             return False
-        v["running"] = 2.0
+        v["running"] = _ENDED
         v["seq"] += 1.0
         return True
 
