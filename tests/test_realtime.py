@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from exoleg.runtime.loop import LATE_RUN_TICKS, late_run_text
+from exoleg.runtime.loop import LATE_RUN_TICKS, OVERRUN_S, late_run_text
 from exoleg.runtime.session import run
 from exoleg.session_log import read_log
 from exoleg.tick import Mode
@@ -69,13 +69,21 @@ try:
 except (AttributeError, OSError):
     FIFO = False
 
+#: the SCHED_FIFO priorities of the hog and, below it, of the loop under test: above
+#: every real-time thread the suite's other workers start (their sessions' loops and
+#: buses, at exoleg.runtime.realtime's 10 and 11), so that the loop is alone on its CPU
+#: but for the hog, as on a device's isolated CPU. At the device's own 10, a thread of
+#: theirs at 10 or 11 that is busy on that CPU holds the pinned loop, which cannot leave
+#: it: in CI a tick of this test once started 89 ms late (the hog delays none 3 ms).
+HOG_PRIORITY, LOOP_PRIORITY = 50, 40
+
 #: a task above the loop's SCHED_FIFO priority on one CPU, busy ``busy`` s of every
 #: ``cycle`` s (on the monotonic clock) for ``span`` s from ``start``
-HOG = """
+HOG = f"""
 import os, sys, time
 cpu, start, span, cycle, busy = int(sys.argv[1]), *map(float, sys.argv[2:])
-os.sched_setaffinity(0, {cpu})
-os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(50))
+os.sched_setaffinity(0, {{cpu}})
+os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param({HOG_PRIORITY}))
 while time.monotonic() < start:
     time.sleep(1e-4)
 while time.monotonic() < start + span:
@@ -95,19 +103,36 @@ def _hog(start: float, span: float, cycle: float, busy: float) -> subprocess.Pop
                              str(cycle), str(busy)])
 
 
+def _stolen(cpu: int) -> float:
+    """The time the virtual machine's host has taken ``cpu`` from it (/proc/stat's steal),
+    s; 0 where it cannot be read."""
+    try:
+        with open("/proc/stat") as f:
+            for line in f:
+                name, *v = line.split()
+                if name == f"cpu{cpu}":
+                    return int(v[7]) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0.0
+
+
 def _walking_session(tmp_path: Path, hog: tuple[float, float, float],
                      monkeypatch: pytest.MonkeyPatch, compiled: bool = True
                      ) -> tuple[dict[str, Any], dict[str, np.ndarray], float]:
     """A walking session at SCHED_FIFO with the strict limits of a device (50 ms, a run
     of 10), its loop pinned to :data:`CPU` as to an isolated CPU, the hog on that CPU
-    from 2 s in (walking from 1 s); (run.json, log, start)."""
+    from 2 s in (walking from 1 s); (run.json, log, the time the host took the CPU
+    meanwhile, s)."""
     import exoleg.runtime.realtime as realtime
 
     monkeypatch.setattr(realtime, "isolated_cpus", lambda *a: {CPU})
+    monkeypatch.setattr(realtime, "LOOP_PRIORITY", LOOP_PRIORITY)
     got: list[Any] = []
     thread = threading.Thread(target=lambda: got.append(run(
         "sim", 6.0, tmp_path / "s", arm=True, walk_after=1.0, realtime=True,
         overrun=0.05, compiled=compiled)))
+    stolen = _stolen(CPU)
     thread.start()
     deadline = time.time() + 120
     log = tmp_path / "s" / "session.log"
@@ -117,8 +142,9 @@ def _walking_session(tmp_path: Path, hog: tuple[float, float, float],
     start = time.monotonic() + 1.4
     _hog(start, *hog).wait(timeout=60)
     thread.join(timeout=60)
-    return (json.loads((tmp_path / "s" / "run.json").read_text()),
-            read_log(log)[1], start)
+    run_ = json.loads((tmp_path / "s" / "run.json").read_text())
+    assert f"SCHED_FIFO priority {LOOP_PRIORITY}" in run_["realtime"], run_["realtime"]
+    return run_, read_log(log)[1], _stolen(CPU) - stolen
 
 
 @pytest.mark.skipif(not FIFO, reason="SCHED_FIFO not permitted here (needs root or "
@@ -146,11 +172,15 @@ def test_a_run_of_late_ticks_is_a_controlled_stop(tmp_path: Path, compiled: bool
     # the loop's CPU taken 2.2 ms of every 2.5 ms for 60 ms: the loop runs in the gaps,
     # every tick 1-2 ms late -- each tolerated, none beyond 50 ms; LATE_RUN_TICKS (10) in
     # a row are a controlled stop: the walk stands, then the torque goes off (both loops)
-    run_, cols, _ = _walking_session(tmp_path, (0.06, 0.0025, 0.0022), monkeypatch,
-                                     compiled)
+    hog = (0.06, 0.0025, 0.0022)
+    run_, cols, stolen = _walking_session(tmp_path / "1", hog, monkeypatch, compiled)
+    if run_["stopped_by"].startswith("loop overrun") and stolen >= OVERRUN_S:
+        # the virtual machine's host took the loop's CPU beyond the limit (steal): the
+        # loop was right to stop, and this test's question is not asked; once more
+        run_, cols, stolen = _walking_session(tmp_path / "2", hog, monkeypatch, compiled)
     said = late_run_text(LATE_RUN_TICKS)
     assert run_["stopped_by"].startswith(f"{said}, after a controlled stop to STANDING"), \
-        run_["stopped_by"]
+        (run_["stopped_by"], f"the host took the loop's CPU {stolen * 1e3:.0f} ms")
     late = cols["late"]
     assert np.max(late) < 0.05
     # the run that ended it: LATE_RUN_TICKS ticks each later than a period, in a row
