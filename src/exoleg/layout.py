@@ -17,6 +17,7 @@ in compiled code too: numba takes their members as integer constants.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from enum import IntEnum
 
@@ -46,6 +47,38 @@ def column_names(dtype: np.dtype, labels: Mapping[int, Sequence[str]] | None = N
         else:
             lab = (labels or {}).get(n) or [str(i) for i in range(n)]
             out.extend(f"{prefix}{name}_{x}" for x in lab)
+    return out
+
+
+@functools.cache
+def _words(dtype: np.dtype) -> tuple[int, NDArray[np.intp]]:
+    """A record of 8-byte numbers as words: (how many, the positions of the integer
+    ones); a ValueError for any other layout."""
+    pos, ints = 0, []
+    for name in dtype.names or ():
+        sub, offset = dtype.fields[name][:2]  # type: ignore[index]
+        n = int(np.prod(sub.shape)) if sub.shape else 1
+        if offset != 8 * pos or sub.base.itemsize != 8 or sub.base.kind not in "fi":
+            raise ValueError(f"field {name!r} ({sub}) is not a packed 8-byte number")
+        if sub.base.kind == "i":
+            ints.extend(range(pos, pos + n))
+        pos += n
+    if 8 * pos != dtype.itemsize:
+        raise ValueError(f"{dtype} has padding")
+    return pos, np.array(ints, dtype=np.intp)
+
+
+def float_columns(records: NDArray[np.void]) -> NDArray[np.float64]:
+    """Records of packed 8-byte numbers (float64 and int64 fields, scalars or vectors) as
+    their :func:`column_names`' columns, float64, the integers converted -- what
+    ``numpy.lib.recfunctions.structured_to_unstructured(records, dtype=float)`` gives,
+    in a few microseconds instead of 50 (the session's drain did it 500 times a
+    second)."""
+    n, ints = _words(records.dtype)
+    words = np.ascontiguousarray(records).view(np.int64).reshape(len(records), n)
+    out = words.view(np.float64).copy()
+    if ints.size:
+        out[:, ints] = words[:, ints]
     return out
 
 

@@ -34,10 +34,10 @@ from typing import Any
 
 import numpy as np
 from numba import njit, types
-from numpy.lib.recfunctions import structured_to_unstructured
 
 from exoleg.control.hierarchy import walk_control_step
 from exoleg.device.sensors import FROZEN_S
+from exoleg.layout import float_columns
 from exoleg.runtime.clock import lateness_stats
 from exoleg.runtime.link import BEAT_CHECK_TICKS
 from exoleg.runtime.loop import (
@@ -419,12 +419,12 @@ class _Outside:
             return
         times, rows, SENS, OUT = self.ring
         idx = np.arange(self.drained, head) % RING_TICKS
-        block = np.hstack([structured_to_unstructured(times[["t", "late"]][idx]),
-                           structured_to_unstructured(rows[idx], dtype=np.float64),
-                           structured_to_unstructured(OUT[idx], dtype=np.float64)])
+        ticks = times[idx]
+        block = np.hstack([np.column_stack((ticks["t"], ticks["late"])),
+                           float_columns(rows[idx]), float_columns(OUT[idx])])
         for row in block:
             self.log.append(row)
-        self.late[self.drained:head] = times["late"][idx]
+        self.late[self.drained:head] = ticks["late"]
         if not self.latched:
             hit = np.flatnonzero(OUT["fault"][idx])
             if hit.size:
