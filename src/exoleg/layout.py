@@ -54,7 +54,8 @@ def column_names(dtype: np.dtype, labels: Mapping[int, Sequence[str]] | None = N
 def _words(dtype: np.dtype) -> tuple[int, NDArray[np.intp]]:
     """A record of 8-byte numbers as words: (how many, the positions of the integer
     ones); a ValueError for any other layout."""
-    pos, ints = 0, []
+    pos = 0
+    ints: list[int] = []
     for name in dtype.names or ():
         sub, offset = dtype.fields[name][:2]  # type: ignore[index]
         n = int(np.prod(sub.shape)) if sub.shape else 1
