@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 import exoleg
-from conftest import REALTIME
+from conftest import EXOLEG, REALTIME
 from exoleg.cli import main
 
 #: sessions of seconds ask for the loop's real-time settings where the OS permits them
@@ -532,8 +532,8 @@ def test_a_studys_cost_is_said_before_it_starts(tmp_path: Path,
     assert n >= TIME_FROM_RUNS
     # read as it is printed, and the study interrupted once its cluster is said: the
     # lines are what comes before it (run whole, its 200 runs took 18 s of the suite)
-    p = subprocess.Popen([sys.executable, "-m", "exoleg.cli", "sweep", str(study), "--out",
-                          str(tmp_path / "out"), "--workers", "1"], stdout=subprocess.PIPE,
+    p = subprocess.Popen([EXOLEG, "sweep", str(study), "--out", str(tmp_path / "out"),
+                          "--workers", "1"], stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True, preexec_fn=terminal_ctrl_c,
                          env={**os.environ, "PYTHONUNBUFFERED": "1"})
     try:

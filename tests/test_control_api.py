@@ -10,7 +10,6 @@ import re
 import signal
 import ssl
 import subprocess
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -21,6 +20,7 @@ import pytest
 pytest.importorskip("starlette", reason="starlette (exoleg[api])")
 httpx = pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
 
+from conftest import EXOLEG  # noqa: E402
 from exoleg.errors import ParameterError  # noqa: E402
 from exoleg.hmi.serving import bind_check  # noqa: E402
 from exoleg.hmi.testing import free_port, wait_until  # noqa: E402
@@ -28,12 +28,10 @@ from exoleg.runtime.link import LINK_TIMEOUT_S, RING, LoopLink  # noqa: E402
 from exoleg.session_log import read_log  # noqa: E402
 from exoleg.tick import Command  # noqa: E402
 
-EXE = str(Path(sys.executable).with_name("exoleg"))
-
 
 def _start(args: list[str], out: Path) -> tuple[subprocess.Popen, str]:  # type: ignore[type-arg]
     said = out.with_suffix(".txt")
-    proc = subprocess.Popen([EXE, *args], stdout=said.open("w"), stderr=subprocess.STDOUT,
+    proc = subprocess.Popen([EXOLEG, *args], stdout=said.open("w"), stderr=subprocess.STDOUT,
                             env={**os.environ, "PYTHONUNBUFFERED": "1"})
     deadline = time.time() + 60
     while time.time() < deadline:
@@ -319,7 +317,7 @@ def test_hmi_over_tls_and_a_port_in_use(tmp_path: Path) -> None:
                       verify=ssl.create_default_context(cafile=str(cert)))
         assert r.status_code == 200 and r.json()["backend"] == "sim"
         # the same port again: one line, exit 2
-        busy = subprocess.run([EXE, "hmi", "--sessions", str(tmp_path / "s"), "--port",
+        busy = subprocess.run([EXOLEG, "hmi", "--sessions", str(tmp_path / "s"), "--port",
                                str(port)], capture_output=True, text=True, timeout=60)
         assert busy.returncode == 2 and busy.stderr.count("\n") == 1
         assert f"cannot listen on 127.0.0.1:{port}" in busy.stderr
@@ -693,7 +691,7 @@ def test_damaged_records_are_listed_as_damaged(tmp_path: Path) -> None:
     from exoleg.session_log import MAGIC
 
     good = tmp_path / "good"
-    r = subprocess.run([EXE, "run", "--duration", "0.3", "--no-realtime", "--out",
+    r = subprocess.run([EXOLEG, "run", "--duration", "0.3", "--no-realtime", "--out",
                         str(good)], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     damaged = {
@@ -723,7 +721,7 @@ def test_damaged_records_are_listed_as_damaged(tmp_path: Path) -> None:
     for name in (*damaged, "bad-run"):
         if name == "bad-run":
             continue
-        s = subprocess.run([EXE, "log", "summary", str(tmp_path / name)],
+        s = subprocess.run([EXOLEG, "log", "summary", str(tmp_path / name)],
                            capture_output=True, text=True, timeout=60)
         assert s.returncode == 2 and len(s.stderr.splitlines()) == 1 and \
             "Traceback" not in s.stderr, (name, s.stderr)

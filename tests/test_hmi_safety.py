@@ -24,7 +24,6 @@ import json
 import os
 import signal
 import subprocess
-import sys
 import time
 from collections.abc import Awaitable, Callable
 from pathlib import Path
@@ -35,7 +34,7 @@ import pytest
 pytest.importorskip("starlette", reason="starlette (exoleg[api])")
 httpx = pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
 
-from conftest import SIM_OVERRUN  # noqa: E402
+from conftest import EXOLEG, SIM_OVERRUN  # noqa: E402
 from exoleg.hmi.testing import browser_missing, chromium, served_hmi, wait_until  # noqa: E402
 from exoleg.runtime.link import LINK_TIMEOUT_S  # noqa: E402
 from exoleg.runtime.operator import LEASE_S  # noqa: E402
@@ -554,13 +553,12 @@ def test_one_real_device_one_process(tmp_path: Path) -> None:
     # interface is held by the first process; the second, whatever its command, is
     # refused before it touches the bus, naming the holder. Simulated devices run side by
     # side (the other tests of this suite run several at once).
-    exe = str(Path(sys.executable).with_name("exoleg"))
     env = {**os.environ, "EXOLEG_LOCK_DIR": str(tmp_path)}
     channel = f"exotest{os.getpid() % 10000}"
     bus = ["--backend", "canopen", "--interface", "socketcan", "--channel", channel]
     from exoleg.hmi.testing import free_port
 
-    first = subprocess.Popen([exe, "hmi", *bus, "--sessions", str(tmp_path / "a"),
+    first = subprocess.Popen([EXOLEG, "hmi", *bus, "--sessions", str(tmp_path / "a"),
                               "--port", str(free_port())], stdout=subprocess.PIPE,
                              stderr=subprocess.STDOUT, text=True, env=env)
     try:
@@ -571,7 +569,7 @@ def test_one_real_device_one_process(tmp_path: Path) -> None:
         for cmd in (["hmi", *bus, "--sessions", str(tmp_path / "b"), "--port",
                      str(free_port())],
                     ["run", *bus, "--duration", "1", "--out", str(tmp_path / "r")]):
-            r = subprocess.run([exe, *cmd], capture_output=True, text=True, env=env,
+            r = subprocess.run([EXOLEG, *cmd], capture_output=True, text=True, env=env,
                                timeout=120)
             assert r.returncode == 2, (cmd, r.stdout, r.stderr)
             said = r.stdout + r.stderr

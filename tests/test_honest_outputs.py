@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -20,6 +19,7 @@ import numpy as np
 import pytest
 
 import exoleg
+from conftest import EXOLEG
 from exoleg.cli import main
 from exoleg.control import PD, ComputedTorque, PDGravity
 from exoleg.params.leg_file import read_leg_file
@@ -275,8 +275,8 @@ def test_ctrl_c_in_a_real_run_exits_130_with_one_line(tmp_path: Path,
     out = tmp_path / "out"
     before = _previous(out)
     # Ctrl-C as in a terminal, even when this test runs from a background job
-    proc = subprocess.Popen([sys.executable, "-m", "exoleg.cli", "simulate", "--duration",
-                             "3000", "--no-engine", "--out", str(out)],
+    proc = subprocess.Popen([EXOLEG, "simulate", "--duration", "3000", "--no-engine",
+                             "--out", str(out)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=terminal_ctrl_c)
     time.sleep(3.0)  # imported and running: 3000 s simulated and written take ~10 s

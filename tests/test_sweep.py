@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from conftest import EXOLEG
 from exoleg.errors import ParameterError
 from exoleg.study.spec import parse_study
 
@@ -288,8 +289,8 @@ def test_the_small_sweep_on_three_schedulers_interrupted_and_resumed(
     small = example.read_text()
     # 1. LocalCluster, interrupted and resumed
     out = tmp_path / "local"
-    p = subprocess.Popen([sys.executable, "-m", "exoleg.cli", "sweep", str(example), "--out",
-                          str(out), "--workers", "2"], stdout=subprocess.PIPE,
+    p = subprocess.Popen([EXOLEG, "sweep", str(example), "--out", str(out), "--workers",
+                          "2"], stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True, preexec_fn=terminal_ctrl_c)
     deadline = time.monotonic() + 300
     while time.monotonic() < deadline and p.poll() is None:
