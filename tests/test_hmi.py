@@ -204,11 +204,16 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
     shot(d, "control")
     _server_keeps_off_the_loops_cpu(hmi.process.pid)
 
-    # Live: read at >= 20 Hz (the stream is 50 Hz), the leg drawn with exoleg's kinematics
+    # Live: read at >= 20 Hz (the stream is 50 Hz; the floor for a person to
+    # read), the leg drawn with exoleg's kinematics. The page counts the updates of the
+    # last 2 s; on a machine whose cores the suite's other workers fill it read 16 once
+    # (the whole suite's CPU 30 % above its usual), so the test waits for a window of 2 s
+    # at that rate, for up to 10 s, rather than reading the first
     goto(d, "live")
     time.sleep(2.5)
-    rate = float(text(d, "rate").split()[0])
-    assert rate >= 20.0, rate  # the floor for a person to read
+    wait_until("2 s of the live view at >= 20 updates per s",
+               lambda: float(text(d, "rate").split()[0]) >= 20.0, 10, every=0.5,
+               seen=lambda: text(d, "rate"))
     q, pts, lengths = d.execute_script(
         "const s = S.state, dv = S.info.device;"
         "return [s.q, legPoints(s.q, dv.lengths, dv.offsets), dv.lengths];")
