@@ -74,7 +74,7 @@ except (AttributeError, OSError):
 #: buses, at exoleg.runtime.realtime's 10 and 11), so that the loop is alone on its CPU
 #: but for the hog, as on a device's isolated CPU. At the device's own 10, a thread of
 #: theirs at 10 or 11 that is busy on that CPU holds the pinned loop, which cannot leave
-#: it: in CI a tick of this test once started 89 ms late (the hog delays none 3 ms).
+#: it: in CI a tick of this test once started 89 ms late (the hog delays no tick 3 ms).
 HOG_PRIORITY, LOOP_PRIORITY = 50, 40
 
 #: a task above the loop's SCHED_FIFO priority on one CPU: ready (on its CPU, at its
