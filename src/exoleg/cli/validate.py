@@ -118,7 +118,8 @@ def _transparency(strides: int, device: Any) -> int:
          + ", ".join(f"{j} {100 * x:.0f} %" for j, x in h["cuffs_at_landing"].items())
          + " of the cuffs' torque (squared); outside them the law leaves "
          + ", ".join(f"{j} {x:.3f}" for j, x in h["cuffs_outside_Nm_per_kg"].items())
-         + " N m/kg RMS")
+         + " N m/kg RMS, over the loop's floor there of "
+         + ", ".join(f"{b['joint']} {b['floor_loop_outside_Nm_per_kg']:.3f}" for b in v.floors))
     _say("at the drive's limit: " + ", ".join(f"{j} {100 * x:.0f} %"
                                             for j, x in v.saturated.items())
          + ("; the safety layer stopped the walk" if v.fault else "; no safety event"))

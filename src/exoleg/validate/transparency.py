@@ -313,13 +313,19 @@ def loop_floor(act: Any, need: F64, w: F64, h: float, body_mass: float) -> float
     :func:`limit_floors` it adds the control rate and the torque loop's lag: an impact
     that stops the rotors within a tick is felt whatever the law. A ramp of slope ``a``
     N m/s within the limits leaves ``a / (2 pi f_c)`` (the first order's lag)."""
+    return _rms(loop_left(act, need, w, h)[2:]) / body_mass
+
+
+def loop_left(act: Any, need: F64, w: F64, h: float) -> F64:
+    """:func:`loop_floor`'s ticks: what is left of ``need`` at each, N m (the first two,
+    which have no need before them to extrapolate, left out of its RMS)."""
     import dataclasses
 
     if act.compliant:  # the torque loop on the spring stands where the current loop is
         act = dataclasses.replace(act, current_loop_bandwidth=act.torque_loop_bandwidth)
     left = np.zeros(len(need))
     _loop_left(act.record(), need, w, h, left)
-    return _rms(left[2:]) / body_mass
+    return left
 
 
 @njit(cache=True)
@@ -408,7 +414,8 @@ def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None
     :func:`rotor_floor` on its links' need (NaN for a rigid unit); ``pelvis_Nm_per_kg``,
     the RMS of the need's part from the pelvis's vertical acceleration;
     ``gear_floor_at_landing``, the share of the gear's floor (its square) in the
-    :data:`LANDING_S` after each initial contact."""
+    :data:`LANDING_S` after each initial contact; ``floor_loop_outside_Nm_per_kg``, the
+    loop's floor outside those (beside :func:`heel_strike_loading`'s law outside them)."""
     from exoleg.child.interaction import device_leg
     from exoleg.device.actuator import params_array
     from exoleg.device.drive import friction
@@ -437,9 +444,13 @@ def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None
         beyond = np.maximum(np.abs(need[:, j]) - act.repeated_peak_torque, 0.0) ** 2
         return float(beyond[landing].sum() / beyond.sum()) if beyond.sum() > 0 else 0.0
 
+    outside = ~landing
+    outside[:2] = False  # (loop_floor's first two ticks)
+    lefts = [loop_left(act, need[:, j], dq[:, j], dt) for j, act in enumerate(config.actuators)]
     return [{"joint": joint, **limit_floors(act, need[:, j], dq[:, j], r.body_mass),
              "gear_floor_at_landing": at_landing(j, act),
-             "floor_loop_Nm_per_kg": loop_floor(act, need[:, j], dq[:, j], dt, r.body_mass),
+             "floor_loop_Nm_per_kg": _rms(lefts[j][2:]) / r.body_mass,
+             "floor_loop_outside_Nm_per_kg": _rms(lefts[j][outside]) / r.body_mass,
              "floor_rotor_Nm_per_kg": (rotor_floor(act, links[:, j], q[:, j], dt, r.body_mass)
                                        if act.compliant and links is not None else np.nan),
              "pelvis_Nm_per_kg": _rms(pelvis[:, j]) / r.body_mass}
