@@ -83,22 +83,30 @@ def test_the_law_holds_the_device_alone_as_pinocchio_does() -> None:
         assert ss[0]["parts"][0] == pytest.approx(ref.G(q), abs=1e-12)
 
 
-def test_the_inertia_part_is_the_share_of_pinocchios_M_times_the_acceleration() -> None:
+@pytest.mark.parametrize("share", [None, [0.6, 0.45, 0.0]], ids=["shipped", "per joint"])
+def test_the_inertia_part_is_the_share_of_pinocchios_M_times_the_acceleration(
+        share: list[float] | None) -> None:
     # reference: Pinocchio's M(q) and C(q, dq) dq. A constant acceleration held 200 ticks:
     # the estimate (the rates' difference through a 30 Hz low-pass) has settled to it
-    # (1 - exp(-2 pi 30 0.2) ~ 1 - 4e-17), so the part is C dq + share M ddq.
+    # (1 - exp(-2 pi 30 0.2) ~ 1 - 4e-17), so the part is C dq + share M ddq, each joint
+    # its own share (the shipped file's one number is every joint's)
     pytest.importorskip("pinocchio")
+    import dataclasses
+
     from exoleg.validate.engines import PinocchioLeg
 
     dev, _, _ = _device()
     ref = PinocchioLeg(dev)
     s = TransparencySettings.default().with_parts("inertia")
+    assert s.inertia_share.tolist() == [0.3, 0.3, 0.3]  # transparency.toml's 0.3
+    if share is not None:
+        s = dataclasses.replace(s, inertia_share=np.array(share))
     q0, dq0, ddq = np.radians([10.0, -30.0, 5.0]), np.array([0.5, -1.0, 0.3]), \
         np.array([4.0, -6.0, 3.0])
     _, ss = _law(s, q0, dq0, np.zeros(3), ticks=200, ddq=ddq)
     t = 0.199
     q, dq = q0 + dq0 * t + 0.5 * ddq * t * t, dq0 + ddq * t
-    want = ref.Cdq(q, dq) + s.inertia_share * ref.M(q) @ ddq
+    want = ref.Cdq(q, dq) + s.inertia_share * (ref.M(q) @ ddq)
     # the difference of the rates is exact for a constant acceleration: the estimate
     # settles to ddq to the filter's remaining transient (measured 7e-16 of the largest)
     assert ss[0]["parts"][1] == pytest.approx(want, rel=1e-12, abs=1e-12)
@@ -219,6 +227,10 @@ def test_a_bad_transparency_file_is_refused_naming_the_field(tmp_path: Any) -> N
         text.replace("inertia_share = 0.3", "inertia_share = 1.5"))
     with pytest.raises(ParameterError, match=r"transparency.toml.*inertia_share.*1.5 is "
                                              r"outside 0-1"):
+        DeviceConfig.load(tmp_path)
+    (tmp_path / "transparency.toml").write_text(  # one per joint: three of them
+        text.replace("inertia_share = 0.3", "inertia_share = [0.3, 0.5]"))
+    with pytest.raises(ParameterError, match=r"inertia_share.*expected 3 numbers, got 2"):
         DeviceConfig.load(tmp_path)
     (tmp_path / "transparency.toml").write_text(text.replace("friction = true",
                                                              "friction = 1"))

@@ -57,10 +57,11 @@ def support_mode_of(controller: str) -> SupportMode:
 #: The parts of the transparent law, in the order they are added.
 PARTS = ("gravity", "inertia", "friction", "interaction")
 #: (field in the file, unit, lower, upper) of the transparent mode's scalar settings.
-_SCALARS = (("accel_filter_hz", "Hz", 1.0, 500.0), ("inertia_share", "", 0.0, 1.0),
-            ("lead_ms", "ms", 0.0, 20.0), ("ramp_s", "s", 0.05, 5.0))
-#: (field in the file, upper) of its per-joint settings (lower 0).
-_VECTORS = (("kp_interaction", 20.0), ("ki_interaction", 1000.0),
+_SCALARS = (("accel_filter_hz", "Hz", 1.0, 500.0), ("lead_ms", "ms", 0.0, 20.0),
+            ("ramp_s", "s", 0.05, 5.0))
+#: (field in the file, upper) of its per-joint settings (lower 0); the inertia's share
+#: may be one number for every joint
+_VECTORS = (("inertia_share", 1.0), ("kp_interaction", 20.0), ("ki_interaction", 1000.0),
             ("integral_limit", 100.0), ("wall_stiffness", 1e4), ("wall_damping", 500.0))
 
 
@@ -68,14 +69,14 @@ _VECTORS = (("kp_interaction", 20.0), ("ki_interaction", 1000.0),
 class TransparencySettings:
     """The transparent mode's settings (``data/device/transparency.toml``): which parts
     act (:data:`PARTS`); the acceleration estimate's low-pass (Hz) and the share of the
-    device's inertia compensated with it; the lead (s) the friction's speed is taken
-    ahead by; the cuffs' torque feedback's proportional (dimensionless) and integral
+    device's inertia compensated with it, per joint; the lead (s) the friction's speed
+    is taken ahead by; the cuffs' torque feedback's proportional (dimensionless) and integral
     (1/s) gains per joint with the integral's bound (N m); the wall at the range of
     motion's ends (N m/rad, N m s/rad per joint); the blend between support modes (s)."""
 
     parts: tuple[bool, bool, bool, bool]
     accel_filter_hz: float
-    inertia_share: float
+    inertia_share: F64
     lead: float
     kp: F64
     ki: F64
@@ -90,12 +91,11 @@ class TransparencySettings:
             raise ParameterError(w, "parts", f"expected {len(PARTS)} true/false "
                                  f"({', '.join(PARTS)}), got {self.parts!r}")
         for (_, unit, lo, hi), name, scale in zip(
-                _SCALARS, ("accel_filter_hz", "inertia_share", "lead", "ramp"),
-                (1.0, 1.0, 1e3, 1.0), strict=True):
+                _SCALARS, ("accel_filter_hz", "lead", "ramp"), (1.0, 1e3, 1.0), strict=True):
             _check.within(w, name, _check.finite(w, name, getattr(self, name)) * scale,
                           lo, hi, unit)
-        for (_, hi), name in zip(_VECTORS, ("kp", "ki", "integral_limit", "wall_stiffness",
-                                            "wall_damping"), strict=True):
+        for (_, hi), name in zip(_VECTORS, ("inertia_share", "kp", "ki", "integral_limit",
+                                            "wall_stiffness", "wall_damping"), strict=True):
             object.__setattr__(self, name, _check.vector_within(
                 w, name, list(getattr(self, name)), 3, 0.0, hi))
 
@@ -116,11 +116,16 @@ class TransparencySettings:
             if not isinstance(parts[p], bool):
                 raise ParameterError(f"{where} [parts]", p, f"expected true or false, got "
                                      f"{parts[p]!r}")
+        share = d["inertia_share"]  # one for every joint, or one each
+        if isinstance(share, int | float) and not isinstance(share, bool):
+            share = _check.within(where, "inertia_share", _check.finite(
+                where, "inertia_share", share), 0.0, 1.0)
+            d = {**d, "inertia_share": [share] * 3}
         v = {name: _check.vector(where, name, d[name], 3) for name, _ in _VECTORS}
         x = {name: _check.finite(where, name, d[name]) for name, *_ in _SCALARS}
         try:
             return cls(parts=tuple(parts[p] for p in PARTS),
-                       accel_filter_hz=x["accel_filter_hz"], inertia_share=x["inertia_share"],
+                       accel_filter_hz=x["accel_filter_hz"], inertia_share=v["inertia_share"],
                        lead=x["lead_ms"] / 1e3, kp=v["kp_interaction"],
                        ki=v["ki_interaction"], integral_limit=v["integral_limit"],
                        wall_stiffness=v["wall_stiffness"], wall_damping=v["wall_damping"],
@@ -162,7 +167,7 @@ class TransparencySettings:
 #: compensated, the lead (s), the cuffs' torque feedback (kp, ki 1/s, the integral's
 #: bound N m), the wall (N m/rad, N m s/rad), the support modes' blend (s), the device
 #: alone's parameters and whether they are known (not: the mode refused).
-TRANSPARENCY = np.dtype([("parts", F8, 4), ("accel_filter_hz", F8), ("inertia_share", F8),
+TRANSPARENCY = np.dtype([("parts", F8, 4), ("accel_filter_hz", F8), ("inertia_share", F8, 3),
                          ("lead", F8), ("kp", F8, 3), ("ki", F8, 3),
                          ("integral_limit", F8, 3), ("wall_stiffness", F8, 3),
                          ("wall_damping", F8, 3), ("ramp", F8),
@@ -242,8 +247,8 @@ def transparent_torque(law, g, motion, cuff, rom, h, armed, out):  # type: ignor
         mass_matrix(q, pd, M)
         coriolis_dq(q, dq, pd, P[1])
         for j in range(3):
-            P[1, j] += T.inertia_share * (M[j, 0] * S.ddq[0] + M[j, 1] * S.ddq[1]
-                                          + M[j, 2] * S.ddq[2])
+            P[1, j] += T.inertia_share[j] * (M[j, 0] * S.ddq[0] + M[j, 1] * S.ddq[1]
+                                             + M[j, 2] * S.ddq[2])
     for j in range(3):
         if T.parts[2] != 0.0:
             P[2, j] = link_friction(A[j:j + 1], dq[j] + T.lead * S.ddq[j])
