@@ -17,6 +17,8 @@ from pathlib import Path
 
 import pytest
 
+from conftest import EXOLEG
+
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 PAGES = [README, *sorted(p for p in (ROOT / "docs" / "guides").glob("*.md")
@@ -42,14 +44,14 @@ for i, (lang, code) in enumerate(blocks):
         # a command the page says ends otherwise ("# exit 1: ...") must end so
         said = re.match(r"\s*exit (\d+)", comment)
         expected = int(said.group(1)) if said else 0
-        argv = [sys.executable, "-m", "exoleg.cli", *shlex.split(line)[1:]]
-        if argv[3] != "hmi":
+        args = shlex.split(line)[1:]
+        if args[0] != "hmi":
             # as the console command runs it (exoleg.cli.main), in this interpreter
             from exoleg.cli import main
             out, err = io.StringIO(), io.StringIO()
             with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
                 try:
-                    code = main(argv[3:])
+                    code = main(args)
                 except SystemExit as e:
                     code = e.code if isinstance(e.code, int) else 1
             if code != expected:
@@ -58,8 +60,7 @@ for i, (lang, code) in enumerate(blocks):
             continue
         import httpx
         with open("hmi.txt", "w") as f:  # the console command itself (conftest.EXOLEG)
-            exoleg = os.path.join(os.path.dirname(sys.executable), "exoleg")
-            proc = subprocess.Popen([exoleg, *argv[3:]], stdout=f, stderr=subprocess.STDOUT,
+            proc = subprocess.Popen([sys.argv[4], *args], stdout=f, stderr=subprocess.STDOUT,
                                     env={**os.environ, "PYTHONUNBUFFERED": "1"})
         deadline = time.time() + 60
         while not (m := re.search(r"operator interface: (\S+)/#token=", open("hmi.txt").read())):
@@ -91,7 +92,8 @@ def test_page_runs_as_written(page: Path, tmp_path: Path) -> None:
     code = blocks(page)
     assert any(lang == "python" for lang, _ in code) or any(
         ".venv/bin/exoleg " in c for _, c in code), f"{page.name} shows nothing that runs"
-    r = subprocess.run([sys.executable, "-c", RUNNER, json.dumps(code), page.name, str(page)],
+    r = subprocess.run([sys.executable, "-c", RUNNER, json.dumps(code), page.name, str(page),
+                        EXOLEG],
                        cwd=tmp_path, capture_output=True, text=True, check=False,
                        timeout=900)
     assert r.returncode == 0, (page.name, r.stderr[-4000:], r.stdout[-1500:])
