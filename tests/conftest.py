@@ -127,6 +127,24 @@ def sched_fifo() -> None:
         pytest.skip("SCHED_FIFO not permitted here (root or CAP_SYS_NICE)")
 
 
+#: SCHED_FIFO priorities of a session's loop and bus threads in a test that holds them to
+#: a device's timing: above every real-time thread the suite's other workers start (their
+#: sessions' loops and buses, at exoleg.runtime.realtime's 10 and 11). At the device's own
+#: priorities a busy thread of theirs holds a loop or bus thread that cannot leave its
+#: CPU (CI: a tick 89 ms late in a pinned loop; a foot board's frame missed 20 ms with two
+#: spinning processes beside); a device has no other sessions beside it.
+ALONE_LOOP_PRIORITY, ALONE_IO_PRIORITY = 40, 41
+
+
+def alone(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The sessions this test starts in its process at :data:`ALONE_LOOP_PRIORITY` and
+    :data:`ALONE_IO_PRIORITY` (exoleg.runtime.realtime's, patched for the test)."""
+    import exoleg.runtime.realtime as realtime
+
+    monkeypatch.setattr(realtime, "LOOP_PRIORITY", ALONE_LOOP_PRIORITY)
+    monkeypatch.setattr(realtime, "IO_PRIORITY", ALONE_IO_PRIORITY)
+
+
 @pytest.fixture
 def terminal_ctrl_c():  # type: ignore[no-untyped-def]
     """A ``preexec_fn`` that gives a command SIGINT at its default, as a terminal's

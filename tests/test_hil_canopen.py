@@ -256,19 +256,25 @@ def test_every_target_is_defined_before_the_drives_are_enabled(tmp_path: Path) -
         assert abs(target - actual) < 1e-3, j  # (a tick's motion at most)
 
 
-def test_the_bus_holds_with_the_cpus_busy(tmp_path: Path, sched_fifo: None) -> None:
+def test_the_bus_holds_with_the_cpus_busy(tmp_path: Path, sched_fifo: None,
+                                          monkeypatch: pytest.MonkeyPatch) -> None:
     """`exoleg run --backend canopen --interface virtual` as the README runs it (real-time
     settings, the simulated nodes' default bus timeout) while one process per CPU spins.
     Reference, measured: with the loop pinned to a shared CPU and the bus threads at
     normal priority, a node's answer missed 5 ms within 0.1 s under three spinning
     processes, and in 1 run of 3 under one (the README's example failed in CI so);
-    realtime_settings and SIMULATED_BUS_TIMEOUT_S held 10 runs of 10 s under three."""
+    realtime_settings and SIMULATED_BUS_TIMEOUT_S held 10 runs of 10 s under three. Its
+    threads above the suite's other sessions' (conftest.alone): the load under test is
+    the spinning processes, as on a device; beside other workers' sessions at its own
+    priorities the foot board's frame missed its 20 ms once in CI."""
     import os
     import subprocess
     import sys
 
-    from exoleg.runtime.realtime import IO_PRIORITY
+    from conftest import ALONE_IO_PRIORITY, alone
     from exoleg.runtime.session import SIMULATED_BUS_TIMEOUT_S
+
+    alone(monkeypatch)
 
     hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"])
             for _ in range(os.cpu_count() or 2)]
@@ -281,7 +287,8 @@ def test_the_bus_holds_with_the_cpus_busy(tmp_path: Path, sched_fifo: None) -> N
             h.wait()
     assert res.stopped_by.startswith("duration, after a controlled stop"), res.stopped_by
     # the master's and the nodes' receivers, and the three drives' heartbeat producers
-    assert f"5 bus threads SCHED_FIFO priority {IO_PRIORITY}" in res.realtime, res.realtime
+    assert f"5 bus threads SCHED_FIFO priority {ALONE_IO_PRIORITY}" in res.realtime, \
+        res.realtime
 
 
 def test_the_hardware_estop_is_honoured_within_a_tick(tmp_path: Path) -> None:

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from conftest import ALONE_LOOP_PRIORITY, alone
 from exoleg.runtime.loop import LATE_RUN_TICKS, OVERRUN_S, late_run_text
 from exoleg.runtime.session import run
 from exoleg.session_log import read_log
@@ -69,13 +70,8 @@ try:
 except (AttributeError, OSError):
     FIFO = False
 
-#: the SCHED_FIFO priorities of the hog and, below it, of the loop under test: above
-#: every real-time thread the suite's other workers start (their sessions' loops and
-#: buses, at exoleg.runtime.realtime's 10 and 11), so that the loop is alone on its CPU
-#: but for the hog, as on a device's isolated CPU. At the device's own 10, a thread of
-#: theirs at 10 or 11 that is busy on that CPU holds the pinned loop, which cannot leave
-#: it: in CI a tick of this test once started 89 ms late (the hog delays no tick 3 ms).
-HOG_PRIORITY, LOOP_PRIORITY = 50, 40
+#: the hog's SCHED_FIFO priority: above the loop's (conftest.alone)
+HOG_PRIORITY = 50
 
 #: a task above the loop's SCHED_FIFO priority on one CPU: ready (on its CPU, at its
 #: priority) it says so and reads ``start`` (on the monotonic clock), then is busy
@@ -138,7 +134,7 @@ def _walking_session(tmp_path: Path, hog: tuple[float, float, float],
     import exoleg.runtime.realtime as realtime
 
     monkeypatch.setattr(realtime, "isolated_cpus", lambda *a: {CPU})
-    monkeypatch.setattr(realtime, "LOOP_PRIORITY", LOOP_PRIORITY)
+    alone(monkeypatch)
     got: list[Any] = []
     thread = threading.Thread(target=lambda: got.append(run(
         "sim", 6.0, tmp_path / "s", arm=True, walk_after=1.0, realtime=True,
@@ -158,7 +154,7 @@ def _walking_session(tmp_path: Path, hog: tuple[float, float, float],
     span, cycle, busy = hog
     assert hogging.returncode == 0 and float(said) > 0.8 * span * busy / cycle, said
     run_ = json.loads((tmp_path / "s" / "run.json").read_text())
-    assert f"SCHED_FIFO priority {LOOP_PRIORITY}" in run_["realtime"], run_["realtime"]
+    assert f"SCHED_FIFO priority {ALONE_LOOP_PRIORITY}" in run_["realtime"], run_["realtime"]
     return run_, read_log(log)[1], _stolen(CPU) - stolen
 
 
