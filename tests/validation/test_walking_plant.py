@@ -17,7 +17,7 @@ from exoleg.device import with_actuators
 from exoleg.device.actuator import ACTUATOR
 from exoleg.layout import new
 from exoleg.world.plant import (
-    STEP_WORK,
+    STEP,
     WalkingPlant,
     contact_buffers,
     step_contacts,
@@ -37,7 +37,7 @@ def _run(plant: WalkingPlant, x0: np.ndarray, q_hold: np.ndarray, n: int,
     p, w = plant.leg.p, plant.record()
     x = x0.copy()
     pts, F, gen = contact_buffers()
-    work = np.zeros(STEP_WORK)
+    work = new(STEP)[0]  # the step's work, kept as the simulated device keeps it
     X, FN, GEN, TAU, PTS, FF = [x.copy()], [], [], [], [], []
     for _ in range(n):
         step_contacts(p, w, x, pts, F, gen, (h, work))

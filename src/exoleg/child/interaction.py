@@ -18,7 +18,13 @@ from __future__ import annotations
 from numba import njit
 
 from exoleg.device.actuator import ActuatorModel, with_actuators
-from exoleg.dynamics.kernels import coriolis_dq, gravity, mass_height_terms, mass_matrix
+from exoleg.dynamics.kernels import (
+    coriolis_dq_trig,
+    gravity_trig,
+    joint_trig,
+    mass_height_terms_trig,
+    mass_matrix_trig,
+)
 from exoleg.dynamics.model import LegModel
 from exoleg.params.records import LINKS, Link
 
@@ -27,9 +33,9 @@ def device_leg(leg: LegModel, actuators: tuple[ActuatorModel, ...],
                link: bool = False) -> LegModel:
     """The device alone at ``leg``'s lengths, its rotors as armature (as the links feel
     them, or, ``link``, as they carry them: :func:`~exoleg.device.actuator.with_actuators`):
-    the links' parts after the first (the child's) when the leg was composed from parts (a fitted child,
-    the paper's detailed leg), else the paper's SLE bodies at these telescope settings
-    (``data/paper/device.toml``)."""
+    the links' parts after the first (the child's) when the leg was composed from parts
+    (a fitted child, the paper's detailed leg), else the paper's SLE bodies at these
+    telescope settings (``data/paper/device.toml``)."""
     if all(len(lk.parts) >= 2 for lk in leg.links):
         links = [Link.from_parts(lk.length, lk.parts[1:], name=LINKS[i])
                  for i, lk in enumerate(leg.links)]
@@ -53,11 +59,12 @@ def interaction_torque(pd, g, motion, ddy, link, out, work):  # type: ignore[no-
     gravity torques by row."""
     q, dq, ddq = motion[0], motion[1], motion[2]
     M, rows = work
-    mass_matrix(q, pd, M)
+    sc = joint_trig(q)  # once for the four kernels
+    mass_matrix_trig(sc, pd, M)
     Cq, G = rows[0], rows[1]
-    coriolis_dq(q, dq, pd, Cq)
-    gravity(q, pd, g, G)
-    y0, y1, y2, _, _ = mass_height_terms(q, dq, pd)
+    coriolis_dq_trig(sc, dq, pd, Cq)
+    gravity_trig(sc, pd, g, G)
+    y0, y1, y2, _, _ = mass_height_terms_trig(sc, dq, pd)
     pv = (y0, y1, y2)
     for j in range(3):
         need = Cq[j] + G[j] + pv[j] * ddy

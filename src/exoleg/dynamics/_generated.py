@@ -19,10 +19,10 @@ OFFSETS = (-1.5707963267948966, 0.0, 1.5707963267948966)
 
 
 @njit(cache=True, error_model="numpy")
-def mass_matrix(q, p, out):
-    """M(q) (eq 17) into out (n, n)."""
-    q1 = q[1]
-    q2 = q[2]
+def mass_matrix_trig(sc, p, out):
+    """M(q) (eq 17) into out (n, n).
+    Given sc = (sin q0, cos q0, ...) (the wrapper's libm calls)."""
+    s_0, c_0, s_1, c_1, s_2, c_2 = sc
     m0 = p[0]
     a0 = p[1]
     cx0 = p[2]
@@ -40,10 +40,6 @@ def mass_matrix(q, p, out):
     arm0 = p[15]
     arm1 = p[16]
     arm2 = p[17]
-    s_1 = sin(q1)
-    c_1 = cos(q1)
-    s_2 = sin(q2)
-    c_2 = cos(q2)
     s_1_2 = s_1 * c_2 + c_1 * s_2
     c_1_2 = c_1 * c_2 - s_1 * s_2
     x0 = a0*a0
@@ -76,6 +72,12 @@ def mass_matrix(q, p, out):
     out[1, 0] = M_0_1
     out[2, 0] = M_0_2
     out[2, 1] = M_1_2
+
+
+@njit(cache=True, error_model="numpy")
+def mass_matrix(q, p, out):
+    """M(q) (eq 17) into out (n, n)."""
+    mass_matrix_trig((0.0, 0.0, sin(q[1]), cos(q[1]), sin(q[2]), cos(q[2])), p, out)
 
 
 @njit(cache=True, error_model="numpy")
@@ -127,10 +129,10 @@ def coriolis_matrix(q, dq, p, out):
 
 
 @njit(cache=True, error_model="numpy")
-def coriolis_dq(q, dq, p, out):
-    """C(q, dq) dq into out (n,)."""
-    q1 = q[1]
-    q2 = q[2]
+def coriolis_dq_trig(sc, dq, p, out):
+    """C(q, dq) dq into out (n,).
+    Given sc = (sin q0, cos q0, ...) (the wrapper's libm calls)."""
+    s_0, c_0, s_1, c_1, s_2, c_2 = sc
     dq0 = dq[0]
     dq1 = dq[1]
     dq2 = dq[2]
@@ -142,10 +144,6 @@ def coriolis_dq(q, dq, p, out):
     m2 = p[10]
     cx2 = p[12]
     cy2 = p[13]
-    s_1 = sin(q1)
-    c_1 = cos(q1)
-    s_2 = sin(q2)
-    c_2 = cos(q2)
     s_1_2 = s_1 * c_2 + c_1 * s_2
     c_1_2 = c_1 * c_2 - s_1 * s_2
     x0 = dq0 + dq1
@@ -171,11 +169,16 @@ def coriolis_dq(q, dq, p, out):
 
 
 @njit(cache=True, error_model="numpy")
-def gravity(q, p, g, out):
-    """G(q) (eq 19) into out (n,)."""
-    q0 = q[0]
-    q1 = q[1]
-    q2 = q[2]
+def coriolis_dq(q, dq, p, out):
+    """C(q, dq) dq into out (n,)."""
+    coriolis_dq_trig((0.0, 0.0, sin(q[1]), cos(q[1]), sin(q[2]), cos(q[2])), dq, p, out)
+
+
+@njit(cache=True, error_model="numpy")
+def gravity_trig(sc, p, g, out):
+    """G(q) (eq 19) into out (n,).
+    Given sc = (sin q0, cos q0, ...) (the wrapper's libm calls)."""
+    s_0, c_0, s_1, c_1, s_2, c_2 = sc
     m0 = p[0]
     a0 = p[1]
     cx0 = p[2]
@@ -187,12 +190,6 @@ def gravity(q, p, g, out):
     m2 = p[10]
     cx2 = p[12]
     cy2 = p[13]
-    s_0 = sin(q0)
-    c_0 = cos(q0)
-    s_1 = sin(q1)
-    c_1 = cos(q1)
-    s_2 = sin(q2)
-    c_2 = cos(q2)
     s_0_1 = s_0 * c_1 + c_0 * s_1
     c_0_1 = c_0 * c_1 - s_0 * s_1
     s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
@@ -204,6 +201,12 @@ def gravity(q, p, g, out):
     out[0] = g*(m0*(c_0*cy0 + cx0*s_0) + m1*(x0 + x1) + m2*(x0 + x3))
     out[1] = g*(m1*x1 + m2*x3)
     out[2] = g*m2*x2
+
+
+@njit(cache=True, error_model="numpy")
+def gravity(q, p, g, out):
+    """G(q) (eq 19) into out (n,)."""
+    gravity_trig((sin(q[0]), cos(q[0]), sin(q[1]), cos(q[1]), sin(q[2]), cos(q[2])), p, g, out)
 
 
 @njit(cache=True, error_model="numpy")
@@ -1088,9 +1091,11 @@ def com_points(q, p, out):
 
 
 @njit(cache=True, error_model="numpy")
-def foot_point(q, dq, p, px, py):
+def foot_point_trig(sc, q, dq, p, px, py):
     """(x, y, vx, vy, phi): the point (px, py) of the last link's frame and its velocity
-    in the base frame, and the last link's absolute angle."""
+    in the base frame, and the last link's absolute angle.
+    Given sc = (sin q0, cos q0, ...) (the wrapper's libm calls)."""
+    s_0, c_0, s_1, c_1, s_2, c_2 = sc
     q0 = q[0]
     q1 = q[1]
     q2 = q[2]
@@ -1099,12 +1104,6 @@ def foot_point(q, dq, p, px, py):
     dq2 = dq[2]
     a0 = p[1]
     a1 = p[6]
-    s_0 = sin(q0)
-    c_0 = cos(q0)
-    s_1 = sin(q1)
-    c_1 = cos(q1)
-    s_2 = sin(q2)
-    c_2 = cos(q2)
     s_0_1 = s_0 * c_1 + c_0 * s_1
     c_0_1 = c_0 * c_1 - s_0 * s_1
     s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
@@ -1124,20 +1123,20 @@ def foot_point(q, dq, p, px, py):
 
 
 @njit(cache=True, error_model="numpy")
-def foot_point_jacobian(q, p, px, py, out):
+def foot_point(q, dq, p, px, py):
+    """(x, y, vx, vy, phi): the point (px, py) of the last link's frame and its velocity
+    in the base frame, and the last link's absolute angle."""
+    return foot_point_trig((sin(q[0]), cos(q[0]), sin(q[1]), cos(q[1]), sin(q[2]), cos(q[2])), q, dq, p, px, py)
+
+
+@njit(cache=True, error_model="numpy")
+def foot_point_jacobian_trig(sc, p, px, py, out):
     """The Jacobian (2, 3) of the point (px, py) of the last link's frame into out: a
-    force F on it acts on the joints as J^T F."""
-    q0 = q[0]
-    q1 = q[1]
-    q2 = q[2]
+    force F on it acts on the joints as J^T F.
+    Given sc = (sin q0, cos q0, ...) (the wrapper's libm calls)."""
+    s_0, c_0, s_1, c_1, s_2, c_2 = sc
     a0 = p[1]
     a1 = p[6]
-    s_0 = sin(q0)
-    c_0 = cos(q0)
-    s_1 = sin(q1)
-    c_1 = cos(q1)
-    s_2 = sin(q2)
-    c_2 = cos(q2)
     s_0_1 = s_0 * c_1 + c_0 * s_1
     c_0_1 = c_0 * c_1 - s_0 * s_1
     s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
@@ -1156,6 +1155,13 @@ def foot_point_jacobian(q, p, px, py, out):
 
 
 @njit(cache=True, error_model="numpy")
+def foot_point_jacobian(q, p, px, py, out):
+    """The Jacobian (2, 3) of the point (px, py) of the last link's frame into out: a
+    force F on it acts on the joints as J^T F."""
+    foot_point_jacobian_trig((sin(q[0]), cos(q[0]), sin(q[1]), cos(q[1]), sin(q[2]), cos(q[2])), p, px, py, out)
+
+
+@njit(cache=True, error_model="numpy")
 def links_mass(p):
     """The links' mass, kg (armature aside)."""
     m0 = p[0]
@@ -1166,12 +1172,11 @@ def links_mass(p):
 
 
 @njit(cache=True, error_model="numpy")
-def mass_height_terms(q, dq, p):
+def mass_height_terms_trig(sc, dq, p):
     """Of Y(q) = sum m_i y_ci (the links' mass times their COM height): the gradient
-    dY/dq (3), b = dq^T (d^2 Y / dq^2) dq, and the links' mass, as a tuple."""
-    q0 = q[0]
-    q1 = q[1]
-    q2 = q[2]
+    dY/dq (3), b = dq^T (d^2 Y / dq^2) dq, and the links' mass, as a tuple.
+    Given sc = (sin q0, cos q0, ...) (the wrapper's libm calls)."""
+    s_0, c_0, s_1, c_1, s_2, c_2 = sc
     dq0 = dq[0]
     dq1 = dq[1]
     dq2 = dq[2]
@@ -1186,12 +1191,6 @@ def mass_height_terms(q, dq, p):
     m2 = p[10]
     cx2 = p[12]
     cy2 = p[13]
-    s_0 = sin(q0)
-    c_0 = cos(q0)
-    s_1 = sin(q1)
-    c_1 = cos(q1)
-    s_2 = sin(q2)
-    c_2 = cos(q2)
     s_0_1 = s_0 * c_1 + c_0 * s_1
     c_0_1 = c_0 * c_1 - s_0 * s_1
     s_0_1_2 = s_0_1 * c_2 + c_0_1 * s_2
@@ -1216,6 +1215,13 @@ def mass_height_terms(q, dq, p):
     b = dq0*dq0*(m0*(c_0*cx0 - cy0*s_0) + m1*(x10 + x13) + m2*(x11 + x13 - x5 - x6)) + dq1*dq1*x12 + dq1*x12*x4 - 2*dq1*x9 - dq2*dq2*x8 - x4*x9
     mass = m0 + m1 + m2
     return (dY0, dY1, dY2, b, mass)
+
+
+@njit(cache=True, error_model="numpy")
+def mass_height_terms(q, dq, p):
+    """Of Y(q) = sum m_i y_ci (the links' mass times their COM height): the gradient
+    dY/dq (3), b = dq^T (d^2 Y / dq^2) dq, and the links' mass, as a tuple."""
+    return mass_height_terms_trig((sin(q[0]), cos(q[0]), sin(q[1]), cos(q[1]), sin(q[2]), cos(q[2])), dq, p)
 
 
 @njit(cache=True, error_model="numpy")
@@ -1248,3 +1254,10 @@ def mass_height(q, p):
     x0 = a0*c_0
     Y = -m0*(c_0*cx0 - cy0*s_0) - m1*(c_0_1*cx1 - cy1*s_0_1 + x0) - m2*(a1*c_0_1 - c_0_1_2*cy2 - cx2*s_0_1_2 + x0)
     return Y
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def joint_trig(q):
+    """(sin q0, cos q0, ..., sin q_n-1, cos q_n-1): the ``sc`` of the *_trig kernels, one
+    libm call per joint and function for all of them."""
+    return (sin(q[0]), cos(q[0]), sin(q[1]), cos(q[1]), sin(q[2]), cos(q[2]))

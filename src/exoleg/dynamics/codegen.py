@@ -18,6 +18,7 @@ where gravity enters, and writes into a caller-owned ``out`` array.
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from collections.abc import Sequence
 from itertools import combinations_with_replacement
@@ -204,6 +205,34 @@ def _function(name: str, args: str, doc: str, lines: list[str], inline: bool = F
             f'    """{doc}"""\n{body}\n')
 
 
+def _given_trig(d: Derivation, name: str, args: str, doc: str, lines: list[str],
+                returns: bool) -> list[str]:
+    """The kernel ``name`` as two: ``<name>_trig``, its body given ``sc`` = (s_0, c_0,
+    ..., s_n-1, c_n-1), the joints' sin and cos, in place of its libm calls (``q`` only
+    where it needs the angles themselves), and ``name`` itself, which takes them from libm
+    and calls it -- the same arithmetic, so the same bits. A caller that evaluates several
+    kernels at one posture (the walking plant's stages, its contacts) takes the sin and
+    cos once for all of them."""
+    libm = [ln for ln in lines if " = sin(" in ln or " = cos(" in ln]
+    body = [ln for ln in lines if ln not in libm]
+    angles = {str(s) for s in d.q}
+    unpack_q = [ln for ln in body if ln.split(" = ")[0] in angles]
+    rest = [ln for ln in body if ln not in unpack_q]
+    needs_q = any(a in re.findall(r"\w+", ln) for ln in rest for a in angles)
+    sc = [f"s_{i}, c_{i}" for i in range(d.n)]
+    trig_args = args.replace("q, ", "sc, q, " if needs_q else "sc, ", 1)
+    head = ", ".join(sc) + " = sc"
+    kernel = _function(f"{name}_trig", trig_args,
+                       doc + "\n    Given sc = (sin q0, cos q0, ...) (the wrapper's libm calls).",
+                       [head] + (unpack_q if needs_q else []) + rest)
+    taken = {ln.split(" = ")[0]: ln.split(" = ")[1] for ln in libm}
+    values = ", ".join(taken.get(v, "0.0").replace(f"({q})", f"(q[{i}])")
+                       for i, q in enumerate(d.q) for v in (f"s_{i}", f"c_{i}"))
+    call = f"{name}_trig(({values}), {trig_args.replace('sc, ', '', 1)})"
+    wrapper = _function(name, args, doc, [("return " if returns else "") + call])
+    return [kernel, wrapper]
+
+
 def generate(d: Derivation) -> str:
     """Python source of every kernel for derivation ``d``."""
     n = d.n
@@ -214,17 +243,20 @@ def generate(d: Derivation) -> str:
     lines = _body(d, [d.M[j, k] for j, k in upper], [f"M_{j}_{k}" for j, k in upper], ["q"])
     lines += [f"out[{j}, {k}] = M_{j}_{k}" for j, k in upper]
     lines += [f"out[{k}, {j}] = M_{j}_{k}" for j, k in upper if j != k]
-    funcs.append(_function("mass_matrix", "q, p, out", "M(q) (eq 17) into out (n, n).", lines))
+    funcs += _given_trig(d, "mass_matrix", "q, p, out", "M(q) (eq 17) into out (n, n).", lines,
+                         False)
 
     lines = _body(d, list(d.C), [f"out[{i // n}, {i % n}]" for i in range(n * n)], ["q", "dq"])
     funcs.append(_function("coriolis_matrix", "q, dq, p, out",
                            "C(q, dq) in Christoffel form (eq 18) into out (n, n).", lines))
 
     lines = _body(d, list(cdq), [f"out[{i}]" for i in range(n)], ["q", "dq"])
-    funcs.append(_function("coriolis_dq", "q, dq, p, out", "C(q, dq) dq into out (n,).", lines))
+    funcs += _given_trig(d, "coriolis_dq", "q, dq, p, out", "C(q, dq) dq into out (n,).", lines,
+                         False)
 
     lines = _body(d, list(d.G), [f"out[{i}]" for i in range(n)], ["q"])
-    funcs.append(_function("gravity", "q, p, g, out", "G(q) (eq 19) into out (n,).", lines))
+    funcs += _given_trig(d, "gravity", "q, p, g, out", "G(q) (eq 19) into out (n,).", lines,
+                         False)
     lines = _body(d, list(d.Mdot), [f"out[{i // n}, {i % n}]" for i in range(n * n)], ["q", "dq"])
     funcs.append(_function("mass_matrix_dot", "q, dq, p, out", "dM/dt into out (n, n).", lines))
 
@@ -281,7 +313,8 @@ def generate(d: Derivation) -> str:
     funcs.append(_function(
         "forward_dynamics_sc", "sc, dq, tau, k",
         "forward_dynamics on scalars, given sc = (s_0, c_0, ...), s_i = sin(q_i), c_i = cos(q_i)\n"
-        "    instead of q, the tuples dq and tau and the leg's coefficients k, returning the tuple\n"
+        "    instead of q, the tuples dq and tau and the leg's coefficients k, returning the "
+        "tuple\n"
         "    ddq: no arrays, and a stepper that knows sin/cos cheaply (angle addition from the\n"
         "    previous stage) skips libm.",
         unpack + [", ".join(f"tau{i}" for i in range(n)) + " = tau"] + body, inline=True))
@@ -336,6 +369,12 @@ def generate(d: Derivation) -> str:
         "    links' lengths.", lines))
 
     funcs += _kinematics(d)
+    values = ", ".join(f"sin(q[{i}]), cos(q[{i}])" for i in range(n))
+    funcs.append(_function(
+        "joint_trig", "q",
+        "(sin q0, cos q0, ..., sin q_n-1, cos q_n-1): the ``sc`` of the *_trig kernels, one\n"
+        "    libm call per joint and function for all of them.", [f"return ({values})"],
+        inline=True))
 
     header = (
         '"""Generated by exoleg.dynamics.codegen from exoleg.dynamics.derive -- do not edit.\n\n'
@@ -380,16 +419,16 @@ def _kinematics(d: Derivation) -> list[str]:
     v = J * dqv
     lines = _body(d, [P[0], P[1], v[0], v[1], d.phi[-1]], ["x", "y", "vx", "vy", "phi"],
                   ["q", "dq"])
-    funcs.append(_function(
-        "foot_point", "q, dq, p, px, py",
+    funcs += _given_trig(
+        d, "foot_point", "q, dq, p, px, py",
         "(x, y, vx, vy, phi): the point (px, py) of the last link's frame and its velocity\n"
         "    in the base frame, and the last link's absolute angle.",
-        lines + ["return (x, y, vx, vy, phi)"]))
+        lines + ["return (x, y, vx, vy, phi)"], True)
     lines = _body(d, list(J), [f"out[{i // n}, {i % n}]" for i in range(2 * n)], ["q"])
-    funcs.append(_function(
-        "foot_point_jacobian", "q, p, px, py, out",
+    funcs += _given_trig(
+        d, "foot_point_jacobian", "q, p, px, py, out",
         f"The Jacobian (2, {n}) of the point (px, py) of the last link's frame into out: a\n"
-        "    force F on it acts on the joints as J^T F.", lines))
+        "    force F on it acts on the joints as J^T F.", lines, False)
     grad = [sp.diff(d.Y, qi) for qi in d.q]
     hess = sum(sp.diff(d.Y, qi, qj) * dqi * dqj
                for qi, dqi in zip(d.q, d.dq, strict=True)
@@ -399,11 +438,11 @@ def _kinematics(d: Derivation) -> list[str]:
     funcs.append(_function("links_mass", "p", "The links' mass, kg (armature aside).", lines))
     lines = _body(d, [*grad, hess, mass], [*(f"dY{i}" for i in range(n)), "b", "mass"],
                   ["q", "dq"])
-    funcs.append(_function(
-        "mass_height_terms", "q, dq, p",
+    funcs += _given_trig(
+        d, "mass_height_terms", "q, dq, p",
         "Of Y(q) = sum m_i y_ci (the links' mass times their COM height): the gradient\n"
         f"    dY/dq ({n}), b = dq^T (d^2 Y / dq^2) dq, and the links' mass, as a tuple.",
-        lines + ["return (" + ", ".join(f"dY{i}" for i in range(n)) + ", b, mass)"]))
+        lines + ["return (" + ", ".join(f"dY{i}" for i in range(n)) + ", b, mass)"], True)
     lines = _body(d, [d.Y], ["Y"], ["q"])
     funcs.append(_function("mass_height", "q, p",
                            "Y(q) = sum m_i y_ci, kg m (zero at the base joint's height).",

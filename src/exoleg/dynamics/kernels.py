@@ -3,8 +3,11 @@
 The scalar kernels (``mass_matrix``, ``gravity``, ``forward_dynamics``, ...) come
 from ``_generated.py`` (see :mod:`exoleg.dynamics.codegen`) and are meant to be
 called from other numba code (the simulator's loop); each writes into an
-``out`` array. The ``gu_*`` gufuncs wrap them for numpy callers and broadcast
-over leading axes: ``gufunc("mass_matrix")(q (..., 3), p (18,)) -> (..., 3, 3)``.
+``out`` array. Those that take the posture have a ``*_trig`` twin given the joints'
+sin and cos (``joint_trig(q)``) instead of taking them from libm: a caller that
+evaluates several at one posture takes them once (the same bits). The ``gu_*``
+gufuncs wrap them for numpy callers and broadcast over leading axes:
+``gufunc("mass_matrix")(q (..., 3), p (18,)) -> (..., 3, 3)``.
 They are built (or loaded from numba's cache) on first use, not at import.
 
 ``p`` is the parameter vector, link by link ``(m, a, cx, cy, Izz)``, then the three
@@ -34,23 +37,30 @@ from exoleg.dynamics._generated import (
     coefficients,
     com_points,
     coriolis_dq,
+    coriolis_dq_trig,
     coriolis_matrix,
     diagnostics,
     foot_point,
     foot_point_jacobian,
+    foot_point_jacobian_trig,
+    foot_point_trig,
     forward_dynamics,
     forward_dynamics_sc,
     gravity,
     gravity_sc,
+    gravity_trig,
     inverse_dynamics,
     inverse_dynamics_sc,
     joint_points,
+    joint_trig,
     kinetic_energy,
     links_mass,
     mass_height,
     mass_height_terms,
+    mass_height_terms_trig,
     mass_matrix,
     mass_matrix_dot,
+    mass_matrix_trig,
     potential_energy,
     regressor,
 )
@@ -66,20 +76,20 @@ __all__ = [
     "OFFSETS",
     "coefficients",
     "com_points",
-    "coriolis_dq",
+    "coriolis_dq", "coriolis_dq_trig",
     "coriolis_matrix",
     "diagnostics",
     "forward_dynamics",
     "forward_dynamics_sc",
-    "foot_point", "foot_point_jacobian",
-    "gravity", "gravity_sc",
+    "foot_point", "foot_point_jacobian", "foot_point_jacobian_trig", "foot_point_trig",
+    "gravity", "gravity_sc", "gravity_trig",
     "gufunc",
     "inverse_dynamics", "inverse_dynamics_sc",
-    "joint_points",
+    "joint_points", "joint_trig",
     "kinetic_energy",
     "links_mass",
-    "mass_height", "mass_height_terms",
-    "mass_matrix",
+    "mass_height", "mass_height_terms", "mass_height_terms_trig",
+    "mass_matrix", "mass_matrix_trig",
     "mass_matrix_dot",
     "potential_energy",
     "regressor",

@@ -35,20 +35,19 @@ from exoleg.device.drive import (
 )
 from exoleg.device.ground import ANKLE_HEIGHT, SOLE_MAX, Ground
 from exoleg.device.sensors import FootSensors, fsr_counts, fsr_response, imu, other_loads
-from exoleg.dynamics.kernels import foot_point
+from exoleg.dynamics.kernels import foot_point, foot_point_trig, joint_trig
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, new
 from exoleg.reference.gait import MID_STANCE, SchwartzGait2008
 from exoleg.sizing.anthropometry import body_weight_share
 from exoleg.world.plant import (
-    STEP_WORK,
+    STEP,
     WalkingPlant,
     contact_forces,
     contact_points,
     sole_loads,
     step_contacts,
-    step_work,
     support_force,
     walking_step,
     walking_step_series,
@@ -59,10 +58,11 @@ F64 = NDArray[np.float64]
 
 
 @njit(inline="always", cache=True)
-def _imu_point(p, x, px, py):  # type: ignore[no-untyped-def]
+def _imu_point(p, x, sc, px, py):  # type: ignore[no-untyped-def]
     """Velocity (vx, vy) of the point (px, py) of the foot frame, world frame, and the
-    foot's angle, for the plant state x (the generated kinematics)."""
-    _, _, vx, vy, phi = foot_point(x[1:4], x[5:8], p, px, py)
+    foot's angle, for the plant state x (the generated kinematics; ``sc``: its joints' sin
+    and cos)."""
+    _, _, vx, vy, phi = foot_point_trig(sc, x[1:4], x[5:8], p, px, py)
     return vx, x[4] + vy, phi
 
 
@@ -94,7 +94,7 @@ DEVICE = np.dtype([("x", F8, 8), ("tau", F8, 3), ("qm", F8, 3), ("vm", F8, 3),
                    ("rotor", F8, 6), ("joint_torque", F8, 3),
                    ("pts", F8, (SOLE_MAX, 4)), ("forces", F8, (SOLE_MAX, 2)), ("gen", F8, 4),
                    ("carried", F8, 4), ("x0", F8, 8), ("work", F8, (9, 3)),
-                   ("step", F8, STEP_WORK)])
+                   ("step", STEP)])
 
 
 def device_state(plant: WalkingPlant, A: NDArray[np.void], x0: F64, imu_x: float,
@@ -105,7 +105,7 @@ def device_state(plant: WalkingPlant, A: NDArray[np.void], x0: F64, imu_x: float
     r["x"] = x0
     r["qm"] = [encode(A[i:i + 1], x0[1 + i]) for i in range(3)]
     r["vm"] = x0[5:8]
-    vx, vy, _ = _imu_point(plant.leg.p, x0, imu_x, imu_y)
+    vx, vy, _ = _imu_point(plant.leg.p, x0, joint_trig(x0[1:4]), imu_x, imu_y)
     r["v_imu"] = vx, vy
     r["loaded"] = True
     r["t_off"] = r["t_strike"] = -1e9
@@ -131,14 +131,15 @@ def device_sense(dev, board, S, h, first, noise, out, fn):  # type: ignore[no-un
     o = out[0]
     x = D.x
     pts, F, carried = D.pts, D.forces, D.carried
-    contact_points(p, w, x[0], x[1:4], x[5:8], x[4], pts)
+    sc = joint_trig(x[1:4])
+    contact_points(p, w, x[0], x[1:4], sc, x[5:8], x[4], pts)
     contact_forces(w, pts, F)
     sole_loads(w, F, fn, carried)
     for i in range(4):
         read = fsr_response(sens, D.fsr_last, D.fsr_memory, D.fsr_creep, i, carried[i], h)
         o.fsr[i] = fsr_counts(sens, read * sens[0].full_scale, fsr_noise[i])
     _other_foot(w, sens, D, h, fsr_noise, o.fsr_other)
-    vx, vy, phi = _imu_point(p, x, imu_x, imu_y)
+    vx, vy, phi = _imu_point(p, x, sc, imu_x, imu_y)
     ax = 0.0 if first else (vx - D.v_imu[0]) / h
     ay = 0.0 if first else (vy - D.v_imu[1]) / h
     D.v_imu[0], D.v_imu[1] = vx, vy
@@ -283,9 +284,8 @@ def device_actuate(dev, K, S, step, u, fn, scene, into):  # type: ignore[no-unty
             # unit's spring (its friction is the rotor's, behind it)
             link[i] = (link[i] / sub if A[i].stiffness > 0.0
                        else tau[i] - friction(A[i:i + 1], dqm[i]))
-        M, rows, _, _ = step_work(D.step)[3]  # (the steps are done with it)
         interaction_torque(pd, W.g, V[2:5], (x[4] - x0[4]) / h, link, D.interaction,
-                           (M, rows))
+                           (D.step.M, D.step.V))  # (the steps are done with them)
     ok = 1
     for i in range(8):
         if not math.isfinite(x[i]):

@@ -52,13 +52,16 @@ from exoleg.child.passive import passive_torque
 from exoleg.device.drive import friction, series_torque
 from exoleg.device.ground import ANKLE_HEIGHT, REGIONS, SOLE_MAX, Ground
 from exoleg.dynamics.kernels import (
-    coriolis_dq,
-    foot_point,
-    foot_point_jacobian,
-    gravity,
+    coriolis_dq_trig,
+    foot_point_jacobian_trig,
+    foot_point_trig,
+    gravity_trig,
+    joint_trig,
     mass_height,
     mass_height_terms,
+    mass_height_terms_trig,
     mass_matrix,
+    mass_matrix_trig,
 )
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
@@ -217,13 +220,14 @@ PLANT = np.dtype([("body_mass", F8), ("g", F8),
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def contact_points(p, w, y, q, dq, dy, out):  # type: ignore[no-untyped-def]
+def contact_points(p, w, y, q, sc, dq, dy, out):  # type: ignore[no-untyped-def]
     """Positions and velocities of the sole's elements: out (:data:`SOLE_MAX`, 4) rows (x,
     y, dx, dy), world frame (hip at (0, y)), the first ``n`` filled; the leg's kinematics
-    are the generated :func:`~exoleg.dynamics.kernels.foot_point`."""
+    are the generated :func:`~exoleg.dynamics.kernels.foot_point` (``sc``: the joints' sin
+    and cos, :func:`~exoleg.dynamics.kernels.joint_trig`)."""
     P = w[0].points
     for k in range(w[0].n):
-        x, yy, vx, vy, _ = foot_point(q, dq, p, P[k, 0], P[k, 1])
+        x, yy, vx, vy, _ = foot_point_trig(sc, q, dq, p, P[k, 0], P[k, 1])
         out[k, 0], out[k, 1], out[k, 2], out[k, 3] = x, y + yy, vx, dy + vy
 
 
@@ -281,60 +285,46 @@ def _solve4(A, r):  # type: ignore[no-untyped-def]
         r[i] = t / A[i, i]
 
 
-#: The float64s a plant step works in (:func:`step_work`): RK4's slopes (4, 14), the
-#: stage's state and the step's start (14,) each, the leg's mass matrix (3, 3), its
-#: Coriolis, gravity and joint torques (3, 3), the 4 x 4 system and its right-hand side,
-#: the rotors' accelerations (3,) and a sole point's Jacobian (2, 3). A caller that
-#: keeps them (the simulated device: its DEVICE record's ``step``) steps with no
-#: allocation.
-STEP_WORK = 56 + 14 + 14 + 9 + 9 + 16 + 4 + 3 + 6
-
-
-@njit(cache=True, error_model="numpy")
-def step_work(buf):  # type: ignore[no-untyped-def]
-    """Views of ``buf`` (:data:`STEP_WORK`,): (slopes (4, 14), stage state (14,), start
-    state (14,), :func:`scratch`'s arrays, rotors' accelerations (3,), a Jacobian (2, 3))."""
-    b = buf
-    return (b[0:56].reshape((4, 14)), b[56:70], b[70:84],
-            (b[84:93].reshape((3, 3)), b[93:102].reshape((3, 3)),
-             b[102:118].reshape((4, 4)), b[118:122]),
-            b[122:125], b[125:131].reshape((2, 3)))
+#: The work of a plant step (:func:`walking_step`, :func:`walking_step_series`,
+#: :func:`step_contacts`), kept by its caller (the simulated device: its DEVICE record's
+#: ``step``) so that no step allocates: RK4's slopes ``k`` (4, 14), the stage's state
+#: ``s`` and the step's start ``z`` (14,: the plant's 8, then the rotors' 6), the leg's
+#: mass matrix ``M``, its Coriolis, gravity and joint torques by row ``V`` (3, 3), the
+#: 4 x 4 system ``A`` and its right-hand side ``r`` (which becomes (ddy, ddq)), the
+#: rotors' accelerations ``dr`` (3,) and a sole point's Jacobian ``J`` (2, 3).
+STEP = np.dtype([("k", F8, (4, 14)), ("s", F8, 14), ("z", F8, 14), ("M", F8, (3, 3)),
+                 ("V", F8, (3, 3)), ("A", F8, (4, 4)), ("r", F8, 4), ("dr", F8, 3),
+                 ("J", F8, (2, 3))])
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def generalized_contact(p, w, y, q, F, out, J):  # type: ignore[no-untyped-def]
+def generalized_contact(p, w, sc, F, out, J):  # type: ignore[no-untyped-def]
     """Generalized forces (4,) of the elements' forces F (:data:`SOLE_MAX`, 2): on y the
     sum of the normal forces, on the joints sum J_i^T F_i (the generated
-    :func:`~exoleg.dynamics.kernels.foot_point_jacobian`; ``J``: a (2, 3) to work in)."""
+    :func:`~exoleg.dynamics.kernels.foot_point_jacobian` at the joints' sin and cos
+    ``sc``; ``J``: a (2, 3) to work in)."""
     P = w[0].points
     out[:] = 0.0
     for k in range(w[0].n):
         out[0] += F[k, 1]
-        foot_point_jacobian(q, p, P[k, 0], P[k, 1], J)
+        foot_point_jacobian_trig(sc, p, P[k, 0], P[k, 1], J)
         for j in range(3):
             out[1 + j] += J[0, j] * F[k, 0] + J[1, j] * F[k, 1]
 
 
-@njit(cache=True, error_model="numpy")
-def scratch():  # type: ignore[no-untyped-def]
-    """The plant's work arrays for one step (:func:`walking_accel`'s ``wk``): the leg's
-    mass matrix (3, 3); its Coriolis, gravity and joint torques (3, 3) by row; the 4 x 4
-    system and its right-hand side, which becomes (ddy, ddq)."""
-    return np.empty((3, 3)), np.empty((3, 3)), np.empty((4, 4)), np.empty(4)
-
-
 @njit(cache=True, error_model="numpy", inline="always")
-def walking_accel(p, w, x, tau, gen, wk):  # type: ignore[no-untyped-def]
+def walking_accel(p, w, x, tau, gen, W):  # type: ignore[no-untyped-def]
     """(ddy, ddq) at the state x (8,) under joint torques tau (3,) and the generalized
     external forces ``gen`` (4,) (contacts and support), gravity included, into
-    ``wk[3]`` (``wk``: :func:`scratch`, the work arrays: no allocation per call)."""
-    M, V, A, r = wk
+    ``W.r`` (``W``: the step's work, :data:`STEP`)."""
+    M, V, A, r = W.M, W.V, W.A, W.r
     q, dq = x[1:4], x[5:8]
-    mass_matrix(q, p, M)
+    sc = joint_trig(q)  # once for the four kernels
+    mass_matrix_trig(sc, p, M)
     Cq, G = V[0], V[1]
-    coriolis_dq(q, dq, p, Cq)
-    gravity(q, p, w[0].g, G)
-    y0, y1, y2, b, m_leg = mass_height_terms(q, dq, p)
+    coriolis_dq_trig(sc, dq, p, Cq)
+    gravity_trig(sc, p, w[0].g, G)
+    y0, y1, y2, b, m_leg = mass_height_terms_trig(sc, dq, p)
     pv = (y0, y1, y2)
     mt = w[0].body_mass + m_leg
     A[0, 0] = mt
@@ -365,16 +355,16 @@ def walking_energy(p, w, y, dy, q, dq):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _deriv(p, w, A, P, x, tau, gen, wk):  # type: ignore[no-untyped-def]
-    """(ddy, ddq) at x into ``wk[3]`` with the actuators' friction (A: (3,) of
+def _deriv(p, w, A, P, x, tau, gen, W):  # type: ignore[no-untyped-def]
+    """(ddy, ddq) at x into ``W.r`` (:data:`STEP`) with the actuators' friction (A: (3,) of
     :data:`~exoleg.device.actuator.ACTUATOR`, or an empty one for none) and the child's
     passive joint moments (P: :data:`~exoleg.child.passive.PASSIVE`, off for none)."""
-    t = wk[1][2]
+    t = W.V[2]
     dq = x[5:8]
     passive_torque(P, x[1:4], dq, t)
     for i in range(3):
         t[i] += tau[i] - (friction(A[i:i + 1], dq[i]) if A.shape[0] == 3 else 0.0)
-    walking_accel(p, w, x, t, gen, wk)
+    walking_accel(p, w, x, t, gen, W)
 
 
 @njit(cache=True, error_model="numpy")
@@ -382,19 +372,17 @@ def walking_step(p, w, A, P, x, tau, gen, step):  # type: ignore[no-untyped-def]
     """One RK4 step of the state x (8,) = (y, q0, q1, q2, dy, dq0, dq1, dq2), in place, with
     the joint torques ``tau`` and generalized external forces ``gen`` held (the contact
     forces of the step's start, :func:`step_contacts`); the child's passive moments
-    (``P``) in every stage. ``step``: (h s, the step's work :data:`STEP_WORK`)."""
-    h, buf = step
-    k, s_, _, wk, _, _ = step_work(buf)
-    s = s_[:8]
+    (``P``) in every stage. ``step``: (h s, the step's work :data:`STEP`)."""
+    h, W = step
+    k, s, a = W.k, W.s[:8], W.r
     for i in range(8):
         s[i] = x[i]
-    a = wk[3]
     for stage in range(4):
         c = 0.0 if stage == 0 else (0.5 if stage < 3 else 1.0)
         if stage > 0:
             for i in range(8):
                 s[i] = x[i] + c * h * k[stage - 1, i]
-        _deriv(p, w, A, P, s, tau, gen, wk)
+        _deriv(p, w, A, P, s, tau, gen, W)
         for i in range(4):
             k[stage, i] = s[4 + i]
             k[stage, 4 + i] = a[i]
@@ -403,16 +391,15 @@ def walking_step(p, w, A, P, x, tau, gen, step):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _deriv_series(p, w, A, P, s, drive, gen, work):  # type: ignore[no-untyped-def]
+def _deriv_series(p, w, A, P, s, drive, gen, W):  # type: ignore[no-untyped-def]
     """:func:`_deriv` with compliant units: the state s (14,) is the plant's (8,), then
     the rotors' angles and speeds at the joint's side (3 + 3); ``drive``: rows the motors'
     torques and the child's (3,) each. A rigid joint takes its motor's torque less its
     friction as :func:`_deriv` does; a compliant one the spring's, its rotor (reflected
-    inertia B) driven by the motor against the spring and its own friction. ``work``:
-    (:func:`scratch`'s arrays, dr (3,)): (ddy, ddq) into the first's last, the rotors'
-    accelerations into dr (0 at a rigid joint, whose rotor is the link)."""
-    wk, dr = work
-    t = wk[1][2]
+    inertia B) driven by the motor against the spring and its own friction. ``W``: the
+    step's work (:data:`STEP`): (ddy, ddq) into ``W.r``, the rotors' accelerations into
+    ``W.dr`` (0 at a rigid joint, whose rotor is the link)."""
+    t, dr = W.V[2], W.dr
     q, dq = s[1:4], s[5:8]
     passive_torque(P, q, dq, t)
     for i in range(3):
@@ -424,7 +411,7 @@ def _deriv_series(p, w, A, P, s, drive, gen, work):  # type: ignore[no-untyped-d
         else:
             t[i] += drive[0, i] + drive[1, i] - friction(A[i:i + 1], dq[i])
             dr[i] = 0.0
-    walking_accel(p, w, s, t, gen, wk)
+    walking_accel(p, w, s, t, gen, W)
 
 
 @njit(cache=True, error_model="numpy")
@@ -433,20 +420,19 @@ def walking_step_series(p, w, A, P, state, drive, gen, step):  # type: ignore[no
     (8,) and the rotors' r (6,: angles, then speeds, at the joint's side), stepped
     together by RK4, in place, the motors' and the child's torques (``drive``, rows (2, 3)) and the
     generalized external forces held. A rigid joint's rotor is its link: its entries of r
-    follow the link's. ``step``: (h s, the step's work :data:`STEP_WORK`)."""
+    follow the link's. ``step``: (h s, the step's work :data:`STEP`)."""
     x, r = state
-    h, buf = step
-    k, s, z, wk, dr, _ = step_work(buf)
+    h, W = step
+    k, s, z, a, dr = W.k, W.s, W.z, W.r, W.dr
     s[:8] = x
     s[8:] = r
     z[:] = s
-    a = wk[3]
     for stage in range(4):
         c = 0.0 if stage == 0 else (0.5 if stage < 3 else 1.0)
         if stage > 0:
             for i in range(14):
                 s[i] = z[i] + c * h * k[stage - 1, i]
-        _deriv_series(p, w, A, P, s, drive, gen, (wk, dr))
+        _deriv_series(p, w, A, P, s, drive, gen, W)
         for i in range(4):
             k[stage, i] = s[4 + i]
             k[stage, 4 + i] = a[i]
@@ -465,7 +451,7 @@ def walking_step_series(p, w, A, P, state, drive, gen, step):  # type: ignore[no
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def implicit_friction(p, w, q, pts, F, h, wk):  # type: ignore[no-untyped-def]
+def implicit_friction(p, w, sc, pts, F, h, wk):  # type: ignore[no-untyped-def]
     """The sole's friction F[:, 0] as a step of ``h`` s meets it, linearly implicit: each
     element's slope within the smooth Coulomb law's band (mu F_n sech^2(slip /
     slip_speed) / slip_speed) acts as a damper on its effective mass along the belt (1 /
@@ -473,8 +459,8 @@ def implicit_friction(p, w, q, pts, F, h, wk):  # type: ignore[no-untyped-def]
     start), so the friction is divided by 1 + h slope / m. Held over a step explicitly,
     a slope beyond 2 m / h reverses the slip it acts on and the foot chatters at the
     step's rate within the band (:data:`FRICTION_LIMIT`); so it cannot, at any step,
-    while a sliding element (beyond the band: slope ~ 0) keeps mu F_n. ``wk``: two
-    (3, 3) to work in and a (2, 3) Jacobian."""
+    while a sliding element (beyond the band: slope ~ 0) keeps mu F_n. ``sc``: the
+    joints' sin and cos; ``wk``: two (3, 3) to work in and a (2, 3) Jacobian."""
     W = w[0]
     M, Mi, J = wk
     det = 0.0  # the mass matrix's adjugate and determinant, at the first contact (none in swing)
@@ -483,13 +469,13 @@ def implicit_friction(p, w, q, pts, F, h, wk):  # type: ignore[no-untyped-def]
         if F[k, 1] <= 0.0:
             continue
         if det == 0.0:
-            mass_matrix(q, p, M)
+            mass_matrix_trig(sc, p, M)
             a, b, c = M[0, 0], M[0, 1], M[0, 2]
             d, e, f = M[1, 1], M[1, 2], M[2, 2]
             Mi[0, 0], Mi[0, 1], Mi[0, 2] = d * f - e * e, c * e - b * f, b * e - c * d
             Mi[1, 1], Mi[1, 2], Mi[2, 2] = a * f - c * c, b * c - a * e, a * d - b * b
             det = a * Mi[0, 0] + b * Mi[0, 1] + c * Mi[0, 2]
-        foot_point_jacobian(q, p, P[k, 0], P[k, 1], J)
+        foot_point_jacobian_trig(sc, p, P[k, 0], P[k, 1], J)
         x0, x1, x2 = J[0, 0], J[0, 1], J[0, 2]
         inv_m = (x0 * (Mi[0, 0] * x0 + 2.0 * (Mi[0, 1] * x1 + Mi[0, 2] * x2))
                  + x1 * (Mi[1, 1] * x1 + 2.0 * Mi[1, 2] * x2) + x2 * Mi[2, 2] * x2) / det
@@ -502,14 +488,15 @@ def step_contacts(p, w, x, pts, F, gen, step):  # type: ignore[no-untyped-def]
     """The contact and support forces at state x over a step: the sole's points into
     pts (:data:`SOLE_MAX`, 4), their forces into F (:data:`SOLE_MAX`, 2) -- the friction
     as the step meets it, :func:`implicit_friction` --, the generalized forces (support
-    included) into gen (4,) (``step``: (h s, the step's work :data:`STEP_WORK`)).
+    included) into gen (4,) (``step``: (h s, the step's work :data:`STEP`)).
     Returns the support force."""
-    h, buf = step
-    _, _, _, wk, _, J = step_work(buf)
-    contact_points(p, w, x[0], x[1:4], x[5:8], x[4], pts)
+    h, W = step
+    J = W.J
+    sc = joint_trig(x[1:4])  # once for the points, the friction and the Jacobians
+    contact_points(p, w, x[0], x[1:4], sc, x[5:8], x[4], pts)
     contact_forces(w, pts, F)
-    implicit_friction(p, w, x[1:4], pts, F, h, (wk[0], wk[1], J))
-    generalized_contact(p, w, x[0], x[1:4], F, gen, J)
+    implicit_friction(p, w, sc, pts, F, h, (W.M, W.V, J))
+    generalized_contact(p, w, sc, F, gen, J)
     fc = support_force(w, x[0], x[4])
     gen[0] += fc
     return fc
