@@ -23,12 +23,14 @@ from exoleg.errors import ParameterError
 from exoleg.io import read_record
 from exoleg.params.records import JOINTS
 from exoleg.reference.scores import clinical_degrees
-from exoleg.session_log import check_records, check_session, read_log
-from exoleg.tick import Event
+from exoleg.session_log import SESSION_COLUMNS, check_records, check_session, read_log
+from exoleg.tick import SENSOR_POINTS, Event
 
 F64 = NDArray[np.float64]
 #: C3D's header counts frames in 16 bits: a longer recording is split into files
 C3D_MAX_FRAMES = 65535
+#: the foot board's columns of a session log, exported as they are (ADC counts)
+FSR_COLUMNS = tuple(f"fsr_{s}" for s in SENSOR_POINTS)
 ANGLE_NAMES = {"hip": "hip_flexion", "knee": "knee_flexion", "ankle": "ankle_dorsiflexion"}
 C3D_ANGLES = {"hip": "HipAngles", "knee": "KneeAngles", "ankle": "AnkleAngles"}
 
@@ -84,7 +86,9 @@ def session_export(folder: str | Path, rate_hz: float | None = None) -> SessionE
     path = root / "session.log"
     if not path.is_file():
         raise ParameterError(str(root), "session.log", "no session log here")
-    header, cols, _ = read_log(path)
+    names = [f"{what}_{j}" for what in ("q_meas", "q_ref", "u", "cuff", "support_level")
+             for j in JOINTS]
+    header, cols, _ = read_log(path, [*SESSION_COLUMNS, *names, *FSR_COLUMNS])
     check_session(path, header)
     check_records(path, cols)
     period = float(header.get("period", 1e-3))
@@ -124,7 +128,7 @@ def session_export(folder: str | Path, rate_hz: float | None = None) -> SessionE
             if n in cols and np.any(np.isfinite(cols[n])):
                 chans.append(Channel(f"{j}_{prefix}", cols[n], unit, "MISC",
                                      f"{side}{j.capitalize()}", "n/a", what))
-    for n in ("fsr_heel", "fsr_met1", "fsr_met5", "fsr_hallux"):
+    for n in FSR_COLUMNS:
         if n in cols:
             chans.append(Channel(n, cols[n], "n/a", "MISC", f"{side}Foot", "n/a",
                                  "the foot board's force sensor, ADC counts"))
