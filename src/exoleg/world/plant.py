@@ -451,7 +451,7 @@ def walking_step_series(p, w, A, P, state, drive, gen, step):  # type: ignore[no
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def implicit_friction(p, w, sc, pts, F, h, wk):  # type: ignore[no-untyped-def]
+def implicit_friction(p, w, sc, pts, F, step):  # type: ignore[no-untyped-def]
     """The sole's friction F[:, 0] as a step of ``h`` s meets it, linearly implicit: each
     element's slope within the smooth Coulomb law's band (mu F_n sech^2(slip /
     slip_speed) / slip_speed) acts as a damper on its effective mass along the belt (1 /
@@ -460,9 +460,11 @@ def implicit_friction(p, w, sc, pts, F, h, wk):  # type: ignore[no-untyped-def]
     a slope beyond 2 m / h reverses the slip it acts on and the foot chatters at the
     step's rate within the band (:data:`FRICTION_LIMIT`); so it cannot, at any step,
     while a sliding element (beyond the band: slope ~ 0) keeps mu F_n. ``sc``: the
-    joints' sin and cos; ``wk``: two (3, 3) to work in and a (2, 3) Jacobian."""
+    joints' sin and cos; ``step``: (h, the step's work :data:`STEP`, whose ``M``, ``V``
+    and ``J`` it works in)."""
     W = w[0]
-    M, Mi, J = wk
+    h, S = step
+    M, Mi, J = S.M, S.V, S.J
     det = 0.0  # the mass matrix's adjugate and determinant, at the first contact (none in swing)
     P = W.points
     for k in range(W.n):
@@ -490,13 +492,11 @@ def step_contacts(p, w, x, pts, F, gen, step):  # type: ignore[no-untyped-def]
     as the step meets it, :func:`implicit_friction` --, the generalized forces (support
     included) into gen (4,) (``step``: (h s, the step's work :data:`STEP`)).
     Returns the support force."""
-    h, W = step
-    J = W.J
     sc = joint_trig(x[1:4])  # once for the points, the friction and the Jacobians
     contact_points(p, w, x[0], x[1:4], sc, x[5:8], x[4], pts)
     contact_forces(w, pts, F)
-    implicit_friction(p, w, sc, pts, F, h, (W.M, W.V, J))
-    generalized_contact(p, w, sc, F, gen, J)
+    implicit_friction(p, w, sc, pts, F, step)
+    generalized_contact(p, w, sc, F, gen, step[1].J)
     fc = support_force(w, x[0], x[4])
     gen[0] += fc
     return fc
