@@ -239,20 +239,21 @@ def condition(plan: Plan, leg: LegModel, dt: float = 0.01,
 def _fit(plan: Plan, leg: LegModel, actuators: tuple[ActuatorModel, ...], limits: Limits
          ) -> Plan | None:
     """The plan as it is if it fits the limits, else its amplitudes (about the centre)
-    scaled down to just within them (bisection); None if only a tiny one fits."""
-    def scaled(s: float) -> Plan:
-        return Plan(plan.period, plan.periods, plan.centre, plan.a * s, plan.b * s)
+    scaled down to just within them (bisection); None if only a tiny one fits. Checked
+    over one of its periods (the others repeat it; the plan chosen is checked whole)."""
+    def scaled(s: float, periods: int = 1) -> Plan:
+        return Plan(plan.period, periods, plan.centre, plan.a * s, plan.b * s)
 
-    if not check_plan(plan, leg, actuators, limits, dt=0.005):
+    if not check_plan(scaled(1.0), leg, actuators, limits, dt=0.005):
         return plan
-    lo, hi, best = 0.0, 1.0, None
+    lo, hi = 0.0, 1.0
     for _ in range(14):
         s = 0.5 * (lo + hi)
         if check_plan(scaled(s), leg, actuators, limits, dt=0.005):
             hi = s
         else:
-            lo, best = s, scaled(s)
-    return best if lo > 0.02 else None
+            lo = s
+    return scaled(lo, plan.periods) if lo > 0.02 else None
 
 
 def design_plan(leg: LegModel, actuators: tuple[ActuatorModel, ...], limits: Limits,
