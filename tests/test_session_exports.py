@@ -149,7 +149,8 @@ def test_a_thirty_minute_session_exports(session: Path, tmp_path: Path) -> None:
     first, last_file = (ezc3d.c3d(str(f)) for f in (files[0], files[-1]))
     frames = []
     for f in files:
-        lo, hi = struct.unpack("<HH", f.read_bytes()[6:10])
+        with open(f, "rb") as c3d:
+            lo, hi = struct.unpack("<6xHH", c3d.read(10))
         frames.append(hi - lo + 1)
     assert sum(frames) == ticks and max(frames) == C3D_MAX_FRAMES
     assert first["data"]["points"].shape[2] == frames[0]
