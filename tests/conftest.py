@@ -64,15 +64,18 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
 
 
 #: The files that take longest, longest first (s on one worker of ``make test`` on the
-#: 2-core machine, 2026-12-06, two runs' mean: 111 + 102, 134, 52, 46, 42, 41, 40, 38, 35,
-#: 34, 33, 33, 27, 24). The workers take whole files (``--dist loadfile``); xdist's own
-#: order (most tests first) left one worker a 40 s file to finish alone, the others done
-#: 25-35 s before it. Started longest first, the workers end within a few seconds.
+#: 2-core machine, 2026-12-06, two runs' mean: 111 + 102 the two browser files, 134,
+#: 52, 46, 42, 41, 40, 38, 35, 34, 33, 33, 27, 24). The workers take whole files
+#: (``--dist loadfile``); xdist's own order (most tests first) left one worker a 40 s
+#: file to finish alone, the others done 25-35 s before it. Started longest first, they
+#: end within 3 s. The site's build and the type check take 12-18 s and 3 s with their
+#: caches, 33 and 27 s alone from a fresh clone (CI): where the latter puts them.
 LONGEST = ("test_hmi.py", "test_hmi_safety.py", "test_docs.py", "test_control_api.py",
            "test_realtime.py", "test_session_exports.py", "test_identify_device.py",
-           "test_runtime.py", "test_hil_canopen.py", "test_sweep.py",
-           "validation/test_identify.py", "test_child.py", "test_bad_input_surfaces.py",
-           "validation/test_codegen.py", "test_device_folder.py")
+           "test_runtime.py", "test_hil_canopen.py", "test_docs_site.py", "test_sweep.py",
+           "validation/test_identify.py", "test_typing.py", "test_child.py",
+           "test_bad_input_surfaces.py", "validation/test_codegen.py",
+           "test_device_folder.py")
 #: The operator console's browser files run one after the other on one worker: each
 #: drives two Chromium pages of a walking session (0.3 CPU s/s each beside the session's
 #: 0.3); the two at once on the two cores took 160 and 172 s against 111 and 102 apart,
