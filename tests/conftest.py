@@ -68,7 +68,7 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
 #: 52, 46, 42, 41, 40, 38, 35, 34, 33, 33, 27, 24). The workers take whole files
 #: (``--dist loadfile``); xdist's own order (most tests first) left one worker a 40 s
 #: file to finish alone, the others done 25-35 s before it. Started longest first, they
-#: end within 3 s. The site's build and the type check take 12-18 s and 3 s with their
+#: end within 3-6 s. The site's build and the type check take 12-18 s and 3 s with their
 #: caches, 33 and 27 s alone from a fresh clone (CI): where the latter puts them.
 LONGEST = ("test_hmi.py", "test_hmi_safety.py", "test_docs.py", "test_control_api.py",
            "test_realtime.py", "test_session_exports.py", "test_identify_device.py",
@@ -209,15 +209,11 @@ def terminal_ctrl_c():  # type: ignore[no-untyped-def]
 
 # The order of the files: pytest-xdist (3.x, --dist loadfile) hands out whole files, those
 # with the most tests first (its --loadscope-reorder, the default), so the long files --
-# browsers, sessions at real time, few tests each -- run last, beside each other and the
-# short files' tail. An order of the longest first in conftest had no effect beside it;
-# made effective (--no-loadscope-reorder, 2026-12-06) the suite took 433 s against 410 s
-# and two browser tests failed (a device left STANDING, a walk stopped) while two other
-# files' real-time sessions (SCHED_FIFO: test_docs', test_identify_device's) ran beside
-# their console. Not kept. Nor the files of few tests that a busy machine does not
-# judge by a clock (the Sphinx build, mypy, exports, identification) first and then
-# xdist's order (2026-12-06): 449.6 s against 429.7 s, all passing -- the browser files
-# then started later and the last (test_hmi.py, 114 s) ended 36 s after the others.
+# browsers, sessions at real time, few tests each -- ran last, and one worker was left a
+# 40 s file to finish alone. Longest first alone (--no-loadscope-reorder, two attempts
+# earlier on 2026-12-06: 433 s against 410 s, two browser tests failing; 429 s against
+# 387-397 s) put the two browser files side by side. Longest first with the browser
+# files one unit of work (LONGEST, BROWSER above): 373.6 s, all passing.
 
 
 @pytest.fixture
