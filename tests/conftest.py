@@ -213,7 +213,10 @@ def terminal_ctrl_c():  # type: ignore[no-untyped-def]
 # 40 s file to finish alone. Longest first alone (--no-loadscope-reorder, two attempts
 # earlier on 2026-12-06: 433 s against 410 s, two browser tests failing; 429 s against
 # 387-397 s) put the two browser files side by side. Longest first with the browser
-# files one unit of work (LONGEST, BROWSER above): 373.6 s, all passing.
+# files one unit of work (LONGEST, BROWSER above): 373.6 and 416.8 s, all passing; the
+# order before, the same afternoon: 391.2 s, two browser tests failing (a walk's ankle at
+# its hard limit after the test's gains change, and the next test on that session). The
+# host's noise between runs (+-5-10 %) is as large as what the order gains.
 
 
 @pytest.fixture
