@@ -279,3 +279,18 @@ def children(pid: int) -> list[int]:
     from a worker thread; /proc lists a child under the thread that started it)."""
     return [int(k) for task in Path(f"/proc/{pid}/task").iterdir()
             for k in (task / "children").read_text().split()]
+
+
+def session_processes(server: int) -> list[int]:
+    """The processes running the sessions of the console ``server`` (``exoleg hmi``'s
+    pid): forked by its server of processes (multiprocessing's forkserver, its child,
+    :func:`exoleg.hmi.processes.session_context`), or its own children where it spawns
+    them; never its resource tracker."""
+    out = []
+    for k in children(server):
+        cmd = Path(f"/proc/{k}/cmdline").read_bytes()
+        if b"forkserver" in cmd:
+            out += children(k)
+        elif b"resource_tracker" not in cmd:
+            out.append(k)
+    return out

@@ -424,15 +424,14 @@ def _server_keeps_off_the_loops_cpu(server: int) -> None:
     the session's process has the CPUs the server was started with (this test's)."""
     import os
 
-    from conftest import children
+    from conftest import session_processes
     from exoleg.runtime.realtime import isolated_cpus
 
     cpus = os.sched_getaffinity(0)
     if len(cpus) < 2 or isolated_cpus():
         return
     assert os.sched_getaffinity(server) == cpus - {max(cpus)}
-    sessions = [k for k in children(server)
-                if b"resource_tracker" not in Path(f"/proc/{k}/cmdline").read_bytes()]
+    sessions = session_processes(server)
     assert len(sessions) == 1, sessions
     assert os.sched_getaffinity(sessions[0]) == cpus
 

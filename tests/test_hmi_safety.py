@@ -122,12 +122,10 @@ class Console:
         return ended(folder, self)
 
     def session_pid(self) -> int:
-        """The session's own process (the server's child that is not its resource
-        tracker)."""
-        from conftest import children
+        """The session's own process."""
+        from conftest import session_processes
 
-        (pid,) = [k for k in children(self.s.process.pid)
-                  if b"resource_tracker" not in Path(f"/proc/{k}/cmdline").read_bytes()]
+        (pid,) = session_processes(self.s.process.pid)
         return pid
 
 

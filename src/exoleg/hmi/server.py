@@ -17,7 +17,6 @@ the operator holding control; an E-stop needs neither.
 from __future__ import annotations
 
 import json
-import multiprocessing as mp
 import threading
 import time
 from pathlib import Path
@@ -34,7 +33,12 @@ from exoleg.hmi.child_form import (
     fit_of_form,
     write_actor,
 )
-from exoleg.hmi.processes import IDENTIFIED, _identify_process, _session_process
+from exoleg.hmi.processes import (
+    IDENTIFIED,
+    SessionProcesses,
+    _identify_process,
+    _session_process,
+)
 from exoleg.hmi.registry import FILE as RECORDS
 from exoleg.hmi.registry import Registry
 from exoleg.hmi.settings import apply_settings, kept_settings, settings_at_end
@@ -91,6 +95,7 @@ class HMI:
         self.api = ControlAPI(token, folder=self.root)
         self.fixed = fixed is not None
         self.lock = threading.RLock()
+        self.processes = SessionProcesses()
         # the children's records (not under `exoleg run --hmi`, which fits no child)
         self.registry = None if self.fixed else Registry(self.root / RECORDS,
                                                          legacy=self.root / "children")
@@ -191,8 +196,8 @@ class HMI:
                 args = (link, self.backend, self.interface, duration, str(folder), leg_path,
                         runs_on["body_mass"], arm, self.cpus, child_file, self.channel,
                         self.device_dir)
-            self.proc = mp.get_context("spawn").Process(target=target, name="exoleg-session",
-                                                        daemon=True, args=args)
+            self.proc = self.processes.context().Process(
+                target=target, name="exoleg-session", daemon=True, args=args)
             self.proc.start()
             self.session = folder
             self.api.attach(link, folder, duration, runs_on["body_mass"])
