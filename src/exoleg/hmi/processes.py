@@ -24,14 +24,16 @@ class SessionProcesses:
 
     Afresh (``spawn``) until a server of processes is ready, forked from it after. A
     process started afresh imports the loop, sets up numba's compiler target and loads
-    the compiled tick before its first tick: 0.8-1.4 s of the operator's wait after
-    Start. The server of processes (multiprocessing's ``forkserver``) does that once
-    (:mod:`exoleg.hmi._warm`); a session forked from it ticks after 0.2 s (measured, the
-    closing note of this change). It is started beside the first session and is never in
-    the way of a start: a Start does not wait for it (after an upgrade whose compiled
-    cache is stale it compiles for a minute). It is a fresh interpreter of its own, not
-    the web server: nothing of the server's threads, sockets or event loop is in a
-    session's process. Where the OS has no fork, every process starts afresh."""
+    the compiled tick before its first tick: from Start to the device standing on the
+    page, 1.1-1.3 s. The server of processes (multiprocessing's ``forkserver``) does that
+    once (:mod:`exoleg.hmi._warm`); from it, 0.27-0.34 s (``benchmarks/bench_hmi.py``).
+    The server calls :meth:`warm` once the first session ticks: the server of processes
+    loads beside that session, not in the way of its start, and a console whose sessions
+    never start spends nothing on it. A Start never waits for it (after an upgrade whose
+    compiled cache is stale it compiles for a minute): until it is ready, sessions start
+    afresh. It is a fresh interpreter of its own, not the web server: nothing of the
+    server's threads, sockets or event loop is in a session's process. Where the OS has
+    no fork, every process starts afresh."""
 
     def __init__(self) -> None:
         self.ready = threading.Event()
@@ -39,13 +41,15 @@ class SessionProcesses:
 
     def context(self) -> Any:
         """The multiprocessing context to start the next session's process with."""
-        if self.ready.is_set():
-            return mp.get_context("forkserver")
+        return mp.get_context("forkserver" if self.ready.is_set() else "spawn")
+
+    def warm(self) -> None:
+        """Start the server of processes, in the background (once; where the OS has
+        fork)."""
         if self.warming is None and "forkserver" in mp.get_all_start_methods():
             self.warming = threading.Thread(target=self._warm, name="exoleg-forkserver",
                                             daemon=True)
             self.warming.start()
-        return mp.get_context("spawn")
 
     def _warm(self) -> None:
         ctx = mp.get_context("forkserver")

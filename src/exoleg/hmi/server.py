@@ -289,6 +289,10 @@ class HMI:
             except RuntimeError as e:  # the block mid-write past the copy's retries
                 self.api.record("session", "kept settings", False,
                                 why=f"not given: {e}; the defaults stay")
+        # the session ticking (or over): the next sessions' processes prepared beside it
+        while proc.is_alive() and LoopLink.running(link.web_copy()) == "starting":
+            time.sleep(0.05)
+        self.processes.warm()
         proc.join()
         torn = link.web_seal()
         ended_with = None if torn else settings_at_end(link)
