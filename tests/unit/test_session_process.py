@@ -79,3 +79,72 @@ def test_a_session_forked_from_it_logs_what_a_fresh_process_logs(tmp_path: Path)
         if name != "late":  # the one thing measured, not computed
             assert np.array_equal(forked[name], fresh[name], equal_nan=True), name
     assert len(forked["t"]) > 800 and np.any(forked["mode"] == Mode.WALKING)  # it walked
+
+
+def _hold(name: str, folder: str, out: str) -> None:
+    import os
+
+    from exoleg.errors import ParameterError
+    from exoleg.runtime.device_lock import hold_device
+
+    os.environ["EXOLEG_LOCK_DIR"] = folder
+    try:
+        said = "held for it" if hold_device(name, "a session") is None else "held by it"
+    except ParameterError as e:
+        said = f"refused: {e.problem}"
+    Path(out).write_text(said)
+
+
+#: a process that does not descend from the test's: its parent ends, it is re-parented
+ORPHAN = """
+import os, sys, time
+if os.fork():
+    os._exit(0)
+time.sleep(0.5)
+sys.path.insert(0, sys.argv[1])
+from test_session_process import _hold
+_hold(sys.argv[2], sys.argv[3], sys.argv[4])
+"""
+
+
+def test_a_real_device_held_by_the_console_is_held_for_its_sessions(tmp_path: Path,
+                                                                    monkeypatch: Any) -> None:
+    # exoleg.runtime.device_lock: a session of `exoleg hmi` runs under the console's hold
+    # on a real device, whether its process is the console's child (started afresh) or
+    # its server of processes' child; any other process is refused
+    from exoleg.runtime.device_lock import hold_device, let_go
+
+    monkeypatch.setenv("EXOLEG_LOCK_DIR", str(tmp_path))
+    name = "canopen:socketcan:exotest"
+    fd = hold_device(name, "exoleg hmi")
+    assert fd is not None
+    try:
+        starts = SessionProcesses()
+        starts.warm()
+        assert starts.warming is not None
+        starts.warming.join(timeout=120)
+        for how, ctx in (("forked", starts.context()), ("fresh", mp.get_context("spawn"))):
+            out = tmp_path / how
+            p = ctx.Process(target=_hold, args=(name, str(tmp_path), str(out)))
+            p.start()
+            p.join(timeout=120)
+            assert out.read_text() == "held for it", how
+        out = tmp_path / "orphan"
+        subprocess.run([sys.executable, "-c", ORPHAN, str(Path(__file__).parent), name,
+                        str(tmp_path), str(out)], check=True, timeout=60)
+        text = wait_for(out)
+        assert text.startswith("refused: the device canopen:socketcan:exotest is held by "
+                               "exoleg hmi"), text
+    finally:
+        let_go(fd)
+
+
+def wait_for(path: Path, timeout: float = 60.0) -> str:
+    import time
+
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        if path.exists() and path.read_text():
+            return path.read_text()
+        time.sleep(0.05)
+    raise AssertionError(f"{path} not written within {timeout:g} s")

@@ -8,7 +8,9 @@ The hold is an exclusive ``flock`` on a file named after the device in the syste
 folder (``/run/lock``, else the temporary folder; :data:`LOCK_DIR_ENV` names another), so
 it is machine-wide and released by the kernel however the holder ends (a crash, a kill).
 The file says who holds it: process, command, since when. The processes ``exoleg hmi``
-starts for its sessions run under its hold (their parent holds the device for them).
+starts for its sessions run under its hold (the console they descend from holds the
+device for them: its child, or the child of its server of processes,
+:class:`exoleg.hmi.processes.SessionProcesses`).
 """
 
 from __future__ import annotations
@@ -65,12 +67,30 @@ def _holder(fd: int) -> dict[str, object]:
     return said if isinstance(said, dict) else {}
 
 
+def started_by(pid: int) -> bool:
+    """Whether this process descends from ``pid``: its child, or a child of a process
+    ``pid`` started (read from ``/proc``; where there is none, its parent only)."""
+    p = os.getppid()
+    for _ in range(64):  # a deeper tree is not a console's
+        if p == pid:
+            return True
+        if p <= 1:
+            return False
+        try:  # pid (comm) state ppid ...: comm may hold spaces and parentheses
+            stat = Path(f"/proc/{p}/stat").read_text()
+            p = int(stat[stat.rindex(")") + 1:].split()[1])
+        except (OSError, ValueError, IndexError):
+            return False
+    return False
+
+
 def hold_device(name: str, what: str | None = None) -> int | None:
     """Hold the real device ``name`` (:func:`device_name`) for this process, as ``what``
     (the command, said to whoever is refused). Returns the lock's descriptor (close it to
     let go; the process's end lets go too), or None when this process's parent holds it
-    for it (a session of ``exoleg hmi``). A ParameterError naming the holder when another
-    process holds it; nothing has touched the bus then."""
+    for it (a session of ``exoleg hmi``, which it descends from: :func:`started_by`). A
+    ParameterError naming the holder when another process holds it; nothing has touched
+    the bus then."""
     who = what or this_command()
     folder = lock_dir()
     path = folder / ("exoleg-device-" + re.sub(r"[^A-Za-z0-9_.-]", "_", name) + ".lock")
@@ -84,7 +104,7 @@ def hold_device(name: str, what: str | None = None) -> int | None:
     except BlockingIOError:
         holder = _holder(fd)
         os.close(fd)
-        if holder.get("pid") == os.getppid():
+        if isinstance(holder.get("pid"), int) and started_by(holder["pid"]):
             return None  # the interface that started this session holds it
         since = holder.get("since")
         when = (time.strftime(" since %Y-%m-%d %H:%M:%S", time.localtime(float(since)))
