@@ -2,9 +2,9 @@
 forkserver: :class:`exoleg.hmi.processes.SessionProcesses`), and by nothing else.
 
 A session's process started afresh (``spawn``) imports the loop, sets up numba's compiler
-target and loads every compiled function from numba's cache before its first tick:
-0.8-1.1 s of the operator's wait after Start (measured, ``benchmarks/bench_hmi.py``).
-This module does that once, in the process every session is then forked from: a session
+target and loads every compiled function from numba's cache before its first tick (the
+figures: :class:`~exoleg.hmi.processes.SessionProcesses`). This module does that once, in
+the process every session is then forked from: a session
 of two ticks on the simulated device with a child acting (the kernels of the device, the
 child, the walking controller and the compiled tick), in a folder deleted after. The
 forked session's process then builds its own device and starts ticking.

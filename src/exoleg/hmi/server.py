@@ -16,6 +16,7 @@ the operator holding control; an E-stop needs neither.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import threading
 import time
@@ -289,9 +290,11 @@ class HMI:
             except RuntimeError as e:  # the block mid-write past the copy's retries
                 self.api.record("session", "kept settings", False,
                                 why=f"not given: {e}; the defaults stay")
-        # the session ticking (or over): the next sessions' processes prepared beside it
-        while proc.is_alive() and LoopLink.running(link.web_copy()) == "starting":
-            time.sleep(0.05)
+        # the session ticking (or over: its process ended, or left its block mid-write,
+        # which is sealed below): the next sessions' processes prepared beside it
+        with contextlib.suppress(RuntimeError):
+            while proc.is_alive() and LoopLink.running(link.web_copy()) == "starting":
+                time.sleep(0.05)
         self.processes.warm()
         proc.join()
         torn = link.web_seal()

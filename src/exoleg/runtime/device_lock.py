@@ -87,8 +87,8 @@ def started_by(pid: int) -> bool:
 def hold_device(name: str, what: str | None = None) -> int | None:
     """Hold the real device ``name`` (:func:`device_name`) for this process, as ``what``
     (the command, said to whoever is refused). Returns the lock's descriptor (close it to
-    let go; the process's end lets go too), or None when this process's parent holds it
-    for it (a session of ``exoleg hmi``, which it descends from: :func:`started_by`). A
+    let go; the process's end lets go too), or None when a process it descends from
+    holds it for it (the console whose session it is: :func:`started_by`). A
     ParameterError naming the holder when another process holds it; nothing has touched
     the bus then."""
     who = what or this_command()
@@ -104,7 +104,8 @@ def hold_device(name: str, what: str | None = None) -> int | None:
     except BlockingIOError:
         holder = _holder(fd)
         os.close(fd)
-        if isinstance(holder.get("pid"), int) and started_by(holder["pid"]):
+        pid = holder.get("pid")
+        if isinstance(pid, int) and started_by(pid):
             return None  # the interface that started this session holds it
         since = holder.get("since")
         when = (time.strftime(" since %Y-%m-%d %H:%M:%S", time.localtime(float(since)))
