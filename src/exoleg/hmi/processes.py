@@ -57,9 +57,8 @@ class SessionProcesses:
         with contextlib.suppress(OSError):  # not started: sessions go on starting afresh
             first = ctx.Process(target=os.getpid, name="exoleg-forkserver-ready")
             first.start()  # returns once the server has loaded the loop and forked
-            first.join()
-            if first.exitcode == 0:
-                self.ready.set()
+            self.ready.set()
+            first.join()  # (its exit code may be read by another thread's start: unused)
 
 
 def _session_process(link: LoopLink, backend: str, interface: str | None, duration: float,

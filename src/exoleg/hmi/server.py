@@ -64,6 +64,11 @@ PLAN_RANGE = (10.0, 120.0)
 #: figures take 0.03-0.23 s quiet; beside two CPU-bound processes and a busy suite a start
 #: came while the process was still at them (refused then as a running session's)
 RECORDS_WAIT_S = 30.0
+#: how long the session's watcher waits for its ended process's exit code when another
+#: thread reaped it (:meth:`HMI._watch`), s: that thread sets it in the next few
+#: instructions it runs; a second covers the interpreter's switch interval (5 ms) on a
+#: busy machine many times over
+EXIT_CODE_WAIT_S = 1.0
 
 
 class HMI:
@@ -297,6 +302,12 @@ class HMI:
                 time.sleep(0.05)
         self.processes.warm()
         proc.join()
+        # a process started meanwhile (the server of processes' first) polls every child
+        # (multiprocessing's cleanup) and may have reaped this one first: its exit code is
+        # then that thread's to set, a moment later (seen as None once in CI)
+        deadline = time.monotonic() + EXIT_CODE_WAIT_S
+        while proc.exitcode is None and time.monotonic() < deadline:
+            time.sleep(0.005)
         torn = link.web_seal()
         ended_with = None if torn else settings_at_end(link)
         if ended_with is not None and self.registry is not None:
