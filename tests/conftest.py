@@ -284,7 +284,7 @@ def children(pid: int) -> list[int]:
 def session_processes(server: int) -> list[int]:
     """The processes running the sessions of the console ``server`` (``exoleg hmi``'s
     pid): forked by its server of processes (multiprocessing's forkserver, its child,
-    :func:`exoleg.hmi.processes.session_context`), or its own children where it spawns
+    :class:`exoleg.hmi.processes.SessionProcesses`), or its own children where it spawns
     them; never its resource tracker."""
     out = []
     for k in children(server):

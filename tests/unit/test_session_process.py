@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from exoleg.hmi.processes import SessionProcesses
+from exoleg.hmi.testing import wait_until
 from exoleg.session_log import read_log
 from exoleg.tick import Mode
 
@@ -62,17 +63,21 @@ def _in(ctx: Any, folder: Path) -> dict[str, Any]:
     return read_log(folder / "session.log")[1]
 
 
-def test_a_session_forked_from_it_logs_what_a_fresh_process_logs(tmp_path: Path) -> None:
-    starts = SessionProcesses()
-    # sessions start afresh until the server of processes is warmed and ready
-    assert starts.context().get_start_method() == "spawn" and starts.warming is None
+def _forking(starts: SessionProcesses) -> Any:
+    """``starts``' context once its server of processes is warmed and ready."""
     starts.warm()
-    assert starts.context().get_start_method() == "spawn"  # not waited for
     assert starts.warming is not None
     starts.warming.join(timeout=120)
     ctx = starts.context()
     assert ctx.get_start_method() == "forkserver"
-    forked = _in(ctx, tmp_path / "forked")
+    return ctx
+
+
+def test_a_session_forked_from_it_logs_what_a_fresh_process_logs(tmp_path: Path) -> None:
+    starts = SessionProcesses()
+    # sessions start afresh until the server of processes is warmed and ready
+    assert starts.context().get_start_method() == "spawn" and starts.warming is None
+    forked = _in(_forking(starts), tmp_path / "forked")
     fresh = _in(mp.get_context("spawn"), tmp_path / "fresh")
     assert list(forked) == list(fresh)
     for name in forked:
@@ -119,11 +124,8 @@ def test_a_real_device_held_by_the_console_is_held_for_its_sessions(tmp_path: Pa
     fd = hold_device(name, "exoleg hmi")
     assert fd is not None
     try:
-        starts = SessionProcesses()
-        starts.warm()
-        assert starts.warming is not None
-        starts.warming.join(timeout=120)
-        for how, ctx in (("forked", starts.context()), ("fresh", mp.get_context("spawn"))):
+        for how, ctx in (("forked", _forking(SessionProcesses())),
+                         ("fresh", mp.get_context("spawn"))):
             out = tmp_path / how
             p = ctx.Process(target=_hold, args=(name, str(tmp_path), str(out)))
             p.start()
@@ -132,19 +134,9 @@ def test_a_real_device_held_by_the_console_is_held_for_its_sessions(tmp_path: Pa
         out = tmp_path / "orphan"
         subprocess.run([sys.executable, "-c", ORPHAN, str(Path(__file__).parent), name,
                         str(tmp_path), str(out)], check=True, timeout=60)
-        text = wait_for(out)
+        text = wait_until("the orphan's answer", lambda: out.exists() and out.read_text(), 60)
         assert text.startswith("refused: the device canopen:socketcan:exotest is held by "
                                "exoleg hmi"), text
     finally:
         let_go(fd)
 
-
-def wait_for(path: Path, timeout: float = 60.0) -> str:
-    import time
-
-    deadline = time.time() + timeout
-    while time.time() < deadline:
-        if path.exists() and path.read_text():
-            return path.read_text()
-        time.sleep(0.05)
-    raise AssertionError(f"{path} not written within {timeout:g} s")
