@@ -61,6 +61,8 @@ def _folder(tmp_path: Path, name: str, text: str) -> Path:
     ("gait_phase.toml", "imu_slow_stride_s = 1.5", "imu_slow_stride_s = \"slow\"",
      "imu_slow_stride_s"),
     ("gait_phase.toml", "contact_off = 0.15", "contact_off = 0.5", "contact_on/contact_off"),
+    ("gait_phase.toml", "heel_off = 0.03", "heel_off = 0.3", "heel_off"),
+    ("gait_phase.toml", "heel_off = 0.03", "heel_off = -0.1", "heel_off"),
     ("walking_control.toml", "support = 1.0", "support = 7.0", "support"),
     ("walking_control.toml", "kp_swing = [765.0, 152.0, 420.0]", "kp_swing = [1, 2]",
      "kp_swing"),
@@ -86,6 +88,18 @@ def test_binary_or_bad_toml_device_files(tmp_path: Path, name: str) -> None:
     (folder / name).write_text("= broken")
     with pytest.raises(ParameterError, match="not valid TOML"):
         LOADERS[name](folder)
+
+
+def test_a_folder_from_before_the_heels_own_threshold_keeps_its_heel_off(tmp_path: Path
+                                                                          ) -> None:
+    # a gait_phase.toml written before heel_off: the heel unloads at its contact_off, as
+    # it did
+    text = "\n".join(line for line in _shipped("gait_phase.toml").splitlines()
+                     if not line.startswith("heel_off")).replace("contact_off = 0.15",
+                                                                 "contact_off = 0.12")
+    old = DetectorSettings.default(_folder(tmp_path, "gait_phase.toml", text))
+    assert old.heel_off == old.contact_off == 0.12
+    assert DetectorSettings.default().heel_off == 0.03
 
 
 def test_device_folder_replaces_what_it_holds(tmp_path: Path) -> None:

@@ -59,6 +59,22 @@ def test_events_at_the_constructed_times_plus_the_debounce() -> None:
     assert np.allclose(ic, np.arange(5) + deb, atol=1.5e-3)
 
 
+def test_a_heel_bearing_little_after_its_landing_is_not_off() -> None:
+    # the heel's running maximum is its landing's: at full scale for 40 ms, then it bears
+    # 8 % of that (the simulated walks' heel: 25-45 N after a 500 N landing) until 30 %
+    # of the stride. Its heel off is at 30 % (+ the debounce), not as the landing ends --
+    # at contact_off (0.15) it was, 260 ms early (reference: the sequence's construction)
+    counts, t = _walk(5)
+    x = t % 1.0
+    counts[:, 0] = np.where(x < 0.04, TOP, np.where(x < 0.30, 0.08 * TOP, 0.0))
+    ev, _ = _run(counts, t)
+    ho = t[(ev & gp.Event.HO) > 0]
+    assert len(ho) == 5 and np.allclose(ho % 1.0, 0.30 + SET.debounce, atol=1.5e-3), ho
+    late = dataclasses.replace(SET, heel_off=SET.contact_off)
+    ev, _, _ = _fused(counts, np.full(len(t), np.nan), t, d=late.record(FLOOR, 1.0))
+    assert np.all((t[(ev & gp.Event.HO) > 0] % 1.0) < 0.1)  # the landing's end, as before
+
+
 def test_stride_time_is_the_mean_of_the_last_strides() -> None:
     counts, t = _walk(6, T=1.2)
     _, st = _run(counts, t)

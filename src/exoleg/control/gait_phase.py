@@ -6,7 +6,8 @@ forefoot the largest of the metatarsal and hallux sensors; the foot is lifted wh
 neither is loaded and the sum of all four is under the off threshold of its own running
 maximum (a load spread over several sensors, each below its threshold, is still a foot on
 the ground). A region is loaded above ``contact_on`` and unloaded below ``contact_off``
-(hysteresis), and a change counts only once it has held for ``debounce_ms``:
+(hysteresis; the heel below ``heel_off``: its running maximum is its landing's), and a
+change counts only once it has held for ``debounce_ms``:
 
     swing --(either region loaded)--> initial contact (IC)
     IC: heel and forefoot loaded --> foot flat (FF)
@@ -255,7 +256,7 @@ def _fsr_path(D, s, counts, gyro, gyro_ok, strike, t, bears):  # type: ignore[no
     if hallux > D.contact_on:
         s.hallux_now = True
     s.heel_raw, s.heel, s.heel_since = _region(s.heel_raw, s.heel, s.heel_since, heel,
-                                               D.contact_on, D.contact_off, t, D.debounce)
+                                               D.contact_on, D.heel_off, t, D.debounce)
     s.fore_raw, s.fore, s.fore_since = _region(s.fore_raw, s.fore, s.fore_since, fore,
                                                D.contact_on, D.contact_off, t, D.debounce)
     h = s.heel

@@ -23,6 +23,7 @@ class DetectorSettings:
 
     contact_on: float
     contact_off: float
+    heel_off: float  # the heel's own: below it, the heel is unloaded
     calibration_floor: float  # N
     debounce: float
     min_swing: float
@@ -67,6 +68,9 @@ class DetectorSettings:
             raise ParameterError(w, "contact_on/contact_off",
                                  f"need 0 < off < on < 1, got on {self.contact_on}, off "
                                  f"{self.contact_off}")
+        if not 0.0 < self.heel_off < self.contact_on:
+            raise ParameterError(w, "heel_off", f"need 0 < heel_off < contact_on "
+                                 f"({self.contact_on:g}), got {self.heel_off}")
         for name, hi in (("debounce", 0.2), ("min_swing", 2.0), ("min_stance", 2.0)):
             v = _check.finite(w, name, getattr(self, name))
             if not 0.0 <= v <= hi:
@@ -124,7 +128,7 @@ class DetectorSettings:
             "held_ms": (1.0, 500.0, "ms"), "held_swing": (0.1, 1.0, ""),
             "frozen_ms": (10.0, 10000.0, "ms"), "fsr_silent_strides": (1.0, 10.0, "")},
             optional=("source", "other_bears", "other_full", "imu_slow_stride_s",
-                      "imu_toe_eased"))
+                      "imu_toe_eased", "heel_off"))
         other = _check.within(where, "other_bears", d.get("other_bears", cls.other_bears),
                               0.05, 0.95, "")
         full = _check.within(where, "other_full", d.get("other_full", cls.other_full),
@@ -133,6 +137,9 @@ class DetectorSettings:
                              d.get("imu_slow_stride_s", cls.imu_slow_stride), 0.4, 10.0, "s")
         eased = _check.within(where, "imu_toe_eased", d.get("imu_toe_eased", cls.imu_toe_eased),
                               0.1, 1.0, "")
+        # a folder written before the heel had its own threshold keeps what it did
+        heel = _check.within(where, "heel_off", d.get("heel_off", v["contact_off"]),
+                             0.005, 0.95, "")
         if full <= other:
             raise ParameterError(where, "other_full",
                                  f"{full:g} must be above other_bears ({other:g}): single "
@@ -141,7 +148,7 @@ class DetectorSettings:
             raise ParameterError(where, "stride_accept", "missing ([lower, upper] multiples)")
         acc = _check.vector(where, "stride_accept", d["stride_accept"], 2)
         try:
-            return cls(contact_on=v["contact_on"], contact_off=v["contact_off"],
+            return cls(contact_on=v["contact_on"], contact_off=v["contact_off"], heel_off=heel,
                        calibration_floor=v["calibration_floor_N"],
                        debounce=v["debounce_ms"] / 1e3, min_swing=v["min_swing_ms"] / 1e3,
                        min_stance=v["min_stance_ms"] / 1e3,
@@ -197,7 +204,8 @@ class DetectorSettings:
 #: support), whether its insole is fitted (1/0), and the IMU alone's slow-walking toe off
 #: (from a planned stride of ``imu_slow_stride`` s: the turn eased to ``imu_toe_eased`` of its
 #: deepest).
-SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("floor", F8),
+SETTINGS = np.dtype([("contact_on", F8), ("contact_off", F8), ("heel_off", F8),
+                     ("floor", F8),
                      ("debounce", F8), ("min_swing", F8), ("min_stance", F8),
                      ("strides_averaged", I8), ("accept_lo", F8), ("accept_hi", F8),
                      ("expected_stride", F8), ("gyro_turning", F8), ("gyro_swing", F8),
