@@ -62,17 +62,21 @@ def test_events_at_the_constructed_times_plus_the_debounce() -> None:
 def test_a_heel_bearing_little_after_its_landing_is_not_off() -> None:
     # the heel's running maximum is its landing's: at full scale for 40 ms, then it bears
     # 8 % of that (the simulated walks' heel: 25-45 N after a 500 N landing) until 30 %
-    # of the stride. Its heel off is at 30 % (+ the debounce), not as the landing ends --
-    # at contact_off (0.15) it was, 260 ms early (reference: the sequence's construction)
+    # of the stride, the forefoot loaded from 10 %. Foot flat at 10 % and heel off at 30 %
+    # (+ the debounce; reference: the sequence's construction). At contact_off (0.15) the
+    # heel read as off as its landing ended, before the forefoot loaded: no foot flat and
+    # no heel off in any stride
     counts, t = _walk(5)
     x = t % 1.0
     counts[:, 0] = np.where(x < 0.04, TOP, np.where(x < 0.30, 0.08 * TOP, 0.0))
     ev, _ = _run(counts, t)
-    ho = t[(ev & gp.Event.HO) > 0]
-    assert len(ho) == 5 and np.allclose(ho % 1.0, 0.30 + SET.debounce, atol=1.5e-3), ho
+    for bit, frac in ((gp.Event.FF, 0.10), (gp.Event.HO, 0.30)):
+        at = t[(ev & bit) > 0]
+        assert len(at) == 5 and np.allclose(at % 1.0, frac + SET.debounce, atol=1.5e-3), at
     late = dataclasses.replace(SET, heel_off=SET.contact_off)
     ev, _, _ = _fused(counts, np.full(len(t), np.nan), t, d=late.record(FLOOR, 1.0))
-    assert np.all((t[(ev & gp.Event.HO) > 0] % 1.0) < 0.1)  # the landing's end, as before
+    assert not np.any(ev & (gp.Event.FF | gp.Event.HO))
+    assert ((ev & gp.Event.TO) > 0).sum() == 5
 
 
 def test_stride_time_is_the_mean_of_the_last_strides() -> None:
