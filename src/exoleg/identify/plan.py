@@ -156,10 +156,13 @@ class PlanReference:
 
     def sample(self, t: ArrayLike) -> tuple[F64, F64, F64]:
         tt = np.atleast_1d(np.asarray(t, dtype=float))
+        start, end = self.window
+        inside = (tt >= start) & (tt <= end)
+        if inside.all():  # the plan alone: a tick of it is this (the moves' half the cost)
+            return self.plan.at(tt - start)[1:]
         q, dq, ddq = self._moves.sample(tt)
-        inside = (tt >= self.window[0]) & (tt <= self.window[1])
         if inside.any():
-            _, pq, pdq, pddq = self.plan.at(tt[inside] - self.window[0])
+            _, pq, pdq, pddq = self.plan.at(tt[inside] - start)
             q[inside], dq[inside], ddq[inside] = pq, pdq, pddq
         return q, dq, ddq
 
