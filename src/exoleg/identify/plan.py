@@ -158,7 +158,7 @@ class PlanReference:
         tt = np.atleast_1d(np.asarray(t, dtype=float))
         start, end = self.window
         inside = (tt >= start) & (tt <= end)
-        if inside.all():  # the plan alone: a tick of it is this (the moves' half the cost)
+        if inside.all():  # within the plan (every tick but the moves'): the plan alone
             return self.plan.at(tt - start)[1:]
         q, dq, ddq = self._moves.sample(tt)
         if inside.any():
