@@ -20,7 +20,7 @@ import pytest
 pytest.importorskip("starlette", reason="starlette (exoleg[api])")
 httpx = pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
 
-from conftest import EXOLEG  # noqa: E402
+from conftest import EXOLEG, http  # noqa: E402
 from exoleg.errors import ParameterError  # noqa: E402
 from exoleg.hmi.serving import bind_check  # noqa: E402
 from exoleg.hmi.testing import free_port, wait_until  # noqa: E402
@@ -55,7 +55,7 @@ def _walking_with_hmi(tmp_path: Path, duration: int) -> tuple[subprocess.Popen, 
 
 def _wait(url: str, key: str, want: object, timeout: float = 30.0) -> dict:
     return dict(wait_until(f"{key} = {want!r} at {url}", lambda: (
-        s := httpx.get(url, timeout=1.0).json()).get(key) == want and s, timeout))
+        s := http.get(url, timeout=1.0).json()).get(key) == want and s, timeout))
 
 
 def test_run_hmi_token_operator_gains_estop(tmp_path: Path) -> None:
@@ -67,50 +67,50 @@ def test_run_hmi_token_operator_gains_estop(tmp_path: Path) -> None:
     try:
         _wait(f"{base}/state", "running", "running")
         # addressed to another name (a page rebinding its name to 127.0.0.1): refused
-        assert httpx.get(f"{base}/state", headers={"Host": "evil.example"}).status_code == 400
+        assert http.get(f"{base}/state", headers={"Host": "evil.example"}).status_code == 400
         auth = {"Authorization": f"Bearer {token}"}
         # without the token: refused; with it but without control: refused
-        assert httpx.post(f"{base}/command", json={"command": "arm"}).status_code == 401
-        r = httpx.post(f"{base}/command", json={"command": "arm"}, headers=auth)
+        assert http.post(f"{base}/command", json={"command": "arm"}).status_code == 401
+        r = http.post(f"{base}/command", json={"command": "arm"}, headers=auth)
         assert r.status_code == 409 and "take control first" in r.json()["error"]
-        r = httpx.post(f"{base}/operator", json={"name": "ann"}, headers=auth)
+        r = http.post(f"{base}/operator", json={"name": "ann"}, headers=auth)
         assert r.status_code == 200
         op = {**auth, "X-Operator": r.json()["operator"]}
         # a second operator, even with the token, views only
-        r = httpx.post(f"{base}/operator", json={"name": "bob"}, headers=auth)
+        r = http.post(f"{base}/operator", json={"name": "bob"}, headers=auth)
         assert r.status_code == 409 and "held by ann" in r.json()["error"]
-        r = httpx.post(f"{base}/command", json={"command": "jump"}, headers=op)
+        r = http.post(f"{base}/command", json={"command": "jump"}, headers=op)
         assert r.status_code == 400 and "allowed: arm" in r.json()["error"]
-        assert httpx.post(f"{base}/command", json={"command": "arm"},
-                          headers=op).status_code == 200
+        assert http.post(f"{base}/command", json={"command": "arm"},
+                         headers=op).status_code == 200
         _wait(f"{base}/state", "mode", 1)  # standing
         # gains: shown with their bounds; outside refused with the reason (422)
-        g = httpx.get(f"{base}/gains").json()
+        g = http.get(f"{base}/gains").json()
         kp = g["gains"]["kp_swing"]
         assert g["bounds"]["kp_swing"][2] == [0.0, 2 * kp[2]]
-        r = httpx.post(f"{base}/gains", json={"kp_swing": [kp[0], kp[1], 3 * kp[2]]},
-                       headers=op)
+        r = http.post(f"{base}/gains", json={"kp_swing": [kp[0], kp[1], 3 * kp[2]]},
+                      headers=op)
         assert r.status_code == 422 and f"kp_swing[2] = {3 * kp[2]:g} is outside" in \
             r.json()["error"]
-        r = httpx.post(f"{base}/gains", json={"support": 1.5}, headers=op)
+        r = http.post(f"{base}/gains", json={"support": 1.5}, headers=op)
         assert r.status_code == 422 and "outside 0-1" in r.json()["error"]
         # assist-as-needed's bounds: shares 0-1, a minimum never above its maximum
         assert g["bounds"]["support_min"] == [[0.0, 1.0]] * 3
-        r = httpx.post(f"{base}/gains", json={"support_min": [0.5, 0.5, 0.5],
-                                              "support_max": [1.0, 0.4, 1.0]}, headers=op)
+        r = http.post(f"{base}/gains", json={"support_min": [0.5, 0.5, 0.5],
+                                             "support_max": [1.0, 0.4, 1.0]}, headers=op)
         assert r.status_code == 422 and r.json()["error"] == \
             "support_min[1] = 0.5 is above support_max[1] = 0.4"
-        r = httpx.post(f"{base}/gains", json={"kp_swing": [kp[0], kp[1], 1.5 * kp[2]],
-                                              "support": 0.5, "support_min": [0.2, 0, 0]},
-                       headers=op)
+        r = http.post(f"{base}/gains", json={"kp_swing": [kp[0], kp[1], 1.5 * kp[2]],
+                                             "support": 0.5, "support_min": [0.2, 0, 0]},
+                      headers=op)
         assert r.status_code == 200
-        wait_until("the gains in force", lambda: httpx.get(f"{base}/gains").json()["gains"]
+        wait_until("the gains in force", lambda: http.get(f"{base}/gains").json()["gains"]
                    ["support"] == [0.5], 10)
-        assert httpx.get(f"{base}/gains").json()["gains"]["support_min"] == [0.2, 0.0, 0.0]
-        assert httpx.get(f"{base}/gains").json()["gains"]["kp_swing"][2] == \
+        assert http.get(f"{base}/gains").json()["gains"]["support_min"] == [0.2, 0.0, 0.0]
+        assert http.get(f"{base}/gains").json()["gains"]["kp_swing"][2] == \
             pytest.approx(1.5 * kp[2])
         # anyone may stop it: no token, no control
-        assert httpx.post(f"{base}/command", json={"command": "estop"}).status_code == 200
+        assert http.post(f"{base}/command", json={"command": "estop"}).status_code == 200
         state = _wait(f"{base}/state", "mode", 3)  # fault, latched
         assert state["tau"] == [0.0, 0.0, 0.0]
         assert proc.wait(timeout=60) == 0
@@ -313,8 +313,8 @@ def test_hmi_over_tls_and_a_port_in_use(tmp_path: Path) -> None:
     try:
         said = (tmp_path / "hmi.txt").read_text()
         assert f"https://127.0.0.1:{port}/#token={token}" in said
-        r = httpx.get(f"https://127.0.0.1:{port}/api/info", timeout=10,
-                      verify=ssl.create_default_context(cafile=str(cert)))
+        r = http.get(f"https://127.0.0.1:{port}/api/info", timeout=10,
+                     verify=ssl.create_default_context(cafile=str(cert)))
         assert r.status_code == 200 and r.json()["backend"] == "sim"
         # the same port again: one line, exit 2
         busy = subprocess.run([EXOLEG, "hmi", "--sessions", str(tmp_path / "s"), "--port",
@@ -353,25 +353,23 @@ def test_a_start_sent_again_is_answered_again_not_refused(tmp_path: Path) -> Non
     its own start began, and never held it). The page's start carries an id: the same id
     again while its session runs gets the same answer; another start is refused as
     before; an id that is not one is refused naming the field."""
-    import httpx
-
     from exoleg.hmi.testing import served_hmi
 
     with served_hmi(tmp_path / "s") as hmi:
         base = f"{hmi.url}/api"
         auth = {"Authorization": f"Bearer {hmi.token}"}
-        op = {**auth, "X-Operator": httpx.post(f"{base}/operator", json={"name": "ann"},
-                                               headers=auth).json()["operator"]}
+        op = {**auth, "X-Operator": http.post(f"{base}/operator", json={"name": "ann"},
+                                              headers=auth).json()["operator"]}
         start = {"duration": 60, "arm": True, "request": "lq3x-0a1b2c"}
-        first = httpx.post(f"{base}/session/start", json=start, headers=op, timeout=30)
+        first = http.post(f"{base}/session/start", json=start, headers=op, timeout=30)
         assert first.status_code == 200, first.text
-        again = httpx.post(f"{base}/session/start", json=start, headers=op, timeout=30)
+        again = http.post(f"{base}/session/start", json=start, headers=op, timeout=30)
         assert again.status_code == 200 and again.json() == first.json()
-        other = httpx.post(f"{base}/session/start", json={**start, "request": "other-1"},
-                           headers=op, timeout=30)
+        other = http.post(f"{base}/session/start", json={**start, "request": "other-1"},
+                          headers=op, timeout=30)
         assert other.status_code == 409 and "is running; end it first" in other.json()["error"]
-        bad = httpx.post(f"{base}/session/start", json={**start, "request": "no id!"},
-                         headers=op, timeout=30)
+        bad = http.post(f"{base}/session/start", json={**start, "request": "no id!"},
+                        headers=op, timeout=30)
         assert bad.status_code == 422 and bad.json()["error"].startswith("request: ")
         sessions = [p for p in (tmp_path / "s").iterdir() if p.is_dir()]
         assert [p.name for p in sessions] == [first.json()["session"]]  # one session
@@ -416,16 +414,16 @@ def test_the_estop_cannot_fail(tmp_path: Path) -> None:
         for body in (b'{"command": "estop", "clicked_at": ' + b"9" * 500 + b"}",
                      b'{"command": "estop", "clicked_at": 1e400}',
                      b'{"command": "estop", "clicked_at": "soon"}'):
-            r = httpx.post(f"{base}/command", content=body,
-                           headers={"Content-Type": "application/json"})
+            r = http.post(f"{base}/command", content=body,
+                          headers={"Content-Type": "application/json"})
             assert r.status_code == 200 and r.json() == {"queued": "estop"}, r.text
         for body in (b"x" * 1_000_000, b"\xff\xfe not json", b"[1, 2]"):
-            r = httpx.post(f"{base}/estop", content=body)
+            r = http.post(f"{base}/estop", content=body)
             assert r.status_code == 200, r.text
         state = _wait(f"{base}/state", "mode", 3)  # FAULT, latched
         assert state["tau"] == [0.0, 0.0, 0.0]
-        assert httpx.get(f"{base}/log").status_code == 401  # who did what needs the token
-        log = httpx.get(f"{base}/log", headers={"Authorization": f"Bearer {token}"})
+        assert http.get(f"{base}/log").status_code == 401  # who did what needs the token
+        log = http.get(f"{base}/log", headers={"Authorization": f"Bearer {token}"})
         assert log.status_code == 200  # the control record still reads
         notes = [a.get("why", "") for a in log.json()
                  if a["command"] == "estop" and a["source"] != "loop"]
@@ -433,7 +431,7 @@ def test_the_estop_cannot_fail(tmp_path: Path) -> None:
         assert any("not a number" in n for n in notes)
         assert any("over 16384 bytes" in n for n in notes) and any("not JSON" in n
                                                                     for n in notes)
-        httpx.post(f"{base}/command", json={"command": "estop"})
+        http.post(f"{base}/command", json={"command": "estop"})
     finally:
         proc.terminate()
         proc.wait(timeout=60)
@@ -486,12 +484,12 @@ def test_a_lapsed_hold_while_walking_is_a_controlled_stop_with_an_alarm(tmp_path
     try:
         auth = {"Authorization": f"Bearer {token}"}
         _wait(f"{base}/state", "mode", 2, timeout=60)  # walking
-        assert httpx.post(f"{base}/operator", json={"name": "ann"},
-                          headers=auth).status_code == 200
+        assert http.post(f"{base}/operator", json={"name": "ann"},
+                         headers=auth).status_code == 200
         # then ann's page is gone: her last request was her take-control, so the hold
         # lapses LEASE_S after it (the web side looks every 5 ms)
         lapsed = time.time()
-        state = wait_until("the alarm", lambda: (s := httpx.get(f"{base}/state").json())
+        state = wait_until("the alarm", lambda: (s := http.get(f"{base}/state").json())
                            ["alarm"] and s, timeout=LEASE_S + 5)
         assert LEASE_S - 0.5 < time.time() - lapsed < LEASE_S + 1.0
         assert state["alarm"]["text"].startswith(
@@ -501,7 +499,7 @@ def test_a_lapsed_hold_while_walking_is_a_controlled_stop_with_an_alarm(tmp_path
         # range within a second (FAULT, below), so DISARMED can be gone before a poll
         # sees it on a loaded host (beside two busy processes it was): either, and the
         # session log holds the order
-        wait_until("disarmed", lambda: httpx.get(f"{base}/state", timeout=1.0).json()
+        wait_until("disarmed", lambda: http.get(f"{base}/state", timeout=1.0).json()
                    ["mode"] in (0, 3), timeout=10)
     finally:
         proc.terminate()

@@ -25,6 +25,7 @@ pytest.importorskip("starlette", reason="starlette (exoleg[api])")
 httpx = pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
 
 import exoleg.hmi  # noqa: E402
+from conftest import http  # noqa: E402
 from exoleg.hmi.testing import (  # noqa: E402
     browser_missing,
     chromium,
@@ -50,7 +51,7 @@ def AUTH(hmi: Any) -> dict[str, str]:
 
 
 def ada_folder(hmi: Any) -> Path:
-    info = httpx.get(f"{hmi.url}/api/info", headers=AUTH(hmi)).json()
+    info = http.get(f"{hmi.url}/api/info", headers=AUTH(hmi)).json()
     return next(hmi.sessions.glob(f"*-{info['child']['child_id']}"))
 
 
@@ -139,11 +140,11 @@ def no_session_left_running(request: pytest.FixtureRequest) -> Any:
     hmi, d = request.getfixturevalue("hmi"), request.getfixturevalue("operator")
 
     def running() -> bool:
-        return httpx.get(f"{hmi.url}/api/state").json()["running"] in ("starting",
-                                                                        "running")
+        return http.get(f"{hmi.url}/api/state").json()["running"] in ("starting",
+                                                                       "running")
     if running():
         op = d.execute_script("return S.operator") or ""
-        httpx.post(f"{hmi.url}/api/session/end", headers={**AUTH(hmi), "X-Operator": op})
+        http.post(f"{hmi.url}/api/session/end", headers={**AUTH(hmi), "X-Operator": op})
         wait_until("the session left running ended", lambda: not running(), timeout=30)
 
 
@@ -170,7 +171,7 @@ def test_child_page_fits_and_keeps_the_child(hmi: Any, operator: Any) -> None:
     assert f"lower (knee-sole) {rep.fit.lower * 100:.1f} cm" in page
     wait_until("the child listed", lambda: "Ada (C" in text(d, "children"))
     # kept in the records (the token's), under a pseudonymous id
-    info = httpx.get(f"{hmi.url}/api/info", headers=AUTH(hmi)).json()
+    info = http.get(f"{hmi.url}/api/info", headers=AUTH(hmi)).json()
     (ada,) = [c for c in info["children"] if c["name"] == "Ada"]
     assert info["child"]["verdict"] == rep.verdict and info["child"]["child_id"] == ada["id"]
     assert f"Ada ({ada['id']}, fit " in info["runs_on"]
@@ -256,7 +257,7 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
     # Gains: outside the bounds refused with the reason, inside accepted
     goto(d, "control")
     wait_until("gains shown", lambda: d.find_element("id", "g-kp_swing-2"))
-    g = httpx.get(f"{hmi.url}/api/gains").json()
+    g = http.get(f"{hmi.url}/api/gains").json()
     kp = g["gains"]["kp_swing"][2]
     fill(d, "g-kp_swing-2", 3 * kp)
     d.find_element("id", "apply-gains").click()
@@ -267,9 +268,9 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
     # assist-as-needed's bounds per joint, in the same table
     fill(d, "g-support_min-1", 0.3)
     d.find_element("id", "apply-gains").click()
-    wait_until("gains in force", lambda: httpx.get(f"{hmi.url}/api/gains").json()["gains"]
+    wait_until("gains in force", lambda: http.get(f"{hmi.url}/api/gains").json()["gains"]
              ["support"] == [0.6])
-    now = httpx.get(f"{hmi.url}/api/gains").json()["gains"]
+    now = http.get(f"{hmi.url}/api/gains").json()["gains"]
     assert now["kp_swing"][2] == pytest.approx(1.5 * kp) and now["support_min"][1] == 0.3
 
     # A second person: no token -> refused; with the token, control is held -> view only
@@ -293,7 +294,7 @@ def test_session_arm_walk_gains_estop_in_the_browser(hmi: Any, operator: Any,
     wait_until("fault", lambda: text(d, "ctl-mode") == "FAULT")
     shot(v, "estop")
     applied = wait_until("the E-stop applied", lambda: [
-        a for a in httpx.get(f"{hmi.url}/api/log", headers=AUTH(hmi)).json()
+        a for a in http.get(f"{hmi.url}/api/log", headers=AUTH(hmi)).json()
         if a["source"] == "loop" and a["command"] == "estop"])
     # The loop looks for an E-stop at every tick, ahead of everything else; the slowest
     # thing on the path it must not wait for is the heartbeat check, every
@@ -381,22 +382,22 @@ def test_sessions_page_lists_plots_and_exports(hmi: Any, operator: Any) -> None:
 
     _, cols, _ = read_log(folder / "session.log")
     csv_href = hmi.url + d.find_element("id", "export-csv").get_attribute("data-file")
-    assert httpx.get(csv_href, timeout=60).status_code == 401  # the records need the token
-    r = httpx.get(csv_href, timeout=60, headers=AUTH(hmi))
+    assert http.get(csv_href, timeout=60).status_code == 401  # the records need the token
+    r = http.get(csv_href, timeout=60, headers=AUTH(hmi))
     lines = r.text.splitlines()
     assert r.status_code == 200 and lines[0].split(",")[:3] == ["t", "late", "q_meas_hip"]
     assert len(lines) == len(cols["t"]) + 1
     import pyarrow.parquet as pq
 
     pq_href = hmi.url + d.find_element("id", "export-parquet").get_attribute("data-file")
-    table = pq.read_table(io.BytesIO(httpx.get(pq_href, timeout=60,
-                                               headers=AUTH(hmi)).content))
+    table = pq.read_table(io.BytesIO(http.get(pq_href, timeout=60,
+                                              headers=AUTH(hmi)).content))
     assert np.array_equal(table.column("u_ankle").to_numpy(), cols["u_ankle"])
     # the report for the clinic's file (issue 42): the PDF, its figures read back
     pypdf = pytest.importorskip("pypdf", reason="pypdf (exoleg[dev])")
     report = hmi.url + d.find_element("id", "session-report").get_attribute("data-file")
-    assert httpx.get(report, timeout=60).status_code == 401
-    r = httpx.get(report, timeout=120, headers=AUTH(hmi))
+    assert http.get(report, timeout=60).status_code == 401
+    r = http.get(report, timeout=120, headers=AUTH(hmi))
     assert r.status_code == 200 and r.headers["content-type"] == "application/pdf"
     text = "\n".join(p.extract_text() for p in pypdf.PdfReader(io.BytesIO(r.content)).pages)
     assert f"Steps (either foot)\n{fig['steps']}" in text
@@ -404,7 +405,7 @@ def test_sessions_page_lists_plots_and_exports(hmi: Any, operator: Any) -> None:
     # pseudonymous: the console's id, not the name (Ada)
     assert "Child: C" in text and "Ada" not in text
     c3d = hmi.url + d.find_element("id", "export-c3d").get_attribute("data-file")
-    r = httpx.get(c3d, timeout=120, headers=AUTH(hmi))
+    r = http.get(c3d, timeout=120, headers=AUTH(hmi))
     assert r.status_code == 200 and r.content[1:2] == b"\x50"  # C3D's key: 0x50
     # the child's page opens on their history: this session among them, its figures
     goto(d, "child")
@@ -517,7 +518,7 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
                    seen=lambda: (text(phone, "ctl-mode"), text(phone, "hdr-mode"),
                                  text(phone, "message"), text(phone, "ended-text")))
         assert "for no child fitted: the paper's leg" in text(phone, "message")
-        starts = [a for a in httpx.get(f"{hmi.url}/api/log", headers=AUTH(hmi)).json()
+        starts = [a for a in http.get(f"{hmi.url}/api/log", headers=AUTH(hmi)).json()
                   if a["command"].startswith("start")]
         assert [a["accepted"] for a in starts] == [True], starts
         enabled = {b.get_attribute("data-command"): b.is_enabled()
@@ -548,7 +549,7 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
                           text(phone, "message")) == "refused: support: empty; enter a number"
         fill(phone, "g-support-0", "0,6")
         press(phone, "apply-gains")
-        wait_until("0,6 in force", lambda: httpx.get(f"{hmi.url}/api/gains").json()
+        wait_until("0,6 in force", lambda: http.get(f"{hmi.url}/api/gains").json()
                    ["gains"]["support"] == [0.6])
 
         # walking: Live shows the time, the steps, the assistance, every gait event
@@ -664,7 +665,7 @@ def test_identification_is_a_step_of_fitting(hmi: Any, operator: Any) -> None:
     d = operator
     armed_walk(d, "identify", "plan", 10)  # Walk starts the plan
     shot(d, "identify")
-    info = httpx.get(f"{hmi.url}/api/info", headers=AUTH(hmi)).json()
+    info = http.get(f"{hmi.url}/api/info", headers=AUTH(hmi)).json()
     folder = next(hmi.sessions.glob(f"*-{info['child']['child_id']}-identify"))
     wait_until("the plan played", lambda: (folder / "identified" / "identify.json").exists(),
                timeout=90)
@@ -676,7 +677,7 @@ def test_identification_is_a_step_of_fitting(hmi: Any, operator: Any) -> None:
     # kept: the next session runs on the identified leg
     runs_on = wait_until("the identified leg kept", lambda: (
         lambda i: "(identified)" in i["runs_on"] and i["runs_on"])(
-        httpx.get(f"{hmi.url}/api/info", headers=AUTH(hmi)).json()), timeout=30)
+        http.get(f"{hmi.url}/api/info", headers=AUTH(hmi)).json()), timeout=30)
     assert "Ada (" in runs_on
     import exoleg
 
@@ -699,15 +700,15 @@ def test_a_childs_record_and_settings_follow_them(hmi: Any, operator: Any) -> No
     api = f"{hmi.url}/api"
 
     def ada() -> dict[str, Any]:
-        kids = httpx.get(f"{api}/info", headers=AUTH(hmi)).json()["children"]
+        kids = http.get(f"{api}/info", headers=AUTH(hmi)).json()["children"]
         return next(c for c in kids if c["name"] == "Ada")
 
     def history() -> dict[str, Any]:
-        return dict(httpx.get(f"{api}/children/{ada()['id']}/history",
-                              headers=AUTH(hmi)).json())
+        return dict(http.get(f"{api}/children/{ada()['id']}/history",
+                             headers=AUTH(hmi)).json())
 
     def runs_on() -> str:
-        return str(httpx.get(f"{api}/info", headers=AUTH(hmi)).json()["runs_on"])
+        return str(http.get(f"{api}/info", headers=AUTH(hmi)).json()["runs_on"])
 
     fits = ada()["fits"]
     goto(d, "child")
@@ -733,7 +734,7 @@ def test_a_childs_record_and_settings_follow_them(hmi: Any, operator: Any) -> No
     stiffer = round(1.5 * float(hip.get_attribute("value")), 3)
     fill(d, "g-kp_stance-0", stiffer)
     press(d, "apply-gains")
-    wait_until("the gain in force", lambda: httpx.get(f"{api}/gains").json()["gains"][
+    wait_until("the gain in force", lambda: http.get(f"{api}/gains").json()["gains"][
         "kp_stance"][0] == pytest.approx(stiffer))
     h = wait_until("the session ended and its settings kept", lambda: (
         lambda x: (x["sessions"][-1]["settings"] or {}).get("support_mode") == "aan" and x)(
@@ -771,7 +772,7 @@ def test_a_childs_record_and_settings_follow_them(hmi: Any, operator: Any) -> No
     fill(d, "duration", 3)
     press(d, "start")
     folder = hmi.sessions / wait_until("the fourth session", lambda: (
-        lambda n: n != last["name"] and n)(httpx.get(f"{api}/info").json()["session"]))
+        lambda n: n != last["name"] and n)(http.get(f"{api}/info").json()["session"]))
     wait_until("started in assist as needed", lambda: text(d, "ctl-support") == "aan",
                timeout=60)
     shown = wait_until("the kept gain shown", lambda: (lambda e: e and e[0])(

@@ -34,7 +34,7 @@ import pytest
 pytest.importorskip("starlette", reason="starlette (exoleg[api])")
 httpx = pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
 
-from conftest import EXOLEG, SIM_OVERRUN  # noqa: E402
+from conftest import EXOLEG, SIM_OVERRUN, http  # noqa: E402
 from exoleg.hmi.testing import browser_missing, chromium, served_hmi, wait_until  # noqa: E402
 from exoleg.runtime.link import LINK_TIMEOUT_S  # noqa: E402
 from exoleg.runtime.operator import LEASE_S  # noqa: E402
@@ -65,26 +65,26 @@ class Console:
 
     def keep(self) -> None:
         """Hold control (again, after a lapse), as the page does every second."""
-        if not (self.op and httpx.get(f"{self.api}/operator", headers=self.op).json()["you"]):
+        if not (self.op and http.get(f"{self.api}/operator", headers=self.op).json()["you"]):
             self.take()
 
     def take(self, name: str = "tess") -> None:
-        r = httpx.post(f"{self.api}/operator", json={"name": name}, headers=self.auth)
+        r = http.post(f"{self.api}/operator", json={"name": name}, headers=self.auth)
         assert r.status_code == 200, r.text
         self.op = {**self.auth, "X-Operator": r.json()["operator"]}
 
     def release(self) -> None:
         """Give control back (the next test takes it), if this holds it."""
         if self.op:
-            httpx.delete(f"{self.api}/operator", headers=self.op)
+            http.delete(f"{self.api}/operator", headers=self.op)
             self.op = {}
 
     def state(self) -> dict[str, Any]:
         """The state, as the operator's page reads it: its hold kept alive on the way
         (the page asks every second; nobody in control of an armed device stops it)."""
         if self.op:
-            httpx.get(f"{self.api}/operator", headers=self.op, timeout=5)
-        return dict(httpx.get(f"{self.api}/state", timeout=5).json())
+            http.get(f"{self.api}/operator", headers=self.op, timeout=5)
+        return dict(http.get(f"{self.api}/state", timeout=5).json())
 
     def mode(self) -> str:
         from exoleg.tick import Mode
@@ -97,18 +97,18 @@ class Console:
 
     def command(self, name: str) -> dict[str, Any]:
         self.keep()
-        r = httpx.post(f"{self.api}/command", json={"command": name}, headers=self.op,
-                       timeout=5)
+        r = http.post(f"{self.api}/command", json={"command": name}, headers=self.op,
+                      timeout=5)
         assert r.status_code == 200, r.text
         return dict(r.json())
 
     def start(self, duration: float = 120.0, arm: bool = True) -> Path:
         self.keep()
         if self.state().get("running") in ("running", "starting"):  # a test that failed
-            live = httpx.get(f"{self.s.url}/api/info").json()["session"]
+            live = http.get(f"{self.s.url}/api/info").json()["session"]
             self.end(self.s.sessions / live)
-        r = httpx.post(f"{self.s.url}/api/session/start", headers=self.op, timeout=30,
-                       json={"duration": duration, "arm": arm})
+        r = http.post(f"{self.s.url}/api/session/start", headers=self.op, timeout=30,
+                      json={"duration": duration, "arm": arm})
         assert r.status_code == 200, r.text
         folder = self.s.sessions / r.json()["session"]
         wait_until("the loop ticking", lambda: self.state().get("running") == "running", 60)
@@ -118,7 +118,7 @@ class Console:
         """End the session if it runs; its run.json once written."""
         if self.state().get("running") in ("running", "starting"):
             self.keep()
-            httpx.post(f"{self.s.url}/api/session/end", headers=self.op, timeout=10)
+            http.post(f"{self.s.url}/api/session/end", headers=self.op, timeout=10)
         return ended(folder, self)
 
     def session_pid(self) -> int:
@@ -225,7 +225,7 @@ def test_never_armed_with_nobody_in_control(console: Any) -> None:
     folder = c.start()
     c.command("walk")
     c.wait_mode("WALKING")
-    r = httpx.delete(f"{c.api}/operator", headers=c.op)
+    r = http.delete(f"{c.api}/operator", headers=c.op)
     assert r.status_code == 200
     assert r.json()["alarm"]["text"].startswith(
         "nobody in control: tess gave up control while WALKING: controlled stop to "
@@ -243,13 +243,13 @@ def test_never_armed_with_nobody_in_control(console: Any) -> None:
     c.take("tess")
     c.end(folder)
     # the operator's note on the ended session: in the records and its own control log
-    r = httpx.post(f"{console.url}/api/session/note", headers=c.op,
-                   json={"note": "walked well; stopped for a shoe"})
+    r = http.post(f"{console.url}/api/session/note", headers=c.op,
+                  json={"note": "walked well; stopped for a shoe"})
     assert r.status_code == 200 and r.json()["session"] == folder.name
     note = actions(folder)[-1]
     assert (note["command"], note["why"], note["operator"]) == (
         "note", "walked well; stopped for a shoe", "tess")
-    row = next(s for s in httpx.get(f"{console.url}/api/sessions", headers=c.auth).json()
+    row = next(s for s in http.get(f"{console.url}/api/sessions", headers=c.auth).json()
                if s["name"] == folder.name)
     assert (row["operator"], row["note"]) == ("tess", "walked well; stopped for a shoe")
     c.release()

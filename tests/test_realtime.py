@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from conftest import ALONE_LOOP_PRIORITY, alone
+from conftest import ALONE_LOOP_PRIORITY, alone, http
 from exoleg.runtime.loop import LATE_RUN_TICKS, OVERRUN_S, late_run_text
 from exoleg.runtime.session import run
 from exoleg.session_log import read_log
@@ -234,7 +234,7 @@ def test_a_walking_session_survives_a_request_burst_and_a_browser_starting(
     # once more while the session took over 5 s to stand up in CI of a fresh clone: the
     # page keeps its hold from the start.)
     pytest.importorskip("starlette", reason="starlette (exoleg[api])")
-    httpx = pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
+    pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
     from exoleg.hmi.testing import browser_missing, chromium, served_hmi, wait_until
 
     with served_hmi(tmp_path / "s") as hmi:
@@ -244,21 +244,21 @@ def test_a_walking_session_survives_a_request_burst_and_a_browser_starting(
         folder = tmp_path / "s" / r.json()["session"]
 
         def mode() -> int:
-            return int(httpx.get(f"{base}/state", timeout=5.0).json()["mode"])
+            return int(http.get(f"{base}/state", timeout=5.0).json()["mode"])
 
         done = threading.Event()
 
         def keep() -> None:  # the operator's page, keeping its hold as it does (1 s)
             while not done.wait(1.0):
-                httpx.get(f"{base}/operator", headers=op, timeout=30.0)
+                http.get(f"{base}/operator", headers=op, timeout=30.0)
 
         keeper = threading.Thread(target=keep)
         keeper.start()
         browser = None
         try:
             wait_until("armed, standing", lambda: mode() == Mode.STANDING, 60)
-            assert httpx.post(f"{base}/command", json={"command": "walk"},
-                              headers=op).status_code == 200
+            assert http.post(f"{base}/command", json={"command": "walk"},
+                             headers=op).status_code == 200
             wait_until("walking", lambda: mode() == Mode.WALKING, 10)
             # the other clients in a process of their own, as other machines' are: in this
             # one their eight threads held the interpreter from the page's keeper (its
@@ -277,10 +277,10 @@ def test_a_walking_session_survives_a_request_burst_and_a_browser_starting(
             if browser is not None:
                 browser.quit()
         assert answered.count(200) == 2000
-        state = httpx.get(f"{base}/state").json()
+        state = http.get(f"{base}/state").json()
         assert state["running"] == "running" and state["mode"] == Mode.WALKING, (
             state["fault_text"], state["alarm"])
-        assert httpx.post(f"{base}/session/end", headers=op).status_code == 200
+        assert http.post(f"{base}/session/end", headers=op).status_code == 200
         wait_until("the session's summary", (folder / "run.json").exists, 30)
     run_ = json.loads((folder / "run.json").read_text())
     assert run_["stopped_by"].startswith("the operator ended the session, after a "
