@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import signal
 import subprocess
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -286,6 +287,49 @@ def test_ctrl_c_in_a_real_run_exits_130_with_one_line(tmp_path: Path,
     assert err.strip().splitlines() == [
         "exoleg: interrupted; nothing was written (any previous output is unchanged)"]
     assert {p.name: p.read_text(errors="replace") for p in out.iterdir()} == before
+
+
+#: a command at work when the Ctrl-C comes: C code calling back into Python, as numba's
+#: compiler does through ctypes while it stores or loads its cache (where the suite, with
+#: two CPU-bound processes beside it, once Ctrl-C'd a ``simulate`` that then ran to its
+#: end and exited 0)
+CTRL_C_IN_A_CALLBACK = """
+import ctypes, signal, sys, time
+import exoleg.cli.log as command
+from exoleg.cli import main
+
+def at_work(args):
+    def called_back():
+        signal.raise_signal(signal.SIGINT)
+        sum(range(1000))
+    ctypes.CFUNCTYPE(None)(called_back)()
+    time.sleep(2.0)
+    print("went on")
+    return 0
+
+command.cmd_log_summary = at_work
+if sys.argv[1] == "plain":  # the callback as Python leaves it: the interrupt swallowed
+    at_work(None)
+else:
+    sys.exit(main(["log", "summary", "session.log"]))
+"""
+
+
+@pytest.mark.parametrize("how", ["plain", "exoleg"])
+def test_a_ctrl_c_landing_in_a_callback_from_c_still_interrupts(tmp_path: Path,
+                                                                how: str) -> None:
+    """Python swallows a KeyboardInterrupt raised in a callback from C ("Exception ignored
+    on calling ctypes callback function") and goes on (checked: ``plain``); the command
+    line gives it again to the main thread, and the command ends as any Ctrl-C ends it."""
+    r = subprocess.run([sys.executable, "-c", CTRL_C_IN_A_CALLBACK, how], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=60)
+    if how == "plain":
+        assert (r.returncode, r.stdout) == (0, "went on\n"), r.stderr
+        assert "Exception ignored on calling ctypes callback function" in r.stderr
+    else:
+        assert (r.returncode, r.stdout) == (130, ""), r.stderr
+        assert r.stderr.strip().splitlines()[-1] == (
+            "exoleg: interrupted; nothing was written (any previous output is unchanged)")
 
 
 # ---------------------------------------------------------------------------- docs links

@@ -11,12 +11,14 @@ Tables and progress bars use rich, imported only when something is printed.
 
 from __future__ import annotations
 
+import _thread
 import argparse
 import gc
 import os
 import sys
 import threading
 from collections.abc import Sequence
+from typing import Any
 
 from exoleg.cli import (
     assess,
@@ -64,7 +66,46 @@ def _terminated(signum: int, frame: object) -> None:
     os._exit(130)
 
 
+class _InterruptsKept:
+    """``sys.unraisablehook`` while a command runs. A Ctrl-C whose KeyboardInterrupt lands
+    in Python code that C code called -- numba's compiler storing or loading its cache
+    through ctypes' callbacks -- is swallowed there ("Exception ignored on calling ctypes
+    callback function") and the command went on: a ``simulate`` interrupted 3 s into its
+    start on a busy machine ran to its end and exited 0 (the suite with two CPU-bound
+    processes beside it); an ``exoleg run`` so would have armed the device. The interrupt
+    is given again to the main thread from a thread of its own (given from this hook it
+    lands in the hook), as a signal is: the handler then in force takes it --
+    KeyboardInterrupt, or a session loop's controlled stop; landed in another callback,
+    it comes here again. Anything else goes on to the hook before."""
+
+    def __init__(self, previous: Any) -> None:
+        self.previous = previous
+        self.given: list[threading.Timer] = []
+
+    def __call__(self, unraisable: Any) -> None:
+        if not isinstance(unraisable.exc_value, KeyboardInterrupt):
+            self.previous(unraisable)
+            return
+        again = threading.Timer(0.001, _thread.interrupt_main)
+        again.daemon = True
+        again.start()
+        self.given.append(again)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    if threading.current_thread() is not threading.main_thread():
+        return _main(argv)
+    kept = _InterruptsKept(sys.unraisablehook)
+    sys.unraisablehook = kept
+    try:
+        return _main(argv)
+    finally:  # a call from Python (a test, a notebook) gets its own hook back
+        sys.unraisablehook = kept.previous
+        for again in kept.given:
+            again.cancel()
+
+
+def _main(argv: Sequence[str] | None) -> int:
     import signal
 
     if threading.current_thread() is threading.main_thread():
