@@ -316,13 +316,13 @@ else:
 
 
 @pytest.mark.parametrize("how", ["plain", "exoleg"])
-def test_a_ctrl_c_landing_in_a_callback_from_c_still_interrupts(tmp_path: Path,
-                                                                how: str) -> None:
+def test_a_ctrl_c_landing_in_a_callback_from_c_still_interrupts(
+        tmp_path: Path, how: str, terminal_ctrl_c: Any) -> None:
     """Python swallows a KeyboardInterrupt raised in a callback from C ("Exception ignored
     on calling ctypes callback function") and goes on (checked: ``plain``); the command
     line gives it again to the main thread, and the command ends as any Ctrl-C ends it."""
     r = subprocess.run([sys.executable, "-c", CTRL_C_IN_A_CALLBACK, how], cwd=tmp_path,
-                       capture_output=True, text=True, timeout=60)
+                       capture_output=True, text=True, timeout=60, preexec_fn=terminal_ctrl_c)
     if how == "plain":
         assert (r.returncode, r.stdout) == (0, "went on\n"), r.stderr
         assert "Exception ignored on calling ctypes callback function" in r.stderr
