@@ -147,7 +147,6 @@ def _fifo_permitted() -> bool:
 REALTIME = _fifo_permitted()
 
 
-
 @functools.cache
 def _tls() -> Any:
     import httpx
@@ -161,7 +160,6 @@ def _request(method: str) -> Callable[..., Any]:
 
         kw.setdefault("verify", _tls())
         return httpx.request(method, url, **kw)
-    request.__name__ = method.lower()
     return request
 
 
