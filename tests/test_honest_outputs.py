@@ -332,6 +332,22 @@ def test_a_ctrl_c_landing_in_a_callback_from_c_still_interrupts(
             "exoleg: interrupted; nothing was written (any previous output is unchanged)")
 
 
+
+def test_a_ctrl_c_as_the_command_ends_is_one_line(tmp_path: Path,
+                                                  terminal_ctrl_c: Any) -> None:
+    """A Ctrl-C that reaches the console command after its work (given again a moment
+    late, or pressed then): exit 130 and one line, not a traceback."""
+    code = ("import sys, exoleg.cli as cli\n"
+            "def ended(argv=None):\n"
+            "    raise KeyboardInterrupt\n"
+            "cli.main = ended\n"
+            "sys.exit(cli.console())\n")
+    r = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=60, preexec_fn=terminal_ctrl_c)
+    assert (r.returncode, r.stdout) == (130, ""), r.stderr
+    assert r.stderr.splitlines() == ["exoleg: interrupted as it ended; what it wrote is whole"]
+
+
 # ---------------------------------------------------------------------------- docs links
 def test_docs_links_resolve() -> None:
     """Every relative link in README.md and docs/*.md names a file that exists, and every

@@ -154,12 +154,18 @@ def _main(argv: Sequence[str] | None) -> int:
 def console() -> int:
     """The ``exoleg`` console command: :func:`main`, then a quick exit. Freezing the
     heap first spares the interpreter's final collection (a few hundred ms with numba,
-    MuJoCo and matplotlib loaded); exit handlers still run."""
-    code = main()
-    gc.freeze()
+    MuJoCo and matplotlib loaded); exit handlers still run. A Ctrl-C that comes as the
+    command has ended (one given again by :class:`_InterruptsKept` a moment late, or a
+    new one) ends it with 130 and one line, not a traceback."""
     try:
-        sys.stdout.flush()
-    except BrokenPipeError:
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        code = main()
+        gc.freeze()
+        try:
+            sys.stdout.flush()
+        except BrokenPipeError:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    except KeyboardInterrupt:
+        print("exoleg: interrupted as it ended; what it wrote is whole", file=sys.stderr)
+        return 130
     return code
 
