@@ -94,7 +94,10 @@ class _InterruptsKept:
 
 def main(argv: Sequence[str] | None = None) -> int:
     if threading.current_thread() is not threading.main_thread():
-        return _main(argv)
+        return _main(argv)  # signals come to the main thread alone
+    import signal
+
+    signal.signal(signal.SIGTERM, _terminated)
     kept = _InterruptsKept(sys.unraisablehook)
     sys.unraisablehook = kept
     try:
@@ -106,10 +109,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _main(argv: Sequence[str] | None) -> int:
-    import signal
-
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, _terminated)
     try:  # a signal while the parser is built: the same one line as later
         ap = build_parser()
         args = ap.parse_args(_negative_values(sys.argv[1:] if argv is None else argv))
