@@ -112,6 +112,25 @@ def test_the_inertia_part_is_the_share_of_pinocchios_M_times_the_acceleration(
     assert ss[0]["parts"][1] == pytest.approx(want, rel=1e-12, abs=1e-12)
 
 
+def test_each_joints_acceleration_estimate_is_its_own_low_pass() -> None:
+    # reference: a first-order low-pass sampled at h, b = 1 - exp(-2 pi f h), fed the
+    # rates' difference per tick. A constant acceleration a from rest: the difference is
+    # a exactly from the second tick on, so after k ticks the estimate is
+    # a (1 - (1 - b)^(k - 1)) -- each joint at its own cut-off (the file's one number is
+    # every joint's)
+    import dataclasses
+
+    s = TransparencySettings.default()
+    assert s.accel_filter_hz.tolist() == [30.0, 30.0, 30.0]  # transparency.toml's 30
+    f = np.array([30.0, 250.0, 60.0])
+    a = np.array([4.0, -6.0, 3.0])
+    k = 12
+    _, ss = _law(dataclasses.replace(s, accel_filter_hz=f), np.zeros(3), np.zeros(3),
+                 np.zeros(3), ticks=k, ddq=a)
+    b = 1.0 - np.exp(-2.0 * np.pi * f * 1e-3)
+    assert ss[0]["ddq"] == pytest.approx(a * (1.0 - (1.0 - b) ** (k - 1)), rel=1e-12)
+
+
 def test_friction_is_the_actuators_model_ahead_by_the_lead() -> None:
     # reference: exoleg.device.drive.friction (viscous + smooth Coulomb) at the rate
     # plus lead x the acceleration estimate; at constant speed the estimate is 0
@@ -232,6 +251,19 @@ def test_a_bad_transparency_file_is_refused_naming_the_field(tmp_path: Any) -> N
         text.replace("inertia_share = 0.3", "inertia_share = [0.3, 0.5]"))
     with pytest.raises(ParameterError, match=r"inertia_share.*expected 3 numbers, got 2"):
         DeviceConfig.load(tmp_path)
+    # the acceleration's low-pass: one for every joint or one each, each within 1-500 Hz
+    for bad, said in (("0.5", r"0.5 is outside 1-500"),
+                      ("[30.0, 600.0, 30.0]", r"\[30.0, 600.0, 30.0\] is outside 1-500"),
+                      ("[30.0, 30.0]", r"expected 3 numbers, got 2")):
+        (tmp_path / "transparency.toml").write_text(
+            text.replace("accel_filter_hz = 30.0", f"accel_filter_hz = {bad}"))
+        with pytest.raises(ParameterError, match=r"transparency.toml.*accel_filter_hz.*"
+                                                 + said):
+            DeviceConfig.load(tmp_path)
+    (tmp_path / "transparency.toml").write_text(
+        text.replace("accel_filter_hz = 30.0", "accel_filter_hz = [30.0, 250.0, 60.0]"))
+    assert DeviceConfig.load(tmp_path).transparency.accel_filter_hz.tolist() == [30.0, 250.0,
+                                                                                 60.0]
     (tmp_path / "transparency.toml").write_text(text.replace("friction = true",
                                                              "friction = 1"))
     with pytest.raises(ParameterError, match=r"\[parts\].*friction.*true or false"):

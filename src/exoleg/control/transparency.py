@@ -57,25 +57,30 @@ def support_mode_of(controller: str) -> SupportMode:
 #: The parts of the transparent law, in the order they are added.
 PARTS = ("gravity", "inertia", "friction", "interaction")
 #: (field in the file, unit, lower, upper) of the transparent mode's scalar settings.
-_SCALARS = (("accel_filter_hz", "Hz", 1.0, 500.0), ("lead_ms", "ms", 0.0, 20.0),
-            ("ramp_s", "s", 0.05, 5.0))
-#: (field in the file, upper) of its per-joint settings (lower 0); the inertia's share
-#: may be one number for every joint
-_VECTORS = (("inertia_share", 1.0), ("kp_interaction", 20.0), ("ki_interaction", 1000.0),
-            ("integral_limit", 100.0), ("wall_stiffness", 1e4), ("wall_damping", 500.0))
+_SCALARS = (("lead_ms", "ms", 0.0, 20.0), ("ramp_s", "s", 0.05, 5.0))
+#: (field in the file, lower, upper) of its per-joint settings
+_VECTORS = (("accel_filter_hz", 1.0, 500.0), ("inertia_share", 0.0, 1.0),
+            ("kp_interaction", 0.0, 20.0), ("ki_interaction", 0.0, 1000.0),
+            ("integral_limit", 0.0, 100.0), ("wall_stiffness", 0.0, 1e4),
+            ("wall_damping", 0.0, 500.0))
+#: those that may be one number for every joint
+_ONE_FOR_ALL = ("accel_filter_hz", "inertia_share")
+#: the record's names of the per-joint settings, in :data:`_VECTORS`' order
+_VECTOR_FIELDS = ("accel_filter_hz", "inertia_share", "kp", "ki", "integral_limit",
+                  "wall_stiffness", "wall_damping")
 
 
 @dataclass(frozen=True)
 class TransparencySettings:
     """The transparent mode's settings (``data/device/transparency.toml``): which parts
     act (:data:`PARTS`); the acceleration estimate's low-pass (Hz) and the share of the
-    device's inertia compensated with it, per joint; the lead (s) the friction's speed
+    device's inertia compensated with it, both per joint; the lead (s) the friction's speed
     is taken ahead by; the cuffs' torque feedback's proportional (dimensionless) and integral
     (1/s) gains per joint with the integral's bound (N m); the wall at the range of
     motion's ends (N m/rad, N m s/rad per joint); the blend between support modes (s)."""
 
     parts: tuple[bool, bool, bool, bool]
-    accel_filter_hz: float
+    accel_filter_hz: F64
     inertia_share: F64
     lead: float
     kp: F64
@@ -91,13 +96,12 @@ class TransparencySettings:
             raise ParameterError(w, "parts", f"expected {len(PARTS)} true/false "
                                  f"({', '.join(PARTS)}), got {self.parts!r}")
         for (_, unit, lo, hi), name, scale in zip(
-                _SCALARS, ("accel_filter_hz", "lead", "ramp"), (1.0, 1e3, 1.0), strict=True):
+                _SCALARS, ("lead", "ramp"), (1e3, 1.0), strict=True):
             _check.within(w, name, _check.finite(w, name, getattr(self, name)) * scale,
                           lo, hi, unit)
-        for (_, hi), name in zip(_VECTORS, ("inertia_share", "kp", "ki", "integral_limit",
-                                            "wall_stiffness", "wall_damping"), strict=True):
+        for (_, lo, hi), name in zip(_VECTORS, _VECTOR_FIELDS, strict=True):
             object.__setattr__(self, name, _check.vector_within(
-                w, name, list(getattr(self, name)), 3, 0.0, hi))
+                w, name, list(getattr(self, name)), 3, lo, hi))
 
     @classmethod
     def default(cls, folder: str | Path | None = None) -> TransparencySettings:
@@ -116,16 +120,16 @@ class TransparencySettings:
             if not isinstance(parts[p], bool):
                 raise ParameterError(f"{where} [parts]", p, f"expected true or false, got "
                                      f"{parts[p]!r}")
-        share = d["inertia_share"]  # one for every joint, or one each
-        if isinstance(share, int | float) and not isinstance(share, bool):
-            share = _check.within(where, "inertia_share", _check.finite(
-                where, "inertia_share", share), 0.0, 1.0)
-            d = {**d, "inertia_share": [share] * 3}
-        v = {name: _check.vector(where, name, d[name], 3) for name, _ in _VECTORS}
+        for name, lo, hi in _VECTORS:  # one for every joint, or one each
+            one = d[name]
+            if name in _ONE_FOR_ALL and isinstance(one, int | float) and not isinstance(
+                    one, bool):
+                d = {**d, name: [_check.within(where, name, one, lo, hi)] * 3}
+        v = {name: _check.vector(where, name, d[name], 3) for name, *_ in _VECTORS}
         x = {name: _check.finite(where, name, d[name]) for name, *_ in _SCALARS}
         try:
             return cls(parts=tuple(parts[p] for p in PARTS),
-                       accel_filter_hz=x["accel_filter_hz"], inertia_share=v["inertia_share"],
+                       accel_filter_hz=v["accel_filter_hz"], inertia_share=v["inertia_share"],
                        lead=x["lead_ms"] / 1e3, kp=v["kp_interaction"],
                        ki=v["ki_interaction"], integral_limit=v["integral_limit"],
                        wall_stiffness=v["wall_stiffness"], wall_damping=v["wall_damping"],
@@ -164,10 +168,11 @@ class TransparencySettings:
 
 #: The transparent law's parameters (:meth:`TransparencySettings.record`): the parts
 #: acting (1/0, :data:`PARTS`), the acceleration filter (Hz) and the inertia's share
-#: compensated, the lead (s), the cuffs' torque feedback (kp, ki 1/s, the integral's
+#: compensated per joint, the lead (s), the cuffs' torque feedback (kp, ki 1/s, the integral's
 #: bound N m), the wall (N m/rad, N m s/rad), the support modes' blend (s), the device
 #: alone's parameters and whether they are known (not: the mode refused).
-TRANSPARENCY = np.dtype([("parts", F8, 4), ("accel_filter_hz", F8), ("inertia_share", F8, 3),
+TRANSPARENCY = np.dtype([("parts", F8, 4), ("accel_filter_hz", F8, 3),
+                         ("inertia_share", F8, 3),
                          ("lead", F8), ("kp", F8, 3), ("ki", F8, 3),
                          ("integral_limit", F8, 3), ("wall_stiffness", F8, 3),
                          ("wall_damping", F8, 3), ("ramp", F8),
@@ -205,13 +210,13 @@ def new_support_state(mode: SupportMode = SupportMode.IMPEDANCE,
 @njit(cache=True)
 def track_rates(tp, ss, dq, h):  # type: ignore[no-untyped-def]
     """The joint acceleration estimate of :data:`SUPPORT_STATE` ``ss``: the measured
-    rates' difference per tick of ``h`` s through the low-pass of ``tp``, every tick
-    (whether or not the transparent law acts: no stale rate when it starts)."""
+    rates' difference per tick of ``h`` s through each joint's low-pass of ``tp``, every
+    tick (whether or not the transparent law acts: no stale rate when it starts)."""
     T = tp[0]
     S = ss[0]
-    b = 1.0 - math.exp(-2.0 * math.pi * T.accel_filter_hz * h)
     for j in range(3):
         if S.started:
+            b = 1.0 - math.exp(-2.0 * math.pi * T.accel_filter_hz[j] * h)
             S.ddq[j] += b * ((dq[j] - S.dq_last[j]) / h - S.ddq[j])
         S.dq_last[j] = dq[j]
     S.started = True
