@@ -320,19 +320,20 @@ def test_the_datasheets_device_does_not_carry_a_heavy_child() -> None:
     # carried where Table 2's device carried him. On four hard points and the gait of a
     # tilted pelvis a 40 kg boy already faulted (the knee past its hard limit); on the
     # rolling sole and the upright gait (issue 22) 40 kg is carried at the edge (hip at
-    # its envelope in half the ticks, knee within 14.2 deg) and 48 kg is not: measured,
-    # the knee 61 deg off its reference (RMS 37), the hip at its envelope in 5120 of 7601
-    # ticks -- 4221 since the safety layer holds what a slowing rotor loads its gear with
-    # at the gear's repeated peak (issue 38: 674 ticks held); a 21 kg 8-year-old tracks
-    # within 4.8 / 11.0 / 15.0 deg (RMS 2.2 / 4.1 / 4.2).
+    # its envelope in half the ticks, knee within 14.8 deg) and 48 kg is not: measured,
+    # the knee 34 deg off its reference (RMS 14.8, the 40 kg boy's 6.8), the hip at its
+    # envelope in 3499 of 7601 ticks. (61 deg, RMS 37, and 4221 ticks while the world's
+    # cycle waited for a strike the leg could not make -- the foot down behind the hip;
+    # it now goes on from such a foot, as the other leg of a child would); a 21 kg
+    # 8-year-old tracks within 4.8 / 11.0 / 15.0 deg (RMS 2.2 / 4.2 / 4.2).
     from exoleg.sizing import Child, personalized_leg
 
     heavy = personalized_leg(Child(age=12, sex="male", height=1.55, mass=48.0))
     r = simulate_walk(heavy, 48.0, strides=6)
     err = np.degrees(np.abs(r.q - r.q_ref)[r.t > 3.0]).max(axis=0)
-    assert np.any(r.mode == Mode.FAULT) or err[1] > 45.0, err
+    assert np.any(r.mode == Mode.FAULT) or err[1] > 25.0, err
     at_envelope = (np.abs(r.tau) >= r.envelope - 1e-6).sum(axis=0)
-    assert at_envelope[0] > 0.5 * len(r.t), at_envelope
+    assert at_envelope[0] > 0.4 * len(r.t), at_envelope
     light = personalized_leg(Child(age=8, sex="female", height=1.20, mass=21.0))
     r = simulate_walk(light, 21.0, strides=6)
     assert not np.any(r.mode == Mode.FAULT)

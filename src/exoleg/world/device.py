@@ -227,9 +227,17 @@ def device_actuate(dev, K, S, step, u, fn, scene, into):  # type: ignore[no-unty
     if walking:
         W.belt_speed = D.belt
         if D.t_strike >= D.t_start:
-            xc = min((t - D.t_strike) / stride, 0.999)
+            xc = (t - D.t_strike) / stride
         else:
-            xc = min(MID_STANCE + (t - D.t_start) / stride, 0.999)
+            xc = MID_STANCE + (t - D.t_start) / stride
+        if xc >= 0.999 and D.loaded:
+            # the cycle has run out with the foot already down (it landed behind the hip:
+            # no strike): the child takes it as their stance, a stride from here -- waiting
+            # for a strike that cannot come, they stood still on the moving belt to the
+            # walk's end, the mode still WALKING
+            D.t_strike = t
+            xc = 0.0
+        xc = min(xc, 0.999)
         W.support_height = support[min(int(xc * (support.shape[0] - 1) + 0.5),
                                        support.shape[0] - 1)]
     else:
