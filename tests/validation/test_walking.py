@@ -8,6 +8,7 @@ detector; the supervisor's and safety layer's rules for the transitions and stop
 from __future__ import annotations
 
 import re
+from typing import Any
 
 import numpy as np
 import pytest
@@ -312,6 +313,38 @@ def test_stand_from_any_phase_ends_standing_inside_the_range_of_motion(
     assert mode == "STANDING"
     assert worst < 0.0, f"{np.degrees(worst):.2f} deg beyond the soft range of motion"
     assert stood <= 1.5 * 1.1 + 0.05  # at most STOP_WAIT_STRIDES strides (1.1 s each)
+
+
+def test_a_reference_waiting_for_a_late_contact_stands_still() -> None:
+    # Fault injection by the child: a weak GMFCS III girl with contracture (half her
+    # group's strength) in assist-as-needed, whose initial contact comes late. The
+    # reference waits at the cycle's end for it; it used to keep the gait's end-of-swing
+    # rate and acceleration in the impedance, which held her knee flexed at the drive's
+    # limit (30.4 N m against a reference 70 deg more extended) with her foot in the air
+    # for the walk's last 16 s, the mode WALKING (measured: the knee at its limit 16,265
+    # ticks in a row, the foot off the belt 16,893, 25 s between two strikes). Waiting, the
+    # reference now stands still: no swing longer than a stride (the normative swing is 40
+    # % of it: 0.44 s; measured at most 0.46 s), no run at the knee's limit as long (0.35
+    # s), and the walk goes on (her longest stride 3.3 s)
+    from exoleg.child.model import ChildModel
+    from exoleg.control.transparency import SupportMode
+    from exoleg.sizing import personalized_leg
+    from exoleg.sizing.child import population_child
+
+    c, _ = population_child(3, "female", 10.0, 50.0)
+    r = simulate_walk(personalized_leg(c), c.mass, strides=40, seed=0,
+                      child=ChildModel.of(c, contracture="predictcpgait", strength=0.5),
+                      support_mode=SupportMode.AAN)
+
+    def longest(run: Any) -> float:
+        edges = np.flatnonzero(np.diff(np.r_[0, run.astype(int), 0]))
+        return float(np.max(edges[1::2] - edges[::2], initial=0)) * 1e-3
+
+    walking = r.t >= r.walk_start
+    assert longest(walking & (r.contact_force.sum(axis=1) == 0)) < r.stride_time
+    assert longest(np.abs(r.tau[:, 1]) >= r.envelope[:, 1] - 1e-6) < r.stride_time
+    strikes = np.r_[r.walk_start, r.strikes(), r.t[-1]]
+    assert np.diff(strikes).max() < 5 * r.stride_time, np.diff(strikes).max()
 
 
 def test_the_datasheets_device_does_not_carry_a_heavy_child() -> None:

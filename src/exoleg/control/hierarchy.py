@@ -90,6 +90,11 @@ REFERENCE = np.dtype([("x", F8), ("t_stop", F8), ("t_stand", F8), ("q_from", F8,
 #: A stop gives up waiting for mid-stance after this many strides, and stands from
 #: wherever the gait is (a child who stopped stepping never reaches it again).
 STOP_WAIT_STRIDES = 1.5
+#: A stride this far past its estimate (strides) has the reference's rate and
+#: acceleration fade out over the next OVERRUN_FADE: the reference waits for the initial
+#: contact at the cycle's end, still.
+OVERRUN_GRACE = 0.1
+OVERRUN_FADE = 0.1
 #: A walk asked before the foot's contact is known waits this long for it, s, then is
 #: refused (the FSRs' debounce is 8 ms: gait_phase.toml).
 WALK_WAIT = 0.5
@@ -251,6 +256,17 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
         x = gp.gait_fraction(d, st, t)
         T = gp.stride_time(d, st)
         _gait(gq, gdq, x, T, qr, dqr, ddqr)
+        # a stride past its estimate: the reference waits at the cycle's end for the
+        # initial contact, still -- its rate and acceleration fade out (a late contact's
+        # few per cent untouched), or the impedance pushes the gait's end-of-swing rate at
+        # a leg that waits (a weak child's knee held flexed at the drive's limit, the foot
+        # in the air, for the rest of the walk)
+        over = (t - st[0].t_ic) / T - 1.0 - OVERRUN_GRACE
+        if over > 0.0:
+            fade = max(0.0, 1.0 - over / OVERRUN_FADE)
+            for j in range(3):
+                dqr[j] *= fade
+                ddqr[j] *= fade
         if mode == Mode.STOPPING and (
                 (R.x < C.stop_fraction <= x and phase >= gp.Phase.LOADING)
                 or t - R.t_stop > STOP_WAIT_STRIDES * T):
