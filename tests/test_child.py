@@ -415,11 +415,10 @@ def test_a_child_whose_foot_lands_behind_the_hip_walks_on() -> None:
     # badly, stood still on the moving belt from her sixth stride to the walk's end -- her
     # knee within 0.1 deg over each of the last five strides, the mode still WALKING, and
     # the walk's residual counting those strides as transparent ones (0.002-0.015 N m/kg
-    # a stride). A child
-    # takes a foot that is down when their swing has ended as their stance: every stride
-    # she walks on (measured: the knee's range 50-60 deg each stride; before, 0.0-0.1
-    # from the sixth), as every walk the suite's children walk already did (their own
-    # strikes; unchanged)
+    # a stride). A child takes a foot that is down when their swing has ended as their
+    # stance: every stride she walks on (measured: the knee's range 50-60 deg each
+    # stride; before, 0.0-0.1 from the sixth), as every walk the suite's children walk
+    # already did (their own strikes; unchanged)
     import dataclasses
 
     from exoleg.child.model import ChildModel

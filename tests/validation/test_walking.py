@@ -354,8 +354,8 @@ def test_the_datasheets_device_does_not_carry_a_heavy_child() -> None:
     # tilted pelvis a 40 kg boy already faulted (the knee past its hard limit); on the
     # rolling sole and the upright gait (issue 22) 40 kg is carried at the edge (hip at
     # its envelope in half the ticks, knee within 14.8 deg) and 48 kg is not: measured,
-    # the knee 34 deg off its reference (RMS 14.8, the 40 kg boy's 6.8), the hip at its
-    # envelope in 3499 of 7601 ticks. (61 deg, RMS 37, and 4221 ticks while the world's
+    # the knee 34 deg off its reference (RMS 14.6, the 40 kg boy's 6.8), the hip at its
+    # envelope in 3517 of 7601 ticks. (61 deg, RMS 37, and 4221 ticks while the world's
     # cycle waited for a strike the leg could not make -- the foot down behind the hip;
     # it now goes on from such a foot, as the other leg of a child would); a 21 kg
     # 8-year-old tracks within 4.8 / 11.0 / 15.0 deg (RMS 2.2 / 4.2 / 4.2).
