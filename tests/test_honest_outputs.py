@@ -332,7 +332,6 @@ def test_a_ctrl_c_landing_in_a_callback_from_c_still_interrupts(
             "exoleg: interrupted; nothing was written (any previous output is unchanged)")
 
 
-
 def test_a_ctrl_c_as_the_command_ends_is_one_line(tmp_path: Path,
                                                   terminal_ctrl_c: Any) -> None:
     """A Ctrl-C that reaches the console command after its work (given again a moment

@@ -58,16 +58,16 @@ def support_mode_of(controller: str) -> SupportMode:
 PARTS = ("gravity", "inertia", "friction", "interaction")
 #: (field in the file, unit, lower, upper) of the transparent mode's scalar settings.
 _SCALARS = (("lead_ms", "ms", 0.0, 20.0), ("ramp_s", "s", 0.05, 5.0))
-#: (field in the file, lower, upper) of its per-joint settings
-_VECTORS = (("accel_filter_hz", 1.0, 500.0), ("inertia_share", 0.0, 1.0),
-            ("kp_interaction", 0.0, 20.0), ("ki_interaction", 0.0, 1000.0),
-            ("integral_limit", 0.0, 100.0), ("wall_stiffness", 0.0, 1e4),
-            ("wall_damping", 0.0, 500.0))
+#: (field in the file, name in the settings and the record, lower, upper) of its
+#: per-joint settings
+_VECTORS = (("accel_filter_hz", "accel_filter_hz", 1.0, 500.0),
+            ("inertia_share", "inertia_share", 0.0, 1.0),
+            ("kp_interaction", "kp", 0.0, 20.0), ("ki_interaction", "ki", 0.0, 1000.0),
+            ("integral_limit", "integral_limit", 0.0, 100.0),
+            ("wall_stiffness", "wall_stiffness", 0.0, 1e4),
+            ("wall_damping", "wall_damping", 0.0, 500.0))
 #: those that may be one number for every joint
 _ONE_FOR_ALL = ("accel_filter_hz", "inertia_share")
-#: the record's names of the per-joint settings, in :data:`_VECTORS`' order
-_VECTOR_FIELDS = ("accel_filter_hz", "inertia_share", "kp", "ki", "integral_limit",
-                  "wall_stiffness", "wall_damping")
 
 
 @dataclass(frozen=True)
@@ -99,7 +99,7 @@ class TransparencySettings:
                 _SCALARS, ("lead", "ramp"), (1e3, 1.0), strict=True):
             _check.within(w, name, _check.finite(w, name, getattr(self, name)) * scale,
                           lo, hi, unit)
-        for (_, lo, hi), name in zip(_VECTORS, _VECTOR_FIELDS, strict=True):
+        for _, name, lo, hi in _VECTORS:
             object.__setattr__(self, name, _check.vector_within(
                 w, name, list(getattr(self, name)), 3, lo, hi))
 
@@ -120,20 +120,16 @@ class TransparencySettings:
             if not isinstance(parts[p], bool):
                 raise ParameterError(f"{where} [parts]", p, f"expected true or false, got "
                                      f"{parts[p]!r}")
-        for name, lo, hi in _VECTORS:  # one for every joint, or one each
-            one = d[name]
-            if name in _ONE_FOR_ALL and isinstance(one, int | float) and not isinstance(
+        for field, _, lo, hi in _VECTORS:  # one for every joint, or one each
+            one = d[field]
+            if field in _ONE_FOR_ALL and isinstance(one, int | float) and not isinstance(
                     one, bool):
-                d = {**d, name: [_check.within(where, name, one, lo, hi)] * 3}
-        v = {name: _check.vector(where, name, d[name], 3) for name, *_ in _VECTORS}
+                d = {**d, field: [_check.within(where, field, one, lo, hi)] * 3}
+        v = {name: _check.vector(where, field, d[field], 3) for field, name, *_ in _VECTORS}
         x = {name: _check.finite(where, name, d[name]) for name, *_ in _SCALARS}
         try:
-            return cls(parts=tuple(parts[p] for p in PARTS),
-                       accel_filter_hz=v["accel_filter_hz"], inertia_share=v["inertia_share"],
-                       lead=x["lead_ms"] / 1e3, kp=v["kp_interaction"],
-                       ki=v["ki_interaction"], integral_limit=v["integral_limit"],
-                       wall_stiffness=v["wall_stiffness"], wall_damping=v["wall_damping"],
-                       ramp=x["ramp_s"])
+            return cls(parts=tuple(parts[p] for p in PARTS), lead=x["lead_ms"] / 1e3,
+                       ramp=x["ramp_s"], **v)
         except ParameterError as e:  # a range checked by the record: name the file
             raise ParameterError(where, e.field, e.problem) from None
 
