@@ -157,9 +157,10 @@ def test_validate_judges_the_folders_transparency(device: Path,
     # the budget's drive limit is the folder's hip (40 N m, the shipped 54), and the walk
     # is on it; --device with a check that is not of a device is refused by name
     assert main(["validate", "--transparency", "--strides", "3", "--device", str(device)]) == 1
-    hip = next(ln.split() for ln in capsys.readouterr().out.splitlines()
-               if ln.split()[:1] == ["hip"])
+    out = capsys.readouterr().out
+    hip = next(ln.split() for ln in out.splitlines() if ln.split()[:1] == ["hip"])
     assert hip[5] == f"{CHANGED_HIP_NM:.1f}", hip
+    assert "the law on the gears' stiffness" in out  # its rigid units' modes
     assert main(["validate", "--gait-phase", "--device", str(device)]) == 2
     assert "--device: goes with --transparency" in capsys.readouterr().err
 

@@ -234,6 +234,8 @@ def test_validate_bounds_a_series_elastic_device_by_its_rotors(tmp_path: Path) -
     law = v.rows[-1]["rms_Nm_per_kg"]
     for f in v.floors:
         assert 0.0 < f["floor_rotor_Nm_per_kg"] < law[f["joint"]], (f, law)
+    # the rigid gear's mode under the law is not a spring's: none is said for them
+    assert all(g["alone"] is None and g["worn"] is None for g in v.gears)
 
 
 @pytest.mark.parametrize("hz", [5.0, 30.0, 60.0])

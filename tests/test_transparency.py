@@ -686,3 +686,81 @@ def test_the_landing_is_said_from_its_figures() -> None:
         "lands within one SD of the children measured")
     assert _landing_in_words({**src, "at_2pct_bw": 0.30, "to_1bw_ms": 150.0}) == \
         "lands softer than the children measured, reaching one body weight no sooner"
+
+
+def _two_mass(act: Any, link: float) -> Any:
+    """The joint's rotor on its gear's stiffness, the link beyond: (A, B) of the state
+    (rotor angle, rate, link angle, rate, delivered torque) and the torque asked, the
+    drive's current loop a first order (``gear_mode``'s plant, written out again)."""
+    jm, k, c = act.reflected_inertia, act.gear_stiffness, act.viscous_friction
+    wc = 2 * np.pi * act.current_loop_bandwidth
+    a = np.array([[0, 1, 0, 0, 0], [-k / jm, -c / jm, k / jm, 0, 1 / jm], [0, 0, 0, 1, 0],
+                  [k / link, 0, -k / link, 0, 0], [0, 0, 0, 0, -wc]], float)
+    return a, np.array([[0], [0], [0], [0], [wc]], float)
+
+
+def test_the_gear_mode_without_the_law_is_the_two_mass_models() -> None:
+    # reference: the two-mass model's natural frequency, sqrt(K (1/J_rotor + 1/J_link)),
+    # undamped without friction (any textbook of flexible-joint robots, e.g. Spong 1987):
+    # with no share and no friction the loop adds nothing. Measured agreement 1e-12.
+    import dataclasses
+
+    from exoleg.validate.transparency import gear_mode
+
+    _, _, cfg = _device()
+    for act in cfg.actuators:
+        a = dataclasses.replace(act, viscous_friction=0.0)
+        for link in (0.005, 0.3, 1.4):
+            f, zeta = gear_mode(a, 0.0, 30.0, 0.0016, 1.0, link, 1e-3)
+            w = math.sqrt(a.gear_stiffness * (1 / a.reflected_inertia + 1 / link))
+            assert f == pytest.approx(w / (2 * math.pi), rel=1e-9), (a.joint, link)
+            assert abs(zeta) < 1e-9, (a.joint, link)
+
+
+@pytest.mark.parametrize("joint", [0, 2], ids=["hip", "ankle"])
+def test_the_gear_mode_is_the_compiled_laws(joint: int) -> None:
+    # reference: the compiled law itself (track_rates and transparent_torque, the inertia
+    # part alone) closing the loop on the two-mass plant (scipy's zero-order hold), the
+    # rate read as the drives read it; the gear's deflection's envelope grows or decays at
+    # gear_mode's rate -zeta w_n (the ankle's foot mode grows, the hip's decays).
+    # Measured: the two agree within 1.1e-5 w_n (hip: -15.398 against -15.400 /s) and
+    # 1.0e-6 w_n (ankle: +4.738 against +4.739 /s).
+    import dataclasses
+
+    from scipy.signal import cont2discrete
+
+    from exoleg.validate.transparency import gear_mode
+
+    dev, A, cfg = _device()
+    act = dataclasses.replace(cfg.actuators[joint], viscous_friction=0.0)
+    s = TransparencySettings.default().with_parts("inertia")
+    tp = s.record(dev.p)
+    ss = new_support_state(SupportMode.TRANSPARENT)
+    h = 1e-3
+    M = dev.M(np.zeros(3))
+    link = float(M[joint, joint]) - act.reflected_inertia
+    f, zeta = gear_mode(act, float(s.inertia_share[joint]), float(s.accel_filter_hz[joint]),
+                        s.lead, float(M[joint, joint]), link, h)
+    ad, bd, *_ = cont2discrete((*_two_mass(act, link), np.eye(5), np.zeros((5, 1))), h)
+    x = np.array([1e-4, 0.0, 0.0, 0.0, 0.0])  # the gear wound up by 0.1 mrad
+    b = 1.0 - math.exp(-2 * math.pi * act.velocity_filter_hz * h)
+    q, v = np.zeros(3), np.zeros(3)
+    out = np.zeros(3)
+    lo, hi = np.full(3, -10.0), np.full(3, 10.0)
+    wind = []
+    for k in range(1000):
+        if k:
+            v[joint] += b * ((x[2] - q[joint]) / h - v[joint])
+        q[joint] = x[2]
+        track_rates(tp, ss, v, h)
+        transparent_torque((tp, A, ss), 0.0, (q, v), (np.full(3, np.nan), np.zeros(3)),
+                           (lo, hi), h, True, out)
+        x = ad @ x + bd[:, 0] * out[joint]
+        wind.append(x[0] - x[2])
+    w = np.abs(np.asarray(wind[200:]))  # (the hip's decays to 1e-11 of its start by the end)
+    t = np.arange(len(w)) * h
+    peaks = [i for i in range(1, len(w) - 1) if w[i] >= w[i - 1] and w[i] > w[i + 1]]
+    rate = np.polyfit(t[peaks], np.log(w[peaks]), 1)[0]
+    wn = 2 * math.pi * f / math.sqrt(max(1 - zeta * zeta, 1e-12))
+    assert rate == pytest.approx(-zeta * wn, abs=1e-4 * wn), (rate, -zeta * wn)
+    assert (rate > 0) == (joint == 2)

@@ -120,6 +120,17 @@ def _transparency(strides: int, device: Any) -> int:
          + ", ".join(f"{j} {x:.3f}" for j, x in h["cuffs_outside_Nm_per_kg"].items())
          + " N m/kg RMS, over the loop's floor there of "
          + ", ".join(f"{b['joint']} {b['floor_loop_outside_Nm_per_kg']:.3f}" for b in v.floors))
+    rigid = [g for g in v.gears if g["alone"] is not None]
+    if rigid:
+        _table([[g["joint"], *(f"{g[k][0]:.0f} Hz, {g[k][1]:+.3f}" for k in ("alone", "worn"))]
+                for g in rigid],
+               ["joint", "the device alone", "worn (the cuffs rigid)"],
+               title="the law on the gears' stiffness: each joint's least-damped mode (its "
+                     "frequency, its damping ratio) with the inertia's share and the "
+                     "friction's compensation read from the joint's encoder, the worse of "
+                     "a command on time and a bus's cycle late; a negative ratio grows "
+                     "unless the gear's own damping, which no datasheet held gives, is "
+                     "larger")
     _say("at the drive's limit: " + ", ".join(f"{j} {100 * x:.0f} %"
                                             for j, x in v.saturated.items())
          + ("; the safety layer stopped the walk" if v.fault else "; no safety event"))
