@@ -457,7 +457,7 @@ def gear_mode(act: Any, share: float, accel_filter_hz: float, lead: float, inert
     ev = np.linalg.eigvals(z)
     ev = ev[(np.abs(ev - 1.0) > 1e-6) & (np.abs(ev) > 1e-12)]  # (0: a state read, not kept)
     s = np.log(ev.astype(complex)) / h
-    zeta = np.where(np.abs(s) > 0, -s.real / np.maximum(np.abs(s), 1e-300), 1.0)
+    zeta = -s.real / np.abs(s)
     i = int(np.argmin(zeta))
     return float(abs(s[i].imag) / (2.0 * np.pi)), float(zeta[i])
 
