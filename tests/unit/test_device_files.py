@@ -121,6 +121,28 @@ def test_unknown_file_in_a_device_folder_is_refused(tmp_path: Path) -> None:
         simulate_walk(exoleg.paper_leg(), 30.0, strides=1, device=folder)
 
 
+def test_a_copy_of_the_shipped_folder_is_told_what_to_leave_out(tmp_path: Path) -> None:
+    # copying the package's data/device whole brings its hip variants and the drives'
+    # object dictionary along: each refused by name with what to do instead
+    import shutil
+    from importlib import resources
+
+    from exoleg.device.files import check_folder
+
+    mine = tmp_path / "mine"
+    with resources.as_file(resources.files("exoleg") / "data" / "device") as shipped:
+        shutil.copytree(shipped, mine)
+    with pytest.raises(ParameterError, match=r"(hip-variants: the shipped hip motor's "
+                                             r"variants.*actuators/hip.toml|canopen: the "
+                                             r"simulated drives' object dictionary)"):
+        check_folder(mine)
+    shutil.rmtree(mine / "hip-variants")
+    with pytest.raises(ParameterError, match="canopen: .*remove this folder"):
+        check_folder(mine)
+    shutil.rmtree(mine / "canopen")
+    assert check_folder(mine) == mine  # the rest is the device's own files
+
+
 def test_cli_device_folder(tmp_path: Path) -> None:
     folder = _folder(tmp_path, "actuators/knee.toml",
                      _shipped("actuators/knee.toml").replace("efficiency = 0.8",

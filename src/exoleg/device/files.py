@@ -20,6 +20,13 @@ from exoleg.io import read_text
 FILES = ("safety.toml", "walking.toml", "sensors.toml", "gait_phase.toml",
          "walking_control.toml", "transparency.toml", "assist.toml")
 ACTUATOR_FILES = ("hip.toml", "knee.toml", "ankle.toml")
+#: What else the package's ``data/device`` holds, which a copy of it brings along: not
+#: device files, and what to do with each instead
+SHIPPED_EXTRAS = {
+    "hip-variants": "the shipped hip motor's variants, not a device file: copy the one "
+                    "wanted to actuators/hip.toml and remove this folder",
+    "canopen": "the simulated drives' object dictionary, not a device file: remove this "
+               "folder"}
 
 
 def check_folder(folder: str | Path) -> Path:
@@ -30,7 +37,8 @@ def check_folder(folder: str | Path) -> Path:
     allowed = set(FILES) | {"actuators"}
     for f in p.iterdir():
         if f.name not in allowed and not f.name.startswith("."):
-            raise ParameterError(str(p), f.name, "unknown device file (allowed: "
+            raise ParameterError(str(p), f.name, SHIPPED_EXTRAS.get(f.name, "unknown device file")
+                                 + " (a device folder holds only the files it replaces: "
                                  + ", ".join(sorted(allowed)) + ")")
     act = p / "actuators"
     if act.exists():
