@@ -702,7 +702,8 @@ def _two_mass(act: Any, link: float) -> Any:
 def test_the_gear_mode_without_the_law_is_the_two_mass_models() -> None:
     # reference: the two-mass model's natural frequency, sqrt(K (1/J_rotor + 1/J_link)),
     # undamped without friction (any textbook of flexible-joint robots, e.g. Spong 1987):
-    # with no share and no friction the loop adds nothing. Measured agreement 1e-12.
+    # with no share and no friction the loop adds nothing. Measured: frequency within
+    # 1.0e-14 (relative), damping ratio 7e-15.
     import dataclasses
 
     from exoleg.validate.transparency import gear_mode
