@@ -73,23 +73,37 @@ class _InterruptsKept:
     callback function") and the command went on: a ``simulate`` interrupted 3 s into its
     start on a busy machine ran to its end and exited 0 (the suite with two CPU-bound
     processes beside it); an ``exoleg run`` so would have armed the device. The interrupt
-    is given again to the main thread from a thread of its own (given from this hook it
-    lands in the hook), as a signal is: the handler then in force takes it --
-    KeyboardInterrupt, or a session loop's controlled stop; landed in another callback,
-    it comes here again. Anything else goes on to the hook before."""
+    is given again to the main thread from a thread of its own, as a signal is, once the
+    main thread has left this hook (:func:`_give_again`): the handler then in force takes
+    it -- KeyboardInterrupt, or a session loop's controlled stop; landed in another
+    callback, it comes here again. Anything else goes on to the hook before."""
 
     def __init__(self, previous: Any) -> None:
         self.previous = previous
-        self.given: list[threading.Timer] = []
+        self.done = threading.Event()  # the command has ended: nothing more is given
 
     def __call__(self, unraisable: Any) -> None:
         if not isinstance(unraisable.exc_value, KeyboardInterrupt):
             self.previous(unraisable)
             return
-        again = threading.Timer(0.001, _thread.interrupt_main)
-        again.daemon = True
-        again.start()
-        self.given.append(again)
+        threading.Thread(target=_give_again, args=(self.done,), daemon=True).start()
+
+
+def _give_again(done: threading.Event, poll: float = 0.001) -> None:
+    """Interrupt the main thread once none of its frames is :class:`_InterruptsKept`'s
+    hook, unless ``done`` is set first. Given while the main thread is still in the hook
+    (starting this thread: a busy machine may leave it there for milliseconds), the
+    interrupt landed in the hook, whose own exception is ignored too, and was lost: a
+    ``simulate`` interrupted in a fresh clone's CI ran to its end and exited 0."""
+    main, hook = threading.main_thread().ident or 0, _InterruptsKept.__call__.__code__
+    while not done.is_set():
+        f = sys._current_frames().get(main)
+        while f is not None and f.f_code is not hook:
+            f = f.f_back
+        if f is None:
+            _thread.interrupt_main()
+            return
+        done.wait(poll)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -104,8 +118,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _main(argv)
     finally:  # a call from Python (a test, a notebook) gets its own hook back
         sys.unraisablehook = kept.previous
-        for again in kept.given:
-            again.cancel()
+        kept.done.set()
 
 
 def _main(argv: Sequence[str] | None) -> int:
