@@ -100,12 +100,26 @@ def test_run_hmi_token_operator_gains_estop(tmp_path: Path) -> None:
                                              "support_max": [1.0, 0.4, 1.0]}, headers=op)
         assert r.status_code == 422 and r.json()["error"] == \
             "support_min[1] = 0.5 is above support_max[1] = 0.4"
+        # the transparent law's share and estimate: within the bounds its gears' modes
+        # set (exoleg.control.gears.law_bounds: the hip's and knee's modes damped by a
+        # share, the ankle's foot mode grows with one -- no more than the device's own 0.3
+        # at its own 30 Hz)
+        share, hz = g["bounds"]["inertia_share"], g["bounds"]["accel_filter_hz"]
+        assert (share[2], hz[2]) == ([0.0, 0.3], [30.0, 30.0])
+        assert all(s[1] >= 0.7 and f == [30.0, 250.0] for s, f in zip(share[:2], hz[:2], strict=True))
+        r = http.post(f"{base}/gains", json={"inertia_share": [0.7, 0.7, 0.4]}, headers=op)
+        assert r.status_code == 422 and r.json()["error"].startswith(
+            "inertia_share[2] = 0.4 is outside 0-0.3 (the law's gear modes"), r.json()
         r = http.post(f"{base}/gains", json={"kp_swing": [kp[0], kp[1], 1.5 * kp[2]],
-                                             "support": 0.5, "support_min": [0.2, 0, 0]},
-                      headers=op)
+                                             "support": 0.5, "support_min": [0.2, 0, 0],
+                                             "inertia_share": [0.7, 0.7, 0.3],
+                                             "accel_filter_hz": [60, 250, 30]}, headers=op)
         assert r.status_code == 200
         wait_until("the gains in force", lambda: http.get(f"{base}/gains").json()["gains"]
                    ["support"] == [0.5], 10)
+        now = http.get(f"{base}/gains").json()["gains"]
+        assert (now["inertia_share"], now["accel_filter_hz"]) == ([0.7, 0.7, 0.3],
+                                                                  [60.0, 250.0, 30.0])
         assert http.get(f"{base}/gains").json()["gains"]["support_min"] == [0.2, 0.0, 0.0]
         assert http.get(f"{base}/gains").json()["gains"]["kp_swing"][2] == \
             pytest.approx(1.5 * kp[2])
@@ -125,8 +139,8 @@ def test_run_hmi_token_operator_gains_estop(tmp_path: Path) -> None:
     assert [(a["command"].split(" ")[0], a["accepted"]) for a in actions
             if a["source"] not in ("loop", "hmi")] == [
         ("arm", False), ("arm", False), ("take", True), ("take", False), ("jump", False),
-        ("arm", True), ("gains", False), ("gains", False), ("gains", False), ("gains", True),
-        ("estop", True)]
+        ("arm", True), ("gains", False), ("gains", False), ("gains", False), ("gains", False),
+        ("gains", True), ("estop", True)]
     applied = [a for a in actions if a["source"] == "loop"]
     assert [a["command"] for a in applied] == ["arm", "estop"]
     assert applied[1]["tick"] == k  # the loop applied the E-stop at the tick the log shows
@@ -151,9 +165,13 @@ def test_link_estop_goes_first_and_applied_commands_are_timed() -> None:
     assert LoopLink.gains(link.web_copy()) is None  # not published yet
     zero = {"kp_stance": [0.0] * 3, "kd_stance": [0.0] * 3, "kp_swing": [0.0] * 3,
             "kd_swing": [0.0] * 3, "support": [0.0], "support_min": [0.0] * 3,
-            "support_max": [0.0] * 3}
+            "support_max": [0.0] * 3, "inertia_share": [0.0] * 3,
+            "accel_filter_hz": [0.0] * 3}
     link.loop_gains(zero)  # all gains at their lower bound are still gains
     assert LoopLink.gains(link.web_copy()) == zero
+    # the transparent law's bounds: none given, each held where it is
+    assert LoopLink.law_bounds(link.web_copy()) == {"inertia_share": [[0.0, 0.0]] * 3,
+                                                    "accel_filter_hz": [[0.0, 0.0]] * 3}
     for c, rid in ((Command.ARM, 1), (Command.WALK, 2), (Command.ESTOP, 3)):
         link.web_send(int(c), rid)
     time.sleep(0.05)

@@ -551,6 +551,25 @@ def test_the_console_tells_the_truth_and_guides(console: Any) -> None:
         press(phone, "apply-gains")
         wait_until("0,6 in force", lambda: http.get(f"{hmi.url}/api/gains").json()
                    ["gains"]["support"] == [0.6])
+        # the transparent law for this child: its rows in the operator's words, with the
+        # bounds the gears' modes set (the ankle's no further than the device's own 0.3);
+        # a share beyond them refused with the reason, one within applied (the table
+        # shown again from the server first: "0,6" as typed, then 0.6 as in force)
+        wait_until("the table again", lambda: phone.find_element(
+            "id", "g-support-0").get_attribute("value") == "0.6")
+        rows = text(phone, "gains")
+        assert "inertia_share (0-1, the device's inertia the transparent law takes)" in rows
+        assert "accel_filter_hz (Hz, the transparent law's acceleration estimate)" in rows
+        fill(phone, "g-inertia_share-2", "0.5")
+        press(phone, "apply-gains")
+        assert wait_until("refused", lambda: "refused" in text(phone, "message") and
+                          text(phone, "message")).startswith(
+            "refused: inertia_share[2] = 0.5 is outside 0-0.3 (the law's gear modes")
+        fill(phone, "g-inertia_share-2", "0.3")
+        fill(phone, "g-inertia_share-0", "0,7")
+        press(phone, "apply-gains")
+        wait_until("0,7 in force", lambda: http.get(f"{hmi.url}/api/gains").json()
+                   ["gains"]["inertia_share"] == [0.7, 0.3, 0.3])
 
         # walking: Live shows the time, the steps, the assistance, every gait event
         press(phone, "cmd-walk")

@@ -1,5 +1,5 @@
-"""A child's settings follow them (issue 42): the support mode, gains and
-assist-as-needed bounds the operator left at the end of a child's session are kept in
+"""A child's settings follow them (issue 42): the support mode, gains,
+assist-as-needed bounds and the transparent law's share and estimate the operator left at the end of a child's session are kept in
 the records and given to the child's next session, by the path an operator's change
 takes -- the same bounds (from the device's defaults, not from the kept values: they
 cannot creep up session after session), the supervisor's answer, a line in control.log.
@@ -8,7 +8,8 @@ say why.
 
 References: what the operator set (the loop's published gains are the walking
 controller's own, exoleg.control.hierarchy.WalkController.gains_now) and the control
-API's bounds (0 to twice the session's first gains, shares 0-1)."""
+API's bounds (0 to twice the session's first gains, shares 0-1, the law's from its gears'
+modes)."""
 
 from __future__ import annotations
 
@@ -101,7 +102,8 @@ def test_a_childs_settings_follow_them_to_their_next_session(tmp_path: Path) -> 
         first, folder = _session(hmi)
         defaults, bounds = hmi.api.gains()
         change = {"kp_stance": [1.5 * x for x in defaults["kp_stance"]],
-                  "support_min": [0.2, 0.3, 0.4]}
+                  "support_min": [0.2, 0.3, 0.4],  # and the law this child walks best in
+                  "inertia_share": [0.7, 0.6, 0.2], "accel_filter_hz": [60.0, 100.0, 30.0]}
         assert hmi.api.check_gains(change) == ""
         hmi.api.link.web_gains(change)
         why, _ = hmi.api.send("aan")
@@ -114,6 +116,8 @@ def test_a_childs_settings_follow_them_to_their_next_session(tmp_path: Path) -> 
         on = hmi.runs_on()
         assert on["settings"]["session"] == first
         assert f"the settings session {first} ended with: assist as needed" in on["text"]
+        assert ("transparent law: inertia share 0.7 / 0.6 / 0.2, its acceleration estimate "
+                "60 / 100 / 30 Hz") in on["text"]
 
         # 2. the next session starts with them, its bounds still the device's defaults'
         second, folder = _session(hmi)
@@ -122,7 +126,8 @@ def test_a_childs_settings_follow_them_to_their_next_session(tmp_path: Path) -> 
         now = _until("the kept gains in force", lambda: (
             lambda g: g["kp_stance"] == pytest.approx(change["kp_stance"]) and g)(
             hmi.api.gains()[0]))
-        assert now["support_min"] == pytest.approx(change["support_min"])
+        for k in ("support_min", "inertia_share", "accel_filter_hz"):
+            assert now[k] == pytest.approx(change[k]), k
         assert hmi.api.gains()[1] == bounds  # not twice the kept values
         assert _until("assist as needed", lambda: hmi.api.state()["support_mode"]
                       == SupportMode.AAN)
@@ -146,6 +151,22 @@ def test_a_childs_settings_follow_them_to_their_next_session(tmp_path: Path) -> 
         on = hmi.runs_on()
         assert on["settings"] is None and ("the kept ones are damaged: unknown support "
                                            "mode 'fast'") in on["text"]
+
+        # 5. settings kept before the law was tunable (none of its share and estimate):
+        # given, the law the device's own
+        old = {k: v for k, v in kept["gains"].items()
+               if k not in ("inertia_share", "accel_filter_hz")}
+        reg.keep_settings(third, {**kept, "gains": old})
+        assert "transparent law: the device's own (not kept then)" in hmi.runs_on()["text"]
+        fourth, folder = _session(hmi)
+        (line,) = _until("the kept settings applied", lambda: _kept_lines(folder))
+        assert line["accepted"], line
+        now = _until("the kept gains in force", lambda: (
+            lambda g: g["kp_stance"] == pytest.approx(change["kp_stance"]) and g)(
+            hmi.api.gains()[0]))
+        for k in ("inertia_share", "accel_filter_hz"):
+            assert now[k] == pytest.approx(defaults[k]), k
+        _ended(hmi, reg, cid, fourth)
 
 
 def test_a_session_killed_mid_write_ends_and_nothing_is_kept_from_it(tmp_path: Path) -> None:

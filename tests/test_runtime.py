@@ -373,6 +373,81 @@ def test_gain_change_is_all_or_nothing_within_walk_gains(backend_factory) -> Non
     assert c.gains_now() == {**before, "kp_swing": [10.0, 20.0, 30.0], "support": [0.25]}
 
 
+def test_gain_change_takes_the_transparent_laws_share_and_estimate(backend_factory) -> None:  # type: ignore[no-untyped-def]
+    """The transparent law's inertia share and acceleration estimate change with the
+    gains, into the law's own record (what its compiled part reads), all or none: a value
+    TransparencySettings refuses (a share over 1, an estimate under 1 Hz) changes nothing.
+    Reference: TransparencySettings' documented ranges."""
+    from exoleg.errors import ParameterError
+
+    c = backend_factory().controller
+    before = c.gains_now()
+    for bad in ({"inertia_share": [0.5, 1.2, 0.3]}, {"accel_filter_hz": [0.5, 30.0, 30.0]},
+                {"kp_swing": [1.0, 1.0, 1.0], "inertia_share": [0.5, 0.5]}):
+        with pytest.raises(ParameterError, match="inertia_share|accel_filter_hz"):
+            c.set_gains(bad)
+        assert c.gains_now() == before, bad
+    c.set_gains({"inertia_share": [0.7, 0.9, 0.3], "accel_filter_hz": [60.0, 250.0, 30.0]})
+    assert c.tp[0]["inertia_share"].tolist() == [0.7, 0.9, 0.3]
+    assert c.tp[0]["accel_filter_hz"].tolist() == [60.0, 250.0, 30.0]
+    assert c.gains_now() == {**before, "inertia_share": [0.7, 0.9, 0.3],
+                             "accel_filter_hz": [60.0, 250.0, 30.0]}
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_an_operators_change_of_the_law_reaches_the_ticking_controller(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, compiled: bool) -> None:
+    """A change sent over the operator's link while a transparent session walks reaches
+    the records the tick reads -- swapped in between ticks by the compiled loop, set by
+    the Python loop's (the buses') -- and the link publishes the law's bounds the
+    session set from its gears' modes (exoleg.control.gears.law_bounds, recomputed)."""
+    import threading
+
+    import exoleg.system.build as system_build
+    from exoleg.child.model import ChildModel
+    from exoleg.control.gears import law_bounds
+    from exoleg.runtime.link import LoopLink
+    from exoleg.runtime.session import run
+    from exoleg.system.config import DeviceConfig
+
+    built: list[Any] = []
+    real = system_build.build
+    monkeypatch.setattr(system_build, "build",
+                        lambda *a, **k: (built.append(real(*a, **k)), built[-1])[1])
+    link = LoopLink.new()
+    change = {"inertia_share": [0.7, 0.7, 0.3], "accel_filter_hz": [60.0, 250.0, 30.0]}
+    done = threading.Event()
+
+    def web_side() -> None:  # the console: its heartbeat, and the change once running
+        sent = False
+        while not done.is_set():
+            link.web_beat()
+            if not sent and LoopLink.running(link.web_copy()) == "running":
+                link.web_gains(change)
+                sent = True
+            time.sleep(0.005)
+
+    beat = threading.Thread(target=web_side, daemon=True)
+    beat.start()
+    try:
+        res, _ = run("sim", 1.5, tmp_path / "s", arm=True, walk_after=0.5, link=link,
+                     controller="transparent", body_mass=32.0, realtime=REALTIME,
+                     child=ChildModel("c", 10, 1.40, 32.0, 1, sex="female"),
+                     compiled=compiled, overrun=SIM_OVERRUN)
+    finally:
+        done.set()
+        beat.join()
+    assert res.stopped_by.startswith("duration"), res.stopped_by
+    tp = built[0].controller.tp[0]
+    assert tp["inertia_share"].tolist() == change["inertia_share"]
+    assert tp["accel_filter_hz"].tolist() == change["accel_filter_hz"]
+    published = link.web_copy()
+    assert {k: LoopLink.gains(published)[k] for k in change} == change
+    config = DeviceConfig.load(None)
+    assert LoopLink.law_bounds(published) == law_bounds(
+        exoleg.paper_leg(), config.actuators, config.transparency, 1e-3)
+
+
 @pytest.mark.parametrize("when", ["walking", "standing"])
 def test_the_operators_end_is_a_controlled_stop_while_walking(tmp_path: Path, backend_factory,  # type: ignore[no-untyped-def]
                                                               when: str) -> None:

@@ -706,7 +706,7 @@ def test_the_gear_mode_without_the_law_is_the_two_mass_models() -> None:
     # 1.0e-14 (relative), damping ratio 7e-15.
     import dataclasses
 
-    from exoleg.validate.transparency import gear_mode
+    from exoleg.control.gears import gear_mode
 
     _, _, cfg = _device()
     for act in cfg.actuators:
@@ -730,7 +730,7 @@ def test_the_gear_mode_is_the_compiled_laws(joint: int) -> None:
 
     from scipy.signal import cont2discrete
 
-    from exoleg.validate.transparency import gear_mode
+    from exoleg.control.gears import gear_mode
 
     dev, A, cfg = _device()
     act = dataclasses.replace(cfg.actuators[joint], viscous_friction=0.0)
@@ -765,3 +765,52 @@ def test_the_gear_mode_is_the_compiled_laws(joint: int) -> None:
     wn = 2 * math.pi * f / math.sqrt(max(1 - zeta * zeta, 1e-12))
     assert rate == pytest.approx(-zeta * wn, abs=1e-4 * wn), (rate, -zeta * wn)
     assert (rate > 0) == (joint == 2)
+
+
+def test_the_operators_bounds_on_the_law_keep_every_gear_mode_as_damped() -> None:
+    # reference: gear_mode (checked above against the two-mass model and the compiled law)
+    # at every point of law_bounds' grid inside each joint's box, and one step beyond each
+    # side of it: inside, every mode -- alone and worn, on time and a cycle late -- is
+    # damped or no less damped than at the device's own setting; beyond a side that could
+    # grow, some point is not (the box is the largest its growth found). The ankle's foot
+    # mode grows with any share (the table of validate --transparency): its box reaches
+    # no further than the device's own 0.3 at 30 Hz. A series spring's share may only fall.
+    import dataclasses
+
+    from exoleg.control.gears import (DELAYS, FILTERS_HZ, SHARE_MAX, SHARE_STEP, gear_links,
+                                      gear_mode, law_bounds)
+
+    import exoleg
+
+    _, _, cfg = _device()
+    leg = exoleg.paper_leg()
+    t = TransparencySettings.default()
+    bounds = law_bounds(leg, cfg.actuators, t, 1e-3)
+    assert bounds["inertia_share"][2] == [0.0, 0.3]
+    assert bounds["accel_filter_hz"][2] == [30.0, 30.0]
+    shares = [round(SHARE_STEP * i, 10) for i in range(int(SHARE_MAX / SHARE_STEP) + 1)]
+    for j, (act, links) in enumerate(zip(cfg.actuators, gear_links(leg, cfg.actuators),
+                                         strict=True)):
+        def zeta(s: float, f: float) -> float:
+            return min(gear_mode(act, s, f, t.lead, links["device"], links[c], 1e-3, d)[1]
+                       for c in ("alone", "worn") for d in DELAYS)
+
+        floor = min(0.0, zeta(float(t.inertia_share[j]), float(t.accel_filter_hz[j])))
+        (s_lo, s_hi), (f_lo, f_hi) = bounds["inertia_share"][j], bounds["accel_filter_hz"][j]
+        inside_s = [s for s in shares if s_lo <= s <= s_hi]
+        inside_f = [f for f in FILTERS_HZ if f_lo <= f <= f_hi]
+        assert all(zeta(s, f) >= floor - 1e-9 for s in inside_s for f in inside_f), j
+        beyond = [([s], inside_f) for s in shares if s > s_hi][:1] + \
+            [(inside_s, [f]) for f in FILTERS_HZ if f > f_hi][:1] + \
+            [([s], inside_f) for s in shares if s < s_lo][-1:] + \
+            [(inside_s, [f]) for f in FILTERS_HZ if f < f_lo][-1:]
+        for ss, ff in beyond:
+            assert min(zeta(s, f) for s in ss for f in ff) < floor - 1e-9, (j, ss, ff)
+    series = {"series_stiffness": 300.0, "series_damping": 0.5, "torque_loop_bandwidth": 30.0,
+              "torque_loop_damping": 0.7, "deflection_bits": 20}
+    knee = cfg.actuators[1]
+    spring = dataclasses.replace(knee, compliance="series_spring", **series, sources={
+        **knee.sources, **{k: "choice: a test unit" for k in series}})
+    units = (cfg.actuators[0], spring, cfg.actuators[2])
+    b = law_bounds(leg, units, t, 1e-3)
+    assert b["inertia_share"][1] == [0.0, 0.3] and b["accel_filter_hz"][1] == [30.0, 30.0]

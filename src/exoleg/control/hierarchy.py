@@ -50,6 +50,7 @@ from exoleg.control.assist import (
     assist_stride,
     assist_track,
 )
+from exoleg.control.gears import LAW_TUNABLE
 from exoleg.control.safety import SafetyLimits, safety_step
 from exoleg.control.supervisor import SUPERVISOR, report, settle, supervise
 from exoleg.control.transparency import (
@@ -464,48 +465,57 @@ class WalkController:
         stance support times the support mode's first level (none when transparent)."""
         return float(self.gains.support * np.mean(self.ss[0]["level"]))
 
-    def gains_now(self, record: NDArray[np.void] | None = None) -> dict[str, list[float]]:
-        """The gains in force (N m/rad, N m s/rad per joint), the support level and the
-        bounds on assist-as-needed's support (:data:`TUNABLE`); of ``record`` (one
-        :data:`~exoleg.control.walk_gains.PARAMS`, :meth:`gains_record`'s) when given."""
-        c = (self.cp if record is None else record)[0]
-        return {k: [float(x) for x in np.atleast_1d(c[k])] for k in TUNABLE}
+    def gains_now(self, record: tuple[NDArray[np.void], NDArray[np.void]] | None = None
+                  ) -> dict[str, list[float]]:
+        """The gains in force (N m/rad, N m s/rad per joint), the support level, the
+        bounds on assist-as-needed's support and the transparent law's inertia share and
+        acceleration estimate (Hz) (:data:`TUNABLE`); of ``record`` (the parameters and
+        the transparent law's, :meth:`gains_record`'s) when given."""
+        cp, tp = (self.cp, self.tp) if record is None else record
+        c, t = cp[0], tp[0]
+        return {k: [float(x) for x in np.atleast_1d(t[k] if k in LAW_TUNABLE else c[k])]
+                for k in TUNABLE}
 
     def set_gains(self, change: dict[str, list[float]]) -> None:
         """Change gains between ticks: all of ``change`` or, if any value is unknown,
-        not finite or outside what :class:`WalkGains` and :class:`AssistSettings`
-        allow, none (ParameterError). The operator interface's tighter bounds are its
-        own (checked before)."""
-        self.cp[:] = self.gains_record(change)
+        not finite or outside what :class:`WalkGains`, :class:`AssistSettings` and
+        :class:`TransparencySettings` allow, none (ParameterError). The operator
+        interface's tighter bounds are its own (checked before)."""
+        self.cp[:], self.tp[:] = self.gains_record(change)
 
     def gains_record(self, change: dict[str, list[float]],
-                     record: NDArray[np.void] | None = None) -> NDArray[np.void]:
-        """The controller's parameters (:data:`~exoleg.control.walk_gains.PARAMS`) with
-        ``change`` made, a copy, for a loop that swaps them in between ticks; made on
+                     record: tuple[NDArray[np.void], NDArray[np.void]] | None = None
+                     ) -> tuple[NDArray[np.void], NDArray[np.void]]:
+        """The controller's parameters (:data:`~exoleg.control.walk_gains.PARAMS`) and the
+        transparent law's (:data:`~exoleg.control.transparency.TRANSPARENCY`) with
+        ``change`` made, copies, for a loop that swaps them in between ticks; made on
         ``record`` (default those in force), checked as :meth:`set_gains` checks."""
         import dataclasses
 
         where = "WalkController.set_gains"
-        base = self.cp if record is None else record
+        base = (self.cp, self.tp) if record is None else record
         now = self.gains_now(base)
         for k in change:
             if k not in now:
                 raise ParameterError(where, k, f"unknown gain (allowed: {', '.join(now)})")
         new_: dict[str, Any] = {**now, **change}
-        try:  # WalkGains and AssistSettings check each vector (3 finite values), its range
+        try:  # the settings' records check each vector (3 finite values), its range
             g = WalkGains(**{k: new_[k] for k in WalkGains.TUNABLE if k != "support"},
                           standing=self.gains.standing,
                           support=_check.vector(where, "support", new_["support"], 1)[0],
                           stand_blend=self.gains.stand_blend)
             a = dataclasses.replace(self.assist, **{k: new_[k] for k in BOUNDS})
+            law = dataclasses.replace(self.transparency, **{k: new_[k] for k in LAW_TUNABLE})
         except ParameterError as e:
             raise ParameterError(where, e.field, e.problem) from None
-        out = base.copy()
+        cp, tp = base[0].copy(), base[1].copy()
         for k in WalkGains.TUNABLE:
-            out[0][k] = getattr(g, k)
+            cp[0][k] = getattr(g, k)
         for k in BOUNDS:
-            out[0][k] = getattr(a, k)
-        return out
+            cp[0][k] = getattr(a, k)
+        for k in LAW_TUNABLE:
+            tp[0][k] = getattr(law, k)
+        return cp, tp
 
     def compiled(self) -> tuple[Any, ...]:
         """The records :func:`walk_control_step` takes as its first argument, in order:

@@ -146,11 +146,10 @@ class TransparencySettings:
     def record(self, device_p: F64 | None) -> NDArray[np.void]:
         """What the compiled tick reads (:data:`TRANSPARENCY`) for the device alone's
         parameters ``device_p`` (:func:`~exoleg.child.interaction.device_leg`; None: not
-        known, the transparent mode refused)."""
+        known, the transparent mode refused -- its settings still there to be read and
+        changed)."""
         r = new(TRANSPARENCY)
-        if device_p is None:
-            return r
-        if np.shape(device_p) != (N_PARAMS,):
+        if device_p is not None and np.shape(device_p) != (N_PARAMS,):
             raise ParameterError("TransparencySettings.record", "device_p",
                                  f"expected a leg's {N_PARAMS} parameters, got shape "
                                  f"{np.shape(device_p)}")
@@ -158,7 +157,8 @@ class TransparencySettings:
         for name in ("accel_filter_hz", "inertia_share", "lead", "kp", "ki", "integral_limit",
                      "wall_stiffness", "wall_damping", "ramp"):
             r[name] = getattr(self, name)
-        r["device_p"], r["known"] = device_p, True
+        if device_p is not None:
+            r["device_p"], r["known"] = device_p, True
         return r
 
 

@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from exoleg import checks as _check
+from exoleg.control.gears import LAW_TUNABLE
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, new
 from exoleg.reference.gait import MID_STANCE
@@ -101,5 +102,8 @@ PARAMS = np.dtype([("kp_stance", F8, 3), ("kd_stance", F8, 3), ("kp_swing", F8, 
 #: The operator's bounds on assist-as-needed's support, tunable with the gains
 #: (:meth:`WalkController.set_gains`; their values at the start: ``assist.toml``).
 BOUNDS = ("support_min", "support_max")
-#: What the operator may change while the walking controller runs, in this order.
-TUNABLE = (*WalkGains.TUNABLE, *BOUNDS)
+#: What the operator may change while the walking controller runs, in this order: the
+#: gains, the support, assist-as-needed's bounds, and the transparent law's inertia share
+#: and acceleration estimate (:data:`~exoleg.control.transparency.TRANSPARENCY`'s fields;
+#: their bounds :func:`~exoleg.control.gears.law_bounds`).
+TUNABLE = (*WalkGains.TUNABLE, *BOUNDS, *LAW_TUNABLE)

@@ -1,13 +1,15 @@
 """A child's settings carried from one session to the next (issue 42): the walking
-controller's support mode, its gains and assist-as-needed's bounds as the operator left
-them when the child's last session ended.
+controller's support mode, its gains, assist-as-needed's bounds and the transparent
+law's inertia share and acceleration estimate as the operator left them when the child's
+last session ended.
 
 They are read from the loop's shared block as the session ends (:func:`settings_at_end`)
 and kept with that session in the records (``records.sqlite``). The child's next session
 starts on the device's defaults and is then given them by the path an operator's change
 takes (:func:`apply_settings`): the same bounds -- each gain 0 to twice the device's
-default, the shares 0-1 --, the supervisor's answer for the mode, and a line in the
-session's ``control.log``. Settings that no longer fit the device's bounds (a changed
+default, the shares 0-1, the law's within its gears' bounds --, the supervisor's answer
+for the mode, and a line in the session's ``control.log``. Settings kept before the
+law's were tunable leave the device's own law. Settings that no longer fit the device's bounds (a changed
 ``walking.toml``) are refused with the reason and the session keeps the defaults.
 """
 
@@ -16,6 +18,7 @@ from __future__ import annotations
 import time
 from typing import Any
 
+from exoleg.control.gears import LAW_TUNABLE
 from exoleg.params.records import JOINTS
 from exoleg.runtime.link import GAIN_NAMES, LoopLink
 from exoleg.runtime.operator import OperatorRules
@@ -25,6 +28,9 @@ from exoleg.tick import SupportMode
 MODE_WORDS = {SupportMode.IMPEDANCE: "impedance (full support)",
               SupportMode.TRANSPARENT: "transparent (the child leads)",
               SupportMode.AAN: "assist as needed"}
+#: the gains every kept settings hold: a session kept before the transparent law's share
+#: and estimate were tunable has none of theirs (the device's own then stay)
+KEPT_BEFORE_LAW = tuple(n for n in GAIN_NAMES if n not in LAW_TUNABLE)
 #: how long the kept settings wait for the session's first published gains, s
 WAIT_S = 10.0
 
@@ -55,7 +61,10 @@ def settings_text(settings: dict[str, Any]) -> str:
                if settings["support_mode"] == "aan" else "")
             + f"; stance kp {per_joint('kp_stance')} N m/rad, kd "
             f"{per_joint('kd_stance')} N m s/rad; swing kp {per_joint('kp_swing')}, kd "
-            f"{per_joint('kd_swing')}")
+            f"{per_joint('kd_swing')}"
+            + (f"; transparent law: inertia share {per_joint('inertia_share')}, its "
+               f"acceleration estimate {per_joint('accel_filter_hz')} Hz" if set(LAW_TUNABLE)
+               <= set(g) else "; transparent law: the device's own (not kept then)"))
 
 
 def check_settings(settings: Any) -> str:
@@ -66,7 +75,7 @@ def check_settings(settings: Any) -> str:
     if settings.get("support_mode") not in {m.name.lower() for m in SupportMode}:
         return f"unknown support mode {settings.get('support_mode')!r}"
     g = settings.get("gains")
-    if not isinstance(g, dict) or set(g) != set(GAIN_NAMES):
+    if not isinstance(g, dict) or not set(KEPT_BEFORE_LAW) <= set(g) <= set(GAIN_NAMES):
         return f"gains: expected {', '.join(GAIN_NAMES)}"
     if not all(isinstance(v, list) and all(isinstance(x, (int, float)) for x in v)
                for v in g.values()):

@@ -24,10 +24,12 @@ block and sends into its pipe (:class:`~exoleg.runtime.link.LoopLink`). Endpoint
   :data:`BODY_LIMIT` bytes, and a wrong one is logged as ignored);
 * ``GET /gains``: the gains in force and the bounds a change must keep (each gain 0 to
   twice its value at the session's start, the support level and assist-as-needed's
-  bounds 0-1); ``POST /gains`` ``{"kp_stance": [hip, knee, ankle], ...}`` (any of
-  ``kp_stance``, ``kd_stance``, ``kp_swing``, ``kd_swing``, ``support``,
-  ``support_min``, ``support_max``): token and operator; a value outside its bounds, or
-  a minimum above its maximum, is refused with the reason (422);
+  bounds 0-1, the transparent law's inertia share and acceleration estimate within the
+  bounds the session sets from its gears' modes); ``POST /gains`` ``{"kp_stance": [hip,
+  knee, ankle], ...}`` (any of ``kp_stance``, ``kd_stance``, ``kp_swing``,
+  ``kd_swing``, ``support``, ``support_min``, ``support_max``, ``inertia_share``,
+  ``accel_filter_hz``): token and operator; a value outside its bounds, or a minimum
+  above its maximum, is refused with the reason (422);
 * ``GET /log`` (token): every control action of this session (time, source, command,
   accepted or why not), and when the loop applied each command.
 

@@ -36,6 +36,8 @@ from typing import Any
 import numpy as np
 
 from exoleg.control.gait_phase import Event
+from exoleg.control.gears import LAW_TUNABLE
+from exoleg.control.transparency import TRANSPARENCY
 from exoleg.control.walk_gains import PARAMS, TUNABLE
 from exoleg.runtime.loop import END_SESSION, LINK_LOST
 from exoleg.tick import OUTPUT, SENSORS, Command
@@ -60,12 +62,20 @@ def _shape(dtype: np.dtype, name: str) -> tuple[int, ...]:
     return tuple(dtype[name].shape)
 
 
+def _gain_shape(name: str) -> tuple[int, ...]:
+    """A tunable's shape: in the walking controller's parameters, or the transparent
+    law's (:data:`~exoleg.control.gears.LAW_TUNABLE`)."""
+    return _shape(TRANSPARENCY if name in LAW_TUNABLE else PARAMS, name)
+
+
 #: the shared block, every field a float64 (one seqlock over the whole): the sequence
 #: number, the tick's time, the controller's output (:data:`OUTPUT`) and the device's
 #: joint and foot readings (:data:`SENSORS`), the loop's timing, whether it runs, the
-#: gains in force (:data:`GAIN_NAMES`, as :data:`~exoleg.control.hierarchy.PARAMS`
-#: holds them), the ring of applied commands (command, request id, tick, wall time,
-#: refused by the supervisor (1) or not (0), the mode then), the steps (initial
+#: gains in force (:data:`GAIN_NAMES`, as :data:`~exoleg.control.hierarchy.PARAMS` and
+#: :data:`~exoleg.control.transparency.TRANSPARENCY` hold them) and the bounds the
+#: session sets on the transparent law's (per joint: lower, upper), the ring of applied
+#: commands (command, request id, tick, wall time, refused by the supervisor (1) or not
+#: (0), the mode then), the steps (initial
 #: contacts) so far and the ring of every tick's gait events (time, event bits)
 PUBLISHED = ("mode", "phase", "gait_source", "gait_fraction", "events", "safety_status",
              "q_ref", "tau", "fault", "fault_joint", "fault_value", "fault_limit", "refused",
@@ -76,7 +86,8 @@ BLOCK = np.dtype([("seq", "f8"), ("t", "f8")]
                  + [(n, "f8", _shape(SENSORS, n)) for n in READINGS]
                  + [("late_us", "f8"), ("late_max_us", "f8"), ("missed", "f8"),
                     ("tick", "f8"), ("running", "f8"), ("gains_set", "f8")]
-                 + [("gain_" + n, "f8", _shape(PARAMS, n)) for n in GAIN_NAMES]
+                 + [("gain_" + n, "f8", _gain_shape(n)) for n in GAIN_NAMES]
+                 + [("bound_" + n, "f8", (3, 2)) for n in LAW_TUNABLE]
                  + [("applied", "f8"), ("ring", "f8", (RING, 6)),
                     ("steps", "f8"), ("n_events", "f8"), ("event_ring", "f8", (RING, 2))])
 SIZE = BLOCK.itemsize // 8
@@ -136,11 +147,18 @@ class LoopLink:
         v["seq"] += 1.0  # odd: being written
         return v
 
-    def loop_gains(self, gains: dict[str, list[float]]) -> None:
-        """The gains in force (at the start and after every change)."""
+    def loop_gains(self, gains: dict[str, list[float]],
+                   bounds: dict[str, list[list[float]]] | None = None) -> None:
+        """The gains in force (at the start and after every change) and, at the start,
+        the bounds on the transparent law's (:func:`~exoleg.control.gears.law_bounds`;
+        none given: each held where it is)."""
         v = self._begin()
         for k in GAIN_NAMES:
-            v["gain_" + k] = gains[k] if PARAMS[k].shape else gains[k][0]
+            v["gain_" + k] = gains[k] if _gain_shape(k) else gains[k][0]
+        if not v["gains_set"]:
+            for k in LAW_TUNABLE:
+                v["bound_" + k] = (bounds[k] if bounds is not None else
+                                   [[x, x] for x in gains[k]])
         v["gains_set"] = 1.0
         v["seq"] += 1.0
 
@@ -317,6 +335,14 @@ class LoopLink:
         if not c["gains_set"]:
             return None
         return {n: [float(x) for x in np.atleast_1d(c["gain_" + n])] for n in GAIN_NAMES}
+
+    @staticmethod
+    def law_bounds(c: np.void) -> dict[str, list[list[float]]]:
+        """The bounds the session set on the transparent law's tunables (per joint,
+        [lower, upper]); empty before the session has published its gains."""
+        if not c["gains_set"]:
+            return {}
+        return {n: c["bound_" + n].tolist() for n in LAW_TUNABLE}
 
     @staticmethod
     def applied(c: np.void, since: int

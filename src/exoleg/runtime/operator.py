@@ -2,7 +2,9 @@
 at a time (a lease that lapses after :data:`LEASE_S` s of silence), every control action
 needs the session's token and that operator (an E-stop needs neither), gain changes are
 bounded (0 to twice their value at the start, the support level and the bounds on
-assist-as-needed's support 0-1), and every action,
+assist-as-needed's support 0-1, the transparent law's inertia share and acceleration
+estimate within the bounds the session sets from its gears' modes:
+:func:`~exoleg.control.gears.law_bounds`), and every action,
 accepted or refused, and the loop's application of each command go to ``control.log``
 with their wall times and the operator's name. The device is never armed with nobody in
 control: an operator's hold that is given up, or lapses, while the device is armed brings
@@ -22,6 +24,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from exoleg.control.gears import LAW_TUNABLE
 from exoleg.control.hierarchy import BOUNDS
 from exoleg.control.safety import fault_detail
 from exoleg.control.supervisor import refusal
@@ -164,13 +167,15 @@ class OperatorRules:
             link = self.link
         if link is None:
             return {}, {}
-        g = LoopLink.gains(link.web_copy())
+        c = link.web_copy()
+        g = LoopLink.gains(c)
         if g is None:  # not yet published by the session
             return {}, {}
         with self.lock:
             if not self.bounds:
                 self.bounds = {k: [[0.0, 1.0]] * len(v) if k in SHARES else
                                [[0.0, 2.0 * x] for x in v] for k, v in g.items()}
+                self.bounds.update(LoopLink.law_bounds(c))  # (the session's own)
             return g, dict(self.bounds)
 
     def check_gains(self, change: dict[str, list[float]]) -> str:
@@ -186,7 +191,9 @@ class OperatorRules:
                 return f"{k}: expected {len(bounds[k])} values, got {len(v)}"
             for i, (x, (lo, hi)) in enumerate(zip(v, bounds[k], strict=True)):
                 if not lo <= x <= hi:
-                    return f"{k}[{i}] = {x:g} is outside {lo:g}-{hi:g}"
+                    return (f"{k}[{i}] = {x:g} is outside {lo:g}-{hi:g}"
+                            + (" (the law's gear modes, the device's own setting: "
+                               "exoleg validate --transparency)" if k in LAW_TUNABLE else ""))
         low, high = (change.get(k, now[k]) for k in BOUNDS)
         for i, (a, b) in enumerate(zip(low, high, strict=True)):
             if a > b:

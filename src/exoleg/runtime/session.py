@@ -293,6 +293,7 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
          ) -> tuple[SessionResult, Path]:
     """:func:`run` in the folder it holds."""
     import exoleg
+    from exoleg.control.gears import law_bounds
     from exoleg.control.hierarchy import WalkController
     from exoleg.io import write_json
     from exoleg.runtime.sim_backend import SimBackend
@@ -373,8 +374,9 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
     # the page's gains are the walking controller's: another law (identification's plan)
     # publishes none, and the web side refuses a change
     tunable = controller in WALKING_CONTROLLERS
-    if link is not None and tunable:
-        link.loop_gains(ctl.gains_now())
+    if link is not None and tunable:  # the transparent law's bounds from its gears' modes
+        link.loop_gains(ctl.gains_now(), law_bounds(leg, config.actuators,
+                                                    config.transparency, period))
     try:
         if compiled and b is sim and isinstance(ctl, WalkController) and inject is None:
             res = run_compiled(b, ctl, duration, log, commands, realtime, link, tunable,

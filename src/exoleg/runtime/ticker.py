@@ -179,7 +179,8 @@ def run_ticks(world, ctl, S, K, noise, ring, io, plan):  # type: ignore[no-untyp
     ``io``: one :data:`IO`; ``plan``: (the ticks of
     the duration, the ticks of a controlled stop's grace, the scheduled commands' ticks
     and codes, the overrun limit s, the late ticks in a row that are a controlled stop,
-    the frozen-board limit in ticks, the staged controller parameters, the drives'
+    the frozen-board limit in ticks, the staged controller parameters and transparent
+    law's (the operator's changes: a pair of records), the drives'
     command, envelope and delivered torque (3,) each, the true forces under the sensors
     (4,), a timespec (2,) and the start's monotonic time (0: now))."""
     p, w, A, sens, imu_x, imu_y, h, sub, step, stride, support, stand = world
@@ -188,7 +189,7 @@ def run_ticks(world, ctl, S, K, noise, ring, io, plan):  # type: ignore[no-untyp
     n, grace, when, what, overrun, late_runs, frozen, staged, u, env, tau, fn, ts, t0 = plan
     D = S[0]
     x = io[0]  # what the outside and the loop say to each other
-    cp = ctl[0]
+    cp, tp = ctl[0], ctl[10]  # (the parameters and the transparent law's: tunable)
     N = times.shape[0]
     nchunk = fsr_noise.shape[0] // 2
     limit = n
@@ -247,7 +248,8 @@ def run_ticks(world, ctl, S, K, noise, ring, io, plan):  # type: ignore[no-untyp
         # 3. a gain change between ticks, whole; the operator's command: an E-stop
         # first, a controlled stop's stand, what was scheduled, then the queue
         if x.gains != x.gains_seen:
-            cp[0] = staged[0]
+            cp[0] = staged[0][0]
+            tp[0] = staged[1][0]
             x.gains_seen = x.gains
         command = 0
         if x.estops != x.estops_seen:
@@ -377,7 +379,7 @@ class _Outside:
         self._draw()
         self.noise = (self.fsr, self.imu, b.bias)
         when = np.array(sorted(commands), dtype=np.int64)
-        self.staged = controller.cp.copy()
+        self.staged = (controller.cp.copy(), controller.tp.copy())
         self.change: dict[str, list[float]] = {}
         self.world = (b.p, b.w, b.dev.A, b.sens, b.dev.imu_x, -b.dev.depth, b.period,
                       b.substeps, bool(b.dev.step), b.dev.stride_time, b.dev.support,
@@ -456,7 +458,8 @@ class _Outside:
             self.change.update(change)
         x = self.x
         if self.change and x["gains"] == x["gains_seen"]:  # the last change is in force
-            self.staged[:] = self.ctl.gains_record(self.change, self.staged)
+            cp, tp = self.ctl.gains_record(self.change, self.staged)
+            self.staged[0][:], self.staged[1][:] = cp, tp
             self.change = {}
             x["gains"] += 1
             link.loop_gains(self.ctl.gains_now(self.staged))

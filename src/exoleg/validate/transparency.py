@@ -32,6 +32,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from exoleg.control.gears import law_on_gears
 from exoleg.device.drive import current_loop, drive_limit
 from exoleg.dynamics.kernels import mass_height_terms
 from exoleg.errors import ParameterError
@@ -242,7 +243,8 @@ def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
                         saturated=dict(zip(JOINTS, at.mean(axis=0).tolist(), strict=True)),
                         run=r, floors=walk_floors(r, leg, config),
                         loading=heel_strike_loading(r, g=leg.g),
-                        gears=law_on_gears(leg, config, float(r.t[1] - r.t[0])))
+                        gears=law_on_gears(leg, config.actuators, config.transparency,
+                                            float(r.t[1] - r.t[0])))
 
 
 #: the landing's window after each initial contact, s (the knee's deceleration and the
@@ -403,96 +405,6 @@ def _pelvis_terms(q, dq, p, ddy, out):  # type: ignore[no-untyped-def]
         out[k, 0] = y0 * ddy[k]
         out[k, 1] = y1 * ddy[k]
         out[k, 2] = y2 * ddy[k]
-
-
-def gear_mode(act: Any, share: float, accel_filter_hz: float, lead: float, inertia: float,
-              link: float, h: float, delay: int = 0) -> tuple[float, float]:
-    """The least-damped mode of a rigid unit's joint -- its rotor on the gear's
-    stiffness, the link beyond -- under the transparent law's inertia and viscous friction
-    compensation: (its frequency, Hz; its damping ratio, negative when it grows).
-
-    The linear model, per joint, about a posture and a speed away from zero (the Coulomb
-    friction's slope there none; gravity and the Coriolis terms compensated, not in the
-    loop): the rotor's inertia reflected at the joint (``act.reflected_inertia``) with the
-    unit's viscous friction, the gear's stiffness (``act.gear_stiffness``) to the link's
-    ``link`` kg m^2 about the joint (the device's links beyond it, with or without the
-    child's segments strapped to them), the drive's current loop a first order of its
-    bandwidth; at each tick of ``h`` s the joint encoder read (on the link's side of the
-    gear), its rate the difference per tick through the drive's velocity low-pass, the
-    acceleration the rates' difference through ``accel_filter_hz``'s
-    (:func:`~exoleg.control.transparency.track_rates`), the command ``share`` x
-    ``inertia`` (the law's device inertia at the joint) x that acceleration plus the
-    viscous friction at the rate taken ``lead`` s ahead, held over the tick, ``delay``
-    ticks late (0: as the simulated loop; 1: a bus's cycle more). The plant is stepped
-    exactly (the matrix exponential of the tick); the rigid body's two modes (the angle,
-    and the speed the friction's compensation leaves undamped) are left out."""
-    from scipy.linalg import expm
-
-    jm, k, c = act.reflected_inertia, act.gear_stiffness, act.viscous_friction
-    wc = 2.0 * np.pi * act.current_loop_bandwidth
-    # x: the rotor's angle (at the joint) and rate, the link's, the torque delivered
-    a = np.array([[0.0, 1.0, 0.0, 0.0, 0.0], [-k / jm, -c / jm, k / jm, 0.0, 1.0 / jm],
-                  [0.0, 0.0, 0.0, 1.0, 0.0], [k / link, 0.0, -k / link, 0.0, 0.0],
-                  [0.0, 0.0, 0.0, 0.0, -wc]])
-    e = expm(np.block([[a, np.eye(5, 1, -4) * wc], [np.zeros((1, 6))]]) * h)
-    ad, bd = e[:5, :5], e[:5, 5]
-    bv = 1.0 - np.exp(-2.0 * np.pi * act.velocity_filter_hz * h)
-    ba = 1.0 - np.exp(-2.0 * np.pi * accel_filter_hz * h)
-    # the loop's state z: x, then the last angle read, rate and acceleration estimates,
-    # then the commands still on their way (delay)
-    n = 8 + delay
-    z = np.zeros((n, n))
-    read = np.eye(1, n, 2)[0]                        # the link's angle
-    rate = bv / h * (read - np.eye(1, n, 5)[0]) + (1.0 - bv) * np.eye(1, n, 6)[0]
-    acc = ba / h * (rate - np.eye(1, n, 6)[0]) + (1.0 - ba) * np.eye(1, n, 7)[0]
-    command = share * inertia * acc + c * (rate + lead * acc)
-    applied = command if delay == 0 else np.eye(1, n, n - 1)[0]
-    z[:5, :5] = ad
-    z[:5] += np.outer(bd, applied)
-    z[5], z[6], z[7] = read, rate, acc
-    if delay:
-        z[8] = command
-        for i in range(9, n):
-            z[i, i - 1] = 1.0
-    ev = np.linalg.eigvals(z)
-    ev = ev[(np.abs(ev - 1.0) > 1e-6) & (np.abs(ev) > 1e-12)]  # (0: a state read, not kept)
-    s = np.log(ev.astype(complex)) / h
-    zeta = -s.real / np.abs(s)
-    i = int(np.argmin(zeta))
-    return float(abs(s[i].imag) / (2.0 * np.pi)), float(zeta[i])
-
-
-#: the ticks a command may come late in :func:`law_on_gears`: as the simulated loop
-#: applies it, and a bus's cycle later (EtherCAT's outputs a cycle behind its inputs)
-DELAYS = (0, 1)
-
-
-def law_on_gears(leg: Any, config: Any, h: float) -> list[dict[str, Any]]:
-    """Per joint of ``config``'s device on ``leg`` (standing straight), :func:`gear_mode`
-    of its transparent law's settings at a tick of ``h`` s, the worse of
-    :data:`DELAYS`: ``alone`` (the device's links beyond the joint: the cuffs open) and
-    ``worn`` (the child's segments strapped to them, the cuffs taken as rigid) -- each
-    (Hz, damping ratio). A negative ratio is a mode the law makes grow, unless the gear's
-    own (structural) damping, which no datasheet held gives, is at least as large; a
-    compliant unit (a series spring) is None: its torque loop is
-    :mod:`exoleg.device.drive`'s, checked against its two-mass model in the tests."""
-    from exoleg.child.interaction import device_leg
-
-    q = np.zeros(3)
-    whole = leg.M(q)
-    dev = device_leg(leg, config.actuators).M(q)
-    t = config.transparency
-    rows: list[dict[str, Any]] = []
-    for j, (joint, act) in enumerate(zip(JOINTS, config.actuators, strict=True)):
-        if act.compliant:
-            rows.append({"joint": joint, "alone": None, "worn": None})
-            continue
-        links = float(dev[j, j]) - act.reflected_inertia  # the device's links alone
-        law = (float(t.inertia_share[j]), float(t.accel_filter_hz[j]), t.lead, float(dev[j, j]))
-        rows.append({"joint": joint, **{
-            case: min((gear_mode(act, *law, link, h, d) for d in DELAYS), key=lambda m: m[1])
-            for case, link in (("alone", links), ("worn", float(whole[j, j])))}})
-    return rows
 
 
 def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None

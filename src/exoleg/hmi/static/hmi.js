@@ -624,13 +624,22 @@ for (const b of document.querySelectorAll("[data-command]"))
     act("POST", "/api/command", {command: b.dataset.command}, b.dataset.command + " applied");
   };
 
+// what each tunable is, in the operator's words and units
+function gainWords(k) {
+  if (k.startsWith("kp")) return "N m/rad";
+  if (k.startsWith("kd")) return "N m s/rad";
+  if (k === "inertia_share") return "0-1, the device's inertia the transparent law takes";
+  if (k === "accel_filter_hz") return "Hz, the transparent law's acceleration estimate";
+  return "0-1, assist as needed";
+}
+
 async function loadGains() {
   const r = await call("GET", "/api/gains");
   const t = $("gains");
   if (!r.ok || !r.data.gains || !r.data.gains.support) { t.innerHTML = "<tr><td class='muted'>no session running</td></tr>"; return; }
   const {gains, bounds} = r.data;
   t.innerHTML = "<tr><th></th>" + JOINTS.map((j) => `<th>${j}</th>`).join("") + "</tr>" +
-    GAINS().map((k) => `<tr><td>${k} (${k.startsWith("kp") ? "N m/rad" : k.startsWith("kd") ? "N m s/rad" : "0-1, assist as needed"})</td>` + gains[k].map((v, i) =>
+    GAINS().map((k) => `<tr><td>${k} (${gainWords(k)})</td>` + gains[k].map((v, i) =>
       `<td><input id="g-${k}-${i}" inputmode="decimal" value="${+v.toFixed(3)}"><div class="bounds">${bounds[k][i][0]}-${+bounds[k][i][1].toFixed(3)}</div></td>`).join("") + "</tr>").join("") +
     `<tr><td>support (assistance)</td><td colspan="3"><input id="g-support-0" inputmode="decimal" value="${gains.support[0]}"><span class="bounds"> 0-1</span></td></tr>`;
 }
