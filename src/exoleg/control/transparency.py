@@ -38,6 +38,7 @@ from numpy.typing import ArrayLike, NDArray
 from exoleg import checks as _check
 from exoleg.device.drive import link_friction
 from exoleg.dynamics.kernels import N_PARAMS, coriolis_dq, gravity, mass_matrix
+from exoleg.control.gears import LAW_TUNABLE
 from exoleg.entry import SUPPORT_MODES
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8, new
@@ -146,19 +147,23 @@ class TransparencySettings:
     def record(self, device_p: F64 | None) -> NDArray[np.void]:
         """What the compiled tick reads (:data:`TRANSPARENCY`) for the device alone's
         parameters ``device_p`` (:func:`~exoleg.child.interaction.device_leg`; None: not
-        known, the transparent mode refused -- its settings still there to be read and
-        changed)."""
+        known, the transparent mode refused and the law inert -- only the settings an
+        operator may change, :data:`~exoleg.control.gears.LAW_TUNABLE`, there to be
+        read and changed)."""
         r = new(TRANSPARENCY)
-        if device_p is not None and np.shape(device_p) != (N_PARAMS,):
+        for name in LAW_TUNABLE:
+            r[name] = getattr(self, name)
+        if device_p is None:
+            return r
+        if np.shape(device_p) != (N_PARAMS,):
             raise ParameterError("TransparencySettings.record", "device_p",
                                  f"expected a leg's {N_PARAMS} parameters, got shape "
                                  f"{np.shape(device_p)}")
         r["parts"] = [1.0 if b else 0.0 for b in self.parts]
-        for name in ("accel_filter_hz", "inertia_share", "lead", "kp", "ki", "integral_limit",
-                     "wall_stiffness", "wall_damping", "ramp"):
+        for name in ("lead", "kp", "ki", "integral_limit", "wall_stiffness", "wall_damping",
+                     "ramp"):
             r[name] = getattr(self, name)
-        if device_p is not None:
-            r["device_p"], r["known"] = device_p, True
+        r["device_p"], r["known"] = device_p, True
         return r
 
 
