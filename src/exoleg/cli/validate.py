@@ -120,17 +120,21 @@ def _transparency(strides: int, device: Any) -> int:
          + ", ".join(f"{j} {x:.3f}" for j, x in h["cuffs_outside_Nm_per_kg"].items())
          + " N m/kg RMS, over the loop's floor there of "
          + ", ".join(f"{b['joint']} {b['floor_loop_outside_Nm_per_kg']:.3f}" for b in v.floors))
-    rigid = [g for g in v.gears if g["alone"] is not None]
+    rigid = [(j, g) for j, g in enumerate(v.gears) if g["alone"] is not None]
+    share, hz = v.console["inertia_share"], v.console["accel_filter_hz"]
     if rigid:
-        _table([[g["joint"], *(f"{g[k][0]:.0f} Hz, {g[k][1]:+.3f}" for k in ("alone", "worn"))]
-                for g in rigid],
-               ["joint", "the device alone", "worn (the cuffs rigid)"],
+        _table([[g["joint"], *(f"{g[k][0]:.0f} Hz, {g[k][1]:+.3f}" for k in ("alone", "worn")),
+                 f"{_span(*share[j])} at {_span(*hz[j])} Hz"]
+                for j, g in rigid],
+               ["joint", "the device alone", "worn (the cuffs rigid)",
+                "the console allows this child (share, estimate)"],
                title="the law on the gears' stiffness: each joint's least-damped mode (its "
                      "frequency, its damping ratio) with the inertia's share and the "
                      "friction's compensation read from the joint's encoder, the worse of "
                      "a command on time and a bus's cycle late; a negative ratio grows "
                      "unless the gear's own damping, which no datasheet held gives, is "
-                     "larger")
+                     "larger; the console allows the share and estimate only where each "
+                     "mode stays damped or no less damped than with the device's own")
     _say("at the drive's limit: " + ", ".join(f"{j} {100 * x:.0f} %"
                                             for j, x in v.saturated.items())
          + ("; the safety layer stopped the walk" if v.fault else "; no safety event"))
@@ -340,3 +344,8 @@ def add_parser(sub: Any) -> None:
     v.add_argument("--children", type=_count(1, 10000), metavar="N",
                    help="with --identify: how many children, 1-10000 (default 100)")
     v.set_defaults(func=cmd_validate)
+
+
+def _span(lo: float, hi: float) -> str:
+    """lo-hi, or one number when they are one."""
+    return f"{lo:g}" if lo == hi else f"{lo:g}-{hi:g}"

@@ -32,7 +32,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from exoleg.control.gears import law_on_gears
+from exoleg.control.gears import law_bounds, law_on_gears
 from exoleg.device.drive import current_loop, drive_limit
 from exoleg.dynamics.kernels import mass_height_terms
 from exoleg.errors import ParameterError
@@ -182,8 +182,9 @@ class Transparency:
     contribution rows, each joint's share of the walk at the drive's limit, whether the
     safety layer stopped the walk, the run, per joint the physical floor along the
     walk's own motion (:func:`walk_floors`), the heel strikes' loading
-    (:func:`heel_strike_loading`) and the law's least-damped mode on each gear's stiffness
-    (:func:`law_on_gears`)."""
+    (:func:`heel_strike_loading`), the law's least-damped mode on each gear's stiffness
+    (:func:`law_on_gears`) and the bounds the console allows the law's share and estimate
+    within for this child (:func:`~exoleg.control.gears.law_bounds`)."""
 
     child: str
     body_mass: float
@@ -195,6 +196,7 @@ class Transparency:
     floors: list[dict[str, Any]]
     loading: dict[str, Any]
     gears: list[dict[str, Any]]
+    console: dict[str, list[list[float]]]
 
     @property
     def met(self) -> bool:
@@ -236,6 +238,7 @@ def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
     sel = r.t >= r.walk_start + SETTLE_STRIDES * stride_time
     lim = np.array([a.torque_limit for a in config.actuators])
     at = np.abs(r.tau[sel]) >= 0.99 * lim
+    h = float(r.t[1] - r.t[0])
     return Transparency(child=c.name or "child", body_mass=c.mass,
                         budget=budget(leg, config, c.mass, stride_time),
                         rows=contributions(r, walks=walks, acting=on),
@@ -243,8 +246,8 @@ def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
                         saturated=dict(zip(JOINTS, at.mean(axis=0).tolist(), strict=True)),
                         run=r, floors=walk_floors(r, leg, config),
                         loading=heel_strike_loading(r, g=leg.g),
-                        gears=law_on_gears(leg, config.actuators, config.transparency,
-                                            float(r.t[1] - r.t[0])))
+                        gears=law_on_gears(leg, config.actuators, config.transparency, h),
+                        console=law_bounds(leg, config.actuators, config.transparency, h))
 
 
 #: the landing's window after each initial contact, s (the knee's deceleration and the
