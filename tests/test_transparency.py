@@ -777,10 +777,16 @@ def test_the_operators_bounds_on_the_law_keep_every_gear_mode_as_damped() -> Non
     # no further than the device's own 0.3 at 30 Hz. A series spring's share may only fall.
     import dataclasses
 
-    from exoleg.control.gears import (DELAYS, FILTERS_HZ, SHARE_MAX, SHARE_STEP, gear_links,
-                                      gear_mode, law_bounds)
-
     import exoleg
+    from exoleg.control.gears import (
+        DELAYS,
+        FILTERS_HZ,
+        SHARE_MAX,
+        SHARE_STEP,
+        gear_links,
+        gear_mode,
+        law_bounds,
+    )
 
     _, _, cfg = _device()
     leg = exoleg.paper_leg()
@@ -791,7 +797,7 @@ def test_the_operators_bounds_on_the_law_keep_every_gear_mode_as_damped() -> Non
     shares = [round(SHARE_STEP * i, 10) for i in range(int(SHARE_MAX / SHARE_STEP) + 1)]
     for j, (act, links) in enumerate(zip(cfg.actuators, gear_links(leg, cfg.actuators),
                                          strict=True)):
-        def zeta(s: float, f: float) -> float:
+        def zeta(s: float, f: float, act: Any = act, links: dict = links) -> float:
             return min(gear_mode(act, s, f, t.lead, links["device"], links[c], 1e-3, d)[1]
                        for c in ("alone", "worn") for d in DELAYS)
 
