@@ -9,8 +9,9 @@ starts on the device's defaults and is then given them by the path an operator's
 takes (:func:`apply_settings`): the same bounds -- each gain 0 to twice the device's
 default, the shares 0-1, the law's within its gears' bounds --, the supervisor's answer
 for the mode, and a line in the session's ``control.log``. Settings kept before the
-law's were tunable leave the device's own law. Settings that no longer fit the device's bounds (a changed
-``walking.toml``) are refused with the reason and the session keeps the defaults.
+law's were tunable leave the device's own law. Settings that no longer fit the device's
+bounds (a changed ``walking.toml``, another child's gears) are refused with the reason
+and the session keeps the defaults.
 """
 
 from __future__ import annotations

@@ -75,8 +75,8 @@ def _gain_shape(name: str) -> tuple[int, ...]:
 #: :data:`~exoleg.control.transparency.TRANSPARENCY` hold them) and the bounds the
 #: session sets on the transparent law's (per joint: lower, upper), the ring of applied
 #: commands (command, request id, tick, wall time, refused by the supervisor (1) or not
-#: (0), the mode then), the steps (initial
-#: contacts) so far and the ring of every tick's gait events (time, event bits)
+#: (0), the mode then), the steps (initial contacts) so far and the ring of every tick's
+#: gait events (time, event bits)
 PUBLISHED = ("mode", "phase", "gait_source", "gait_fraction", "events", "safety_status",
              "q_ref", "tau", "fault", "fault_joint", "fault_value", "fault_limit", "refused",
              "winding_temp", "gear_torque", "support_mode", "support_level", "cuff")
