@@ -393,17 +393,27 @@ def test_every_stop_is_explained_on_every_page(console: Any) -> None:
         phone.quit()
 
 
+def _host_steal() -> float:
+    """The CPU time the virtual machine's host has taken from it, all CPUs (/proc/stat's
+    steal), s; 0 where it cannot be read."""
+    try:
+        with open("/proc/stat") as f:
+            return int(f.readline().split()[8]) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return 0.0
+
+
 def test_a_request_burst_during_a_walk(console: Any) -> None:
     # Issue 36: two bursts of token-free requests ended a walking session through "link
     # lost" (the heartbeat beat on the server's event loop, which the burst held up).
+    from exoleg.runtime.control_api import EVENT_LOOP_STALL_S
+    from exoleg.runtime.link import LINK_TIMEOUT_S
+
     c = Console(console)
     c.take()
-    folder = c.start()
-    c.command("walk")
-    c.wait_mode("WALKING")
     bad = {"Authorization": "Bearer wrong"}
 
-    async def burst() -> list[tuple[int, Any]]:
+    async def burst(resent: list[int]) -> list[tuple[int, Any]]:
         limits = httpx.Limits(max_connections=50)  # within the listen backlog (64)
         async with httpx.AsyncClient(base_url=console.url, limits=limits,
                                      timeout=httpx.Timeout(60, pool=None)) as client:
@@ -449,27 +459,48 @@ def test_a_request_burst_during_a_walk(console: Any) -> None:
             stop = await one(1500)
             return [*head, stop, *await asyncio.gather(*tail)]
 
-    resent: list[int] = []
-    began = time.time()
-    answers = asyncio.run(burst())
-    stall = c.state()["server_stall_max_s"]
-    print(f"2,000 requests in {time.time() - began:.1f} s; the event loop's longest "
-          f"stall {stall:.3f} s; {len(resent)} sent again after a connection reset")
-    from exoleg.runtime.control_api import EVENT_LOOP_STALL_S
+    def walk_through_a_burst() -> tuple[Path, list[tuple[int, Any]], list[int], float, float]:
+        """A walking session through the burst: its folder, the answers, the requests
+        sent again, the event loop's longest stall (s) and the host's steal meanwhile."""
+        folder = c.start()
+        c.command("walk")
+        c.wait_mode("WALKING")
+        resent: list[int] = []
+        began, stolen = time.time(), _host_steal()
+        answers = asyncio.run(burst(resent))
+        stolen = _host_steal() - stolen
+        stall = c.state()["server_stall_max_s"]
+        print(f"2,000 requests in {time.time() - began:.1f} s; the event loop's longest "
+              f"stall so far {stall:.3f} s; {len(resent)} sent again after a connection "
+              f"reset; the host took {stolen:.2f} CPU s")
+        return folder, answers, resent, stall, stolen
 
+    def walked(answers: list[tuple[int, Any]]) -> list[int]:
+        """The modes every state the burst read before the E-stop said."""
+        return [a["mode"] for i, (_, a) in enumerate(answers) if i < 1500 and "mode" in a]
+
+    folder, answers, resent, stall, stolen = walk_through_a_burst()
+    if set(walked(answers)) != {2} and stolen >= LINK_TIMEOUT_S:
+        # the virtual machine's host took the machine's CPUs for as long as the link may
+        # stay silent (a fresh-clone CI run: the burst 23.7 s against 8.6-14 s, a 1.8 s
+        # stall, the walk stopped): the session was right to stop, and this test's
+        # question is not asked; once more
+        c.end(folder)
+        folder, answers, resent, stall, stolen = walk_through_a_burst()
     assert stall < EVENT_LOOP_STALL_S  # a busy server, not a hung one
     # connections reset: 0 in 5 runs here (2 of them beside two busy cores), 1 in one CI
     # run; a server that dropped connections under load would reset many
     assert len(resent) <= 10, resent
-    assert len(answers) == 2000 and answers[1500] == (200, {"queued": "estop"}), answers[1500]
-    assert {s for s, _ in answers} <= {200, 401, 409}
-    # walking throughout until the E-stop: every state the burst read before it
-    modes = [a["mode"] for i, (_, a) in enumerate(answers) if i < 1500 and "mode" in a]
-    # (why it stopped, when it did: the loop's, the session's and the console's own lines
-    # of control.log -- the burst's thousand refusals left out -- and the stall measured)
+    # walking throughout until the E-stop: every state the burst read before it (why it
+    # stopped, when it did: the loop's, the session's and the console's own lines of
+    # control.log -- the burst's thousand refusals left out --, the stall and the steal)
+    modes = walked(answers)
     own = [f"{a['source']} {a['command']} {a['accepted']} {a.get('why', '')}"
            for a in actions(folder) if a["source"] in ("loop", "session", "hmi")]
-    assert modes and set(modes) == {2}, (set(modes), f"stall {stall:.3f} s", own[-6:])
+    assert modes and set(modes) == {2}, (set(modes), f"stall {stall:.3f} s, the host took "
+                                         f"{stolen:.2f} CPU s", own[-6:])
+    assert len(answers) == 2000 and answers[1500] == (200, {"queued": "estop"}), answers[1500]
+    assert {s for s, _ in answers} <= {200, 401, 409}
     # the session runs on: no lost link, no overrun, no alarm; the E-stop applied in it
     assert c.state()["running"] == "running"
     assert not any(a["command"] == "alarm" for a in actions(folder))
