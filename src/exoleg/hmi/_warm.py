@@ -18,6 +18,8 @@ from __future__ import annotations
 import os
 import tempfile
 
+import scipy.linalg  # noqa: F401  (a session with a console bounds its law: control.gears)
+
 import exoleg.identify.device  # noqa: F401  (an identification's process runs it)
 from exoleg.child.model import ChildModel
 from exoleg.runtime.session import run
