@@ -218,6 +218,21 @@ def sched_fifo() -> None:
 ALONE_LOOP_PRIORITY, ALONE_IO_PRIORITY = 40, 41
 
 
+def host_steal(cpu: int | None = None) -> float:
+    """The time the virtual machine's host has taken from it (/proc/stat's steal), s:
+    from ``cpu``, or from all its CPUs (None); 0 where it cannot be read."""
+    line_name = "cpu" if cpu is None else f"cpu{cpu}"
+    try:
+        with open("/proc/stat") as f:
+            for line in f:
+                name, *v = line.split()
+                if name == line_name:
+                    return int(v[7]) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0.0
+
+
 def alone(monkeypatch: pytest.MonkeyPatch) -> None:
     """The sessions this test starts in its process at :data:`ALONE_LOOP_PRIORITY` and
     :data:`ALONE_IO_PRIORITY` (exoleg.runtime.realtime's, patched for the test)."""

@@ -34,7 +34,7 @@ import pytest
 pytest.importorskip("starlette", reason="starlette (exoleg[api])")
 httpx = pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
 
-from conftest import EXOLEG, SIM_OVERRUN, http  # noqa: E402
+from conftest import EXOLEG, SIM_OVERRUN, host_steal, http  # noqa: E402
 from exoleg.hmi.testing import browser_missing, chromium, served_hmi, wait_until  # noqa: E402
 from exoleg.runtime.link import LINK_TIMEOUT_S  # noqa: E402
 from exoleg.runtime.operator import LEASE_S  # noqa: E402
@@ -393,16 +393,6 @@ def test_every_stop_is_explained_on_every_page(console: Any) -> None:
         phone.quit()
 
 
-def _host_steal() -> float:
-    """The CPU time the virtual machine's host has taken from it, all CPUs (/proc/stat's
-    steal), s; 0 where it cannot be read."""
-    try:
-        with open("/proc/stat") as f:
-            return int(f.readline().split()[8]) / os.sysconf("SC_CLK_TCK")
-    except (OSError, ValueError, IndexError):
-        return 0.0
-
-
 def test_a_request_burst_during_a_walk(console: Any) -> None:
     # Issue 36: two bursts of token-free requests ended a walking session through "link
     # lost" (the heartbeat beat on the server's event loop, which the burst held up).
@@ -466,9 +456,9 @@ def test_a_request_burst_during_a_walk(console: Any) -> None:
         c.command("walk")
         c.wait_mode("WALKING")
         resent: list[int] = []
-        began, stolen = time.time(), _host_steal()
+        began, stolen = time.time(), host_steal()
         answers = asyncio.run(burst(resent))
-        stolen = _host_steal() - stolen
+        stolen = host_steal() - stolen
         stall = c.state()["server_stall_max_s"]
         print(f"2,000 requests in {time.time() - began:.1f} s; the event loop's longest "
               f"stall so far {stall:.3f} s; {len(resent)} sent again after a connection "

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from conftest import ALONE_LOOP_PRIORITY, alone, http
+from conftest import ALONE_LOOP_PRIORITY, alone, host_steal, http
 from exoleg.runtime.loop import LATE_RUN_TICKS, OVERRUN_S, late_run_text
 from exoleg.runtime.session import run
 from exoleg.session_log import read_log
@@ -110,20 +110,6 @@ def _hog(span: float, cycle: float, busy: float) -> subprocess.Popen[str]:
     return hog
 
 
-def _stolen(cpu: int) -> float:
-    """The time the virtual machine's host has taken ``cpu`` from it (/proc/stat's steal),
-    s; 0 where it cannot be read."""
-    try:
-        with open("/proc/stat") as f:
-            for line in f:
-                name, *v = line.split()
-                if name == f"cpu{cpu}":
-                    return int(v[7]) / os.sysconf("SC_CLK_TCK")
-    except (OSError, ValueError, IndexError):
-        pass
-    return 0.0
-
-
 def _walking_session(tmp_path: Path, hog: tuple[float, float, float],
                      monkeypatch: pytest.MonkeyPatch, compiled: bool = True
                      ) -> tuple[dict[str, Any], dict[str, np.ndarray], float]:
@@ -140,7 +126,7 @@ def _walking_session(tmp_path: Path, hog: tuple[float, float, float],
         "sim", 6.0, tmp_path / "s", arm=True, walk_after=1.0, realtime=True,
         overrun=0.05, compiled=compiled)))
     hogging = _hog(*hog)
-    stolen = _stolen(CPU)
+    taken = host_steal(CPU)
     thread.start()
     deadline = time.time() + 120
     log = tmp_path / "s" / "session.log"
@@ -155,7 +141,7 @@ def _walking_session(tmp_path: Path, hog: tuple[float, float, float],
     assert hogging.returncode == 0 and float(said) > 0.8 * span * busy / cycle, said
     run_ = json.loads((tmp_path / "s" / "run.json").read_text())
     assert f"SCHED_FIFO priority {ALONE_LOOP_PRIORITY}" in run_["realtime"], run_["realtime"]
-    return run_, read_log(log)[1], _stolen(CPU) - stolen
+    return run_, read_log(log)[1], host_steal(CPU) - taken
 
 
 @pytest.mark.skipif(not FIFO, reason="SCHED_FIFO not permitted here (needs root or "

@@ -172,10 +172,11 @@ class OperatorRules:
         if g is None:  # not yet published by the session
             return {}, {}
         with self.lock:
-            if not self.bounds:
-                self.bounds = {k: [[0.0, 1.0]] * len(v) if k in SHARES else
-                               [[0.0, 2.0 * x] for x in v] for k, v in g.items()}
-                self.bounds.update(LoopLink.law_bounds(c))  # (the session's own)
+            if not self.bounds:  # the transparent law's: the session's own
+                self.bounds = {**{k: [[0.0, 1.0]] * len(v) if k in SHARES else
+                                  [[0.0, 2.0 * x] for x in v]
+                                  for k, v in g.items() if k not in LAW_TUNABLE},
+                               **LoopLink.law_bounds(c)}
             return g, dict(self.bounds)
 
     def check_gains(self, change: dict[str, list[float]]) -> str:
