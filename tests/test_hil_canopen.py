@@ -266,26 +266,39 @@ def test_the_bus_holds_with_the_cpus_busy(tmp_path: Path, sched_fifo: None,
     realtime_settings and SIMULATED_BUS_TIMEOUT_S held 10 runs of 10 s under three. Its
     threads above the suite's other sessions' (conftest.alone): the load under test is
     the spinning processes, as on a device; beside other workers' sessions at its own
-    priorities the foot board's frame missed its 20 ms once in CI."""
+    priorities the foot board's frame missed its 20 ms once in CI. A virtual machine's
+    host can take its CPUs from every priority (/proc/stat's steal): a bus timeout while
+    the host took at least that long is asked once more (test_realtime's rule), and a
+    failure says how much the host took -- the foot board's frame missed its 20 ms once
+    more in CI on 2026-12-07, on a host whose steal had risen that night."""
     import os
     import subprocess
     import sys
 
-    from conftest import ALONE_IO_PRIORITY, alone
-    from exoleg.runtime.session import SIMULATED_BUS_TIMEOUT_S
+    from conftest import ALONE_IO_PRIORITY, alone, host_steal
+    from exoleg.runtime.session import SIMULATED_BUS_TIMEOUT_S, SessionResult
 
     alone(monkeypatch)
 
-    hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"])
-            for _ in range(os.cpu_count() or 2)]
-    try:
-        res, _ = run("canopen", 3.0, tmp_path, arm=True, walk_after=1.0, channel="hil-load",
-                     bus_timeout=SIMULATED_BUS_TIMEOUT_S)  # the default without the suite's
-    finally:
-        for h in hogs:
-            h.kill()
-            h.wait()
-    assert res.stopped_by.startswith("duration, after a controlled stop"), res.stopped_by
+    def loaded(attempt: int) -> tuple[SessionResult, float]:
+        hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"])
+                for _ in range(os.cpu_count() or 2)]
+        taken = host_steal()
+        try:
+            res, _ = run("canopen", 3.0, tmp_path / str(attempt), arm=True, walk_after=1.0,
+                         channel=f"hil-load-{attempt}",
+                         bus_timeout=SIMULATED_BUS_TIMEOUT_S)  # the default, not the suite's
+        finally:
+            for h in hogs:
+                h.kill()
+                h.wait()
+        return res, host_steal() - taken
+
+    res, stolen = loaded(1)
+    if "within" in res.stopped_by and stolen >= SIMULATED_BUS_TIMEOUT_S:
+        res, stolen = loaded(2)
+    assert res.stopped_by.startswith("duration, after a controlled stop"), \
+        (res.stopped_by, f"the host took {stolen * 1e3:.0f} ms of the CPUs meanwhile")
     # the master's and the nodes' receivers, and the three drives' heartbeat producers
     assert f"5 bus threads SCHED_FIFO priority {ALONE_IO_PRIORITY}" in res.realtime, \
         res.realtime
