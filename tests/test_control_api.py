@@ -106,7 +106,8 @@ def test_run_hmi_token_operator_gains_estop(tmp_path: Path) -> None:
         # at its own 30 Hz)
         share, hz = g["bounds"]["inertia_share"], g["bounds"]["accel_filter_hz"]
         assert (share[2], hz[2]) == ([0.0, 0.3], [30.0, 30.0])
-        assert all(s[1] >= 0.7 and f == [30.0, 250.0] for s, f in zip(share[:2], hz[:2], strict=True))
+        assert all(s[1] >= 0.7 and f == [30.0, 250.0]
+                   for s, f in zip(share[:2], hz[:2], strict=True))
         r = http.post(f"{base}/gains", json={"inertia_share": [0.7, 0.7, 0.4]}, headers=op)
         assert r.status_code == 422 and r.json()["error"].startswith(
             "inertia_share[2] = 0.4 is outside 0-0.3 (the law's gear modes"), r.json()

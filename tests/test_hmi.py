@@ -442,11 +442,14 @@ def _server_keeps_off_the_loops_cpu(server: int) -> None:
 #: for large text -- 24 px, or 18.66 px bold); disabled controls are exempt. The formula
 #: is WCAG's relative luminance.
 CONTRAST_JS = """
-const lin = (v) => { v /= 255; return v <= 0.03928 ? v / 12.92 : Math.pow((v + 0.055) / 1.055, 2.4); };
+const lin = (v) => { v /= 255;
+  return v <= 0.03928 ? v / 12.92 : Math.pow((v + 0.055) / 1.055, 2.4); };
 const lum = (c) => 0.2126 * lin(c[0]) + 0.7152 * lin(c[1]) + 0.0722 * lin(c[2]);
 const rgb = (s) => (s.match(/[\\d.]+/g) || []).map(Number);
-const back = (el) => { for (; el; el = el.parentElement) { const v = rgb(getComputedStyle(el).backgroundColor);
-  if (v.length === 3 || (v.length === 4 && v[3] > 0.5)) return v.slice(0, 3); } return [255, 255, 255]; };
+const back = (el) => { for (; el; el = el.parentElement) {
+  const v = rgb(getComputedStyle(el).backgroundColor);
+  if (v.length === 3 || (v.length === 4 && v[3] > 0.5)) return v.slice(0, 3); }
+  return [255, 255, 255]; };
 const bad = [];
 for (const el of document.querySelectorAll("body *")) {
   if (!el.getClientRects().length || el.disabled || el.closest("[disabled]")) continue;
@@ -456,7 +459,9 @@ for (const el of document.querySelectorAll("body *")) {
   const a = lum(rgb(st.color)), b = lum(back(el));
   const ratio = (Math.max(a, b) + 0.05) / (Math.min(a, b) + 0.05);
   const px = parseFloat(st.fontSize), large = px >= 24 || (px >= 18.66 && +st.fontWeight >= 700);
-  if (ratio < (large ? 3 : 4.5)) bad.push(`${el.id || el.tagName} "${el.textContent.trim().slice(0, 30)}": ${ratio.toFixed(2)}`);
+  if (ratio < (large ? 3 : 4.5))
+    bad.push(`${el.id || el.tagName} "${el.textContent.trim().slice(0, 30)}": `
+             + ratio.toFixed(2));
 }
 return bad;
 """

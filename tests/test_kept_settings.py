@@ -1,10 +1,10 @@
-"""A child's settings follow them (issue 42): the support mode, gains,
-assist-as-needed bounds and the transparent law's share and estimate the operator left at the end of a child's session are kept in
-the records and given to the child's next session, by the path an operator's change
-takes -- the same bounds (from the device's defaults, not from the kept values: they
-cannot creep up session after session), the supervisor's answer, a line in control.log.
-Settings the device's bounds no longer allow, or damaged ones, leave the defaults and
-say why.
+"""A child's settings follow them (issue 42): the support mode, gains, assist-as-needed
+bounds and the transparent law's share and estimate the operator left at the end of a
+child's session are kept in the records and given to the child's next session, by the
+path an operator's change takes -- the same bounds (from the device's defaults, not from
+the kept values: they cannot creep up session after session), the supervisor's answer, a
+line in control.log. Settings the device's bounds no longer allow, or damaged ones, leave
+the defaults and say why.
 
 References: what the operator set (the loop's published gains are the walking
 controller's own, exoleg.control.hierarchy.WalkController.gains_now) and the control

@@ -1,4 +1,5 @@
-"""Kinematics of the leg (paper section 3): D-H transforms, forward and inverse kinematics, Jacobians.
+"""Kinematics of the leg (paper section 3): D-H transforms, forward and inverse kinematics,
+Jacobians.
 
 Conventions (``docs/conventions.md``): sagittal plane, x forward, y up, hip at
 the origin; q = (hip, knee, ankle) in rad; q = 0 is quiet standing. Link ``i``'s

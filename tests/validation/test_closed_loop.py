@@ -1,4 +1,5 @@
-"""The closed loop against an independent engine and the paper's scenario figures (issue 3, partial).
+"""The closed loop against an independent engine and the paper's scenario figures (issue 3,
+partial).
 
 References: MuJoCo's own RK4 stepping of the exported MJCF under the same controller
 (paper Fig. 13E compares Simulink with Simscape), the Lyapunov argument of eqs 26-30,

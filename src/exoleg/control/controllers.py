@@ -1,4 +1,5 @@
-"""Controller records: the paper's PD impedance + gravity compensation, plain PD, computed torque."""
+"""Controller records: the paper's PD impedance + gravity compensation, plain PD,
+computed torque."""
 
 from __future__ import annotations
 

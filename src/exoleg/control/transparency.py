@@ -36,9 +36,9 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from exoleg import checks as _check
+from exoleg.control.gears import LAW_TUNABLE
 from exoleg.device.drive import link_friction
 from exoleg.dynamics.kernels import N_PARAMS, coriolis_dq, gravity, mass_matrix
-from exoleg.control.gears import LAW_TUNABLE
 from exoleg.entry import SUPPORT_MODES
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8, new

@@ -178,14 +178,15 @@ CREEP_TAU = (1.0, 10.0, 100.0)
 @njit(cache=True)
 def fsr_response(s, last, memory, creep, i, force, h):  # type: ignore[no-untyped-def]
     """FSR ``i``'s normalised reading (fraction of full scale) under ``force`` N, after
-    its hysteresis and drift, ``h`` s after the last call; updates its memory: per
-    sensor the last normalised force ``last`` (4,), the hysteresis's direction memory
-    ``memory`` (4,: -1 loading .. +1 unloading) and the creep states ``creep`` (4, 3)
-    (a device's :data:`~exoleg.world.device.DEVICE` holds them). Hysteresis: reading = f + 2 H f (1 - f) m, the direction memory
-    m moving towards -1 while loading and +1 while unloading, all the way over a change
-    of H in f -- so the two curves are 2 x H/2 = H apart at half scale (the sheet's
-    figure) and meet at no load and full scale. Drift: creep states c_k relaxing to
-    drift x the reading with time constants :data:`CREEP_TAU`; reading x (1 + sum c_k)."""
+    its hysteresis and drift, ``h`` s after the last call; updates its memory: per sensor
+    the last normalised force ``last`` (4,), the hysteresis's direction memory ``memory``
+    (4,: -1 loading .. +1 unloading) and the creep states ``creep`` (4, 3) (a device's
+    :data:`~exoleg.world.device.DEVICE` holds them). Hysteresis: reading =
+    f + 2 H f (1 - f) m, the direction memory m moving towards -1 while loading and +1
+    while unloading, all the way over a change of H in f -- so the two curves are
+    2 x H/2 = H apart at half scale (the sheet's figure) and meet at no load and full
+    scale. Drift: creep states c_k relaxing to drift x the reading with time constants
+    :data:`CREEP_TAU`; reading x (1 + sum c_k)."""
     b = s[0]
     f = min(max(force, 0.0) / b.full_scale, 1.0)
     H = b.hysteresis

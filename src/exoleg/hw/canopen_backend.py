@@ -3,8 +3,9 @@ node, driven over python-canopen / python-can -- on a real machine a SocketCAN i
 in tests a virtual bus on which :class:`~exoleg.hw.canopen_sim.SimulatedRig` answers:
 simulated EPOS4 nodes (``data/device/canopen/epos4_sim.eds``, the CiA 402 state machine
 of :mod:`exoleg.hw.cia402`, cyclic synchronous torque by PDO on every SYNC) and a
-simulated foot board, around the simulated device of :mod:`exoleg.world.device`. The master code here
-is what would drive the real nodes: hardware-in-the-loop of the whole protocol stack.
+simulated foot board, around the simulated device of :mod:`exoleg.world.device`. The
+master code here is what would drive the real nodes: hardware-in-the-loop of the whole
+protocol stack.
 
 Node ids: ankle 1, knee 2, hip 3 (the paper's chain, ankle -> knee -> hip), foot board
 16. Per tick the master sends each drive its RPDO1 (controlword 0x6040, target torque

@@ -25,10 +25,11 @@ in the process data, is the check every tick.
 
 Without a network interface and the drives, nothing here can reach real hardware: the
 tests (and ``--interface fake``) stop at the process-data level, with
-:class:`~exoleg.hw.ethercat_sim.SimulatedSegment` standing in for ``pysoem.Master`` -- it records the SDO writes
-and checks the PDO mapping the master wrote against the layout above, and answers the
-exchanges from the simulated device (:class:`exoleg.hw.rig.DriveRig`). What it cannot
-show: the EPOS4's own object dictionary, distributed clocks, real bus timing.
+:class:`~exoleg.hw.ethercat_sim.SimulatedSegment` standing in for ``pysoem.Master`` -- it
+records the SDO writes and checks the PDO mapping the master wrote against the layout
+above, and answers the exchanges from the simulated device
+(:class:`exoleg.hw.rig.DriveRig`). What it cannot show: the EPOS4's own object
+dictionary, distributed clocks, real bus timing.
 """
 
 from __future__ import annotations

@@ -58,7 +58,8 @@ def _columns(variant: Variant) -> dict[str, Any]:
     where, d = _raw("table5.toml")
     _check.keys(where, d, ["source", "detailed", "simplified"], ["errata"])
     if variant not in ("simplified", "detailed"):
-        raise ParameterError(where, "variant", f"unknown {variant!r} (allowed: simplified, detailed)")
+        raise ParameterError(where, "variant",
+                             f"unknown {variant!r} (allowed: simplified, detailed)")
     col = dict(_table(where, d, variant))
     col.update(d.get("errata", {}).get(variant, {}))
     w = f"{where} [{variant}]"
@@ -159,8 +160,8 @@ def controller_gains() -> Gains:
     """The paper's PD gains (Fig. 12) and control rate."""
     where, d = _raw("controller.toml")
     _check.keys(where, d, ["source", "kp", "kd", "rate_hz", "g"])
-    return Gains(kp=_check.vector(where, "kp", d["kp"], 3), kd=_check.vector(where, "kd", d["kd"], 3),
-                 rate_hz=d["rate_hz"])
+    return Gains(kp=_check.vector(where, "kp", d["kp"], 3),
+                 kd=_check.vector(where, "kd", d["kd"], 3), rate_hz=d["rate_hz"])
 
 
 def gravity() -> float:

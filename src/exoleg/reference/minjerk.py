@@ -1,4 +1,5 @@
-"""Minimum-jerk transitions between postures (Flash & Hogan 1985: s = 10 tau^3 - 15 tau^4 + 6 tau^5)."""
+"""Minimum-jerk transitions between postures (Flash & Hogan 1985: s = 10 tau^3 - 15 tau^4
++ 6 tau^5)."""
 
 from __future__ import annotations
 

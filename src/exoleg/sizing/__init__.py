@@ -1,4 +1,5 @@
-"""Fitting the device to a child: profile, dimensions, fit, personalized model, demand, population."""
+"""Fitting the device to a child: profile, dimensions, fit, personalized model, demand,
+population."""
 
 from exoleg.sizing.anthropometry import (
     Dimensions,

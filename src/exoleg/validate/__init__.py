@@ -1,1 +1,2 @@
-"""Validation: independent engines built from the exported models, the paper's printed numbers, reports."""
+"""Validation: independent engines built from the exported models, the paper's printed
+numbers, reports."""

@@ -1,4 +1,5 @@
-"""The validation checks of the leg model (``exoleg validate``), each against an independent reference.
+"""The validation checks of the leg model (``exoleg validate``), each against an
+independent reference.
 
 Every check returns a :class:`Check`: what was compared, against what, the
 measured figure and the tolerance it must meet. The tolerances are the
@@ -71,7 +72,8 @@ def random_leg(rng: np.random.Generator, g: float = 9.81) -> LegModel:
     for name in ("thigh", "shank", "foot"):
         m, a = rng.uniform(0.1, 5.0), rng.uniform(0.1, 0.5)
         com = (rng.uniform(-0.2, 0.8) * a, rng.uniform(-0.1, 0.1) * a)
-        links.append(Link(mass=m, length=a, com=com, izz=m * rng.uniform(0.01, 0.2) ** 2, name=name))
+        links.append(Link(mass=m, length=a, com=com, izz=m * rng.uniform(0.01, 0.2) ** 2,
+                          name=name))
     return LegModel(links, g=g, name="random", armature=rng.uniform(0.0, 0.3, 3))
 
 

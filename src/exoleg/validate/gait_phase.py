@@ -5,11 +5,11 @@ Children: the device's design range (paper section 2: 8-12 years, GMFCS I-IV) at
 50th percentile of their growth charts, plus a typically developing child, each with the
 personalized child + device model (:func:`exoleg.sizing.personalized_leg`) walking on the
 treadmill (:func:`exoleg.sim.walk.simulate_walk`) as an actor (:mod:`exoleg.child`:
-passive moments, their level's spasticity preset, their own effort). Noise: the
-sensors' datasheet noise times 0 (ideal), 1 and 3. Reference for comparison: shank-gyroscope detection in
-children with CP, onset error < 100 ms and > 99 % of phases detected (Behboodi et al.
-2019); in general, initial contact -25 ms, foot off < 75 ms, > 98 % detected (Catalfamo
-et al. 2010).
+passive moments, their level's spasticity preset, their own effort). Noise: the sensors'
+datasheet noise times 0 (ideal), 1 and 3. Reference for comparison: shank-gyroscope
+detection in children with CP, onset error < 100 ms and > 99 % of phases detected
+(Behboodi et al. 2019); in general, initial contact -25 ms, foot off < 75 ms, > 98 %
+detected (Catalfamo et al. 2010).
 """
 
 from __future__ import annotations
