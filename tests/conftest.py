@@ -22,6 +22,16 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from hypothesis import settings
+
+# The property tests draw the same examples every run ("fixed": hypothesis's derandomize,
+# no example database), so that the suite gives one answer for one commit: a random draw
+# at the edge of a tolerance failed CI once (the IK round trip at q2 = -1 mrad) where the
+# same commit passed before. EXOLEG_HYPOTHESIS=explore draws at random, with hypothesis's
+# own example database, to look for new counterexamples.
+settings.register_profile("fixed", derandomize=True, database=None)
+settings.register_profile("explore")
+settings.load_profile(os.environ.get("EXOLEG_HYPOTHESIS", "fixed"))
 
 #: The ``exoleg`` console command of this environment, as a user runs it. A command the
 #: tests interrupt (Ctrl-C: exit 130) runs as that, not as ``python -m exoleg.cli``:
