@@ -408,7 +408,6 @@ def test_a_request_burst_during_a_walk(own_console: Any) -> None:
     # Issue 36: two bursts of token-free requests ended a walking session through "link
     # lost" (the heartbeat beat on the server's event loop, which the burst held up).
     from exoleg.runtime.control_api import EVENT_LOOP_STALL_S
-    from exoleg.runtime.link import LINK_TIMEOUT_S
 
     console = own_console
     c = Console(console)
@@ -502,8 +501,8 @@ def test_a_request_burst_during_a_walk(own_console: Any) -> None:
     if set(walked(answers)) != {2} and stolen >= LINK_TIMEOUT_S:
         # the virtual machine's host took the machine's CPUs for as long as the link may
         # stay silent (a fresh-clone CI run: the burst 23.7 s against 8.6-14 s, the walk
-        # stopped): the session was right to stop, and this test's
-        # question is not asked; once more
+        # stopped): the session was right to stop, and this test's question is not
+        # asked; once more
         c.end(folder)
         folder, answers, resent, stall, stolen = walk_through_a_burst()
     assert stall < EVENT_LOOP_STALL_S  # a busy server, not a hung one
