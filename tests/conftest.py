@@ -243,6 +243,85 @@ def host_steal(cpu: int | None = None) -> float:
     return 0.0
 
 
+class RealtimeTaken:
+    """The CPU time taken at real-time priority (SCHED_FIFO, SCHED_RR) by every thread
+    outside the process trees of ``roots`` while the block runs, s (:attr:`taken`):
+    sampled every ``every`` s from /proc, a thread's time since the block began (a thread
+    ended between two samples leaves its last ``every`` s uncounted).
+
+    The suite's other files run real-time sessions (a CANopen identification: its loop at
+    SCHED_FIFO and five simulated nodes above it, 1.2 CPUs) beside a test that holds a
+    server to a deadline; such threads run before every normal-priority task, and the
+    kernel leaves those 5 % of each second (sched_rt_runtime_us), so they can stop a
+    process for most of a second, as the host's steal can (:func:`host_steal`)."""
+
+    def __init__(self, *roots: int, every: float = 0.1) -> None:
+        import threading
+
+        self.roots = set(roots)
+        self.every = every
+        self.taken = 0.0
+        self._seen: dict[int, int] = {}
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._watch, name="realtime-taken",
+                                        daemon=True)
+
+    @staticmethod
+    def _stat(path: str) -> list[str]:
+        with open(path) as f:
+            return f.read().rsplit(")", 1)[1].split()  # after the command's name
+
+    def _outside(self) -> list[int]:
+        """The processes outside the roots' trees."""
+        parent = {}
+        for name in os.listdir("/proc"):
+            if name.isdigit():
+                try:
+                    parent[int(name)] = int(self._stat(f"/proc/{name}/stat")[1])
+                except (OSError, IndexError, ValueError):  # ended meanwhile
+                    pass
+        out = []
+        for pid in parent:
+            p = pid
+            while p > 1 and p not in self.roots:
+                p = parent.get(p, 0)
+            if p not in self.roots:
+                out.append(pid)
+        return out
+
+    def _sample(self, count: bool) -> None:
+        tick = os.sysconf("SC_CLK_TCK")
+        for pid in self._outside():
+            try:
+                tids = os.listdir(f"/proc/{pid}/task")
+            except OSError:
+                continue
+            for tid in tids:
+                try:
+                    r = self._stat(f"/proc/{pid}/task/{tid}/stat")
+                except OSError:
+                    continue
+                used, policy = int(r[11]) + int(r[12]), int(r[38])  # utime+stime, policy
+                before = self._seen.get(int(tid), 0 if count else used)
+                self._seen[int(tid)] = used
+                if count and policy in (os.SCHED_FIFO, os.SCHED_RR):
+                    self.taken += (used - before) / tick
+
+    def _watch(self) -> None:
+        while not self._stop.wait(self.every):
+            self._sample(True)
+
+    def __enter__(self) -> "RealtimeTaken":
+        self._sample(False)  # every thread's time so far: not this block's
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join()
+        self._sample(True)
+
+
 def alone(monkeypatch: pytest.MonkeyPatch) -> None:
     """The sessions this test starts in its process at :data:`ALONE_LOOP_PRIORITY` and
     :data:`ALONE_IO_PRIORITY` (exoleg.runtime.realtime's, patched for the test)."""

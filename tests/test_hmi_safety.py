@@ -35,7 +35,7 @@ import pytest
 pytest.importorskip("starlette", reason="starlette (exoleg[api])")
 httpx = pytest.importorskip("httpx", reason="httpx (exoleg[dev])")
 
-from conftest import EXOLEG, SIM_OVERRUN, host_steal, http  # noqa: E402
+from conftest import EXOLEG, SIM_OVERRUN, RealtimeTaken, host_steal, http  # noqa: E402
 from exoleg.hmi.testing import browser_missing, chromium, served_hmi, wait_until  # noqa: E402
 from exoleg.runtime.link import LINK_TIMEOUT_S  # noqa: E402
 from exoleg.runtime.operator import LEASE_S  # noqa: E402
@@ -477,34 +477,43 @@ def test_a_request_burst_during_a_walk(own_console: Any) -> None:
             await page
             return answers
 
-    def walk_through_a_burst() -> tuple[Path, list[tuple[int, Any]], list[int], float, float]:
+    def walk_through_a_burst() -> tuple[Path, list[tuple[int, Any]], list[int], float,
+                                        str, bool]:
         """A walking session through the burst: its folder, the answers, the requests
-        sent again, the event loop's longest stall (s) and the host's steal meanwhile."""
+        sent again, the event loop's longest stall (s), what the host and other
+        processes' real-time threads took meanwhile, and whether that was a link
+        timeout's worth."""
         folder = c.start()
         c.command("walk")
         c.wait_mode("WALKING")
         resent: list[int] = []
         began, stolen = time.time(), host_steal()
-        answers = asyncio.run(burst(resent))
+        with RealtimeTaken(console.process.pid) as others:
+            answers = asyncio.run(burst(resent))
         stolen = host_steal() - stolen
         stall = c.state()["server_stall_max_s"]
+        taken = (f"the host took {stolen:.2f} CPU s, other processes' real-time threads "
+                 f"{others.taken:.2f}")
         print(f"2,000 requests in {time.time() - began:.1f} s; the event loop's longest "
               f"stall so far {stall:.3f} s; {len(resent)} sent again after a connection "
-              f"reset; the host took {stolen:.2f} CPU s")
-        return folder, answers, resent, stall, stolen
+              f"reset; {taken}")
+        return (folder, answers, resent, stall, taken,
+                max(stolen, others.taken) >= LINK_TIMEOUT_S)
 
     def walked(answers: list[tuple[int, Any]]) -> list[int]:
         """The modes every state the burst read before the E-stop said."""
         return [a["mode"] for i, (_, a) in enumerate(answers) if i < 1500 and "mode" in a]
 
-    folder, answers, resent, stall, stolen = walk_through_a_burst()
-    if set(walked(answers)) != {2} and stolen >= LINK_TIMEOUT_S:
-        # the virtual machine's host took the machine's CPUs for as long as the link may
-        # stay silent (a fresh-clone CI run: the burst 23.7 s against 8.6-14 s, the walk
-        # stopped): the session was right to stop, and this test's question is not
-        # asked; once more
+    folder, answers, resent, stall, taken, crowded = walk_through_a_burst()
+    if set(walked(answers)) != {2} and crowded:
+        # the virtual machine's host, or the real-time threads of the suite's other files
+        # (a CANopen identification's, 1.2 CPUs), took the CPUs for as long as the link
+        # may stay silent (fresh-clone CI runs: the burst 23.7 s against 8.6-14 s, the
+        # walk stopped; the console's event loop and heartbeat stopped 1.244 s with the
+        # host's steal at 0.23 s): the session was right to stop, and this test's
+        # question is not asked; once more
         c.end(folder)
-        folder, answers, resent, stall, stolen = walk_through_a_burst()
+        folder, answers, resent, stall, taken, crowded = walk_through_a_burst()
     assert stall < EVENT_LOOP_STALL_S  # a busy server, not a hung one
     # connections reset: 0 in 5 runs here (2 of them beside two busy cores), 1 in one CI
     # run; a server that dropped connections under load would reset many
@@ -515,8 +524,8 @@ def test_a_request_burst_during_a_walk(own_console: Any) -> None:
     modes = walked(answers)
     own = [f"{a['source']} {a['command']} {a['accepted']} {a.get('why', '')}"
            for a in actions(folder) if a["source"] in ("loop", "session", "hmi")]
-    assert modes and set(modes) == {2}, (set(modes), f"stall {stall:.3f} s, the host took "
-                                         f"{stolen:.2f} CPU s", own[-6:])
+    assert modes and set(modes) == {2}, (set(modes), f"stall {stall:.3f} s, {taken}",
+                                         own[-6:])
     assert len(answers) == 2000 and answers[1500] == (200, {"queued": "estop"}), answers[1500]
     assert {s for s, _ in answers} <= {200, 401, 409}
     # the session runs on: no lost link, no overrun, no alarm; the E-stop applied in it
