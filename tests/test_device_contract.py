@@ -11,6 +11,7 @@ device's own session to the bit."""
 from __future__ import annotations
 
 import importlib.util
+import os
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +19,7 @@ import numpy as np
 import pytest
 
 import exoleg
-from conftest import REALTIME, SIM_OVERRUN
+from conftest import REALTIME, SIM_OVERRUN, RealtimeTaken, host_steal
 from exoleg.runtime.contract import check_device
 from exoleg.runtime.loop import LOG_HEAD, LOG_TAIL, run_session
 from exoleg.runtime.sim_backend import SimBackend
@@ -40,18 +41,36 @@ def test_the_simulated_device_keeps_the_contract() -> None:
 
 def test_the_canopen_master_keeps_the_contract() -> None:
     pytest.importorskip("canopen", reason="python-canopen (exoleg[hw])")
-    from exoleg.hw.canopen_backend import CanopenBackend
+    from exoleg.hw.canopen_backend import HEARTBEAT_LOST, HEARTBEAT_MS, CanopenBackend
     from exoleg.hw.canopen_sim import SimulatedRig
 
-    sim = _sim()
-    sim.warm_up()
-    rig = SimulatedRig(sim, "virtual", "contract-suite")
-    try:
-        master = CanopenBackend(CONFIG.actuators, 1e-3, "virtual", "contract-suite",
-                                SIM_OVERRUN)
-        assert check_device(master, CONFIG.safety) == []
-    finally:
-        rig.close()
+    def check() -> tuple[list[str], str, bool]:
+        """The contract's departures, what the host and other processes' real-time
+        threads took meanwhile, and whether that was a lost heartbeat's worth."""
+        sim = _sim()
+        sim.warm_up()
+        rig = SimulatedRig(sim, "virtual", "contract-suite")
+        stolen = host_steal()
+        try:
+            master = CanopenBackend(CONFIG.actuators, 1e-3, "virtual", "contract-suite",
+                                    SIM_OVERRUN)
+            with RealtimeTaken(os.getpid()) as others:
+                found = check_device(master, CONFIG.safety)
+        finally:
+            rig.close()
+        stolen = host_steal() - stolen
+        return (found, f"the host took {stolen:.2f} CPU s, other processes' real-time "
+                f"threads {others.taken:.2f}",
+                max(stolen, others.taken) >= HEARTBEAT_LOST * HEARTBEAT_MS / 1e3)
+
+    found, taken, crowded = check()
+    if crowded and any("no heartbeat" in f for f in found):
+        # the simulated nodes' heartbeats (normal priority, this process) held up for
+        # longer than the master waits, while the host or the suite's other files'
+        # real-time sessions had the CPUs (a full suite: 261 ms, the limit 150): the
+        # contract's question is not asked; once more
+        found, taken, _ = check()
+    assert found == [], (found, taken)
 
 
 def test_the_ethercat_master_keeps_the_contract() -> None:
