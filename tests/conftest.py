@@ -17,6 +17,7 @@ os.environ.setdefault("EXOLEG_SIM_OVERRUN_MS", "500")
 import functools
 import importlib.util
 import sys
+import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -256,8 +257,6 @@ class RealtimeTaken:
     process for most of a second, as the host's steal can (:func:`host_steal`)."""
 
     def __init__(self, *roots: int, every: float = 0.1) -> None:
-        import threading
-
         self.roots = set(roots)
         self.every = every
         self.taken = 0.0
