@@ -244,26 +244,35 @@ def host_steal(cpu: int | None = None) -> float:
     return 0.0
 
 
-class RealtimeTaken:
-    """The CPU time taken at real-time priority (SCHED_FIFO, SCHED_RR) by every thread
-    outside the process trees of ``roots`` while the block runs, s (:attr:`taken`):
-    sampled every ``every`` s from /proc, a thread's time since the block began (a thread
-    ended between two samples leaves its last ``every`` s uncounted).
+class Taken:
+    """What the CPUs gave others while the block ran, s: the host's steal (:func:`host_steal`,
+    :attr:`stolen`) and the CPU time taken at real-time priority (SCHED_FIFO, SCHED_RR) by
+    every thread outside the process trees of ``roots`` (:attr:`realtime`: sampled every
+    ``every`` s from /proc, a thread's time since the block began; a thread ended between
+    two samples leaves its last ``every`` s uncounted).
 
     The suite's other files run real-time sessions (a CANopen identification: its loop at
     SCHED_FIFO and five simulated nodes above it, 1.2 CPUs) beside a test that holds a
-    server to a deadline; such threads run before every normal-priority task, and the
-    kernel leaves those 5 % of each second (sched_rt_runtime_us), so they can stop a
-    process for most of a second, as the host's steal can (:func:`host_steal`)."""
+    server or a node to a deadline; such threads run before every normal-priority task,
+    and the kernel leaves those 5 % of each second (sched_rt_runtime_us), so they can stop
+    a process for most of a second, as the host can."""
 
     def __init__(self, *roots: int, every: float = 0.1) -> None:
         self.roots = set(roots)
         self.every = every
-        self.taken = 0.0
+        self.stolen = self.realtime = 0.0
         self._seen: dict[int, int] = {}
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._watch, name="realtime-taken",
-                                        daemon=True)
+        self._thread = threading.Thread(target=self._watch, name="taken", daemon=True)
+
+    def __str__(self) -> str:
+        return (f"the host took {self.stolen:.2f} CPU s, other processes' real-time "
+                f"threads {self.realtime:.2f}")
+
+    def worth(self, limit: float) -> bool:
+        """Whether the host or the real-time threads took ``limit`` s or more: as long as
+        a deadline of ``limit`` s may have been held up by them."""
+        return max(self.stolen, self.realtime) >= limit
 
     @staticmethod
     def _stat(path: str) -> list[str]:
@@ -304,13 +313,14 @@ class RealtimeTaken:
                 before = self._seen.get(int(tid), 0 if count else used)
                 self._seen[int(tid)] = used
                 if count and policy in (os.SCHED_FIFO, os.SCHED_RR):
-                    self.taken += (used - before) / tick
+                    self.realtime += (used - before) / tick
 
     def _watch(self) -> None:
         while not self._stop.wait(self.every):
             self._sample(True)
 
-    def __enter__(self) -> "RealtimeTaken":
+    def __enter__(self) -> "Taken":
+        self.stolen = -host_steal()
         self._sample(False)  # every thread's time so far: not this block's
         self._thread.start()
         return self
@@ -319,6 +329,7 @@ class RealtimeTaken:
         self._stop.set()
         self._thread.join()
         self._sample(True)
+        self.stolen += host_steal()
 
 
 def alone(monkeypatch: pytest.MonkeyPatch) -> None:
