@@ -85,11 +85,11 @@ def _exoleg(args: list[str], env: dict[str, str]) -> tuple[int, str]:
 
 def job_env(environ: dict[str, str]) -> dict[str, str]:
     """The jobs' environment: ``environ`` with matplotlib off screen and a simulated
-    device's loop-overrun limit at its largest (:data:`~exoleg.runtime.session.
-    SIM_OVERRUN_ENV`, unless set): a job's session is there to compile, not to keep time,
-    and beside the other jobs compiling it fell behind (a fresh install's CANopen job: 10
-    ticks in a row 3-6 ms late, the session ended after 11 ticks -- its kernels then
-    compiled on first use, in the test suite's sessions)."""
+    device's loop-overrun limit at its largest
+    (:data:`~exoleg.runtime.session.SIM_OVERRUN_ENV`, unless set): a job's session is
+    there to compile, not to keep time, and beside the other jobs compiling it fell behind
+    (a fresh install's CANopen job: 10 ticks in a row 3-6 ms late, the session ended after
+    11 ticks -- its kernels then compiled on first use, in the test suite's sessions)."""
     from exoleg.runtime.session import SIM_OVERRUN_ENV, SIM_OVERRUN_RANGE_MS
 
     return {SIM_OVERRUN_ENV: f"{SIM_OVERRUN_RANGE_MS[1]:g}", **environ, "MPLBACKEND": "Agg"}
