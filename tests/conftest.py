@@ -279,41 +279,39 @@ class Taken:
         with open(path) as f:
             return f.read().rsplit(")", 1)[1].split()  # after the command's name
 
-    def _outside(self) -> list[int]:
-        """The processes outside the roots' trees."""
-        parent = {}
-        for name in os.listdir("/proc"):
-            if name.isdigit():
-                try:
-                    parent[int(name)] = int(self._stat(f"/proc/{name}/stat")[1])
-                except (OSError, IndexError, ValueError):  # ended meanwhile
-                    pass
-        out = []
-        for pid in parent:
-            p = pid
-            while p > 1 and p not in self.roots:
-                p = parent.get(p, 0)
-            if p not in self.roots:
-                out.append(pid)
-        return out
-
     def _sample(self, count: bool) -> None:
+        """One pass over every thread's stat (its process's parent, CPU time, policy);
+        with ``count``, the real-time threads' time outside the roots' trees since the
+        last pass is added."""
         tick = os.sysconf("SC_CLK_TCK")
-        for pid in self._outside():
+        parent: dict[int, int] = {}
+        threads = []
+        for name in os.listdir("/proc"):
+            if not name.isdigit():
+                continue
             try:
-                tids = os.listdir(f"/proc/{pid}/task")
-            except OSError:
+                tids = os.listdir(f"/proc/{name}/task")
+            except OSError:  # ended meanwhile
                 continue
             for tid in tids:
                 try:
-                    r = self._stat(f"/proc/{pid}/task/{tid}/stat")
+                    r = self._stat(f"/proc/{name}/task/{tid}/stat")
                 except OSError:
                     continue
-                used, policy = int(r[11]) + int(r[12]), int(r[38])  # utime+stime, policy
-                before = self._seen.get(int(tid), 0 if count else used)
-                self._seen[int(tid)] = used
-                if count and policy in (os.SCHED_FIFO, os.SCHED_RR):
-                    self.realtime += (used - before) / tick
+                parent[int(name)] = int(r[1])  # the process's parent (each thread says it)
+                # utime + stime, the scheduling policy
+                threads.append((int(name), int(tid), int(r[11]) + int(r[12]), int(r[38])))
+
+        def out(pid: int) -> bool:  # outside the roots' trees
+            while pid > 1 and pid not in self.roots:
+                pid = parent.get(pid, 0)
+            return pid not in self.roots
+
+        for pid, tid, used, policy in threads:
+            before = self._seen.get(tid, 0 if count else used)
+            self._seen[tid] = used
+            if count and policy in (os.SCHED_FIFO, os.SCHED_RR) and out(pid):
+                self.realtime += (used - before) / tick
 
     def _watch(self) -> None:
         while not self._stop.wait(self.every):
