@@ -105,7 +105,7 @@ def byte_compile(root: Path = Path(__file__).parent) -> bool:
 def compile_all(jobs: int | None = None) -> list[str]:
     """Run :data:`JOBS` in ``jobs`` processes at once (default: the CPUs this process
     may use), each said as it ends (logging, INFO); returns the jobs that failed, each
-    with its last line of error (a job's failure leaves that command to compile on first
+    with why (:func:`_exoleg`; a job's failure leaves that command to compile on first
     use: nothing else depends on it)."""
     jobs = jobs or len(os.sched_getaffinity(0))
     env = job_env(dict(os.environ))

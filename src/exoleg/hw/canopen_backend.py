@@ -48,6 +48,8 @@ FOOT_IMU_COB = 0x280 + FOOT_ID
 #: of them without one
 HEARTBEAT_MS = 50
 HEARTBEAT_LOST = 3
+#: so long without a heartbeat, s, is a lost node
+HEARTBEAT_LOST_S = HEARTBEAT_LOST * HEARTBEAT_MS / 1000.0
 
 
 def eds_path() -> str:
@@ -201,7 +203,7 @@ class CanopenBackend(DriveMaster):
                 self.cycling = now
             for j in JOINT_ORDER:
                 last = max(self.nodes[j].nmt.timestamp or 0.0, self.cycling)
-                if now - last > HEARTBEAT_LOST * HEARTBEAT_MS / 1000.0:
+                if now - last > HEARTBEAT_LOST_S:
                     fault = (f"no heartbeat from the {j} drive (node {DRIVE_IDS[j]}) for "
                              f"{(now - last) * 1e3:.0f} ms")
                     break
