@@ -49,6 +49,8 @@ def _folder(tmp_path: Path, name: str, text: str) -> Path:
     ("walking.toml", "x = 0.38,", "x = 0.40,", "sole"),
     ("walking.toml", "lift_mm = 0.5", "lift_mm = 50.0", "lift_mm"),
     ("walking.toml", "friction = 0.8", "friction = \"high\"", "friction"),
+    ("walking.toml", 'landing = "drop"', 'landing = "soft"', "landing"),
+    ("walking.toml", 'landing = "drop"', "landing = 1", "landing"),
     ("sensors.toml", "adc_bits = 12", "adc_bits = 12.5", "adc_bits"),
     ("sensors.toml", "full_scale_N = 445.0", "full_scale_N = -1.0", "full_scale_N"),
     ("sensors.toml", "fitted = false", "fitted = 1", "fitted"),

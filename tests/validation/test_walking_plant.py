@@ -115,3 +115,77 @@ def test_energy_balance_with_contacts() -> None:
     work = np.sum(r["gen"] * dx) + np.sum(r["tau"] * dx[:, 1:])
     scale = np.sum(np.abs(r["gen"] * dx)) + np.sum(np.abs(r["tau"] * dx[:, 1:]))
     assert abs((E[-1] - E[0]) - work) < 1e-10 * scale  # measured 3.3e-13
+
+
+def test_the_other_leg_hands_the_body_over_at_the_childrens_double_support() -> None:
+    # walking.toml's [support] landing = "handover": the pelvis held no higher through
+    # the swing's end than the rest of the swing needs, the clearance tapered to none by
+    # the contact (the support there is this leg's own hip height at the cycle's end,
+    # within the course's 5 % smoothing), and this leg's stance height reached at
+    # Schwartz et al. 2008's opposite foot off (free speed: 10 % of the cycle). "drop"
+    # holds the swing's highest need plus the clearance until 95 % (the course before).
+    from exoleg.reference.gait import SchwartzGait2008, cycle_event
+    from exoleg.world.treadmill import hip_height, other_leg_support
+
+    plant = WalkingPlant.of(LEG, body_mass=20.0, belt_speed=1.0)
+    x = np.linspace(0.0, 1.0, 201)
+    hh = hip_height(LEG, SchwartzGait2008(stride_time=1.0, speed="Free", upright=True
+                                          ).sample(x)[0], plant.points)
+    clear, carry = 0.02, 0.01
+    drop = other_leg_support(LEG, plant.points, "Free", clear)
+    hand = other_leg_support(LEG, plant.points, "Free", clear, landing="handover")
+    assert cycle_event("Opposite Foot Off") == (0.10, 0.02)  # the shipped workbook
+    # at 90 % (drop's smoothing, over 5 % of the cycle, not yet reaching its descent)
+    # drop holds the swing's highest need plus the clearance; handover only what the
+    # rest of the swing needs, half the clearance left (tapered from 80 %)
+    k = 180
+    swing = (x >= 0.58) & (x <= 0.95)
+    assert drop[k] == pytest.approx(hh[swing].max() + clear, abs=1e-9)
+    assert hand[k] < drop[k] - 0.04  # measured 4.5 cm lower
+    # at contact: handover's support is the hip's height there (measured 0.08 mm off:
+    # the smoothing over 5 % of the course's turn); drop has let it 7 cm down in 55 ms
+    assert hand[0] == pytest.approx(hh[0], abs=0.001)
+    # stance: after the opposite foot off both carry the leg `carry` below its height
+    # (measured within 0.2 mm: the smoothing of the hip's curved course)
+    mid = (x >= 0.15) & (x <= 0.5)
+    for h in (drop, hand):
+        assert np.abs(h[mid] - (hh[mid] - carry)).max() < 5e-4
+    with pytest.raises(exoleg.ParameterError, match="landing.*drop, handover"):
+        other_leg_support(LEG, plant.points, "Free", clear, landing="soft")
+
+
+def test_a_landing_handed_over_loads_the_heel_as_the_children_measured(tmp_path) -> None:
+    # The typically developing 10-year-old girl, 10 strides in the transparent mode, on
+    # the shipped ground and on the same with landing = "handover". Reference: Schwartz
+    # et al. 2008's children at free speed bear 0.47 +- 0.14 body weights 2 % of the
+    # stride after contact and their mean reaches one body weight at 12 % (132 ms of a
+    # 1.1 s stride). Measured: handover 0.59 (within one SD), one body weight after 78 ms;
+    # drop 1.05 (more than three SDs above), one body weight within 1 ms.
+    from importlib import resources
+
+    from exoleg.child.model import ChildModel
+    from exoleg.control.transparency import SupportMode
+    from exoleg.sim.walk import simulate_walk
+    from exoleg.sizing import personalized_leg
+    from exoleg.sizing.child import population_child
+    from exoleg.validate.transparency import heel_strike_loading
+
+    text = resources.files("exoleg").joinpath("data", "device", "walking.toml").read_text()
+    assert 'landing = "drop"' in text
+    (tmp_path / "walking.toml").write_text(text.replace('landing = "drop"',
+                                                         'landing = "handover"'))
+    c, _ = population_child(None, "female", 10.0, 50.0)
+    leg = personalized_leg(c)
+    h = {}
+    for name, folder in (("drop", None), ("handover", tmp_path)):
+        r = simulate_walk(leg, c.mass, strides=10, stride_time=1.1, child=ChildModel.of(c),
+                          seed=0, support_mode=SupportMode.TRANSPARENT, device=folder)
+        assert not np.any(r.fault), name
+        h[name] = heel_strike_loading(r, g=leg.g)
+        assert h[name]["contacts"] >= 6, (name, h[name])
+    mean, sd = h["drop"]["source_2pct_bw"], h["drop"]["source_2pct_sd"]
+    assert abs(h["handover"]["at_2pct_bw"] - mean) <= sd, h["handover"]
+    assert h["drop"]["at_2pct_bw"] > mean + 3 * sd, h["drop"]
+    # one body weight: handover later than within the first tens of ms, before the source
+    assert 50.0 < h["handover"]["to_1bw_ms"] < h["drop"]["source_to_1bw_ms"]
+    assert h["drop"]["to_1bw_ms"] < 10.0

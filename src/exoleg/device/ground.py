@@ -31,6 +31,8 @@ class Ground:
     sole: float               # m: footplate height under the ankle's sole (paper: 23 mm)
     elements: tuple[SoleElement, ...]   # the sole, heel to toe (walking.toml)
     source: str = field(default="", compare=False)
+    landing: str = "drop"     # how the other leg lets the pelvis down onto this leg
+                              # (exoleg.world.treadmill.LANDINGS)
 
     def __post_init__(self) -> None:
         for name, lo, hi in (("stiffness", 1e3, 1e8), ("damping", 0.0, 1e6),
@@ -42,6 +44,11 @@ class Ground:
                 raise ParameterError("Ground", name, f"{v:g} is outside {lo:g}-{hi:g}")
             object.__setattr__(self, name, v)
         check_sole("Ground", self.elements)
+        from exoleg.world.treadmill import LANDINGS
+
+        if self.landing not in LANDINGS:
+            raise ParameterError("Ground", "landing", f"{self.landing!r} is not one of "
+                                 f"{', '.join(repr(v) for v in LANDINGS)}")
 
     @classmethod
     def default(cls, folder: str | Path | None = None) -> Ground:
@@ -56,7 +63,7 @@ class Ground:
                            "friction": (0.0, 3.0, ""), "slip_speed": (1e-5, 1.0, "m/s")})
         s = _check.ranged(f"{where} [support]", d["support"],
                           {"stiffness": (0.0, 1e8, "N/m"), "damping": (0.0, 1e6, "N s/m"),
-                           "drop": (0.0, 0.2, "m")})
+                           "drop": (0.0, 0.2, "m")}, optional=("source", "landing"))
         sole = _check.ranged(where, {"footplate_height_m": d["footplate_height_m"]},
                              {"footplate_height_m": (0.0, 0.1, "m")})["footplate_height_m"]
         try:  # the sole as a whole is checked once, by Ground: name the file
@@ -64,7 +71,8 @@ class Ground:
                        friction=c["friction"], slip_speed=c["slip_speed"],
                        support_stiffness=s["stiffness"], support_damping=s["damping"],
                        support_drop=s["drop"], sole=sole, elements=read_sole(where, d["sole"]),
-                       source=str(d.get("source", where)))
+                       source=str(d.get("source", where)),
+                       landing=d["support"].get("landing", "drop"))
         except ParameterError as e:
             if e.where != "Ground":  # read_sole's: it names the file and the element
                 raise

@@ -38,6 +38,21 @@ def _table() -> dict[tuple[str, str], tuple[F64, F64, F64]]:
     return out
 
 
+def cycle_event(event: str, speed: str = "Free") -> tuple[float, float]:
+    """A Schwartz 2008 gait-cycle event for a speed group (``schwartz2008_cycle_events.csv``:
+    "Opposite Foot Off", "Opposite Foot Contact", "Ipsilateral Foot Off", "Double
+    Support"): its mean and SD as fractions of the cycle."""
+    if speed not in SPEED_GROUPS:
+        raise ParameterError("cycle_event", "speed",
+                             f"unknown {speed!r} (allowed: {', '.join(SPEED_GROUPS)})")
+    text = resources.files("exoleg").joinpath("data", "gait",
+                                              "schwartz2008_cycle_events.csv").read_text()
+    for r in csv.DictReader(text.splitlines()):
+        if r["parameter"].split("[")[0].strip() == event:
+            return float(r[f"{speed}_mean"]), float(r[f"{speed}_sd"])
+    raise ParameterError("cycle_event", "event", f"unknown {event!r}")
+
+
 def schwartz2008(variable: str, speed: str = "Free") -> tuple[F64, F64, F64]:
     """A Schwartz 2008 variable for a speed group, as printed.
 

@@ -8,6 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from exoleg.dynamics.model import LegModel
+from exoleg.errors import ParameterError
 
 F64 = NDArray[np.float64]
 
@@ -48,11 +49,22 @@ def hip_height(leg: LegModel, q: F64, sole: F64) -> F64:
 #: This leg's swing, as fractions of its cycle (Schwartz 2008: toe off near 60 %),
 #: during which the other leg holds the pelvis high enough for it to clear the belt.
 SWING = (0.58, 0.95)
+#: How the other leg lets the pelvis down onto this leg (``walking.toml``'s ``[support]
+#: landing``): ``drop`` holds it at the swing's highest need plus the clearance until
+#: :data:`SWING`'s end, then lets it down over the smoothing's 5 % of the cycle (faster
+#: than it falls: the heel strikes under the falling body); ``handover`` holds it only as
+#: high as the rest of the swing needs, tapers the clearance to none from
+#: :data:`TAPER_FROM`, and hands the body over to this leg through the double support
+#: (Schwartz 2008's opposite foot off), as a child's other leg does.
+LANDINGS = ("drop", "handover")
+#: Where ``handover`` starts tapering the clearance to none by the cycle's end (exoleg's
+#: choice: the toe's least clearance over the belt comes before, near mid-swing).
+TAPER_FROM = 0.8
 
 
 def other_leg_support(leg: LegModel, sole: F64, speed: str, clearance: float,
                       carry: float = 0.01, samples: int = 201, gait: F64 | None = None,
-                      swing_from: float = SWING[0]) -> F64:
+                      swing_from: float = SWING[0], landing: str = "drop") -> F64:
     """The other leg's support height over this leg's cycle (samples,), m.
 
     The other leg is an actor, not a model: while this leg swings (``swing_from`` to
@@ -61,15 +73,29 @@ def other_leg_support(leg: LegModel, sole: F64, speed: str, clearance: float,
     by ``clearance`` (what a child's pelvis and other leg do, by rising and hip hiking:
     fixed at the hip's x, the joint angles alone would scuff the toe); through this leg's
     stance it stays ``carry`` below this leg's stance height, so this leg carries the
-    body."""
-    from exoleg.reference.gait import SchwartzGait2008
+    body. ``landing`` (:data:`LANDINGS`): how it lets the pelvis down onto this leg."""
+    from exoleg.reference.gait import SchwartzGait2008, cycle_event
 
+    if landing not in LANDINGS:
+        raise ParameterError("other_leg_support", "landing",
+                             f"{landing!r} is not one of {', '.join(LANDINGS)}")
     x = np.linspace(0.0, 1.0, samples)
     q = (SchwartzGait2008(stride_time=1.0, speed=speed, upright=True).sample(x)[0]
          if gait is None else _cycle_at(gait, x))
     hh = hip_height(leg, q, sole)
-    swing = (x >= swing_from) & (x <= SWING[1])
-    h = np.where(swing, np.max(hh[swing]) + clearance, hh - carry)
+    if landing == "drop":
+        swing = (x >= swing_from) & (x <= SWING[1])
+        h = np.where(swing, np.max(hh[swing]) + clearance, hh - carry)
+    else:
+        # through the swing as high as the rest of it needs, the clearance tapered to
+        # none: the heel reaches the belt with the pelvis at this leg's own height there
+        rest = np.maximum.accumulate(hh[::-1])[::-1]
+        taper = np.clip((1.0 - x) / (1.0 - TAPER_FROM), 0.0, 1.0)
+        h = np.where(x >= swing_from, rest + clearance * taper, hh - carry)
+        # then down to the stance's support over the double support
+        double = cycle_event("Opposite Foot Off", speed)[0]
+        early = x < double
+        h[early] = hh[-1] + (hh[early] - carry - hh[-1]) * (x[early] / double)
     k = max(1, samples // 40)  # smoothed over 5 % of the cycle, circularly
     pad = np.concatenate([h[-k:], h, h[:k]])
     return np.convolve(pad, np.ones(2 * k + 1) / (2 * k + 1), mode="same")[k:-k]
