@@ -15,6 +15,15 @@ from exoleg.device.sensors import SENSOR_X
 from exoleg.errors import ParameterError
 from exoleg.tick import SENSOR_POINTS
 
+#: How the other leg lets the pelvis down onto this leg (``walking.toml``'s ``[support]
+#: landing``; :func:`exoleg.world.treadmill.other_leg_support` runs them): ``drop`` holds
+#: it at the swing's highest need plus the clearance until 95 % of the cycle, then lets
+#: it down faster than it falls (the heel strikes under the falling body); ``handover``
+#: holds it only as high as the rest of the swing needs, the clearance tapered to none,
+#: and hands the body over to this leg through the double support (Schwartz 2008's
+#: opposite foot off), as a child's other leg does.
+LANDINGS = ("drop", "handover")
+
 
 @dataclass(frozen=True)
 class Ground:
@@ -32,7 +41,7 @@ class Ground:
     elements: tuple[SoleElement, ...]   # the sole, heel to toe (walking.toml)
     source: str = field(default="", compare=False)
     landing: str = "drop"     # how the other leg lets the pelvis down onto this leg
-                              # (exoleg.world.treadmill.LANDINGS)
+                              # (LANDINGS; exoleg.world.treadmill.other_leg_support)
 
     def __post_init__(self) -> None:
         for name, lo, hi in (("stiffness", 1e3, 1e8), ("damping", 0.0, 1e6),
@@ -44,8 +53,6 @@ class Ground:
                 raise ParameterError("Ground", name, f"{v:g} is outside {lo:g}-{hi:g}")
             object.__setattr__(self, name, v)
         check_sole("Ground", self.elements)
-        from exoleg.world.treadmill import LANDINGS
-
         if self.landing not in LANDINGS:
             raise ParameterError("Ground", "landing", f"{self.landing!r} is not one of "
                                  f"{', '.join(repr(v) for v in LANDINGS)}")

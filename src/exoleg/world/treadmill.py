@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from exoleg.device.ground import LANDINGS
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
 
@@ -49,14 +50,6 @@ def hip_height(leg: LegModel, q: F64, sole: F64) -> F64:
 #: This leg's swing, as fractions of its cycle (Schwartz 2008: toe off near 60 %),
 #: during which the other leg holds the pelvis high enough for it to clear the belt.
 SWING = (0.58, 0.95)
-#: How the other leg lets the pelvis down onto this leg (``walking.toml``'s ``[support]
-#: landing``): ``drop`` holds it at the swing's highest need plus the clearance until
-#: :data:`SWING`'s end, then lets it down over the smoothing's 5 % of the cycle (faster
-#: than it falls: the heel strikes under the falling body); ``handover`` holds it only as
-#: high as the rest of the swing needs, tapers the clearance to none from
-#: :data:`TAPER_FROM`, and hands the body over to this leg through the double support
-#: (Schwartz 2008's opposite foot off), as a child's other leg does.
-LANDINGS = ("drop", "handover")
 #: Where ``handover`` starts tapering the clearance to none by the cycle's end (exoleg's
 #: choice: the toe's least clearance over the belt comes before, near mid-swing).
 TAPER_FROM = 0.8
@@ -73,7 +66,8 @@ def other_leg_support(leg: LegModel, sole: F64, speed: str, clearance: float,
     by ``clearance`` (what a child's pelvis and other leg do, by rising and hip hiking:
     fixed at the hip's x, the joint angles alone would scuff the toe); through this leg's
     stance it stays ``carry`` below this leg's stance height, so this leg carries the
-    body. ``landing`` (:data:`LANDINGS`): how it lets the pelvis down onto this leg."""
+    body. ``landing`` (:data:`~exoleg.device.ground.LANDINGS`): how it lets the pelvis down
+    onto this leg."""
     from exoleg.reference.gait import SchwartzGait2008, cycle_event
 
     if landing not in LANDINGS:
