@@ -161,6 +161,9 @@ def test_validate_judges_the_folders_transparency(device: Path,
     hip = next(ln.split() for ln in out.splitlines() if ln.split()[:1] == ["hip"])
     assert hip[5] == f"{CHANGED_HIP_NM:.1f}", hip
     assert "the law on the gears' stiffness" in out  # its rigid units' modes
+    # and the same walk on the other landing (the folder's is the shipped "drop")
+    assert "the other leg's landing 'handover' (walking.toml [support] landing; this " \
+        "device's: 'drop')" in out
     # and what the console allows this child: the folder's ankle is the shipped one, its
     # foot mode grown by any share (control.gears.law_bounds: no further than its own)
     ankle = next(ln for ln in out.splitlines() if ln.split()[:1] == ["ankle"] and "Hz," in ln)

@@ -120,6 +120,7 @@ def _transparency(strides: int, device: Any) -> int:
          + ", ".join(f"{j} {x:.3f}" for j, x in h["cuffs_outside_Nm_per_kg"].items())
          + " N m/kg RMS, over the loop's floor there of "
          + ", ".join(f"{b['joint']} {b['floor_loop_outside_Nm_per_kg']:.3f}" for b in v.floors))
+    _other_landing(strides, device, v)
     rigid = [(j, g) for j, g in enumerate(v.gears) if g["alone"] is not None]
     share, hz = v.console["inertia_share"], v.console["accel_filter_hz"]
     if rigid:
@@ -142,6 +143,35 @@ def _transparency(strides: int, device: Any) -> int:
          f"ankle exoskeleton in zero-torque mode: 0.015-0.036); P.REX < {PREX_NM} N m "
          "(Chen et al. 2021): " + ("met" if v.met else "not met"))
     return 0 if v.met else 1
+
+
+def _other_landing(strides: int, device: Any, v: Any) -> None:
+    """The floors and the law of ``validate --transparency``'s walk ``v`` again with the
+    other leg letting the child down the other way (:data:`~exoleg.device.ground.
+    LANDINGS`): how much of each is the simulated landing's."""
+    from exoleg.device.ground import LANDINGS
+    from exoleg.validate.transparency import LIMITS, evaluate
+
+    current = LIMITS[1]  # the drive's current limit
+    other = next(k for k in LANDINGS if k != v.landing)
+    o = evaluate(strides=strides, device=device, landing=other)
+    reach, h = o.rows[-1]["rms_Nm_per_kg"], o.loading
+    out = h["cuffs_outside_Nm_per_kg"]
+    _table([[b["joint"], f"{b['floors_Nm_per_kg'][current]:.3f}",
+             f"{b['floor_all_Nm_per_kg']:.3f}", f"{b['floor_loop_Nm_per_kg']:.3f}",
+             f"{reach[b['joint']]:.3f}",
+             f"{100 * (reach[b['joint']] / b['floor_loop_Nm_per_kg'] - 1):+.0f} %",
+             f"{out[b['joint']]:.3f} / {b['floor_loop_outside_Nm_per_kg']:.3f}"]
+            for b in o.floors],
+           ["joint", f"{current} N m/kg", "all together N m/kg",
+            "with the loop's lag N m/kg", "the law reaches N m/kg", "above the loop's floor",
+            "outside the landings: law / loop's floor"],
+           title=f"the same walk with the other leg's landing {other!r} (walking.toml "
+                 f"[support] landing; this device's: {v.landing!r}): the heel bears "
+                 f"{h['at_2pct_bw']:.2f} body weights 2 % of the stride after contact, one "
+                 f"body weight after {h['to_1bw_ms']:.0f} ms -- the simulated child "
+                 f"{_landing_in_words(h)}"
+                 + ("; the safety layer stopped the walk" if o.fault else ""))
 
 
 def _cp_child(strides: int) -> int:

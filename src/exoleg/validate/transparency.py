@@ -197,6 +197,7 @@ class Transparency:
     loading: dict[str, Any]
     gears: list[dict[str, Any]]
     console: dict[str, list[list[float]]]
+    landing: str = "drop"
 
     @property
     def met(self) -> bool:
@@ -206,13 +207,18 @@ class Transparency:
 
 
 def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
-             device: str | Path | None = None) -> Transparency:
+             device: str | Path | None = None, landing: str | None = None) -> Transparency:
     """The typically developing 10-year-old girl walking ``strides`` strides of
     ``stride_time`` s in the transparent mode (the sensors at their datasheet noise), on
-    the device of the folder ``device`` (None: the shipped one)."""
+    the device of the folder ``device`` (None: the shipped one), the other leg letting
+    her down onto it as ``landing`` (:data:`~exoleg.device.ground.LANDINGS`; None: as the
+    folder's ``walking.toml`` says)."""
+    import dataclasses
+
     from exoleg.child.model import ChildModel
     from exoleg.control.safety import Limited
     from exoleg.control.transparency import PARTS, SupportMode
+    from exoleg.device.ground import Ground
     from exoleg.sim.walk import simulate_walk
     from exoleg.sizing import personalized_leg
     from exoleg.sizing.child import population_child
@@ -226,13 +232,17 @@ def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
     child = ChildModel.of(c)
     leg = personalized_leg(c)
     config = DeviceConfig.load(device)
+    ground = Ground.default(device)
+    if landing is not None:
+        ground = dataclasses.replace(ground, landing=landing)  # checked there
     r = simulate_walk(leg, c.mass, strides=strides, stride_time=stride_time, child=child,
-                      seed=seed, support_mode=SupportMode.TRANSPARENT, device=device)
+                      seed=seed, support_mode=SupportMode.TRANSPARENT, device=device,
+                      ground=ground)
     # the same walk with only the parts up to each row's acting (those the file has on)
     on = [p for p, is_on in zip(PARTS, config.transparency.parts, strict=True) if is_on]
     walks = [simulate_walk(leg, c.mass, strides=strides, stride_time=stride_time,
                            child=child, seed=seed, support_mode=SupportMode.TRANSPARENT,
-                           device=device,
+                           device=device, ground=ground,
                            transparency=config.transparency.with_parts(*on[:n]))
              for n in range(len(on))]
     sel = r.t >= r.walk_start + SETTLE_STRIDES * stride_time
@@ -247,7 +257,8 @@ def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
                         run=r, floors=walk_floors(r, leg, config),
                         loading=heel_strike_loading(r, g=leg.g),
                         gears=law_on_gears(leg, config.actuators, config.transparency, h),
-                        console=law_bounds(leg, config.actuators, config.transparency, h))
+                        console=law_bounds(leg, config.actuators, config.transparency, h),
+                        landing=ground.landing)
 
 
 #: the landing's window after each initial contact, s (the knee's deceleration and the
