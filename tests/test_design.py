@@ -198,7 +198,8 @@ def test_the_population_walks_on_the_sweep_engine_and_resumes(tmp_path: Path) ->
         assert 20.0 <= float(r["mass_kg"]) <= 40.0 or r["held_out"] == "True"
         assert r["served"] == str(r["transparent_met"] == "True" and r["assist_met"] == "True")
         met = all(float(r[f"transparent_residual_Nm_per_kg_{j}"]) <= 0.036
-                  for j in ("hip", "knee", "ankle")) and not r["transparent_fault"]
+                  for j in ("hip", "knee", "ankle")) and not r["transparent_fault"] \
+            and r["transparent_swing_touches"] == "0"
         assert (r["transparent_met"] == "True") == met
     summary = json.loads((out / "design.json").read_text())["verify_population"]
     assert summary["design_set"]["children"] == 1 and summary["held_out"]["children"] == 1
@@ -207,6 +208,34 @@ def test_the_population_walks_on_the_sweep_engine_and_resumes(tmp_path: Path) ->
     assert main(args) == 0  # resumed: no task computed again
     assert {m: done_tasks(out / f"verify-{m}") for m in done} == done
     assert (out / "verify-aan" / "tasks.log").read_text() == log
+
+
+def test_a_walk_whose_foot_touches_the_belt_in_swing_serves_nobody() -> None:
+    """The verification's judge: a child is served by walks with no fault, the goal met,
+    nothing clipped, the windings within their limits -- and the foot never touching the
+    belt in swing (a trip, on a child); a row from before that count (-1) is not served."""
+    from types import SimpleNamespace
+
+    from exoleg.design.verify import _judge
+
+    design = SimpleNamespace(goal=0.036)
+    kid = {"age": 10.0, "sex": "female", "group": "TD", "percentile": 50.0,
+           "held_out": False}
+    row = {"error": "", "walked": True, "fault": "", "mass_kg": 31.9,
+           "ticks_torque_clipped": 0, "swing_touches": 0,
+           **{f"interaction_rms_Nm_per_kg_{j}": 0.02 for j in ("hip", "knee", "ankle")},
+           **{f"winding_max_C_{j}": 60.0 for j in ("hip", "knee", "ankle")}}
+    limits = dict.fromkeys(("hip", "knee", "ankle"), 125.0)
+    assert _judge(design, kid, row, row, limits)["served"]
+    for touches, served in ((3, False), (-1, False)):
+        for which in ("tr", "aan"):
+            tr = {**row, "swing_touches": touches} if which == "tr" else row
+            aan = {**row, "swing_touches": touches} if which == "aan" else row
+            v = _judge(design, kid, tr, aan, limits)
+            assert v["served"] is served and v[
+                f"{'transparent' if which == 'tr' else 'assist'}_swing_touches"] == touches
+    old = {k: v for k, v in row.items() if k != "swing_touches"}  # an older study's row
+    assert not _judge(design, kid, old, old, limits)["served"]
 
 
 def test_a_study_on_a_device_folder_walks_its_units(tmp_path: Path) -> None:

@@ -46,6 +46,10 @@ def test_walks_ten_strides_without_a_fault(walk) -> None:  # type: ignore[no-unt
     weight = (walk.plant.body_mass + walk.plant.leg_mass) * LEG.g
     mean = walk.contact_force[walk.t > walk.walk_start].sum(axis=1).mean()
     assert 0.4 * weight < mean < 0.9 * weight
+    # the foot lands once a stride: no touch of the belt in swing (a load shorter than a
+    # stance, sim.events.loads; the designed compliant device's toe catches it 2-10
+    # times a stride, docs/design.md)
+    assert len(walk.swing_touches()) == 0
 
 
 def test_detector_against_true_events(walk) -> None:  # type: ignore[no-untyped-def]

@@ -189,3 +189,18 @@ def test_a_landing_handed_over_loads_the_heel_as_the_children_measured(tmp_path)
     # one body weight: handover later than within the first tens of ms, before the source
     assert 50.0 < h["handover"]["to_1bw_ms"] < h["drop"]["source_to_1bw_ms"]
     assert h["drop"]["to_1bw_ms"] < 10.0
+
+
+def test_a_load_shorter_than_a_stance_is_a_touch_not_a_landing() -> None:
+    # sim.events.loads on a constructed record (1 ms samples): a stance from the start,
+    # a 10 ms touch, a 200 ms stance, a 149 ms touch (under the 0.15 s of a stance), a
+    # 150 ms stance, and a 100 ms load the record ends in (neither: it may yet be a stance)
+    from exoleg.sim.events import loads
+
+    x = np.zeros(1600, dtype=bool)
+    for a, b in ((0, 200), (300, 310), (400, 600), (700, 849), (900, 1050), (1500, 1600)):
+        x[a:b] = True
+    stances, touches = loads(x)
+    assert stances.tolist() == [0, 400, 900]
+    assert touches.tolist() == [300, 700]
+    assert [len(v) for v in loads(np.zeros(10, dtype=bool))] == [0, 0]

@@ -88,8 +88,10 @@ def cmd_design(args: argparse.Namespace) -> int:
     _table([[c["device"], f"{c['age']:g} {c['sex']} "
              f"{'TD' if not c['group'] else 'GMFCS ' + str(c['group'])} "
              f"P{c['percentile']:g}", "yes" if c["walked"] else c["fault"],
+             str(c["swing_touches"]),
              " / ".join(f"{c['tracking_rms_deg_' + j]:.1f}" for j in ("hip", "knee", "ankle"))]
-            for c in checked], ["device", "held-out child", "walked", "tracking RMS deg"],
+            for c in checked], ["device", "held-out child", "walked",
+                                "the foot touched the belt in swing", "tracking RMS deg"],
            title=f"verified in the walking loop ({design.strides} strides, the held-out "
                  "children as actors, assist-as-needed)")
     _table([[f["joint"], f"{f['law_Nm_per_kg']:.3f}", f"{f['loop_Nm_per_kg']:.3f}",
@@ -106,10 +108,12 @@ def cmd_design(args: argparse.Namespace) -> int:
         summ = population.summary(served)
         _table([[name, str(v["children"]), f"{100 * v['transparent_met']:.0f} %",
                  f"{100 * v['assist_met']:.0f} %", f"{100 * v['served']:.0f} %",
+                 f"{100 * v['touched_in_swing']:.0f} %",
                  " / ".join(f"{x:.3f}" for x in v["residual_worst_Nm_per_kg"].values())]
                 for name, v in summ.items()],
                ["children", "n", f"transparent <= {design.goal:g} N m/kg",
-                "assist-as-needed clean", "both", "worst residual hip / knee / ankle"],
+                "assist-as-needed clean", "both", "the foot touched the belt in swing",
+                "worst residual hip / knee / ankle"],
                title=f"verified in the walking loop ({design.strides_transparent} strides "
                      f"transparent, {design.strides_assist} assist-as-needed)")
     _say(f"wrote {out}/: screen.csv, verify.csv, design.json, device/actuators/ "

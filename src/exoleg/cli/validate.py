@@ -113,7 +113,8 @@ def _transparency(strides: int, device: Any) -> int:
          f"of {h['contacts']:.0f} contacts, the device's weight included): the simulated "
          f"child {_landing_in_words(h)}; the 45 ms after each contact hold "
          + ", ".join(f"{b['joint']} {100 * b['gear_floor_at_landing']:.0f} %" for b in v.floors)
-         + " of the floor beyond the gears' repeated peak (the plant's landing, not the law)")
+         + " of the floor beyond the gears' repeated peak (the plant's landing, not the law)"
+         + _touches(h))
     _say(f"the same {100 * h['landing_share']:.0f} % of the walk hold "
          + ", ".join(f"{j} {100 * x:.0f} %" for j, x in h["cuffs_at_landing"].items())
          + " of the cuffs' torque (squared); outside them the law leaves "
@@ -145,6 +146,13 @@ def _transparency(strides: int, device: Any) -> int:
     return 0 if v.met else 1
 
 
+def _touches(h: dict[str, Any]) -> str:
+    """The heel strikes' line's warning when the foot touched the belt in swing."""
+    n = int(h["swing_touches"])
+    return (f"; THE FOOT TOUCHED THE BELT IN SWING {n} times (loads shorter than a "
+            "stance: the toe catching the belt -- a trip, on a child)") if n else ""
+
+
 def _other_landing(strides: int, device: Any, v: Any) -> None:
     """The floors and the law of ``validate --transparency``'s walk ``v`` again with the
     other leg letting the child down the other way (:data:`~exoleg.device.ground.
@@ -170,7 +178,7 @@ def _other_landing(strides: int, device: Any, v: Any) -> None:
                  f"[support] landing; this device's: {v.landing!r}): the heel bears "
                  f"{h['at_2pct_bw']:.2f} body weights 2 % of the stride after contact, one "
                  f"body weight after {h['to_1bw_ms']:.0f} ms -- the simulated child "
-                 f"{_landing_in_words(h)}"
+                 f"{_landing_in_words(h)}" + _touches(h)
                  + ("; the safety layer stopped the walk" if o.fault else ""))
 
 

@@ -309,8 +309,8 @@ def verify(design: Design, device: Path | None) -> list[dict[str, Any]]:
     """The held-out children walked ``design.strides`` strides as actors
     (:class:`~exoleg.child.model.ChildModel`) in assist-as-needed -- the mode the device is
     chosen for: it gives a share of their moments, not all of a passive leg's -- on
-    ``device`` (None: the shipped one, its own assistance): fault, tracking and the
-    windings."""
+    ``device`` (None: the shipped one, its own assistance): fault, tracking, the foot's
+    touches of the belt in swing and the windings."""
     from exoleg.child.model import ChildModel
     from exoleg.sim.walk import simulate_walk
     from exoleg.sizing import personalized_leg
@@ -330,6 +330,7 @@ def verify(design: Design, device: Path | None) -> list[dict[str, Any]]:
                     "age": c.age, "sex": c.sex, "group": h["group"],
                     "percentile": h["percentile"], "mass_kg": c.mass,
                     "fault": ", ".join(faults), "walked": not faults,
+                    "swing_touches": len(r.swing_touches()),
                     **{f"tracking_rms_deg_{j}": float(err[i]) for i, j in enumerate(JOINTS)},
                     **{f"winding_max_C_{j}": float(np.max(r.winding_temp[:, i]))
                        for i, j in enumerate(JOINTS)}})

@@ -11,6 +11,10 @@ contacts, sensors, detection, hierarchy, safety layer, drives --:
   the impedance's support (the device folder's ``assist.toml``); no torque clipped, no
   fault (an overspeed is one), every winding below its limit.
 
+In both the foot must not touch the belt in swing (the study's ``swing_touches``: a load
+shorter than a stance -- the toe catching the belt, a trip on a child); a row from
+before that count (-1) is not judged served.
+
 A child serves when both hold. The verification set: the design's population with the
 masses asked (``[verify] mass_kg``), and the held-out children (not in the design set).
 """
@@ -162,18 +166,21 @@ def _judge(design: Any, kid: dict[str, Any], tr: dict[str, Any], aan: dict[str, 
     """One child's verdict from their two rows."""
     residual = {j: float(tr[f"interaction_rms_Nm_per_kg_{j}"]) for j in JOINTS}
     winding = {j: float(aan[f"winding_max_C_{j}"]) for j in JOINTS}
-    transparent = (not tr["error"] and bool(tr["walked"])
+    touches = [int(w.get("swing_touches", -1)) for w in (tr, aan)]
+    transparent = (not tr["error"] and bool(tr["walked"]) and touches[0] == 0
                    and all(v <= design.goal for v in residual.values()))
-    assisted = (not aan["error"] and bool(aan["walked"])
+    assisted = (not aan["error"] and bool(aan["walked"]) and touches[1] == 0
                 and int(aan["ticks_torque_clipped"]) == 0
                 and all(winding[j] < limits[j] for j in JOINTS))
     return {**kid, "mass_kg": float(tr["mass_kg"]),
             **{f"transparent_residual_Nm_per_kg_{j}": v for j, v in residual.items()},
             "transparent_fault": tr["fault"] or tr["error"],
+            "transparent_swing_touches": touches[0],
             "transparent_met": transparent,
             "assist_ticks_clipped": int(aan["ticks_torque_clipped"]),
             **{f"assist_winding_max_C_{j}": v for j, v in winding.items()},
-            "assist_fault": aan["fault"] or aan["error"], "assist_met": assisted,
+            "assist_fault": aan["fault"] or aan["error"], "assist_swing_touches": touches[1],
+            "assist_met": assisted,
             "served": transparent and assisted}
 
 
@@ -189,6 +196,9 @@ def summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
                      "transparent_met": float(np.mean([r["transparent_met"] for r in sel])),
                      "assist_met": float(np.mean([r["assist_met"] for r in sel])),
                      "served": float(np.mean([r["served"] for r in sel])),
+                     "touched_in_swing": float(np.mean([
+                         r["transparent_swing_touches"] != 0 or r["assist_swing_touches"] != 0
+                         for r in sel])),
                      "residual_worst_Nm_per_kg": {
                          j: float(np.nanmax([r[f"transparent_residual_Nm_per_kg_{j}"]
                                              for r in sel])) for j in JOINTS}}

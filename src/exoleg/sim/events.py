@@ -53,3 +53,17 @@ def true_events(force: F64, threshold: float = TRUE_CONTACT_N, dt: float = 1e-3,
             out[k] |= 4
             phase = 3
     return out
+
+
+def loads(loaded: NDArray[np.bool_], dt: float = 1e-3, min_stance: float = 0.15
+          ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """The samples at which the foot's load begins (``loaded``: per sample, whether any
+    region bears), split by how long it lasts: stances (``min_stance`` s or longer: the
+    foot landing) and touches (shorter: the toe catching the belt in swing, a light foot
+    chattering on it -- a trip, on a child); a short load still on at the record's end is
+    neither."""
+    edges = np.diff(np.concatenate([[False], loaded, [False]]).astype(np.int8))
+    on, off = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)  # paired
+    stance = (off - on) * dt >= min_stance - 1e-9
+    # a short load the record ends in may yet be a stance: neither
+    return on[stance], on[~stance & (off < len(loaded))]

@@ -259,6 +259,18 @@ class WalkResult(TimeSeries):
         ankle_x = self.plant.leg.fk(self.q)["ankle"][:, 0]
         return true_events(self.contact_force, ahead=ankle_x > 0.0)
 
+    def swing_touches(self) -> F64:
+        """When the foot touched the belt in swing while walking (s): a load of any region
+        above :data:`~exoleg.sim.events.TRUE_CONTACT_N` that lasts less than a stance's
+        0.15 s (:func:`~exoleg.sim.events.loads`) -- the toe catching the belt, a light
+        foot chattering on it."""
+        from exoleg.sim.events import TRUE_CONTACT_N, loads
+
+        touched = loads(self.contact_force.max(axis=1) > TRUE_CONTACT_N,
+                        float(self.t[1] - self.t[0]))[1]
+        t = self.t[touched]
+        return t[t >= self.walk_start]
+
     def strikes(self) -> F64:
         """When the foot truly struck the belt while walking (s): the strides' bounds."""
         from exoleg.control.gait_phase import Event

@@ -29,13 +29,15 @@ JOINT_METRICS = ("rms_tracking_error_deg", "peak_torque_Nm", "torque_limit_Nm",
 #: Whole-run figures: the device fits the child (geometry), walked (no safety fault), the
 #: fault (its kind and joint, '' for none) and when, the run's ticks and those in which
 #: the safety layer clipped torque, derated a motor or saw a gear beyond its momentary
-#: peak, the steps detected, and the sampled loop's stability margin: the largest
-#: h lambda(M^-1 Kd) of the stance and swing damping over the run's postures, the leg's
-#: mass matrix with the actuators' reflected inertia (a held velocity feedback is stable
-#: while it is below 2: docs/conventions.md).
+#: peak, the steps detected, the foot's touches of the belt in swing while walking
+#: (:meth:`~exoleg.sim.walk.WalkResult.swing_touches`: the toe catching it, a trip on a
+#: child), and the sampled loop's stability margin: the largest h lambda(M^-1 Kd) of the
+#: stance and swing damping over the run's postures, the leg's mass matrix with the
+#: actuators' reflected inertia (a held velocity feedback is stable while it is below 2:
+#: docs/conventions.md).
 RUN_METRICS = ("fits", "walked", "fault", "fault_time_s", "ticks", "ticks_torque_clipped",
-               "ticks_derated", "ticks_gear_beyond_momentary", "steps", "stability_margin",
-               "error")
+               "ticks_derated", "ticks_gear_beyond_momentary", "steps", "swing_touches",
+               "stability_margin", "error")
 #: The support (0-1, :mod:`exoleg.control.assist`) per stride, mean over the joints: the
 #: first and the last stride, and the last stride's per joint as ``support_last_{joint}``;
 #: the safety layer's events while walking (:func:`exoleg.sim.metrics.safety_events`): how
@@ -135,7 +137,7 @@ def empty_row(run_id: int, task: int, run: dict[str, Any]) -> dict[str, Any]:
                safety_event_kinds="")
     row.update(fits=False, walked=False, fault="", fault_time_s=np.nan, ticks=-1,
                ticks_torque_clipped=-1, ticks_derated=-1, ticks_gear_beyond_momentary=-1,
-               steps=-1, stability_margin=np.nan, error="")
+               steps=-1, swing_touches=-1, stability_margin=np.nan, error="")
     return row
 
 
@@ -213,7 +215,8 @@ def run_one(run_id: int, task: int, run: dict[str, Any], strides: int,
                ticks_torque_clipped=int(((status & Limited.TORQUE) > 0).sum()),
                ticks_derated=int(((status & Limited.DERATED) > 0).sum()),
                ticks_gear_beyond_momentary=int(((status & Limited.GEAR_PEAK) > 0).sum()),
-               steps=int(((r.events & Event.IC) > 0).sum()), stability_margin=margin)
+               steps=int(((r.events & Event.IC) > 0).sum()),
+               swing_touches=len(r.swing_touches()), stability_margin=margin)
     return row
 
 

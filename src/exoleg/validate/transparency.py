@@ -266,16 +266,19 @@ def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
 LANDING_S = 0.045
 
 
-def _contacts(load: F64) -> NDArray[np.intp]:
-    """The samples at which the sole's vertical ``load`` becomes non-zero."""
-    return np.flatnonzero((load[1:] > 0.0) & (load[:-1] <= 0.0)) + 1
+def _contacts(load: F64, dt: float) -> NDArray[np.intp]:
+    """The samples at which the sole's vertical ``load`` (sampled every ``dt`` s) becomes
+    non-zero for a stance (:func:`~exoleg.sim.events.loads`: not a touch in swing)."""
+    from exoleg.sim.events import loads
+
+    return loads(load > 0.0, dt)[0]
 
 
 def _landing(load: F64, dt: float) -> NDArray[np.bool_]:
     """The samples of the sole's ``load`` (sampled every ``dt`` s) in the
     :data:`LANDING_S` after each contact."""
     landing = np.zeros(len(load), dtype=bool)
-    for k in _contacts(load):
+    for k in _contacts(load, dt):
         landing[k:k + int(round(LANDING_S / dt))] = True
     return landing
 
@@ -293,13 +296,16 @@ def heel_strike_loading(r: Any, after: float | None = None, g: float = 9.81
     landing's part of the cuffs' torque: the share of the walk in the :data:`LANDING_S`
     after each contact (``landing_share``), per joint the share of the cuffs' torque
     (squared) there (``cuffs_at_landing``) and its RMS per kg outside
-    (``cuffs_outside_Nm_per_kg``)."""
+    (``cuffs_outside_Nm_per_kg``). Contacts are the stances'
+    (:func:`~exoleg.sim.events.loads`); the loads too short for one, the foot touching
+    the belt in swing, are counted apart (``swing_touches``)."""
     from exoleg.reference.gait import schwartz2008
+    from exoleg.sim.events import TRUE_CONTACT_N, loads
 
     t0 = r.walk_start + SETTLE_STRIDES * r.stride_time if after is None else after
     load = r.contact_force.sum(axis=1) / (r.body_mass * g)
     dt = float(r.t[1] - r.t[0])
-    onsets = _contacts(load)
+    onsets = _contacts(load, dt)
     onsets = onsets[(r.t[onsets] >= t0) & (onsets + int(0.2 * r.stride_time / dt) < len(load))]
     at2 = [load[k + int(round(0.02 * r.stride_time / dt))] for k in onsets]
     to1 = [dt * (int(np.argmax(load[k:] >= 1.0)) + 1) * 1e3 for k in onsets
@@ -311,7 +317,9 @@ def heel_strike_loading(r: Any, after: float | None = None, g: float = 9.81
     sq = np.square(r.interaction[sel])
     share = sq[landing].sum(axis=0) / np.maximum(sq.sum(axis=0), 1e-300)
     outside = np.sqrt(sq[~landing].mean(axis=0)) / r.body_mass
+    touches = loads(r.contact_force.max(axis=1) > TRUE_CONTACT_N, dt)[1]
     return {"landing_share": float(landing.mean()),
+            "swing_touches": float(np.sum(r.t[touches] >= t0)),
             "cuffs_at_landing": dict(zip(JOINTS, share.tolist(), strict=True)),
             "cuffs_outside_Nm_per_kg": dict(zip(JOINTS, outside.tolist(), strict=True)),
             "contacts": float(len(onsets)), "at_2pct_bw": float(np.median(at2)) if at2
