@@ -130,6 +130,7 @@ def test_simulate_walk(tmp_path, here):
     assert not figs["safety_fault"]
     assert [row["event"] for row in figs["gait_phase_detection"]] == [
         "initial contact", "foot flat", "heel off", "toe off"]
+    assert figs["swing_touches_s"] == []  # the paper's leg lands once a stride
     header = (tmp_path / "timeseries.csv").read_text().splitlines()[0].split(",")
     assert {"fsr_heel", "phase", "true_events", "gyro", "motor_speed_knee", "power_ankle",
             "pelvis"} <= set(header)

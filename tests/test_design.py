@@ -134,9 +134,16 @@ def test_design_screens_chooses_writes_a_device_and_walks_it(tmp_path: Path) -> 
         # relaxation), at a rigid joint the loop's floor
         bound = f["loop_Nm_per_kg"] if f["rotor_Nm_per_kg"] is None else f["rotor_Nm_per_kg"]
         assert f["reachable"] == (bound <= summary["transparency_goal_Nm_per_kg"])
-    # every command takes it
-    assert main(["simulate", "--walk", "--strides", "1", "--device", str(out / "device"),
+    # every command takes it; the walk says each touch of the belt in swing (the
+    # designed ankle's toe catches it: docs/design.md), with when, in summary.json
+    assert main(["simulate", "--walk", "--strides", "3", "--device", str(out / "device"),
                  "--out", str(tmp_path / "walk")]) == 0
+    walk = json.loads((tmp_path / "walk" / "summary.json").read_text())
+    touches = walk["figures"]["swing_touches_s"]
+    # measured: 6 in 3 strides, the first 0.22 s after the walk's start (1 s standing)
+    assert touches and all(t > 1.0 for t in touches)
+    assert any(f"the foot touched the belt in swing {len(touches)} times" in n
+               for n in walk["notes"])
 
 
 @pytest.mark.parametrize(("old", "new", "says"), [

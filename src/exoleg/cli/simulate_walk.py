@@ -73,6 +73,11 @@ def _simulate_walk(args: argparse.Namespace) -> int:
         if e["event"] in ("cuff", "cuff_stop"):  # the cuffs' limit (safety.toml [cuffs])
             notes.append(f"the {e['text']}: from t = {e['first_s']:.3f} s, {e['ticks']} "
                          "ticks")
+    touches = r.swing_touches()
+    if len(touches):  # a trip, on a child (sim.events.loads)
+        notes.append(f"the foot touched the belt in swing {len(touches)} times (loads "
+                     f"shorter than a stance, the first at t = {touches[0]:.3f} s): on a "
+                     "child, a trip")
     inter = interaction_summary(r)
     per_kg = r.cuff_limit
     walking = r.t >= r.walk_start
@@ -87,6 +92,7 @@ def _simulate_walk(args: argparse.Namespace) -> int:
             "board_frozen_s": None if r.board_frozen < 0 else r.board_frozen,
             "gait_phase_detection": rows,
             "max_contact_force_N": float(r.contact_force.sum(axis=1).max()),
+            "swing_touches_s": [float(x) for x in touches],
             "child": None if child is None else child.name,
             "controller": args.controller,
             "sensor_faults": [str(f) for f in args.sensor_fault],
