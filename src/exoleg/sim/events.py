@@ -13,10 +13,13 @@ F64 = NDArray[np.float64]
 
 #: A region of the foot is loaded, for the true events, above this normal force, N.
 TRUE_CONTACT_N = 5.0
+#: The shortest stance, s: a stride's toe off comes no sooner after its contact, and a
+#: shorter load is a touch of the belt in swing (:func:`loads`).
+MIN_STANCE_S = 0.15
 
 
 def true_events(force: F64, threshold: float = TRUE_CONTACT_N, dt: float = 1e-3,
-                min_swing: float = 0.15, min_stance: float = 0.15,
+                min_swing: float = 0.15, min_stance: float = MIN_STANCE_S,
                 ahead: NDArray[np.bool_] | None = None) -> NDArray[np.int64]:
     """Event bits (IC 1, FF 2, HO 4, TO 8) per sample from contact forces (N, 4), sampled
     every ``dt`` s: the detector's definitions on the true forces, without noise,
@@ -55,7 +58,7 @@ def true_events(force: F64, threshold: float = TRUE_CONTACT_N, dt: float = 1e-3,
     return out
 
 
-def loads(loaded: NDArray[np.bool_], dt: float = 1e-3, min_stance: float = 0.15
+def loads(loaded: NDArray[np.bool_], dt: float = 1e-3, min_stance: float = MIN_STANCE_S
           ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """The samples at which the foot's load begins (``loaded``: per sample, whether any
     region bears), split by how long it lasts: stances (``min_stance`` s or longer: the

@@ -261,9 +261,9 @@ class WalkResult(TimeSeries):
 
     def swing_touches(self) -> F64:
         """When the foot touched the belt in swing while walking (s): a load of any region
-        above :data:`~exoleg.sim.events.TRUE_CONTACT_N` that lasts less than a stance's
-        0.15 s (:func:`~exoleg.sim.events.loads`) -- the toe catching the belt, a light
-        foot chattering on it."""
+        above :data:`~exoleg.sim.events.TRUE_CONTACT_N` that lasts less than a stance
+        (:data:`~exoleg.sim.events.MIN_STANCE_S`, :func:`~exoleg.sim.events.loads`) -- the
+        toe catching the belt, a light foot chattering on it."""
         from exoleg.sim.events import TRUE_CONTACT_N, loads
 
         touched = loads(self.contact_force.max(axis=1) > TRUE_CONTACT_N,
