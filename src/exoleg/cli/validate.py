@@ -25,8 +25,8 @@ def _pct(x: float) -> str:
 
 
 def _fault_table(cases: dict[str, list[dict[str, Any]]], title: str) -> None:
-    """Initial contact and toe off per replayed case (:func:`exoleg.validate.gait_phase.
-    fault_cases`)."""
+    """Initial contact and toe off per replayed case
+    (:func:`exoleg.validate.gait_phase.fault_cases`)."""
     _table([[case if i == 0 else "", r["event"], _ms(r["median_abs_error_ms"]),
              _ms(r["p95_abs_error_ms"]), str(r["missed"]), str(r["false"]),
              _pct(r["in_strides"])]
@@ -155,8 +155,9 @@ def _touches(h: dict[str, Any]) -> str:
 
 def _other_landing(strides: int, device: Any, v: Any) -> None:
     """The floors and the law of ``validate --transparency``'s walk ``v`` again with the
-    other leg letting the child down the other way (:data:`~exoleg.device.ground.
-    LANDINGS`): how much of each is the simulated landing's."""
+    other leg letting the child down the other way
+    (:data:`~exoleg.device.ground.LANDINGS`): how much of each is the simulated
+    landing's."""
     from exoleg.device.ground import LANDINGS
     from exoleg.validate.transparency import LIMITS, evaluate
 

@@ -137,8 +137,9 @@ class Archive:
         return png
 
     def report(self, folder: Path) -> Path:
-        """The session's report for the clinic's file (:func:`exoleg.plots.report.
-        write_report`), kept beside its records; made again when the log is newer."""
+        """The session's report for the clinic's file
+        (:func:`exoleg.plots.report.write_report`), kept beside its records; made again
+        when the log is newer."""
         from exoleg.hmi.history import history_until
         from exoleg.plots.report import write_report
 

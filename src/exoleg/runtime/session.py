@@ -407,9 +407,9 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
 
 def _keep_figures(folder: Path) -> None:
     """The session's figures as a clinician reads them, computed once as it ends and
-    kept beside its records (``figures.json``, :func:`exoleg.runtime.figures.
-    session_figures`); a log they cannot be computed from keeps none (the session's own
-    records are what counts)."""
+    kept beside its records (``figures.json``,
+    :func:`exoleg.runtime.figures.session_figures`); a log they cannot be computed from
+    keeps none (the session's own records are what counts)."""
     from exoleg.errors import ExolegError
     from exoleg.io import write_json
     from exoleg.runtime.figures import session_figures
@@ -471,9 +471,10 @@ def _support_figures(cols: dict[str, Any], status: Any) -> dict[str, Any]:
 
 
 def _interaction_figures(cols: dict[str, Any], body_mass: float) -> dict[str, Any]:
-    """The cuffs' torque over a session, per joint (:func:`~exoleg.sim.metrics.
-    interaction_figures`): RMS and peak (N m) and RMS per kg of body mass; None where the
-    device did not measure it (no column, or NaN: the buses' drives)."""
+    """The cuffs' torque over a session, per joint
+    (:func:`~exoleg.sim.metrics.interaction_figures`): RMS and peak (N m) and RMS per kg
+    of body mass; None where the device did not measure it (no column, or NaN: the buses'
+    drives)."""
     from exoleg.params.records import JOINTS
     from exoleg.sim.metrics import interaction_figures
 
