@@ -243,6 +243,8 @@ def test_a_walk_whose_foot_touches_the_belt_in_swing_serves_nobody() -> None:
                 f"{'transparent' if which == 'tr' else 'assist'}_swing_touches"] == touches
     old = {k: v for k, v in row.items() if k != "swing_touches"}  # an older study's row
     assert not _judge(design, kid, old, old, limits)["served"]
+    null = {**row, "swing_touches": None}  # its column null beside newer rows
+    assert _judge(design, kid, null, null, limits)["transparent_swing_touches"] == -1
 
 
 def test_a_study_on_a_device_folder_walks_its_units(tmp_path: Path) -> None:

@@ -631,6 +631,9 @@ def test_the_heel_strikes_loading_is_read_as_a_force_plate_would() -> None:
     assert h["cuffs_at_landing"]["knee"] == pytest.approx(810 / 3720)
     assert h["cuffs_at_landing"]["hip"] == 0.0
     assert h["cuffs_outside_Nm_per_kg"]["knee"] == pytest.approx(1 / 30)
+    # from within the first stance: a load already on is no contact (the 45 ms after the
+    # second contact alone, of the 2,450 samples from 1.05 s)
+    assert heel_strike_loading(r, after=1.05)["landing_share"] == pytest.approx(45 / 2450)
 
 
 def test_the_loops_floor_is_a_first_orders_lag_on_a_ramp() -> None:

@@ -150,7 +150,7 @@ def test_the_other_leg_hands_the_body_over_at_the_childrens_double_support() -> 
     mid = (x >= 0.15) & (x <= 0.5)
     for h in (drop, hand):
         assert np.abs(h[mid] - (hh[mid] - carry)).max() < 5e-4
-    with pytest.raises(exoleg.ParameterError, match="landing.*drop, handover"):
+    with pytest.raises(exoleg.ParameterError, match="landing.*'drop', 'handover'"):
         other_leg_support(LEG, plant.points, "Free", clear, landing="soft")
 
 

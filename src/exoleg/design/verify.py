@@ -166,7 +166,9 @@ def _judge(design: Any, kid: dict[str, Any], tr: dict[str, Any], aan: dict[str, 
     """One child's verdict from their two rows."""
     residual = {j: float(tr[f"interaction_rms_Nm_per_kg_{j}"]) for j in JOINTS}
     winding = {j: float(aan[f"winding_max_C_{j}"]) for j in JOINTS}
-    touches = [int(w.get("swing_touches", -1)) for w in (tr, aan)]
+    # -1: not counted (a row from before the count; missing or null in its dataset)
+    touches = [-1 if w.get("swing_touches") is None else int(w["swing_touches"])
+               for w in (tr, aan)]
     transparent = (not tr["error"] and bool(tr["walked"]) and touches[0] == 0
                    and all(v <= design.goal for v in residual.values()))
     assisted = (not aan["error"] and bool(aan["walked"]) and touches[1] == 0

@@ -25,6 +25,14 @@ from exoleg.tick import SENSOR_POINTS
 LANDINGS = ("drop", "handover")
 
 
+def check_landing(where: str, landing: object) -> str:
+    """``landing`` if it is one of :data:`LANDINGS`, else one error naming ``where``."""
+    if landing not in LANDINGS:
+        raise ParameterError(where, "landing", f"{landing!r} is not one of "
+                             f"{', '.join(repr(v) for v in LANDINGS)}")
+    return str(landing)
+
+
 @dataclass(frozen=True)
 class Ground:
     """Contact and support parameters, SI units (defaults: ``data/device/walking.toml``)."""
@@ -53,9 +61,7 @@ class Ground:
                 raise ParameterError("Ground", name, f"{v:g} is outside {lo:g}-{hi:g}")
             object.__setattr__(self, name, v)
         check_sole("Ground", self.elements)
-        if self.landing not in LANDINGS:
-            raise ParameterError("Ground", "landing", f"{self.landing!r} is not one of "
-                                 f"{', '.join(repr(v) for v in LANDINGS)}")
+        check_landing("Ground", self.landing)
 
     @classmethod
     def default(cls, folder: str | Path | None = None) -> Ground:

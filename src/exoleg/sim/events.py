@@ -70,3 +70,11 @@ def loads(loaded: NDArray[np.bool_], dt: float = 1e-3, min_stance: float = MIN_S
     stance = (off - on) * dt >= min_stance - 1e-9
     # a short load the record ends in may yet be a stance: neither
     return on[stance], on[~stance & (off < len(loaded))]
+
+
+def touches(force: F64, t: F64, since: float = -np.inf) -> F64:
+    """When the foot touched the belt in swing (s, from ``since``): a load of any region
+    of ``force`` (samples, regions; N, sampled at ``t``) above :data:`TRUE_CONTACT_N`
+    shorter than a stance (:func:`loads`)."""
+    at = t[loads(force.max(axis=1) > TRUE_CONTACT_N, float(t[1] - t[0]))[1]]
+    return at[at >= since]

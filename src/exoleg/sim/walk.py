@@ -264,12 +264,9 @@ class WalkResult(TimeSeries):
         above :data:`~exoleg.sim.events.TRUE_CONTACT_N` that lasts less than a stance
         (:data:`~exoleg.sim.events.MIN_STANCE_S`, :func:`~exoleg.sim.events.loads`) -- the
         toe catching the belt, a light foot chattering on it."""
-        from exoleg.sim.events import TRUE_CONTACT_N, loads
+        from exoleg.sim.events import touches
 
-        touched = loads(self.contact_force.max(axis=1) > TRUE_CONTACT_N,
-                        float(self.t[1] - self.t[0]))[1]
-        t = self.t[touched]
-        return t[t >= self.walk_start]
+        return touches(self.contact_force, self.t, self.walk_start)
 
     def strikes(self) -> F64:
         """When the foot truly struck the belt while walking (s): the strides' bounds."""

@@ -268,10 +268,12 @@ LANDING_S = 0.045
 
 def _contacts(load: F64, dt: float) -> NDArray[np.intp]:
     """The samples at which the sole's vertical ``load`` (sampled every ``dt`` s) becomes
-    non-zero for a stance (:func:`~exoleg.sim.events.loads`: not a touch in swing)."""
+    non-zero for a stance (:func:`~exoleg.sim.events.loads`: not a touch in swing); a
+    load already on at the record's first sample is no contact."""
     from exoleg.sim.events import loads
 
-    return loads(load > 0.0, dt)[0]
+    on = loads(load > 0.0, dt)[0]
+    return on[on > 0]
 
 
 def _landing(load: F64, dt: float) -> NDArray[np.bool_]:
@@ -300,7 +302,7 @@ def heel_strike_loading(r: Any, after: float | None = None, g: float = 9.81
     (:func:`~exoleg.sim.events.loads`); the loads too short for one, the foot touching
     the belt in swing, are counted apart (``swing_touches``)."""
     from exoleg.reference.gait import schwartz2008
-    from exoleg.sim.events import TRUE_CONTACT_N, loads
+    from exoleg.sim.events import touches
 
     t0 = r.walk_start + SETTLE_STRIDES * r.stride_time if after is None else after
     load = r.contact_force.sum(axis=1) / (r.body_mass * g)
@@ -317,9 +319,8 @@ def heel_strike_loading(r: Any, after: float | None = None, g: float = 9.81
     sq = np.square(r.interaction[sel])
     share = sq[landing].sum(axis=0) / np.maximum(sq.sum(axis=0), 1e-300)
     outside = np.sqrt(sq[~landing].mean(axis=0)) / r.body_mass
-    touches = loads(r.contact_force.max(axis=1) > TRUE_CONTACT_N, dt)[1]
     return {"landing_share": float(landing.mean()),
-            "swing_touches": float(np.sum(r.t[touches] >= t0)),
+            "swing_touches": float(len(touches(r.contact_force, r.t, t0))),
             "cuffs_at_landing": dict(zip(JOINTS, share.tolist(), strict=True)),
             "cuffs_outside_Nm_per_kg": dict(zip(JOINTS, outside.tolist(), strict=True)),
             "contacts": float(len(onsets)), "at_2pct_bw": float(np.median(at2)) if at2

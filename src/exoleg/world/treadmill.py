@@ -7,9 +7,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from exoleg.device.ground import LANDINGS
+from exoleg.device.ground import check_landing
 from exoleg.dynamics.model import LegModel
-from exoleg.errors import ParameterError
 
 F64 = NDArray[np.float64]
 
@@ -70,9 +69,7 @@ def other_leg_support(leg: LegModel, sole: F64, speed: str, clearance: float,
     onto this leg."""
     from exoleg.reference.gait import SchwartzGait2008, cycle_event
 
-    if landing not in LANDINGS:
-        raise ParameterError("other_leg_support", "landing",
-                             f"{landing!r} is not one of {', '.join(LANDINGS)}")
+    check_landing("other_leg_support", landing)
     x = np.linspace(0.0, 1.0, samples)
     q = (SchwartzGait2008(stride_time=1.0, speed=speed, upright=True).sample(x)[0]
          if gait is None else _cycle_at(gait, x))
