@@ -95,15 +95,18 @@ def cmd_design(args: argparse.Namespace) -> int:
            title=f"verified in the walking loop ({design.strides} strides, the held-out "
                  "children as actors, assist-as-needed)")
     _table([[f["joint"], f"{f['law_Nm_per_kg']:.3f}", f"{f['loop_Nm_per_kg']:.3f}",
+             f"{f['unread_pelvis_Nm_per_kg']:.3f}",
              "-" if f["rotor_Nm_per_kg"] is None else f"{f['rotor_Nm_per_kg']:.3f}",
              "yes" if f["reachable"] else "no"] for f in floors],
-           ["joint", "the law leaves N m/kg", "the loop's floor", "the rotor's bound",
+           ["joint", "the law leaves N m/kg", "the loop's floor", "the pelvis unread",
+            "the rotor's bound",
             f"<= {design.goal:g} within reach (the rotor's bound, else the loop's)"],
            title="transparent, the 10-year-old girl (P50) on the chosen device, 10 "
                  "strides: what its law leaves, what a law "
                  "knowing the device exactly would (a tick late, through the drive's loop), "
-                 "and behind a spring what any law could, the walk known ahead "
-                 "(exoleg validate --transparency --device)")
+                 "the same law blind to the pelvis's vertical acceleration (no sensor on "
+                 "the device reads it), and behind a spring what any law could, the walk "
+                 "known ahead (exoleg validate --transparency --device)")
     if served:
         summ = population.summary(served)
         _table([[name, str(v["children"]), f"{100 * v['transparent_met']:.0f} %",
@@ -142,6 +145,7 @@ def transparency_floors(design: Any, device: Path) -> list[dict[str, Any]]:
             f["floor_rotor_Nm_per_kg"])
         out.append({"joint": f["joint"], "law_Nm_per_kg": float(law[f["joint"]]),
                     "loop_Nm_per_kg": float(f["floor_loop_Nm_per_kg"]),
+                    "unread_pelvis_Nm_per_kg": float(f["floor_unread_pelvis_Nm_per_kg"]),
                     "rotor_Nm_per_kg": rotor,
                     "reachable": (f["floor_loop_Nm_per_kg"] if rotor is None
                                   else rotor) <= design.goal})

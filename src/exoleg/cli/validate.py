@@ -94,7 +94,9 @@ def _transparency(strides: int, device: Any) -> int:
     _say("of the device's need, the pelvis's vertical acceleration asks "
          + ", ".join(f"{b['joint']} {b['pelvis_Nm_per_kg']:.3f}" for b in v.floors)
          + " N m/kg RMS: the transparent law leaves it to the child (no sensor on the "
-           "device reads it)")
+           "device reads it); a law that knew all the rest, a tick late, would leave "
+         + ", ".join(f"{b['joint']} {b['floor_unread_pelvis_Nm_per_kg']:.3f}"
+                     for b in v.floors) + " N m/kg")
     _table([[r["parts"] + (" (stopped)" if r["stopped"] else ""),
              *(f"{r['walked_Nm_per_kg'][j]:.3f}" for j in JOINTS),
              *(f"{r['rms_Nm_per_kg'][j]:.3f}" for j in JOINTS)] for r in v.rows],

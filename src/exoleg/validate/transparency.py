@@ -442,6 +442,9 @@ def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None
     limit and the loop's lag together); ``floor_rotor_Nm_per_kg``, a compliant unit's
     :func:`rotor_floor` on its links' need (NaN for a rigid unit); ``pelvis_Nm_per_kg``,
     the RMS of the need's part from the pelvis's vertical acceleration;
+    ``floor_unread_pelvis_Nm_per_kg``, the loop's floor of a law that knows all of the
+    need but that part, which none of the device's sensors reads (the encoders, the foot's
+    IMU): that part left to the child whole;
     ``gear_floor_at_landing``, the share of the gear's floor (its square) in the
     :data:`LANDING_S` after each initial contact; ``floor_loop_outside_Nm_per_kg``, the
     loop's floor outside those (beside :func:`heel_strike_loading`'s law outside them)."""
@@ -476,9 +479,12 @@ def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None
     outside = ~landing
     outside[:2] = False  # (loop_floor's first two ticks)
     lefts = [loop_left(act, need[:, j], dq[:, j], dt) for j, act in enumerate(config.actuators)]
+    unread = [loop_left(act, need[:, j] - pelvis[:, j], dq[:, j], dt) + pelvis[:, j]
+              for j, act in enumerate(config.actuators)]
     return [{"joint": joint, **limit_floors(act, need[:, j], dq[:, j], r.body_mass),
              "gear_floor_at_landing": at_landing(j, act),
              "floor_loop_Nm_per_kg": _rms(lefts[j][2:]) / r.body_mass,
+             "floor_unread_pelvis_Nm_per_kg": _rms(unread[j][2:]) / r.body_mass,
              "floor_loop_outside_Nm_per_kg": _rms(lefts[j][outside]) / r.body_mass,
              "floor_rotor_Nm_per_kg": (rotor_floor(act, links[:, j], q[:, j], dt, r.body_mass)
                                        if act.compliant and links is not None else np.nan),
