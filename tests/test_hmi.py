@@ -750,8 +750,11 @@ def test_a_childs_record_and_settings_follow_them(hmi: Any, operator: Any) -> No
     on = wait_until("Ada kept", lambda: runs_on().startswith("Ada (") and runs_on())
     assert "(identified)" in on and ada()["fits"] == fits
 
-    # a session of hers: walking, then assist as needed and a stiffer stance at the hip
-    armed_walk(d, "start", "duration", 12)
+    # a session of hers: walking, then assist as needed and a stiffer stance at the hip;
+    # ended by the operator once the gain is in force and she has walked two strides in
+    # it (a 12 s session once ran out before the gain was applied, in a full run on two
+    # cores under load: the gains asked of a session that had ended)
+    armed_walk(d, "start", "duration", 120)
     press(d, "cmd-aan")
     wait_until("assist as needed", lambda: text(d, "ctl-support") == "aan")
     hip = wait_until("the gains table", lambda: d.find_element("id", "g-kp_stance-0"))
@@ -760,6 +763,12 @@ def test_a_childs_record_and_settings_follow_them(hmi: Any, operator: Any) -> No
     press(d, "apply-gains")
     wait_until("the gain in force", lambda: http.get(f"{api}/gains").json()["gains"][
         "kp_stance"][0] == pytest.approx(stiffer))
+    steps = d.execute_script("return S.hist[S.hist.length - 1].steps")
+    wait_until("two strides with it", lambda: d.execute_script(
+        "return S.hist[S.hist.length - 1].steps") >= steps + 4)
+    press(d, "end")
+    wait_until("the question", lambda: d.find_element("id", "confirm").is_displayed())
+    press(d, "confirm-yes")
     h = wait_until("the session ended and its settings kept", lambda: (
         lambda x: (x["sessions"][-1]["settings"] or {}).get("support_mode") == "aan" and x)(
         history()), timeout=60)
