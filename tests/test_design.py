@@ -80,6 +80,14 @@ def test_design_screens_chooses_writes_a_device_and_walks_it(tmp_path: Path) -> 
               and "EC 60" in r["motor"] and r["ratio"] == "50.0"]
     assert sensor and all(f"{math.sqrt(13000 / knee_b) / (2 * math.pi):.1f} Hz" in r["why_not"]
                           for r in sensor)
+    # the EC 60 flat through 1:100 (0.889 kg m^2 at the joint) on the softest spring: a
+    # 30 Hz loop over its 2.8 Hz mode needs a gain of B w_b^2 / K - 1 = 115 (LOOP_GAIN_MAX)
+    hip_b = (8.1e-5 + 7.9e-6) * 100**2
+    soft = [r for r in rows if r["joint"] == "hip" and r["series"] == "series_spring"
+            and "EC 60" in r["motor"] and r["ratio"] == "100.0"
+            and float(r["stiffness_Nm_per_rad"]) < 300]
+    gain = hip_b * (2 * math.pi * 30) ** 2 / float(soft[0]["stiffness_Nm_per_rad"]) - 1
+    assert soft and all(f"needs a gain of {gain:.0f}, above 30" in r["why_not"] for r in soft)
     chosen = [r for r in rows if r["chosen"] == "True"]
     assert sorted(r["joint"] for r in chosen) == ["ankle", "hip", "knee"]
     assert len({r["bus_V"] for r in chosen}) == 1  # one bus for the device's drives
@@ -138,16 +146,19 @@ def test_design_screens_chooses_writes_a_device_and_walks_it(tmp_path: Path) -> 
         # relaxation), at a rigid joint the loop's floor
         bound = f["loop_Nm_per_kg"] if f["rotor_Nm_per_kg"] is None else f["rotor_Nm_per_kg"]
         assert f["reachable"] == (bound <= summary["transparency_goal_Nm_per_kg"])
-    # every command takes it; the walk says each touch of the belt in swing (the
-    # designed ankle's toe catches it: docs/design.md), with when, in summary.json
+    # every command takes it; the walk says each touch of the belt in swing, with when,
+    # in summary.json (measured: none in these 3 strides of the passive leg; before the
+    # screen counted the device's own links, the chosen hip was the EC 60 flat through
+    # 1:50, the foot touched 6 times, and through 1:100 on a 272 N m/rad spring the walk
+    # stopped OVERSPEED at the ankle: exoleg.design.study.LOOP_GAIN_MAX)
     assert main(["simulate", "--walk", "--strides", "3", "--device", str(out / "device"),
                  "--out", str(tmp_path / "walk")]) == 0
     walk = json.loads((tmp_path / "walk" / "summary.json").read_text())
+    assert not walk["figures"]["safety_fault"]
     touches = walk["figures"]["swing_touches_s"]
-    # measured: 6 in 3 strides, the first 0.22 s after the walk's start (1 s standing)
-    assert touches and all(t > 1.0 for t in touches)
-    assert any(f"the foot touched the belt in swing {len(touches)} times" in n
-               for n in walk["notes"])
+    assert all(t > 1.0 for t in touches)  # (1 s standing first)
+    said = [n for n in walk["notes"] if "the foot touched the belt in swing" in n]
+    assert said == [] if not touches else len(said) == 1 and f"{len(touches)} times" in said[0]
 
 
 @pytest.mark.parametrize(("old", "new", "says"), [
@@ -164,6 +175,8 @@ def test_design_screens_chooses_writes_a_device_and_walks_it(tmp_path: Path) -> 
     ("strides = 2", "strides = 2\nmass_kg = [40.0, 20.0]", "mass_kg: 40 is not below 20"),
     ("transparency_Nm_per_kg = 0.036", "transparency_Nm_per_kg = 0.036\ntorque_loop_hz = 0",
      "torque_loop_hz"),
+    ("transparency_Nm_per_kg = 0.036",
+     "transparency_Nm_per_kg = 0.036\ntorque_loop_gain_max = 0.5", "torque_loop_gain_max"),
     # one number given as a list took its first, a fraction of a stride was cut, and a
     # held-out child's fields reached the growth chart unchecked (the error named neither
     # file nor child; group 2.5 walked as GMFCS II)

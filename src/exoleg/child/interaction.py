@@ -31,11 +31,17 @@ from exoleg.params.records import LINKS, Link
 
 def device_leg(leg: LegModel, actuators: tuple[ActuatorModel, ...],
                link: bool = False) -> LegModel:
-    """The device alone at ``leg``'s lengths, its rotors as armature (as the links feel
-    them, or, ``link``, as they carry them: :func:`~exoleg.device.actuator.with_actuators`):
-    the links' parts after the first (the child's) when the leg was composed from parts
-    (a fitted child, the paper's detailed leg), else the paper's SLE bodies at these
-    telescope settings (``data/paper/device.toml``)."""
+    """The device alone at ``leg``'s lengths (:func:`device_links`), its rotors as
+    armature (as the links feel them, or, ``link``, as they carry them:
+    :func:`~exoleg.device.actuator.with_actuators`)."""
+    return with_actuators(device_links(leg), actuators, link)
+
+
+def device_links(leg: LegModel) -> LegModel:
+    """The device's links alone at ``leg``'s lengths, no rotor: the links' parts after the
+    first (the child's) when the leg was composed from parts (a fitted child, the paper's
+    detailed leg), else the paper's SLE bodies at these telescope settings
+    (``data/paper/device.toml``)."""
     if all(len(lk.parts) >= 2 for lk in leg.links):
         links = [Link.from_parts(lk.length, lk.parts[1:], name=LINKS[i])
                  for i, lk in enumerate(leg.links)]
@@ -45,7 +51,7 @@ def device_leg(leg: LegModel, actuators: tuple[ActuatorModel, ...],
         bodies = device_bodies(float(leg.lengths[0]), float(leg.lengths[1]))
         links = [Link.from_parts(float(leg.lengths[i]), (bodies[i],), name=LINKS[i])
                  for i in range(3)]
-    return with_actuators(LegModel(links, g=leg.g, name="device alone"), actuators, link)
+    return LegModel(links, g=leg.g, name="device alone")
 
 
 @njit(cache=True)

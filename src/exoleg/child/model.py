@@ -471,7 +471,7 @@ def intended_gait(child: ChildModel, stride_time: float, speed: str = "Free"
     (rad/s) and the internal joint moments of the normative gait (N m, exoleg's signs;
     Schwartz 2008's N m/kg x the child's mass), or of the real child's their ``gait``
     names (:func:`real_gait`)."""
-    from exoleg.reference.gait import SchwartzGait2008, schwartz2008
+    from exoleg.reference.gait import SchwartzGait2008, gait_moments
 
     x = np.linspace(0.0, 1.0, GAIT_SAMPLES)
     if child.gait == "predictcpgait":
@@ -485,13 +485,7 @@ def intended_gait(child: ChildModel, stride_time: float, speed: str = "Free"
                           - crouch_offset(child.crouch, x - dx)) / (2 * dx * stride_time)
         q[:, 1] -= off  # knee flexion is -q2
         dq[:, 1] -= doff
-    tau = np.empty_like(q)
-    for j, (var, sign) in enumerate((("hip_moment_sagittal", -1.0),
-                                     ("knee_moment_sagittal", 1.0),
-                                     ("ankle_moment_sagittal", -1.0))):
-        pct, mean, _ = schwartz2008(var, speed)
-        tau[:, j] = sign * np.interp(x * 100.0, pct, mean) * child.mass
-    return q, dq, tau
+    return q, dq, gait_moments(x, speed) * child.mass
 
 
 def real_gait(x: F64, stride_time: float, mass: float, harmonics: int = 12

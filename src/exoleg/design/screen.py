@@ -4,8 +4,10 @@ along a child's periodic gait, vectorised over candidates and children.
 
 A joint asks, at each instant of the stride, the share ``alpha`` of the child's joint
 moment ``tau`` (N m) while it moves with acceleration ``qdd`` (rad/s^2) and rate ``qd``
-(rad/s). Through a gear of ratio N and efficiency eta (on the delivered torque), a motor
-of rotor inertia J (rotor and gear input, kg m^2) and torque constant k_t gives
+(rad/s), and carries the device's own links beyond it (:func:`carried_torque`: added to
+``alpha tau`` below when counted). Through a gear of ratio N and efficiency eta (on the
+delivered torque), a motor of rotor inertia J (rotor and gear input, kg m^2) and torque
+constant k_t gives
 
     tau_m = J N qdd + alpha tau / (N eta)                      motor torque, N m
     i     = tau_m / k_t                                        winding current, A
@@ -133,25 +135,47 @@ def population_gait(masses: ArrayLike, joint: int, stride_time: float = 1.1,
                     speed: str = "Free", samples: int = 100) -> tuple[F64, F64, F64]:
     """One joint's demand over a stride for children of ``masses`` kg (C,): the child's
     joint moment (C, samples) -- Schwartz et al. 2008's mean sagittal moment per kg at
-    ``speed``, times the mass -- and the normative gait's rate and acceleration at that
-    joint (samples,), at ``stride_time`` s. ``joint``: 0 hip, 1 knee, 2 ankle."""
-    from exoleg.params.records import JOINTS
-    from exoleg.reference.gait import SchwartzGait2008, schwartz2008
+    ``speed`` (exoleg's signs, :func:`~exoleg.reference.gait.gait_moments`), times the
+    mass -- and the normative gait's rate and acceleration at that joint (samples,), at
+    ``stride_time`` s. ``joint``: 0 hip, 1 knee, 2 ankle."""
+    from exoleg.reference.gait import gait_moments
 
     x = np.arange(samples) / samples
-    pct, moment, _ = schwartz2008(f"{JOINTS[joint]}_moment_sagittal", speed)
-    per_kg = np.interp(x * 100.0, pct, moment, period=100.0)
-    _, qd, qdd = SchwartzGait2008(stride_time=stride_time, speed=speed).sample(
-        x * stride_time)
+    _, qd, qdd = normative_gait(stride_time, speed, samples)
+    per_kg = gait_moments(x, speed)[:, joint]
     return (np.asarray(masses, dtype=float)[:, None] * per_kg[None, :], qd[:, joint],
             qdd[:, joint])
+
+
+def normative_gait(stride_time: float = 1.1, speed: str = "Free", samples: int = 100
+                   ) -> tuple[F64, F64, F64]:
+    """The normative gait the walking plant's child intends (Schwartz et al. 2008's mean
+    angles of ``speed``, the hip's from an upright pelvis) over one stride of
+    ``stride_time`` s at ``samples`` uniform instants: q, qd, qdd, each (samples, 3)."""
+    from exoleg.reference.gait import SchwartzGait2008
+
+    x = np.arange(samples) / samples
+    return SchwartzGait2008(stride_time=stride_time, speed=speed, upright=True).sample(
+        x * stride_time)
+
+
+def carried_torque(devices: Any, stride_time: float = 1.1, speed: str = "Free",
+                   samples: int = 100) -> F64:
+    """What the device's own links ask of its joints along :func:`normative_gait`, for
+    each of ``devices`` (the device's links alone fitted to each child,
+    :func:`~exoleg.child.interaction.device_links`): their inverse dynamics (gravity and
+    inertia, no rotor), N m, (C, 3, samples). The drives carry it in every mode -- the
+    transparent one compensates it, assistance gives its share on top."""
+    q, qd, qdd = normative_gait(stride_time, speed, samples)
+    return np.stack([d.inverse_dynamics(q, qd, qdd).T for d in devices])
 
 
 def screen(motor: dict[str, ArrayLike], ratio: ArrayLike, efficiency: ArrayLike,
            gear_inertia: ArrayLike, tau: F64, qd: F64, qdd: F64, alpha: float,
            masses: ArrayLike, bus_voltage: ArrayLike, peak_current: ArrayLike,
            ambient: float = 25.0, apparent: ArrayLike | None = None,
-           spring: tuple[ArrayLike, F64] | None = None) -> dict[str, NDArray[Any]]:
+           spring: tuple[ArrayLike, F64] | None = None,
+           carried: tuple[F64, F64] | None = None) -> dict[str, NDArray[Any]]:
     """Every candidate with every child, one joint: ``motor``'s figures as arrays that
     broadcast over the candidates (``kt`` N m/A, ``rotor_inertia`` kg m^2, ``r25`` ohm,
     ``r_th`` K/W winding to ambient, ``max_speed`` rad/s at the motor), the gear's
@@ -167,7 +191,11 @@ def screen(motor: dict[str, ArrayLike], ratio: ArrayLike, efficiency: ArrayLike,
     spring: ``spring`` = (K per candidate, the moments' second derivative (C, S)), see
     :func:`motor_torque`), and ``fits``: within the
     drive's ``peak_current``, the ``bus_voltage``, the motor's speed and winding limit
-    (``max_winding_temperature`` in ``motor``)."""
+    (``max_winding_temperature`` in ``motor``). ``carried`` = (the torque the device's
+    own links ask of the joint, :func:`carried_torque`, and its second derivative), each
+    (C, S) N m: the unit then delivers ``alpha tau + carried`` while it assists and
+    ``carried`` alone in the transparent mode, and each figure is the worse of the two
+    (the current's RMS and the winding's of the worse mode sustained)."""
     J = np.asarray(motor["rotor_inertia"]) + np.asarray(gear_inertia)
     N = np.asarray(ratio, dtype=float)
     shape = np.broadcast_shapes(J.shape, N.shape, np.shape(efficiency),
@@ -182,20 +210,35 @@ def screen(motor: dict[str, ArrayLike], ratio: ArrayLike, efficiency: ArrayLike,
         return np.broadcast_to(np.asarray(x, dtype=float), shape)[c]
 
     Jc, Nc, eta, kt, r25 = per(J), per(N), per(efficiency), per(motor["kt"]), per(motor["r25"])
-    tau_m = motor_torque(Jc, Nc, alpha, tau, qdd, eta,
-                         None if spring is None else (per(spring[0]), spring[1]))
-    i = tau_m / kt[..., None]
-    i_rms = rms(i)
-    volts = terminal_voltage(i, r25, kt, Nc, qd)
+    K = None if spring is None else per(spring[0])
+    a = float(alpha)
+    # (the torque the unit delivers, its second derivative) in each mode: assisting, and
+    # transparent when the device's own links are counted
+    loads: list[tuple[F64, F64 | None]] = [
+        (a * np.asarray(tau), None if spring is None else a * np.asarray(spring[1]))]
+    if carried is not None:
+        c_tau, c_dd = (np.asarray(x, dtype=float) for x in carried)
+        loads = [(loads[0][0] + c_tau, None if spring is None else a * spring[1] + c_dd),
+                 (c_tau, None if spring is None else c_dd)]
+
+    def figures(load: F64, load_dd: F64 | None) -> tuple[F64, F64, F64, F64]:
+        """One mode's RMS and peak current, peak voltage and the gear's peak torque."""
+        i = motor_torque(Jc, Nc, 1.0, load, qdd, eta,
+                         None if K is None or load_dd is None else (K, load_dd)) / kt[..., None]
+        return (rms(i), np.max(np.abs(i), axis=-1),
+                np.max(np.abs(terminal_voltage(i, r25, kt, Nc, qd)), axis=-1),
+                np.broadcast_to(np.max(np.abs(load), axis=-1), i.shape[:-1]))
+
+    i_rms, i_peak, v_peak, gear_peak = (np.max(np.stack(x), axis=0)
+                                        for x in zip(*(figures(*m) for m in loads), strict=True))
     m = np.asarray(masses, dtype=float)
     out = {
         "current_rms": i_rms,
-        "current_peak": np.max(np.abs(i), axis=-1),
+        "current_peak": i_peak,
         "winding": winding_temperature(i_rms, r25, per(motor["r_th"]), ambient),
-        "voltage_peak": np.max(np.abs(volts), axis=-1),
+        "voltage_peak": v_peak,
         "motor_speed_peak": np.broadcast_to(Nc * np.max(np.abs(qd)), i_rms.shape),
-        "gear_torque_peak": np.broadcast_to(alpha * np.max(np.abs(tau), axis=-1),
-                                            i_rms.shape),
+        "gear_torque_peak": gear_peak,
         "residual_per_kg": np.broadcast_to(
             residual(Jc, Nc, qdd) if apparent is None else per(apparent) * rms(qdd),
             i_rms.shape) / m,

@@ -8,14 +8,16 @@ per joint), the constraints (bus voltages, the zero-torque goal in N m/kg, the a
 and the held-out children walked on the chosen device. Per joint, every catalogue motor
 and gear on every bus (:mod:`exoleg.design.catalogue`) is screened with every child
 (:mod:`exoleg.design.screen`: the closed forms along the normative gait at the stride
-time asked; the device's own links and friction left to the walking loop); a candidate
-serves a child when the drive's current, the bus voltage, the motor's speed and its
-winding's steady temperature all hold, and the gear's repeated peak carries the
-assistance. The Pareto set over (children served, the worst zero-torque residual, the
-thermal margin) is kept; on the one bus the drives share, the candidate serving the most
-children at each joint, then leaving the least residual, is chosen, and written as a device folder
-every command takes (``--device DIR``). The held-out children then walk on it and on the
-shipped device in the full loop (:func:`~exoleg.sim.walk.simulate_walk`).
+time asked, the unit carrying the device's own links -- fitted to each child -- in every
+mode and the share of the child's moment on top while it assists; the friction left to
+the walking loop); a candidate serves a child when the drive's current, the bus voltage,
+the motor's speed and its winding's steady temperature all hold, and the gear's repeated
+peak carries what it delivers. The Pareto set over (children served, the worst
+zero-torque residual, the thermal margin) is kept; on the one bus the drives share, the
+candidate serving the most children at each joint, then leaving the least residual, is
+chosen, and written as a device folder every command takes (``--device DIR``). The
+held-out children then walk on it and on the shipped device in the full loop
+(:func:`~exoleg.sim.walk.simulate_walk`).
 """
 
 from __future__ import annotations
@@ -48,9 +50,20 @@ AGES, PERCENTILES = (5.0, 18.0), (1.0, 99.0)
 TABLES = {"population": (["ages", "sexes", "groups", "percentiles"], ["speed", "stride_time"]),
           "assistance": (["alpha"], []),
           "constraints": (["bus_voltage", "transparency_Nm_per_kg"],
-                          ["ambient", "torque_loop_hz", "spring_deflection_deg"]),
+                          ["ambient", "torque_loop_hz", "torque_loop_gain_max",
+                           "spring_deflection_deg"]),
           "verify": (["held_out"], ["strides", "mass_kg", "strides_transparent",
                                     "strides_assist"])}
+
+#: The most a compliant unit's torque loop may amplify its torque error
+#: (:attr:`~exoleg.device.actuator.ActuatorModel.torque_loop_gains`' kp = B w_b^2 / K - 1:
+#: the loop asked, w_b, over the rotor's own mode on its spring, sqrt(K / B), squared,
+#: less one). A choice, measured in the walking loop on the example's population: at 28
+#: (the EC 60 flat through 1:50 on 272 N m/rad, a 30 Hz loop) the units walk; at 73 (1:100
+#: on 427 N m/rad) the hip's drive is at its limit in 44 % of a transparent walk's ticks;
+#: at 115 (1:100 on 272 N m/rad) a torque error of half a newton metre saturates the motor
+#: and the passive leg's walk stops OVERSPEED at the ankle within two strides.
+LOOP_GAIN_MAX = 30.0
 
 
 @dataclass(frozen=True)
@@ -71,6 +84,7 @@ class Design:
     strides: int = 10
     source: str = ""
     loop_hz: float = 30.0
+    loop_gain_max: float = LOOP_GAIN_MAX
     deflection_deg: float = 10.0
     verify_mass: tuple[float, float] = (20.0, 40.0)
     strides_transparent: int = 10
@@ -155,6 +169,8 @@ class Design:
                    ambient=one("constraints", "ambient", -20.0, 60.0, "degC", 25.0),
                    strides=count("verify", "strides", 100, 10), source=where,
                    loop_hz=one("constraints", "torque_loop_hz", 1.0, 1000.0, "Hz", 30.0),
+                   loop_gain_max=one("constraints", "torque_loop_gain_max", 1.0, 1000.0, "",
+                                     LOOP_GAIN_MAX),
                    deflection_deg=one("constraints", "spring_deflection_deg", 0.5, 45.0,
                                       "deg", 10.0),
                    verify_mass=_mass_window(where, v),
@@ -207,9 +223,10 @@ def _series(design: Design, parts: tuple[Any, Any, float], B: float, gear: Any,
     the softest that carries the ``peak`` asked (N m) within the design's deflection to
     the catalogue's stiffest; the torque sensor on the gear's own stiffness. The torque
     loop must be above the rotor's resonance on that stiffness with the link held
-    (sqrt(K / B), B the reflected inertia) and at most a third of the current loop's
-    bandwidth. ``parts``: (the spring, the torque sensor, the joint's current loop
-    bandwidth, Hz)."""
+    (sqrt(K / B), B the reflected inertia), ask a gain B w_b^2 / K - 1 of at most the
+    design's ``torque_loop_gain_max`` (:data:`LOOP_GAIN_MAX`), and be at most a third of
+    the current loop's bandwidth. ``parts``: (the spring, the torque sensor, the joint's
+    current loop bandwidth, Hz)."""
     spring, sensor, inner = parts
     wb = 2.0 * math.pi * design.loop_hz
     lo = max(spring.figures["stiffness_min"], peak / math.radians(design.deflection_deg))
@@ -224,22 +241,36 @@ def _series(design: Design, parts: tuple[Any, Any, float], B: float, gear: Any,
         elif K > B * wb * wb:
             why = (f"the rotor resonates at {math.sqrt(K / B) / (2 * math.pi):.1f} Hz on "
                    f"{K:.0f} N m/rad, above the {design.loop_hz:g} Hz torque loop")
+        elif B * wb * wb / K - 1.0 > design.loop_gain_max:
+            why = (f"the {design.loop_hz:g} Hz torque loop on the rotor's "
+                   f"{math.sqrt(K / B) / (2 * math.pi):.1f} Hz on {K:.0f} N m/rad needs a "
+                   f"gain of {B * wb * wb / K - 1.0:.0f}, above {design.loop_gain_max:g}")
         elif design.loop_hz > inner / 3:
             why = f"the torque loop is above a third of the current loop's {inner:g} Hz"
         out.append((part, float(K), why))
     return out
 
 
-def screen_joint(design: Design, joint: int, masses: np.ndarray) -> list[dict[str, Any]]:
+def screen_joint(design: Design, joint: int, masses: np.ndarray,
+                 carried: np.ndarray | None = None) -> list[dict[str, Any]]:
     """Every catalogue candidate at ``joint`` with every child of ``masses``: one row per
     candidate (motor, gear, series element, bus) with the share of children it serves and
-    its worst figures over them."""
+    its worst figures over them. ``carried`` (C, S) N m: what the device's own links ask
+    of the joint along the gait, child by child (:func:`~exoleg.design.screen.
+    carried_torque`; None: not counted)."""
     from exoleg.device.actuator import paper_actuators
 
     motors, gears = catalogue()
     tau, qd, qdd = sc.population_gait(masses, joint, design.stride_time, design.speed)
-    tau_dd = sc.periodic_second_derivative(tau, design.stride_time, MOMENT_HARMONICS)
-    peak = design.alpha[joint] * float(np.max(np.abs(tau)))
+
+    def dd(x: np.ndarray) -> np.ndarray:
+        return sc.periodic_second_derivative(x, design.stride_time, MOMENT_HARMONICS)
+
+    tau_dd = dd(tau)
+    own = None if carried is None else (carried, dd(carried))
+    assisting = design.alpha[joint] * tau + (0.0 if carried is None else carried)
+    peak = float(max(np.max(np.abs(assisting)),
+                     0.0 if carried is None else np.max(np.abs(carried))))
     opts = series_options()  # read once per joint, not per candidate
     parts = (opts["series_spring"], opts["torque_sensor"],
              paper_actuators()[joint].current_loop_bandwidth)
@@ -258,7 +289,7 @@ def screen_joint(design: Design, joint: int, masses: np.ndarray) -> list[dict[st
                           g.figures["gear_input_inertia"], tau, qd, qdd, design.alpha[joint],
                           masses, bus, CURRENT_LIMIT * f["nominal_current"], design.ambient,
                           None if part is None else sc.loop_inertia(K, design.loop_hz),
-                          None if part is None else (K, tau_dd))
+                          None if part is None else (K, tau_dd), own)
             transparent = r["residual_per_kg"] <= design.goal
             serves = (r["fits"] & (r["gear_torque_peak"] <= g.figures["repeated_peak_torque"])
                       & (why == ""))
@@ -340,11 +371,15 @@ def verify(design: Design, device: Path | None) -> list[dict[str, Any]]:
 def run_design(design: Design) -> dict[str, Any]:
     """Screen and choose: the rows, the chosen unit per joint and its actuator file's
     text (the CLI writes them, and verifies the choice)."""
+    from exoleg.child.interaction import device_links
     from exoleg.device.actuator import actuator_text
+    from exoleg.sizing import personalized_leg
 
     children = design.children()
     masses = np.array([c.mass for c in children])
-    rows = [r for j in range(3) for r in screen_joint(design, j, masses)]
+    carried = sc.carried_torque([device_links(personalized_leg(c)) for c in children],
+                                design.stride_time, design.speed)
+    rows = [r for j in range(3) for r in screen_joint(design, j, masses, carried[:, j])]
     # one bus for the device (its drives share it): the bus whose best candidates serve
     # the most children at the joint that serves fewest, then the lower voltage
     best: dict[float, dict[str, dict[str, Any]]] = {}

@@ -38,6 +38,25 @@ def _table() -> dict[tuple[str, str], tuple[F64, F64, F64]]:
     return out
 
 
+#: Schwartz 2008's sagittal moments (internal; extensors and plantarflexors positive) and
+#: the sign that makes each exoleg's (a torque positive towards q's positive direction:
+#: hip flexion, knee extension, dorsiflexion)
+_MOMENTS = (("hip_moment_sagittal", -1.0), ("knee_moment_sagittal", 1.0),
+            ("ankle_moment_sagittal", -1.0))
+
+
+def gait_moments(x: ArrayLike, speed: str = "Free") -> F64:
+    """Schwartz 2008's mean internal joint moments of a speed group at cycle fractions
+    ``x`` (0-1, the printed samples interpolated linearly), N m/kg in exoleg's signs:
+    (len(x), 3), hip, knee, ankle."""
+    pct = 100.0 * np.asarray(x, dtype=float)
+    out = np.empty(pct.shape + (3,))
+    for j, (var, sign) in enumerate(_MOMENTS):
+        p, mean, _ = schwartz2008(var, speed)
+        out[..., j] = sign * np.interp(pct, p, mean)
+    return out
+
+
 def cycle_event(event: str, speed: str = "Free") -> tuple[float, float]:
     """A Schwartz 2008 gait-cycle event for a speed group (``schwartz2008_cycle_events.csv``:
     "Opposite Foot Off", "Opposite Foot Contact", "Ipsilateral Foot Off", "Double
