@@ -126,6 +126,15 @@ def test_design_screens_chooses_writes_a_device_and_walks_it(tmp_path: Path) -> 
     assert assist["support_max"] == assist["start"] == [0.5, 0.5, 0.5]
     summary = json.loads((out / "design.json").read_text())
     assert summary["children"] == 8
+    # what each unit carries: its gear's peak is the worse mode's, assisting (the child's
+    # share and the device's links) or transparent (the links alone); the device's leg
+    # asks the hip and knee more than half the children's moments (the screen's tests:
+    # Pinocchio's inverse dynamics of the device's links)
+    for d in summary["demand"]:
+        row = summary["chosen"][d["joint"]]
+        assert max(d["together_peak_Nm"], d["links_peak_Nm"]) == pytest.approx(
+            row["gear_torque_peak_Nm"], rel=1e-12)
+        assert (d["links_peak_Nm"] > d["child_share_peak_Nm"]) == (d["joint"] != "ankle")
     walked = {v["device"]: v for v in summary["verify"]}
     assert set(walked) == {"shipped", "designed"} and walked["designed"]["walked"]
     # its transparency against its floors on the 10-year-old girl's walk (validate

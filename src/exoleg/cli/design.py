@@ -71,6 +71,7 @@ def cmd_design(args: argparse.Namespace) -> int:
         write_json(o.stage("design.json"), {
             "design": str(args.config), "children": found["children"],
             "alpha": list(design.alpha), "transparency_goal_Nm_per_kg": design.goal,
+            "demand": found["demand"],
             "chosen": {j: {k: v for k, v in r.items() if not k.startswith("_")}
                        for j, r in found["chosen"].items()},
             "device": str(out / "device"), "verify": checked, "floors": floors,
@@ -80,6 +81,15 @@ def cmd_design(args: argparse.Namespace) -> int:
     _say(f"exoleg design: {found['children']} children x {len(rows) // 3} candidates per "
          f"joint (the catalogue's motors and gears on {len(design.buses)} bus voltage(s)), "
          f"alpha {'/'.join(f'{a:g}' for a in design.alpha)}")
+    _table([[d["joint"], f"{d['child_share_peak_Nm']:.1f} / {d['child_share_rms_Nm']:.1f}",
+             f"{d['links_peak_Nm']:.1f} / {d['links_rms_Nm']:.1f}",
+             f"{d['together_peak_Nm']:.1f} / {d['together_rms_Nm']:.1f}"]
+            for d in found["demand"]],
+           ["joint", "the child's share N m (peak / RMS)", "the device's own links",
+            "together (assisting)"],
+           title="what each joint's unit carries along the gait, the worst child's: the "
+                 "share of their moment asked and the device's own links, which the unit "
+                 "carries in every mode (the transparent one compensates them)")
     _table([[r["joint"], r["motor"], r["gear"], _series_words(r), f"{r['bus_V']:g}",
              f"{100 * r['served']:.0f} %", f"{r['residual_worst_Nm_per_kg']:.3f}",
              f"{r['winding_worst_C']:.0f}"] for r in found["chosen"].values()],

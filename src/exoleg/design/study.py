@@ -368,6 +368,28 @@ def verify(design: Design, device: Path | None) -> list[dict[str, Any]]:
     return out
 
 
+def carried_demand(design: Design, masses: np.ndarray, carried: np.ndarray
+                   ) -> list[dict[str, Any]]:
+    """Per joint, what the units carry along the gait, worst over the children (N m): the
+    share of the child's moment asked (``alpha tau``), the device's own links
+    (``carried``, (C, 3, S)) and the two together while assisting -- each its peak and
+    RMS -- and the share of the together's mean square the links' alone would be."""
+    out = []
+    for j, joint in enumerate(JOINTS):
+        tau = design.alpha[j] * sc.population_gait(masses, j, design.stride_time,
+                                                   design.speed)[0]
+        both = tau + carried[:, j]
+        out.append({"joint": joint, **{
+            f"{name}_{kind}_Nm": float(np.max(f(x)))
+            for name, x in (("child_share", tau), ("links", carried[:, j]),
+                            ("together", both))
+            for kind, f in (("peak", lambda a: np.max(np.abs(a), axis=-1)),
+                            ("rms", sc.rms))},
+            "links_share_of_ms": float(np.max(sc.rms(carried[:, j]) ** 2
+                                              / sc.rms(both) ** 2))})
+    return out
+
+
 def run_design(design: Design) -> dict[str, Any]:
     """Screen and choose: the rows, the chosen unit per joint and its actuator file's
     text (the CLI writes them, and verifies the choice)."""
@@ -396,5 +418,6 @@ def run_design(design: Design) -> dict[str, Any]:
         m, g, series = chosen[j]["_parts"]
         units[j] = candidate(j, m, g, chosen[j]["bus_V"], series)
     return {"rows": rows, "chosen": chosen, "units": units, "children": len(children),
+            "demand": carried_demand(design, masses, carried),
             "text": {j: actuator_text(a, f"exoleg design ({design.source}): the {j}'s unit "
                                          "chosen for the population") for j, a in units.items()}}
