@@ -104,9 +104,16 @@ def _transparency(strides: int, device: Any) -> int:
             *(f"{j} same motion" for j in JOINTS)],
            title=f"the cuffs' torque RMS over {strides} strides in the transparent mode "
                  f"(the first {SETTLE_STRIDES} left out), N m/kg, with only each row's parts: "
-                 "walked so (a walk each), and on the law's own walk less the parts after "
-                 "the row's (a what-if: the child walks otherwise without them, and the "
-                 "cuffs' feedback reacts to the walk it is in)")
+                 "walked so (a walk each), and on the law's own walk, what the device "
+                 "needs there less the row's parts as commanded (a what-if: the child "
+                 "walks otherwise without them, and the cuffs' feedback reacts to the walk "
+                 "it is in); the last row is the law's own walk")
+    law = v.rows[-1]
+    if "commanded_Nm_per_kg" in law:
+        _say("the law's whole command on its own walk would leave "
+             + ", ".join(f"{j} {law['commanded_Nm_per_kg'][j]:.3f}" for j in JOINTS)
+             + " N m/kg; delivered by the drives (their loops' lag, their limits) it "
+               "leaves " + ", ".join(f"{j} {law['rms_Nm_per_kg'][j]:.3f}" for j in JOINTS))
     h = v.loading
     _say(f"the heel strike: the sole's vertical load {h['at_2pct_bw']:.2f} body weights 2 % "
          f"of the stride after contact (Schwartz et al. 2008, free speed: "

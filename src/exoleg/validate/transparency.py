@@ -133,7 +133,8 @@ def limit_floors(act: Any, need: F64, w: F64, body_mass: float) -> dict[str, Any
 
 
 def contributions(r: Any, after: float | None = None, walks: Sequence[Any] | None = None,
-                  acting: Sequence[str] | None = None) -> list[dict[str, Any]]:
+                  acting: Sequence[str] | None = None, need: F64 | None = None
+                  ) -> list[dict[str, Any]]:
     """The cuffs' torque a walk in the transparent mode leaves (``r``: a
     :class:`~exoleg.sim.walk.WalkResult`), and what it would be on the same motion
     without the law's parts, left out from the last: rows (``parts``, RMS N m and N m/kg
@@ -144,7 +145,15 @@ def contributions(r: Any, after: float | None = None, walks: Sequence[Any] | Non
     reacts to the walk it is in). With ``walks`` -- the same walk with only each row's
     parts acting, one walk per row but the last (whose walk is ``r``) -- each row also
     says what its walk left (``walked_Nm_per_kg``, per joint) and whether the safety
-    layer stopped it (``stopped``)."""
+    layer stopped it (``stopped``).
+
+    The same motion's rows but the last (the law's own walk) are the cuffs' torque plus the
+    parts left out, as commanded -- or, given the device's ``need`` along the walk's
+    settled samples (:func:`walk_need`, N m), that need less the parts kept, as commanded:
+    the two agree where the drives deliver what they are asked, and the need's rows keep
+    what they did not (a torque loop's lag behind a spring, a drive at its limit). With
+    ``need`` the last row also says what the law's whole command leaves on its motion
+    (``commanded_Nm_per_kg``): beside its walked figure, what the drives' delivery adds."""
     from exoleg.control.transparency import PARTS
 
     def settled(w: Any) -> Any:
@@ -160,13 +169,19 @@ def contributions(r: Any, after: float | None = None, walks: Sequence[Any] | Non
                              f"but the last, {len(acting)}")
     every = [] if walks is None else [*walks, r]
     rows = []
-    for n in range(len(acting) + 1):
+    last = len(acting)
+    for n in range(last + 1):
+        kept = parts[:, [PARTS.index(p) for p in acting[:n]]].sum(axis=1)
         left_out = parts[:, [PARTS.index(p) for p in acting[n:]]].sum(axis=1)
-        rms = np.sqrt(np.mean((it + left_out) ** 2, axis=0))
+        what_if = it + left_out if need is None or n == last else need - kept
+        rms = np.sqrt(np.mean(what_if ** 2, axis=0))
         row: dict[str, Any] = {"parts": " + ".join(acting[:n]) or "none",
                                "rms_Nm": dict(zip(JOINTS, rms.tolist(), strict=True)),
                                "rms_Nm_per_kg": dict(zip(JOINTS, (rms / r.body_mass).tolist(),
                                                          strict=True))}
+        if need is not None and n == last:
+            row["commanded_Nm_per_kg"] = dict(zip(JOINTS, (np.sqrt(np.mean(
+                (need - kept) ** 2, axis=0)) / r.body_mass).tolist(), strict=True))
         if every:
             w = every[n]
             walked = np.sqrt(np.mean(w.interaction[settled(w)] ** 2, axis=0)) / w.body_mass
@@ -249,12 +264,13 @@ def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
     lim = np.array([a.torque_limit for a in config.actuators])
     at = np.abs(r.tau[sel]) >= 0.99 * lim
     h = float(r.t[1] - r.t[0])
+    need = walk_need(r, leg, config)
     return Transparency(child=c.name or "child", body_mass=c.mass,
                         budget=budget(leg, config, c.mass, stride_time),
-                        rows=contributions(r, walks=walks, acting=on),
+                        rows=contributions(r, walks=walks, acting=on, need=need["need"]),
                         fault=bool(np.any(r.safety_status & Limited.FAULT)),
                         saturated=dict(zip(JOINTS, at.mean(axis=0).tolist(), strict=True)),
-                        run=r, floors=walk_floors(r, leg, config),
+                        run=r, floors=walk_floors(r, leg, config, known=need),
                         loading=heel_strike_loading(r, g=leg.g),
                         gears=law_on_gears(leg, config.actuators, config.transparency, h),
                         console=law_bounds(leg, config.actuators, config.transparency, h),
@@ -430,24 +446,16 @@ def _pelvis_terms(q, dq, p, ddy, out):  # type: ignore[no-untyped-def]
         out[k, 2] = y2 * ddy[k]
 
 
-def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None
-                ) -> list[dict[str, Any]]:
-    """Per joint, :func:`limit_floors` and :func:`loop_floor` of the device alone's need
-    along a walk's own motion (``r``: a :class:`~exoleg.sim.walk.WalkResult`; its angles
-    and rates, their acceleration and the pelvis's vertical one by central differences:
-    the device's links carry the pelvis's bounce too, as
-    :func:`~exoleg.child.interaction.interaction_torque` counts it) from ``after`` s
-    (default: :data:`SETTLE_STRIDES` strides after its start): the floor the transparent
-    law's residual on that walk is to be judged against (``floor_loop_Nm_per_kg``: every
-    limit and the loop's lag together); ``floor_rotor_Nm_per_kg``, a compliant unit's
-    :func:`rotor_floor` on its links' need (NaN for a rigid unit); ``pelvis_Nm_per_kg``,
-    the RMS of the need's part from the pelvis's vertical acceleration;
-    ``floor_unread_pelvis_Nm_per_kg``, the loop's floor of a law that knows all of the
-    need but that part, which none of the device's sensors reads (the encoders, the foot's
-    IMU): that part left to the child whole;
-    ``gear_floor_at_landing``, the share of the gear's floor (its square) in the
-    :data:`LANDING_S` after each initial contact; ``floor_loop_outside_Nm_per_kg``, the
-    loop's floor outside those (beside :func:`heel_strike_loading`'s law outside them)."""
+def walk_need(r: Any, leg: Any, config: Any, after: float | None = None) -> dict[str, Any]:
+    """What the device alone needs along a walk's own motion (``r``: a
+    :class:`~exoleg.sim.walk.WalkResult`) from ``after`` s (default: :data:`SETTLE_STRIDES`
+    strides after its start): its angles and rates, their acceleration and the pelvis's
+    vertical one by central differences (``q``, ``dq``, ``ddq``, ``ddy``), the need
+    (``need``, N m: the device alone's inverse dynamics, its rotors as the links feel them,
+    the pelvis's part -- the device's links carry the pelvis's bounce too, as
+    :func:`~exoleg.child.interaction.interaction_torque` counts it -- and the actuators'
+    friction), that pelvis's part alone (``pelvis``), the samples (``sel``) and the step
+    (``dt``, s)."""
     from exoleg.child.interaction import device_leg
     from exoleg.device.actuator import params_array
     from exoleg.device.drive import friction
@@ -464,6 +472,31 @@ def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None
     _pelvis_terms(q, dq, dev.p, ddy, pelvis)
     need = dev.inverse_dynamics(q, dq, ddq) + pelvis + np.array(
         [[friction(A[j:j + 1], w) for j, w in enumerate(row)] for row in dq])
+    return {"sel": sel, "dt": dt, "q": q, "dq": dq, "ddq": ddq, "ddy": ddy, "need": need,
+            "pelvis": pelvis}
+
+
+def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None,
+                known: dict[str, Any] | None = None) -> list[dict[str, Any]]:
+    """Per joint, :func:`limit_floors` and :func:`loop_floor` of the device alone's need
+    along a walk's own motion (:func:`walk_need` of ``r``, a
+    :class:`~exoleg.sim.walk.WalkResult`, from ``after`` s; or ``known``, its result
+    already at hand): the floor the transparent
+    law's residual on that walk is to be judged against (``floor_loop_Nm_per_kg``: every
+    limit and the loop's lag together); ``floor_rotor_Nm_per_kg``, a compliant unit's
+    :func:`rotor_floor` on its links' need (NaN for a rigid unit); ``pelvis_Nm_per_kg``,
+    the RMS of the need's part from the pelvis's vertical acceleration;
+    ``floor_unread_pelvis_Nm_per_kg``, the loop's floor of a law that knows all of the
+    need but that part, which none of the device's sensors reads (the encoders, the foot's
+    IMU): that part left to the child whole;
+    ``gear_floor_at_landing``, the share of the gear's floor (its square) in the
+    :data:`LANDING_S` after each initial contact; ``floor_loop_outside_Nm_per_kg``, the
+    loop's floor outside those (beside :func:`heel_strike_loading`'s law outside them)."""
+    from exoleg.child.interaction import device_leg
+
+    w = walk_need(r, leg, config, after) if known is None else known
+    sel, dt, q, dq, ddq, ddy = w["sel"], w["dt"], w["q"], w["dq"], w["ddq"], w["ddy"]
+    need, pelvis = w["need"], w["pelvis"]
     links = None  # a compliant unit's links alone: its rotor is rotor_floor's
     if any(a.compliant for a in config.actuators):
         dl = device_leg(leg, config.actuators, link=True)
