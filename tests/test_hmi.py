@@ -757,8 +757,9 @@ def test_a_childs_record_and_settings_follow_them(hmi: Any, operator: Any) -> No
     armed_walk(d, "start", "duration", 120)
     press(d, "cmd-aan")
     wait_until("assist as needed", lambda: text(d, "ctl-support") == "aan")
-    hip = wait_until("the gains table", lambda: d.find_element("id", "g-kp_stance-0"))
-    stiffer = round(1.5 * float(hip.get_attribute("value")), 3)
+    hip = wait_until("the gains table", lambda: d.find_element(
+        "id", "g-kp_stance-0").get_attribute("value"))
+    stiffer = round(1.5 * float(hip), 3)
     fill(d, "g-kp_stance-0", stiffer)
     press(d, "apply-gains")
     wait_until("the gain in force", lambda: http.get(f"{api}/gains").json()["gains"][
@@ -808,9 +809,13 @@ def test_a_childs_record_and_settings_follow_them(hmi: Any, operator: Any) -> No
         lambda n: n != last["name"] and n)(http.get(f"{api}/info").json()["session"]))
     wait_until("started in assist as needed", lambda: text(d, "ctl-support") == "aan",
                timeout=60)
-    shown = wait_until("the kept gain shown", lambda: (lambda e: e and e[0])(
-        d.find_elements("id", "g-kp_stance-0")))
-    assert float(shown.get_attribute("value")) == pytest.approx(stiffer)
+    # read afresh each time: the table is redrawn as the session starts (an element found
+    # once went stale before its value was read, in a fresh-clone CI run under load)
+    def gain_shown() -> float:
+        return float(d.find_element("id", "g-kp_stance-0").get_attribute("value"))
+
+    wait_until("the kept gain shown", lambda: gain_shown() == pytest.approx(stiffer),
+               seen=gain_shown)
     lines = [json.loads(x) for x in (folder / "control.log").read_text().splitlines()]
     (line,) = [a for a in lines if a["command"] == "kept settings"]
     assert line["accepted"] and f"kept from session {last['name']}" in line["why"]

@@ -256,8 +256,8 @@ def screen_joint(design: Design, joint: int, masses: np.ndarray,
     """Every catalogue candidate at ``joint`` with every child of ``masses``: one row per
     candidate (motor, gear, series element, bus) with the share of children it serves and
     its worst figures over them. ``carried`` (C, S) N m: what the device's own links ask
-    of the joint along the gait, child by child (:func:`~exoleg.design.screen.
-    carried_torque`; None: not counted)."""
+    of the joint along the gait, child by child
+    (:func:`~exoleg.design.screen.carried_torque`; None: not counted)."""
     from exoleg.device.actuator import paper_actuators
 
     motors, gears = catalogue()
@@ -373,7 +373,7 @@ def carried_demand(design: Design, masses: np.ndarray, carried: np.ndarray
     """Per joint, what the units carry along the gait, worst over the children (N m): the
     share of the child's moment asked (``alpha tau``), the device's own links
     (``carried``, (C, 3, S)) and the two together while assisting -- each its peak and
-    RMS -- and the share of the together's mean square the links' alone would be."""
+    RMS."""
     out = []
     for j, joint in enumerate(JOINTS):
         tau = design.alpha[j] * sc.population_gait(masses, j, design.stride_time,
@@ -384,9 +384,7 @@ def carried_demand(design: Design, masses: np.ndarray, carried: np.ndarray
             for name, x in (("child_share", tau), ("links", carried[:, j]),
                             ("together", both))
             for kind, f in (("peak", lambda a: np.max(np.abs(a), axis=-1)),
-                            ("rms", sc.rms))},
-            "links_share_of_ms": float(np.max(sc.rms(carried[:, j]) ** 2
-                                              / sc.rms(both) ** 2))})
+                            ("rms", sc.rms))}})
     return out
 
 
