@@ -558,7 +558,7 @@ def test_a_typically_developing_child_walks_in_the_transparent_mode() -> None:
     assert list(v.rows[0]["rms_Nm"].values()) == pytest.approx(
         np.sqrt(np.mean(need ** 2, axis=0)), rel=1e-12)
     # the law's whole command on its walk, beside what its drives delivered (measured
-    # 0.546 / 0.292 / 0.341 against 0.587 / 0.257 / 0.495: the clip and the rate limit at
+    # 0.5464 / 0.2916 / 0.3408 against 0.587 / 0.257 / 0.495: the clip and the rate limit at
     # the hip's and the ankle's limits)
     commanded = np.array(list(v.rows[-1]["commanded_Nm_per_kg"].values()))
     assert commanded[[0, 2]] == pytest.approx([0.546, 0.341], abs=5e-3)

@@ -143,8 +143,9 @@ def test_the_childs_moment_is_in_exoleg_signs_as_the_gaits_acceleration() -> Non
 def test_the_unit_carries_the_device_in_both_modes() -> None:
     # reference: Pinocchio's M qdd + C qd + G of the device's links alone (no rotor), the
     # 10-year-old girl's fitted device, along the same normative gait; measured agreement
-    # 1e-13 N m. The screen's unit delivers alpha tau + that while it assists and that
-    # alone while transparent: each figure the worse mode's, by hand from the forms
+    # 2.7e-14 N m (8e-16 of the peak). The screen's unit delivers alpha tau + that while it
+    # assists and that alone while transparent: each figure the worse mode's, by hand from
+    # the forms
     pytest.importorskip("pinocchio")
     from exoleg.child.interaction import device_links
     from exoleg.sizing import personalized_leg

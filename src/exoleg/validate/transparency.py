@@ -481,11 +481,11 @@ def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None,
     """Per joint, :func:`limit_floors` and :func:`loop_floor` of the device alone's need
     along a walk's own motion (:func:`walk_need` of ``r``, a
     :class:`~exoleg.sim.walk.WalkResult`, from ``after`` s; or ``known``, its result
-    already at hand): the floor the transparent
-    law's residual on that walk is to be judged against (``floor_loop_Nm_per_kg``: every
-    limit and the loop's lag together); ``floor_rotor_Nm_per_kg``, a compliant unit's
-    :func:`rotor_floor` on its links' need (NaN for a rigid unit); ``pelvis_Nm_per_kg``,
-    the RMS of the need's part from the pelvis's vertical acceleration;
+    already at hand): the floor the transparent law's residual on that walk is to be
+    judged against (``floor_loop_Nm_per_kg``: every limit and the loop's lag together);
+    ``floor_rotor_Nm_per_kg``, a compliant unit's :func:`rotor_floor` on its links' need
+    (NaN for a rigid unit); ``pelvis_Nm_per_kg``, the RMS of the need's part from the
+    pelvis's vertical acceleration;
     ``floor_unread_pelvis_Nm_per_kg``, the loop's floor of a law that knows all of the
     need but that part, which none of the device's sensors reads (the encoders, the foot's
     IMU): that part left to the child whole;
