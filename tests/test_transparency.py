@@ -457,14 +457,14 @@ def test_the_contributions_add_the_parts_left_out_to_the_cuffs_torque() -> None:
 def test_the_transparent_law_walked_without_its_feedback_leaves_more() -> None:
     # validate --transparency's rows walked (issue 38, item 3): the same motion less the
     # cuffs' feedback is a what-if; walked without it, the child walks otherwise. On the
-    # shipped device the feedback brings the hip from 0.874 to 0.566 N m/kg RMS and the
-    # ankle from 0.733 to 0.488 (measured, the girl of 10 at 6 strides: 1.54x and 1.50x;
-    # at 10, 0.867 -> 0.587 and 0.709 -> 0.495), where the what-if -- the device's need on
+    # shipped device the feedback brings the hip from 0.876 to 0.578 N m/kg RMS and the
+    # ankle from 0.686 to 0.503 (measured, the girl of 10 at 6 strides: 1.52x and 1.36x;
+    # at 10, 0.878 -> 0.596 and 0.704 -> 0.486), where the what-if -- the device's need on
     # the law's walk less the feedforward as commanded -- puts the hip without it at
     # 1.073. The last row is the law's own walk in both columns. And the friction's
     # feedforward is the plant's friction at the joint's true speed (the reference: the
     # actuator's own friction model, exoleg.device.drive.friction), to within 0.25 / 0.05 /
-    # 0.15 N m RMS (measured at 6 strides 0.215 / 0.028 / 0.111, at 10 0.22 / 0.03 / 0.10,
+    # 0.15 N m RMS (measured at 6 strides 0.211 / 0.024 / 0.078, at 10 0.23 / 0.03 / 0.07,
     # of 7.2 / 3.1 / 7.2): what it does to the walk (docs/device.md) is not a wrong
     # estimate.
     from exoleg.validate.transparency import evaluate
@@ -537,7 +537,7 @@ def test_a_typically_developing_child_walks_in_the_transparent_mode() -> None:
     # gravity alone (the swing is a pendulum's: the links' weight helps the rotors turn)
     # and the friction at the knee (within 1 %: measured 0.452 -> 0.455 N m/kg; the hip
     # 1.103 -> 1.073, the ankle 1.060 -> 1.044), all parts together -- the law's walk --
-    # by a third or more against none (measured 57 / 52 / 67 %); the
+    # by a third or more against none (measured 58 / 51 / 67 %); the
     # goal (Lerner et al. 2018, 0.036 N m/kg) is not met: the drives cannot move their
     # own rotors along the gait (the budget, measured 0.60 / 0.013 / 0.70 N m/kg beyond
     # them at the hip, knee, ankle)
@@ -558,7 +558,7 @@ def test_a_typically_developing_child_walks_in_the_transparent_mode() -> None:
     assert list(v.rows[0]["rms_Nm"].values()) == pytest.approx(
         np.sqrt(np.mean(need ** 2, axis=0)), rel=1e-12)
     # the law's whole command on its walk, beside what its drives delivered (measured
-    # 0.5464 / 0.2916 / 0.3408 against 0.587 / 0.257 / 0.495: the clip and the rate limit at
+    # 0.5478 / 0.2899 / 0.3384 against 0.596 / 0.255 / 0.486: the clip and the rate limit at
     # the hip's and the ankle's limits)
     commanded = np.array(list(v.rows[-1]["commanded_Nm_per_kg"].values()))
     assert commanded[[0, 2]] == pytest.approx([0.546, 0.341], abs=5e-3)
@@ -569,11 +569,11 @@ def test_a_typically_developing_child_walks_in_the_transparent_mode() -> None:
     assert floors == pytest.approx([0.6018, 0.0131, 0.7021], abs=1e-4)  # to the digits shown
     # along the walk's own motion (the pelvis's bounce in the device's need), the physical
     # floor (every limit together) and with the loop's lag (a law that knows the device
-    # exactly) are below what the law leaves -- no law beats the drives (measured 0.427 /
-    # 0.165 / 0.464 and 0.454 / 0.182 / 0.457 against 0.587 / 0.257 / 0.495: the ankle
-    # within 8 % of its loop's floor, the hip 29 % above it, the knee 41 %, its floor its
+    # exactly) are below what the law leaves -- no law beats the drives (measured 0.438 /
+    # 0.165 / 0.454 and 0.464 / 0.182 / 0.447 against 0.596 / 0.255 / 0.486: the ankle
+    # within 9 % of its loop's floor, the hip 28 % above it, the knee 40 %, its floor its
     # heel strikes', 0.036 out of reach on this motion); the pelvis's part the law leaves
-    # to the child, measured 0.152 / 0.060 / 0.010 N m/kg
+    # to the child, measured 0.153 / 0.061 / 0.010 N m/kg
     for f in v.floors:
         law = every[("hip", "knee", "ankle").index(f["joint"])]
         assert f["floor_all_Nm_per_kg"] <= law and f["floor_loop_Nm_per_kg"] <= law
@@ -582,8 +582,8 @@ def test_a_typically_developing_child_walks_in_the_transparent_mode() -> None:
     pelvis = [f["pelvis_Nm_per_kg"] for f in v.floors]
     assert pelvis[0] > pelvis[1] > pelvis[2] > 0.0  # the links' mass above each joint
     # a law blind to the pelvis's vertical acceleration (none of the device's sensors
-    # reads it), knowing all the rest a tick late, leaves no less (measured 0.468 / 0.194
-    # / 0.457 against 0.454 / 0.182 / 0.457): on the shipped device the pelvis is not
+    # reads it), knowing all the rest a tick late, leaves no less (measured 0.478 / 0.194
+    # / 0.447 against 0.464 / 0.182 / 0.447): on the shipped device the pelvis is not
     # what keeps the law from its floor; on a walk whose pelvis does not move the two
     # floors are one
     for f in v.floors:
@@ -597,9 +597,9 @@ def test_a_typically_developing_child_walks_in_the_transparent_mode() -> None:
         assert f["floor_unread_pelvis_Nm_per_kg"] == f["floor_loop_Nm_per_kg"]
     assert all(0.0 <= f["gear_floor_at_landing"] <= 1.0 for f in v.floors)
     assert v.loading["contacts"] >= 6  # 10 strides, the first 2 left out
-    # outside the 45 ms after each contact the loop's floor (measured 0.414 / 0.059 /
-    # 0.465) is below what the law leaves there (0.484 / 0.139 / 0.501): the knee's law
-    # leaves 2.4 times its floor there, the hip 1.17, the ankle 1.08 -- what the law, not
+    # outside the 45 ms after each contact the loop's floor (measured 0.426 / 0.059 /
+    # 0.455) is below what the law leaves there (0.496 / 0.135 / 0.492): the knee's law
+    # leaves 2.3 times its floor there, the hip 1.16, the ankle 1.08 -- what the law, not
     # the landing, can still win; the knee's floor is its heel strikes' (a third of it
     # outside them), the ankle's is not theirs (higher outside than over the whole walk)
     outside = v.loading["cuffs_outside_Nm_per_kg"]
@@ -614,13 +614,14 @@ def test_landing_as_the_children_measured_the_knees_goal_is_still_beyond_its_dri
     # landing = "handover"; the heel then bears 0.59 body weights 2 % after contact, within
     # Schwartz et al. 2008's 0.47 +- 0.14: test_walking_plant). The landing held most of
     # the knee's floor: its loop's floor falls from 0.182 to 0.107 N m/kg (measured), the
-    # hip's from 0.454 to 0.380, the ankle's stays (0.457, 0.459). But the knee's drive's
+    # hip's from 0.464 to 0.391, the ankle's stays (0.447, 0.460; 0.457 and 0.459 before
+    # the walk started at rest, reference.gait.START_RAMP). But the knee's drive's
     # current limit alone (2 x I_N of the EC 60 flat through 1:50, 30.5 N m at the joint)
     # still leaves 0.096 there -- nearly three times the goal (Lerner et al. 2018: 0.036)
     # on any law -- and a drive let to its own 30 A would meet the gear's rating: the
     # CSF-17-50's repeated peak (34 N m) alone leaves 0.076, twice the goal. The law leaves
-    # 0.186 (+73 % over its loop's floor, the gap in the 45 ms after each contact:
-    # outside them 0.138 over 0.066)
+    # 0.184 (+71 % over its loop's floor, the gap in the 45 ms after each contact:
+    # outside them 0.136 over 0.066)
     from exoleg.validate.transparency import GOAL_NM_PER_KG, LIMITS, evaluate
 
     drop, hand = evaluate(strides=10), evaluate(strides=10, landing="handover")
@@ -631,7 +632,7 @@ def test_landing_as_the_children_measured_the_knees_goal_is_still_beyond_its_dri
     for d, f in zip(drop.floors, hand.floors, strict=True):
         assert f["floor_all_Nm_per_kg"] <= law[f["joint"]]
         assert f["floor_loop_Nm_per_kg"] <= law[f["joint"]]
-        assert f["floor_loop_Nm_per_kg"] <= d["floor_loop_Nm_per_kg"] * 1.01  # ankle's +0.4 %
+        assert f["floor_loop_Nm_per_kg"] <= d["floor_loop_Nm_per_kg"] * 1.04  # ankle's +2.9 %
     knee, knee_drop = hand.floors[1], drop.floors[1]
     assert knee["floor_loop_Nm_per_kg"] < 0.7 * knee_drop["floor_loop_Nm_per_kg"]
     assert knee["floors_Nm_per_kg"][LIMITS[1]] > 2 * GOAL_NM_PER_KG  # the current limit

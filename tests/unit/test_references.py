@@ -71,3 +71,40 @@ def test_gait_bad_options():
         SchwartzGait2008(speed="Jogging")
     with pytest.raises(exoleg.ParameterError, match="stride_time"):
         SchwartzGait2008(stride_time=0)
+
+
+def test_a_walk_starts_at_rest_and_joins_the_gait():
+    # reference.gait.start_pace / start_blend: the pace a minimum-jerk rise (Flash & Hogan
+    # 1985) whose integral is the gait's time, and the reference q0 + b (gait - q0) with
+    # the gait played at pace b -- checked as exact identities against finite differences
+    # of their own values (central, step 1e-5 s: truncation ~1e-8 of the figures here)
+    from exoleg.reference.gait import START_RAMP, start_blend, start_pace
+
+    T = START_RAMP
+    assert start_pace(0.0) == (0.0, 0.0, 0.0, 0.0)
+    assert start_pace(T) == (0.5 * T, 1.0, 0.0, 0.0)  # the gait lags half the ramp
+    assert start_pace(T + 0.3) == (T + 0.3 - 0.5 * T, 1.0, 0.0, 0.0)
+    end = start_pace(T * (1.0 - 1e-12))
+    assert end == pytest.approx((0.5 * T, 1.0, 0.0, 0.0), abs=1e-9)  # joins it smoothly
+    h = 1e-5
+    for tau in np.linspace(0.01, T - 0.01, 9):
+        lo, mid, hi = start_pace(tau - h), start_pace(tau), start_pace(tau + h)
+        for k in range(3):  # elapsed' = b, b' = b1, b1' = b2
+            assert (hi[k] - lo[k]) / (2 * h) == pytest.approx(mid[k + 1], rel=1e-6, abs=1e-7)
+    # the gait a sinusoid of its own time: the blended reference's derivatives are its
+    # rate and acceleration as start_blend gives them
+    q0, A, w = 0.1, 0.3, 2 * np.pi / 1.1
+
+    def reference(tau):
+        e, b, b1, b2 = start_pace(tau)
+        g, dg, ddg = A * np.sin(w * e), A * w * np.cos(w * e), -A * w * w * np.sin(w * e)
+        return start_blend(q0, g, dg, ddg, (b, b1, b2))
+
+    assert reference(0.0) == (q0, 0.0, 0.0)
+    e = T + 0.2 - 0.5 * T
+    assert reference(T + 0.2) == pytest.approx((A * np.sin(w * e), A * w * np.cos(w * e),
+                                                -A * w * w * np.sin(w * e)), abs=1e-15)
+    for tau in np.linspace(0.01, T - 0.01, 9):
+        lo, mid, hi = reference(tau - h), reference(tau), reference(tau + h)
+        assert (hi[0] - lo[0]) / (2 * h) == pytest.approx(mid[1], rel=1e-6, abs=1e-8)
+        assert (hi[1] - lo[1]) / (2 * h) == pytest.approx(mid[2], rel=1e-6, abs=1e-6)

@@ -357,18 +357,20 @@ def test_the_datasheets_device_does_not_carry_a_heavy_child() -> None:
     # carried where Table 2's device carried him. On four hard points and the gait of a
     # tilted pelvis a 40 kg boy already faulted (the knee past its hard limit); on the
     # rolling sole and the upright gait (issue 22) 40 kg is carried at the edge (hip at
-    # its envelope in half the ticks, knee within 14.8 deg) and 48 kg is not: measured,
-    # the knee 34 deg off its reference (RMS 14.6, the 40 kg boy's 6.8), the hip at its
-    # envelope in 3517 of 7601 ticks. (61 deg, RMS 37, and 4221 ticks while the world's
-    # cycle waited for a strike the leg could not make -- the foot down behind the hip;
-    # it now goes on from such a foot, as the other leg of a child would); a 21 kg
-    # 8-year-old tracks within 4.8 / 11.0 / 15.0 deg (RMS 2.2 / 4.2 / 4.2).
+    # its envelope in 44 % of the ticks, knee within 14.5 deg, RMS 6.3) and 48 kg is not:
+    # measured, the knee 22 deg off its reference (RMS 10.5), the hip at its envelope in
+    # 4232 of 7601 ticks. (Before the walk started at rest, reference.gait.START_RAMP: 34
+    # deg, RMS 14.6 and 3517 ticks; before that, 61 deg, RMS 37, and 4221 ticks while the
+    # world's cycle waited for a strike the leg could not make -- the foot down behind the
+    # hip; it now goes on from such a foot, as the other leg of a child would); a 21 kg
+    # 8-year-old tracks within 4.8 / 10.9 / 15.0 deg (RMS 2.2 / 4.1 / 4.2).
     from exoleg.sizing import Child, personalized_leg
 
     heavy = personalized_leg(Child(age=12, sex="male", height=1.55, mass=48.0))
     r = simulate_walk(heavy, 48.0, strides=6)
-    err = np.degrees(np.abs(r.q - r.q_ref)[r.t > 3.0]).max(axis=0)
-    assert np.any(r.mode == Mode.FAULT) or err[1] > 25.0, err
+    e = np.degrees(np.abs(r.q - r.q_ref)[r.t > 3.0])
+    knee_rms = float(np.sqrt(np.mean(e[:, 1] ** 2)))
+    assert np.any(r.mode == Mode.FAULT) or knee_rms > 9.0, knee_rms  # 1.5 x the 40 kg boy's
     at_envelope = (np.abs(r.tau) >= r.envelope - 1e-6).sum(axis=0)
     assert at_envelope[0] > 0.4 * len(r.t), at_envelope
     light = personalized_leg(Child(age=8, sex="female", height=1.20, mass=21.0))
@@ -376,3 +378,27 @@ def test_the_datasheets_device_does_not_carry_a_heavy_child() -> None:
     assert not np.any(r.mode == Mode.FAULT)
     err = np.degrees(np.abs(r.q - r.q_ref)[r.t > 3.0]).max(axis=0)
     assert np.all(err < [8.0, 15.0, 20.0]), err
+
+
+@pytest.mark.parametrize("mode", ["impedance", "transparent"])
+def test_a_walk_from_standing_starts_without_an_impact_at_the_cuffs(mode: str) -> None:
+    # The walk's start (reference.gait.START_RAMP): the belt, the other leg's lift, the
+    # child's gait and the reference come up to pace together from rest. Started at full
+    # pace in a tick, the belt dragged the standing foot to its speed at once: the cuffs
+    # read 176 / 77 / 52 N m (impedance) and 176 / 79 / 32 (transparent) in the walk's
+    # first 0.5 s, the hip's 2.2 times its limit (safety.toml's 2.5 / 1.3 / 1.9 N m per kg:
+    # Schwartz 2008's very fast moments, mean + 2 SD) -- an impact no child starting to
+    # walk meets. Measured now 46 / 30 / 50 and 31 / 19 / 12 N m (the girl of 10, 32 kg);
+    # standing, 19 / 12 / 14
+    from exoleg.child.model import ChildModel
+    from exoleg.control.transparency import SUPPORT_NAMES
+    from exoleg.sizing import personalized_leg
+    from exoleg.sizing.child import population_child
+
+    c, _ = population_child(None, "female", 10.0, 50.0)
+    r = simulate_walk(personalized_leg(c), c.mass, strides=2, child=ChildModel.of(c),
+                      support_mode=SUPPORT_NAMES[mode])
+    assert not np.any(r.mode == Mode.FAULT)
+    start = (r.t >= r.walk_start) & (r.t < r.walk_start + 0.5)
+    peak = np.abs(r.interaction[start]).max(axis=0)
+    assert np.all(peak <= r.cuff_limit * c.mass), (peak, r.cuff_limit * c.mass)

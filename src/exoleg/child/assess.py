@@ -130,7 +130,7 @@ def pendulum(child: ChildModel, duration: float = 10.0, h: float = 1e-3,
             break
         qa[:] = hip, q, ank
         dqa[:] = 0.0, dq, 0.0
-        child_tick((P, C, CS), qa, dqa, h, False, 0.0, False, tick)
+        child_tick((P, C, CS), qa, dqa, h, False, (0.0, 0.0, 0.0), False, tick)
         r = RF[k] = tick[1]
         k1q, k1v = dq, accel(q, dq, r)
         k2q, k2v = dq + 0.5 * h * k1v, accel(q + 0.5 * h * k1q, dq + 0.5 * h * k1v, r)
@@ -198,7 +198,7 @@ def stretch(child: ChildModel, speeds: tuple[float, ...] = (5.0, 30.0, 60.0, 90.
             q[:] = hip, -math.radians(knee[k]), 0.0
             dq[:] = 0.0, math.radians(v), 0.0  # extending the knee: q2 rises
             passive_torque(P, q, dq, out)
-            child_tick((P, C, CS), q, dq, h, False, 0.0, False, tick)
+            child_tick((P, C, CS), q, dq, h, False, (0.0, 0.0, 0.0), False, tick)
             # the moment the leg opposes extension with (- tau2), the hand feels it
             r_all[k] = -(out[1] + tick[1])
             x_all[k] = -tick[1]

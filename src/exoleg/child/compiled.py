@@ -32,6 +32,7 @@ from exoleg.child.passive import (
 )
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, I8, new
+from exoleg.reference.gait import start_blend
 
 F64 = NDArray[np.float64]
 
@@ -170,15 +171,18 @@ def _learn(c, s, xc, q, loaded):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def child_tick(child, q, dq, h, walking, xc, loaded, out):  # type: ignore[no-untyped-def]
+def child_tick(child, q, dq, h, walking, gait, loaded, out):  # type: ignore[no-untyped-def]
     """The child's muscles over one tick, their passive moments aside (the plant adds
     those in every stage): tone, short-range stiffness and stretch reflex of each spastic
-    group, and the effort tracking the intended gait at the child's gait fraction ``xc``
-    while ``walking`` (else holding the standing posture) from what the child felt a
-    delay ago, within their strength, stiffer while their foot is ``loaded``. ``child``:
+    group, and the effort tracking the intended gait while ``walking`` (else holding the
+    standing posture) from what the child felt a delay ago, within their strength,
+    stiffer while their foot is ``loaded``. ``gait``: the child's gait fraction, its pace
+    (0-1) and the pace's rate (1/s): at a walk's start the child moves from standing
+    into the gait as the pace rises (:func:`~exoleg.reference.gait.start_blend`). ``child``:
     (:data:`PASSIVE`, :data:`CHILD`, :data:`CHILD_STATE`), as :func:`child_records` makes
     them. Torques (N m, exoleg's signs) into ``out`` (3,)."""
     P, C, CS = child
+    xc, pace, rate = gait
     R = P[0]
     c = C[0]
     s = CS[0]
@@ -259,6 +263,9 @@ def child_tick(child, q, dq, h, walking, xc, loaded, out):  # type: ignore[no-un
                 x = min(max(xc, 0.0), 1.0)
                 qi, dqi = _cycle(c.gait_q, xd, j), _cycle(c.gait_dq, xd, j)
                 qn, dqn = _cycle(c.gait_q, x, j), _cycle(c.gait_dq, x, j)
+                if pace < 1.0:  # a walk's start: from standing into the gait
+                    qi, dqi, _ = start_blend(c.stand[j], qi, dqi, 0.0, (pace, rate, 0.0))
+                    qn, dqn, _ = start_blend(c.stand[j], qn, dqn, 0.0, (pace, rate, 0.0))
                 ff = (s.share0 if row == 0 else c.share[1]) * _cycle(c.gait_tau, x, j)
             else:
                 qi, dqi, ff = c.stand[j], 0.0, 0.0

@@ -65,26 +65,35 @@ from exoleg.control.transparency import (
 )
 from exoleg.control.walk_gains import BOUNDS, TUNABLE, WalkGains
 from exoleg.device.actuator import ACTUATOR
-from exoleg.dynamics.kernels import foot_point_jacobian, gravity, links_mass, mass_matrix
+from exoleg.dynamics.kernels import (
+    foot_point,
+    foot_point_jacobian,
+    gravity,
+    links_mass,
+    mass_matrix,
+)
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, new
+from exoleg.reference.gait import START_RAMP, start_blend, start_pace
 from exoleg.sizing.anthropometry import body_weight_share
 from exoleg.tick import OUTPUT, SENSORS, Command, Mode, TickRecords
 
 F64 = NDArray[np.float64]
 
 
-#: The reference's state: the last tick's gait fraction; when the stop was asked (s);
-#: where the blend to the standing posture started -- its time (s; negative: none under
-#: way) and the reference's posture then (rad); when the last walk started from standing
-#: (s; negative: none); when a walk was asked that waits for the foot's contact to be
-#: known (s; negative: none waiting). Then the tick's work (it allocates nothing): the
-#: reference, the gravity torque, the impedance's command, assist-as-needed's levels and
-#: error, the support levels, the torques asked at the cuffs and of the transparent law,
-#: the mass matrix and the centre of pressure's Jacobian.
-REFERENCE = np.dtype([("x", F8), ("t_stop", F8), ("t_stand", F8), ("q_from", F8, 3),
-                      ("t_walk", F8), ("t_asked", F8)]
+#: The reference's state: when the stop was asked (s); where the blend to the standing
+#: posture started -- its time (s; negative: none under way) and the reference's posture
+#: then (rad; or the posture the last walk started from, which it blends from into the
+#: gait: start_blend); when the last walk started from standing (s; negative: none); when
+#: a walk was asked that waits for the foot's contact to be known (s; negative: none
+#: waiting); the stance ankle's x from the hip as measured the last tick (m, ahead > 0).
+#: Then the tick's work (it allocates nothing): the reference, the gravity torque, the
+#: impedance's command, assist-as-needed's levels and error, the support levels, the
+#: torques asked at the cuffs and of the transparent law, the mass matrix and the centre
+#: of pressure's Jacobian.
+REFERENCE = np.dtype([("t_stop", F8), ("t_stand", F8), ("q_from", F8, 3),
+                      ("t_walk", F8), ("t_asked", F8), ("ankle", F8)]
                      + [(n, F8, 3) for n in ("qr", "dqr", "ddqr", "gravity", "command",
                                              "aan", "error", "level", "tau_ref", "tr")]
                      + [("M", F8, (3, 3)), ("J", F8, (2, 3))])
@@ -195,8 +204,8 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
     one-element array.
 
     A stand from walking is a controlled stop (the supervisor's STOPPING): the walk goes on
-    until the stance foot is next under the hip (``stop_fraction``, :func:`stop_fraction`;
-    the treadmill keeps running, as the hip is held in x; at most
+    until the stance ankle, as measured, next passes under the hip (the treadmill keeps
+    running, as the hip is held in x; at most
     :data:`STOP_WAIT_STRIDES` strides), then the reference moves from the gait's
     posture there to the standing posture over ``stand_blend`` s (:func:`_stand_blend`);
     while it moves the detected phase chooses the stance or swing model and gains. An
@@ -235,10 +244,13 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
             refused = Command.WALK
             R.t_asked = -1.0
     if mode == Mode.WALKING and before == Mode.STANDING:
-        # walking starts from mid-stance, where the gait is nearest to standing
-        st[0].t_ic = t - C.start_fraction * gp.stride_time(d, st)
+        # walking starts from mid-stance, where the gait is nearest to standing, at rest:
+        # its pace rises over START_RAMP s, which its time lags by half (start_pace)
+        st[0].t_ic = t - C.start_fraction * gp.stride_time(d, st) + 0.5 * START_RAMP
         R.t_stand = -1.0
         R.t_walk = t
+        for j in range(3):
+            R.q_from[j] = R.qr[j]  # the posture the last tick stood in
     elif mode == Mode.STOPPING and before == Mode.WALKING:
         R.t_stop = t
     elif mode != Mode.STANDING and mode != Mode.STOPPING:
@@ -256,7 +268,15 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
     if mode == Mode.WALKING or mode == Mode.STOPPING:
         x = gp.gait_fraction(d, st, t)
         T = gp.stride_time(d, st)
+        ramp = R.t_walk >= 0.0 and t - R.t_walk < START_RAMP
+        if ramp:  # the walk's start: from the posture stood in into the gait, at rest
+            elapsed, b, b1, b2 = start_pace(t - R.t_walk)
+            x = C.start_fraction + elapsed / T
         _gait(gq, gdq, x, T, qr, dqr, ddqr)
+        if ramp:
+            for j in range(3):
+                qr[j], dqr[j], ddqr[j] = start_blend(R.q_from[j], qr[j], dqr[j], ddqr[j],
+                                                     (b, b1, b2))
         # a stride past its estimate: the reference waits at the cycle's end for the
         # initial contact, still -- its rate and acceleration fade out (a late contact's
         # few per cent untouched), or the impedance pushes the gait's end-of-swing rate at
@@ -268,15 +288,19 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
             for j in range(3):
                 dqr[j] *= fade
                 ddqr[j] *= fade
-        if mode == Mode.STOPPING and (
-                (R.x < C.stop_fraction <= x and phase >= gp.Phase.LOADING)
-                or t - R.t_stop > STOP_WAIT_STRIDES * T):
+        # the stance ankle as measured, ahead of the hip (> 0) or not: a stop stands as it
+        # passes under the hip (at the reference's fraction where the normative ankle
+        # does, a child whose stance lagged it stood with the foot ahead, the hip held
+        # 12 deg flexed)
+        ankle = foot_point(qm, vm, p, 0.0, 0.0)[0]
+        under = phase >= gp.Phase.LOADING and R.ankle > 0.0 >= ankle
+        R.ankle = ankle
+        if mode == Mode.STOPPING and (under or t - R.t_stop > STOP_WAIT_STRIDES * T):
             mode = Mode.STANDING  # foot under the hip (or tired of waiting): stand here
             sup[0].mode = mode
             R.t_stand = t
             for j in range(3):
                 R.q_from[j] = qr[j]
-    R.x = x
     blending = mode == Mode.STANDING and R.t_stand >= 0.0 and t - R.t_stand < C.stand_blend
     # the stance model while the foot bears weight (the detector's: from the FSRs' lift
     # on, the toes' tips alone bear it until the toe off)
@@ -361,19 +385,6 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
 _tick: Callable[..., None] = walk_control_step
 
 
-def stop_fraction(leg: LegModel, gq: F64) -> float:
-    """Where in the gait cycle the stance ankle passes under the hip, for ``leg`` (the
-    first crossing in 10-60 % of the cycle, on the normative gait ``gq`` (K, 3)): where a
-    stop can stand without the foot having to move on the ground."""
-    x = np.linspace(0.0, 1.0, len(gq))
-    ankle = leg.fk(gq)["ankle"][:, 0]
-    stance = np.nonzero((x >= 0.1) & (x <= 0.6) & (ankle <= 0.0))[0]
-    if not len(stance):
-        raise ParameterError("WalkController", "leg", "its ankle never passes under the hip "
-                             "in the normative stance (10-60 % of the cycle)")
-    return float(x[stance[0]])
-
-
 def gait_tables(speed: str = "Free", sd: float = 0.0, samples: int = 201) -> tuple[F64, F64]:
     """Normative gait over one cycle: q (samples, 3) rad, and (samples, 6) its first and
     second derivatives per unit cycle (divide by T and T^2 for a stride of T s)."""
@@ -437,7 +448,6 @@ class WalkController:
                                     np.array(SENSOR_X) * float(leg.lengths[2]),
                                     -float(sole))  # the sensors' y in the foot frame
         self.gq, self.gdq = gait_tables(speed)
-        self.cp[0]["stop_fraction"] = stop_fraction(leg, self.gq)
         self.d = self.detector.record(fsr_floor_counts, expected_stride, gyro_range,
                                       accel_range, other_foot)
         self.st = gp.new_state(self.d)

@@ -104,7 +104,7 @@ def _muscles(P, C, CS, q, dq, h, out):  # type: ignore[no-untyped-def]
     """The child's muscles (:func:`~exoleg.child.compiled.child_tick`, relaxed: standing, not
     walking, unloaded) over the recorded angles and rates, tick by tick, into out."""
     for k in range(q.shape[0]):
-        child_tick((P, C, CS), q[k], dq[k], h, False, 0.0, False, out[k])
+        child_tick((P, C, CS), q[k], dq[k], h, False, (0.0, 0.0, 0.0), False, out[k])
 
 
 def child_torques(child: ChildModel, period: float, q: F64, dq: F64) -> F64:

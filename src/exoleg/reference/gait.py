@@ -14,6 +14,7 @@ from functools import cache
 from importlib import resources
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from exoleg.errors import ParameterError
@@ -106,6 +107,46 @@ STRIDE_TIME_RANGE = (0.4, 4.0)
 #: Mid-stance as a fraction of the gait cycle (Schwartz 2008): the posture nearest to
 #: standing, where a walk starts and the paper's scenario takes its stance posture.
 MID_STANCE = 0.30
+#: A walk from standing starts at rest: the belt and the gait come up to their pace
+#: together over this long, s (:func:`start_pace`), the leg moving from the posture stood
+#: in into the gait (:func:`start_blend`). Started at full pace at once, the belt dragged
+#: the standing foot from rest to its speed in a tick (the cuffs read 119 / 57 N m at
+#: hip / knee: a GMFCS I girl of 9 on the example design), and the gait's mid-stance,
+#: 2-8 deg from the standing posture and moving, was stepped into: every assisted walk's
+#: torque clipped in its first 10-30 ms. Over 0.2 s, bringing a 1:120 hip's rotor to the
+#: gait's rate still clipped it; over 0.4 s none of four children's walks on that design
+#: clipped in their first 0.5 s (0.8 s: no fewer later). A measured choice, not a source's.
+START_RAMP = 0.4
+
+
+@njit(cache=True)
+def start_pace(tau):  # type: ignore[no-untyped-def]
+    """``tau`` s after a walk's start: the gait's time elapsed (s), its pace b (0-1: the
+    share of the belt's speed and of the gait's rates) and the pace's first and second
+    derivatives (1/s, 1/s^2). The pace rises as a minimum-jerk move over
+    :data:`START_RAMP` (Flash & Hogan 1985), so the gait's time lags the clock's by half
+    the ramp from its end on."""
+    if tau >= START_RAMP:
+        return tau - 0.5 * START_RAMP, 1.0, 0.0, 0.0
+    s = max(tau, 0.0) / START_RAMP
+    s2 = s * s
+    return (START_RAMP * s2 * s2 * (2.5 - 3.0 * s + s2), s2 * s * (10.0 - 15.0 * s + 6.0 * s2),
+            s2 * (30.0 - 60.0 * s + 30.0 * s2) / START_RAMP,
+            s * (60.0 - 180.0 * s + 120.0 * s2) / (START_RAMP * START_RAMP))
+
+
+@njit(cache=True)
+def start_blend(q0, g, dg, ddg, pace):  # type: ignore[no-untyped-def]
+    """A joint's reference at a walk's start: from the posture ``q0`` stood in into the
+    gait (``g``, ``dg``, ``ddg``: its angle and rates at full pace, at the gait's time
+    :func:`start_pace` gives), weighted by the pace b: q0 + b (gait - q0), the gait
+    played at pace b. ``pace``: :func:`start_pace`'s (b, b', b''). Returns q, dq, ddq:
+    at rest on q0 at the start, the gait's own from the ramp's end."""
+    b, b1, b2 = pace
+    v = b * dg  # the gait's rates played at pace b (its time's rate)
+    a = b * b * ddg + b1 * dg
+    d = g - q0
+    return q0 + b * d, b1 * d + b * v, b2 * d + 2.0 * b1 * v + b * a
 
 
 def pelvic_tilt(speed: str = "Free") -> float:

@@ -39,7 +39,7 @@ from exoleg.dynamics.kernels import foot_point, foot_point_trig, joint_trig
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, new
-from exoleg.reference.gait import MID_STANCE, SchwartzGait2008
+from exoleg.reference.gait import MID_STANCE, SchwartzGait2008, start_pace
 from exoleg.sizing.anthropometry import body_weight_share
 from exoleg.world.plant import (
     STEP,
@@ -220,16 +220,19 @@ def device_actuate(dev, K, S, step, u, fn, scene, into):  # type: ignore[no-unty
         D.loaded = False
         if D.t_strike > D.t_off:
             D.t_off = t
-    xc = 0.0
+    xc = pace = rate = 0.0
     if walking and not D.walking:  # a walk starts (again)
         D.t_start = t
     D.walking = walking
     if walking:
-        W.belt_speed = D.belt
+        # from rest: the belt and the child's gait come up to pace together, as the
+        # controller's reference does (start_pace)
+        elapsed, pace, rate, _ = start_pace(t - D.t_start)
+        W.belt_speed = pace * D.belt
         if D.t_strike >= D.t_start:
             xc = (t - D.t_strike) / stride
         else:
-            xc = MID_STANCE + (t - D.t_start) / stride
+            xc = MID_STANCE + elapsed / stride
         if xc >= 0.999 and D.loaded:
             # the cycle has run out with the foot already down (it landed behind the hip:
             # no strike): the child takes it as their stance, a stride from here -- waiting
@@ -238,8 +241,11 @@ def device_actuate(dev, K, S, step, u, fn, scene, into):  # type: ignore[no-unty
             D.t_strike = t
             xc = 0.0
         xc = min(xc, 0.999)
-        W.support_height = support[min(int(xc * (support.shape[0] - 1) + 0.5),
-                                       support.shape[0] - 1)]
+        # the other leg's support, from standing's as the pace rises (it lifts that foot
+        # as the walk gets under way, not in the walk's first tick)
+        W.support_height = stand_support + pace * (
+            support[min(int(xc * (support.shape[0] - 1) + 0.5), support.shape[0] - 1)]
+            - stand_support)
     else:
         W.belt_speed = 0.0
         W.support_height = stand_support
@@ -247,7 +253,8 @@ def device_actuate(dev, K, S, step, u, fn, scene, into):  # type: ignore[no-unty
     for i in range(3):
         env[i] = drive_limit(A[i:i + 1], D.vm[i], u[i])
     x = D.x
-    child_tick((P, C, CS), x[1:4], x[5:8], h, walking, xc, D.loaded, D.child)
+    child_tick((P, C, CS), x[1:4], x[5:8], h, walking, (xc, pace, rate), D.loaded,
+               D.child)
     x0 = D.x0
     x0[:] = x
     pts, F, gen = D.pts, D.forces, D.gen
