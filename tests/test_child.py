@@ -382,23 +382,21 @@ def test_with_the_child_every_walk_goes_on_and_foot_flat_and_heel_off_are_seen()
     # offs of 60 missed)
     contact = [faults[c] for c in SOURCES[1:]] + [v.closed[c] for c in SOURCES[1:]]
     contact += [t[c] for t in v.worst.values() for c in SOURCES[1:]]
-    # a sensor preloaded while the gyroscope has failed: the first swing, before the
-    # sensor's offset is known, is not seen -- one toe off a walk missed, none extra --
-    # and every contact is found but, at 3x the datasheet noise, the first after the
-    # walk's start in one walk of the nine replayed (the GMFCS III girl's; over seeds
-    # 10-15, 4 of 18 walks at 3x: that noise on the held sensor and the others breaks its
-    # steadiness, held_band, until 16 ms before the landing; none of 18 before the walk
-    # started at rest, reference.gait.START_RAMP, whose first stance loads the sensor
-    # less). Before the held sensor's landing rule the stance latched: all missed
-    # replayed, 3 contacts in 20 strides in the loop
+    # a sensor preloaded while the gyroscope has failed: every contact is found, and the
+    # first swing, before the sensor's offset is known, is not seen -- one toe off a walk
+    # missed, none extra. Before the held sensor's landing rule the stance latched: all
+    # missed replayed, 3 contacts in 20 strides in the loop; before a load beside the held
+    # sensor had to last the debounce to end its swing, noise on an unloaded sensor at 3x
+    # the datasheet's restarted its wait, and a walk's first landing went unseen in 4 of 18
+    # walks at 3x (seeds 10-15, the walks starting at rest: reference.gait.START_RAMP)
     held = "preloaded metatarsal, gyroscope failed"
     contact += [faults[held], v.closed[held]]
-    for table, walks, late in ((faults[held], len(CHILDREN) * len(NOISE), 1),
-                               (v.closed[held], len(CHILDREN), 0)):
+    for table, walks in ((faults[held], len(CHILDREN) * len(NOISE)),
+                         (v.closed[held], len(CHILDREN))):
         by_event = {r["event"]: r for r in table}
         to, ic = by_event["toe off"], by_event["initial contact"]
-        assert to["missed"] <= walks + late and to["false"] == 0, to
-        assert ic["missed"] <= late and ic["false"] == 0, ic
+        assert to["missed"] <= walks and to["false"] == 0, to
+        assert ic["missed"] == 0 and ic["false"] == 0, ic
     checked = [(r, ("initial contact", "toe off")) for table in tables for r in table]
     checked += [(r, ("initial contact",)) for table in contact for r in table]
     for r, events in checked:
@@ -463,24 +461,14 @@ def test_with_both_feets_fsrs_no_contact_or_toe_off_is_missed_or_added() -> None
     # 3 and 3 missed), the IMU alone at 4 s strides 43 + 43
     from exoleg.validate.gait_phase import evaluate
 
-    # Not met since the walk starts at rest (reference.gait.START_RAMP): a metatarsal
-    # preloaded while the gyroscope has failed, replayed at 3x the datasheet noise -- two
-    # walks' first toe off read outside the window that matches it (a miss and an extra
-    # each) and the GMFCS III girl's first contact and toe off missed (the test above):
-    # 3 + 2 of 180 toe offs, 1 of 171 contacts (before, none)
-    held = "preloaded metatarsal, gyroscope failed"
     v = evaluate(strides=20, other_foot=True)
-    tables = [v.rows, *v.closed.values(), *v.slow.values(),
+    tables = [v.rows, *v.faults.values(), *v.closed.values(), *v.slow.values(),
               *(t for by in (*v.slow_sources.values(), *v.worst.values())
                 for t in by.values())]
-    tables += [t for name, t in v.faults.items() if name != held]
     for table in tables:
         for r in table:
             if r["event"] in ("initial contact", "toe off"):
                 assert r["missed"] + r["false"] <= 0.01 * r["true"], r
-    for r in v.faults[held]:
-        if r["event"] in ("initial contact", "toe off"):
-            assert r["missed"] + r["false"] <= 0.03 * r["true"], r
     # and on the walks themselves every event, foot flat and heel off too (a sensor
     # failed or the IMU alone cannot see those): before the heel's own unloading
     # threshold (gait_phase.toml heel_off) 5 + 5 of 180 heel offs, read off over 200 ms

@@ -217,6 +217,17 @@ def _held_landing(D, s, counts, t):  # type: ignore[no-untyped-def]
         else:
             s.held_hit = -1.0
         return False
+    if n >= 2 and held >= 0:
+        # another sensor loaded beside the held one: held for the debounce, the held
+        # swing is over; noise on an unloaded sensor -- a tick or two at 3x the
+        # datasheet's -- is not (it restarted the wait for min_swing, and a GMFCS III
+        # girl's first landing after the walk's start went unseen)
+        if s.held_extra < 0.0:
+            s.held_extra = t
+        if t - s.held_extra >= D.debounce - 1e-12:
+            s.held, s.held_extra = -1, -1.0
+        return False
+    s.held_extra = -1.0
     if n == 1 and s.stance_mask & ~(1 << one):
         if one == held:
             dt = t - s.held_t

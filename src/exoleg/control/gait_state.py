@@ -43,7 +43,8 @@ HISTORY = 10
 #: sources' health: the last readings (FSRs, gyroscope, accelerometer) and since when they
 #: have not changed (s). A held sensor (the FSRs' path): the sensors loaded this stance
 #: (bits), the one alone loaded (-1: none), since when (s), its reading's mean and lowest
-#: (counts), the mean's last update (s), and since when a landing reads (s, -1: none).
+#: (counts), the mean's last update (s), since when a landing reads (s, -1: none), and
+#: since when another sensor reads loaded beside it (s, -1: none).
 #: The unassisted foot's insole: the largest sum of its four readings (counts), when it
 #: last bore the body (s; 0 before it has: the detector's start).
 STATE = np.dtype([("phase", I8), ("bearing", np.bool_), ("t_ic", F8),
@@ -68,7 +69,7 @@ STATE = np.dtype([("phase", I8), ("bearing", np.bool_), ("t_ic", F8),
                   ("gyro_last", F8), ("gyro_same", F8), ("fsr_last", F8, 4),
                   ("fsr_same", F8), ("stance_mask", I8), ("held", I8), ("held_since", F8),
                   ("held_mean", F8), ("held_min", F8), ("held_t", F8), ("held_hit", F8),
-                  ("held_ref", F8), ("held_low", F8),
+                  ("held_ref", F8), ("held_low", F8), ("held_extra", F8),
                   ("other_max", F8), ("other_t", F8), ("other_share", F8)])
 
 
@@ -78,7 +79,7 @@ def new_state(settings: NDArray[np.void]) -> NDArray[np.void]:
     s = new(STATE)
     s["phase"] = s["phase_f"] = s["phase_i"] = Phase.UNKNOWN
     s["heel_since"] = s["fore_since"] = s["swing_since"] = s["still_since"] = -1.0
-    s["held"], s["held_hit"] = -1, -1.0
+    s["held"], s["held_hit"], s["held_extra"] = -1, -1.0, -1.0
     for name in ("t_ic", "t_ic_f", "t_to_f", "t_ic_i", "t_ho_i", "t_to_i", "t_loaded",
                  "acc_t"):
         s[name] = -1e9
