@@ -76,6 +76,7 @@ from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, new
 from exoleg.reference.gait import START_RAMP, start_blend, start_pace
+from exoleg.reference.minjerk import min_jerk
 from exoleg.sizing.anthropometry import body_weight_share
 from exoleg.tick import OUTPUT, SENSORS, Command, Mode, TickRecords
 
@@ -143,13 +144,12 @@ def _stand_blend(q0, q1, T, s, out_q, out_dq, out_ddq):  # type: ignore[no-untyp
     in [0, 1] of it: q, dq, ddq into the outs. (Carrying the gait's rate into the
     blend overshot the standing posture with the foot held on the stopped belt, and the
     knee was pushed past its limit.)"""
-    s2 = s * s
-    s3 = s2 * s
+    b, b1, b2 = min_jerk(s)
     for j in range(3):
         d = q1[j] - q0[j]
-        out_q[j] = q0[j] + d * s3 * (10.0 - 15.0 * s + 6.0 * s2)
-        out_dq[j] = d * s2 * (30.0 - 60.0 * s + 30.0 * s2) / T
-        out_ddq[j] = d * s * (60.0 - 180.0 * s + 120.0 * s2) / (T * T)
+        out_q[j] = q0[j] + d * b
+        out_dq[j] = d * b1 / T
+        out_ddq[j] = d * b2 / (T * T)
 
 
 @njit(inline="always")

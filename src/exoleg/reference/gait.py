@@ -18,6 +18,7 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from exoleg.errors import ParameterError
+from exoleg.reference.minjerk import min_jerk
 
 F64 = NDArray[np.float64]
 SPEED_GROUPS = ("VerySlow", "Slow", "Free", "Fast", "VeryFast")
@@ -129,10 +130,10 @@ def start_pace(tau):  # type: ignore[no-untyped-def]
     if tau >= START_RAMP:
         return tau - 0.5 * START_RAMP, 1.0, 0.0, 0.0
     s = max(tau, 0.0) / START_RAMP
-    s2 = s * s
-    return (START_RAMP * s2 * s2 * (2.5 - 3.0 * s + s2), s2 * s * (10.0 - 15.0 * s + 6.0 * s2),
-            s2 * (30.0 - 60.0 * s + 30.0 * s2) / START_RAMP,
-            s * (60.0 - 180.0 * s + 120.0 * s2) / (START_RAMP * START_RAMP))
+    b, b1, b2 = min_jerk(s)
+    # its integral, the gait's time: s^4 (5/2 - 3 s + s^2), T / 2 at the ramp's end
+    return (START_RAMP * s ** 4 * (2.5 - 3.0 * s + s * s), b, b1 / START_RAMP,
+            b2 / (START_RAMP * START_RAMP))
 
 
 @njit(cache=True)

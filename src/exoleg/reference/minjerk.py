@@ -6,11 +6,20 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from exoleg.reference.steps import Steps
 
 F64 = NDArray[np.float64]
+
+
+@njit(cache=True)
+def min_jerk(s):  # type: ignore[no-untyped-def]
+    """The minimum-jerk rise from 0 to 1 at ``s`` in [0, 1] of it (a number or an array):
+    its value, and its first and second derivatives in s -- at rest at both ends."""
+    return (s * s * s * (10.0 - 15.0 * s + 6.0 * s * s), 30.0 * s * s * (1.0 - s) ** 2,
+            60.0 * s * (1.0 - s) * (1.0 - 2.0 * s))
 
 
 @dataclass(frozen=True)
@@ -55,9 +64,7 @@ class MinJerk:
         j = np.minimum(i + 1, len(T) - 1)
         dur = np.where(moving, T[j] - T[i], 1.0)
         tau = np.where(moving, (tt - T[i]) / dur, 0.0)
-        s = tau**3 * (10 - 15 * tau + 6 * tau**2)
-        ds = 30 * tau**2 * (1 - tau) ** 2 / dur
-        dds = 60 * tau * (1 - tau) * (1 - 2 * tau) / dur**2
+        s, ds, dds = min_jerk(tau)
         delta = P[j] - P[i]
         q = P[i] + s[:, None] * delta
-        return q, ds[:, None] * delta, dds[:, None] * delta
+        return q, (ds / dur)[:, None] * delta, (dds / dur**2)[:, None] * delta
