@@ -98,8 +98,9 @@ REFERENCE = np.dtype([("t_stop", F8), ("t_stand", F8), ("q_from", F8, 3),
                      + [(n, F8, 3) for n in ("qr", "dqr", "ddqr", "gravity", "command",
                                              "aan", "error", "level", "tau_ref", "tr")]
                      + [("M", F8, (3, 3)), ("J", F8, (2, 3))])
-#: A stop gives up waiting for mid-stance after this many strides, and stands from
-#: wherever the gait is (a child who stopped stepping never reaches it again).
+#: A stop gives up waiting for the stance ankle to pass under the hip after this many
+#: strides, and stands from wherever the gait is (a child who stopped stepping, or whose
+#: foot lands behind the hip, never passes it).
 STOP_WAIT_STRIDES = 1.5
 #: A stride this far past its estimate (strides) has the reference's rate and
 #: acceleration fade out over the next OVERRUN_FADE: the reference waits for the initial

@@ -114,9 +114,10 @@ MID_STANCE = 0.30
 #: the standing foot from rest to its speed in a tick (the cuffs read 119 / 57 N m at
 #: hip / knee: a GMFCS I girl of 9 on the example design), and the gait's mid-stance,
 #: 2-8 deg from the standing posture and moving, was stepped into: every assisted walk's
-#: torque clipped in its first 10-30 ms. Over 0.2 s, bringing a 1:120 hip's rotor to the
+#: torque clipped in its first 10-60 ms. Over 0.2 s, bringing a 1:120 hip's rotor to the
 #: gait's rate still clipped it; over 0.4 s none of four children's walks on that design
-#: clipped in their first 0.5 s (0.8 s: no fewer later). A measured choice, not a source's.
+#: clipped in their first 0.5 s (0.8 s: about as many clipped ticks later, and more
+#: gait-phase checks moved). A measured choice, not a source's.
 START_RAMP = 0.4
 
 
