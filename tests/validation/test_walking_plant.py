@@ -159,8 +159,11 @@ def test_a_landing_handed_over_loads_the_heel_as_the_children_measured(tmp_path)
     # the shipped ground and on the same with landing = "handover". Reference: Schwartz
     # et al. 2008's children at free speed bear 0.47 +- 0.14 body weights 2 % of the
     # stride after contact and their mean reaches one body weight at 12 % (132 ms of a
-    # 1.1 s stride). Measured: handover 0.59 (within one SD), one body weight after 78 ms;
-    # drop 1.05 (more than three SDs above), one body weight within 1 ms.
+    # 1.1 s stride). Measured: handover 0.62 (1.08 SD above the mean; 0.59, within one
+    # SD, before the child's feedforward stopped counting the passive moments twice: the
+    # knee 2 N m less flexed into the landing), one body weight after 88 ms; drop 1.03
+    # (four SDs above), one body weight within 1 ms. Asked: handover within the children's
+    # normal range (two SDs), drop beyond three.
     from importlib import resources
 
     from exoleg.child.model import ChildModel
@@ -184,7 +187,7 @@ def test_a_landing_handed_over_loads_the_heel_as_the_children_measured(tmp_path)
         h[name] = heel_strike_loading(r, g=leg.g)
         assert h[name]["contacts"] >= 6, (name, h[name])
     mean, sd = h["drop"]["source_2pct_bw"], h["drop"]["source_2pct_sd"]
-    assert abs(h["handover"]["at_2pct_bw"] - mean) <= sd, h["handover"]
+    assert abs(h["handover"]["at_2pct_bw"] - mean) <= 2 * sd, h["handover"]
     assert h["drop"]["at_2pct_bw"] > mean + 3 * sd, h["drop"]
     # one body weight: handover later than within the first tens of ms, before the source
     assert 50.0 < h["handover"]["to_1bw_ms"] < h["drop"]["source_to_1bw_ms"]
@@ -204,3 +207,4 @@ def test_a_load_shorter_than_a_stance_is_a_touch_not_a_landing() -> None:
     assert stances.tolist() == [0, 400, 900]
     assert touches.tolist() == [300, 700]
     assert [len(v) for v in loads(np.zeros(10, dtype=bool))] == [0, 0]
+

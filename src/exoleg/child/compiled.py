@@ -26,6 +26,7 @@ from exoleg.child.passive import (
     RienerModel,
     child_data,
     height_scale,
+    passive_moments,
     passive_record,
     riener_phi,
     term_value,
@@ -44,10 +45,11 @@ F64 = NDArray[np.float64]
 #: tonically active muscles' force-velocity (the eccentric gain, its speed deg/s); the
 #: effort (1 on), its stiffness (N m/rad) and damping (N m s/rad) with the foot loaded
 #: (row 0) and in swing (row 1), strength (N m), delay
-#: (ticks), the standing posture (rad), the intended gait (q, dq rad, rad/s; internal
-#: moments N m) over the cycle, the share of those moments the child drives with the foot
-#: loaded (row 0: what the device's stance support leaves them) and in swing (row 1), and the
-#: stride time (s) the cycle takes.
+#: (ticks), the standing posture (rad), the intended gait (q, dq rad, rad/s; the active
+#: moments along it: the net internal moments less a typically developing body's passive
+#: ones, N m) over the cycle, the share of those moments the child drives with the foot
+#: loaded (row 0: what the device's stance support leaves them) and in swing (row 1), and
+#: the stride time (s) the cycle takes.
 CHILD = np.dtype([("term", I8, 4), ("tone", F8, 4), ("g_f", F8, 4), ("g_df", F8, 4),
                   ("g_v", F8, 4), ("v_threshold", F8),
                   ("srs", F8), ("srs_range", F8), ("srs_decay", F8), ("reflex_delay", I8),
@@ -124,7 +126,17 @@ def child_records(child: ChildModel | None, h: float, stride_time: float = 1.1,
     r["kd"][1] = 2 * float(e["swing_damping_ratio"]) * wn * inert
     r["strength"] = child.strength()
     r["stand"] = standing
-    r["gait_q"], r["gait_dq"], r["gait_tau"] = intended_gait(child, stride_time, speed)
+    q_g, dq_g, tau_g = intended_gait(child, stride_time, speed)
+    # the gait's moments are net ones (inverse dynamics: the muscles' and the passive
+    # tissues' together) and the plant adds the child's passive moments itself, so the
+    # muscles drive the net less a typically developing body's passive moments along the
+    # gait: the active moment. The device's stance support relieves the muscles of their
+    # share of it, not the tissues (a child it carries relaxes; their tissues still
+    # act). The child's own contracture stays theirs, beyond what they mean
+    td = passive_record(child.height, None,
+                        tuple(d * s for d in PASSIVE_DAMPING))  # type: ignore[arg-type]
+    r["gait_q"], r["gait_dq"] = q_g, dq_g
+    r["gait_tau"] = tau_g - passive_moments(td, q_g, dq_g)
     r["share"] = float(e["share"]) * (1.0 - device_support), float(e["share"])
     r["stride"] = stride_time
     r["intrinsic"] = float(e["intrinsic"])

@@ -39,11 +39,13 @@ def _fault_table(cases: dict[str, list[dict[str, Any]]], title: str) -> None:
 
 def _landing_in_words(h: dict[str, float]) -> str:
     """The heel strike's load against the children measured: at 2 % of the stride
-    within one SD of theirs, or harder or softer; one body weight sooner or later."""
+    within one SD of theirs, or harder or softer (by how many SDs); one body weight
+    sooner or later."""
     d = h["at_2pct_bw"] - h["source_2pct_bw"]
+    sds = f" ({abs(d) / h['source_2pct_sd']:.1f} SD {'above' if d > 0 else 'below'} their mean)"
     at2 = ("lands within one SD of the children measured" if abs(d) <= h["source_2pct_sd"]
-           else "lands harder than the children measured" if d > 0
-           else "lands softer than the children measured")
+           else "lands harder than the children measured" + sds if d > 0
+           else "lands softer than the children measured" + sds)
     return at2 + (", reaching one body weight sooner" if h["to_1bw_ms"] < h["source_to_1bw_ms"]
                   else ", reaching one body weight no sooner")
 
