@@ -208,3 +208,23 @@ def test_a_load_shorter_than_a_stance_is_a_touch_not_a_landing() -> None:
     assert touches.tolist() == [300, 700]
     assert [len(v) for v in loads(np.zeros(10, dtype=bool))] == [0, 0]
 
+
+def test_a_toe_that_never_left_the_belt_did_not_touch_it_again() -> None:
+    # sim.events.touches on a constructed record (1 ms samples, the hallux's region): a
+    # stance whose toe unloads through the 5 N threshold, rebounds above it for a tick on
+    # the sole's spring and then leaves (the designed device's toe off: 18, 14, 10, 6.4,
+    # 2.5, 3.1, 3.9, 4.7, 5.2, 0 N, measured) -- the stance's end, not a touch; a toe
+    # off the belt (0 N) meeting it again at 6 N for a tick, and a catch in mid-swing --
+    # two touches, at 0.603 and 0.801 s (its first sample above 5 N; the rule before
+    # counted the rebound at 0.408 s as a touch too)
+    from exoleg.sim.events import touches
+
+    t = np.arange(1200) * 1e-3
+    f = np.zeros((1200, 4))
+    f[100:400, 3] = 50.0
+    f[400:410, 3] = [18.3, 14.1, 10.2, 6.4, 2.5, 3.1, 3.9, 4.7, 5.2, 0.0]
+    assert touches(f, t).tolist() == []
+    f[603, 3] = 6.0
+    f[800:804, 3] = [3.0, 12.6, 8.0, 1.0]
+    assert touches(f, t).tolist() == pytest.approx([0.603, 0.801])
+    assert touches(f, t, since=0.7).tolist() == pytest.approx([0.801])

@@ -75,6 +75,16 @@ def loads(loaded: NDArray[np.bool_], dt: float = 1e-3, min_stance: float = MIN_S
 def touches(force: F64, t: F64, since: float = -np.inf) -> F64:
     """When the foot touched the belt in swing (s, from ``since``): a load of any region
     of ``force`` (samples, regions; N, sampled at ``t``) above :data:`TRUE_CONTACT_N`
-    shorter than a stance (:func:`loads`)."""
-    at = t[loads(force.max(axis=1) > TRUE_CONTACT_N, float(t[1] - t[0]))[1]]
+    shorter than a stance (:func:`loads`), the foot having left the belt before it.
+    Loads the sole never let go of between them (no sample with every region at zero)
+    are one: a toe unloading through the threshold, rebounding above it on the sole's
+    spring for a tick or two and then leaving, is its stance's end, not a touch."""
+    bearing = force.max(axis=1)
+    loaded = bearing > TRUE_CONTACT_N
+    edges = np.diff(np.concatenate([[False], bearing > 0.0, [False]]).astype(np.int8))
+    for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True):
+        k = np.flatnonzero(loaded[a:b])
+        if len(k):
+            loaded[a + k[0]:a + k[-1] + 1] = True
+    at = t[loads(loaded, float(t[1] - t[0]))[1]]
     return at[at >= since]
