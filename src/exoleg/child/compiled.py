@@ -93,8 +93,8 @@ def child_records(child: ChildModel | None, h: float, stride_time: float = 1.1,
     if child is None:
         return new(PASSIVE), C, S
     s = height_scale(child.height)
-    P = passive_record(child.height, child.contracture,
-                       tuple(d * s for d in PASSIVE_DAMPING))  # type: ignore[arg-type]
+    damping = tuple(d * s for d in PASSIVE_DAMPING)
+    P = passive_record(child.height, child.contracture, damping)  # type: ignore[arg-type]
     sp = child.spasticity
     groups = [t.group for t in RienerModel.shipped().terms]
     r = C[0]
@@ -133,8 +133,7 @@ def child_records(child: ChildModel | None, h: float, stride_time: float = 1.1,
     # gait: the active moment. The device's stance support relieves the muscles of their
     # share of it, not the tissues (a child it carries relaxes; their tissues still
     # act). The child's own contracture stays theirs, beyond what they mean
-    td = passive_record(child.height, None,
-                        tuple(d * s for d in PASSIVE_DAMPING))  # type: ignore[arg-type]
+    td = passive_record(child.height, None, damping)  # type: ignore[arg-type]
     r["gait_q"], r["gait_dq"] = q_g, dq_g
     r["gait_tau"] = tau_g - passive_moments(td, q_g, dq_g)
     r["share"] = float(e["share"]) * (1.0 - device_support), float(e["share"])
