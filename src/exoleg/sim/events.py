@@ -58,6 +58,12 @@ def true_events(force: F64, threshold: float = TRUE_CONTACT_N, dt: float = 1e-3,
     return out
 
 
+def _runs(mask: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """Where each run of True in ``mask`` begins and where it has ended (paired)."""
+    edges = np.diff(np.concatenate([[False], mask, [False]]).astype(np.int8))
+    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+
+
 def loads(loaded: NDArray[np.bool_], dt: float = 1e-3, min_stance: float = MIN_STANCE_S
           ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """The samples at which the foot's load begins (``loaded``: per sample, whether any
@@ -65,8 +71,7 @@ def loads(loaded: NDArray[np.bool_], dt: float = 1e-3, min_stance: float = MIN_S
     foot landing) and touches (shorter: the toe catching the belt in swing, a light foot
     chattering on it -- a trip, on a child); a short load still on at the record's end is
     neither."""
-    edges = np.diff(np.concatenate([[False], loaded, [False]]).astype(np.int8))
-    on, off = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)  # paired
+    on, off = _runs(loaded)
     stance = (off - on) * dt >= min_stance - 1e-9
     # a short load the record ends in may yet be a stance: neither
     return on[stance], on[~stance & (off < len(loaded))]
@@ -81,8 +86,7 @@ def touches(force: F64, t: F64, since: float = -np.inf) -> F64:
     spring for a tick or two and then leaving, is its stance's end, not a touch."""
     bearing = force.max(axis=1)
     loaded = bearing > TRUE_CONTACT_N
-    edges = np.diff(np.concatenate([[False], bearing > 0.0, [False]]).astype(np.int8))
-    for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True):
+    for a, b in zip(*_runs(bearing > 0.0), strict=True):
         k = np.flatnonzero(loaded[a:b])
         if len(k):
             loaded[a + k[0]:a + k[-1] + 1] = True
