@@ -195,6 +195,10 @@ def test_heartbeat_is_counted_from_the_first_exchange() -> None:
                   "file's motor gives 458528 uN m (I_N x k_t) (mN m from the drive's"),
     ("nominal", "knee drive (node 2): 0x3001 sub 1 (nominal current): 15000 mA; the device "
                 "file says 7250 mA"),
+    # the hip's drive commissioned for the 90 W frame's 12 pole pairs (S1); the file's
+    # 160 W has 11 (S2)
+    ("pole pairs", "hip drive (node 3): 0x3001 sub 3 (pole pairs): 12; the device file "
+                   "says 11"),
     ("offset", "knee drive (node 2): (homing): the joint reads"),
     # the interpolation period of a published EPOS4 configuration (10 ms) against the
     # 1 kHz loop's (realtime.md; EPOS4 firmware specification, 0x60C2)
@@ -221,6 +225,8 @@ def test_start_up_refuses_a_misconfigured_device(tmp_path: Path, fault: str,
             rig.nodes["hip"].sdo[0x6076].raw = round(0.0712 * 15 * 1000)
         if k == -1 and fault == "nominal":
             rig.nodes["knee"].sdo[0x3001][1].raw = 15000
+        if k == -1 and fault == "pole pairs":
+            rig.nodes["hip"].sdo[0x3001][3].raw = 12
         if k == -1 and fault == "offset":
             rig.jump[1] = 2.0  # the knee's encoder reads 115 deg off
             rig.nodes["knee"].sdo[0x6064].raw = rig.scaling["knee"].to_counts(2.0)

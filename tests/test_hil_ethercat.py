@@ -99,6 +99,10 @@ def test_faults_take_torque_off(tmp_path: Path, what: str, text: str) -> None:
                   r"drive's current\?"),
     ("current limit", r"knee drive \(slave 2\): 0x3001 sub 2 \(output current limit\): "
                       r"30000 mA; the device file says 14500 mA"),
+    # the hip's drive commissioned for the EC 90 flat 90 W (12 pole pairs, S1) while the
+    # device file's hip is the 160 W (11, S2): it would commutate the motor wrongly
+    ("pole pairs", r"hip drive \(slave 3\): 0x3001 sub 3 \(pole pairs\): 12; the device "
+                   r"file says 11"),
     ("product", r"ankle drive \(slave 1\): 0x1018 sub 2: product code 0x65510000"),
     ("offset", r"knee drive \(slave 2\): \(homing\): the joint reads"),
     ("order", r"ankle drive \(slave 1\): \(identity\): is 'exoleg foot board'"),
@@ -121,6 +125,8 @@ def test_start_up_refuses_a_misconfigured_segment(tmp_path: Path, fault: str,
             rig.slaves[2].objects[0x6076, 0] = struct.pack("<I", round(0.0712 * 15 * 1000))
         elif fault == "current limit":
             rig.slaves[1].objects[0x3001, 2] = struct.pack("<I", 30000)
+        elif fault == "pole pairs":  # an UNSIGNED8, as the EPOS4 holds it
+            rig.slaves[2].objects[0x3001, 3] = struct.pack("<B", 12)
         elif fault == "product":
             rig.slaves[0].id = 0x65510000
         elif fault == "offset":

@@ -34,6 +34,13 @@ DATA = Path(__file__).resolve().parents[2] / "src" / "exoleg" / "data" / "device
 #: permissible speed rpm, winding and motor time constants s
 SHEETS = {"EC 90 flat 160 W": (0.0712, 3.17e-4, 6.44, 0.213, 0.232e-3, 3170, 5000, 69.8, 260),
           "EC 60 flat 150 W": (0.0525, 8.1e-5, 7.25, 0.293, 0.279e-3, 4300, 6000, 16.1, 69.9)}
+#: The maxon sheets' thermal resistances (line 18 winding-housing, line 17 housing-ambient:
+#: the sheet prints 17 first), no-load current and pole pairs (line 29), read from the
+#: sheets themselves (S1: May 2017 p. 271, part 323772; S2: June 2025 p. 324, part
+#: 515458, the 24 V windings): until 2026-12-08 the files had the two resistances
+#: swapped, the 160 W's no-load current the 90 W's and 12 pole pairs for both
+SHEETS_MORE = {"EC 90 flat 160 W": (3.71, 2.37, 0.658, 11),
+               "EC 90 flat 90 W": (2.6, 1.91, 0.544, 12)}
 #: size-17 CSF gear ratings (S10): rated, repeated peak, momentary peak torque, N m
 GEARS = {100: (24.0, 54.0, 108.0), 50: (16.0, 34.0, 70.0)}
 SOURCE_IDS = ("S1", "S2", "S3", "S4", "S5", "S10", "D", "Table 2", "paper", "choice")
@@ -349,6 +356,13 @@ def test_hip_variants_load_and_differ_as_the_sheets_say() -> None:
                                                  "ec90flat-260w"))
     assert v160 == HIP  # the shipped hip is the 160 W, the paper's assumption
     assert v90.torque_constant == 0.0705 and v90.nominal_current == 6.06  # S1
+    for v, sheet in ((v160, "EC 90 flat 160 W"), (v90, "EC 90 flat 90 W")):
+        assert (v.thermal_resistance_winding, v.thermal_resistance_housing,
+                v.no_load_current, v.pole_pairs) == SHEETS_MORE[sheet]
+    # the 260 W class takes the 160 W's thermal figures and pole pairs (its file: choice)
+    w, h, _, pairs = SHEETS_MORE["EC 90 flat 160 W"]
+    assert (v260.thermal_resistance_winding, v260.thermal_resistance_housing,
+            v260.pole_pairs) == (w, h, pairs)
     assert v260.reflected_inertia == pytest.approx(100**2 * (5.06e-4 + 7.9e-6))  # ~5.1
     with pytest.raises(ParameterError, match="allowed: ec90flat-160w, ec90flat-260w, "
                                              "ec90flat-90w"):

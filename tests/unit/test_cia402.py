@@ -4,6 +4,7 @@ statusword table and transitions 2-16; the definitions of counts and per-mille t
 from __future__ import annotations
 
 import math
+import re
 
 import pytest
 from hypothesis import given
@@ -131,10 +132,25 @@ def test_a_drive_configured_as_maxon_configures_it_is_accepted() -> None:
     want = MotorData.of(hip)
     assert (want.rated_unm, want.nominal_current_ma, want.current_limit_ma) == (
         512871, 4760, 9520)
+    # sub 3-5 as the device file's motor has them (the EC 90 flat 160 W's 11 pole pairs,
+    # S2 line 29; its winding's 69.8 s; the torque constant above)
     dcf = DriveObjects(device_type=0x00020192, product_code=0x65520000, rated_unm=512871,
-                       nominal_ma=4760, limit_ma=9520, mode=10, counts=0, inputs=0)
+                       nominal_ma=4760, limit_ma=9520, pole_pairs=11, winding_ds=698,
+                       kt_unm_a=107746, mode=10, counts=0, inputs=0)
     assert "rated torque 512871 uN m" in check_drive("hip drive", dcf, want, 0.0, -1.0,
                                                      1.0, 0.1)
+    # a drive commissioned with the 90 W frame's 12 pole pairs (S1) would commutate the
+    # 160 W's 11 wrongly; a torque constant off by the 24 V and 36 V windings' (70.5
+    # against 107.7 mN m/A, S1) would turn every torque into the wrong current: refused
+    for field, value, text in (
+            ("pole_pairs", 12, "0x3001 sub 3 (pole pairs): 12; the device file says 11"),
+            ("kt_unm_a", 70500, "0x3001 sub 5 (torque constant): 70500 uN m/A; the device "
+                                "file says 107746 uN m/A"),
+            ("winding_ds", 460, "0x3001 sub 4 (winding's thermal time constant): 460 x 0.1 "
+                                "s; the device file says 698 x 0.1 s")):
+        with pytest.raises(ParameterError, match=re.escape(text)):
+            check_drive("hip drive", dataclasses.replace(dcf, **{field: value}), want, 0.0,
+                        -1.0, 1.0, 0.1)
     # the units exoleg held before (mN m of k_t x the drive's 15 A): refused, named
     old = dataclasses.replace(dcf, rated_unm=round(0.107746 * 15 * 1000))
     with pytest.raises(ParameterError, match=r"0x6076: motor rated torque 1616 uN m; the "

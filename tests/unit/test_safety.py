@@ -81,7 +81,7 @@ def test_what_a_decelerating_rotor_loads_the_gear_with_is_held_at_its_repeated_p
     # carries. A rotor slowing down passes its inertia torque through the gear on top of
     # the command. Fault injection: the hip's measured rate falls at a steady 3.08 rad/s^2
     # from 1 rad/s to 0.08 (its rotor's inertia torque 3.249 kg m^2 x 3.08 = 10 N m; the motor's
-    # drag N k_t I_0 = 100 x 0.0712 N m/A x 0.544 A, turning forward: tanh(w / 0.01) = 1):
+    # drag N k_t I_0 = 100 x 0.0712 N m/A x 0.658 A (S2), turning forward: tanh(w / 0.01) = 1):
     # the gear would carry 54 + 10 - drag; the command is held so that it carries 54.
     hip = LIM.actuators[0]
     acc = 10.0 / hip.reflected_inertia

@@ -143,7 +143,9 @@ class CanopenBackend(DriveMaster):
             return cia402.DriveObjects(
                 device_type=int(sdo[0x1000].raw), product_code=int(sdo[0x1018][2].raw),
                 rated_unm=int(sdo[0x6076].raw), nominal_ma=int(sdo[0x3001][1].raw),
-                limit_ma=int(sdo[0x3001][2].raw), mode=int(sdo[0x6060].raw),
+                limit_ma=int(sdo[0x3001][2].raw), pole_pairs=int(sdo[0x3001][3].raw),
+                winding_ds=int(sdo[0x3001][4].raw), kt_unm_a=int(sdo[0x3001][5].raw),
+                mode=int(sdo[0x6060].raw),
                 counts=counts, inputs=self.inputs[j], statusword=int(sdo[0x6041].raw),
                 interpolation=(int(sdo[0x60C2][1].raw), int(sdo[0x60C2][2].raw)),
                 target_torque=int(sdo[0x6071].raw), target_counts=int(sdo[0x607A].raw))

@@ -195,7 +195,8 @@ EPOS4_50_15 = 0x65520000
 class DriveObjects:
     """What the master reads of a drive at start-up, over any bus: device type
     (0x1000), product code (0x1018 sub 2), motor rated torque (0x6076, uN m), the motor
-    data's nominal current and output current limit (0x3001 sub 1, 2; mA), the mode of
+    data (0x3001 sub 1-5: nominal current and output current limit, mA; pole pairs; the
+    winding's thermal time constant, 0.1 s; torque constant, uN m/A), the mode of
     operation after setting CST (0x6060), the position (0x6064, counts), the digital
     inputs (0x60FD), the statusword (0x6041), the interpolation period (0x60C2 sub 1
     value, sub 2 index: value x 10^index s) and the targets read back after the master
@@ -206,6 +207,9 @@ class DriveObjects:
     rated_unm: int
     nominal_ma: int
     limit_ma: int
+    pole_pairs: int
+    winding_ds: int
+    kt_unm_a: int
     mode: int
     counts: int
     inputs: int = 0
@@ -214,6 +218,12 @@ class DriveObjects:
     target_torque: int = 0
     target_counts: int | None = None
 
+
+#: The EPOS4's motor data (0x3001) sub-indices' types as struct formats: nominal current
+#: and output current limit UNSIGNED32 (mA), pole pairs UNSIGNED8, the winding's thermal
+#: time constant UNSIGNED16 (0.1 s), torque constant UNSIGNED32 (uN m/A) -- the shipped
+#: EDS's (data/device/canopen)
+MOTOR_DATA_TYPES = {1: "<I", 2: "<I", 3: "<B", 4: "<H", 5: "<I"}
 
 #: the states a drive may be found in before the session (none acting on a target)
 IDLE_STATES = (State.SWITCH_ON_DISABLED, State.READY_TO_SWITCH_ON, State.SWITCHED_ON)
@@ -238,7 +248,9 @@ def check_drive(where: str, read: DriveObjects, want: Any, q: float, lower: floa
     drive (0x1000) of the product the device file names (0x1018 sub 2), configured for
     the device file's motor as maxon configures it (``want``: the file's
     :class:`~exoleg.hw.units.MotorData` and rated torque -- 0x6076 in uN m = I_N x k_t,
-    0x3001's nominal current and current limit in mA), in cyclic synchronous torque
+    0x3001's nominal current and current limit in mA, the pole pairs it commutates
+    with, the winding's time constant its I2t protection heats by and the torque
+    constant it turns a torque into current by), in cyclic synchronous torque
     (0x6060), its hardware E-stop released (0x60FD), and the joint -- read from its
     absolute encoder, the homing -- within its range of motion (``lower``/``upper`` rad,
     plus ``margin``). Then what makes it safe to enable (the lessons of
@@ -265,13 +277,17 @@ def check_drive(where: str, read: DriveObjects, want: Any, q: float, lower: floa
         raise ParameterError(where, "0x6076", f"motor rated torque {read.rated_unm} uN m; "
                              f"the device file's motor gives {want.rated_unm} uN m (I_N x "
                              f"k_t){old}: torques would be scaled wrongly")
-    for name, got, expected in (("sub 1 (nominal current)", read.nominal_ma,
-                                 want.nominal_current_ma),
-                                ("sub 2 (output current limit)", read.limit_ma,
-                                 want.current_limit_ma)):
+    for name, got, expected, unit in (
+            ("sub 1 (nominal current)", read.nominal_ma, want.nominal_current_ma, " mA"),
+            ("sub 2 (output current limit)", read.limit_ma, want.current_limit_ma, " mA"),
+            ("sub 3 (pole pairs)", read.pole_pairs, want.pole_pairs, ""),
+            ("sub 4 (winding's thermal time constant)", read.winding_ds,
+             want.winding_time_constant_ds, " x 0.1 s"),
+            ("sub 5 (torque constant)", read.kt_unm_a, want.torque_constant_unm_a,
+             " uN m/A")):
         if got != expected:
-            raise ParameterError(where, f"0x3001 {name}", f"{got} mA; the device file says "
-                                 f"{expected} mA")
+            raise ParameterError(where, f"0x3001 {name}", f"{got}{unit}; the device file "
+                                 f"says {expected}{unit}")
     if read.mode != CST:
         raise ParameterError(where, "0x6060", f"mode {read.mode} after setting cyclic "
                              f"synchronous torque ({CST})")

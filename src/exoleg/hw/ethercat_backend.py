@@ -139,13 +139,17 @@ class EthercatBackend(DriveMaster):
             def sdo(index: int, sub: int, f: str) -> int:
                 return int(struct.unpack(f, s.sdo_read(index, sub, struct.calcsize(f)))[0])
 
+            def motor(sub: int) -> int:  # the motor data, 0x3001, in its sub's type
+                return sdo(0x3001, sub, cia402.MOTOR_DATA_TYPES[sub])
+
             counts = sdo(0x6064, 0, "<i")
             s.sdo_write(0x6071, 0, struct.pack("<h", 0))  # every target defined first
             s.sdo_write(0x607A, 0, struct.pack("<i", counts))
             read = cia402.DriveObjects(
                 device_type=sdo(0x1000, 0, "<I"), product_code=int(s.id),
-                rated_unm=sdo(0x6076, 0, "<I"), nominal_ma=sdo(0x3001, 1, "<I"),
-                limit_ma=sdo(0x3001, 2, "<I"), mode=sdo(0x6060, 0, "<b"),
+                rated_unm=sdo(0x6076, 0, "<I"), nominal_ma=motor(1), limit_ma=motor(2),
+                pole_pairs=motor(3), winding_ds=motor(4), kt_unm_a=motor(5),
+                mode=sdo(0x6060, 0, "<b"),
                 counts=counts, inputs=sdo(0x60FD, 0, "<I"),
                 statusword=sdo(0x6041, 0, "<H"),
                 interpolation=(sdo(0x60C2, 1, "<B"), sdo(0x60C2, 2, "<b")),

@@ -88,7 +88,8 @@ class SimulatedSegment(DriveRig):
                        (0x607A, 0): struct.pack("<i", 0),
                        (0x60C2, 1): struct.pack("<B", value),
                        (0x60C2, 2): struct.pack("<b", index),
-                       **{(0x3001, k): struct.pack("<I", v) for k, v in m.subs().items()}}
+                       **{(0x3001, k): struct.pack(cia402.MOTOR_DATA_TYPES[k], v)
+                          for k, v in m.subs().items()}}
             self.slaves[SLAVE_POS[j] - 1] = _Slave(DRIVE_NAME, MAXON_VENDOR_ID, TX.size,
                                                    objects, m.product_code)
         self.slaves[FOOT_POS - 1] = _Slave(FOOT_NAME, 0, FOOT_IN.size, {})
