@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from exoleg.cli import main
-from exoleg.design.catalogue import candidate, catalogue
+from exoleg.design.catalogue import MOTOR, candidate, catalogue
 from exoleg.design.study import SPRING_STEPS
 from exoleg.device.actuator import actuator_text, paper_actuators, parse_actuator
 
@@ -50,6 +50,14 @@ def test_the_catalogue_holds_the_sheets_parts_with_their_sources() -> None:
     # torque constant (a choice) or rotor inertia (unverified): not in the catalogue
     assert any("160 W" in n for n in names) and any("90 W" in n for n in names)
     assert any("EC 60 flat" in n for n in names) and not any("260" in n for n in names)
+    # the catalogue's own motor (data/design/motors.toml), its figures maxon's April 2019
+    # sheet's, p. 264, part 397172 (24 V): k_t 36.9 mN m/A, 181 g cm^2, I_N 3.21 A,
+    # 0.608 ohm, 0.463 mH, 234 mA, 10,000 rpm, 4.1 + 3.56 K/W, 29.6 / 178 s, 125 degC,
+    # 8 pole pairs, 70 W
+    ec45 = next(m for m in motors if "EC 45 flat 70 W" in m.name)
+    assert [ec45.figures[k] for k in MOTOR] == [
+        0.0369, 1.81e-5, 3.21, 0.608, 0.463e-3, 0.234, 10000.0, 4.1, 3.56, 29.6, 178.0,
+        125.0, 8.0, 70.0]
     assert sorted(g.figures["ratio"] for g in gears) == [50.0, 100.0, 120.0]
     for part in (*motors, *gears):
         assert all(part.sources[k] for k in part.figures), part.name  # every figure sourced

@@ -3,7 +3,9 @@
 The catalogue is read from the actuation units the package ships
 (``data/device/actuators/*.toml`` and ``data/device/hip-variants/*.toml``): each unit's
 motor (the motor's figures, :data:`MOTOR`) and gear (:data:`GEAR`) are parts, with the
-sources those files give figure by figure. A motor whose defining figures -- torque
+sources those files give figure by figure; and from the motors no unit carries
+(``data/design/motors.toml``: the EC 45 flat 70 W, maxon's 2019 sheet). A motor whose
+defining figures -- torque
 constant, rotor inertia, nominal current, terminal resistance -- come from no datasheet
 (a "choice" or an unverified derivation) is left out: the hip variant "260 W class" is
 not in the catalogue. A candidate joint is the shipped unit of that joint with a
@@ -25,7 +27,8 @@ from dataclasses import dataclass
 from importlib import resources
 from typing import Any
 
-from exoleg.device.actuator import FIELDS, ActuatorModel, load_actuator, paper_actuators
+from exoleg import checks as _check
+from exoleg.device.actuator import FIELDS, ActuatorModel, figure, load_actuator, paper_actuators
 from exoleg.errors import ParameterError
 
 _NAMES = [f[0] for f in FIELDS]
@@ -55,8 +58,28 @@ def _sheet(source: str) -> bool:
     return not (s.startswith("choice") or "unverified" in s)
 
 
+def _motors_file() -> list[Part]:
+    """The catalogue's own motors (``data/design/motors.toml``), each figure checked as
+    an actuator file's and sourced."""
+    import tomllib
+
+    where = "data/design/motors.toml"
+    text = (resources.files("exoleg") / "data" / "design" / "motors.toml").read_text()
+    rows = {f[0]: f for f in FIELDS}
+    out = []
+    for key, d in tomllib.loads(text).items():
+        w = f"{where} [{key}]"
+        _check.keys(w, d, ["name", *MOTOR, "sources"])
+        _check.keys(f"{w} sources", d["sources"], MOTOR)
+        out.append(Part("motor", str(d["name"]),
+                        {k: float(figure(w, rows[k], d[k])) for k in MOTOR},
+                        {k: str(d["sources"][k]) for k in MOTOR}))
+    return out
+
+
 def catalogue() -> tuple[tuple[Part, ...], tuple[Part, ...]]:
-    """(motors, gears) of the shipped actuation units, each once, sources kept."""
+    """(motors, gears): the shipped actuation units' and the catalogue's own motors
+    (``data/design/motors.toml``), each once, sources kept."""
     root = resources.files("exoleg") / "data" / "device"
     units = list(paper_actuators())
     for f in sorted((root / "hip-variants").iterdir(), key=lambda p: p.name):
@@ -71,6 +94,9 @@ def catalogue() -> tuple[tuple[Part, ...], tuple[Part, ...]]:
             motors.setdefault(a.motor, m)
         gears.setdefault(a.gear, Part("gear", a.gear, {k: float(getattr(a, k)) for k in GEAR},
                                       {k: a.sources.get(k, "") for k in GEAR}))
+    for m in _motors_file():
+        if all(_sheet(m.sources[k]) for k in DEFINING):
+            motors.setdefault(m.name, m)
     return tuple(motors.values()), tuple(gears.values())
 
 
