@@ -178,6 +178,40 @@ def test_design_screens_chooses_writes_a_device_and_walks_it(tmp_path: Path) -> 
     assert said == [] if not touches else len(said) == 1 and f"{len(touches)} times" in said[0]
 
 
+def test_the_catalogues_bound_is_the_least_over_the_units_it_could_build(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # exoleg design --bounds: every unit the design could build at a joint walked through
+    # by the girl's transparent walk on the chosen device (unit_bound: a compliant unit's
+    # rotor following its links, a rigid one's own rotor and friction beyond its drive's
+    # envelope). A catalogue cut to the EC 60 flat (S4) and the 1:50 gear (S10) keeps the
+    # test short: rigid on each of the 2 buses and the 8 springs (the bus is not in a
+    # series element's bound), the torque sensor left out -- its rotor resonates at 38.5
+    # Hz on the gear's stiffness, above the 30 Hz loop (the screen's why_not): 10 units a
+    # joint. The chosen unit is one of them, so the least is no more than its own bound
+    # (the rotor's, computed the same way)
+    from exoleg.design import study
+
+    motors, gears = catalogue()
+    cut = (tuple(m for m in motors if "EC 60" in m.name),
+           tuple(g for g in gears if g.figures["ratio"] == 50.0))
+    monkeypatch.setattr(study, "catalogue", lambda: cut)
+    config = tmp_path / "design.toml"
+    config.write_text(SMALL)
+    out = tmp_path / "d"
+    assert main(["design", str(config), "--out", str(out), "--no-population",
+                 "--bounds"]) == 0
+    summary = json.loads((out / "design.json").read_text())
+    for f in summary["floors"]:
+        assert f["catalogue_units"] == 10
+        assert f["catalogue_unit"].startswith("Maxon EC 60 flat 150 W, 24 V, Harmonic "
+                                              "Drive CPU-17A-50-M")
+        chosen = summary["chosen"][f["joint"]]
+        if f["rotor_Nm_per_kg"] is not None:  # compliant: its bound is among the 11
+            assert chosen["series"] != "rigid"
+            assert f["catalogue_Nm_per_kg"] <= f["rotor_Nm_per_kg"] + 1e-12
+        assert 0.0 <= f["catalogue_Nm_per_kg"] < f["law_Nm_per_kg"]
+
+
 @pytest.mark.parametrize(("old", "new", "says"), [
     ('sexes = ["female"]', 'sexes = ["girl"]', "[population]: sexes: ['girl']: allowed female"),
     ("alpha = [0.5, 0.5, 0.5]", "alpha = [0.5, 0.5]", "[assistance]: alpha: 3 shares"),

@@ -573,6 +573,16 @@ def test_a_typically_developing_child_walks_in_the_transparent_mode() -> None:
     assert np.all(commanded[[0, 2]] < every[[0, 2]])
     assert np.all(every <= friction_ + 1e-3)
     assert not v.met and np.all(every > GOAL_NM_PER_KG)
+    # a rigid unit's bound along the walk (unit_bound: the links' need with its own rotor
+    # and friction, as exoleg design --bounds takes each catalogue unit) is the walk's
+    # floor of every limit together: the device's need is its links' plus N^2 J q'' on
+    # the diagonal and its friction (Pinocchio's armature, test_pinocchio.py)
+    from exoleg.validate.transparency import links_need, unit_bound
+
+    links = links_need(v.leg, v.config, v.need)
+    for j, (f, act) in enumerate(zip(v.floors, v.config.actuators, strict=True)):
+        assert unit_bound(act, j, v.need, links, v.body_mass) == pytest.approx(
+            f["floor_all_Nm_per_kg"], rel=1e-9)
     floors = [b["floor_Nm_per_kg"] for b in v.budget]
     # (the hip's 0.6018 before its motor's no-load current was S2's 658 mA, not 544)
     assert floors == pytest.approx([0.6102, 0.0131, 0.7021], abs=1e-4)  # to the digits shown
@@ -765,6 +775,44 @@ def test_the_rotors_floor_is_the_quadratic_programmes_optimum() -> None:
     with pytest.raises(ValueError, match="rigid"):
         rotor_floor(paper_hip := _device()[2].actuators[0], need, q, h, 1.0)
     assert not paper_hip.compliant
+
+
+def test_the_rotors_floor_converges_on_a_stiff_unit_whatever_its_first_penalty(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # A joint torque sensor on a gear's own stiffness (16,000 N m/rad, S10) behind the
+    # shipped hip's rotor: with a fixed penalty ADMM stopped at its iteration limit on
+    # the designed device's walk and returned its iterate -- 0.028 / 0.032 / 0.047 N m/kg
+    # for penalties of 0.01 / 0.1 / 1, no bound at all. Balanced, the same programme
+    # reaches scipy's trust-constr optimum from penalties 10^4 apart, and an iterate
+    # that has not converged is refused, not returned
+    import dataclasses
+
+    from scipy.optimize import LinearConstraint, minimize
+
+    from exoleg.validate import transparency as tr
+
+    act = dataclasses.replace(_compliant_hip(), compliance="torque_sensor",
+                              series_stiffness=16000.0)
+    h, n = 1e-3, 60
+    t = np.arange(n) * h
+    q = np.where(t < 0.03, 4.0 * t, 0.12 + 0.01 * (1 - np.exp(-(t - 0.03) / 0.0025)))
+    need = 5.0 * np.sin(2 * np.pi * t / 0.06)
+    K, B, lim = act.series_stiffness, act.reflected_inertia, act.current_limited_torque
+    M = np.zeros((n - 2, n))
+    for i in range(n - 2):
+        M[i, i:i + 3] = np.array([1.0, -2.0, 1.0]) * B / h**2
+        M[i, i + 1] += K
+    res = minimize(lambda r: np.sum((K * (r - q) - need) ** 2), q + need / K,
+                   jac=lambda r: 2 * K * (K * (r - q) - need), method="trust-constr",
+                   constraints=[LinearConstraint(M, -lim + K * q[1:-1], lim + K * q[1:-1])],
+                   options={"maxiter": 5000, "gtol": 1e-10, "xtol": 1e-12})
+    best = math.sqrt(res.fun / n)
+    for rho in (0.01, 1.0, 100.0):
+        assert tr.rotor_floor(act, need, q, h, 1.0, tol=1e-7, rho=rho) == pytest.approx(
+            best, rel=1e-5)
+    monkeypatch.setattr(tr, "ADMM_ITERATIONS", 3)
+    with pytest.raises(RuntimeError, match="did not converge to 1e-07 in 3 iterations"):
+        tr.rotor_floor(act, need, q, h, 1.0, tol=1e-7)
 
 
 def test_the_landing_is_said_from_its_figures() -> None:

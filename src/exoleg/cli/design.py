@@ -46,7 +46,7 @@ def cmd_design(args: argparse.Namespace) -> int:
             population.walking_control_text(found["units"]))
         dev.commit()
     checked = verify(design, None) + verify(design, out / "device")
-    floors = transparency_floors(design, out / "device")
+    floors = transparency_floors(design, out / "device", rows if args.bounds else None)
     served: list[dict[str, Any]] = []
     if not args.no_population:
         _say(f"exoleg design: verifying the device in the walking loop over the population "
@@ -117,6 +117,18 @@ def cmd_design(args: argparse.Namespace) -> int:
                  "the same law blind to the pelvis's vertical acceleration (no sensor on "
                  "the device reads it), and behind a spring what any law could, the walk "
                  "known ahead (exoleg validate --transparency --device)")
+    if args.bounds:
+        _table([[f["joint"], f"{f['catalogue_Nm_per_kg']:.3f}", f["catalogue_unit"],
+                 str(f["catalogue_units"]),
+                 "yes" if f["catalogue_Nm_per_kg"] <= design.goal else "no"]
+                for f in floors],
+               ["joint", "the catalogue's bound N m/kg", "its unit", "units",
+                f"<= {design.goal:g} within any unit's reach"],
+               title="the same walk through every unit the design could build at each "
+                     "joint: the least any law could leave, the walk known ahead (behind a "
+                     "series element its rotor following the links within its motor's "
+                     "current; rigid, the unit's own rotor and friction beyond its drive's "
+                     "envelope)")
     if served:
         summ = population.summary(served)
         _table([[name, str(v["children"]), f"{100 * v['transparent_met']:.0f} %",
@@ -135,7 +147,8 @@ def cmd_design(args: argparse.Namespace) -> int:
     return 0
 
 
-def transparency_floors(design: Any, device: Path) -> list[dict[str, Any]]:
+def transparency_floors(design: Any, device: Path,
+                        rows: list[dict[str, Any]] | None = None) -> list[dict[str, Any]]:
     """Per joint, the chosen device's transparent residual against its floors on the
     typically developing 10-year-old girl's walk of 10 strides
     (:func:`exoleg.validate.transparency.evaluate`): the law's, the loop's floor, a
@@ -144,13 +157,20 @@ def transparency_floors(design: Any, device: Path) -> list[dict[str, Any]]:
     rigid joint, of the loop's floor (a law that knows the device exactly, a tick late,
     is what there is -- not a bound on a law with the walk's preview: with springs of
     1000 / 830 / 690 N m/rad the example's ankle law left 0.071 N m/kg against that
-    floor's 0.085 on the same walk)."""
-    from exoleg.validate.transparency import evaluate
+    floor's 0.085 on the same walk). With the screen's ``rows``, the catalogue's bound on
+    that walk too: the least :func:`~exoleg.validate.transparency.unit_bound` over every
+    screened unit the design could build at the joint (its torque loop closes), and that
+    unit in words -- the goal out of every unit's reach, whatever the law, when it is
+    above."""
+    from exoleg.design.catalogue import candidate
+    from exoleg.validate.transparency import evaluate, links_need, unit_bound
 
     v = evaluate(strides=10, stride_time=design.stride_time, device=device)
+    assert v.need is not None
+    links = None if rows is None else links_need(v.leg, v.config, v.need)
     law = v.rows[-1]["rms_Nm_per_kg"]
     out = []
-    for f in v.floors:
+    for j, f in enumerate(v.floors):
         rotor = None if math.isnan(f["floor_rotor_Nm_per_kg"]) else float(
             f["floor_rotor_Nm_per_kg"])
         out.append({"joint": f["joint"], "law_Nm_per_kg": float(law[f["joint"]]),
@@ -159,6 +179,23 @@ def transparency_floors(design: Any, device: Path) -> list[dict[str, Any]]:
                     "rotor_Nm_per_kg": rotor,
                     "reachable": (f["floor_loop_Nm_per_kg"] if rotor is None
                                   else rotor) <= design.goal})
+        if rows is None or links is None:
+            continue
+        bounds: dict[tuple[Any, ...], tuple[float, str]] = {}
+        for r in rows:
+            m, g, series = r["_parts"]
+            # behind a series element the bus is not in the bound: each unit once
+            key = (r["motor"], r["gear"], r["series"], r["stiffness_Nm_per_rad"],
+                   r["bus_V"] if series is None else None)
+            if r["joint"] != f["joint"] or r["why_not"] or key in bounds:
+                continue
+            bounds[key] = (unit_bound(candidate(f["joint"], m, g, r["bus_V"], series), j,
+                                      v.need, links, v.body_mass),
+                           f"{r['motor']}, {r['gear']}, {_series_words(r)}"
+                           + (f", {r['bus_V']:g} V" if series is None else ""))
+        least, unit = min(bounds.values())
+        out[-1].update(catalogue_Nm_per_kg=least, catalogue_unit=unit,
+                       catalogue_units=len(bounds))
     return out
 
 
@@ -183,4 +220,8 @@ def add_parser(sub: Any) -> None:
     d.add_argument("--no-population", action="store_true",
                    help="screen, choose and walk the held-out children only: leave out the "
                    "population's walks on the sweep engine")
+    d.add_argument("--bounds", action="store_true",
+                   help="also bound every unit the design could build at each joint on the "
+                   "girl's transparent walk: can any catalogue unit meet the goal, whatever "
+                   "the law (about 40 s more)")
     d.set_defaults(func=cmd_design)

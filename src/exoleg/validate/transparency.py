@@ -213,6 +213,11 @@ class Transparency:
     gears: list[dict[str, Any]]
     console: dict[str, list[list[float]]]
     landing: str = "drop"
+    #: the child's leg, the device's configuration and :func:`walk_need` of the run (for
+    #: :func:`unit_bound`'s of other units along the same motion)
+    leg: Any = None
+    config: Any = None
+    need: dict[str, Any] | None = None
 
     @property
     def met(self) -> bool:
@@ -274,7 +279,7 @@ def evaluate(strides: int = 10, stride_time: float = 1.1, seed: int = 0,
                         loading=heel_strike_loading(r, g=leg.g),
                         gears=law_on_gears(leg, config.actuators, config.transparency, h),
                         console=law_bounds(leg, config.actuators, config.transparency, h),
-                        landing=ground.landing)
+                        landing=ground.landing, leg=leg, config=config, need=need)
 
 
 #: the landing's window after each initial contact, s (the knee's deceleration and the
@@ -384,6 +389,10 @@ def _loop_left(A, need, w, h, left):  # type: ignore[no-untyped-def]
         left[k] = need[k] - mean
 
 
+#: :func:`rotor_floor`'s iterations at most (ADMM).
+ADMM_ITERATIONS = 20000
+
+
 def rotor_floor(act: Any, need: F64, q: F64, h: float, body_mass: float,
                 tol: float = 1e-4, rho: float = 1.0) -> float:
     """What any law leaves the child through a compliant unit ``act`` -- even one that
@@ -392,9 +401,11 @@ def rotor_floor(act: Any, need: F64, q: F64, h: float, body_mass: float,
     link's ``q`` per tick of ``h`` s), and the rotor moves only as its motor's torque,
     bounded by the drive's current limit, drives it: ``B d2r/dt2 + spring = tau_m``,
     ``abs(tau_m) <= N eta k_t I_max``. The least RMS of ``spring - need`` over every rotor
-    path, a convex quadratic programme over the walk (ADMM with penalty ``rho`` on the
-    torques scaled by the limit -- 0.01-10 give the same optimum --, its sparse system
-    factored once; to ``tol`` of its residuals, 20,000 iterations at most). A relaxation
+    path, a convex quadratic programme over the walk (ADMM on the torques scaled by the
+    limit, its penalty starting at ``rho`` and balanced to the residuals, its sparse
+    system factored at each change; to ``tol`` of its residuals within
+    :data:`ADMM_ITERATIONS`, else a RuntimeError: an unconverged iterate is no bound).
+    A relaxation
     of the device -- no tick's delay, no current loop, no voltage or speed limit, no
     friction -- so a bound below any law's residual: where the link's heel strikes ask
     the rotor to follow faster than its motor can turn it, the spring passes the
@@ -417,22 +428,33 @@ def rotor_floor(act: Any, need: F64, q: F64, h: float, body_mass: float,
     D = (sparse.diags([np.full(n - 2, a), np.full(n - 2, -2 * a), np.full(n - 2, a)],
                       [0, 1, 2], shape=(n - 2, n)) + S[1:-1]).tocsc() / lim
     off = Sq[1:-1] / lim
-    lu = splu((S.T @ S + rho * (D.T @ D)).tocsc())
+    StS, DtD = S.T @ S, D.T @ D
+    lu = splu((StS + rho * DtD).tocsc())
     z = np.zeros(n - 2)
     y = np.zeros(n - 2)
     Stb = S.T @ target
     scale = max(float(np.linalg.norm(Stb)), 1.0)
-    for _ in range(20000):
+    for k in range(ADMM_ITERATIONS):
         r = lu.solve(Stb + rho * (D.T @ (z - y + off)))
         Dr = D @ r - off
         z_old = z
         z = np.clip(Dr + y, -1.0, 1.0)
         y += Dr - z
-        primal = float(np.linalg.norm(Dr - z))
-        dual = rho * float(np.linalg.norm(D.T @ (z - z_old)))
-        if primal <= tol * max(float(np.linalg.norm(Dr)), 1.0) and dual <= tol * scale:
-            break
-    return _rms(S @ r - target) / body_mass
+        primal = float(np.linalg.norm(Dr - z)) / (tol * max(float(np.linalg.norm(Dr)), 1.0))
+        dual = rho * float(np.linalg.norm(D.T @ (z - z_old))) / (tol * scale)
+        if primal <= 1.0 and dual <= 1.0:
+            return _rms(S @ r - target) / body_mass
+        # the penalty balanced to the residuals (Boyd et al. 2011, section 3.4.1), each
+        # against its own criterion: a fixed one converged slowly or not at all on a
+        # stiff unit (a torque sensor on a gear's 16,000 N m/rad)
+        if k % 20 == 19 and max(primal, dual) > 10.0 * min(primal, dual):
+            f = 2.0 if primal > dual else 0.5
+            rho *= f
+            y /= f  # the scaled dual variable is the multiplier over the penalty
+            lu = splu((StS + rho * DtD).tocsc())
+    raise RuntimeError(f"rotor_floor: the quadratic programme did not converge to {tol:g} "
+                       f"in {ADMM_ITERATIONS} iterations (residuals {primal:.3g} / "
+                       f"{dual:.3g} of their criteria)")
 
 
 @njit(cache=True)
@@ -492,17 +514,11 @@ def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None,
     ``gear_floor_at_landing``, the share of the gear's floor (its square) in the
     :data:`LANDING_S` after each initial contact; ``floor_loop_outside_Nm_per_kg``, the
     loop's floor outside those (beside :func:`heel_strike_loading`'s law outside them)."""
-    from exoleg.child.interaction import device_leg
-
     w = walk_need(r, leg, config, after) if known is None else known
-    sel, dt, q, dq, ddq, ddy = w["sel"], w["dt"], w["q"], w["dq"], w["ddq"], w["ddy"]
+    sel, dt, q, dq = w["sel"], w["dt"], w["q"], w["dq"]
     need, pelvis = w["need"], w["pelvis"]
-    links = None  # a compliant unit's links alone: its rotor is rotor_floor's
-    if any(a.compliant for a in config.actuators):
-        dl = device_leg(leg, config.actuators, link=True)
-        links = np.zeros_like(q)
-        _pelvis_terms(q, dq, dl.p, ddy, links)
-        links += dl.inverse_dynamics(q, dq, ddq)
+    # a compliant unit's links alone: its rotor is rotor_floor's
+    links = links_need(leg, config, w) if any(a.compliant for a in config.actuators) else None
     landing = _landing(r.contact_force[sel].sum(axis=1), dt)
 
     def at_landing(j: int, act: Any) -> float:
@@ -523,6 +539,38 @@ def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None,
                                        if act.compliant and links is not None else np.nan),
              "pelvis_Nm_per_kg": _rms(pelvis[:, j]) / r.body_mass}
             for j, (joint, act) in enumerate(zip(JOINTS, config.actuators, strict=True))]
+
+
+def links_need(leg: Any, config: Any, w: dict[str, Any]) -> F64:
+    """What the device's links alone ask of each joint along a walk's motion (``w``:
+    :func:`walk_need`'s), N m: their inverse dynamics, the pelvis's bounce included, no
+    rotor and no friction -- what a series element passes to them."""
+    from exoleg.child.interaction import device_leg
+
+    q, dq = w["q"], w["dq"]
+    dl = device_leg(leg, config.actuators, link=True)
+    links = np.zeros_like(q)
+    _pelvis_terms(q, dq, dl.p, w["ddy"], links)
+    return links + dl.inverse_dynamics(q, dq, w["ddq"])
+
+
+def unit_bound(act: Any, j: int, w: dict[str, Any], links: F64, body_mass: float) -> float:
+    """What no law goes below with the unit ``act`` at joint ``j`` along a walk's motion
+    (``w``: :func:`walk_need`'s; ``links``: :func:`links_need`'s), RMS per kg of
+    ``body_mass``, the walk known ahead: behind a series element, its rotor following the
+    links within its motor's current limit (:func:`rotor_floor`); rigid, the links' need
+    with this unit's own rotor (N^2 J q'') and friction beyond its drive's envelope
+    (:func:`limit_floors`' all together). Either is a relaxation of the device -- a unit
+    whose bound is above the goal cannot meet it on this walk, whatever its law."""
+    from exoleg.device.drive import friction
+
+    q, dq, dt = w["q"][:, j], w["dq"][:, j], w["dt"]
+    if act.compliant:
+        return rotor_floor(act, links[:, j], q, dt, body_mass)
+    A = act.record()
+    need = links[:, j] + act.reflected_inertia * w["ddq"][:, j] + np.array(
+        [friction(A, x) for x in dq])
+    return float(limit_floors(act, need, dq, body_mass)["floor_all_Nm_per_kg"])
 
 
 def _rms(x: F64) -> float:
