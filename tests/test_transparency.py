@@ -579,7 +579,7 @@ def test_a_typically_developing_child_walks_in_the_transparent_mode() -> None:
     # the diagonal and its friction (Pinocchio's armature, test_pinocchio.py)
     from exoleg.validate.transparency import links_need, unit_bound
 
-    links = links_need(v.leg, v.config, v.need)
+    links = links_need(v.leg, v.need)
     for j, (f, act) in enumerate(zip(v.floors, v.config.actuators, strict=True)):
         assert unit_bound(act, j, v.need, links, v.body_mass) == pytest.approx(
             f["floor_all_Nm_per_kg"], rel=1e-9)

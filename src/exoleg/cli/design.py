@@ -167,7 +167,7 @@ def transparency_floors(design: Any, device: Path,
 
     v = evaluate(strides=10, stride_time=design.stride_time, device=device)
     assert v.need is not None
-    links = None if rows is None else links_need(v.leg, v.config, v.need)
+    links = None if rows is None else links_need(v.leg, v.need)
     law = v.rows[-1]["rms_Nm_per_kg"]
     out = []
     for j, f in enumerate(v.floors):

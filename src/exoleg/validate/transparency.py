@@ -518,7 +518,7 @@ def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None,
     sel, dt, q, dq = w["sel"], w["dt"], w["q"], w["dq"]
     need, pelvis = w["need"], w["pelvis"]
     # a compliant unit's links alone: its rotor is rotor_floor's
-    links = links_need(leg, config, w) if any(a.compliant for a in config.actuators) else None
+    links = links_need(leg, w) if any(a.compliant for a in config.actuators) else None
     landing = _landing(r.contact_force[sel].sum(axis=1), dt)
 
     def at_landing(j: int, act: Any) -> float:
@@ -541,14 +541,15 @@ def walk_floors(r: Any, leg: Any, config: Any, after: float | None = None,
             for j, (joint, act) in enumerate(zip(JOINTS, config.actuators, strict=True))]
 
 
-def links_need(leg: Any, config: Any, w: dict[str, Any]) -> F64:
+def links_need(leg: Any, w: dict[str, Any]) -> F64:
     """What the device's links alone ask of each joint along a walk's motion (``w``:
     :func:`walk_need`'s), N m: their inverse dynamics, the pelvis's bounce included, no
-    rotor and no friction -- what a series element passes to them."""
-    from exoleg.child.interaction import device_leg
+    rotor -- not even a rigid unit's, which its link carries -- and no friction: what a
+    series element passes to them."""
+    from exoleg.child.interaction import device_links
 
     q, dq = w["q"], w["dq"]
-    dl = device_leg(leg, config.actuators, link=True)
+    dl = device_links(leg)
     links = np.zeros_like(q)
     _pelvis_terms(q, dq, dl.p, w["ddy"], links)
     return links + dl.inverse_dynamics(q, dq, w["ddq"])
