@@ -738,21 +738,20 @@ def _compliant_hip() -> Any:
                                deflection_bits=20)
 
 
-def test_the_rotors_floor_is_the_quadratic_programmes_optimum() -> None:
-    # rotor_floor against scipy's trust-constr on the same programme written densely: a
-    # link swinging at 4 rad/s stopped within a few milliseconds (a heel strike) while
-    # the need swings 5 N m -- the rotor (3.2 kg m^2 at the joint, the shipped hip's)
-    # cannot follow within its 54 N m; the two agree to 1e-6; and a motion well within
-    # the motor's reach leaves nothing
+#: A link swinging at 4 rad/s stopped within a few milliseconds (a heel strike) while the
+#: need swings 5 N m: the rotor floor's programme, small enough to write densely
+STOP_H, STOP_N = 1e-3, 60
+_T = np.arange(STOP_N) * STOP_H
+STOP_Q = np.where(_T < 0.03, 4.0 * _T, 0.12 + 0.01 * (1 - np.exp(-(_T - 0.03) / 0.0025)))
+STOP_NEED = 5.0 * np.sin(2 * np.pi * _T / 0.06)
+
+
+def _trust_constr_floor(act: Any) -> float:
+    """rotor_floor's programme on the stopped link, written densely and solved by scipy's
+    trust-constr: the least RMS of what the spring passes less the need."""
     from scipy.optimize import LinearConstraint, minimize
 
-    from exoleg.validate.transparency import rotor_floor
-
-    act = _compliant_hip()
-    h, n = 1e-3, 60
-    t = np.arange(n) * h
-    q = np.where(t < 0.03, 4.0 * t, 0.12 + 0.01 * (1 - np.exp(-(t - 0.03) / 0.0025)))
-    need = 5.0 * np.sin(2 * np.pi * t / 0.06)
+    h, n, q, need = STOP_H, STOP_N, STOP_Q, STOP_NEED
     K, B, lim = act.series_stiffness, act.reflected_inertia, act.current_limited_torque
     # the motor's torque at the inner ticks, B r'' + K (r - q), as a matrix on r
     M = np.zeros((n - 2, n))
@@ -763,7 +762,19 @@ def test_the_rotors_floor_is_the_quadratic_programmes_optimum() -> None:
                    jac=lambda r: 2 * K * (K * (r - q) - need), method="trust-constr",
                    constraints=[LinearConstraint(M, -lim + K * q[1:-1], lim + K * q[1:-1])],
                    options={"maxiter": 5000, "gtol": 1e-10, "xtol": 1e-12})
-    best = math.sqrt(res.fun / n)
+    return math.sqrt(res.fun / n)
+
+
+def test_the_rotors_floor_is_the_quadratic_programmes_optimum() -> None:
+    # rotor_floor against scipy's trust-constr on the same programme written densely
+    # (the stopped link): the rotor (3.2 kg m^2 at the joint, the shipped hip's) cannot
+    # follow within its 54 N m; the two agree to 1e-6; and a motion well within the
+    # motor's reach leaves nothing
+    from exoleg.validate.transparency import rotor_floor
+
+    act = _compliant_hip()
+    h, q, need = STOP_H, STOP_Q, STOP_NEED
+    best = _trust_constr_floor(act)
     assert best > 1.0  # the rotor cannot follow: the motor's limit binds
     assert rotor_floor(act, need, q, h, 1.0, tol=1e-7) == pytest.approx(best, rel=1e-6)
     slow = 0.3 * np.sin(2 * np.pi * 1.0 * np.arange(2000) * h)
@@ -780,39 +791,24 @@ def test_the_rotors_floor_is_the_quadratic_programmes_optimum() -> None:
 def test_the_rotors_floor_converges_on_a_stiff_unit_whatever_its_first_penalty(
         monkeypatch: pytest.MonkeyPatch) -> None:
     # A joint torque sensor on a gear's own stiffness (16,000 N m/rad, S10) behind the
-    # shipped hip's rotor: with a fixed penalty ADMM stopped at its iteration limit on
-    # the designed device's walk and returned its iterate -- 0.028 / 0.032 / 0.047 N m/kg
-    # for penalties of 0.01 / 0.1 / 1, no bound at all. Balanced, the same programme
-    # reaches scipy's trust-constr optimum from penalties 10^4 apart, and an iterate
-    # that has not converged is refused, not returned
+    # shipped hip's rotor: with a fixed penalty ADMM stopped at its iteration limit and
+    # returned its iterate -- on the stopped link 37 / 262 / 266 N m for penalties of
+    # 0.01 / 1 / 100, on the designed device's walk 0.028 / 0.032 / 0.047 N m/kg for 0.01
+    # / 0.1 / 1: no bound at all. Balanced, it reaches scipy's trust-constr optimum from
+    # penalties 10^4 apart, and an iterate that has not converged is refused
     import dataclasses
-
-    from scipy.optimize import LinearConstraint, minimize
 
     from exoleg.validate import transparency as tr
 
     act = dataclasses.replace(_compliant_hip(), compliance="torque_sensor",
                               series_stiffness=16000.0)
-    h, n = 1e-3, 60
-    t = np.arange(n) * h
-    q = np.where(t < 0.03, 4.0 * t, 0.12 + 0.01 * (1 - np.exp(-(t - 0.03) / 0.0025)))
-    need = 5.0 * np.sin(2 * np.pi * t / 0.06)
-    K, B, lim = act.series_stiffness, act.reflected_inertia, act.current_limited_torque
-    M = np.zeros((n - 2, n))
-    for i in range(n - 2):
-        M[i, i:i + 3] = np.array([1.0, -2.0, 1.0]) * B / h**2
-        M[i, i + 1] += K
-    res = minimize(lambda r: np.sum((K * (r - q) - need) ** 2), q + need / K,
-                   jac=lambda r: 2 * K * (K * (r - q) - need), method="trust-constr",
-                   constraints=[LinearConstraint(M, -lim + K * q[1:-1], lim + K * q[1:-1])],
-                   options={"maxiter": 5000, "gtol": 1e-10, "xtol": 1e-12})
-    best = math.sqrt(res.fun / n)
+    best = _trust_constr_floor(act)
     for rho in (0.01, 1.0, 100.0):
-        assert tr.rotor_floor(act, need, q, h, 1.0, tol=1e-7, rho=rho) == pytest.approx(
-            best, rel=1e-5)
+        assert tr.rotor_floor(act, STOP_NEED, STOP_Q, STOP_H, 1.0, tol=1e-7,
+                              rho=rho) == pytest.approx(best, rel=1e-5)
     monkeypatch.setattr(tr, "ADMM_ITERATIONS", 3)
     with pytest.raises(RuntimeError, match="did not converge to 1e-07 in 3 iterations"):
-        tr.rotor_floor(act, need, q, h, 1.0, tol=1e-7)
+        tr.rotor_floor(act, STOP_NEED, STOP_Q, STOP_H, 1.0, tol=1e-7)
 
 
 def test_the_landing_is_said_from_its_figures() -> None:
