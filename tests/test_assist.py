@@ -153,15 +153,16 @@ def test_the_support_falls_for_a_child_who_tracks_well_and_not_for_a_weaker_one(
     # The issue's goal over 40 strides: the support falls by 30 % or more for a typically
     # developing child (the 50th-percentile girl of 10, learning: f 0.97) -- measured
     # 0.95 -> 0.24 -- and ends 1.5x higher or more for the issue's child, a GMFCS III girl
-    # of 10 (50th percentile) with moderate spasticity, not learning. Measured 0.343,
-    # 1.44x: NOT the issue's 1.5x since the child's feedforward stopped counting the
+    # of 10 (50th percentile) with moderate spasticity, not learning. Measured 0.345,
+    # 1.44x (0.343 before the hip motor's no-load current was S2's, 2026-12-08): NOT
+    # the issue's 1.5x since the child's feedforward stopped counting the
     # passive moments twice (0.348 against 0.222, 1.57x, on the double count: its 2 N m
     # of extra knee flexion into the typically developing girl's loading response had
-    # helped her track the reference; now her support ends at 0.238). Asked here: 1.4x,
+    # helped her track the reference; now her support ends at 0.239). Asked here: 1.4x,
     # what the corrected child reaches (1.15x before her stance loop's stiffness was
     # scaled with her strength, effort.toml: she tracked as well as the typically
     # developing girl on a loop as stiff as hers) -- and for one with contracture and
-    # crouch too (cluster 3): 0.364, 1.53x (1.60x on the double count, 1.69x before the
+    # crouch too (cluster 3): 0.362, 1.52x (1.60x on the double count, 1.69x before the
     # scaling). Never outside the bounds, no fault, the range of motion never
     # left; the safety layer's torque clip, rate limit and the gears' protection do act
     # (the gears' 54 N m, reached in every mode: impedance 20338 ticks, this 13815 of
