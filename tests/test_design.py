@@ -210,6 +210,25 @@ def test_the_catalogues_bound_is_the_least_over_the_units_it_could_build(
             assert chosen["series"] != "rigid"
             assert f["catalogue_Nm_per_kg"] <= f["rotor_Nm_per_kg"] + 1e-12
         assert 0.0 <= f["catalogue_Nm_per_kg"] < f["law_Nm_per_kg"]
+        assert f["catalogue_unsolved"] == 0
+    # a unit whose programme does not converge has no bound: it is counted and said, and
+    # the rest stand (every series element's refused as rotor_floor refuses an iterate
+    # past its limit: the two rigid units are left)
+    from exoleg.validate import transparency
+
+    def unconverged(act, *args):  # type: ignore[no-untyped-def]
+        if act.compliant:
+            raise RuntimeError("rotor_floor: the quadratic programme did not converge")
+        return bound(act, *args)
+
+    bound = transparency.unit_bound
+    monkeypatch.setattr(transparency, "unit_bound", unconverged)
+    assert main(["design", str(config), "--out", str(tmp_path / "e"), "--no-population",
+                 "--bounds"]) == 0
+    for f in json.loads((tmp_path / "e" / "design.json").read_text())["floors"]:
+        assert (f["catalogue_units"], f["catalogue_unsolved"]) == (2, 8)
+        assert f["catalogue_unit"].endswith("rigid, 24 V") or f["catalogue_unit"].endswith(
+            "rigid, 48 V")
 
 
 @pytest.mark.parametrize(("old", "new", "says"), [

@@ -119,7 +119,8 @@ def cmd_design(args: argparse.Namespace) -> int:
                  "known ahead (exoleg validate --transparency --device)")
     if args.bounds:
         _table([[f["joint"], f"{f['catalogue_Nm_per_kg']:.3f}", f["catalogue_unit"],
-                 str(f["catalogue_units"]),
+                 str(f["catalogue_units"]) + (f" ({f['catalogue_unsolved']} more did not "
+                                              "converge)" if f["catalogue_unsolved"] else ""),
                  "yes" if f["catalogue_Nm_per_kg"] <= design.goal else "no"]
                 for f in floors],
                ["joint", "the catalogue's bound N m/kg", "its unit", "units",
@@ -182,20 +183,25 @@ def transparency_floors(design: Any, device: Path,
         if rows is None or links is None:
             continue
         bounds: dict[tuple[Any, ...], tuple[float, str]] = {}
+        unsolved: set[tuple[Any, ...]] = set()
         for r in rows:
             m, g, series = r["_parts"]
             # behind a series element the bus is not in the bound: each unit once
             key = (r["motor"], r["gear"], r["series"], r["stiffness_Nm_per_rad"],
                    r["bus_V"] if series is None else None)
-            if r["joint"] != f["joint"] or r["why_not"] or key in bounds:
+            if r["joint"] != f["joint"] or r["why_not"] or key in bounds or key in unsolved:
                 continue
-            bounds[key] = (unit_bound(candidate(f["joint"], m, g, r["bus_V"], series), j,
-                                      v.need, links, v.body_mass),
-                           f"{r['motor']}, {r['gear']}, {_series_words(r)}"
+            try:
+                b = unit_bound(candidate(f["joint"], m, g, r["bus_V"], series), j, v.need,
+                               links, v.body_mass)
+            except RuntimeError:  # its programme did not converge: no bound, said below
+                unsolved.add(key)
+                continue
+            bounds[key] = (b, f"{r['motor']}, {r['gear']}, {_series_words(r)}"
                            + (f", {r['bus_V']:g} V" if series is None else ""))
         least, unit = min(bounds.values())
         out[-1].update(catalogue_Nm_per_kg=least, catalogue_unit=unit,
-                       catalogue_units=len(bounds))
+                       catalogue_units=len(bounds), catalogue_unsolved=len(unsolved))
     return out
 
 

@@ -7,10 +7,11 @@ sources those files give figure by figure; and from the motors no unit carries
 (``data/design/motors.toml``: the EC 45 flat 70 W, maxon's 2019 sheet). A motor whose
 defining figures -- torque constant, rotor inertia, nominal current, terminal
 resistance -- come from no datasheet (a "choice" or an unverified derivation) is left
-out: the hip variant "260 W class" is not in the catalogue. A candidate joint is the shipped unit of that joint with a
-catalogue motor and gear in place (its drive, encoder and friction kept), its drive's
-current limit set at 2 x the motor's nominal current as maxon configures it (S3), on a
-chosen bus voltage (the EPOS4 50/15 takes 10-50 V: its sheet).
+out: the hip variant "260 W class" is not in the catalogue. A candidate joint is the
+shipped unit of that joint with a catalogue motor and gear in place (its drive, encoder
+and friction kept), its drive's current limit set at 2 x the motor's nominal current as
+maxon configures it (S3), on a chosen bus voltage (the EPOS4 50/15 takes 10-50 V: its
+sheet).
 
 Between the gear and the link a candidate may carry a series element
 (``data/design/series.toml``, :func:`series_options`): a torsion spring the design sizes
