@@ -163,8 +163,7 @@ def transparency_floors(design: Any, device: Path,
     screened unit the design could build at the joint (its torque loop closes), and that
     unit in words -- the goal out of every unit's reach, whatever the law, when it is
     above."""
-    from exoleg.design.catalogue import candidate
-    from exoleg.validate.transparency import evaluate, links_need, unit_bound
+    from exoleg.validate.transparency import evaluate, links_need
 
     v = evaluate(strides=10, stride_time=design.stride_time, device=device)
     assert v.need is not None
@@ -180,29 +179,41 @@ def transparency_floors(design: Any, device: Path,
                     "rotor_Nm_per_kg": rotor,
                     "reachable": (f["floor_loop_Nm_per_kg"] if rotor is None
                                   else rotor) <= design.goal})
-        if rows is None or links is None:
-            continue
-        bounds: dict[tuple[Any, ...], tuple[float, str]] = {}
-        unsolved: set[tuple[Any, ...]] = set()
-        for r in rows:
-            m, g, series = r["_parts"]
-            # behind a series element the bus is not in the bound: each unit once
-            key = (r["motor"], r["gear"], r["series"], r["stiffness_Nm_per_rad"],
-                   r["bus_V"] if series is None else None)
-            if r["joint"] != f["joint"] or r["why_not"] or key in bounds or key in unsolved:
-                continue
-            try:
-                b = unit_bound(candidate(f["joint"], m, g, r["bus_V"], series), j, v.need,
-                               links, v.body_mass)
-            except RuntimeError:  # its programme did not converge: no bound, said below
-                unsolved.add(key)
-                continue
-            bounds[key] = (b, f"{r['motor']}, {r['gear']}, {_series_words(r)}"
-                           + (f", {r['bus_V']:g} V" if series is None else ""))
-        least, unit = min(bounds.values())
-        out[-1].update(catalogue_Nm_per_kg=least, catalogue_unit=unit,
-                       catalogue_units=len(bounds), catalogue_unsolved=len(unsolved))
+        if rows is not None:
+            out[-1].update(_catalogue_bound(f["joint"], j, rows, v, links))
     return out
+
+
+def _catalogue_bound(joint: str, j: int, rows: list[dict[str, Any]], v: Any,
+                     links: Any) -> dict[str, Any]:
+    """The least :func:`~exoleg.validate.transparency.unit_bound` at ``joint`` (index
+    ``j``) over the screen's ``rows`` the design could build, on the walk of ``v`` (an
+    :func:`~exoleg.validate.transparency.evaluate` result; ``links``: its links' need):
+    the bound, its unit in words, how many units were bounded and how many programmes
+    did not converge (no bound: counted, the rest stand)."""
+    from exoleg.design.catalogue import candidate
+    from exoleg.validate.transparency import unit_bound
+
+    bounds: dict[tuple[Any, ...], tuple[float, str]] = {}
+    unsolved: set[tuple[Any, ...]] = set()
+    for r in rows:
+        m, g, series = r["_parts"]
+        # behind a series element the bus is not in the bound: each unit once
+        key = (r["motor"], r["gear"], r["series"], r["stiffness_Nm_per_rad"],
+               r["bus_V"] if series is None else None)
+        if r["joint"] != joint or r["why_not"] or key in bounds or key in unsolved:
+            continue
+        try:
+            b = unit_bound(candidate(joint, m, g, r["bus_V"], series), j, v.need, links,
+                           v.body_mass)
+        except RuntimeError:  # its programme did not converge: no bound, said
+            unsolved.add(key)
+            continue
+        bounds[key] = (b, f"{r['motor']}, {r['gear']}, {_series_words(r)}"
+                       + (f", {r['bus_V']:g} V" if series is None else ""))
+    least, unit = min(bounds.values())
+    return {"catalogue_Nm_per_kg": least, "catalogue_unit": unit,
+            "catalogue_units": len(bounds), "catalogue_unsolved": len(unsolved)}
 
 
 def _series_words(r: dict[str, Any]) -> str:

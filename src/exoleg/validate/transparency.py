@@ -405,11 +405,10 @@ def rotor_floor(act: Any, need: F64, q: F64, h: float, body_mass: float,
     limit, its penalty starting at ``rho`` and balanced to the residuals, its sparse
     system factored at each change; to ``tol`` of its residuals within
     :data:`ADMM_ITERATIONS`, else a RuntimeError: an unconverged iterate is no bound).
-    A relaxation
-    of the device -- no tick's delay, no current loop, no voltage or speed limit, no
-    friction -- so a bound below any law's residual: where the link's heel strikes ask
-    the rotor to follow faster than its motor can turn it, the spring passes the
-    difference."""
+    A relaxation of the device -- no tick's delay, no current loop, no voltage or speed
+    limit, no friction -- so a bound below any law's residual: where the link's heel
+    strikes ask the rotor to follow faster than its motor can turn it, the spring passes
+    the difference."""
     from scipy import sparse
     from scipy.sparse.linalg import splu
 
