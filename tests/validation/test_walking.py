@@ -8,6 +8,7 @@ detector; the supervisor's and safety layer's rules for the transitions and stop
 from __future__ import annotations
 
 import re
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -417,3 +418,71 @@ def test_a_walk_from_standing_starts_without_an_impact_at_the_cuffs(mode: str) -
     start = (r.t >= r.walk_start) & (r.t < r.walk_start + 0.5)
     peak = np.abs(r.interaction[start]).max(axis=0)
     assert np.all(peak <= r.cuff_limit * c.mass), (peak, r.cuff_limit * c.mass)
+
+
+def test_a_walks_first_swing_is_timed_from_its_toe_off(tmp_path: Path) -> None:
+    # A child's first stance from standing runs slower than the gait: their leg comes up
+    # to pace from rest. At its toe off the reference had run on past the foot (its
+    # fraction 0.62-0.64 against the gait's foot off, 0.59 +- 0.02: Schwartz 2008's free
+    # speed, schwartz2008_cycle_events.csv), and played on at the stride's rate it led
+    # the swinging leg: the knee extended early and the toe caught the belt. The first
+    # swing now plays the rest of the cycle over the swing the gait gives it, (1 - 0.59)
+    # of the stride expected (hierarchy.first_swing); later swings at the stride's rate.
+    from exoleg.child.model import ChildModel
+    from exoleg.cli import main
+    from exoleg.control.gait_phase import Event
+    from exoleg.control.transparency import SupportMode
+    from exoleg.reference.gait import cycle_event
+    from exoleg.sizing import personalized_leg
+    from exoleg.sizing.child import population_child
+
+    foot_off = cycle_event("Ipsilateral Foot Off")[0]
+    assert foot_off == 0.59
+    c, _ = population_child(None, "female", 10.0, 50.0)
+    r = simulate_walk(personalized_leg(c), c.mass, strides=3, child=ChildModel.of(c),
+                      support_mode=SupportMode.AAN)
+    ev = r.events.astype(int)
+    walking = r.t >= r.walk_start
+    to = np.flatnonzero(walking & ((ev & Event.TO) != 0))
+    ic = np.flatnonzero(walking & ((ev & Event.IC) != 0))
+    x = r.gait_fraction
+    # the first swing: from its toe off to the first contact (measured at 0.63 here)
+    k, end = to[0], ic[0]
+    assert 0.6 < x[k] < 0.66, x[k]
+    rate = (x[end - 1] - x[k]) / (r.t[end - 1] - r.t[k])
+    assert rate == pytest.approx((1.0 - x[k]) / ((1.0 - foot_off) * r.stride_time), rel=1e-6)
+    # the second at its stride's: the mean of the strides so far (gait_phase.toml) -- one,
+    # from where the walk started in the cycle (mid-stance, its pace's ramp) to the first
+    # contact: 1.128 s here
+    from exoleg.control.walk_gains import START_FRACTION
+    from exoleg.reference.gait import START_RAMP
+
+    k2, end2 = to[1], ic[1]
+    begun = r.walk_start - START_FRACTION * r.stride_time + 0.5 * START_RAMP
+    stride = r.t[ic[0]] - begun
+    assert (x[end2 - 1] - x[k2]) / (r.t[end2 - 1] - r.t[k2]) == pytest.approx(
+        1.0 / stride, rel=1e-6)
+    # slower than the gait data's speeds (2 s strides, beyond SLOWEST_GROUP_STRIDE's 1.3)
+    # the stance is longer in every stride (her toe offs at 0.636, 0.636, 0.637, 0.638 of
+    # the reference, measured), not behind: the first swing plays at the stride's rate
+    r = simulate_walk(personalized_leg(c), c.mass, strides=2, child=ChildModel.of(c),
+                      support_mode=SupportMode.AAN, stride_time=2.0)
+    ev = r.events.astype(int)
+    walking = r.t >= r.walk_start
+    k = np.flatnonzero(walking & ((ev & Event.TO) != 0))[0]
+    end = np.flatnonzero(walking & ((ev & Event.IC) != 0))[0]
+    assert 0.62 < r.gait_fraction[k] < 0.66, r.gait_fraction[k]
+    assert (r.gait_fraction[end - 1] - r.gait_fraction[k]) / (r.t[end - 1] - r.t[k]) == (
+        pytest.approx(1.0 / 2.0, rel=1e-6))
+    # what it was for, on the example design's device: children whose toe caught the belt
+    # in their first swing (measured before, 8 assisted strides: 3, 4, 2 and 2 touches)
+    # walk it clear
+    example = Path(__file__).resolve().parents[2] / "examples" / "design-population.toml"
+    assert main(["design", str(example), "--out", str(tmp_path), "--no-population"]) == 0
+    for group, sex, age, pct in ((1, "female", 12.0, 10.0), (1, "male", 12.0, 10.0),
+                                 (2, "female", 8.0, 90.0), (2, "male", 8.0, 90.0)):
+        c, _ = population_child(group, sex, age, pct)
+        r = simulate_walk(personalized_leg(c), c.mass, strides=2, child=ChildModel.of(c),
+                          support_mode=SupportMode.AAN, device=tmp_path / "device")
+        first = r.strikes()[0]
+        assert not np.any(r.swing_touches() < first), (c.name, r.swing_touches())

@@ -9,7 +9,10 @@ the child's detected phase and cadence, and the safety layer -- one compiled tic
   (:class:`Command`), detected faults or the stop reaching its point.
 * **Reference**: standing, a standing posture; walking, normative gait (Schwartz 2008)
   at the gait fraction the detector measures since the child's last initial contact,
-  over the child's own stride time (mean of the last strides) -- not a clock.
+  over the child's own stride time (mean of the last strides) -- not a clock. A walk's
+  first swing is timed from its toe off (the rest of the cycle over the swing the gait
+  gives it; strides within the gait data's speeds): a child's first stance from standing
+  runs slower than the gait.
 * **Impedance**: the inertial feedforward M(q) ddq_ref of the controller's model (with
   the actuators' reflected inertia), PD with gains per phase (stance, swing:
   ``data/device/walking_control.toml``) plus gravity compensation from the controller's
@@ -75,7 +78,13 @@ from exoleg.dynamics.kernels import (
 from exoleg.dynamics.model import LegModel
 from exoleg.errors import ParameterError
 from exoleg.layout import F8, new
-from exoleg.reference.gait import START_RAMP, start_blend, start_pace
+from exoleg.reference.gait import (
+    SLOWEST_GROUP_STRIDE,
+    START_RAMP,
+    cycle_event,
+    start_blend,
+    start_pace,
+)
 from exoleg.reference.minjerk import min_jerk
 from exoleg.sizing.anthropometry import body_weight_share
 from exoleg.tick import OUTPUT, SENSORS, Command, Mode, TickRecords
@@ -88,13 +97,16 @@ F64 = NDArray[np.float64]
 #: then (rad; or the posture the last walk started from, which it blends from into the
 #: gait: start_blend); when the last walk started from standing (s; negative: none); when
 #: a walk was asked that waits for the foot's contact to be known (s; negative: none
-#: waiting); the stance ankle's x from the hip as measured the last tick (m, ahead > 0).
+#: waiting); the stance ankle's x from the hip as measured the last tick (m, ahead > 0);
+#: whether the walk's first toe off is still to come (1) and the first swing's timing from
+#: it: its cycle's origin (s) and stride (s; 0: not timed so).
 #: Then the tick's work (it allocates nothing): the reference, the gravity torque, the
 #: impedance's command, assist-as-needed's levels and error, the support levels, the
 #: torques asked at the cuffs and of the transparent law, the mass matrix and the centre
 #: of pressure's Jacobian.
 REFERENCE = np.dtype([("t_stop", F8), ("t_stand", F8), ("q_from", F8, 3),
-                      ("t_walk", F8), ("t_asked", F8), ("ankle", F8)]
+                      ("t_walk", F8), ("t_asked", F8), ("ankle", F8),
+                      ("first_swing", F8), ("swing_t0", F8), ("swing_T", F8)]
                      + [(n, F8, 3) for n in ("qr", "dqr", "ddqr", "gravity", "command",
                                              "aan", "error", "level", "tau_ref", "tr")]
                      + [("M", F8, (3, 3)), ("J", F8, (2, 3))])
@@ -151,6 +163,23 @@ def _stand_blend(q0, q1, T, s, out_q, out_dq, out_ddq):  # type: ignore[no-untyp
         out_q[j] = q0[j] + d * b
         out_dq[j] = d * b1 / T
         out_ddq[j] = d * b2 / (T * T)
+
+
+@njit(inline="always")
+def first_swing(x, T, foot_off, lo, hi):  # type: ignore[no-untyped-def]
+    """The stride (s) a walk's first swing is played over from its toe off at cycle
+    fraction ``x`` of the reference (of a stride of ``T`` s): the rest of the cycle,
+    1 - x, over the swing the gait gives it, (1 - ``foot_off``) T -- the reference ends
+    the cycle when the gait's foot lands, from where the foot left. Within ``lo``-``hi``
+    times T (the strides the detector accepts).
+
+    A child's first stance from standing runs slower than the gait (their leg comes up to
+    pace from rest): at its toe off the reference had run on past the foot, and played
+    on at its rate it led the swinging leg -- the knee extended early and the toe caught
+    the belt. Timed so only where the gait's foot off describes the walk: strides up to
+    :data:`~exoleg.reference.gait.SLOWEST_GROUP_STRIDE` (a slower walk's stance is longer
+    in every stride, not behind)."""
+    return min(max((1.0 - foot_off) * T / max(1.0 - x, 1e-6), lo * T), hi * T)
 
 
 @njit(inline="always")
@@ -250,6 +279,7 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
         st[0].t_ic = t - C.start_fraction * gp.stride_time(d, st) + 0.5 * START_RAMP
         R.t_stand = -1.0
         R.t_walk = t
+        R.first_swing, R.swing_T = 1.0, 0.0
         for j in range(3):
             R.q_from[j] = R.qr[j]  # the posture the last tick stood in
     elif mode == Mode.STOPPING and before == Mode.WALKING:
@@ -269,7 +299,18 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
     if mode == Mode.WALKING or mode == Mode.STOPPING:
         x = gp.gait_fraction(d, st, t)
         T = gp.stride_time(d, st)
+        t0 = st[0].t_ic
         ramp = R.t_walk >= 0.0 and t - R.t_walk < START_RAMP
+        if ev & gp.Event.IC:
+            R.swing_T = 0.0
+        elif ev & gp.Event.TO and R.first_swing > 0.0:
+            R.first_swing = 0.0
+            if not ramp and T <= SLOWEST_GROUP_STRIDE:
+                R.swing_T = first_swing(x, T, C.foot_off, d[0].accept_lo, d[0].accept_hi)
+                R.swing_t0 = t - x * R.swing_T
+        if R.swing_T > 0.0:
+            T, t0 = R.swing_T, R.swing_t0
+            x = min((t - t0) / T, 0.999999)
         if ramp:  # the walk's start: from the posture stood in into the gait, at rest
             elapsed, b, b1, b2 = start_pace(t - R.t_walk)
             x = C.start_fraction + elapsed / T
@@ -283,7 +324,7 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
         # few per cent untouched), or the impedance pushes the gait's end-of-swing rate at
         # a leg that waits (a weak child's knee held flexed at the drive's limit, the foot
         # in the air, for the rest of the walk)
-        over = (t - st[0].t_ic) / T - 1.0 - OVERRUN_GRACE
+        over = (t - t0) / T - 1.0 - OVERRUN_GRACE
         if over > 0.0:
             fade = max(0.0, 1.0 - over / OVERRUN_FADE)
             for j in range(3):
@@ -467,6 +508,8 @@ class WalkController:
         self.assist = AssistSettings.default() if assist is None else assist
         self.ss = new_support_state(support_mode, self.assist.first_level())
         self.ap, self.as_ = self.assist.record(body_mass), self.assist.state()
+        # the speed group's foot off (Schwartz 2008): where the gait's swing starts
+        self.cp[0]["foot_off"] = cycle_event("Ipsilateral Foot Off", speed)[0]
         self.cp[0]["support_min"] = self.assist.support_min
         self.cp[0]["support_max"] = self.assist.support_max
         self.io = TickRecords("WalkController.update")

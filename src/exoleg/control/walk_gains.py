@@ -92,12 +92,14 @@ STAND_BLEND_S = (0.2, 3.0)
 #: body mass the pelvis carries (kg), where walking starts in the cycle, g (m/s^2), the
 #: FSRs' x on the foot (m) and their y in the foot frame (m, negative: below the ankle),
 #: the stand's blend (s), the operator's bounds on assist-as-needed's support per joint
-#: (0-1, :data:`BOUNDS`), the child's whole mass (kg: what the cuffs' limit per kg is of).
+#: (0-1, :data:`BOUNDS`), the child's whole mass (kg: what the cuffs' limit per kg is of),
+#: the gait's foot off (a fraction of the cycle: where its swing starts).
 PARAMS = np.dtype([("kp_stance", F8, 3), ("kd_stance", F8, 3), ("kp_swing", F8, 3),
                    ("kd_swing", F8, 3), ("standing", F8, 3), ("support", F8),
                    ("body_mass", F8), ("start_fraction", F8), ("g", F8), ("fsr_x", F8, 4),
                    ("sole", F8), ("stand_blend", F8),
-                   ("support_min", F8, 3), ("support_max", F8, 3), ("child_mass", F8)])
+                   ("support_min", F8, 3), ("support_max", F8, 3), ("child_mass", F8),
+                   ("foot_off", F8)])
 #: The operator's bounds on assist-as-needed's support, tunable with the gains
 #: (:meth:`WalkController.set_gains`; their values at the start: ``assist.toml``).
 BOUNDS = ("support_min", "support_max")

@@ -104,6 +104,12 @@ def schwartz2008(variable: str, speed: str = "Free") -> tuple[F64, F64, F64]:
 #: (Schwartz 2008's very fast to very slow groups), children with CP slower; 0.4-4 s
 #: covers both with room. A stride of 1e308 s is a frozen reference, not a gait.
 STRIDE_TIME_RANGE = (0.4, 4.0)
+#: The longest stride Schwartz 2008's speed groups describe for 8-12-year-olds, s (its
+#: very slow group: :data:`STRIDE_TIME_RANGE`'s note; their free speed's near 1.1 s,
+#: as Hausdorff et al. 1999 measured at 11-14 y: 1.07 s): a slower walk's gait-cycle
+#: events are not in its tables -- its stance lasts longer (the very slow group's foot
+#: off is 0.68 of the cycle, the free speed's 0.59).
+SLOWEST_GROUP_STRIDE = 1.3
 
 #: Mid-stance as a fraction of the gait cycle (Schwartz 2008): the posture nearest to
 #: standing, where a walk starts and the paper's scenario takes its stance posture.
