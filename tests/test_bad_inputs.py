@@ -216,6 +216,14 @@ CASES: list[tuple[str, list[str], str]] = [
      "--hmi-port: goes with --hmi"),
     ("run tls without hmi", ["run", "--duration", "1", "--tls-cert", "{afile}"],
      "--tls-cert: goes with --hmi"),
+    # the stride the walking controller expects: a child's, and only the walking one's
+    ("run expected stride 0", ["run", "--duration", "1", "--expected-stride", "0"],
+     "outside 0.4-4 s"),
+    ("run expected stride nan", ["run", "--duration", "1", "--expected-stride", "nan"],
+     "--expected-stride: numbers must be finite, got 'nan'"),
+    ("run expected stride of a law", ["run", "--duration", "1", "--controller", "pd",
+                                      "--expected-stride", "1.2"],
+     "the stride the walking controller expects: not 'pd'"),
     ("export variant with a leg", ["export", "--leg", "{heavy}", "--variant", "simplified",
                                    "--out", "{folder}/x.urdf"], "not with --leg"),
     # a leg for a child the device does not fit: the device is not set to it

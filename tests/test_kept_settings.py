@@ -200,3 +200,40 @@ def test_a_session_killed_mid_write_ends_and_nothing_is_kept_from_it(tmp_path: P
         assert reg.kept_settings(cid) is None  # nothing taken from the torn block
         second, _ = _session(hmi, 2.0)
         assert _ended(hmi, reg, cid, second)["support_mode"] == "impedance"
+
+
+def test_a_childs_next_session_expects_their_own_stride(tmp_path: Path) -> None:
+    # The walking controller times a walk's strides at 1.1 s until it has measured the
+    # child's; a child walking their own (the simulated 10-year-olds: 1.12-1.19 s) had
+    # the first stride's reference lead their swinging leg, and their toe caught the
+    # belt (docs/design.md: on the example design's device, 48 children of 8-12 y, 8
+    # assisted strides each, the children touching 13 -> 6 when the controller expected
+    # 1.14 s from the start). The console gives a child's next session the mean stride
+    # of their last one that walked the strides the detector averages (its figures).
+    from exoleg.control.gait_settings import DetectorSettings
+
+    ada = {"name": "Ada", "age": 10, "sex": "female", "height": 138, "mass": 32}
+    with _console(tmp_path, ada) as (hmi, reg, cid):
+        on = hmi.runs_on()
+        assert on["expected_stride"] is None
+        assert "expecting 1.1 s strides until theirs are measured" in on["text"]
+        first, folder = _session(hmi, 9.0)
+        why, _ = hmi.api.send("walk")
+        assert why == ""
+        _ended(hmi, reg, cid, first)
+        assert json.loads((folder / "run.json").read_text())["expected_stride_s"] == 1.1
+        figures = json.loads((folder / "figures.json").read_text())
+        stride = figures["stride_time_s"][0]
+        assert figures["strides"] >= DetectorSettings.default().strides_averaged
+        assert 1.1 < stride < 1.25, figures["stride_time_s"]  # theirs, not the plan's
+        on = hmi.runs_on()
+        assert on["expected_stride"] == pytest.approx(stride, rel=1e-12)
+        assert (f"expecting their {stride:.2f} s strides (session {first}: "
+                f"{figures['strides']} strides)") in on["text"]
+        second, folder = _session(hmi, 2.0)
+        hmi.proc.join(timeout=30)
+        run = json.loads((folder / "run.json").read_text())
+        assert run["expected_stride_s"] == pytest.approx(stride, rel=1e-12)
+        # a session too short to measure them, or damaged figures, do not replace it
+        (folder / "figures.json").write_text('{"stride_time_s": "1.3", "strides": 9}')
+        assert hmi.runs_on()["expected_stride"] == pytest.approx(stride, rel=1e-12)

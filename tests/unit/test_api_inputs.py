@@ -7,6 +7,7 @@ reach, a centroidal inertia at most m (2 L)^2) and the types each entry point do
 
 from __future__ import annotations
 
+import math
 import re
 
 import numpy as np
@@ -113,3 +114,19 @@ def test_the_tracking_controller_checks_its_parts_and_readings() -> None:
     with pytest.raises(ParameterError, match="fsr: expected 4 numbers"):
         c.update({"q": np.zeros(3), "dq": np.zeros(3), "fsr": np.zeros(3)}, Command.NONE,
                  0.0)
+
+
+def test_the_stride_a_walk_expects_is_the_childs_own_or_refused() -> None:
+    # the walking controller's expected stride (the child's last session's) is its own:
+    # the simulated world walks the plan's
+    from exoleg.system.build import build
+    from exoleg.system.config import DeviceConfig
+
+    config = DeviceConfig.load(None)
+    system = build(config, exoleg.paper_leg(), 30.0, "walk", expected_stride=1.14)
+    assert system.controller.d[0]["expected_stride"] == 1.14
+    assert system.device is not None and system.device.stride_time == 1.1
+    for bad in (0.1, math.nan, 9.0):
+        with pytest.raises(ParameterError, match=r"build: expected_stride: .* is outside "
+                                                 r"0\.4-4 s \(a stride a child can walk\)"):
+            build(config, exoleg.paper_leg(), 30.0, "walk", expected_stride=bad)

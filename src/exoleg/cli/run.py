@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from exoleg.cli._common import (
+    STRIDE_TIME_RANGE,
     WEB_HOST,
     WEB_PORT,
     _body_mass,
@@ -74,7 +75,8 @@ def cmd_run(args: argparse.Namespace) -> int:
                         body_mass=args.body_mass, seed=args.seed,
                         realtime=not args.no_realtime, interface=args.interface,
                         channel=args.channel, link=link, bus_timeout=bus_timeout,
-                        controller=args.controller, child=child, device=args.device)
+                        controller=args.controller, child=child, device=args.device,
+                        expected_stride=args.expected_stride)
     finally:
         if web is not None:
             web.terminate()
@@ -139,6 +141,12 @@ def _refuse_unapplied(args: argparse.Namespace) -> None:
         raise ParameterError("exoleg run", "--child", "the simulated child: not on a real "
                              f"bus ({args.backend} --interface {args.interface}), where the "
                              "child is real")
+    from exoleg.entry import WALKING_CONTROLLERS
+
+    if args.expected_stride is not None and args.controller not in WALKING_CONTROLLERS:
+        raise ParameterError("exoleg run", "--expected-stride", "the stride the walking "
+                             f"controller expects: not {args.controller!r}'s (walking: "
+                             f"{', '.join(WALKING_CONTROLLERS)})")
     for name in ("hmi_host", "hmi_port", "tls_cert", "tls_key"):
         if getattr(args, name) is not None and not args.hmi:
             raise ParameterError("exoleg run", "--" + name.replace("_", "-"),
@@ -187,6 +195,9 @@ def add_parser(sub: Any) -> None:
                         "exoleg fit): passive moments, spasticity, their own effort -- a "
                         "disarmed GMFCS I-II child stands by themselves; its mass replaces "
                         "--body-mass")
+    r.add_argument("--expected-stride", type=_within(*STRIDE_TIME_RANGE, " s"),
+                   help="the child's own stride, s (their last session's): what the walking "
+                        "controller expects until it has measured theirs (default 1.1)")
     r.add_argument("--seed", type=_count(0, 2**31 - 1), help="simulated device: its "
                    "sensors' noise (default 0)")
     r.add_argument("--hmi", action="store_true",

@@ -64,19 +64,22 @@ class SessionProcesses:
 def _session_process(link: LoopLink, backend: str, interface: str | None, duration: float,
                      folder: str, leg_path: str | None, body_mass: float, arm: bool,
                      cpus: set[int] | None, child_path: str | None = None,
-                     channel: str = "exoleg", device: str | None = None) -> None:
+                     channel: str = "exoleg", device: str | None = None,
+                     expected_stride: float | None = None) -> None:
     """A session's own process (``exoleg hmi``): runs the loop until its duration, an
     E-stop fault, the operator's end, a signal, or a lost link (the server's heartbeat:
     :class:`~exoleg.runtime.link.LoopLink`) -- then nobody could stop it from the page.
     ``cpus``: the CPUs the server had before it kept off the loop's
     (:func:`keep_off_loop_cpu`). ``child_path``: the fitted child's ``child.toml`` (the
     simulated child, on a simulated device); ``device``: the device folder (None:
-    the shipped device)."""
+    the shipped device); ``expected_stride``: the child's own stride, s (their last
+    session's: :func:`~exoleg.hmi.history.expected_stride`; None: the planned one)."""
     from exoleg.runtime.session import run
 
     def session(leg: Any, child: Any) -> None:
         run(backend, duration, folder, leg=leg, body_mass=body_mass, arm=arm,
-            interface=interface, link=link, child=child, channel=channel, device=device)
+            interface=interface, link=link, child=child, channel=channel, device=device,
+            expected_stride=expected_stride)
 
     _in_own_process(link, folder, cpus, leg_path, child_path, session)
 

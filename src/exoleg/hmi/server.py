@@ -34,6 +34,7 @@ from exoleg.hmi.child_form import (
     fit_of_form,
     write_actor,
 )
+from exoleg.hmi.history import expected_stride
 from exoleg.hmi.processes import (
     IDENTIFIED,
     SessionProcesses,
@@ -201,7 +202,7 @@ class HMI:
                 target = _session_process
                 args = (link, self.backend, self.interface, duration, str(folder), leg_path,
                         runs_on["body_mass"], arm, self.cpus, child_file, self.channel,
-                        self.device_dir)
+                        self.device_dir, runs_on["expected_stride"])
             self.proc = self.processes.context().Process(
                 target=target, name="exoleg-session", daemon=True, args=args)
             self.proc.start()
@@ -247,7 +248,7 @@ class HMI:
         kept = self.kept
         if kept is None:
             return {"child": None, "child_id": None, "leg": self.leg.name,
-                    "body_mass": DEFAULT_BODY_MASS, "settings": None,
+                    "body_mass": DEFAULT_BODY_MASS, "settings": None, "expected_stride": None,
                     "text": f"no child fitted: the paper's leg {self.leg.name!r}, "
                             f"{DEFAULT_BODY_MASS:g} kg"}
         child = kept["record"]["child"]
@@ -257,10 +258,11 @@ class HMI:
                  f"; simulated as an actor ({actor_text(child, kept['record'].get('actor', {}))}"
                  ": child.toml in the session)")
         settings, said = kept_settings(self.registry, kept["child_id"])
+        stride, stride_said = expected_stride(self.registry, self.root, kept["child_id"])
         return {"child": kept["name"], "child_id": kept["child_id"], "leg": self.leg.name,
-                "body_mass": mass, "settings": settings,
+                "body_mass": mass, "settings": settings, "expected_stride": stride,
                 "text": f"{kept['name']} ({kept['child_id']}, fit {kept['id']}): leg "
-                f"{self.leg.name!r}, {mass:g} kg{actor}; {said}"}
+                f"{self.leg.name!r}, {mass:g} kg{actor}; {said}; {stride_said}"}
 
     def _simulated(self) -> bool:
         """Whether the sessions' device is simulated (the sim backend, or simulated nodes

@@ -223,8 +223,8 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
         inject: Any = None, link: Any = None, bus_timeout: float | None = None,
         overrun: float | None = None, controller: str = "walk", child: Any = None,
         reference: Any = None, step: float = 0.0, model: Any = None,
-        device: str | Path | None = None, compiled: bool = True
-        ) -> tuple[SessionResult, Path]:
+        device: str | Path | None = None, compiled: bool = True,
+        expected_stride: float | None = None) -> tuple[SessionResult, Path]:
     """One session: the device (``backend``) under ``controller`` (the walking hierarchy,
     or one of the paper's laws on the paper's scenario, as
     :func:`~exoleg.system.build.build` makes them from ``device``, a device folder whose
@@ -248,7 +248,9 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
     measures). ``compiled``: the simulated device under the walking controller ticks in
     compiled code off the interpreter lock (:mod:`exoleg.runtime.ticker`); False: from
     Python (:func:`~exoleg.runtime.loop.run_session`), as every other device and law
-    does."""
+    does. ``expected_stride``: the stride the walking controller expects until it has
+    measured the child's (s; the child's own cadence, their last session's; default the
+    planned 1.1 s, :func:`~exoleg.system.build.build`'s)."""
     import os
 
     if overrun is None and simulated(backend, interface):
@@ -278,7 +280,8 @@ def run(backend: str, duration: float, out: str | Path, period: float = 1e-3,
             held = hold_device(device_name(backend, interface, channel))
         return _run(backend, duration, folder, period, arm, walk_after, leg, body_mass,
                     seed, realtime, interface, channel, inject, link, bus_timeout, overrun,
-                    controller, child, reference, step, model, device, compiled)
+                    controller, child, reference, step, model, device, compiled,
+                    expected_stride)
     finally:
         let_go(held)
         os.close(lock)
@@ -289,8 +292,8 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
          interface: str | None, channel: str, inject: Any, link: Any,
          bus_timeout: float | None, overrun: float, controller: str, child: Any = None,
          reference: Any = None, step: float = 0.0, model: Any = None,
-         device_folder: str | Path | None = None, compiled: bool = True
-         ) -> tuple[SessionResult, Path]:
+         device_folder: str | Path | None = None, compiled: bool = True,
+         expected_stride: float | None = None) -> tuple[SessionResult, Path]:
     """:func:`run` in the folder it holds."""
     import exoleg
     from exoleg.control.gears import law_bounds
@@ -307,8 +310,10 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
     # a simulated device only where it is what answers: on sim, or behind simulated nodes
     system = build(config, leg, body_mass, controller,
                    simulated=simulated(backend, interface), child=child, model=model,
-                   step=step, reference=reference)
+                   step=step, reference=reference, expected_stride=expected_stride)
     ctl = system.controller
+    # the stride the walking controller expects before it has measured the child's
+    expected = float(ctl.d[0]["expected_stride"]) if isinstance(ctl, WalkController) else None
     sim = (None if system.device is None
            else SimBackend(system.device, period, seed=seed, controller=ctl))
     before = set(threading.enumerate())
@@ -337,7 +342,7 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
                       "leg": leg.name, "body_mass": body_mass,
                       "child": None if child is None else child.name,
                       "started": started, "controller": controller,
-                      "device": config.summary(),
+                      "device": config.summary(), "expected_stride_s": expected,
                       "interface": None if rig is None and backend == "sim" else
                       (interface or SIMULATED_BUS[backend])})
     commands: dict[int, int] = {}
@@ -392,7 +397,7 @@ def _run(backend: str, duration: float, folder: Path, period: float, arm: bool,
         if rig is not None:
             rig.close()
     summary = {"backend": backend, "controller": controller, "device": config.summary(),
-               "started": started,
+               "started": started, "expected_stride_s": expected,
                "period": period, "duration_s": res.ticks * period, "leg": leg.name,
                "ticks": res.ticks, "stopped_by": res.stopped_by,
                "bus_timeout_ms": None if bus_timeout is None else bus_timeout * 1e3,

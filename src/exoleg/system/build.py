@@ -22,6 +22,7 @@ from exoleg.device.ground import ANKLE_HEIGHT, Ground
 from exoleg.dynamics.model import LegModel
 from exoleg.entry import CONTROLLERS, WALKING_CONTROLLERS
 from exoleg.errors import ParameterError
+from exoleg.reference.gait import STRIDE_TIME_RANGE
 from exoleg.system.config import DeviceConfig
 from exoleg.tick import Controller
 from exoleg.world.device import SimulatedDevice
@@ -63,7 +64,8 @@ def build(config: DeviceConfig, leg: LegModel, body_mass: float,
           child: ChildModel | None = None, model: LegModel | None = None,
           speed: str = "Free", stride_time: float = 1.1,
           ankle_height: float = ANKLE_HEIGHT, ground: Ground | None = None,
-          step: float = 0.0, reference: Any = None) -> System:
+          step: float = 0.0, reference: Any = None,
+          expected_stride: float | None = None) -> System:
     """The controller called ``controller`` (:data:`~exoleg.entry.CONTROLLERS`, or
     ``FILE.py:NAME`` / ``MODULE:NAME``: a law of your own,
     :func:`~exoleg.control.tracking.law_factory`, behind the same supervisor and safety
@@ -71,9 +73,11 @@ def build(config: DeviceConfig, leg: LegModel, body_mass: float,
     (without actuators: theirs are added) of a child of ``body_mass`` kg, and,
     ``simulated``, the device it drives.
 
-    The walking hierarchy expects strides of ``stride_time`` s of the ``speed`` gait; a
-    law of the paper follows ``reference`` (default the paper's scenario, section 6) on
-    the leg with the actuators' reflected inertia. ``model``: the leg the controller is
+    The walking hierarchy expects strides of ``expected_stride`` s (the child's own
+    cadence, e.g. their last session's; default ``stride_time``, the walk planned) of the
+    ``speed`` gait until it has measured the child's; a law of the paper follows
+    ``reference`` (default the paper's scenario, section 6) on the leg with the actuators'
+    reflected inertia. ``model``: the leg the controller is
     given when it is not the one the simulated device carries (identification's truth).
     The simulated device: the treadmill's ``ground`` (default the device folder's
     ``walking.toml``), the ankle ``ankle_height`` m above the sole, the ``child`` as an
@@ -91,6 +95,13 @@ def build(config: DeviceConfig, leg: LegModel, body_mass: float,
         from exoleg.control.tracking import law_factory
 
         own = law_factory(controller)  # before the device is made: a bad name says so
+    if expected_stride is None:
+        expected_stride = stride_time
+    lo, hi = STRIDE_TIME_RANGE
+    if not (isinstance(expected_stride, (int, float)) and not isinstance(expected_stride, bool)
+            and lo <= expected_stride <= hi):
+        raise ParameterError(w, "expected_stride", f"{expected_stride!r} s is outside "
+                             f"{lo:g}-{hi:g} s (a stride a child can walk)")
     gr = Ground.default(config.folder) if ground is None else ground
     dev = None
     if simulated:  # first: it checks the child's and the treadmill's figures
@@ -101,7 +112,7 @@ def build(config: DeviceConfig, leg: LegModel, body_mass: float,
     ctl: Any
     if controller in WALKING_CONTROLLERS:
         ctl = walk_controller(config, leg if model is None else model, body_mass,
-                              ankle_height + gr.sole, speed, stride_time,
+                              ankle_height + gr.sole, speed, float(expected_stride),
                               support_mode_of(controller))
         support = ctl.starting_support()
     else:
