@@ -106,7 +106,7 @@ F64 = NDArray[np.float64]
 #: of pressure's Jacobian.
 REFERENCE = np.dtype([("t_stop", F8), ("t_stand", F8), ("q_from", F8, 3),
                       ("t_walk", F8), ("t_asked", F8), ("ankle", F8),
-                      ("first_swing", F8), ("swing_t0", F8), ("swing_T", F8)]
+                      ("first_off_due", F8), ("swing_t0", F8), ("swing_T", F8)]
                      + [(n, F8, 3) for n in ("qr", "dqr", "ddqr", "gravity", "command",
                                              "aan", "error", "level", "tau_ref", "tr")]
                      + [("M", F8, (3, 3)), ("J", F8, (2, 3))])
@@ -279,7 +279,7 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
         st[0].t_ic = t - C.start_fraction * gp.stride_time(d, st) + 0.5 * START_RAMP
         R.t_stand = -1.0
         R.t_walk = t
-        R.first_swing, R.swing_T = 1.0, 0.0
+        R.first_off_due, R.swing_T = 1.0, 0.0
         for j in range(3):
             R.q_from[j] = R.qr[j]  # the posture the last tick stood in
     elif mode == Mode.STOPPING and before == Mode.WALKING:
@@ -303,8 +303,8 @@ def walk_control_step(ctl, sens, t, out):  # type: ignore[no-untyped-def]
         ramp = R.t_walk >= 0.0 and t - R.t_walk < START_RAMP
         if ev & gp.Event.IC:
             R.swing_T = 0.0
-        elif ev & gp.Event.TO and R.first_swing > 0.0:
-            R.first_swing = 0.0
+        elif ev & gp.Event.TO and R.first_off_due > 0.0:
+            R.first_off_due = 0.0
             if not ramp and T <= SLOWEST_GROUP_STRIDE:
                 R.swing_T = first_swing(x, T, C.foot_off, d[0].accept_lo, d[0].accept_hi)
                 R.swing_t0 = t - x * R.swing_T

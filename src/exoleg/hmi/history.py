@@ -34,20 +34,22 @@ def kept_figures(folder: Path) -> dict[str, Any] | None:
         return None  # a session whose log holds nothing to read (listed, without figures)
 
 
-def expected_stride(registry: Any, root: Path, child_id: str) -> tuple[float | None, str]:
+def expected_stride(registry: Any, root: Path, child_id: str,
+                    device: str | Path | None = None) -> tuple[float | None, str]:
     """The stride child ``child_id``'s next session's walking controller expects until it
     has measured theirs, from the records (``registry``: a
     :class:`~exoleg.hmi.registry.Registry`, or None; ``root``: the sessions folder), and
     that said: the mean stride of their latest session whose figures (``figures.json``,
     kept as it ended) hold at least as many whole strides as the detector averages
-    (``gait_phase.toml`` ``strides_averaged``), within the strides a child can walk --
+    (``gait_phase.toml`` ``strides_averaged``, the ``device`` folder's or the shipped
+    one's), within the strides a child can walk --
     or None, and why, where the controller expects the planned 1.1 s. A child's first
     stride, timed at 1.1 s while they walk theirs, led their swinging leg: the reference
     reached their toe off late and their toe caught the belt (docs/design.md)."""
     from exoleg.control.gait_settings import DetectorSettings
     from exoleg.reference.gait import STRIDE_TIME_RANGE
 
-    need = DetectorSettings.default().strides_averaged
+    need = DetectorSettings.default(device).strides_averaged
     lo, hi = STRIDE_TIME_RANGE
     for s in reversed([] if registry is None else registry.sessions_of(child_id)):
         fig = read_record(root / s["name"] / "figures.json")

@@ -258,7 +258,8 @@ class HMI:
                  f"; simulated as an actor ({actor_text(child, kept['record'].get('actor', {}))}"
                  ": child.toml in the session)")
         settings, said = kept_settings(self.registry, kept["child_id"])
-        stride, stride_said = expected_stride(self.registry, self.root, kept["child_id"])
+        stride, stride_said = expected_stride(self.registry, self.root, kept["child_id"],
+                                              self.device_dir)
         return {"child": kept["name"], "child_id": kept["child_id"], "leg": self.leg.name,
                 "body_mass": mass, "settings": settings, "expected_stride": stride,
                 "text": f"{kept['name']} ({kept['child_id']}, fit {kept['id']}): leg "
