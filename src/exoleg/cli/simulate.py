@@ -56,6 +56,7 @@ APPLIES: dict[str, tuple[tuple[str, ...], str]] = {
     "hip_motor": (_DEVICE, ""),
     "child": (("walk",), ""),
     "sensor_fault": (("walk",), ""),
+    "expected_stride": (("walk",), ""),
 }
 _FLAG = {"scenario": "the paper's scenario (neither --actuators nor --walk)",
          "actuators": "--actuators", "walk": "--walk"}
@@ -391,6 +392,10 @@ def add_parser(sub: Any) -> None:
                    help="walk: the child as an actor (child.toml, written by exoleg fit): "
                         "passive joint moments, contracture, spasticity, their own effort; "
                         "its mass replaces --body-mass")
+    s.add_argument("--expected-stride", type=_within(*STRIDE_TIME_RANGE, " s"),
+                   help="walk: the stride the walking controller expects until it has "
+                        "measured the child's, s (a child's later session: their own; "
+                        "default --stride-time, the walk planned)")
     s.add_argument("--sensor-fault", type=_sensor_fault, action="append", default=[],
                    metavar="SPEC", help="walk: a fault of the foot board's sensors, "
                    "repeatable: CHANNEL:KIND[@START[..END]][=VALUE] -- channel heel, met1, "

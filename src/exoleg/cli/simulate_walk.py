@@ -55,7 +55,7 @@ def _simulate_walk(args: argparse.Namespace) -> int:
                       ankle_height=args.ankle_height / 100, device=args.device,
                       actuators=device_actuators(args), child=child,
                       support_mode=SUPPORT_NAMES[args.controller],
-                      faults=tuple(args.sensor_fault))
+                      faults=tuple(args.sensor_fault), expected_stride=args.expected_stride)
     rows = detection_table([r])
     peaks = walk_peaks(r)
     over = (r.safety_status & Limited.GEAR_PEAK) > 0
@@ -95,6 +95,7 @@ def _simulate_walk(args: argparse.Namespace) -> int:
             "swing_touches_s": [float(x) for x in touches],
             "child": None if child is None else child.name,
             "controller": args.controller,
+            "expected_stride_s": args.expected_stride or stride,
             "sensor_faults": [str(f) for f in args.sensor_fault],
             "interaction_torque": inter,
             "cuffs": cuffs,

@@ -324,7 +324,8 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
                   support_mode: SupportMode = SupportMode.IMPEDANCE,
                   assist_law: str | None = None,
                   faults: Sequence[SensorFault] = (),
-                  transparency: TransparencySettings | None = None) -> WalkResult:
+                  transparency: TransparencySettings | None = None,
+                  expected_stride: float | None = None) -> WalkResult:
     """Walk ``leg`` (without actuators; theirs are added) on the treadmill for ``strides``
     strides of ``stride_time`` s after ``standing`` s of quiet stance; ``body_mass`` is
     the child's (the pelvis carries :func:`exoleg.world.plant.body_weight_share`).
@@ -341,7 +342,9 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
     ``faults``: the foot board's sensor faults (:class:`~exoleg.device.faults.SensorFault`)
     in what the controller reads; the result's readings are the faulted ones.
     ``transparency``: the transparent law's settings (None: the device folder's
-    ``transparency.toml``), e.g. with some of its parts left out."""
+    ``transparency.toml``), e.g. with some of its parts left out. ``expected_stride``: the
+    stride the controller expects until it has measured the child's (s; a child's later
+    session: their own; None: ``stride_time``, the walk planned)."""
     if not (isinstance(strides, int) and 1 <= strides <= 10000):
         raise ParameterError("simulate_walk", "strides", f"expected 1-10000, got {strides!r}")
     if not (isinstance(substeps, int) and 1 <= substeps <= 100):
@@ -361,7 +364,7 @@ def simulate_walk(leg: LegModel, body_mass: float, strides: int = 10, speed: str
         cfg = dataclasses.replace(cfg, transparency=transparency)
     system = build(cfg, leg, body_mass, SupportMode(support_mode).name.lower(), child=child,
                    model=model, speed=speed, stride_time=stride_time,
-                   ankle_height=ankle_height, ground=ground)
+                   ankle_height=ankle_height, ground=ground, expected_stride=expected_stride)
     ctl, dev = cast(WalkController, system.controller), system.device
     assert dev is not None  # simulated
     plant, sens = dev.plant, dev.sensors
