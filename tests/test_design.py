@@ -206,7 +206,7 @@ def test_the_catalogues_bound_is_the_least_over_the_units_it_could_build(
         assert f["catalogue_unit"].startswith("Maxon EC 60 flat 150 W, 24 V, Harmonic "
                                               "Drive CPU-17A-50-M")
         chosen = summary["chosen"][f["joint"]]
-        if f["rotor_Nm_per_kg"] is not None:  # compliant: its bound is among the 11
+        if f["rotor_Nm_per_kg"] is not None:  # compliant: its bound is among the 10
             assert chosen["series"] != "rigid"
             assert f["catalogue_Nm_per_kg"] <= f["rotor_Nm_per_kg"] + 1e-12
         assert 0.0 <= f["catalogue_Nm_per_kg"] < f["law_Nm_per_kg"]
@@ -229,6 +229,14 @@ def test_the_catalogues_bound_is_the_least_over_the_units_it_could_build(
         assert (f["catalogue_units"], f["catalogue_unsolved"]) == (2, 8)
         assert f["catalogue_unit"].endswith("rigid, 24 V") or f["catalogue_unit"].endswith(
             "rigid, 48 V")
+    # none bounded at all (every programme unconverged): said, not a traceback
+    monkeypatch.setattr(transparency, "unit_bound", lambda *a: (_ for _ in ()).throw(
+        RuntimeError("rotor_floor: the quadratic programme did not converge")))
+    assert main(["design", str(config), "--out", str(tmp_path / "f"), "--no-population",
+                 "--bounds"]) == 0
+    for f in json.loads((tmp_path / "f" / "design.json").read_text())["floors"]:
+        assert (f["catalogue_Nm_per_kg"], f["catalogue_unit"]) == (None, None)
+        assert (f["catalogue_units"], f["catalogue_unsolved"]) == (0, 10)
 
 
 @pytest.mark.parametrize(("old", "new", "says"), [

@@ -118,10 +118,11 @@ def cmd_design(args: argparse.Namespace) -> int:
                  "the device reads it), and behind a spring what any law could, the walk "
                  "known ahead (exoleg validate --transparency --device)")
     if args.bounds:
-        _table([[f["joint"], f"{f['catalogue_Nm_per_kg']:.3f}", f["catalogue_unit"],
+        _table([[f["joint"], "-" if (b := f["catalogue_Nm_per_kg"]) is None else f"{b:.3f}",
+                 f["catalogue_unit"] or "none bounded",
                  str(f["catalogue_units"]) + (f" ({f['catalogue_unsolved']} more did not "
                                               "converge)" if f["catalogue_unsolved"] else ""),
-                 "yes" if f["catalogue_Nm_per_kg"] <= design.goal else "no"]
+                 "-" if b is None else "yes" if b <= design.goal else "no"]
                 for f in floors],
                ["joint", "the catalogue's bound N m/kg", "its unit", "units",
                 f"<= {design.goal:g} within any unit's reach"],
@@ -211,7 +212,8 @@ def _catalogue_bound(joint: str, j: int, rows: list[dict[str, Any]], v: Any,
             continue
         bounds[key] = (b, f"{r['motor']}, {r['gear']}, {_series_words(r)}"
                        + (f", {r['bus_V']:g} V" if series is None else ""))
-    least, unit = min(bounds.values())
+    # (none bounded -- every unit's loop unclosed or its programme unconverged: None)
+    least, unit = min(bounds.values(), default=(None, None))
     return {"catalogue_Nm_per_kg": least, "catalogue_unit": unit,
             "catalogue_units": len(bounds), "catalogue_unsolved": len(unsolved)}
 
